@@ -1,0 +1,79 @@
+"""ema_rig: experimental modal analysis for rolling-element bearing test rigs.
+
+UFF58 import, PolyMAX (pLSCF) identification, matching to the rig's 3DOF model and inversion of
+the housing mode for the bearing stiffness k_TB (Jacobs et al., "Estimating rolling element
+bearing stiffness under different operational conditions through modal analysis").
+
+Importing the package has no global side effects: no pyplot, no sdypy, no warning filters.
+
+Public API
+----------
+FRFData
+    The FRF matrix (``ema_rig.frf``).
+DOF
+    Node + signed direction (``ema_rig.dof``).
+RigConfig, load_rig
+    The rig configuration file (``ema_rig.config``).
+read_uff58, write_uff58
+    UFF dataset 58 import and export (``ema_rig.io.uff``), imported on first use.
+"""
+
+from __future__ import annotations
+
+import logging
+from importlib.metadata import PackageNotFoundError, version
+from typing import Any
+
+from .config import RigConfig, load_rig
+from .dof import DOF
+from .errors import (
+    ConfigError,
+    EmaRigError,
+    IdentificationError,
+    IdentificationWarning,
+    InversionError,
+    MatchingError,
+    UFFError,
+    UnitWarning,
+)
+from .frf import FRFData
+
+try:
+    __version__ = version("ema-rig")
+except PackageNotFoundError:  # running from a source tree that is not installed
+    __version__ = "0.0.0+unknown"
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())
+
+_LAZY = {
+    "read_uff58": ("ema_rig.io.uff", "read_uff58"),
+    "write_uff58": ("ema_rig.io.uff", "write_uff58"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        mod, attr = _LAZY[name]
+        return getattr(importlib.import_module(mod), attr)
+    raise AttributeError(f"module 'ema_rig' has no attribute {name!r}")
+
+
+__all__ = [
+    "ConfigError",
+    "DOF",
+    "EmaRigError",
+    "FRFData",
+    "IdentificationError",
+    "IdentificationWarning",
+    "InversionError",
+    "MatchingError",
+    "RigConfig",
+    "UFFError",
+    "UnitWarning",
+    "__version__",
+    "load_rig",
+    "read_uff58",
+    "write_uff58",
+]

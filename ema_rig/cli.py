@@ -1,0 +1,86 @@
+"""The ``ema-rig`` command line.
+
+Each sub-command lives in ``ema_rig.commands.<name>`` with ``add_arguments(parser)`` and
+``run(args) -> int``; this module only builds the parser and turns errors into one line on
+stderr and a non-zero exit code (DESIGN §3.2).
+
+Exit codes
+----------
+0  success
+1  bad input or failed identification (one line ``error: <file>: <what is wrong>`` on stderr)
+2  command-line usage error (argparse)
+3  campaign finished with some failed measurements (partial failure)
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+EXIT_OK = 0
+EXIT_ERROR = 1
+EXIT_USAGE = 2
+EXIT_PARTIAL = 3
+
+COMMANDS: dict[str, str] = {
+    "inspect": "list every dataset of a UFF file",
+    "stabilization": "draw the PolyMAX stabilization chart",
+    "modes": "automatically selected physical modes",
+    "calibrate": "k_MS from a steel-disk measurement",
+    "stiffness": "bearing stiffness k_TB from the housing mode",
+    "campaign": "a whole campaign: table, plots, report",
+    "simulate": "write a synthetic rig measurement (UFF58)",
+    "demo": "run the bundled campaign in data/ end to end",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every sub-command registered."""
+    from . import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="ema-rig",
+        description="Experimental modal analysis for bearing test rigs.",
+    )
+    parser.add_argument("--version", action="version", version=f"ema-rig {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name, help_text in COMMANDS.items():
+        mod = importlib.import_module(f"ema_rig.commands.{name}")
+        p = sub.add_parser(name, help=help_text, description=(mod.__doc__ or help_text).strip().splitlines()[0])
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``ema-rig`` with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
+    from .errors import EmaRigError
+
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse prints its own message
+        return int(exc.code) if isinstance(exc.code, int) else EXIT_USAGE
+    try:
+        return int(args._run(args))
+    except EmaRigError as exc:
+        text = str(exc).replace("\n", " ")
+        print(f"error: {text}", file=sys.stderr)
+        return EXIT_ERROR
+    except (OSError, ValueError) as exc:
+        # files that cannot be opened, values that cannot be used: user input, not a bug
+        name = getattr(exc, "filename", None)
+        head = f"{name}: " if name else ""
+        msg = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        print(f"error: {head}{msg}".replace("\n", " "), file=sys.stderr)
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

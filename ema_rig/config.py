@@ -1,0 +1,341 @@
+"""Rig and campaign configuration files (TOML) into validated, frozen dataclasses.
+
+The rig file's keys are a contract (DESIGN §3.1)::
+
+    [model]                # all seven keys required, SI units
+    m_H, m_S, m_F, k_MS, k_AS, k_S, k_B
+    [excitation]
+    radial = "11+Y"        # required; reference DOF of the radial shaker
+    axial = "15+X"         # optional second reference
+    [[sensor]]             # one per accelerometer
+    dof = "13-Y"; role = "housing" | "spindle"; axis = "radial" | "lateral" | "axial"
+
+Optional tables (extensions, all keys optional):
+
+- ``[uncertainty]``: relative standard uncertainty (fraction, 0.01 = 1 %) of any of the seven
+  model parameters, used by the k_TB uncertainty budget.
+- ``[identification]``: ``band = [lo, hi]`` (Hz), ``max_order`` (int), ``k_MS_band = [lo, hi]``.
+- ``[units]``: ``prefer = "code" | "label"``: which wins when a UFF unit label contradicts the
+  ordinate data-type code (default: a conflict is an error).
+- ``[rig]``: ``name``, ``description`` (free text).
+
+Functions
+---------
+load_rig, parse_rig
+    Read a rig file / a mapping into a :class:`RigConfig`.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+from .dof import DOF
+from .errors import ConfigError
+
+MODEL_KEYS: tuple[str, ...] = ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B")
+SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")
+SENSOR_AXES: tuple[str, ...] = ("radial", "lateral", "axial")
+_TOP_KEYS = ("model", "excitation", "sensor", "uncertainty", "identification", "units", "rig")
+
+
+@dataclass(frozen=True, slots=True)
+class ModelParams:
+    """Parameters of the 3DOF rig model (paper Table 1), SI units.
+
+    Parameters
+    ----------
+    m_H, m_S, m_F : float
+        Housing, equivalent spindle and equivalent frame mass [kg].
+    k_MS, k_AS, k_S, k_B : float
+        Mounting-system, air-spring, spindle-bending and bushing stiffness [N/m].
+    """
+
+    m_H: float
+    m_S: float
+    m_F: float
+    k_MS: float
+    k_AS: float
+    k_S: float
+    k_B: float
+
+    def as_dict(self) -> dict[str, float]:
+        """The seven parameters as a plain dict."""
+        return {k: getattr(self, k) for k in MODEL_KEYS}
+
+
+@dataclass(frozen=True, slots=True)
+class Sensor:
+    """One accelerometer: its DOF as written in the UFF file, its role and its axis."""
+
+    dof: DOF
+    role: str
+    axis: str
+
+
+@dataclass(frozen=True, slots=True)
+class RigConfig:
+    """A validated rig configuration.
+
+    Attributes
+    ----------
+    model : ModelParams
+    radial : DOF
+        Reference DOF of the radial shaker (as written in the file).
+    axial : DOF or None
+        Reference DOF of the axial shaker.
+    sensors : tuple of Sensor
+    uncertainty : dict
+        Relative standard uncertainty per model parameter (fraction).
+    identification : dict
+        Optional defaults: ``band`` (lo, hi) Hz, ``max_order``, ``k_MS_band``.
+    unit_preference : str or None
+        ``'code'`` or ``'label'``: which wins in a UFF unit conflict.
+    name : str
+    path : str or None
+        File it was read from.
+    """
+
+    model: ModelParams
+    radial: DOF
+    axial: DOF | None
+    sensors: tuple[Sensor, ...]
+    uncertainty: Mapping[str, float] = field(default_factory=dict)
+    identification: Mapping[str, Any] = field(default_factory=dict)
+    unit_preference: str | None = None
+    name: str = ""
+    path: str | None = None
+
+    def sensor_for(self, dof: DOF) -> Sensor | None:
+        """The sensor whose node and axis match ``dof`` (sign ignored), or None."""
+        for s in self.sensors:
+            if s.dof.node == dof.node and abs(s.dof.direction) == abs(dof.direction):
+                return s
+        return None
+
+    @property
+    def references(self) -> tuple[DOF, ...]:
+        """Reference DOFs: radial, then axial when given."""
+        return (self.radial,) if self.axial is None else (self.radial, self.axial)
+
+
+def _num(v: Any, key: str, file: str | None, *, positive: bool = True) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ConfigError(f"must be a number, got {v!r}", file=file, key=key)
+    x = float(v)
+    if not math.isfinite(x) or (positive and x <= 0):
+        raise ConfigError(f"must be a finite positive number, got {v!r}", file=file, key=key)
+    return x
+
+
+def _dof(v: Any, key: str, file: str | None) -> DOF:
+    if not isinstance(v, str):
+        raise ConfigError(f"must be a DOF string such as '11+Y', got {v!r}", file=file, key=key)
+    try:
+        d = DOF.parse(v)
+    except ValueError as exc:
+        raise ConfigError(str(exc), file=file, key=key) from None
+    if d.direction == 0:
+        raise ConfigError(f"DOF {v!r} needs a signed direction such as '11+Y'", file=file, key=key)
+    return d
+
+
+def _check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, file: str | None) -> None:
+    for k in table:
+        if k not in allowed:
+            key = f"{where}.{k}" if where else k
+            raise ConfigError(
+                f"unknown key; allowed keys here are {', '.join(allowed)}", file=file, key=key
+            )
+
+
+def _table(doc: Mapping[str, Any], name: str, file: str | None, *, required: bool) -> Mapping[str, Any]:
+    if name not in doc:
+        if required:
+            raise ConfigError(f"missing required table [{name}]", file=file, key=name)
+        return {}
+    t = doc[name]
+    if not isinstance(t, Mapping):
+        raise ConfigError(f"must be a table [{name}]", file=file, key=name)
+    return t
+
+
+def _band(v: Any, key: str, file: str | None) -> tuple[float, float]:
+    if not isinstance(v, (list, tuple)) or len(v) != 2:
+        raise ConfigError(f"must be a pair [lo, hi] in Hz, got {v!r}", file=file, key=key)
+    lo = _num(v[0], key, file, positive=False)
+    hi = _num(v[1], key, file)
+    if not 0 <= lo < hi:
+        raise ConfigError(f"must satisfy 0 <= lo < hi, got {v!r}", file=file, key=key)
+    return lo, hi
+
+
+def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None) -> RigConfig:
+    """Validate a parsed rig TOML document.
+
+    Parameters
+    ----------
+    doc : mapping
+        The TOML document as returned by :func:`tomllib.load`.
+    file : str or path-like, optional
+        Used in error messages.
+
+    Returns
+    -------
+    RigConfig
+
+    Raises
+    ------
+    ConfigError
+        Naming the key path and the allowed values.
+    """
+    fname = None if file is None else str(file)
+    _check_keys(doc, _TOP_KEYS, "", fname)
+    m = _table(doc, "model", fname, required=True)
+    _check_keys(m, MODEL_KEYS, "model", fname)
+    for k in MODEL_KEYS:
+        if k not in m:
+            raise ConfigError(
+                f"missing required key (the [model] table needs {', '.join(MODEL_KEYS)})",
+                file=fname,
+                key=f"model.{k}",
+            )
+    model = ModelParams(**{k: _num(m[k], f"model.{k}", fname) for k in MODEL_KEYS})
+
+    ex = _table(doc, "excitation", fname, required=True)
+    _check_keys(ex, ("radial", "axial"), "excitation", fname)
+    if "radial" not in ex:
+        raise ConfigError("missing required key (reference DOF of the radial shaker)", file=fname, key="excitation.radial")
+    radial = _dof(ex["radial"], "excitation.radial", fname)
+    axial = _dof(ex["axial"], "excitation.axial", fname) if "axial" in ex else None
+    if axial is not None and axial.positive() == radial.positive():
+        raise ConfigError("axial and radial references are the same DOF", file=fname, key="excitation.axial")
+
+    raw_sensors = doc.get("sensor")
+    if raw_sensors is None:
+        raise ConfigError("missing required [[sensor]] tables (one per accelerometer)", file=fname, key="sensor")
+    if not isinstance(raw_sensors, list) or not raw_sensors:
+        raise ConfigError("must be a non-empty array of tables [[sensor]]", file=fname, key="sensor")
+    sensors: list[Sensor] = []
+    seen: dict[tuple[int, int], int] = {}
+    for i, s in enumerate(raw_sensors):
+        where = f"sensor[{i}]"
+        if not isinstance(s, Mapping):
+            raise ConfigError("must be a table", file=fname, key=where)
+        _check_keys(s, ("dof", "role", "axis", "name"), where, fname)
+        for req in ("dof", "role", "axis"):
+            if req not in s:
+                raise ConfigError("missing required key (dof, role, axis)", file=fname, key=f"{where}.{req}")
+        dof = _dof(s["dof"], f"{where}.dof", fname)
+        role, axis = s["role"], s["axis"]
+        if role not in SENSOR_ROLES:
+            raise ConfigError(f"must be one of {', '.join(SENSOR_ROLES)}, got {role!r}", file=fname, key=f"{where}.role")
+        if axis not in SENSOR_AXES:
+            raise ConfigError(f"must be one of {', '.join(SENSOR_AXES)}, got {axis!r}", file=fname, key=f"{where}.axis")
+        k = (dof.node, abs(dof.direction))
+        if k in seen:
+            raise ConfigError(
+                f"DOF {dof} is already used by sensor[{seen[k]}]", file=fname, key=f"{where}.dof"
+            )
+        seen[k] = i
+        sensors.append(Sensor(dof, role, axis))
+
+    unc_t = _table(doc, "uncertainty", fname, required=False)
+    _check_keys(unc_t, MODEL_KEYS, "uncertainty", fname)
+    uncertainty = {}
+    for k, v in unc_t.items():
+        x = _num(v, f"uncertainty.{k}", fname, positive=False)
+        if not 0 <= x < 1:
+            raise ConfigError(
+                f"is a relative standard uncertainty (fraction, 0.01 = 1 %), must be in [0, 1), got {v!r}",
+                file=fname,
+                key=f"uncertainty.{k}",
+            )
+        uncertainty[k] = x
+
+    id_t = _table(doc, "identification", fname, required=False)
+    _check_keys(id_t, ("band", "max_order", "k_MS_band"), "identification", fname)
+    ident: dict[str, Any] = {}
+    for k in ("band", "k_MS_band"):
+        if k in id_t:
+            ident[k] = _band(id_t[k], f"identification.{k}", fname)
+    if "max_order" in id_t:
+        mo = id_t["max_order"]
+        if isinstance(mo, bool) or not isinstance(mo, int) or mo < 2:
+            raise ConfigError(f"must be an integer >= 2, got {mo!r}", file=fname, key="identification.max_order")
+        ident["max_order"] = mo
+
+    units_t = _table(doc, "units", fname, required=False)
+    _check_keys(units_t, ("prefer",), "units", fname)
+    pref = units_t.get("prefer")
+    if pref is not None and pref not in ("code", "label"):
+        raise ConfigError(f"must be 'code' or 'label', got {pref!r}", file=fname, key="units.prefer")
+
+    rig_t = _table(doc, "rig", fname, required=False)
+    _check_keys(rig_t, ("name", "description"), "rig", fname)
+
+    return RigConfig(
+        model=model,
+        radial=radial,
+        axial=axial,
+        sensors=tuple(sensors),
+        uncertainty=uncertainty,
+        identification=ident,
+        unit_preference=pref,
+        name=str(rig_t.get("name", "")),
+        path=fname,
+    )
+
+
+def read_toml(path: str | PathLike[str]) -> dict[str, Any]:
+    """Read a TOML file, turning IO and syntax errors into :class:`ConfigError`."""
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError("file not found", file=p) from None
+    except IsADirectoryError:
+        raise ConfigError("is a directory, expected a TOML file", file=p) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"invalid TOML: {exc}", file=p) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"not UTF-8 text: {exc.reason}", file=p) from None
+
+
+def load_rig(path: str | PathLike[str]) -> RigConfig:
+    """Read and validate a rig configuration file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        TOML file with the tables of DESIGN §3.1.
+
+    Returns
+    -------
+    RigConfig
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, not TOML, or a key is missing, unknown or invalid.
+    """
+    return parse_rig(read_toml(path), file=path)
+
+
+__all__ = [
+    "MODEL_KEYS",
+    "ModelParams",
+    "RigConfig",
+    "SENSOR_AXES",
+    "SENSOR_ROLES",
+    "Sensor",
+    "load_rig",
+    "parse_rig",
+    "read_toml",
+]
