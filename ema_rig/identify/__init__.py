@@ -1,0 +1,1 @@
+"""Modal identification: PolyMAX (pLSCF), stabilization, automatic selection, LSFD."""

@@ -1,0 +1,1 @@
+"""File input/output. ``ema_rig.io.uff`` is the only module that touches UFF files."""
