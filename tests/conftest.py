@@ -1,0 +1,94 @@
+"""Shared pytest fixtures of the ema_rig test suite."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+CORPUS = REPO.parent / "shared" / "uff-corpus"
+
+
+@pytest.fixture
+def corpus_dir() -> Path:
+    """The shared UFF conformance corpus; the test is skipped when it is absent."""
+    if not CORPUS.is_dir():
+        pytest.skip(f"UFF corpus not found at {CORPUS}")
+    return CORPUS
+
+
+@pytest.fixture
+def mplcleanup():
+    """Use the Agg backend and close every figure a test opened."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    yield
+    plt.close("all")
+
+
+@pytest.fixture
+def rig_toml_text() -> str:
+    """A rig file with Table 1 of the paper and the eight sensors of the paper's rig.
+
+    Housing: three radial (13 mounted along -Y), one lateral, one axial; spindle: two radial,
+    one axial. The radial shaker drives node 11 along +Y, the axial shaker node 15 along +X.
+    """
+    return """
+[model]
+m_H = 2.566
+m_S = 2.8
+m_F = 205.0
+k_MS = 114e6
+k_AS = 650e3
+k_S = 348e6
+k_B = 180e3
+
+[excitation]
+radial = "11+Y"
+axial = "15+X"
+
+[[sensor]]
+dof = "11+Y"
+role = "housing"
+axis = "radial"
+[[sensor]]
+dof = "12+Y"
+role = "housing"
+axis = "radial"
+[[sensor]]
+dof = "13-Y"
+role = "housing"
+axis = "radial"
+[[sensor]]
+dof = "14+Z"
+role = "housing"
+axis = "lateral"
+[[sensor]]
+dof = "15+X"
+role = "housing"
+axis = "axial"
+[[sensor]]
+dof = "21+Y"
+role = "spindle"
+axis = "radial"
+[[sensor]]
+dof = "22+Y"
+role = "spindle"
+axis = "radial"
+[[sensor]]
+dof = "23+X"
+role = "spindle"
+axis = "axial"
+"""
+
+
+@pytest.fixture
+def rig_file(tmp_path: Path, rig_toml_text: str) -> Path:
+    """The paper's rig file written to ``tmp_path/rig.toml``."""
+    p = tmp_path / "rig.toml"
+    p.write_text(rig_toml_text, encoding="utf-8")
+    return p
