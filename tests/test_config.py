@@ -1,0 +1,67 @@
+"""Rig configuration: the DESIGN §3.1 contract and its validation messages."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from ema_rig.config import load_rig
+from ema_rig.dof import DOF
+from ema_rig.errors import ConfigError
+
+
+def test_paper_rig(rig_file: Path) -> None:
+    rig = load_rig(rig_file)
+    assert rig.model.m_H == 2.566 and rig.model.k_MS == 114e6
+    assert rig.radial == DOF(11, 2) and rig.axial == DOF(15, 1)
+    assert len(rig.sensors) == 8
+    s13 = rig.sensor_for(DOF(13, 2))
+    assert s13 is not None and s13.dof.sign == -1 and s13.role == "housing"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "key", "words"),
+    [
+        ("m_H = 2.566\n", "", "model.m_H", "missing"),
+        ("k_B = 180e3\n", "k_B = 180e3\nk_X = 1.0\n", "model.k_X", "allowed keys"),
+        ('role = "spindle"', 'role = "shaft"', "role", "housing, spindle"),
+        ('axis = "lateral"', 'axis = "vertical"', "axis", "radial, lateral, axial"),
+        ('radial = "11+Y"', 'radial = "eleven"', "excitation.radial", "11+Y"),
+        ("m_S = 2.8", "m_S = -2.8", "model.m_S", "positive"),
+        ('dof = "12+Y"', 'dof = "11-Y"', "dof", "already used"),
+    ],
+)
+def test_errors_name_key_and_allowed_values(
+    tmp_path: Path, rig_toml_text: str, old: str, new: str, key: str, words: str
+) -> None:
+    assert old in rig_toml_text
+    p = tmp_path / "bad.toml"
+    p.write_text(rig_toml_text.replace(old, new, 1), encoding="utf-8")
+    with pytest.raises(ConfigError) as info:
+        load_rig(p)
+    msg = str(info.value)
+    assert str(p) in msg and key in msg and words in msg
+
+
+def test_unreadable_files(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="not found"):
+        load_rig(tmp_path / "nope.toml")
+    bad = tmp_path / "x.toml"
+    bad.write_text("[model\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="invalid TOML"):
+        load_rig(bad)
+
+
+def test_optional_tables(tmp_path: Path, rig_toml_text: str) -> None:
+    p = tmp_path / "r.toml"
+    p.write_text(
+        rig_toml_text
+        + "\n[uncertainty]\nm_H = 0.005\n[identification]\nband = [150.0, 1000.0]\nmax_order = 60\n"
+        + '[units]\nprefer = "label"\n',
+        encoding="utf-8",
+    )
+    rig = load_rig(p)
+    assert rig.uncertainty == {"m_H": 0.005}
+    assert rig.identification == {"band": (150.0, 1000.0), "max_order": 60}
+    assert rig.unit_preference == "label"

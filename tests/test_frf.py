@@ -1,0 +1,88 @@
+"""FRFData: validation, selection, form conversion, summaries."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from ema_rig.frf import FRFData
+
+
+def _sdof(freq: np.ndarray, fn: float = 50.0, zeta: float = 0.02, m: float = 2.0) -> np.ndarray:
+    """Receptance of a single-DOF oscillator [m/N]."""
+    w, wn = 2 * np.pi * freq, 2 * np.pi * fn
+    return 1.0 / (m * (wn**2 - w**2 + 2j * zeta * wn * w))
+
+
+@pytest.fixture
+def data() -> FRFData:
+    f = np.linspace(0.0, 200.0, 401)
+    h = _sdof(f)
+    frf = np.stack([np.stack([h, 2 * h]), np.stack([-h, 3 * h])])  # (2 out, 2 in, n)
+    return FRFData(f, frf, ["1+Y", "2+Y"], ["1+Y", "2+Y"], frf_form="receptance",
+                   roles=["housing", "spindle"], axes=["radial", "radial"])
+
+
+def test_immutable_and_copies(data: FRFData) -> None:
+    arr = np.zeros((1, 1, 3), complex)
+    d = FRFData([0.0, 1.0, 2.0], arr, ["1+Y"], ["1+Y"])
+    arr[0, 0, 0] = 5.0  # the caller's array changes; the object must not
+    assert d.frf[0, 0, 0] == 0.0
+    with pytest.raises(ValueError):
+        d.frf[0, 0, 0] = 1.0  # read-only
+    with pytest.raises(AttributeError):
+        d.frf_form = "mobility"  # type: ignore[misc]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"freq": [0.0, 2.0, 1.0]}, "increasing"),
+        ({"freq": [0.0, np.nan, 2.0]}, "NaN"),
+        ({"frf": np.zeros((1, 1, 2))}, "frequency lines"),
+        ({"out_dofs": ["1+Y", "2+Y"]}, "out_dofs"),
+        ({"frf_form": "inertance"}, "frf_form"),
+    ],
+)
+def test_validation(kwargs: dict, match: str) -> None:
+    base = {"freq": [0.0, 1.0, 2.0], "frf": np.zeros((1, 1, 3)), "out_dofs": ["1+Y"], "in_dofs": ["1+Y"]}
+    base.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        FRFData(**base)
+
+
+def test_form_conversion_round_trip(data: FRFData) -> None:
+    acc = data.to_form("accelerance")
+    w = 2 * np.pi * data.freq
+    # accelerance = -w^2 receptance exactly; 0 Hz gives exactly 0
+    assert_allclose(acc.frf, -(w**2) * data.frf, rtol=1e-12)
+    assert acc.unit_str == "m/s^2/N"
+    back = acc.to_form("receptance")
+    assert np.all(np.isnan(back.frf[..., 0]))  # undefined at 0 Hz, never a division by zero
+    assert_allclose(back.frf[..., 1:], data.frf[..., 1:], rtol=1e-12)
+    dropped = acc.to_form("mobility", at_zero="drop")
+    assert dropped.n_freq == data.n_freq - 1 and dropped.freq[0] > 0
+
+
+def test_selection(data: FRFData) -> None:
+    s = data.sel(role="spindle")
+    assert s.out_dofs == data.out_dofs[1:] and s.roles == ("spindle",)
+    assert_allclose(s.frf, data.frf[1:])
+    t = data.sel(out="2+Y", inp=["2+Y"])
+    assert_allclose(t.frf[0, 0], data.frf[1, 1])
+    with pytest.raises(KeyError, match="9\\+Y"):
+        data.sel(out="9+Y")
+    b = data.band(40.0, 60.0)
+    assert b.freq[0] >= 40.0 and b.freq[-1] <= 60.0 and b.n_freq == 41
+    with pytest.raises(ValueError, match="holds no line"):
+        data.band(500.0, 600.0)
+
+
+def test_sum_and_cmif(data: FRFData) -> None:
+    assert_allclose(data.sum_frf(), np.abs(data.frf).sum(axis=(0, 1)))
+    cm = data.cmif()
+    assert cm.shape == (2, data.n_freq)
+    # the largest singular value is the 2-norm of each 2x2 matrix
+    k = 100
+    assert_allclose(cm[0, k], np.linalg.norm(data.frf[:, :, k], 2), rtol=1e-12)
