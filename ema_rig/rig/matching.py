@@ -1,0 +1,671 @@
+"""Match identified modes to the 3DOF rig model: which mode is the radial housing mode?
+
+The identified band around the housing mode (150–1000 Hz on the paper's rig) holds far more
+modes than the 3DOF model has: housing tilt modes, the spindle's first bending mode (287 Hz), the
+housing axial mode (~300 Hz), a lateral housing mode, flexible frame and housing modes (from
+663/695 Hz), the spindle axial mode (~1012 Hz) and, on a rotating bearing, nearly undamped lines
+at multiples of the shaft speed. This module tells them apart by shape, scale and frequency
+(DESIGN §4).
+
+Functions
+---------
+match_modes
+    Pick the radial housing mode (and the spindle bending mode) from a :class:`ModalModel`.
+model_mode_at
+    The 3DOF model's housing-mode shape, modal mass and spindle mode when its housing mode is
+    tuned to a given frequency.
+model_valid_range
+    Housing-mode frequency range in which the 3DOF model gives ``k_TB+MS > 0``.
+
+Classes
+-------
+MatchCriteria
+    Thresholds of the matching evidence (all documented, all adjustable).
+MatchResult
+    The chosen modes and every candidate with its metrics and the reason it was kept or
+    rejected.
+
+Notes
+-----
+Evidence used for each candidate mode ``r`` (shapes from the radial reference's residue column,
+mass-normalised at the radial driving point, sign-corrected DOFs):
+
+* **frequency**: inside the model's valid range (``k_TB+MS > 0``) or a user range;
+* **harmonic** (rotating bearing only): ``|f - k f_shaft|`` small and damping tiny;
+* **in-phase radial housing motion**: ``cos`` of the phase between every radial housing sensor
+  and the driving point close to +1 (a tilt mode moves them out of phase);
+* **similar radial housing amplitudes**: rigid translation of the housing mass;
+* **cross-axis motion**: lateral and axial housing sensors small against the radial ones
+  (otherwise a lateral or axial mode);
+* **spindle/housing ratio**: the spindle radial sensors' signed motion relative to the housing,
+  compared with the 3DOF model's ``phi_S / phi_H`` at the candidate's frequency (≈ 0.11 at
+  626 Hz); a spindle mode moves the spindle far more;
+* **effective modal mass** at the radial driving point ``1 / |phi_p|^2`` against the model's
+  housing-mode value at the candidate's frequency (≈ 2.64 kg at 626 Hz); a flexible frame mode's
+  is many times larger.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..config import ModelParams, RigConfig
+from ..dof import DOF
+from ..errors import MatchingError
+from ..identify.modal import ModalModel
+
+__all__ = [
+    "MatchCriteria",
+    "MatchResult",
+    "ModelModeInfo",
+    "match_modes",
+    "model_mode_at",
+    "model_valid_range",
+]
+
+_E = np.array([1.0, -1.0, 0.0])
+
+
+# --------------------------------------------------------------------------- model helpers
+def _mk0(params: ModelParams) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Mass matrix and stiffness matrix without the bearing spring (DOFs H, S, F)."""
+    p = params
+    m = np.diag([p.m_H, p.m_S, p.m_F])
+    k0 = np.array(
+        [
+            [p.k_AS, 0.0, -p.k_AS],
+            [0.0, p.k_S, -p.k_S],
+            [-p.k_AS, -p.k_S, p.k_AS + p.k_S + p.k_B],
+        ]
+    )
+    return m, k0
+
+
+def _k_series_at(params: ModelParams, freq: float) -> float:
+    """Closed form ``k_TB+MS(w) = -1 / (e^T (K0 - w^2 M)^-1 e)`` [N/m] (may be <= 0 or inf)."""
+    m, k0 = _mk0(params)
+    w2 = (2.0 * np.pi * freq) ** 2
+    try:
+        g = float(_E @ np.linalg.solve(k0 - w2 * m, _E))
+    except np.linalg.LinAlgError:
+        return math.inf
+    return -1.0 / g if g != 0 else math.inf
+
+
+def model_valid_range(params: ModelParams) -> tuple[float, float]:
+    """Housing-mode frequencies [Hz] for which the 3DOF model gives ``k_TB+MS > 0``.
+
+    ``k_TB+MS`` rises from 0 to infinity between the natural frequency of the model without the
+    bearing spring (the housing on the air springs, coupled to the frame) and the one with a
+    rigid bearing (housing and spindle locked together); 80.6 Hz and 1299.6 Hz on Table 1.
+
+    Parameters
+    ----------
+    params : ModelParams
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper limit in Hz (both excluded).
+    """
+    import scipy.linalg
+
+    m, k0 = _mk0(params)
+    lam0 = scipy.linalg.eigh(k0, m, eigvals_only=True)
+    # the housing DOF alone (k -> 0): the eigenvalue between the frame's and the spindle's
+    f0 = np.sqrt(np.clip(lam0, 0, None)) / (2 * np.pi)
+    # rigid bearing: H and S merged into one DOF
+    mr = np.diag([params.m_H + params.m_S, params.m_F])
+    kr = np.array([[params.k_AS + params.k_S, -(params.k_AS + params.k_S)],
+                   [-(params.k_AS + params.k_S), params.k_AS + params.k_S + params.k_B]])
+    fr = np.sqrt(scipy.linalg.eigh(kr, mr, eigvals_only=True)) / (2 * np.pi)
+    return float(f0[1]), float(fr[1])
+
+
+@dataclass(frozen=True, slots=True)
+class ModelModeInfo:
+    """The 3DOF model with its housing mode tuned to ``natural_freq``.
+
+    Attributes
+    ----------
+    natural_freq : float
+        Housing-mode frequency [Hz] the model was tuned to.
+    k_tb_ms : float
+        ``k_TB+MS`` [N/m] that puts the housing mode there.
+    modal_mass : float
+        Effective modal mass of the housing mode at the housing DOF, ``1 / phi_H^2`` [kg].
+    spindle_ratio : float
+        ``phi_S / phi_H`` of the housing mode (signed).
+    spindle_freq : float
+        Natural frequency of the model's spindle bending mode [Hz].
+    spindle_mode_ratio : float
+        ``phi_S / phi_H`` of that spindle mode (signed, large and negative).
+    spindle_modal_mass : float
+        Effective modal mass of the spindle mode at the housing DOF [kg].
+    """
+
+    natural_freq: float
+    k_tb_ms: float
+    modal_mass: float
+    spindle_ratio: float
+    spindle_freq: float
+    spindle_mode_ratio: float
+    spindle_modal_mass: float
+
+
+def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | None:
+    """The 3DOF model whose housing mode lies at ``natural_freq``.
+
+    Parameters
+    ----------
+    params : ModelParams
+        Table 1 parameters (``k_MS`` is not used: only ``k_TB+MS`` matters here).
+    natural_freq : float
+        Housing-mode frequency [Hz].
+
+    Returns
+    -------
+    ModelModeInfo or None
+        None when the frequency is outside :func:`model_valid_range` (no positive stiffness).
+    """
+    import scipy.linalg
+
+    lo, hi = model_valid_range(params)
+    if not lo < natural_freq < hi:
+        return None
+    k = _k_series_at(params, natural_freq)
+    if not (np.isfinite(k) and k > 0):
+        return None
+    m, k0 = _mk0(params)
+    lam, phi = scipy.linalg.eigh(k0 + k * np.outer(_E, _E), m)
+    fn = np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
+    i = int(np.argmin(np.abs(fn - natural_freq)))
+    j = int(np.argmax(fn))  # the spindle bending mode is the highest of the three
+    ph, ps = phi[:, i], phi[:, j]
+    return ModelModeInfo(
+        natural_freq=float(natural_freq),
+        k_tb_ms=float(k),
+        modal_mass=float(1.0 / ph[0] ** 2),
+        spindle_ratio=float(ph[1] / ph[0]),
+        spindle_freq=float(fn[j]),
+        spindle_mode_ratio=float(ps[1] / ps[0]),
+        spindle_modal_mass=float(1.0 / ps[0] ** 2),
+    )
+
+
+# --------------------------------------------------------------------------- criteria
+@dataclass(frozen=True, slots=True)
+class MatchCriteria:
+    """Thresholds of the matching evidence.
+
+    Attributes
+    ----------
+    min_phase_cos : float
+        Minimum ``cos`` of the phase angle between every radial housing sensor and the radial
+        driving point (0.5 = within 60 degrees). Below: tilt mode.
+    min_amplitude_ratio : float
+        Minimum ``min |phi| / max |phi|`` over the radial housing sensors (rigid translation).
+    max_cross_axis_ratio : float
+        Maximum lateral or axial housing amplitude relative to the mean radial housing amplitude.
+    spindle_ratio_tol : float
+        Allowed absolute deviation of the measured spindle/housing ratio from the model's,
+        ``|r - r_model| <= spindle_ratio_tol + 0.5 |r_model|``.
+    mass_ratio_range : (float, float)
+        Allowed range of measured / model effective modal mass at the radial driving point.
+    harmonic_freq_tol : float
+        Relative tolerance of ``|f - k f_shaft| / f`` for a line to count as a harmonic
+        (widened to 3 identified standard deviations when those are known).
+    harmonic_max_damping : float
+        A harmonic line is nearly undamped: damping ratio below this.
+    spindle_freq_tol : float
+        Relative window around the model's spindle-mode frequency in which the spindle bending
+        mode is looked for.
+    min_spindle_ratio : float
+        A spindle bending mode moves the spindle radial sensors at least this many times more
+        than the housing, in anti-phase.
+    """
+
+    min_phase_cos: float = 0.5
+    min_amplitude_ratio: float = 0.5
+    max_cross_axis_ratio: float = 0.5
+    spindle_ratio_tol: float = 0.15
+    mass_ratio_range: tuple[float, float] = (0.5, 2.0)
+    harmonic_freq_tol: float = 2e-3
+    harmonic_max_damping: float = 5e-3
+    spindle_freq_tol: float = 0.2
+    min_spindle_ratio: float = 1.0
+
+
+# --------------------------------------------------------------------------- result
+@dataclass(frozen=True, slots=True)
+class MatchResult:
+    """Which identified mode is the radial housing mode (and the spindle bending mode).
+
+    Attributes
+    ----------
+    housing_index : int
+        Index of the housing mode in the matched :class:`ModalModel`.
+    housing_mode : dict
+        ``natural_freq`` [Hz] (``|lambda| / 2 pi``), ``damping_ratio``, ``natural_freq_std``
+        (Hz or None), ``modal_mass`` [kg], ``model_modal_mass`` [kg].
+    spindle_index : int or None
+        Index of the spindle bending mode in the model it was found in (``spindle_source``).
+    spindle_mode : dict or None
+        ``natural_freq``, ``damping_ratio`` of the spindle bending mode, or None when absent.
+    spindle_source : str or None
+        ``'modes'`` or ``'spindle_modes'``: which ModalModel holds the spindle mode.
+    candidates : list of dict
+        Every mode considered: ``index``, ``source``, ``natural_freq``, ``damping_ratio``, the
+        metrics, ``status`` (``'housing'``, ``'spindle'``, ``'rejected'``) and ``reason``.
+    valid_range : (float, float)
+        The housing-frequency range searched [Hz].
+    """
+
+    housing_index: int
+    housing_mode: dict[str, Any]
+    spindle_index: int | None
+    spindle_mode: dict[str, Any] | None
+    spindle_source: str | None
+    candidates: list[dict[str, Any]] = field(default_factory=list)
+    valid_range: tuple[float, float] = (0.0, math.inf)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``housing_mode``, ``spindle_mode``, ``candidates``, ``valid_range``."""
+        return {
+            "housing_mode": dict(self.housing_mode),
+            "spindle_mode": None if self.spindle_mode is None else dict(self.spindle_mode),
+            "candidates": [dict(c) for c in self.candidates],
+            "valid_range": list(self.valid_range),
+        }
+
+
+# --------------------------------------------------------------------------- helpers
+def _find(dofs: tuple[DOF, ...], target: DOF) -> int | None:
+    for i, d in enumerate(dofs):
+        if d.node == target.node and abs(d.direction) == abs(target.direction):
+            return i
+    return None
+
+
+def _sensor_groups(modes: ModalModel, rig: RigConfig) -> dict[tuple[str, str], list[int]]:
+    """Output indices per (role, axis), from the model's roles/axes or the rig's sensor list."""
+    groups: dict[tuple[str, str], list[int]] = {}
+    for i, d in enumerate(modes.out_dofs):
+        role, axis = modes.roles[i], modes.axes[i]
+        if role is None or axis is None:
+            s = rig.sensor_for(d)
+            if s is None:
+                continue
+            role, axis = s.role, s.axis
+        groups.setdefault((role, axis), []).append(i)
+    return groups
+
+
+def _fmt(x: float | None, spec: str = ".3g") -> str:
+    return "n/a" if x is None or not np.isfinite(x) else format(x, spec)
+
+
+def _clean(x: float | None) -> float | None:
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+# --------------------------------------------------------------------------- main
+def match_modes(
+    modes: ModalModel,
+    rig: RigConfig,
+    *,
+    natural_freq_std: NDArray[np.float64] | None = None,
+    speed_hz: float | None = None,
+    expected: tuple[float, float] | None = None,
+    spindle_modes: ModalModel | None = None,
+    criteria: MatchCriteria | None = None,
+    file: str | None = None,
+) -> MatchResult:
+    """Pick the radial housing mode and the spindle bending mode by shape, scale and frequency.
+
+    Parameters
+    ----------
+    modes : ModalModel
+        Identified modes of a measurement in the housing band; needs the radial shaker's
+        reference and its driving-point response (for mass-normalised shapes).
+    rig : RigConfig
+        Sensor roles and axes, the radial reference, the 3DOF model parameters.
+    natural_freq_std : ndarray, shape (n_modes,), optional
+        Spread of each identified natural frequency [Hz] (reported, and widens the harmonic
+        tolerance).
+    speed_hz : float, optional
+        Shaft speed [Hz] of a rotating bearing; enables the rejection of harmonic lines.
+    expected : (float, float), optional
+        Housing-mode frequency range [Hz]; default (and at most) the model's valid range
+        (:func:`model_valid_range`).
+    spindle_modes : ModalModel, optional
+        Modes identified in a separate band around the spindle bending mode (~1908 Hz); when
+        None the spindle mode is looked for in ``modes``.
+    criteria : MatchCriteria, optional
+        Thresholds (default :class:`MatchCriteria()`).
+    file : str, optional
+        Measurement file, for error messages.
+
+    Returns
+    -------
+    MatchResult
+
+    Raises
+    ------
+    MatchingError
+        When no mode passes the housing-mode criteria; ``candidates`` lists every mode with its
+        metrics and the reasons it was rejected.
+    """
+    crit = criteria or MatchCriteria()
+    params = rig.model
+    lo, hi = model_valid_range(params)
+    if expected is not None:
+        lo, hi = max(lo, float(expected[0])), min(hi, float(expected[1]))
+    if speed_hz is not None and not (np.isfinite(speed_hz) and speed_hz > 0):
+        speed_hz = None
+    if natural_freq_std is not None:
+        natural_freq_std = np.asarray(natural_freq_std, dtype=float)
+        if natural_freq_std.shape != (modes.n_modes,):
+            raise ValueError(
+                f"natural_freq_std must have shape ({modes.n_modes},), got {natural_freq_std.shape}"
+            )
+
+    cands = _candidates(modes, rig, "modes", natural_freq_std, speed_hz, crit)
+    for c in cands:
+        _judge_housing(c, params, lo, hi, crit)
+
+    passing = [c for c in cands if not c["_fail"]]
+    if not passing:
+        out = _public(cands)
+        lines = "; ".join(f"{c['natural_freq']:.1f} Hz: {c['reason']}" for c in out) or "no mode identified"
+        raise MatchingError(
+            f"no identified mode matches the radial housing mode (searched {lo:.1f}-{hi:.1f} Hz); "
+            f"candidates: {lines}",
+            candidates=out,
+            file=file,
+        )
+    # best: the closest effective modal mass and the most in-phase, similar radial motion
+    def score(c: dict[str, Any]) -> float:
+        s = 0.0
+        if c.get("mass_ratio") is not None:
+            s += abs(math.log(c["mass_ratio"]))
+        s += (1.0 - (c.get("radial_phase_cos") or 1.0)) + (1.0 - (c.get("radial_amplitude_ratio") or 1.0))
+        return s
+
+    best = min(passing, key=score)
+    best["status"] = "housing"
+    best["reason"] = "radial housing mode: " + best["_evidence"]
+    for c in passing:
+        if c is not best:
+            c["status"] = "rejected"
+            c["reason"] = (
+                f"passes the housing criteria but {best['natural_freq']:.1f} Hz matches better "
+                f"(score {score(c):.3f} vs {score(best):.3f})"
+            )
+    info: ModelModeInfo = best["_model"]
+    hi_idx = best["index"]
+    housing = {
+        "natural_freq": float(modes.natural_freq[hi_idx]),
+        "damping_ratio": float(modes.damping_ratio[hi_idx]),
+        "natural_freq_std": None if natural_freq_std is None else _clean(natural_freq_std[hi_idx]),
+        "modal_mass": best.get("modal_mass"),
+        "model_modal_mass": info.modal_mass,
+        "spindle_ratio": best.get("spindle_ratio"),
+        "model_spindle_ratio": info.spindle_ratio,
+    }
+
+    # ---- spindle bending mode, predicted by the model tuned to the housing mode
+    src_name = "modes" if spindle_modes is None else "spindle_modes"
+    if spindle_modes is None:
+        s_cands = [c for c in cands if c is not best]
+    else:
+        s_cands = _candidates(spindle_modes, rig, "spindle_modes", None, speed_hz, crit)
+        cands.extend(s_cands)
+    sp_pass = []
+    for c in s_cands:
+        ok, why = _judge_spindle(c, info, crit)
+        if ok:
+            sp_pass.append(c)
+        elif c["source"] == "spindle_modes":
+            c["status"] = "rejected"
+            c["reason"] = "not the spindle mode: " + why
+        elif abs(c["natural_freq"] / info.spindle_freq - 1.0) <= crit.spindle_freq_tol:
+            # a housing-rejected mode near the spindle prediction: say why it is not that either
+            c["reason"] = c["reason"] + "; not the spindle mode: " + why
+    spindle = None
+    sp_index = None
+    if sp_pass:
+        sbest = min(sp_pass, key=lambda c: abs(c["natural_freq"] / info.spindle_freq - 1.0))
+        sbest["status"] = "spindle"
+        sbest["reason"] = (
+            f"spindle bending mode: spindle/housing {sbest['spindle_ratio']:.2f} "
+            f"(model {info.spindle_mode_ratio:.2f}), {sbest['natural_freq']:.1f} Hz near the "
+            f"model's {info.spindle_freq:.1f} Hz"
+        )
+        for c in sp_pass:
+            if c is not sbest:
+                c["status"] = "rejected"
+                c["reason"] = f"spindle-like but {sbest['natural_freq']:.1f} Hz is closer to the model"
+        src = modes if sbest["source"] == "modes" else spindle_modes
+        assert src is not None
+        sp_index = sbest["index"]
+        spindle = {
+            "natural_freq": float(src.natural_freq[sp_index]),
+            "damping_ratio": float(src.damping_ratio[sp_index]),
+            "model_natural_freq": info.spindle_freq,
+        }
+        src_name = sbest["source"]
+    else:
+        src_name = None
+
+    return MatchResult(
+        housing_index=int(hi_idx),
+        housing_mode=housing,
+        spindle_index=sp_index,
+        spindle_mode=spindle,
+        spindle_source=src_name,
+        candidates=_public(cands),
+        valid_range=(lo, hi),
+    )
+
+
+def _public(cands: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    for c in sorted(cands, key=lambda c: c["natural_freq"]):
+        out.append({k: v for k, v in c.items() if not k.startswith("_")})
+    return out
+
+
+def _candidates(
+    modes: ModalModel,
+    rig: RigConfig,
+    source: str,
+    natural_freq_std: NDArray[np.float64] | None,
+    speed_hz: float | None,
+    crit: MatchCriteria,
+) -> list[dict[str, Any]]:
+    """Shape metrics of every mode (no decision yet)."""
+    ref = rig.radial.positive()
+    q = _find(modes.in_dofs, ref)
+    p = _find(modes.out_dofs, ref)
+    if q is None:
+        raise MatchingError(
+            f"the identified modes have no radial reference {rig.radial} "
+            f"(references: {[str(d) for d in modes.in_dofs]})"
+        )
+    groups = _sensor_groups(modes, rig)
+    h_rad = groups.get(("housing", "radial"), [])
+    h_lat = groups.get(("housing", "lateral"), [])
+    h_ax = groups.get(("housing", "axial"), [])
+    s_rad = groups.get(("spindle", "radial"), [])
+    s_ax = groups.get(("spindle", "axial"), [])
+
+    if p is not None:
+        shapes = modes.mode_shapes(modes.in_dofs[q])
+        mass = modes.modal_mass(modes.in_dofs[q]) if modes.out_dofs[p] == modes.in_dofs[q] else None
+        if mass is None:
+            # driving point written with opposite sign conventions: |R_pp| is sign-free
+            with np.errstate(divide="ignore"):
+                mass = 1.0 / (2.0 * modes.poles.imag * np.abs(modes.residues[:, p, q]))
+    else:
+        shapes = modes.mode_shapes(modes.in_dofs[q])
+        mass = None
+    # reference point for phases: the driving point, else the largest radial housing sensor
+    out = []
+    fn_all, z_all = modes.natural_freq, modes.damping_ratio
+    for r in range(modes.n_modes):
+        phi = shapes[r]
+        fn, z = float(fn_all[r]), float(z_all[r])
+        c: dict[str, Any] = {
+            "index": r,
+            "source": source,
+            "natural_freq": fn,
+            "damping_ratio": z,
+            "natural_freq_std": None if natural_freq_std is None else _clean(natural_freq_std[r]),
+            "status": "rejected",
+            "reason": "",
+        }
+        if h_rad:
+            _shape_metrics(c, phi, p, h_rad, h_lat, h_ax, s_rad, s_ax)
+        c["modal_mass"] = None if mass is None else _clean(float(mass[r]))
+        # harmonic of the shaft speed?
+        c["harmonic"] = None
+        if speed_hz is not None and fn >= 0.5 * speed_hz:
+            k = max(1, round(fn / speed_hz))
+            dev = abs(fn - k * speed_hz)
+            tol = crit.harmonic_freq_tol * fn
+            sd = c["natural_freq_std"]
+            if sd is not None:
+                tol = max(tol, 3.0 * sd)
+            if dev <= tol and z < crit.harmonic_max_damping:
+                c["harmonic"] = int(k)
+        c["_fail"] = []
+        out.append(c)
+    return out
+
+
+def _shape_metrics(c: dict[str, Any], phi: NDArray[np.complex128], p: int | None, h_rad: list[int],
+                   h_lat: list[int], h_ax: list[int], s_rad: list[int], s_ax: list[int]) -> None:
+    """Phase, amplitude, cross-axis and spindle metrics of one shape (into ``c``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = phi[h_rad]
+        pref = p if p is not None and p in h_rad else h_rad[int(np.argmax(np.abs(a)))]
+        ph_ref = phi[pref]
+        aref = abs(ph_ref)
+        amp_h = float(np.mean(np.abs(a)))
+        cos = np.real(a * np.conj(ph_ref)) / (np.abs(a) * aref)
+        c["radial_phase_cos"] = _clean(float(np.min(cos)))
+        c["radial_amplitude_ratio"] = _clean(float(np.min(np.abs(a)) / np.max(np.abs(a))))
+        c["lateral_ratio"] = _clean(float(np.max(np.abs(phi[h_lat])) / amp_h)) if h_lat else None
+        c["axial_ratio"] = (
+            _clean(float(np.max(np.abs(phi[h_ax + s_ax])) / amp_h)) if (h_ax or s_ax) else None
+        )
+        if s_rad:
+            # signed: projection on the housing reference's phase
+            proj = np.real(phi[s_rad] * np.conj(ph_ref)) / aref
+            c["spindle_ratio"] = _clean(float(np.mean(proj)) / amp_h)
+            c["spindle_axial_ratio"] = (
+                _clean(float(np.max(np.abs(phi[s_ax])) / np.mean(np.abs(phi[s_rad]))))
+                if s_ax else None
+            )
+        else:
+            c["spindle_ratio"] = None
+            c["spindle_axial_ratio"] = None
+
+
+def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
+                   crit: MatchCriteria) -> None:
+    """Fill ``_fail`` (reasons) and the model comparison metrics of one candidate."""
+    fails: list[str] = c["_fail"]
+    fn = c["natural_freq"]
+    info = model_mode_at(params, fn) if lo < fn < hi else None
+    c["_model"] = info
+    c["model_modal_mass"] = None if info is None else info.modal_mass
+    c["model_spindle_ratio"] = None if info is None else info.spindle_ratio
+    c["mass_ratio"] = None
+    if info is None:
+        fails.append(f"outside the housing-mode range {lo:.1f}-{hi:.1f} Hz of the 3DOF model")
+    if c["harmonic"] is not None:
+        fails.append(
+            f"harmonic line {c['harmonic']} x shaft speed (damping {c['damping_ratio']:.2e})"
+        )
+    if c.get("radial_phase_cos") is None:
+        if "radial_phase_cos" in c:
+            fails.append("no radial housing motion")
+        else:
+            fails.append("no radial housing sensor in the data")
+    else:
+        if c["radial_phase_cos"] < crit.min_phase_cos:
+            fails.append(
+                f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
+            )
+        if (c["radial_amplitude_ratio"] or 0.0) < crit.min_amplitude_ratio:
+            fails.append(
+                f"radial housing amplitudes differ (min/max {_fmt(c['radial_amplitude_ratio'], '.2f')}):"
+                " not a rigid radial translation"
+            )
+        lat, ax = c.get("lateral_ratio"), c.get("axial_ratio")
+        if lat is not None and lat > crit.max_cross_axis_ratio and lat >= (ax or 0.0):
+            fails.append(f"lateral mode (lateral/radial housing motion {lat:.2f})")
+        elif ax is not None and ax > crit.max_cross_axis_ratio:
+            fails.append(f"axial mode (axial/radial motion {ax:.2f})")
+        sr = c.get("spindle_ratio")
+        if info is not None and sr is not None:
+            tol = crit.spindle_ratio_tol + 0.5 * abs(info.spindle_ratio)
+            if abs(sr - info.spindle_ratio) > tol:
+                kind = "spindle mode: " if abs(sr) > 1.0 else ""
+                fails.append(
+                    f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} "
+                    f"(+/- {tol:.2f})"
+                )
+    if info is not None and c.get("modal_mass") is not None:
+        ratio = c["modal_mass"] / info.modal_mass
+        c["mass_ratio"] = ratio
+        lo_m, hi_m = crit.mass_ratio_range
+        if not lo_m <= ratio <= hi_m:
+            fails.append(
+                f"effective modal mass {c['modal_mass']:.3g} kg at the radial driving point, "
+                f"model {info.modal_mass:.3g} kg (ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g})"
+            )
+    if fails:
+        c["status"] = "rejected"
+        c["reason"] = "; ".join(fails)
+    else:
+        ev = [f"radial housing sensors in phase (min cos {c['radial_phase_cos']:.2f})",
+              f"amplitude ratio {c['radial_amplitude_ratio']:.2f}"]
+        if c.get("spindle_ratio") is not None and info is not None:
+            ev.append(f"spindle/housing {c['spindle_ratio']:.3f} (model {info.spindle_ratio:.3f})")
+        if c.get("mass_ratio") is not None and info is not None:
+            ev.append(f"modal mass {c['modal_mass']:.3g} kg (model {info.modal_mass:.3g} kg)")
+        c["_evidence"] = ", ".join(ev)
+        c["reason"] = "passes the housing criteria"
+
+
+def _judge_spindle(c: dict[str, Any], info: ModelModeInfo, crit: MatchCriteria) -> tuple[bool, str]:
+    """Is candidate ``c`` the spindle bending mode predicted by ``info``?"""
+    fails = []
+    fn = c["natural_freq"]
+    rel = fn / info.spindle_freq - 1.0
+    if abs(rel) > crit.spindle_freq_tol:
+        fails.append(
+            f"{fn:.1f} Hz is {100 * rel:+.0f} % from the model's spindle mode {info.spindle_freq:.1f} Hz"
+        )
+    if c["harmonic"] is not None:
+        fails.append(f"harmonic line {c['harmonic']} x shaft speed")
+    sr = c.get("spindle_ratio")
+    if sr is None:
+        fails.append("no spindle radial sensor")
+    elif not sr <= -crit.min_spindle_ratio:
+        fails.append(
+            f"spindle/housing ratio {sr:.2f}: the spindle bending mode moves the spindle "
+            f"in anti-phase and more than the housing (model {info.spindle_mode_ratio:.2f})"
+        )
+    sa = c.get("spindle_axial_ratio")
+    if sa is not None and sa > 1.0:
+        fails.append(f"axial spindle motion dominates (axial/radial {sa:.2f})")
+    return (not fails), "; ".join(fails)

@@ -1,0 +1,178 @@
+"""Matching identified modes to the 3DOF rig model (ema_rig.rig.matching).
+
+The modal models are built by hand from chosen mass-normalised shapes, so the truth of every
+candidate (housing, tilt, flexible, axial, spindle, harmonic) is known exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ema_rig.config import parse_rig
+from ema_rig.errors import MatchingError
+from ema_rig.identify.modal import ModalModel
+from ema_rig.rig.matching import match_modes, model_mode_at, model_valid_range
+
+# outputs in the rig's sensor order, sign-corrected (13-Y appears as 13+Y)
+OUT = ("11+Y", "12+Y", "13+Y", "14+Z", "15+X", "21+Y", "22+Y", "23+X")
+ROLES = ("housing",) * 5 + ("spindle",) * 3
+AXES = ("radial", "radial", "radial", "lateral", "axial", "radial", "radial", "axial")
+INP = ("11+Y", "15+X")
+
+
+@pytest.fixture
+def rig(rig_toml_text):
+    import tomllib
+
+    return parse_rig(tomllib.loads(rig_toml_text))
+
+
+def _modal(modes: list[tuple[float, float, np.ndarray]]) -> ModalModel:
+    """ModalModel from (natural_freq Hz, damping_ratio, mass-normalised shape over OUT)."""
+    poles, res = [], []
+    for fn, z, phi in modes:
+        wn = 2 * np.pi * fn
+        lam = -z * wn + 1j * wn * np.sqrt(1 - z**2)
+        phi = np.asarray(phi, dtype=complex)
+        ref = phi[[0, 4]]  # 11+Y and 15+X are outputs 0 and 4
+        poles.append(lam)
+        res.append(np.outer(phi, ref) / (2j * lam.imag))
+    order = np.argsort(np.abs(poles))
+    return ModalModel(
+        poles=np.array(poles)[order],
+        residues=np.array(res)[order],
+        lower_residual=np.zeros((8, 2), complex),
+        upper_residual=np.zeros((8, 2), complex),
+        out_dofs=OUT,
+        in_dofs=INP,
+        roles=ROLES,
+        axes=AXES,
+    )
+
+
+def _housing_shape(params, fn: float, *, mass_factor: float = 1.0) -> np.ndarray:
+    """The 3DOF model's housing-mode shape at fn on the 8 sensors (small cross-axis motion)."""
+    info = model_mode_at(params, fn)
+    a = 1.0 / np.sqrt(info.modal_mass * mass_factor)
+    return np.array([a, a, a, 0.03 * a, 0.02 * a, info.spindle_ratio * a, info.spindle_ratio * a, 0.01 * a])
+
+
+def test_valid_range_matches_design(rig):
+    # DESIGN §4: k_TB+MS > 0 only for 80.6 Hz < f_H < 1299.6 Hz (quoted to 0.1 Hz)
+    lo, hi = model_valid_range(rig.model)
+    np.testing.assert_allclose([lo, hi], [80.6, 1299.6], atol=0.06)
+
+
+def test_model_mode_at_626(rig):
+    # DESIGN §4: at 626 Hz k_TB+MS = 4.397e7 N/m (4 digits), modal mass ~2.64 kg, S/H ~ 0.1,
+    # spindle bending mode at 1907.2 Hz
+    info = model_mode_at(rig.model, 626.0)
+    np.testing.assert_allclose(info.k_tb_ms, 4.397e7, rtol=5e-4)
+    np.testing.assert_allclose(info.modal_mass, 2.64, rtol=5e-3)
+    np.testing.assert_allclose(info.spindle_ratio, 0.11, atol=0.01)
+    np.testing.assert_allclose(info.spindle_freq, 1907.2, atol=0.1)
+    assert model_mode_at(rig.model, 50.0) is None  # below the valid range: no positive stiffness
+    assert model_mode_at(rig.model, 1400.0) is None
+
+
+def _rig_modes(params, f_h: float = 626.0) -> list[tuple[float, float, np.ndarray]]:
+    """A realistic set: housing mode plus every mode the 3DOF model lacks."""
+    h = _housing_shape(params, f_h)
+    info = model_mode_at(params, f_h)
+    b = 1.0 / np.sqrt(info.spindle_modal_mass)
+    return [
+        (120.0, 0.02, np.array([0.3, -0.3, 0.05, 0.02, 0.01, 0.01, 0.01, 0.0])),  # tilt
+        (287.0, 0.015, np.array([0.01, 0.01, 0.01, 0.0, 0.0, 0.4, 0.3, 0.01])),  # spindle 1st
+        (300.0, 0.02, np.array([0.02, 0.02, 0.02, 0.01, 0.5, 0.01, 0.01, 0.3])),  # housing axial
+        (410.0, 0.02, np.array([0.05, 0.04, 0.05, 0.5, 0.01, 0.0, 0.0, 0.0])),  # lateral
+        (f_h, 0.02, h),
+        (f_h + 37.0, 0.01, h / np.sqrt(12.0)),  # flexible frame: housing-like, 12x the mass
+        (1012.0, 0.01, np.array([0.01, 0.01, 0.01, 0.0, 0.1, 0.0, 0.0, 0.5])),  # spindle axial
+        (info.spindle_freq * 1.003, 0.01, np.array([b, b, b, 0, 0, info.spindle_mode_ratio * b,
+                                                     info.spindle_mode_ratio * b, 0.05 * b])),
+    ]
+
+
+@pytest.mark.parametrize("f_h", [626.0, 897.0, 490.0])  # paper bearing, steel disk, dummy
+def test_picks_housing_and_spindle_modes(rig, f_h):
+    mm = _modal(_rig_modes(rig.model, f_h))
+    res = match_modes(mm, rig)
+    # exact input: the housing mode must be found exactly (rtol 1e-12, float round-off)
+    np.testing.assert_allclose(res.housing_mode["natural_freq"], f_h, rtol=1e-12)
+    assert res.spindle_mode is not None
+    info = model_mode_at(rig.model, f_h)
+    np.testing.assert_allclose(res.spindle_mode["natural_freq"], info.spindle_freq * 1.003, rtol=1e-12)
+    # every mode is listed with a reason
+    assert len(res.candidates) == mm.n_modes
+    by_f = {round(c["natural_freq"], 1): c for c in res.candidates}
+    assert "tilt" in by_f[120.0]["reason"]
+    assert "spindle" in by_f[287.0]["reason"]
+    assert "axial" in by_f[300.0]["reason"]
+    assert "lateral" in by_f[410.0]["reason"]
+    assert "modal mass" in by_f[round(f_h + 37.0, 1)]["reason"]
+    # the measured effective mass equals the model's (shapes built from it): rtol 1e-9
+    np.testing.assert_allclose(res.housing_mode["modal_mass"], info.modal_mass, rtol=1e-9)
+
+
+def test_tilt_one_percent_away_rejected_by_shape(rig):
+    h = _housing_shape(rig.model, 626.0)
+    tilt = h.copy()
+    tilt[[0, 1, 2]] = h[0] * np.array([1.0, -0.9, 0.2])  # out of phase, same scale
+    mm = _modal([(626.0 * 1.01, 0.02, tilt), (626.0, 0.02, h)])
+    res = match_modes(mm, rig)
+    np.testing.assert_allclose(res.housing_mode["natural_freq"], 626.0, rtol=1e-12)
+    c = [c for c in res.candidates if abs(c["natural_freq"] - 632.26) < 0.1][0]
+    assert c["status"] == "rejected" and "tilt" in c["reason"]
+    # and the tilt mode alone is not accepted: MatchingError listing it with the reason
+    with pytest.raises(MatchingError) as ei:
+        match_modes(_modal([(626.0 * 1.01, 0.02, tilt)]), rig)
+    assert len(ei.value.candidates) == 1 and "tilt" in ei.value.candidates[0]["reason"]
+
+
+def test_flexible_mode_right_frequency_ten_times_mass_rejected(rig):
+    h = _housing_shape(rig.model, 626.0)
+    mm = _modal([(626.0, 0.02, h / np.sqrt(10.0))])  # right shape and frequency, 10x modal mass
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    c = ei.value.candidates[0]
+    # the measured / model mass ratio is exactly 10 (rtol 1e-9, round-off only)
+    np.testing.assert_allclose(c["mass_ratio"], 10.0, rtol=1e-9)
+    assert "modal mass" in c["reason"] and "626.0 Hz" in str(ei.value)
+
+
+def test_harmonic_line_rejected_when_rotating(rig):
+    speed = 25.0  # Hz = 1500 rpm
+    h = _housing_shape(rig.model, 626.0)
+    line = _housing_shape(rig.model, 600.0)  # 24 x 25 Hz, forced response at the housing
+    mm = _modal([(600.0 + 0.05, 2e-4, line), (626.0, 0.02, h)])
+    # non-rotating: the nearly undamped line passes the shape criteria (nothing says otherwise)
+    only_line = _modal([(600.05, 2e-4, line)])
+    np.testing.assert_allclose(match_modes(only_line, rig).housing_mode["natural_freq"], 600.05, rtol=1e-12)
+    # rotating: it is recognised as the 24th harmonic and rejected
+    res = match_modes(mm, rig, speed_hz=speed)
+    np.testing.assert_allclose(res.housing_mode["natural_freq"], 626.0, rtol=1e-12)
+    c = [c for c in res.candidates if c["natural_freq"] < 610][0]
+    assert c["harmonic"] == 24 and "harmonic" in c["reason"]
+    with pytest.raises(MatchingError, match="harmonic"):
+        match_modes(only_line, rig, speed_hz=speed)
+    # a well-damped mode at a harmonic frequency is NOT a harmonic line (damping evidence)
+    res2 = match_modes(_modal([(625.0, 0.02, h)]), rig, speed_hz=speed)
+    np.testing.assert_allclose(res2.housing_mode["natural_freq"], 625.0, rtol=1e-12)
+
+
+def test_outside_valid_range_listed(rig):
+    h = _housing_shape(rig.model, 626.0)
+    mm = _modal([(1350.0, 0.02, h), (60.0, 0.02, h)])
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    assert all("outside the housing-mode range" in c["reason"] for c in ei.value.candidates)
+    assert [round(c["natural_freq"]) for c in ei.value.candidates] == [60, 1350]
+
+
+def test_spindle_mode_absent_is_none(rig):
+    mm = _modal([(626.0, 0.02, _housing_shape(rig.model, 626.0))])
+    res = match_modes(mm, rig)
+    assert res.spindle_mode is None and res.spindle_index is None
+    d = res.to_dict()
+    assert d["spindle_mode"] is None and d["housing_mode"]["natural_freq"] == pytest.approx(626.0, rel=1e-12)
