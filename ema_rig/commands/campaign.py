@@ -1,16 +1,87 @@
-"""campaign: (placeholder; being implemented)."""
+"""campaign: a whole campaign from its TOML file: table, figures and an HTML report."""
 
 from __future__ import annotations
 
 import argparse
+import math
+from typing import Any
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig campaign``."""
+    parser.add_argument("campaign", metavar="CAMPAIGN.toml", help="campaign file")
+    parser.add_argument("-o", "--out", default=None, metavar="DIR",
+                        help="output folder (default: <campaign stem>-out beside the campaign file)")
+    parser.add_argument("--jobs", "-j", type=int, default=1, metavar="N", help="parallel worker processes")
+    parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
+
+
+def _cell(v: Any, kind: str) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    if kind == "MN":
+        return f"{v / 1e6:.2f}"
+    if kind == "f":
+        return f"{v:.1f}"
+    if kind == "g":
+        return f"{v:g}"
+    return str(v)
+
+
+def print_table(result: Any) -> None:
+    """Print the campaign table (k_TB in MN/m) to stdout."""
+    cols = [("id", "id", "s"), ("bearing", "bearing", "s"), ("load N", "radial_load", "g"),
+            ("rpm", "speed", "g"), ("pos", "shaft_position", "g"), ("rep", "repeat", "g"),
+            ("k_TB MN/m", "k_TB", "MN"), ("±", "k_TB_std", "MN"), ("f_H Hz", "housing_freq", "f"),
+            ("status", "status", "s")]
+    table = [[h for h, _, _ in cols]]
+    errors = []
+    for r in result.rows:
+        table.append([_cell(r[k], kind) for _, k, kind in cols])
+        if r["status"] != "ok":
+            errors.append(f"  {r['id']}: {r['error']}")
+    widths = [max(len(row[i]) for row in table) for i in range(len(cols))]
+    for j, row in enumerate(table):
+        print("  ".join(c.rjust(w) if cols[i][2] != "s" else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))))
+        if j == 0:
+            print("  ".join("-" * w for w in widths))
+    if errors:
+        print("failed measurements:")
+        print("\n".join(errors))
+
+
+def run_campaign(campaign: str, out: str | None, jobs: int, force: bool) -> int:
+    """Run a campaign file and print the outcome; shared by ``campaign`` and ``demo``."""
+    import sys
+    from pathlib import Path
+
+    from ..campaign import load_campaign, run
+    from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
+    from ..errors import EmaRigError
+
+    cfg = load_campaign(campaign)
+    out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
+    if jobs < 1:
+        raise EmaRigError(f"--jobs must be >= 1, got {jobs}", file=campaign)
+    result = run(cfg, out_dir=out_dir, jobs=jobs, force=force, progress=True)
+    print_table(result)
+    print(f"\n{len(result.rows) - result.n_failed}/{len(result.rows)} measurements ok "
+          f"({result.computed} computed, {result.reused} reused); k_MS = {result.k_MS / 1e6:.2f} MN/m")
+    for kind, path in result.files.items():
+        print(f"  {kind:<24} {path}")
+    if result.calibration is not None and result.calibration.get("status") != "ok":
+        print(f"error: {campaign}: calibration failed: {result.calibration.get('error')}", file=sys.stderr)
+        return EXIT_PARTIAL
+    if result.n_failed == len(result.rows):
+        print(f"error: {campaign}: every measurement failed", file=sys.stderr)
+        return EXIT_ERROR
+    if result.n_failed:
+        print(f"error: {campaign}: {result.n_failed} of {len(result.rows)} measurements failed "
+              "(partial failure)", file=sys.stderr)
+        return EXIT_PARTIAL
+    return EXIT_OK
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig campaign``."""
-    from ..errors import EmaRigError
-
-    raise EmaRigError("'campaign' is not implemented yet")
+    return run_campaign(args.campaign, args.out, args.jobs, args.force)

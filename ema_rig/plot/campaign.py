@@ -1,0 +1,303 @@
+"""Figures of a campaign: the paper's Sect. 5-6 plots from a :class:`~ema_rig.campaign.CampaignResult`.
+
+Functions
+---------
+campaign_figures
+    Every figure the campaign's data support, by name.
+plot_k_vs_load
+    k_TB versus radial load with error bars, the Hertzian estimate and a F^(1/3) fit.
+plot_rotating_vs_static
+    Rotating against non-rotating stiffness with the mean change in %.
+plot_speed_effect
+    k_TB versus shaft speed.
+plot_validation
+    A reference bearing (the dummy) against its FE bounds (the paper's Fig. 9).
+plot_repeatability
+    Deviation of each repeat from its condition's mean.
+
+All functions take the result rows and return a matplotlib Figure (never shown).
+Error bars are +/- one standard uncertainty (k_TB_std).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from ..campaign import BearingInfo, CampaignResult
+
+Row = Mapping[str, Any]
+_MN = 1e6  # plots in MN/m = N/um
+
+
+def _ok(rows: Sequence[Row]) -> list[Row]:
+    return [r for r in rows if r.get("status") == "ok" and math.isfinite(r.get("k_TB", math.nan))]
+
+
+def _figure(figsize: tuple[float, float] = (7.0, 4.4)) -> Figure:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig
+
+
+def _finite(x: Any) -> bool:
+    return isinstance(x, (int, float)) and math.isfinite(x)
+
+
+def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | None = None) -> Figure:
+    """k_TB of one bearing versus radial load, rotating and non-rotating separately.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        Campaign rows (``radial_load`` N, ``speed`` rpm, ``k_TB``/``k_TB_std`` N/m).
+    bearing : str
+        Bearing name to plot.
+    info : BearingInfo, optional
+        With ``hertz=True`` the analytical Hertzian estimate is drawn.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = _figure()
+    ax = fig.add_subplot()
+    sel = [r for r in _ok(rows) if r["bearing"] == bearing and _finite(r["radial_load"])]
+    groups: dict[str, list[Row]] = defaultdict(list)
+    for r in sel:
+        groups["rotating" if r["speed"] > 0 else "not rotating"].append(r)
+    markers = {"rotating": ("o", "C0"), "not rotating": ("s", "C3")}
+    for name, rs in groups.items():
+        f = np.array([r["radial_load"] for r in rs])
+        k = np.array([r["k_TB"] for r in rs]) / _MN
+        s = np.array([r["k_TB_std"] for r in rs]) / _MN
+        m, c = markers[name]
+        ax.errorbar(f, k, yerr=s, fmt=m, color=c, capsize=3, ms=5, label=f"measured, {name} (±1σ)")
+    loads = np.array([r["radial_load"] for r in sel])
+    if loads.size and np.any(loads > 0):
+        fl = np.linspace(max(loads[loads > 0].min() * 0.8, 1.0), loads.max() * 1.15, 100)
+        rot = [r for r in sel if r["speed"] > 0 and r["radial_load"] > 0] or [r for r in sel if r["radial_load"] > 0]
+        if rot:
+            fr = np.array([r["radial_load"] for r in rot])
+            kr = np.array([r["k_TB"] for r in rot])
+            c = float(np.sum(kr * fr ** (1 / 3)) / np.sum(fr ** (2 / 3)))  # least squares k = c F^(1/3)
+            ax.plot(fl, c * fl ** (1 / 3) / _MN, "--", color="0.35",
+                    label=f"fit k = c·F^(1/3), c = {c:.3g} N/m/N^(1/3)")
+        if info is not None and info.hertz:
+            from ..rig.hertz import radial_stiffness
+
+            ax.plot(fl, radial_stiffness(fl) / _MN, ":", color="C2", lw=2,
+                    label="Hertz estimate, bearing alone (Harris & Kotzalas)")
+    ax.set_xlabel("radial load F_r [N]")
+    ax.set_ylabel("bearing stiffness k_TB [MN/m]")
+    ax.set_title(f"Bearing {bearing}: stiffness versus radial load")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    return fig
+
+
+def plot_rotating_vs_static(rows: Sequence[Row], bearing: str) -> tuple[Figure, float]:
+    """Rotating versus non-rotating stiffness of one bearing.
+
+    Non-rotating measurements are shown per shaft position, rotating ones per speed; the mean
+    change (rotating mean / non-rotating mean - 1) is written in the title (the paper reports
+    -8.8 %).
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    change_percent : float
+        Mean change in %, NaN when one of the two groups is empty.
+    """
+    sel = [r for r in _ok(rows) if r["bearing"] == bearing]
+    static = [r for r in sel if r["speed"] <= 0]
+    rot = [r for r in sel if r["speed"] > 0]
+    # compare at the load(s) where both exist, so a load sweep does not bias the change
+    loads = {r["radial_load"] for r in static} & {r["radial_load"] for r in rot}
+    if loads:
+        static = [r for r in static if r["radial_load"] in loads]
+        rot = [r for r in rot if r["radial_load"] in loads]
+    fig = _figure()
+    ax = fig.add_subplot()
+    labels: list[str] = []
+    x = 0
+    for group, color, fmt in ((static, "C3", "s"), (rot, "C0", "o")):
+        for r in sorted(group, key=lambda r: (r["speed"], _key(r["shaft_position"]), r["repeat"])):
+            if r["speed"] > 0:
+                lab = f"{r['speed']:.0f} rpm"
+            else:
+                pos = r["shaft_position"]
+                lab = f"pos {pos:.0f}°" if _finite(pos) else "static"
+            ax.errorbar([x], [r["k_TB"] / _MN], yerr=[r["k_TB_std"] / _MN], fmt=fmt, color=color, capsize=3)
+            labels.append(lab + (f" #{r['repeat']}" if r["repeat"] != 1 else ""))
+            x += 1
+    change = math.nan
+    if static and rot:
+        ms = float(np.mean([r["k_TB"] for r in static]))
+        mr = float(np.mean([r["k_TB"] for r in rot]))
+        change = 100.0 * (mr / ms - 1.0)
+        ax.axhline(ms / _MN, color="C3", ls="--", lw=1, label=f"non-rotating mean {ms / _MN:.1f} MN/m")
+        ax.axhline(mr / _MN, color="C0", ls="--", lw=1, label=f"rotating mean {mr / _MN:.1f} MN/m")
+        ax.legend(fontsize=8)
+    ax.set_xticks(range(len(labels)), labels, rotation=45, ha="right", fontsize=8)
+    ax.set_ylabel("bearing stiffness k_TB [MN/m]")
+    load_txt = f" at {', '.join(f'{v:g}' for v in sorted(loads))} N" if loads else ""
+    ttl = f"Bearing {bearing}{load_txt}: rotating vs non-rotating"
+    if math.isfinite(change):
+        ttl += f" — mean change {change:+.1f} %"
+    ax.set_title(ttl, fontsize=10)
+    ax.grid(True, axis="y", alpha=0.3)
+    return fig, change
+
+
+def _key(x: Any) -> float:
+    return x if _finite(x) else -1.0
+
+
+def plot_speed_effect(rows: Sequence[Row], bearing: str) -> Figure:
+    """k_TB versus shaft speed, one series per radial load (rotating measurements only)."""
+    sel = [r for r in _ok(rows) if r["bearing"] == bearing and r["speed"] > 0]
+    fig = _figure()
+    ax = fig.add_subplot()
+    by_load: dict[float, list[Row]] = defaultdict(list)
+    for r in sel:
+        by_load[r["radial_load"]].append(r)
+    for i, (load, rs) in enumerate(sorted(by_load.items(), key=lambda kv: _key(kv[0]))):
+        rs = sorted(rs, key=lambda r: r["speed"])
+        ax.errorbar([r["speed"] for r in rs], [r["k_TB"] / _MN for r in rs],
+                    yerr=[r["k_TB_std"] / _MN for r in rs], fmt="o-", color=f"C{i}", capsize=3,
+                    label=f"{load:g} N" if _finite(load) else "load n/a")
+        k = np.array([r["k_TB"] for r in rs])
+        if k.size > 1:
+            ax.annotate(f"spread {100 * k.std(ddof=1) / k.mean():.1f} %", (rs[-1]["speed"], k[-1] / _MN),
+                        textcoords="offset points", xytext=(6, 0), fontsize=8, va="center")
+    ax.set_xlabel("shaft speed [rpm]")
+    ax.set_ylabel("bearing stiffness k_TB [MN/m]")
+    ax.set_title(f"Bearing {bearing}: effect of speed")
+    ax.grid(True, alpha=0.3)
+    if by_load:
+        ax.legend(title="radial load", fontsize=8)
+    return fig
+
+
+def plot_validation(rows: Sequence[Row], bearing: str, info: BearingInfo) -> Figure:
+    """A bearing of known stiffness against its FE bounds (the paper's Fig. 9).
+
+    The grey band spans ``info.k_lower`` ... ``info.k_upper``; each repeat has its own marker.
+    """
+    sel = [r for r in _ok(rows) if r["bearing"] == bearing]
+    fig = _figure()
+    ax = fig.add_subplot()
+    loads = [r["radial_load"] for r in sel if _finite(r["radial_load"])]
+    lo_x = min(loads) if loads else 0.0
+    hi_x = max(loads) if loads else 1.0
+    pad = 0.1 * (hi_x - lo_x or 1.0)
+    if info.k_lower is not None and info.k_upper is not None:
+        ax.axhspan(info.k_lower / _MN, info.k_upper / _MN, color="0.85", zorder=0,
+                   label=f"FE bounds {info.k_lower / _MN:.2f}–{info.k_upper / _MN:.2f} MN/m")
+    by_rep: dict[int, list[Row]] = defaultdict(list)
+    for r in sel:
+        by_rep[r["repeat"]].append(r)
+    mk = "osD^v<>"
+    for i, (rep, rs) in enumerate(sorted(by_rep.items())):
+        rs = sorted(rs, key=lambda r: _key(r["radial_load"]))
+        off = (i - (len(by_rep) - 1) / 2) * 0.012 * (hi_x - lo_x or 1.0)
+        ax.errorbar([r["radial_load"] + off for r in rs], [r["k_TB"] / _MN for r in rs],
+                    yerr=[r["k_TB_std"] / _MN for r in rs], fmt=mk[i % len(mk)] + "-", color=f"C{i}",
+                    capsize=3, ms=6, lw=1, label=f"repeat {rep} (±1σ)")
+    inside = sum(
+        1 for r in sel
+        if info.k_lower is not None and info.k_upper is not None and info.k_lower <= r["k_TB"] <= info.k_upper
+    )
+    ax.set_xlim(lo_x - pad, hi_x + pad)
+    ax.set_xlabel("radial load of the air springs [N]")
+    ax.set_ylabel("estimated stiffness k_TB [MN/m]")
+    ax.set_title(f"Validation on the {bearing} bearing: {inside}/{len(sel)} estimates inside the FE bounds",
+                 fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    return fig
+
+
+def plot_repeatability(rows: Sequence[Row]) -> Figure | None:
+    """Deviation of each repeat from the mean of its condition, in %.
+
+    A condition is (bearing, radial load, speed, shaft position). Returns None when no condition
+    was measured more than once.
+    """
+    groups: dict[tuple[Any, ...], list[Row]] = defaultdict(list)
+    for r in _ok(rows):
+        groups[(r["bearing"], _key(r["radial_load"]), r["speed"], _key(r["shaft_position"]))].append(r)
+    groups = {k: v for k, v in groups.items() if len(v) > 1}
+    if not groups:
+        return None
+    fig = _figure()
+    ax = fig.add_subplot()
+    labels = []
+    for i, (k, rs) in enumerate(sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0]))):
+        vals = np.array([r["k_TB"] for r in rs])
+        dev = 100 * (vals / vals.mean() - 1)
+        ax.plot(np.full(dev.size, i), dev, "o", color="C0")
+        rel = 100 * np.array([r["k_TB_std"] for r in rs]) / vals.mean()
+        ax.errorbar([i + 0.15], [0.0], yerr=[rel.mean()], fmt="none", ecolor="0.5", capsize=3)
+        b, load, speed, _pos = k
+        labels.append(f"{b}\n{load:g} N, {speed:g} rpm")
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(range(len(labels)), labels, fontsize=7, rotation=30, ha="right")
+    ax.set_ylabel("deviation from condition mean [%]")
+    ax.set_title("Repeatability (grey bar: mean ±1σ of the estimates)", fontsize=10)
+    ax.grid(True, axis="y", alpha=0.3)
+    return fig
+
+
+def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
+    """Every figure the campaign's data support.
+
+    Returns
+    -------
+    dict
+        Name -> Figure: ``validation_<bearing>`` for bearings with FE bounds,
+        ``k_vs_load_<bearing>``, ``rotating_vs_static_<bearing>``, ``speed_<bearing>`` where the
+        data exist, and ``repeatability``.
+    """
+    from ..campaign import BearingInfo
+
+    rows = result.rows
+    ok = _ok(rows)
+    figs: dict[str, Figure] = {}
+    bearings = sorted({r["bearing"] for r in ok})
+    for b in bearings:
+        info = result.config.bearings.get(b, BearingInfo())
+        rs = [r for r in ok if r["bearing"] == b]
+        safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in b) or "bearing"
+        if info.k_lower is not None and info.k_upper is not None:
+            figs[f"validation_{safe}"] = plot_validation(rows, b, info)
+            continue
+        if len({r["radial_load"] for r in rs if _finite(r["radial_load"])}) > 1:
+            figs[f"k_vs_load_{safe}"] = plot_k_vs_load(rows, b, info=info)
+        if any(r["speed"] > 0 for r in rs) and any(r["speed"] <= 0 for r in rs):
+            figs[f"rotating_vs_static_{safe}"], _ = plot_rotating_vs_static(rows, b)
+        if len({r["speed"] for r in rs if r["speed"] > 0}) > 1:
+            figs[f"speed_{safe}"] = plot_speed_effect(rows, b)
+    rep = plot_repeatability(rows)
+    if rep is not None:
+        figs["repeatability"] = rep
+    return figs
+
+
+__all__ = [
+    "campaign_figures",
+    "plot_k_vs_load",
+    "plot_repeatability",
+    "plot_rotating_vs_static",
+    "plot_speed_effect",
+    "plot_validation",
+]
