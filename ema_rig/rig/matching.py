@@ -68,41 +68,11 @@ __all__ = [
     "model_valid_range",
 ]
 
-_E = np.array([1.0, -1.0, 0.0])
-
-
-# --------------------------------------------------------------------------- model helpers
-def _mk0(params: ModelParams) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Mass matrix and stiffness matrix without the bearing spring (DOFs H, S, F)."""
-    p = params
-    m = np.diag([p.m_H, p.m_S, p.m_F])
-    k0 = np.array(
-        [
-            [p.k_AS, 0.0, -p.k_AS],
-            [0.0, p.k_S, -p.k_S],
-            [-p.k_AS, -p.k_S, p.k_AS + p.k_S + p.k_B],
-        ]
-    )
-    return m, k0
-
-
-def _k_series_at(params: ModelParams, freq: float) -> float:
-    """Closed form ``k_TB+MS(w) = -1 / (e^T (K0 - w^2 M)^-1 e)`` [N/m] (may be <= 0 or inf)."""
-    m, k0 = _mk0(params)
-    w2 = (2.0 * np.pi * freq) ** 2
-    try:
-        g = float(_E @ np.linalg.solve(k0 - w2 * m, _E))
-    except np.linalg.LinAlgError:
-        return math.inf
-    return -1.0 / g if g != 0 else math.inf
-
 
 def model_valid_range(params: ModelParams) -> tuple[float, float]:
     """Housing-mode frequencies [Hz] for which the 3DOF model gives ``k_TB+MS > 0``.
 
-    ``k_TB+MS`` rises from 0 to infinity between the natural frequency of the model without the
-    bearing spring (the housing on the air springs, coupled to the frame) and the one with a
-    rigid bearing (housing and spindle locked together); 80.6 Hz and 1299.6 Hz on Table 1.
+    80.6 Hz and 1299.6 Hz on Table 1 (see :func:`ema_rig.rig.inversion.housing_freq_bounds`).
 
     Parameters
     ----------
@@ -113,18 +83,9 @@ def model_valid_range(params: ModelParams) -> tuple[float, float]:
     (float, float)
         Lower and upper limit in Hz (both excluded).
     """
-    import scipy.linalg
+    from .inversion import housing_freq_bounds
 
-    m, k0 = _mk0(params)
-    lam0 = scipy.linalg.eigh(k0, m, eigvals_only=True)
-    # the housing DOF alone (k -> 0): the eigenvalue between the frame's and the spindle's
-    f0 = np.sqrt(np.clip(lam0, 0, None)) / (2 * np.pi)
-    # rigid bearing: H and S merged into one DOF
-    mr = np.diag([params.m_H + params.m_S, params.m_F])
-    kr = np.array([[params.k_AS + params.k_S, -(params.k_AS + params.k_S)],
-                   [-(params.k_AS + params.k_S), params.k_AS + params.k_S + params.k_B]])
-    fr = np.sqrt(scipy.linalg.eigh(kr, mr, eigvals_only=True)) / (2 * np.pi)
-    return float(f0[1]), float(fr[1])
+    return housing_freq_bounds(params)
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,28 +134,24 @@ def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | N
     ModelModeInfo or None
         None when the frequency is outside :func:`model_valid_range` (no positive stiffness).
     """
-    import scipy.linalg
+    from .inversion import k_tb_ms_from_housing_freq
+    from .model import HOUSING, HOUSING_MODE, SPINDLE, SPINDLE_MODE, RigModel
 
     lo, hi = model_valid_range(params)
     if not lo < natural_freq < hi:
         return None
-    k = _k_series_at(params, natural_freq)
-    if not (np.isfinite(k) and k > 0):
-        return None
-    m, k0 = _mk0(params)
-    lam, phi = scipy.linalg.eigh(k0 + k * np.outer(_E, _E), m)
-    fn = np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
-    i = int(np.argmin(np.abs(fn - natural_freq)))
-    j = int(np.argmax(fn))  # the spindle bending mode is the highest of the three
-    ph, ps = phi[:, i], phi[:, j]
+    k = k_tb_ms_from_housing_freq(natural_freq, params)
+    model = RigModel(params, k)
+    ph, ps = model.mode_shapes[:, HOUSING_MODE], model.mode_shapes[:, SPINDLE_MODE]
+    h, sp = HOUSING, SPINDLE
     return ModelModeInfo(
         natural_freq=float(natural_freq),
         k_tb_ms=float(k),
-        modal_mass=float(1.0 / ph[0] ** 2),
-        spindle_ratio=float(ph[1] / ph[0]),
-        spindle_freq=float(fn[j]),
-        spindle_mode_ratio=float(ps[1] / ps[0]),
-        spindle_modal_mass=float(1.0 / ps[0] ** 2),
+        modal_mass=float(1.0 / ph[h] ** 2),
+        spindle_ratio=float(ph[sp] / ph[h]),
+        spindle_freq=model.spindle_freq,
+        spindle_mode_ratio=float(ps[sp] / ps[h]),
+        spindle_modal_mass=float(1.0 / ps[h] ** 2),
     )
 
 
