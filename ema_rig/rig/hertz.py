@@ -1,0 +1,162 @@
+"""Analytical radial stiffness of a deep-groove ball bearing (Hertz point contact) — an estimate.
+
+Used only for comparison with the measured ``k_TB`` (DESIGN §4). For a 6302 (7 balls of
+7.938 mm on a 28.5 mm pitch diameter, zero clearance, groove conformity 0.52, steel) it gives
+``k_r ≈ 9.14e6 F_r^(1/3)`` N/m: 7.3e7 at 500 N, 9.1e7 at 1 kN, 1.05e8 at 1.5 kN. The geometry is
+inferred from catalogue ratings, so the result is an **estimate**, not a datum.
+
+Functions
+---------
+ball_bearing_radial_stiffness
+    ``k_r`` [N/m] for a radial load [N] (scalar or array).
+hertz_contact_constant
+    Load-deflection constant ``K`` of one ball-race point contact, ``Q = K delta^1.5``.
+
+Classes
+-------
+BallBearingGeometry
+    Frozen bearing geometry and material; :data:`BEARING_6302` is the paper's test bearing.
+
+References
+----------
+T. A. Harris, M. N. Kotzalas, *Essential Concepts of Bearing Technology*, 5th ed., CRC Press,
+2006, ch. 6-7 (point contact, Stribeck load distribution).
+B. J. Hamrock, D. Brewe, "Simplified solution for stresses and deformations", J. Lubr. Technol.
+105 (1983) 171-177 (closed-form approximations of the elliptic integrals).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+@dataclass(frozen=True, slots=True)
+class BallBearingGeometry:
+    """Deep-groove ball bearing geometry and material (SI units).
+
+    Parameters
+    ----------
+    n_balls : int
+        Number of balls Z.
+    ball_diameter : float
+        Ball diameter D [m].
+    pitch_diameter : float
+        Pitch diameter d_m [m].
+    inner_conformity, outer_conformity : float
+        Groove radius / ball diameter (f_i, f_o), > 0.5; 0.52 is typical.
+    youngs_modulus : float
+        E of balls and rings [Pa] (bearing steel 208 GPa).
+    poisson_ratio : float
+        Poisson ratio (0.3).
+    """
+
+    n_balls: int = 7
+    ball_diameter: float = 7.938e-3
+    pitch_diameter: float = 28.5e-3
+    inner_conformity: float = 0.52
+    outer_conformity: float = 0.52
+    youngs_modulus: float = 208e9
+    poisson_ratio: float = 0.3
+
+    def __post_init__(self) -> None:
+        if self.n_balls < 3:
+            raise ValueError(f"n_balls must be >= 3, got {self.n_balls}")
+        if not 0 < self.ball_diameter < self.pitch_diameter:
+            raise ValueError("need 0 < ball_diameter < pitch_diameter")
+        if not (self.inner_conformity > 0.5 and self.outer_conformity > 0.5):
+            raise ValueError("groove conformities must exceed 0.5")
+
+
+BEARING_6302 = BallBearingGeometry()
+"""The paper's test bearing, a 6302 (geometry inferred from catalogue ratings: an estimate)."""
+
+
+def hertz_contact_constant(rx: float, ry: float, e_eff: float) -> float:
+    """Load-deflection constant ``K`` [N/m^1.5] of a point contact, ``Q = K delta^1.5``.
+
+    Hamrock-Brewe approximations: ellipticity ``k = 1.0339 (Ry/Rx)^0.636``, elliptic integrals
+    ``E ≈ 1.0003 + 0.5968 Rx/Ry`` and ``F ≈ 1.5277 + 0.6023 ln(Ry/Rx)``, and
+    ``delta = F [9 / (2 E R) (Q / (pi k E'))^2]^(1/3)`` with ``1/R = 1/Rx + 1/Ry``.
+
+    Parameters
+    ----------
+    rx, ry : float
+        Effective radii of curvature in the rolling and transverse directions [m], ``ry >= rx``.
+    e_eff : float
+        Effective modulus ``E' = E / (1 - nu^2)`` for two equal materials [Pa].
+    """
+    r = 1.0 / (1.0 / rx + 1.0 / ry)
+    ratio = ry / rx
+    k_ell = 1.0339 * ratio**0.636
+    e_int = 1.0003 + 0.5968 / ratio
+    f_int = 1.5277 + 0.6023 * math.log(ratio)
+    c = f_int * (9.0 / (2.0 * e_int * r) / (math.pi * k_ell * e_eff) ** 2) ** (1.0 / 3.0)
+    return c**-1.5
+
+
+def _stribeck_integral() -> float:
+    """``J = (1/2 pi) int_{-pi/2}^{pi/2} cos^2.5 psi d psi`` (= 0.2288, zero clearance)."""
+    return math.sqrt(math.pi) * math.gamma(1.75) / math.gamma(2.25) / (2.0 * math.pi)
+
+
+def ball_bearing_radial_stiffness(
+    radial_load: float | ArrayLike,
+    geometry: BallBearingGeometry = BEARING_6302,
+    *,
+    ball_angle: float | None = None,
+) -> float | NDArray[np.float64]:
+    """Radial stiffness ``k_r = dF_r / d delta_r`` [N/m] of a ball bearing (estimate).
+
+    Zero clearance: ``F_r = K_n delta_r^1.5 S`` with ``S = Z J`` (Stribeck, continuous load
+    distribution, default) or ``S = sum_j cos^2.5 psi_j`` over loaded balls for a given
+    ball position; hence ``k_r = 1.5 K_n^(2/3) S^(2/3) F_r^(1/3)``. ``K_n`` combines the inner
+    and outer contacts in series.
+
+    Parameters
+    ----------
+    radial_load : float or array_like
+        Radial load F_r [N], >= 0.
+    geometry : BallBearingGeometry
+        Default: :data:`BEARING_6302`.
+    ball_angle : float, optional
+        Angle [rad] of one ball from the load line; None = the Stribeck average.
+
+    Returns
+    -------
+    float or ndarray
+        ``k_r`` [N/m], same shape as ``radial_load``.
+
+    Examples
+    --------
+    >>> round(float(ball_bearing_radial_stiffness(1000.0)) / 1e7, 2)
+    9.14
+    """
+    g = geometry
+    f = np.asarray(radial_load, dtype=np.float64)
+    if np.any(f < 0) or not np.all(np.isfinite(f)):
+        raise ValueError("radial_load must be finite and >= 0 N")
+    d, gamma = g.ball_diameter, g.ball_diameter / g.pitch_diameter
+    e_eff = g.youngs_modulus / (1.0 - g.poisson_ratio**2)
+    k_i = hertz_contact_constant(d / 2 * (1 - gamma), g.inner_conformity * d / (2 * g.inner_conformity - 1), e_eff)
+    k_o = hertz_contact_constant(d / 2 * (1 + gamma), g.outer_conformity * d / (2 * g.outer_conformity - 1), e_eff)
+    k_n = (k_i ** (-2.0 / 3.0) + k_o ** (-2.0 / 3.0)) ** -1.5
+    if ball_angle is None:
+        s = g.n_balls * _stribeck_integral()
+    else:
+        psi = ball_angle + 2.0 * np.pi * np.arange(g.n_balls) / g.n_balls
+        c = np.cos(psi)
+        s = float(np.sum(np.where(c > 0, c, 0.0) ** 2.5))
+    k = 1.5 * k_n ** (2.0 / 3.0) * s ** (2.0 / 3.0) * np.cbrt(f)
+    return float(k) if k.ndim == 0 else k
+
+
+__all__ = [
+    "BEARING_6302",
+    "BallBearingGeometry",
+    "ball_bearing_radial_stiffness",
+    "hertz_contact_constant",
+]

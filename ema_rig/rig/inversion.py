@@ -1,0 +1,736 @@
+"""From the housing-mode natural frequency to the bearing stiffness (DESIGN §4, paper Sect. 4-5).
+
+The housing radial mode of the 3DOF model (:mod:`ema_rig.rig.model`) is inverted for the
+combined stiffness ``k_TB+MS`` and then, through the series relation with the mounting
+stiffness ``k_MS``, for the bearing stiffness ``k_TB``.
+
+Functions
+---------
+housing_freq_bounds
+    Frequency range of the housing mode that gives ``k_TB+MS > 0`` (and ``k_TB > 0``).
+housing_freq_from_k_tb_ms
+    Forward model: housing-mode natural frequency [Hz] for a given ``k_TB+MS``.
+k_tb_ms_from_housing_freq
+    Closed form (default) or root finder: ``k_TB+MS`` from the housing frequency.
+k_tb_from_housing_freq
+    ``k_TB`` from the housing frequency.
+calibrate_k_ms
+    ``k_MS`` (with its standard uncertainty) from the steel-disk housing mode.
+stiffness_uncertainty
+    ``k_TB`` with a linearised uncertainty budget (frequency spread and model parameters).
+fit_rig
+    Least-squares fit of ``k_TB+MS``, ``k_S``, ``m_S``, ``m_F`` to measured FRFs (paper Sect. 4).
+
+Classes
+-------
+KmsCalibration, UncertaintyTerm, StiffnessUncertainty, RigFit
+    Frozen results with ``to_dict()`` / ``to_records()``.
+
+Notes
+-----
+With ``K0`` the stiffness matrix without the bearing spring and ``e = [1, -1, 0]`` (housing minus
+spindle), ``K = K0 + k e e^T``. ``det(K - w^2 M) = det(K0 - w^2 M) (1 + k e^T (K0 - w^2 M)^-1 e)``
+so ``w`` is a natural frequency exactly when ``k = -1 / (e^T (K0 - w^2 M)^-1 e)``.
+By eigenvalue interlacing for this rank-one update, the second eigenvalue (the housing mode)
+rises monotonically with ``k`` from the second eigenvalue of ``(K0, M)`` (housing on the air
+springs; 80.6 Hz with Table 1) to the second eigenvalue of the system with ``x_H = x_S``
+(1299.6 Hz); ``k_TB > 0`` additionally needs ``k_TB+MS < k_MS`` (897.35 Hz with Table 1).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+from numpy.typing import ArrayLike, NDArray
+
+from ..config import MODEL_KEYS, ModelParams
+from ..errors import InversionError
+from .model import (
+    HOUSING_MODE,
+    SPINDLE_MODE,
+    RigModel,
+    k_tb_from_series,
+    mass_matrix,
+    stiffness_matrix,
+)
+
+_E = np.array([1.0, -1.0, 0.0])
+
+DEFAULT_REL_UNCERTAINTY: Mapping[str, float] = {
+    "m_H": 0.005,  # housing mass from CAD / a scale: 0.5 %
+    "m_S": 0.02,  # equivalent spindle mass (fitted): 2 %
+    "m_F": 0.05,  # equivalent frame mass (fitted): 5 %
+    "k_MS": 0.02,  # mounting stiffness when no calibration std is given: 2 %
+    "k_AS": 0.10,  # air springs (manufacturer data): 10 %
+    "k_S": 0.02,  # spindle bending stiffness (fitted to the 1908 Hz mode): 2 %
+    "k_B": 0.10,  # bushings (manufacturer data): 10 %
+}
+"""Relative standard uncertainties used when the rig file has no ``[uncertainty]`` entry.
+
+m_H 0.5 % (CAD mass), m_S 2 %, m_F 5 %, k_S 2 % (fitted model parameters), k_MS 2 % (replaced
+by the calibration's own std when given), k_AS and k_B 10 % (manufacturer data; their effect on
+the housing mode is tiny)."""
+
+
+# --------------------------------------------------------------------------- forward / bounds
+def housing_freq_from_k_tb_ms(k_TB_MS: float, params: ModelParams) -> float:
+    """Natural frequency of the housing mode [Hz] for a combined stiffness ``k_TB+MS`` [N/m]."""
+    return RigModel(params, k_TB_MS).housing_freq
+
+
+def _constrained_freqs(params: ModelParams) -> NDArray[np.float64]:
+    """Natural frequencies [Hz] with the housing rigidly tied to the spindle (k -> inf)."""
+    # DOFs [x_H = x_S, x_F]
+    m = np.diag([params.m_H + params.m_S, params.m_F])
+    ka, ks, kb = params.k_AS, params.k_S, params.k_B
+    k = np.array([[ka + ks, -(ka + ks)], [-(ka + ks), ka + ks + kb]])
+    lam = scipy.linalg.eigh(k, m, eigvals_only=True)
+    return np.sqrt(lam) / (2.0 * np.pi)
+
+
+def housing_freq_bounds(params: ModelParams, *, bearing: bool = False) -> tuple[float, float]:
+    """Housing-mode frequencies [Hz] that give a positive stiffness.
+
+    Parameters
+    ----------
+    params : ModelParams
+        Rig parameters.
+    bearing : bool, optional
+        False (default): the range for ``k_TB+MS > 0``, from the housing mode without the
+        bearing spring to the one with the housing tied to the spindle (80.6 ... 1299.6 Hz with
+        Table 1). True: the range for ``k_TB > 0``, whose upper bound is the housing mode with
+        ``k_TB+MS = k_MS`` (897.35 Hz with Table 1).
+
+    Returns
+    -------
+    (float, float)
+        Open interval ``(f_lo, f_hi)`` in Hz.
+    """
+    lam0 = scipy.linalg.eigh(stiffness_matrix(params, 0.0), mass_matrix(params), eigvals_only=True)
+    f_lo = float(np.sqrt(lam0[HOUSING_MODE]) / (2.0 * np.pi))
+    if bearing:
+        f_hi = housing_freq_from_k_tb_ms(params.k_MS, params)
+    else:
+        f_hi = float(_constrained_freqs(params)[HOUSING_MODE])
+    return f_lo, f_hi
+
+
+def _check_freq(f_H: float, params: ModelParams, what: str = "housing-mode frequency") -> float:
+    f = float(f_H)
+    lo, hi = housing_freq_bounds(params)
+    if not (math.isfinite(f) and lo < f < hi):
+        raise InversionError(
+            f"{what} {f:.6g} Hz is outside the valid range {lo:.1f} Hz < f_H < {hi:.1f} Hz of the "
+            "3DOF model (k_TB+MS > 0); no physical stiffness corresponds to it"
+        )
+    return f
+
+
+# --------------------------------------------------------------------------- inversion
+def _closed_form(f_H: float, params: ModelParams) -> float:
+    w2 = (2.0 * np.pi * f_H) ** 2
+    a = stiffness_matrix(params, 0.0) - w2 * mass_matrix(params)
+    return float(-1.0 / (_E @ np.linalg.solve(a, _E)))
+
+
+def _root_finder(f_H: float, params: ModelParams) -> float:
+    w2 = (2.0 * np.pi * f_H) ** 2
+    m = mass_matrix(params)
+
+    def g(log_k: float) -> float:
+        lam = scipy.linalg.eigh(stiffness_matrix(params, math.exp(log_k)), m, eigvals_only=True)
+        return float(lam[HOUSING_MODE] / w2 - 1.0)
+
+    # the housing eigenvalue rises monotonically in k: bracket in log k
+    scale = params.k_S
+    lo, hi = math.log(scale * 1e-9), math.log(scale * 1e9)
+    log_k = scipy.optimize.brentq(g, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=500)
+    return math.exp(log_k)
+
+
+def k_tb_ms_from_housing_freq(f_H: float, params: ModelParams, *, method: str = "closed") -> float:
+    """Combined stiffness ``k_TB+MS`` [N/m] from the housing-mode natural frequency.
+
+    Parameters
+    ----------
+    f_H : float
+        Undamped natural frequency of the housing radial mode [Hz].
+    params : ModelParams
+        Rig parameters (``k_MS`` is not used).
+    method : {'closed', 'root'}
+        'closed': ``k = -1 / (e^T (K0 - w^2 M)^-1 e)``; 'root': ``scipy.optimize.brentq`` on the
+        housing eigenvalue of ``(K(k), M)``. Both agree to ~1e-12.
+
+    Returns
+    -------
+    float
+        ``k_TB+MS`` [N/m], > 0.
+
+    Raises
+    ------
+    InversionError
+        If ``f_H`` is outside :func:`housing_freq_bounds` (the stiffness would be negative or
+        infinite).
+
+    Examples
+    --------
+    >>> from ema_rig.config import ModelParams
+    >>> p = ModelParams(2.566, 2.8, 205.0, 114e6, 650e3, 348e6, 180e3)
+    >>> round(k_tb_ms_from_housing_freq(626.0, p) / 1e6, 2)
+    43.97
+    """
+    f = _check_freq(f_H, params)
+    if method == "closed":
+        k = _closed_form(f, params)
+    elif method == "root":
+        k = _root_finder(f, params)
+    else:
+        raise ValueError(f"method must be 'closed' or 'root', got {method!r}")
+    if not (math.isfinite(k) and k > 0):  # pragma: no cover - excluded by the bounds
+        raise InversionError(f"housing-mode frequency {f:.6g} Hz gives no positive k_TB+MS ({k:.6g} N/m)")
+    return k
+
+
+def k_tb_from_housing_freq(
+    f_H: float, params: ModelParams, *, k_MS: float | None = None, method: str = "closed"
+) -> float:
+    """Bearing stiffness ``k_TB`` [N/m] from the housing-mode natural frequency.
+
+    Parameters
+    ----------
+    f_H : float
+        Undamped natural frequency of the housing radial mode [Hz].
+    params : ModelParams
+        Rig parameters.
+    k_MS : float, optional
+        Mounting stiffness [N/m] (e.g. from :func:`calibrate_k_ms`); default ``params.k_MS``.
+    method : {'closed', 'root'}
+        See :func:`k_tb_ms_from_housing_freq`.
+
+    Returns
+    -------
+    float
+        ``k_TB`` [N/m], > 0.
+
+    Raises
+    ------
+    InversionError
+        If ``f_H`` lies outside the range where ``0 < k_TB+MS < k_MS``.
+    """
+    kms = params.k_MS if k_MS is None else float(k_MS)
+    if not (math.isfinite(kms) and kms > 0):
+        raise InversionError(f"k_MS must be a finite positive stiffness, got {k_MS!r}")
+    p = params if kms == params.k_MS else replace(params, k_MS=kms)
+    k = k_tb_ms_from_housing_freq(f_H, p, method=method)
+    if k >= kms:
+        lo, _ = housing_freq_bounds(p)
+        _, hi = housing_freq_bounds(p, bearing=True)
+        raise InversionError(
+            f"housing-mode frequency {float(f_H):.6g} Hz gives k_TB+MS = {k:.6g} N/m >= k_MS = "
+            f"{kms:.6g} N/m, i.e. a bearing stiffer than rigid; k_TB > 0 needs "
+            f"{lo:.1f} Hz < f_H < {hi:.2f} Hz (check k_MS / the steel-disk calibration)"
+        )
+    return k_tb_from_series(k, kms)
+
+
+def _dk_df(f_H: float, params: ModelParams) -> float:
+    """d k_TB+MS / d f_H [N/m/Hz] by a central difference of the closed form."""
+    h = 1e-6 * f_H
+    return (_closed_form(f_H + h, params) - _closed_form(f_H - h, params)) / (2 * h)
+
+
+# --------------------------------------------------------------------------- k_MS calibration
+@dataclass(frozen=True, slots=True)
+class KmsCalibration:
+    """Mounting-system stiffness from a steel-disk measurement.
+
+    Attributes
+    ----------
+    k_MS, k_MS_std : float
+        Mounting stiffness and its standard uncertainty from the frequency spread [N/m].
+    f_disk, f_disk_std : float
+        Housing-mode natural frequency with the disk mounted and its std [Hz].
+    k_TB_MS : float
+        Combined stiffness from the disk frequency [N/m] (= k_MS when the disk is rigid).
+    k_disk : float or None
+        Disk stiffness put in series [N/m]; None = neglected (rigid disk).
+    """
+
+    k_MS: float
+    k_MS_std: float
+    f_disk: float
+    f_disk_std: float
+    k_TB_MS: float
+    k_disk: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-dict form for JSON."""
+        return {
+            "k_MS": self.k_MS,
+            "k_MS_std": self.k_MS_std,
+            "f_disk": self.f_disk,
+            "f_disk_std": self.f_disk_std,
+            "k_TB_MS": self.k_TB_MS,
+            "k_disk": self.k_disk,
+        }
+
+
+def calibrate_k_ms(
+    f_disk: float,
+    params: ModelParams,
+    *,
+    f_disk_std: float = 0.0,
+    k_disk: float | None = None,
+) -> KmsCalibration:
+    """Mounting stiffness ``k_MS`` from the housing mode with a steel disk mounted.
+
+    The paper neglects the disk (``k_TB`` >> ``k_MS``) so ``k_MS = k_TB+MS``. With a finite disk
+    stiffness ``k_disk`` the disk is taken in series: ``1/k_MS = 1/k_TB+MS - 1/k_disk``.
+
+    Parameters
+    ----------
+    f_disk : float
+        Undamped housing-mode natural frequency with the disk [Hz].
+    params : ModelParams
+        Rig parameters (their ``k_MS`` is ignored).
+    f_disk_std : float, optional
+        Standard uncertainty of ``f_disk`` [Hz].
+    k_disk : float, optional
+        Disk stiffness [N/m]; default None (rigid).
+
+    Returns
+    -------
+    KmsCalibration
+
+    Raises
+    ------
+    InversionError
+        If ``f_disk`` is outside the valid range, or the disk is not stiffer than ``k_TB+MS``.
+    """
+    f = _check_freq(f_disk, params, "steel-disk housing-mode frequency")
+    k = _closed_form(f, params)
+    dk = abs(_dk_df(f, params)) * float(f_disk_std)
+    if k_disk is None:
+        kms, kms_std = k, dk
+    else:
+        kd = float(k_disk)
+        if not (kd > k):
+            raise InversionError(
+                f"disk stiffness {kd:.6g} N/m must exceed k_TB+MS = {k:.6g} N/m from the disk "
+                f"frequency {f:.6g} Hz"
+            )
+        kms = 1.0 / (1.0 / k - 1.0 / kd)
+        kms_std = dk * (kms / k) ** 2  # d kms / d k = (kms / k)^2
+    return KmsCalibration(kms, float(kms_std), f, float(f_disk_std), k, None if k_disk is None else float(k_disk))
+
+
+# --------------------------------------------------------------------------- uncertainty
+@dataclass(frozen=True, slots=True)
+class UncertaintyTerm:
+    """One input of the k_TB uncertainty budget.
+
+    Attributes
+    ----------
+    name : str
+        ``'f_H'`` (frequency spread) or a model parameter name.
+    rel_input : float
+        Relative standard uncertainty of the input (fraction).
+    sensitivity : float
+        Relative sensitivity ``d ln k_TB / d ln x``.
+    std : float
+        Contribution to the standard uncertainty of k_TB [N/m] (``|sens| rel_input k_TB``).
+    share : float
+        Fraction of the total variance (shares sum to 1).
+    """
+
+    name: str
+    rel_input: float
+    sensitivity: float
+    std: float
+    share: float
+
+
+@dataclass(frozen=True, slots=True)
+class StiffnessUncertainty:
+    """Bearing stiffness with a linearised (GUM) uncertainty budget.
+
+    Attributes
+    ----------
+    k_TB, k_TB_std : float
+        Bearing stiffness and its combined standard uncertainty [N/m].
+    k_TB_MS, k_TB_MS_std : float
+        Combined stiffness and the std of the terms acting on it (all but k_MS) [N/m].
+    k_MS : float
+        Mounting stiffness used [N/m].
+    f_H, f_H_std : float
+        Housing-mode natural frequency and its std [Hz].
+    terms : tuple of UncertaintyTerm
+        The budget, largest share first.
+    """
+
+    k_TB: float
+    k_TB_std: float
+    k_TB_MS: float
+    k_TB_MS_std: float
+    k_MS: float
+    f_H: float
+    f_H_std: float
+    terms: tuple[UncertaintyTerm, ...] = field(default_factory=tuple)
+
+    @property
+    def shares(self) -> dict[str, float]:
+        """Variance share per input name."""
+        return {t.name: t.share for t in self.terms}
+
+    @property
+    def sensitivities(self) -> dict[str, float]:
+        """Relative sensitivity ``d ln k_TB / d ln x`` per input name."""
+        return {t.name: t.sensitivity for t in self.terms}
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """One row per budget term."""
+        return [
+            {"name": t.name, "rel_input": t.rel_input, "sensitivity": t.sensitivity, "std": t.std, "share": t.share}
+            for t in self.terms
+        ]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-dict form for JSON."""
+        return {
+            "k_TB": self.k_TB,
+            "k_TB_std": self.k_TB_std,
+            "k_TB_MS": self.k_TB_MS,
+            "k_TB_MS_std": self.k_TB_MS_std,
+            "k_MS": self.k_MS,
+            "f_H": self.f_H,
+            "f_H_std": self.f_H_std,
+            "budget": self.to_records(),
+        }
+
+
+def _k_tb_raw(f_H: float, p: ModelParams) -> float:
+    k = _closed_form(f_H, p)
+    return 1.0 / (1.0 / k - 1.0 / p.k_MS)
+
+
+def sensitivities(f_H: float, params: ModelParams) -> dict[str, float]:
+    """Relative sensitivities ``d ln k_TB / d ln x`` at ``f_H`` for x = f_H and every parameter.
+
+    Central differences with a relative step of 1e-5 (the functions are smooth; truncation error
+    ~1e-10). With Table 1 at 626 Hz: f_H 3.84, m_H 1.88, k_MS -0.62, k_S -0.26.
+
+    Returns
+    -------
+    dict
+        Keys ``'f_H'`` and the names of :data:`ema_rig.config.MODEL_KEYS`.
+    """
+    k_tb_from_housing_freq(f_H, params)  # raises on an invalid frequency
+    h = 1e-5
+    out = {}
+    kp, km = _k_tb_raw(f_H * (1 + h), params), _k_tb_raw(f_H * (1 - h), params)
+    out["f_H"] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+    for name in MODEL_KEYS:
+        v = getattr(params, name)
+        kp = _k_tb_raw(f_H, replace(params, **{name: v * (1 + h)}))
+        km = _k_tb_raw(f_H, replace(params, **{name: v * (1 - h)}))
+        out[name] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+    return out
+
+
+def stiffness_uncertainty(
+    f_H: float,
+    f_H_std: float,
+    params: ModelParams,
+    rel_unc: Mapping[str, float] | None = None,
+    k_MS_std: float | None = None,
+    *,
+    k_MS: float | None = None,
+) -> StiffnessUncertainty:
+    """Bearing stiffness and its standard uncertainty by linearised error propagation.
+
+    ``(u_k / k)^2 = (S_f u_f / f)^2 + sum_x (S_x u_x / x)^2`` with relative sensitivities
+    ``S = d ln k_TB / d ln x`` (:func:`sensitivities`), inputs assumed uncorrelated.
+
+    Parameters
+    ----------
+    f_H : float
+        Housing-mode natural frequency [Hz].
+    f_H_std : float
+        Its standard uncertainty [Hz] (spread over model orders / repeats), >= 0.
+    params : ModelParams
+        Rig parameters.
+    rel_unc : mapping, optional
+        Relative standard uncertainty per parameter name (``RigConfig.uncertainty``); missing
+        names take :data:`DEFAULT_REL_UNCERTAINTY`. A value of 0 removes the term.
+    k_MS_std : float, optional
+        Absolute std of ``k_MS`` [N/m] (from :func:`calibrate_k_ms`); overrides ``rel_unc['k_MS']``.
+    k_MS : float, optional
+        Calibrated mounting stiffness [N/m]; default ``params.k_MS``.
+
+    Returns
+    -------
+    StiffnessUncertainty
+
+    Raises
+    ------
+    InversionError
+        If ``f_H`` is outside the valid range.
+    """
+    if k_MS is not None:
+        params = replace(params, k_MS=float(k_MS))
+    f_std = float(f_H_std)
+    if not (math.isfinite(f_std) and f_std >= 0):
+        raise ValueError(f"f_H_std must be a finite non-negative frequency [Hz], got {f_H_std!r}")
+    k_tb = k_tb_from_housing_freq(f_H, params)
+    k_c = _closed_form(float(f_H), params)
+    sens = sensitivities(f_H, params)
+    rel = dict(DEFAULT_REL_UNCERTAINTY)
+    for name, v in (rel_unc or {}).items():
+        if name not in rel:
+            raise ValueError(f"unknown parameter {name!r} in rel_unc; allowed: {', '.join(MODEL_KEYS)}")
+        rel[name] = float(v)
+    if k_MS_std is not None:
+        rel["k_MS"] = float(k_MS_std) / params.k_MS
+    inputs = {"f_H": f_std / float(f_H), **rel}
+    stds = {n: abs(sens[n]) * u * k_tb for n, u in inputs.items()}
+    var = sum(s**2 for s in stds.values())
+    total = math.sqrt(var)
+    terms = tuple(
+        sorted(
+            (
+                UncertaintyTerm(n, inputs[n], sens[n], stds[n], (stds[n] ** 2 / var) if var > 0 else 0.0)
+                for n in inputs
+            ),
+            key=lambda t: -t.share,
+        )
+    )
+    # k_TB+MS does not depend on k_MS: its std from every other term, d ln k_c = d ln k_TB * k_c/k_TB ... use
+    # the chain rule d ln k_TB / d ln k_c = k_MS / (k_MS - k_c)
+    g = params.k_MS / (params.k_MS - k_c)
+    var_c = sum((stds[n] / k_tb / g * k_c) ** 2 for n in inputs if n != "k_MS")
+    return StiffnessUncertainty(
+        k_TB=k_tb,
+        k_TB_std=total,
+        k_TB_MS=k_c,
+        k_TB_MS_std=math.sqrt(var_c),
+        k_MS=params.k_MS,
+        f_H=float(f_H),
+        f_H_std=f_std,
+        terms=terms,
+    )
+
+
+# --------------------------------------------------------------------------- model fit
+_FIT_KEYS = ("k_TB_MS", "k_S", "m_S", "m_F")
+
+
+@dataclass(frozen=True, slots=True)
+class RigFit:
+    """3DOF model fitted to measured FRFs (paper Sect. 4, Fig. 7).
+
+    Attributes
+    ----------
+    params : ModelParams
+        Rig parameters with the fitted ``k_S``, ``m_S``, ``m_F``.
+    k_TB_MS : float
+        Fitted combined stiffness [N/m].
+    damping_ratio : ndarray, shape (3,)
+        Modal damping ratios used (the housing one fitted).
+    natural_freq : ndarray, shape (3,)
+        Natural frequencies of the fitted model [Hz].
+    initial : dict
+        Starting values of the fitted quantities.
+    band : (float, float)
+        Fit band [Hz].
+    residual_rms : float
+        RMS of the log-magnitude residual over the band (natural-log units; 0.01 ~ 1 %).
+    cost : float
+        ``least_squares`` cost (half the sum of squared residuals).
+    nfev : int
+        Function evaluations.
+    success : bool
+        Optimiser status.
+    message : str
+        Optimiser message.
+    """
+
+    params: ModelParams
+    k_TB_MS: float
+    damping_ratio: NDArray[np.float64]
+    natural_freq: NDArray[np.float64]
+    initial: Mapping[str, float]
+    band: tuple[float, float]
+    residual_rms: float
+    cost: float
+    nfev: int
+    success: bool
+    message: str
+
+    @property
+    def model(self) -> RigModel:
+        """The fitted :class:`RigModel`."""
+        return RigModel(self.params, self.k_TB_MS)
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """One row per fitted quantity: name, initial value, fitted value, relative change."""
+        fitted = {"k_TB_MS": self.k_TB_MS, "k_S": self.params.k_S, "m_S": self.params.m_S, "m_F": self.params.m_F,
+                  "damping_ratio_H": float(self.damping_ratio[HOUSING_MODE])}
+        rows = []
+        for n, v in fitted.items():
+            v0 = self.initial.get(n, math.nan)
+            rows.append({"name": n, "initial": v0, "fitted": v, "rel_change": v / v0 - 1.0 if v0 else math.nan})
+        return rows
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-dict form for JSON."""
+        return {
+            "k_TB_MS": self.k_TB_MS,
+            "params": self.params.as_dict(),
+            "damping_ratio": [float(z) for z in self.damping_ratio],
+            "natural_freq": [float(f) for f in self.natural_freq],
+            "band": list(self.band),
+            "residual_rms": self.residual_rms,
+            "cost": self.cost,
+            "nfev": self.nfev,
+            "success": self.success,
+            "message": self.message,
+            "fit": self.to_records(),
+        }
+
+
+def fit_rig(
+    freq: ArrayLike,
+    frf_housing: ArrayLike,
+    frf_spindle: ArrayLike | None,
+    params: ModelParams,
+    *,
+    k_TB_MS: float | None = None,
+    f_housing: float | None = None,
+    damping_ratio: float | Sequence[float] = 0.02,
+    frf_form: str = "accelerance",
+    band: tuple[float, float] = (150.0, 700.0),
+    spindle_freq: float | None = None,
+    spindle_weight: float = 10.0,
+    fit: Sequence[str] = _FIT_KEYS,
+) -> RigFit:
+    """Fit ``k_TB+MS``, ``k_S``, ``m_S``, ``m_F`` (and the housing damping) to measured FRFs.
+
+    Residuals are the log-magnitude differences of the driving-point (housing) and the spindle
+    FRF over ``band``, plus ``spindle_weight * ln(f_model / spindle_freq)`` for the measured
+    spindle bending mode (paper: 1908 Hz) when given. Parameters are fitted in log space with
+    :func:`scipy.optimize.least_squares`.
+
+    Parameters
+    ----------
+    freq : array_like, shape (n_freq,)
+        Frequencies [Hz].
+    frf_housing : array_like, shape (n_freq,), complex
+        Driving-point FRF at the housing (radial), in ``frf_form``.
+    frf_spindle : array_like, shape (n_freq,), complex, or None
+        Radial spindle FRF for the same force, or None.
+    params : ModelParams
+        Starting parameters (m_H, k_MS, k_AS, k_B are kept).
+    k_TB_MS : float, optional
+        Starting value; default from ``f_housing`` by the closed form, else 4e7 N/m.
+    f_housing : float, optional
+        Identified housing-mode frequency [Hz] for the starting value.
+    damping_ratio : float or sequence of 3 floats
+        Modal damping ratios; the housing-mode one is the starting value of a fitted parameter.
+    frf_form : str
+        Form of the measured FRFs (default accelerance).
+    band : (float, float)
+        Fit band [Hz] (paper: 150-700 Hz).
+    spindle_freq : float, optional
+        Measured spindle bending-mode frequency [Hz].
+    spindle_weight : float
+        Weight of the spindle-frequency residual.
+    fit : sequence of str
+        Which of ``k_TB_MS, k_S, m_S, m_F`` to fit (others kept).
+
+    Returns
+    -------
+    RigFit
+    """
+    f = np.asarray(freq, dtype=np.float64)
+    sel = (f >= band[0]) & (f <= band[1])
+    if sel.sum() < 5:
+        raise ValueError(f"band {band[0]:g}..{band[1]:g} Hz holds fewer than 5 lines of the data")
+    fb = f[sel]
+    hh = np.asarray(frf_housing)[sel]
+    hs = None if frf_spindle is None else np.asarray(frf_spindle)[sel]
+    for n in fit:
+        if n not in _FIT_KEYS:
+            raise ValueError(f"fit entries must be among {_FIT_KEYS}, got {n!r}")
+    z0 = np.broadcast_to(np.asarray(damping_ratio, dtype=np.float64), (3,)).copy()
+    if k_TB_MS is None:
+        k_TB_MS = k_tb_ms_from_housing_freq(f_housing, params) if f_housing is not None else 4e7
+    start = {"k_TB_MS": float(k_TB_MS), "k_S": params.k_S, "m_S": params.m_S, "m_F": params.m_F}
+    names = list(fit)
+    x0 = np.array([math.log(start[n]) for n in names] + [math.log(z0[HOUSING_MODE])])
+    with np.errstate(divide="ignore"):
+        lh_meas = np.log(np.abs(hh))
+        ls_meas = None if hs is None else np.log(np.abs(hs))
+    ok_h = np.isfinite(lh_meas)
+    ok_s = None if ls_meas is None else np.isfinite(ls_meas)
+
+    def unpack(x: NDArray[np.float64]) -> tuple[ModelParams, float, NDArray[np.float64]]:
+        vals = dict(start)
+        vals.update({n: math.exp(v) for n, v in zip(names, x[:-1], strict=True)})
+        p = replace(params, k_S=vals["k_S"], m_S=vals["m_S"], m_F=vals["m_F"])
+        z = z0.copy()
+        z[HOUSING_MODE] = math.exp(x[-1])
+        return p, vals["k_TB_MS"], z
+
+    def resid(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        p, k, z = unpack(x)
+        m = RigModel(p, k)
+        h = m.frf(fb, damping_ratio=z, frf_form=frf_form, outputs=(0, 1))
+        parts = [np.log(np.abs(h[0][ok_h])) - lh_meas[ok_h]]
+        if ls_meas is not None:
+            parts.append(np.log(np.abs(h[1][ok_s])) - ls_meas[ok_s])
+        if spindle_freq is not None:
+            parts.append(np.array([spindle_weight * math.log(m.natural_freq[SPINDLE_MODE] / spindle_freq)]))
+        return np.concatenate(parts)
+
+    res = scipy.optimize.least_squares(resid, x0, method="trf", x_scale=1.0)
+    p, k, z = unpack(res.x)
+    r = resid(res.x)
+    n_mag = int(ok_h.sum() + (0 if ok_s is None else ok_s.sum()))
+    rms = float(np.sqrt(np.mean(r[:n_mag] ** 2)))
+    initial = {**start, "damping_ratio_H": float(z0[HOUSING_MODE])}
+    return RigFit(
+        params=p,
+        k_TB_MS=k,
+        damping_ratio=z,
+        natural_freq=RigModel(p, k).natural_freq,
+        initial=initial,
+        band=(float(band[0]), float(band[1])),
+        residual_rms=rms,
+        cost=float(res.cost),
+        nfev=int(res.nfev),
+        success=bool(res.success),
+        message=str(res.message),
+    )
+
+
+__all__ = [
+    "DEFAULT_REL_UNCERTAINTY",
+    "KmsCalibration",
+    "RigFit",
+    "StiffnessUncertainty",
+    "UncertaintyTerm",
+    "calibrate_k_ms",
+    "fit_rig",
+    "housing_freq_bounds",
+    "housing_freq_from_k_tb_ms",
+    "k_tb_from_housing_freq",
+    "k_tb_ms_from_housing_freq",
+    "sensitivities",
+    "stiffness_uncertainty",
+]
