@@ -200,8 +200,8 @@ class RigModel:
     --------
     >>> from ema_rig.config import ModelParams
     >>> p = ModelParams(2.566, 2.8, 205.0, 114e6, 650e3, 348e6, 180e3)
-    >>> [round(float(f), 1) for f in RigModel(p, 4.397e7).natural_freq]
-    [4.7, 626.0, 1907.2]
+    >>> [round(float(f), 2) for f in RigModel(p, 4.397e7).natural_freq]
+    [4.66, 626.02, 1907.25]
     """
 
     params: ModelParams
