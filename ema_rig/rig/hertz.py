@@ -9,6 +9,8 @@ Functions
 ---------
 ball_bearing_radial_stiffness
     ``k_r`` [N/m] for a radial load [N] (scalar or array).
+radial_stiffness
+    The same with the default 6302 geometry (Stribeck average).
 hertz_contact_constant
     Load-deflection constant ``K`` of one ball-race point contact, ``Q = K delta^1.5``.
 
@@ -154,9 +156,18 @@ def ball_bearing_radial_stiffness(
     return float(k) if k.ndim == 0 else k
 
 
+def radial_stiffness(
+    radial_load: float | ArrayLike, geometry: BallBearingGeometry = BEARING_6302
+) -> float | NDArray[np.float64]:
+    """Hertzian radial stiffness estimate [N/m] of the 6302 (Stribeck average); see
+    :func:`ball_bearing_radial_stiffness`."""
+    return ball_bearing_radial_stiffness(radial_load, geometry)
+
+
 __all__ = [
     "BEARING_6302",
     "BallBearingGeometry",
     "ball_bearing_radial_stiffness",
     "hertz_contact_constant",
+    "radial_stiffness",
 ]
