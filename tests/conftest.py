@@ -30,7 +30,7 @@ def mplcleanup():
     plt.close("all")
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def rig_toml_text() -> str:
     """A rig file with Table 1 of the paper and the eight sensors of the paper's rig.
 

@@ -92,9 +92,9 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
             ax.plot(fl, c * fl ** (1 / 3) / _MN, "--", color="0.35",
                     label=f"fit k = c·F^(1/3), c = {c:.3g} N/m/N^(1/3)")
         if info is not None and info.hertz:
-            from ..rig.hertz import radial_stiffness
+            from ..rig.hertz import ball_bearing_radial_stiffness
 
-            ax.plot(fl, radial_stiffness(fl) / _MN, ":", color="C2", lw=2,
+            ax.plot(fl, np.asarray(ball_bearing_radial_stiffness(fl)) / _MN, ":", color="C2", lw=2,
                     label="Hertz estimate, bearing alone (Harris & Kotzalas)")
     ax.set_xlabel("radial load F_r [N]")
     ax.set_ylabel("bearing stiffness k_TB [MN/m]")
