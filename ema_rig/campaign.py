@@ -274,11 +274,11 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
         if not isinstance(t, Mapping):
             raise ConfigError("must be a table", file=fname, key=where)
         _unknown(t, _BEARING_KEYS, where, fname)
-        lo = _number(t["k_lower"], f"{where}.k_lower", fname, allow_zero=False) if "k_lower" in t else None
-        hi = _number(t["k_upper"], f"{where}.k_upper", fname, allow_zero=False) if "k_upper" in t else None
-        if lo is not None and hi is not None and hi < lo:
+        k_lo = _number(t["k_lower"], f"{where}.k_lower", fname, allow_zero=False) if "k_lower" in t else None
+        k_hi = _number(t["k_upper"], f"{where}.k_upper", fname, allow_zero=False) if "k_upper" in t else None
+        if k_lo is not None and k_hi is not None and k_hi < k_lo:
             raise ConfigError("k_upper must be >= k_lower", file=fname, key=where)
-        bearings[str(name)] = BearingInfo(lo, hi, bool(t.get("hertz", False)), str(t.get("label", "")))
+        bearings[str(name)] = BearingInfo(k_lo, k_hi, bool(t.get("hertz", False)), str(t.get("label", "")))
 
     raw = doc.get("measurement")
     if not isinstance(raw, list) or not raw:
@@ -630,10 +630,10 @@ def run(
             for fut in as_completed(futs):
                 m, key = futs[fut]
                 try:
-                    result = fut.result()
+                    outcome = fut.result()
                 except Exception as exc:  # the worker died (killed process, lost dask worker)
-                    result = {"status": "error", "error": f"worker failed ({type(exc).__name__}): {exc}"}
-                finish(m, key, result)
+                    outcome = {"status": "error", "error": f"worker failed ({type(exc).__name__}): {exc}"}
+                finish(m, key, outcome)
         bar(None)
     finally:
         if own_pool is not None:

@@ -237,12 +237,12 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
             raise ConfigError(f"must be one of {', '.join(SENSOR_ROLES)}, got {role!r}", file=fname, key=f"{where}.role")
         if axis not in SENSOR_AXES:
             raise ConfigError(f"must be one of {', '.join(SENSOR_AXES)}, got {axis!r}", file=fname, key=f"{where}.axis")
-        k = (dof.node, abs(dof.direction))
-        if k in seen:
+        node_axis = (dof.node, abs(dof.direction))
+        if node_axis in seen:
             raise ConfigError(
-                f"DOF {dof} is already used by sensor[{seen[k]}]", file=fname, key=f"{where}.dof"
+                f"DOF {dof} is already used by sensor[{seen[node_axis]}]", file=fname, key=f"{where}.dof"
             )
-        seen[k] = i
+        seen[node_axis] = i
         sensors.append(Sensor(dof, role, axis))
 
     unc_t = _table(doc, "uncertainty", fname, required=False)

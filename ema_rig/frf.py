@@ -330,7 +330,7 @@ class FRFData:
             Singular values of ``frf[:, :, k]``, largest first, unit ``unit_str``.
         """
         mats = np.moveaxis(self.frf, 2, 0)
-        return np.linalg.svd(mats, compute_uv=False).T
+        return np.asarray(np.linalg.svd(mats, compute_uv=False).T, dtype=np.float64)
 
     def with_meta(self, **meta: Any) -> FRFData:
         """A copy with extra metadata entries."""

@@ -88,9 +88,9 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
         if rot:
             fr = np.array([r["radial_load"] for r in rot])
             kr = np.array([r["k_TB"] for r in rot])
-            c = float(np.sum(kr * fr ** (1 / 3)) / np.sum(fr ** (2 / 3)))  # least squares k = c F^(1/3)
-            ax.plot(fl, c * fl ** (1 / 3) / _MN, "--", color="0.35",
-                    label=f"fit k = c·F^(1/3), c = {c:.3g} N/m/N^(1/3)")
+            coef = float(np.sum(kr * fr ** (1 / 3)) / np.sum(fr ** (2 / 3)))  # least squares k = c F^(1/3)
+            ax.plot(fl, coef * fl ** (1 / 3) / _MN, "--", color="0.35",
+                    label=f"fit k = c·F^(1/3), c = {coef:.3g} N/m/N^(1/3)")
         if info is not None and info.hertz:
             from ..rig.hertz import ball_bearing_radial_stiffness
 
