@@ -1,16 +1,88 @@
-"""stiffness: (placeholder; being implemented)."""
+"""stiffness: bearing stiffness k_TB of the mounted bearing from its housing mode."""
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stiffness``."""
+    parser.add_argument("file", metavar="FILE", help="UFF58 measurement (FRFs of the eight sensors)")
+    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
+    parser.add_argument("--k-ms", type=float, default=None, metavar="V",
+                        help="mounting stiffness k_MS [N/m] from 'ema-rig calibrate' (default: the rig file's)")
+    parser.add_argument("--k-ms-std", type=float, default=None, metavar="V",
+                        help="standard uncertainty of k_MS [N/m] (default: the rig file's relative value)")
+    parser.add_argument("--speed", type=float, default=None, metavar="RPM",
+                        help="shaft speed in rpm when the bearing rotates (rejects harmonic lines)")
+    parser.add_argument("--band", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                        help="identification band of the housing mode [Hz] (default: rig file, else 150 1000)")
+    parser.add_argument("--max-order", type=int, default=None, metavar="N", help="maximum PolyMAX order")
+    parser.add_argument("--no-spindle", action="store_true",
+                        help="skip the identification of the spindle bending mode (faster)")
+    parser.add_argument("--json", default=None, metavar="OUT", help="write the result as JSON")
+    parser.add_argument("--plot", default=None, metavar="PNG",
+                        help="measured FRFs against the 3DOF model, 150-700 Hz (paper Fig. 7)")
+
+
+def summary(res: Any) -> str:
+    """Readable multi-line summary of a StiffnessResult."""
+    hm, sm = res.housing_mode, res.spindle_mode
+    sd = hm.get("natural_freq_std")
+    lines = [
+        f"file          {res.file or '-'}",
+        f"housing mode  {hm['natural_freq']:.2f} Hz"
+        + (f" +/- {sd:.3f}" if sd is not None else "")
+        + f", damping {100 * hm['damping_ratio']:.2f} %"
+        + (f", modal mass {hm['modal_mass']:.2f} kg (model {hm['model_modal_mass']:.2f})"
+           if hm.get("modal_mass") is not None else ""),
+        "spindle mode  " + ("not found" if sm is None else
+                            f"{sm['natural_freq']:.1f} Hz, damping {100 * sm['damping_ratio']:.2f} %"),
+        f"k_MS          {res.k_MS / 1e6:.2f} MN/m",
+        f"k_TB+MS       {res.k_TB_MS / 1e6:.3f} MN/m",
+        f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std / 1e6:.3f} MN/m (1 sigma, "
+        f"{100 * res.k_TB_std / res.k_TB:.2f} %)",
+        "budget        " + ", ".join(
+            f"{k} {100 * v:.0f} %" for k, v in sorted(res.uncertainty_budget.items(), key=lambda kv: -kv[1])
+            if v >= 0.005),
+        f"candidates    {len(res.candidates)} modes considered:",
+    ]
+    for c in res.candidates:
+        lines.append(f"  {c['natural_freq']:8.1f} Hz  {c['status']:<8}  {c['reason']}")
+    return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stiffness``."""
+    from ..config import load_rig
     from ..errors import EmaRigError
+    from ..io.uff import read_uff58
+    from ..rig.stiffness import estimate_stiffness
 
-    raise EmaRigError("'stiffness' is not implemented yet")
+    if args.speed is not None and not args.speed >= 0:
+        raise EmaRigError(f"--speed must be >= 0 rpm, got {args.speed:g}", file=args.file)
+    if args.max_order is not None and args.max_order < 2:
+        raise EmaRigError(f"--max-order must be >= 2, got {args.max_order}", file=args.file)
+    rig = load_rig(args.rig)
+    data = read_uff58(args.file, rig=rig)
+    data = data.with_meta(file=str(args.file))
+    speed_hz = None if not args.speed else args.speed / 60.0
+    res = estimate_stiffness(
+        data, rig, k_ms=args.k_ms, k_ms_std=args.k_ms_std, speed_hz=speed_hz,
+        band=None if args.band is None else tuple(args.band), max_order=args.max_order,
+        spindle=not args.no_spindle, progress=True,
+    )
+    print(summary(res))
+    if args.json:
+        from .._atomic import write_json
+
+        write_json(args.json, res.to_dict())
+        print(f"wrote {args.json}")
+    if args.plot:
+        from ..plot.rig import plot_rig_fit, save_figure
+
+        p = plot_rig_fit(data, res, rig)
+        save_figure(p.figure, args.plot)
+        print(f"wrote {args.plot}")
+    return 0

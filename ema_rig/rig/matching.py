@@ -519,9 +519,7 @@ def _shape_metrics(c: dict[str, Any], phi: NDArray[np.complex128], p: int | None
         c["radial_phase_cos"] = _clean(float(np.min(cos)))
         c["radial_amplitude_ratio"] = _clean(float(np.min(np.abs(a)) / np.max(np.abs(a))))
         c["lateral_ratio"] = _clean(float(np.max(np.abs(phi[h_lat])) / amp_h)) if h_lat else None
-        c["axial_ratio"] = (
-            _clean(float(np.max(np.abs(phi[h_ax + s_ax])) / amp_h)) if (h_ax or s_ax) else None
-        )
+        c["axial_ratio"] = _clean(float(np.max(np.abs(phi[h_ax])) / amp_h)) if h_ax else None
         if s_rad:
             # signed: projection on the housing reference's phase
             proj = np.real(phi[s_rad] * np.conj(ph_ref)) / aref
@@ -566,11 +564,6 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
                 f"radial housing amplitudes differ (min/max {_fmt(c['radial_amplitude_ratio'], '.2f')}):"
                 " not a rigid radial translation"
             )
-        lat, ax = c.get("lateral_ratio"), c.get("axial_ratio")
-        if lat is not None and lat > crit.max_cross_axis_ratio and lat >= (ax or 0.0):
-            fails.append(f"lateral mode (lateral/radial housing motion {lat:.2f})")
-        elif ax is not None and ax > crit.max_cross_axis_ratio:
-            fails.append(f"axial mode (axial/radial motion {ax:.2f})")
         sr = c.get("spindle_ratio")
         if info is not None and sr is not None:
             tol = crit.spindle_ratio_tol + 0.5 * abs(info.spindle_ratio)
@@ -580,6 +573,11 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
                     f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} "
                     f"(+/- {tol:.2f})"
                 )
+        lat, ax = c.get("lateral_ratio"), c.get("axial_ratio")
+        if lat is not None and lat > crit.max_cross_axis_ratio and lat >= (ax or 0.0):
+            fails.append(f"lateral mode (lateral/radial housing motion {lat:.2f})")
+        elif ax is not None and ax > crit.max_cross_axis_ratio:
+            fails.append(f"axial mode (axial/radial motion {ax:.2f})")
     if info is not None and c.get("modal_mass") is not None:
         ratio = c["modal_mass"] / info.modal_mass
         c["mass_ratio"] = ratio

@@ -1,0 +1,251 @@
+"""Measured FRFs against the 3DOF rig model (the paper's Fig. 7).
+
+Functions
+---------
+plot_rig_fit
+    Housing and spindle radial FRFs (black) against the model (grey) in 150–700 Hz, the chosen
+    housing mode marked, every candidate mode in a strip below with the reason it was rejected.
+save_figure
+    Save a figure atomically.
+
+Classes
+-------
+RigPlot
+    The figure, its axes by name and the artists by category.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from os import PathLike
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from ..config import RigConfig
+    from ..frf import FRFData
+
+__all__ = ["RigPlot", "plot_rig_fit", "save_figure", "short_reason"]
+
+_MEAS = "black"
+_MODEL = "0.55"
+_STATUS_COLOR = {"housing": "tab:red", "spindle": "tab:blue", "rejected": "0.45"}
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class RigPlot:
+    """Result of :func:`plot_rig_fit`.
+
+    Attributes
+    ----------
+    figure : matplotlib.figure.Figure
+    axes : dict
+        ``'housing'``, ``'spindle'`` (may be absent) and ``'candidates'`` axes.
+    artists : dict
+        ``'measured'``, ``'model'``, ``'housing_mode'``, ``'candidates'``: lists of artists.
+    model_k_tb_ms : float
+        ``k_TB+MS`` of the drawn model [N/m].
+    """
+
+    figure: Figure
+    axes: dict[str, Axes]
+    artists: dict[str, list[Any]] = field(default_factory=dict)
+    model_k_tb_ms: float = math.nan
+
+
+def short_reason(reason: str) -> str:
+    """A few words for a candidate's rejection reason (the full text stays in the JSON)."""
+    r = reason.lower()
+    for key, word in (("harmonic", "harmonic"), ("tilt", "tilt"), ("lateral mode", "lateral"),
+                      ("axial mode", "axial"), ("spindle mode", "spindle"), ("modal mass", "mass"),
+                      ("outside", "range"), ("amplitudes differ", "shape"), ("spindle/housing", "spindle ratio"),
+                      ("matches better", "weaker"), ("no radial", "no radial")):
+        if key in r:
+            return word
+    return "rejected"
+
+
+def _model_parts(result: Any, rig: RigConfig) -> tuple[Any, np.ndarray]:
+    """RigModel and modal damping ratios for the drawn model."""
+    from dataclasses import replace
+
+    from ..rig.model import RigModel
+
+    fit = getattr(result, "fit", None)
+    if fit is not None:
+        return fit.model, np.asarray(fit.damping_ratio, dtype=float)
+    k = float(result.k_TB_MS)
+    k_ms = getattr(result, "k_MS", None)
+    params = rig.model if k_ms is None else replace(rig.model, k_MS=float(k_ms))
+    z_h = float(result.housing_mode.get("damping_ratio") or 0.02)
+    sm = getattr(result, "spindle_mode", None) or (result.match.spindle_mode if hasattr(result, "match") else None)
+    z_s = float(sm["damping_ratio"]) if sm else 0.01
+    return RigModel(params, k), np.array([0.05, z_h, z_s])
+
+
+def plot_rig_fit(
+    data: FRFData,
+    result: Any,
+    rig: RigConfig,
+    *,
+    band: tuple[float, float] = (150.0, 700.0),
+    figure: Figure | None = None,
+    title: str | None = None,
+) -> RigPlot:
+    """Measured radial FRFs against the 3DOF model (paper Fig. 7).
+
+    Parameters
+    ----------
+    data : FRFData
+        The measurement (radial reference, sensor roles and axes).
+    result : StiffnessResult or CalibrationResult
+        Gives ``k_TB_MS``, ``k_MS``, the housing mode and the matching candidates; an attribute
+        ``fit`` (a :class:`~ema_rig.rig.inversion.RigFit`) is drawn instead when present.
+    rig : RigConfig
+        Rig parameters and sensors.
+    band : (float, float), optional
+        Frequency range of the plot [Hz] (paper: 150–700 Hz).
+    figure : Figure, optional
+        Figure to draw into (cleared); default a new one (no pyplot state).
+    title : str, optional
+        Figure title (default: file name and k_TB).
+
+    Returns
+    -------
+    RigPlot
+    """
+    from matplotlib.figure import Figure
+
+    from ..rig.model import HOUSING, SPINDLE
+
+    lo, hi = float(band[0]), float(band[1])
+    if not hi > lo:
+        raise ValueError(f"band must satisfy lo < hi, got {band!r}")
+    ref = rig.radial.positive()
+    in_idx = [j for j, d in enumerate(data.in_dofs) if d.node == ref.node and abs(d.direction) == abs(ref.direction)]
+    if not in_idx:
+        raise ValueError(f"the data have no radial reference {rig.radial}")
+    q = in_idx[0]
+    sel = (data.freq >= lo) & (data.freq <= hi)
+    if sel.sum() < 2:
+        raise ValueError(f"band {lo:g}..{hi:g} Hz holds fewer than 2 lines of the data")
+    f = data.freq[sel]
+
+    def outputs(role: str) -> list[int]:
+        idx = []
+        for i, d in enumerate(data.out_dofs):
+            r, a = data.roles[i], data.axes[i]
+            if r is None or a is None:
+                s = rig.sensor_for(d)
+                r, a = (s.role, s.axis) if s is not None else (None, None)
+            if r == role and a == "radial":
+                idx.append(i)
+        return idx
+
+    h_out, s_out = outputs("housing"), outputs("spindle")
+    model, zeta = _model_parts(result, rig)
+    ff = np.linspace(lo, hi, 1500)
+    h_model = model.frf(ff, damping_ratio=zeta, frf_form=data.frf_form, outputs=(HOUSING, SPINDLE))
+
+    fig = figure if figure is not None else Figure(figsize=(8.0, 7.2), layout="constrained")
+    fig.clear()
+    n_main = 2 if s_out else 1
+    gs = fig.add_gridspec(n_main + 1, 1, height_ratios=[3.0] * n_main + [1.25])
+    axes: dict[str, Any] = {}
+    ax_h = fig.add_subplot(gs[0])
+    axes["housing"] = ax_h
+    if s_out:
+        axes["spindle"] = fig.add_subplot(gs[1], sharex=ax_h)
+    ax_c = fig.add_subplot(gs[n_main], sharex=ax_h)
+    axes["candidates"] = ax_c
+    artists: dict[str, list[Any]] = {"measured": [], "model": [], "housing_mode": [], "candidates": []}
+    unit = data.unit_str
+
+    panels = [("housing", h_out, 0, "Housing, radial")]
+    if s_out:
+        panels.append(("spindle", s_out, 1, "Spindle, radial"))
+    for name, idx, row, label in panels:
+        ax = axes[name]
+        for k, i in enumerate(idx):
+            (ln,) = ax.semilogy(f, np.abs(data.frf[i, q, sel]), color=_MEAS, lw=0.9,
+                                label="measured" if k == 0 else None)
+            artists["measured"].append(ln)
+        (lm,) = ax.semilogy(ff, np.abs(h_model[row]), color=_MODEL, lw=2.6, alpha=0.9, zorder=1,
+                            label="3DOF model")
+        artists["model"].append(lm)
+        ax.set_ylabel(f"|FRF| [{unit}]")
+        ax.grid(True, which="major", color="0.88", lw=0.6)
+        ax.grid(True, which="minor", axis="y", color="0.94", lw=0.4)
+        dofs = ", ".join(str(data.out_dofs[i]) for i in idx)
+        ax.text(0.01, 0.97, f"{label} ({dofs}) / force {data.in_dofs[q]}", transform=ax.transAxes,
+                va="top", ha="left", fontsize=9, bbox={"fc": "white", "ec": "none", "alpha": 0.8})
+
+    fh = float(result.housing_mode["natural_freq"])
+    for name in [p[0] for p in panels]:
+        ax = axes[name]
+        if lo <= fh <= hi:
+            vl = ax.axvline(fh, color=_STATUS_COLOR["housing"], lw=1.0, ls="--", zorder=0,
+                            label=f"housing mode {fh:.1f} Hz" if name == "housing" else None)
+            artists["housing_mode"].append(vl)
+    ax_h.legend(loc="upper left", bbox_to_anchor=(0.0, 0.91), fontsize=8.5, framealpha=0.9)
+    k_tb = getattr(result, "k_TB", None)
+    if k_tb is not None:
+        txt = (f"$k_{{TB+MS}}$ = {model.k_TB_MS / 1e6:.2f} MN/m\n"
+               f"$k_{{TB}}$ = {k_tb / 1e6:.2f} ± {result.k_TB_std / 1e6:.2f} MN/m")
+    else:
+        txt = f"$k_{{MS}}$ = {result.k_MS / 1e6:.2f} ± {result.k_MS_std / 1e6:.2f} MN/m (steel disk)"
+    ax_h.text(0.99, 0.97, txt, transform=ax_h.transAxes, va="top", ha="right", fontsize=9,
+              bbox={"fc": "white", "ec": "0.7", "alpha": 0.9})
+
+    # ---- candidate strip: every identified mode, coloured by verdict, with a short reason
+    cands = list(getattr(result, "candidates", []) or [])
+    inside = [c for c in cands if lo <= c["natural_freq"] <= hi]
+    outside = [c for c in cands if not lo <= c["natural_freq"] <= hi]
+    ax_c.set_ylim(0, 1)
+    ax_c.set_yticks([])
+    ax_c.set_xlim(lo, hi)
+    last_x = -math.inf
+    level = 0
+    for c in inside:
+        x = c["natural_freq"]
+        st = c["status"]
+        col = _STATUS_COLOR.get(st, "0.45")
+        mk = {"housing": "v", "spindle": "s"}.get(st, "x")
+        ax_c.plot([x, x], [0.0, 0.28], color=col, lw=1.0)
+        (pt,) = ax_c.plot([x], [0.28], marker=mk, color=col, ms=7, ls="none")
+        artists["candidates"].append(pt)
+        lab = "housing mode" if st == "housing" else ("spindle mode" if st == "spindle" else short_reason(c["reason"]))
+        # stack labels that would overlap (label width ~ 0.11 of the axis)
+        level = level + 1 if x - last_x < 0.11 * (hi - lo) else 0
+        last_x = x
+        ax_c.text(x, 0.36 + 0.21 * (level % 3), f"{x:.0f} Hz {lab}", rotation=0, ha="center",
+                  va="bottom", fontsize=7.5, color=col, clip_on=True)
+    note = "identified modes: " + ("none in this band" if not inside else "x rejected, ▼ chosen")
+    if outside:
+        note += f"; {len(outside)} more outside the plotted band: " + ", ".join(
+            f"{c['natural_freq']:.0f} Hz ({c['status'] if c['status'] != 'rejected' else short_reason(c['reason'])})"
+            for c in outside[:6]) + (" ..." if len(outside) > 6 else "")
+    ax_c.set_title(note, fontsize=8, loc="left")
+    ax_c.set_xlabel("Frequency [Hz]")
+    for name in [p[0] for p in panels]:
+        axes[name].tick_params(labelbottom=False)
+        axes[name].set_xlim(lo, hi)
+    if title is None:
+        fname = getattr(result, "file", None)
+        base = str(fname).replace("\\", "/").rsplit("/", 1)[-1] if fname else "measurement"
+        title = f"{base}: measured FRFs (black) and 3DOF model (grey), {lo:.0f}–{hi:.0f} Hz"
+    fig.suptitle(title, fontsize=10)
+    return RigPlot(figure=fig, axes=axes, artists=artists, model_k_tb_ms=float(model.k_TB_MS))
+
+
+def save_figure(fig: Figure, path: str | PathLike[str], *, dpi: int = 150) -> None:
+    """Save ``fig`` atomically (format from the suffix: png, svg, pdf)."""
+    from .._atomic import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi)
