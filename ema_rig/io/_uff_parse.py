@@ -1,0 +1,521 @@
+"""Private: framing and parsing of UFF files into plain dataset records.
+
+Why ema_rig frames and parses UFF itself rather than trusting :class:`pyuff.UFF` (DESIGN §5;
+each point is seen in the shared corpus):
+
+- pyuff splits a file at every ``"    -1"`` byte pattern, so a binary payload that happens to
+  contain it is cut short and later datasets are misaligned; a 58b block is framed here by its
+  header byte count instead.
+- pyuff returns the values it finds, not the header's ``num_pts``: zero padding on the last line
+  becomes extra points and a truncated excerpt comes back short without a warning.
+- pyuff reads the abscissa of binary uneven double data as float64 while writers store it as
+  float32 (the byte count tells which); it parses ASCII fields at fixed columns only, so uneven
+  doubles written ``2E20.12`` or numbers run together are misread; it decodes labels as UTF-8
+  with replacement, so Latin-1 labels (``m/s²``) are lost.
+- pyuff parses ASCII values in a Python loop; numpy is an order of magnitude faster here.
+
+Every dataset becomes a record whose status is ``"read"`` (exactly ``num_pts`` values) or
+``"refused"`` with a reason; whole-file problems raise :class:`~ema_rig.errors.UFFError`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..dof import DOF
+
+_EOL = re.compile(rb"\r\n|\r|\n")
+# a delimiter line: optional blanks, -1, optional blanks, end of line (or of file)
+_DELIM = re.compile(rb"(?:\A|(?<=[\r\n]))[ \t]*-1[ \t]*(?=\r|\n|\Z)")
+_NUM = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+_GAP = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*")
+_DELIM_AT = re.compile(rb"[ \t]*-1[ \t]*(?=\r|\n|\Z)")
+_DEXP = bytes.maketrans(b"dD", b"eE")
+_TYPE_LINE = re.compile(rb"^\s*(\d+)\s*([bB]?)")
+_ENTITY_DOF = re.compile(r"^\.?(\d+)\.?(RX|RY|RZ|X|Y|Z)([+-]?)$", re.I)
+
+#: values per point: (is_complex, is_double) from the ordinate data type code
+ORD_TYPES: dict[int, tuple[bool, bool]] = {2: (False, False), 4: (False, True), 5: (True, False), 6: (True, True)}
+
+
+@dataclass(frozen=True, slots=True)
+class RawDataset:
+    """One dataset as found in the file (private to the UFF modules)."""
+
+    index: int
+    type: int | None
+    binary: bool
+    offset: int
+    status: str
+    reason: str | None
+    header: dict[str, Any] = field(default_factory=dict)
+    x: NDArray[np.float64] | None = None
+    y: NDArray[Any] | None = None
+    notes: tuple[str, ...] = ()
+    lines: tuple[str, ...] = ()
+
+
+class _Refuse(Exception):
+    """Internal: a dataset cannot be read; the message is the reason."""
+
+
+def _decode(raw: bytes) -> tuple[str, bool]:
+    """Decode one header line: UTF-8 if valid, else Latin-1 (returns text, used_latin1)."""
+    try:
+        return raw.decode("utf-8"), False
+    except UnicodeDecodeError:
+        return raw.decode("latin-1"), True
+
+
+def _next_line(buf: bytes, pos: int) -> tuple[bytes, int]:
+    """The line starting at ``pos`` (without its end) and the position after its end."""
+    m = _EOL.search(buf, pos)
+    if m is None:
+        return buf[pos:], len(buf)
+    return buf[pos : m.start()], m.end()
+
+
+def _ints(text: str, n: int, what: str) -> list[int]:
+    toks = text.split()
+    if len(toks) < n:
+        raise _Refuse(f"{what}: expected {n} integers, found {text.strip()!r}")
+    try:
+        return [int(t) for t in toks[:n]]
+    except ValueError:
+        raise _Refuse(f"{what}: expected {n} integers, found {text.strip()!r}") from None
+
+
+def _parse_record6(line: str) -> dict[str, Any]:
+    """Record 6: function type, ids, response and reference entity/node/direction."""
+    fixed = [(0, 5), (5, 15), (15, 20), (20, 30), (41, 51), (51, 55), (66, 76), (76, 80)]
+    try:
+        vals = [int(line[a:b]) for a, b in fixed]
+        ents = (line[31:41].strip(), line[56:66].strip())
+    except ValueError:
+        toks = line.split()
+        if len(toks) != 10:
+            raise _Refuse(
+                f"record 6 (function type, response/reference node and direction) unreadable: {line.strip()!r}"
+            ) from None
+        try:
+            vals = [int(toks[i]) for i in (0, 1, 2, 3, 5, 6, 8, 9)]
+        except ValueError:
+            raise _Refuse(f"record 6 unreadable: {line.strip()!r}") from None
+        ents = (toks[4], toks[7])
+    keys = ("func_type", "func_id", "ver_num", "load_case_id", "rsp_node", "rsp_dir", "ref_node", "ref_dir")
+    out: dict[str, Any] = dict(zip(keys, vals, strict=True))
+    out["rsp_ent_name"], out["ref_ent_name"] = ents
+    return out
+
+
+def _parse_record7(line: bytes) -> dict[str, Any]:
+    """Record 7: ordinate data type, num_pts, spacing, abscissa min/increment, z value."""
+    toks = _NUM.findall(line.translate(_DEXP))
+    if len(toks) < 5:
+        raise _Refuse(f"record 7 (data type, num_pts, spacing, abscissa) unreadable: {line.strip()!r}")
+    try:
+        ints = [int(t) for t in toks[:3]]
+    except ValueError:
+        raise _Refuse(f"record 7: data type, num_pts and spacing must be integers: {line.strip()!r}") from None
+    floats = [float(t) for t in toks[3:6]] + [0.0] * (6 - len(toks[:6]))
+    return {
+        "ord_data_type": ints[0],
+        "num_pts": ints[1],
+        "abscissa_spacing": ints[2],
+        "abscissa_min": floats[0],
+        "abscissa_inc": floats[1],
+        "z_axis_value": floats[2],
+    }
+
+
+def _parse_axis(line: str, name: str, rec: int) -> dict[str, Any]:
+    """Records 8..11: spec data type, length/force/temperature exponents, axis and unit labels."""
+    try:
+        vals = [int(line[0:10]), int(line[10:15]), int(line[15:20]), int(line[20:25])]
+    except ValueError:
+        vals = _ints(line, 4, f"record {rec} ({name} axis)")
+    return {
+        f"{name}_spec_data_type": vals[0],
+        f"{name}_len_unit_exp": vals[1],
+        f"{name}_force_unit_exp": vals[2],
+        f"{name}_temp_unit_exp": vals[3],
+        f"{name}_axis_lab": line[26:46].strip(),
+        f"{name}_axis_units_lab": line[47:67].strip(),
+    }
+
+
+def _dof_from(node: int, direction: int, entity: str) -> tuple[DOF | None, str | None]:
+    """Resolve a DOF from the node/direction fields or, when both are 0, from the entity name."""
+    if node == 0 and direction == 0:
+        m = _ENTITY_DOF.match(entity.strip())
+        if m:
+            from ..dof import AXIS_NAMES
+
+            code = AXIS_NAMES.index(m.group(2).upper())
+            d = DOF(int(m.group(1)), -code if m.group(3) == "-" else code)
+            return d, f"DOF {d} taken from entity name {entity!r} (node/direction fields are 0)"
+    if node < 0 or not -6 <= direction <= 6:
+        return None, f"node {node} / direction {direction} is not a valid DOF"
+    return DOF(node, direction), None
+
+
+def _parse_header(lines: list[bytes]) -> tuple[dict[str, Any], list[str], tuple[str, ...]]:
+    """Parse the 11 header records of a dataset 58 into a dict."""
+    if len(lines) < 11:
+        raise _Refuse(f"header has {len(lines)} of 11 records (truncated dataset)")
+    notes: list[str] = []
+    text: list[str] = []
+    latin = False
+    for raw in lines[:11]:
+        t, lat = _decode(raw)
+        latin |= lat
+        text.append(t)
+    if latin:
+        notes.append("header text is not UTF-8; decoded as Latin-1")
+    h: dict[str, Any] = {f"id{i + 1}": text[i].strip() for i in range(5)}
+    h.update(_parse_record6(text[5]))
+    h.update(_parse_record7(lines[6]))
+    for rec, name in zip((8, 9, 10, 11), ("abscissa", "ordinate", "orddenom", "z_axis"), strict=True):
+        h.update(_parse_axis(text[rec - 1], name, rec))
+    for key, node, dirk, ent in (
+        ("response", "rsp_node", "rsp_dir", "rsp_ent_name"),
+        ("reference", "ref_node", "ref_dir", "ref_ent_name"),
+    ):
+        d, note = _dof_from(h[node], h[dirk], h[ent])
+        h[key] = d
+        if note:
+            notes.append(note)
+    return h, notes, tuple(text)
+
+
+def _values_ascii(data: bytes, expected: int, last_line: bytes) -> tuple[NDArray[np.float64], list[str]]:
+    """Parse the ASCII values of a data section; exactly ``expected`` values or refuse."""
+    notes: list[str] = []
+    data = data.translate(_DEXP)
+    toks = data.split()
+    try:
+        vals = np.array(toks, dtype=np.float64) if toks else np.empty(0)
+    except ValueError:
+        toks = _NUM.findall(data)
+        rest = _NUM.sub(b"", data).strip()
+        if rest:
+            bad = rest[:20].decode("latin-1")
+            raise _Refuse(f"data section holds text that is not a number: {bad!r}") from None
+        vals = np.array(toks, dtype=np.float64)
+        notes.append("numbers run together without blanks; split by number syntax")
+    n = vals.size
+    if n < expected:
+        raise _Refuse(f"only {n} of {expected} values present (truncated data)")
+    if n > expected:
+        extra = n - expected
+        n_last = len(_NUM.findall(last_line.translate(_DEXP)))
+        if extra <= n_last and not np.any(vals[expected:]):
+            notes.append(f"last line zero-padded: {extra} trailing zero(s) past num_pts ignored")
+            vals = vals[:expected]
+        else:
+            raise _Refuse(f"{n} values present but the header announces {expected}")
+    return vals, notes
+
+
+def _split_values(
+    h: dict[str, Any], vals: NDArray[np.float64], x_vals: NDArray[np.float64] | None
+) -> tuple[NDArray[np.float64], NDArray[Any]]:
+    """Turn flat values into (x, y) according to spacing and data type."""
+    is_complex, _ = ORD_TYPES[h["ord_data_type"]]
+    n = h["num_pts"]
+    even = h["abscissa_spacing"] == 1
+    k = 2 if is_complex else 1
+    if even:
+        yv = vals
+        x = h["abscissa_min"] + np.arange(n, dtype=np.float64) * h["abscissa_inc"]
+    elif x_vals is not None:
+        yv = vals
+        x = x_vals
+    else:
+        v = vals.reshape(n, k + 1)
+        x = np.ascontiguousarray(v[:, 0])
+        yv = v[:, 1:].ravel()
+    if is_complex:
+        y = np.empty(n, dtype=np.complex128)
+        y.real = yv[0::2]
+        y.imag = yv[1::2]
+    else:
+        y = np.ascontiguousarray(yv, dtype=np.float64)
+    return np.ascontiguousarray(x, dtype=np.float64), y
+
+
+def _check_header_values(h: dict[str, Any]) -> None:
+    if h["ord_data_type"] not in ORD_TYPES:
+        raise _Refuse(
+            f"ordinate data type {h['ord_data_type']} not supported (2, 4 real; 5, 6 complex)"
+        )
+    if h["num_pts"] <= 0:
+        raise _Refuse(f"num_pts = {h['num_pts']} (must be positive)")
+    if h["abscissa_spacing"] not in (0, 1):
+        raise _Refuse(f"abscissa spacing code {h['abscissa_spacing']} (must be 0 uneven or 1 even)")
+    if h["abscissa_spacing"] == 1 and not (np.isfinite(h["abscissa_min"]) and np.isfinite(h["abscissa_inc"])):
+        raise _Refuse("abscissa minimum or increment is not finite")
+
+
+def _binary_layouts(h: dict[str, Any]) -> list[tuple[int, int]]:
+    """Possible (bytes per abscissa value, total bytes) for a 58b payload."""
+    is_complex, is_double = ORD_TYPES[h["ord_data_type"]]
+    s = 8 if is_double else 4
+    n = h["num_pts"]
+    ny = n * (2 if is_complex else 1)
+    if h["abscissa_spacing"] == 1:
+        return [(0, ny * s)]
+    return [(xs, ny * s + n * xs) for xs in ((s, 4) if is_double else (4,))]
+
+
+def _values_binary(
+    h: dict[str, Any], payload: bytes, xs: int, byte_order: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    is_complex, is_double = ORD_TYPES[h["ord_data_type"]]
+    s = 8 if is_double else 4
+    k = 2 if is_complex else 1
+    ft = f"{byte_order}f{s}"
+    if xs == 0:
+        return np.frombuffer(payload, dtype=ft).astype(np.float64), None
+    dt = np.dtype([("x", f"{byte_order}f{xs}"), ("y", ft, (k,))])
+    rec = np.frombuffer(payload, dtype=dt)
+    return rec["y"].astype(np.float64).ravel(), rec["x"].astype(np.float64)
+
+
+def _finish58(h: dict[str, Any], vals: NDArray[np.float64], x_vals: NDArray[np.float64] | None) -> tuple[Any, Any]:
+    x, y = _split_values(h, vals, x_vals)
+    if x.size != h["num_pts"] or y.size != h["num_pts"]:  # pragma: no cover - guarded above
+        raise _Refuse("internal: value count differs from num_pts")
+    return x, y
+
+
+def _parse164(lines: list[bytes]) -> dict[str, Any]:
+    """Dataset 164 (units): unit code, description, length/force/temperature factors."""
+    if len(lines) < 3:
+        raise _Refuse("dataset 164 needs 3 records")
+    t0, _ = _decode(lines[0])
+    try:
+        code = int(t0[0:10])
+    except ValueError:
+        raise _Refuse(f"dataset 164 record 1 unreadable: {t0.strip()!r}") from None
+    nums = [float(v) for v in _NUM.findall(lines[1].translate(_DEXP))]
+    if len(nums) < 3 or not all(np.isfinite(nums[:3])) or min(nums[:3]) <= 0:
+        raise _Refuse("dataset 164 record 2 must hold three positive unit factors (length, force, temperature)")
+    return {
+        "unit_code": code,
+        "unit_description": t0[10:30].strip(),
+        "length_factor": nums[0],
+        "force_factor": nums[1],
+        "temp_factor": nums[2],
+    }
+
+
+def scan(buf: bytes) -> list[RawDataset]:
+    """Split a UFF file into datasets and parse the 58/58b and 164 ones.
+
+    Parameters
+    ----------
+    buf : bytes
+        The whole file.
+
+    Returns
+    -------
+    list of RawDataset
+        In file order. Empty when the file holds no delimiter line.
+    """
+    out: list[RawDataset] = []
+    pos = 0
+    n = len(buf)
+    while pos < n:
+        m = _DELIM.search(buf, pos)
+        if m is None:
+            break
+        start = m.start()
+        _, p = _next_line(buf, m.start())
+        type_line, p_hdr = _next_line(buf, p)
+        if p >= n:
+            break
+        tm = _TYPE_LINE.match(type_line)
+        if type_line.strip() == b"-1":
+            # two delimiters in a row (an end followed by a start): start again at the second
+            pos = p
+            continue
+        index = len(out)
+        if tm is None:
+            ds, pos = _refuse_until_delim(
+                buf, p_hdr, index, start, None, False,
+                f"dataset type line {type_line[:20].decode('latin-1').strip()!r} is not a number",
+            )
+            out.append(ds)
+            continue
+        dtype = int(tm.group(1))
+        binary = bool(tm.group(2))
+        if dtype == 58 and binary:
+            ds, pos = _read_58b(buf, type_line, p_hdr, index, start)
+        else:
+            ds, pos = _read_ascii(buf, dtype, binary, p_hdr, index, start)
+        out.append(ds)
+    return out
+
+
+def _refuse_until_delim(
+    buf: bytes, p: int, index: int, start: int, dtype: int | None, binary: bool, reason: str,
+    header: dict[str, Any] | None = None,
+) -> tuple[RawDataset, int]:
+    m = _DELIM.search(buf, p)
+    end = len(buf) if m is None else _next_line(buf, m.start())[1]
+    if binary and header and isinstance(header.get("n_bytes"), int) and header["n_bytes"] >= 0:
+        # skip the announced payload so that a -1 pattern inside it does not end the dataset
+        hit = _delim_after(buf, p + header["n_bytes"])
+        if hit is not None:
+            end = hit[1]
+    ds = RawDataset(index, dtype, binary, start, "refused", reason, header or {})
+    return ds, end
+
+
+def _read_ascii(buf: bytes, dtype: int, binary: bool, p: int, index: int, start: int) -> tuple[RawDataset, int]:
+    """An ASCII dataset: lines up to the closing delimiter."""
+    m = _DELIM.search(buf, p)
+    notes: list[str] = []
+    if m is None:
+        body_end, pos = len(buf), len(buf)
+        notes.append("no closing -1 delimiter (end of file)")
+    else:
+        body_end = m.start()
+        _, pos = _next_line(buf, m.start())
+        # a missing closing -1: the delimiter found is the next dataset's opening one
+        nxt, _ = _next_line(buf, pos)
+        if pos < len(buf) and _looks_like_new_dataset(nxt):
+            notes.append("closing -1 delimiter missing; the next dataset starts right after the data")
+            pos = m.start()
+    body = buf[p:body_end]
+    lines = _EOL.split(body)
+    if lines and lines[-1] == b"":
+        lines.pop()
+    if binary:
+        return RawDataset(index, dtype, binary, start, "refused", f"binary dataset {dtype}b not supported"), pos
+    if dtype == 58:
+        h: dict[str, Any] = {}
+        try:
+            h, hn, text = _parse_header(lines)
+            notes.extend(hn)
+            _check_header_values(h)
+            is_complex, _ = ORD_TYPES[h["ord_data_type"]]
+            per = (2 if is_complex else 1) + (0 if h["abscissa_spacing"] == 1 else 1)
+            data_lines = lines[11:]
+            last = data_lines[-1] if data_lines else b""
+            vals, vn = _values_ascii(b"\n".join(data_lines), h["num_pts"] * per, last)
+            notes.extend(vn)
+            x, y = _finish58(h, vals, None)
+        except _Refuse as exc:
+            return RawDataset(index, 58, False, start, "refused", str(exc), h, notes=tuple(notes)), pos
+        return RawDataset(index, 58, False, start, "read", None, h, x, y, tuple(notes), text), pos
+    text = tuple(_decode(ln)[0] for ln in lines)
+    if dtype == 164:
+        try:
+            h = _parse164(lines)
+        except _Refuse as exc:
+            return RawDataset(index, 164, False, start, "refused", str(exc), lines=text), pos
+        return RawDataset(index, 164, False, start, "read", None, h, notes=tuple(notes), lines=text), pos
+    return RawDataset(index, dtype, False, start, "read", None, {}, notes=tuple(notes), lines=text), pos
+
+
+def _looks_like_new_dataset(line: bytes) -> bool:
+    """A type line of a known dataset (a bare integer, optionally with 'b', and nothing else numeric)."""
+    m = re.fullmatch(rb"\s*(\d+)([bB]?)\s*", line) or re.fullmatch(rb"\s*(58)([bB])\s.*", line)
+    return m is not None and int(m.group(1)) in (15, 18, 55, 58, 82, 151, 164, 1858, 2400, 2411, 2412, 2414, 2420)
+
+
+def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> tuple[RawDataset, int]:
+    """A binary 58b dataset, framed by the header's byte count."""
+    n = len(buf)
+    toks = type_line.split()
+    notes: list[str] = []
+    try:
+        bo, fp, n_ascii, n_bytes = (int(t) for t in toks[1:5])
+    except ValueError:
+        return _refuse_until_delim(
+            buf, p, index, start, 58, True,
+            f"58b header line unreadable (byte order, format, ascii lines, bytes): {type_line.strip()[:60]!r}",
+        )
+    if len(toks) < 5:
+        return _refuse_until_delim(buf, p, index, start, 58, True, "58b header line has fewer than 5 fields")
+    if bo not in (1, 2):
+        return _refuse_until_delim(buf, p, index, start, 58, True, f"58b byte order code {bo} (must be 1 or 2)")
+    if fp != 2:
+        return _refuse_until_delim(
+            buf, p, index, start, 58, True, f"58b floating-point format {fp} is not IEEE 754 (2)"
+        )
+    if n_ascii < 11:
+        return _refuse_until_delim(buf, p, index, start, 58, True, f"58b announces {n_ascii} header lines (< 11)")
+    lines: list[bytes] = []
+    q = p
+    for _ in range(n_ascii):
+        if q >= n:
+            break
+        ln, q = _next_line(buf, q)
+        lines.append(ln)
+    h: dict[str, Any] = {"byte_ordering": bo, "fp_format": fp, "n_ascii_lines": n_ascii, "n_bytes": n_bytes}
+    try:
+        hh, hn, text = _parse_header(lines)
+        h.update(hh)
+        notes.extend(hn)
+        _check_header_values(h)
+    except _Refuse as exc:
+        return _refuse_until_delim(buf, q, index, start, 58, True, str(exc), h)
+    layouts = _binary_layouts(h)
+    chosen = next((lay for lay in layouts if lay[1] == n_bytes), None)
+    if chosen is None:
+        # header byte count wrong (e.g. pyuff's writer): accept a layout framed exactly by -1
+        for lay in layouts:
+            if _delim_after(buf, q + lay[1]) is not None:
+                chosen = lay
+                notes.append(f"header byte count {n_bytes} is wrong; num_pts and data type give {lay[1]}")
+                break
+    if chosen is None:
+        need = " or ".join(str(lay[1]) for lay in layouts)
+        return _refuse_until_delim(
+            buf, q, index, start, 58, True,
+            f"header byte count {n_bytes} does not match num_pts={h['num_pts']} and data type "
+            f"{h['ord_data_type']} ({need} bytes); try pyuff.fix_58b if the file was rewritten in text mode",
+            h,
+        )
+    xs, nb = chosen
+    if q + nb > n:
+        return RawDataset(
+            index, 58, True, start, "refused",
+            f"truncated binary data: {max(n - q, 0)} of {nb} bytes present", h,
+        ), n
+    end = _delim_after(buf, q + nb)
+    if end is None:
+        return _refuse_until_delim(
+            buf, q + nb, index, start, 58, True,
+            f"binary data of {nb} bytes is not followed by the closing -1 (byte count or framing wrong; "
+            "try pyuff.fix_58b)",
+            h,
+        )
+    gap = buf[q + nb : end[0]]
+    if gap:
+        notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
+    if xs == 4 and ORD_TYPES[h["ord_data_type"]][1]:
+        notes.append("uneven abscissa stored as float32 (ordinate float64)")
+    vals, x_vals = _values_binary(h, buf[q : q + nb], xs, "<" if bo == 1 else ">")
+    x, y = _finish58(h, vals, x_vals)
+    return RawDataset(index, 58, True, start, "read", None, h, x, y, tuple(notes), text), end[1]
+
+
+def _delim_after(buf: bytes, p: int) -> tuple[int, int] | None:
+    """If only blank lines separate ``p`` from a -1 line: (start of that line, end of that line)."""
+    if p > len(buf):
+        return None
+    q = _GAP.match(buf, p).end()  # type: ignore[union-attr]
+    for cand in (q, p):
+        d = _DELIM_AT.match(buf, cand)
+        if d is not None:
+            return cand, _next_line(buf, cand)[1]
+    return None

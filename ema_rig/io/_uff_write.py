@@ -1,0 +1,114 @@
+"""Private: writing FRFData as UFF dataset 58 (ASCII) or 58b (binary).
+
+ema_rig writes the bytes itself instead of calling ``pyuff.UFF.write_sets`` because pyuff 2.5.8's
+writer gets several things wrong for FRFs: the 58b byte count is ``num_pts * 8`` whatever the
+data (wrong for complex or uneven data), ``force_double=False`` in binary announces single
+precision but writes doubles, values are packed one ``struct.pack`` call at a time (slow), the
+caller's dict is updated in place, ASCII doubles get 12 significant digits (``%20.11e``) instead
+of the 13 of E20.12, and the abscissa minimum/increment get 6 digits. Files written here are
+read back by pyuff (tests cross-check this) and by :func:`ema_rig.io.uff.read_uff58`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..dof import DOF
+
+_FORM_CODE = {"receptance": (8, "m"), "mobility": (11, "m/s"), "accelerance": (12, "m/s^2")}
+
+
+def _line80(text: str) -> str:
+    return f"{text[:80]:<80}"
+
+
+def _fmt_axis(code: int, len_exp: int, force_exp: int, label: str, unit: str) -> str:
+    return f"{code:10d}{len_exp:5d}{force_exp:5d}{0:5d} {label[:20]:<20} {unit[:20]:<20}"
+
+
+def format_values(flat: NDArray[np.float64], fmts: list[str]) -> str:
+    """Format ``flat`` cyclically with the per-field formats ``fmts``, one cycle per line."""
+    k = len(fmts)
+    n_full = flat.size // k
+    line = "".join(fmts) + "\n"
+    vals = flat.tolist()
+    out = (line * n_full) % tuple(vals[: n_full * k])
+    rem = flat.size - n_full * k
+    if rem:
+        out += ("".join(fmts[:rem]) + "\n") % tuple(vals[n_full * k :])
+    return out
+
+
+def dataset_bytes(
+    *,
+    x: NDArray[np.float64],
+    y: NDArray[np.complex128],
+    even: bool,
+    binary: bool,
+    double: bool,
+    response: DOF,
+    reference: DOF,
+    frf_form: str,
+    unit_label: str,
+    ids: tuple[str, str, str, str, str],
+) -> bytes:
+    """The bytes of one dataset 58/58b (from the opening to the closing ``-1`` line, LF ends).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Abscissa in Hz (non-negative, increasing).
+    y : ndarray, shape (n,)
+        Complex FRF values in the unit ``unit_label`` per N.
+    """
+    n = x.size
+    code, _ = _FORM_CODE[frf_form]
+    ord_type = 6 if double else 5
+    head = [
+        *(_line80(s) for s in ids),
+        f"{4:5d}{1:10d}{0:5d}{0:10d} {'NONE':<10}{response.node:10d}{response.direction:4d} "
+        f"{'NONE':<10}{reference.node:10d}{reference.direction:4d}",
+        f"{ord_type:10d}{n:10d}{1 if even else 0:10d}"
+        + (f"{x[0]:13.6E}{(x[-1] - x[0]) / (n - 1) if n > 1 else 0.0:13.6E}" if even else f"{0.0:13.6E}{0.0:13.6E}")
+        + f"{0.0:13.6E}",
+        _fmt_axis(18, 0, 0, "Frequency", "Hz"),
+        _fmt_axis(code, 1, 0, frf_form.capitalize(), unit_label),
+        _fmt_axis(13, 0, 1, "Force", "N"),
+        _fmt_axis(0, 0, 0, "NONE", "NONE"),
+    ]
+    if even:
+        cols = [y.real, y.imag]
+    else:
+        cols = [x, y.real, y.imag]
+    if binary:
+        fdt = "<f8" if double else "<f4"
+        if even:
+            payload = np.empty((n, 2), dtype=fdt)
+            payload[:, 0] = y.real
+            payload[:, 1] = y.imag
+        else:
+            rec = np.empty(n, dtype=np.dtype([("x", fdt), ("y", fdt, (2,))]))
+            rec["x"] = x
+            rec["y"][:, 0] = y.real
+            rec["y"][:, 1] = y.imag
+            payload = rec
+        data = payload.tobytes()
+        first = f"{58:6d}b{1:6d}{2:6d}{11:12d}{len(data):12d}{0:6d}{0:6d}{0:12d}{0:12d}"
+        text = "    -1\n" + first + "\n" + "\n".join(head) + "\n"
+        return text.encode("utf-8") + data + b"    -1\n"
+    flat = np.column_stack(cols).ravel()
+    if double:
+        fmts = ["%20.12E"] * 4 if even else ["%13.6E", "%20.12E", "%20.12E"]
+    else:
+        fmts = ["%13.5E"] * 6 if even else ["%13.6E", "%13.5E", "%13.5E"] * 2
+    body = format_values(flat, fmts)
+    text = "    -1\n" + f"{58:6d}" + "\n" + "\n".join(head) + "\n" + body + "    -1\n"
+    return text.encode("utf-8")
+
+
+def date_id() -> str:
+    """Record-3 date in the customary ``DD-Mon-YY HH:MM:SS`` form (UTC)."""
+    return time.strftime("%d-%b-%y %H:%M:%S", time.gmtime())

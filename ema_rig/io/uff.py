@@ -1,0 +1,630 @@
+"""UFF dataset 58 (ASCII) and 58b (binary): reading, checking and writing FRFs.
+
+The only module of ema_rig that touches UFF files (DESIGN §2, §5).
+
+Functions
+---------
+read_uff58
+    All FRF datasets (function type 4) of a file as one :class:`~ema_rig.frf.FRFData` in SI units.
+write_uff58
+    Write an :class:`~ema_rig.frf.FRFData` as ASCII 58 or binary 58b, atomically.
+read_uff
+    Every dataset of a file as a plain :class:`UFFRecord` ("read" or "refused" with a reason).
+inspect_uff
+    The DESIGN §3.2 ``inspect`` JSON of a file.
+
+Classes
+-------
+UFFRecord, UFFFile
+    Frozen records of :func:`read_uff`.
+
+Notes
+-----
+Only function type 4 (frequency response function) is assembled into ``FRFData``. Type 3
+(cross spectrum) is a spectrum, not a ratio to force, and its scaling depends on the analyser's
+averaging; it is listed by :func:`read_uff` like time data, coherence and PSDs.
+
+Every dataset is checked against its header: exactly ``num_pts`` values (a zero-padded last line
+is trimmed, anything else refused), the 58b byte count, the dataset framing (a 58b payload is
+framed by its byte count, so a ``-1`` byte pattern inside it cannot cut it). Why the framing and
+parsing are done here rather than by pyuff is listed in ``ema_rig/io/_uff_parse.py``; pyuff is
+the independent cross-check in the tests and the benchmark. Units: see :func:`read_uff58`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._atomic import atomic_path
+from ..config import RigConfig
+from ..dof import DOF
+from ..errors import UFFError, UnitWarning
+from ..frf import FRFData
+from . import _uff_parse, _uff_units, _uff_write
+
+FUNCTION_TYPES: dict[int, str] = {
+    0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
+    5: "transmissibility", 6: "coherence", 7: "auto correlation", 8: "cross correlation",
+    9: "PSD", 10: "ESD", 11: "probability density", 12: "spectrum", 18: "mode indicator",
+}
+"""Names of the UFF dataset-58 function type codes."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class UFFRecord:
+    """One dataset of a UFF file, as stored.
+
+    Attributes
+    ----------
+    index : int
+        0-based position in the file.
+    type : int or None
+        Dataset type (58, 164, 151, 55 ...); None if the type line is unreadable.
+    binary : bool
+        True for 58b.
+    function_type : int or None
+        Dataset-58 function type (1 time, 4 FRF, 6 coherence, 9 PSD ...).
+    response, reference : DOF or None
+        As written in the file (signed; taken from the entity name when node and direction are 0).
+    num_pts : int or None
+        Number of values returned (equals the header's num_pts for a read dataset 58).
+    x : ndarray, shape (num_pts,), float64, or None
+        Abscissa in the file's unit (always explicit, also for even spacing).
+    y : ndarray, shape (num_pts,), float64 or complex128, or None
+        Values as stored, in the file's unit.
+    units : mapping
+        ``abscissa``, ``ordinate``, ``denominator``: dicts with ``code`` (specific data type),
+        ``label`` (unit label), ``axis`` (axis label), ``len_exp``, ``force_exp``, ``temp_exp``.
+    ids : tuple of str
+        The five id lines of a dataset 58.
+    header : mapping
+        Every parsed header field (dataset 58) or the parsed content (dataset 164).
+    status : {'read', 'refused'}
+    reason : str or None
+        Why the dataset was refused.
+    notes : tuple of str
+        What was repaired or assumed while reading (zero padding trimmed, Latin-1 labels ...).
+    lines : tuple of str
+        Header text lines (dataset 58) or all text lines (other ASCII datasets, not parsed).
+    """
+
+    index: int
+    type: int | None
+    binary: bool
+    function_type: int | None
+    response: DOF | None
+    reference: DOF | None
+    num_pts: int | None
+    x: NDArray[np.float64] | None
+    y: NDArray[Any] | None
+    units: Mapping[str, Any]
+    ids: tuple[str, ...]
+    header: Mapping[str, Any]
+    status: str
+    reason: str | None
+    notes: tuple[str, ...] = ()
+    lines: tuple[str, ...] = field(default=(), repr=False)
+
+    @property
+    def num_pts_header(self) -> int | None:
+        """The header's num_pts (dataset 58), also for a refused dataset."""
+        v = self.header.get("num_pts")
+        return int(v) if v is not None else None
+
+    @property
+    def band(self) -> tuple[float, float] | None:
+        """(first, last) abscissa value of a read dataset 58."""
+        if self.x is None or self.x.size == 0:
+            return None
+        return float(self.x[0]), float(self.x[-1])
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class UFFFile:
+    """Every dataset of a UFF file in file order (see :func:`read_uff`)."""
+
+    path: str
+    records: tuple[UFFRecord, ...]
+
+    def __iter__(self) -> Iterator[UFFRecord]:
+        return iter(self.records)
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    def __getitem__(self, i: int) -> UFFRecord:
+        return self.records[i]
+
+
+def _readonly(a: NDArray[Any] | None) -> NDArray[Any] | None:
+    if a is not None:
+        a.setflags(write=False)
+    return a
+
+
+def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
+    h = raw.header
+    units: dict[str, Any] = {}
+    if raw.type == 58 and "abscissa_spec_data_type" in h:
+        for key, name in (("abscissa", "abscissa"), ("ordinate", "ordinate"), ("denominator", "orddenom")):
+            units[key] = {
+                "code": h.get(f"{name}_spec_data_type"),
+                "label": h.get(f"{name}_axis_units_lab"),
+                "axis": h.get(f"{name}_axis_lab"),
+                "len_exp": h.get(f"{name}_len_unit_exp"),
+                "force_exp": h.get(f"{name}_force_unit_exp"),
+                "temp_exp": h.get(f"{name}_temp_unit_exp"),
+            }
+    status, reason = raw.status, raw.reason
+    if status == "read" and raw.y is not None:
+        bad = ~np.isfinite(raw.y)
+        if raw.x is not None:
+            bad |= ~np.isfinite(raw.x)
+        if bad.any():
+            k = int(np.argmax(bad))
+            status, reason = "refused", f"{int(bad.sum())} NaN or inf value(s), first at point {k}"
+    return UFFRecord(
+        index=raw.index,
+        type=raw.type,
+        binary=raw.binary,
+        function_type=h.get("func_type"),
+        response=h.get("response"),
+        reference=h.get("reference"),
+        num_pts=None if raw.y is None or raw.status != "read" else int(raw.y.size),
+        x=_readonly(raw.x),
+        y=_readonly(raw.y),
+        units=MappingProxyType(units),
+        ids=tuple(h.get(f"id{i}", "") for i in range(1, 6)) if raw.type == 58 else (),
+        header=MappingProxyType(dict(h)),
+        status=status,
+        reason=reason,
+        notes=raw.notes,
+        lines=raw.lines,
+    )
+
+
+def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
+    p = Path(path)
+    if not p.exists():
+        raise UFFError("file not found", file=p)
+    if p.is_dir():
+        raise UFFError("is a directory, expected a UFF file", file=p)
+    try:
+        buf = p.read_bytes()
+    except OSError as exc:
+        raise UFFError(f"cannot read: {exc.strerror}", file=p) from None
+    if not buf.strip():
+        raise UFFError("empty file (no UFF dataset)", file=p)
+    return p, buf
+
+
+def read_uff(path: str | PathLike[str]) -> UFFFile:
+    """Read every dataset of a UFF file as plain records.
+
+    Parameters
+    ----------
+    path : str or path-like
+        UFF/UNV file (ASCII, binary 58b or mixed; LF, CRLF or CR line ends).
+
+    Returns
+    -------
+    UFFFile
+        One :class:`UFFRecord` per dataset in file order. Datasets 58/58b are parsed (any
+        function type: time, spectrum, FRF, coherence, PSD ...), dataset 164 gives its unit
+        factors, other types are listed with their text lines. A dataset that cannot be read
+        exactly (wrong value count, truncated, byte count, NaN ...) has status ``"refused"`` and a
+        reason; it never raises.
+
+    Raises
+    ------
+    UFFError
+        If the file is missing, empty or holds no UFF dataset at all.
+    """
+    p, buf = _load_bytes(path)
+    raws = _uff_parse.scan(buf)
+    if not raws:
+        raise UFFError("not a UFF file: no dataset delimiter line '    -1' found", file=p)
+    return UFFFile(str(p), tuple(_to_record(r) for r in raws))
+
+
+def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "index": r.index,
+        "type": None if r.type is None else (f"{r.type}b" if r.binary else str(r.type)),
+        "function_type": r.function_type,
+        "response": None if r.response is None else str(r.response),
+        "reference": None if r.reference is None else str(r.reference),
+        "num_pts": r.num_pts,
+        "status": r.status,
+        "reason": r.reason,
+    }
+    if r.type == 58:
+        d["function"] = FUNCTION_TYPES.get(r.function_type) if r.function_type is not None else None
+        d["num_pts_header"] = r.num_pts_header
+        d["ord_data_type"] = r.header.get("ord_data_type")
+        sp = r.header.get("abscissa_spacing")
+        d["spacing"] = None if sp is None else ("even" if sp == 1 else "uneven")
+        d["band"] = None if r.band is None or r.status != "read" else list(r.band)
+        d["units"] = {k: v.get("label") for k, v in r.units.items()}
+    elif r.type == 164 and r.status == "read":
+        d["units"] = dict(r.header)
+    d["notes"] = list(r.notes)
+    return d
+
+
+def inspect_uff(path: str | PathLike[str]) -> dict[str, Any]:
+    """Summary of every dataset of a file, the DESIGN §3.2 ``inspect`` JSON.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    dict
+        ``{"file": str, "datasets": [{"index", "type", "function_type", "response", "reference",
+        "num_pts", "status", "reason", ...}, ...]}``; ``type`` is ``"58"``, ``"58b"``, ``"164"`` ...;
+        ``num_pts`` is the number of values returned (None when refused; ``num_pts_header`` holds
+        the header's). Extra keys: ``function``, ``spacing``, ``band`` (first and last abscissa
+        value), ``units`` (labels), ``notes``.
+    """
+    f = read_uff(path)
+    return {"file": f.path, "datasets": [_dataset_summary(r) for r in f.records]}
+
+
+# --------------------------------------------------------------------------- read_uff58
+def _match_ref(rig: RigConfig, d: DOF) -> DOF | None:
+    for r in rig.references:
+        if r.node == d.node and abs(r.direction) == abs(d.direction):
+            return r
+    return None
+
+
+def read_uff58(
+    path: str | PathLike[str], *, rig: RigConfig | None = None, freq_rtol: float = 1e-6
+) -> FRFData:
+    """Read all FRF datasets of a UFF58 file into one FRFData in SI units.
+
+    Parameters
+    ----------
+    path : str or path-like
+        UFF file with datasets 58/58b; every dataset of function type 4 (FRF) is used.
+    rig : RigConfig, optional
+        Rig configuration: selects and orders the outputs (rig sensor order), sets roles and axes,
+        decides signs, and may settle unit conflicts (``unit_preference``).
+    freq_rtol : float, optional
+        Tolerance for comparing frequency axes between datasets, relative to the highest
+        frequency. Axes that differ more are an error; nothing is resampled.
+
+    Returns
+    -------
+    FRFData
+        ``frf`` shape (n_out, n_in, n_freq) in SI (m/s^2/N, m/s/N or m/N), ``freq`` in Hz.
+        ``meta``: ``source`` (path), ``datasets`` (indices used), ``unit_decisions`` (one str per
+        dataset used), ``sign_flips``, ``ignored_channels``, ``ignored_datasets``, ``notes``,
+        ``ids`` (id lines per dataset index), ``rig`` (rig file path or None).
+
+    Raises
+    ------
+    UFFError
+        Naming file, dataset index and the problem: unreadable or refused FRF dataset, NaN/inf,
+        unknown or conflicting units, duplicate or missing (response, reference) pairs,
+        frequency axes that differ, a rig sensor or reference absent from the file.
+
+    Notes
+    -----
+    Units. The quantity comes from the ordinate specific data type (8 displacement -> receptance,
+    11 velocity -> mobility, 12 acceleration -> accelerance; denominator 13 or 9, force) and from
+    the unit labels (``g`` = 9.80665 m/s^2, ``mm``, ``in``, ``lbf``, ``(m/s)/N`` ...). When code and
+    label name different quantities, ``rig.unit_preference`` (``"code"`` or ``"label"``) decides,
+    else it is an error. A unit label that is understood sets the scale; without one, the scale
+    comes from the latest preceding dataset 164 (its length/force factors and the header's unit
+    exponents), else SI is assumed. Each decision is recorded in ``meta["unit_decisions"]``.
+
+    Signs. Without a rig, a negative direction in the file (``13-Y``) is flipped into the
+    positive axis (values x -1, DOF ``13+Y``). With a rig, the rig's sign decides: a sensor
+    ``13-Y`` is flipped whether the file writes 13-Y or 13+Y (a disagreement is noted in
+    ``meta["sign_flips"]``); the same holds for the references ``rig.radial`` / ``rig.axial``.
+    File responses with no rig sensor are ignored with a :class:`~ema_rig.errors.UnitWarning`.
+    """
+    uf = read_uff(path)
+    src = uf.path
+    pref = rig.unit_preference if rig is not None else None
+    current164: Mapping[str, Any] | None = None
+    used: list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]] = []
+    ignored_datasets: list[str] = []
+    for r in uf.records:
+        if r.type == 164 and r.status == "read":
+            current164 = r.header
+            continue
+        if r.type != 58:
+            ignored_datasets.append(f"dataset {r.index}: type {r.type} (not 58)")
+            continue
+        if r.function_type not in (4, None):
+            name = FUNCTION_TYPES.get(r.function_type, "other")  # type: ignore[arg-type]
+            ignored_datasets.append(f"dataset {r.index}: function type {r.function_type} ({name}), not an FRF")
+            continue
+        if r.status != "read":
+            raise UFFError(f"FRF dataset refused: {r.reason}", file=src, dataset=r.index)
+        if r.response is None or r.reference is None:
+            raise UFFError(
+                "response or reference DOF missing: " + "; ".join(r.notes), file=src, dataset=r.index
+            )
+        try:
+            dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref)
+        except ValueError as exc:
+            raise UFFError(str(exc), file=src, dataset=r.index) from None
+        used.append((r, dec, current164))
+    if not used:
+        kinds = sorted({FUNCTION_TYPES.get(r.function_type, str(r.function_type)) for r in uf.records
+                        if r.type == 58 and r.function_type is not None})
+        raise UFFError(
+            "no FRF dataset (dataset 58, function type 4) in the file"
+            + (f"; found {', '.join(kinds)}" if kinds else ""),
+            file=src,
+        )
+
+    # frequency axes: one common axis, compared with a tolerance
+    r0, dec0, _ = used[0]
+    try:
+        afac0 = _uff_units.abscissa_factor(dict(r0.header))
+    except ValueError as exc:
+        raise UFFError(str(exc), file=src, dataset=r0.index) from None
+    assert r0.x is not None
+    freq = r0.x * afac0
+    if freq[0] < 0 or (freq.size > 1 and not np.all(np.diff(freq) > 0)):
+        raise UFFError("frequency axis is negative or not strictly increasing", file=src, dataset=r0.index)
+    tol = freq_rtol * max(float(np.abs(freq).max()), np.finfo(float).tiny)
+    for r, dec, _ in used[1:]:
+        try:
+            afac = _uff_units.abscissa_factor(dict(r.header))
+        except ValueError as exc:
+            raise UFFError(str(exc), file=src, dataset=r.index) from None
+        assert r.x is not None
+        if r.x.size != freq.size:
+            raise UFFError(
+                f"{r.x.size} frequency lines but dataset {r0.index} has {freq.size} (no resampling is done)",
+                file=src, dataset=r.index,
+            )
+        dev = float(np.max(np.abs(r.x * afac - freq)))
+        if dev > tol:
+            raise UFFError(
+                f"frequency axis differs from dataset {r0.index} by up to {dev:.6g} Hz "
+                f"(tolerance freq_rtol={freq_rtol:g} x {freq[-1]:g} Hz; no resampling is done)",
+                file=src, dataset=r.index,
+            )
+        if dec.frf_form != dec0.frf_form:
+            raise UFFError(
+                f"FRF form {dec.frf_form} differs from dataset {r0.index} ({dec0.frf_form})",
+                file=src, dataset=r.index,
+            )
+
+    # DOFs, signs and rig mapping
+    sign_flips: list[str] = []
+    ignored_channels: list[str] = []
+    pairs: dict[tuple[DOF, DOF], tuple[int, float, UFFRecord]] = {}
+    out_order: list[DOF] = []
+    in_order: list[DOF] = []
+    for r, _dec, _ in used:
+        rd, fd = r.response, r.reference
+        assert rd is not None and fd is not None
+        if rig is not None:
+            sensor = rig.sensor_for(rd)
+            if sensor is None:
+                msg = f"{src}: dataset {r.index}: response {rd} has no [[sensor]] entry in the rig file; channel ignored"
+                warnings.warn(msg, UnitWarning, stacklevel=2)
+                ignored_channels.append(f"dataset {r.index}: {rd} (no rig sensor)")
+                continue
+            rref = _match_ref(rig, fd)
+            if rref is None:
+                msg = f"{src}: dataset {r.index}: reference {fd} is not an excitation of the rig file; dataset ignored"
+                warnings.warn(msg, UnitWarning, stacklevel=2)
+                ignored_channels.append(f"dataset {r.index}: reference {fd} (not a rig excitation)")
+                continue
+            so, si = sensor.dof.sign, rref.sign
+            for fdof, rdof in ((rd, sensor.dof), (fd, rref)):
+                if fdof.sign != rdof.sign:
+                    sign_flips.append(
+                        f"dataset {r.index}: file writes {fdof}, rig file says {rdof}: the rig's sign is used"
+                    )
+            out_key, in_key = sensor.dof.positive(), rref.positive()
+        else:
+            so, si = rd.sign, fd.sign
+            out_key, in_key = rd.positive(), fd.positive()
+        for fdof, s in ((rd, so), (fd, si)):
+            if s < 0:
+                sign_flips.append(f"dataset {r.index}: {fdof} flipped into {fdof.positive()} (values x -1)")
+        key = (out_key, in_key)
+        if key in pairs:
+            raise UFFError(
+                f"duplicate FRF {out_key} / {in_key}: also in dataset {pairs[key][0]}",
+                file=src, dataset=r.index,
+            )
+        pairs[key] = (r.index, float(so * si), r)
+        if out_key not in out_order:
+            out_order.append(out_key)
+        if in_key not in in_order:
+            in_order.append(in_key)
+
+    roles: list[str | None] = []
+    axes: list[str | None] = []
+    if rig is not None:
+        for s in rig.sensors:
+            if s.dof.positive() not in out_order:
+                raise UFFError(
+                    f"rig sensor {s.dof} ({rig.path or 'rig file'}) has no FRF in the file "
+                    f"(file responses: {', '.join(str(d) for d in out_order) or 'none'})",
+                    file=src,
+                )
+        for ref in rig.references:
+            if ref.positive() not in in_order:
+                raise UFFError(
+                    f"rig excitation {ref} ({rig.path or 'rig file'}) is not a reference in the file "
+                    f"(file references: {', '.join(str(d) for d in in_order) or 'none'})",
+                    file=src,
+                )
+        out_order = [s.dof.positive() for s in rig.sensors]
+        in_order = [d.positive() for d in rig.references]
+        roles = [s.role for s in rig.sensors]
+        axes = [s.axis for s in rig.sensors]
+    n_out, n_in = len(out_order), len(in_order)
+    frf = np.empty((n_out, n_in, freq.size), dtype=np.complex128)
+    decisions: list[str] = []
+    used_idx: list[int] = []
+    ids: dict[int, tuple[str, ...]] = {}
+    dec_by_index = {r.index: dec for r, dec, _ in used}
+    for i, o in enumerate(out_order):
+        for j, q in enumerate(in_order):
+            if (o, q) not in pairs:
+                raise UFFError(f"missing FRF {o} / {q}: no dataset for this (response, reference) pair", file=src)
+            idx, sign, r = pairs[(o, q)]
+            dec = dec_by_index[idx]
+            assert r.y is not None
+            frf[i, j] = r.y * (sign * dec.factor)
+            decisions.append(f"dataset {idx}: {dec.text}")
+            used_idx.append(idx)
+            ids[idx] = r.ids
+    notes = [f"dataset {r.index}: {n}" for r, _, _ in used for n in r.notes]
+    meta = {
+        "source": src,
+        "datasets": sorted(used_idx),
+        "unit_decisions": decisions,
+        "sign_flips": sign_flips,
+        "ignored_channels": ignored_channels,
+        "ignored_datasets": ignored_datasets,
+        "notes": notes,
+        "ids": ids,
+        "rig": None if rig is None else rig.path,
+    }
+    try:
+        return FRFData(freq, frf, out_order, in_order, dec0.frf_form, roles=roles, axes=axes, meta=meta)
+    except ValueError as exc:  # pragma: no cover - all checked above
+        raise UFFError(str(exc), file=src) from None
+
+
+# -------------------------------------------------------------------------- write_uff58
+def write_uff58(
+    path: str | PathLike[str],
+    data: FRFData,
+    *,
+    binary: bool = False,
+    double: bool = True,
+    accel_unit: str = "m/s^2",
+    rig: RigConfig | None = None,
+    abscissa: str = "auto",
+) -> None:
+    """Write FRFs as UFF dataset 58 (ASCII) or 58b (binary), one dataset per (output, input).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file, written atomically (a temporary file renamed into place).
+    data : FRFData
+        FRFs in SI; never modified.
+    binary : bool, optional
+        58b (little-endian IEEE 754) instead of ASCII.
+    double : bool, optional
+        Double precision (ordinate types 6; ASCII E20.12, 13 significant digits) or single
+        (type 5; ASCII E13.5, 6 digits; binary float32).
+    accel_unit : {'m/s^2', 'g'}, optional
+        Unit of accelerance: ``'g'`` writes values / 9.80665 labelled ``g`` (read back in m/s^2/N).
+    rig : RigConfig, optional
+        Each output is written with its rig sensor's signed DOF (sensor ``13-Y``: node 13,
+        direction -2, values x -1), and each input with the rig's signed reference, so that
+        ``read_uff58(path, rig=rig)`` gives ``data`` back.
+    abscissa : {'auto', 'even', 'uneven'}, optional
+        ``'auto'`` writes an even abscissa (minimum and increment in the header) when the lines
+        are equally spaced and, in binary, the header's 7 significant digits reproduce the axis
+        to 1e-12 (else the explicit float64 abscissa is stored); in ASCII an even axis is always
+        written even (the uneven ASCII abscissa has no more digits).
+
+    Raises
+    ------
+    UFFError
+        NaN/inf values (never written as 0), an unknown option, or an output that cannot be written.
+
+    Notes
+    -----
+    Round trip precision: binary double is bit-exact (``'g'`` within 1 ulp); ASCII double to
+    13 significant digits; single precision to float32 (binary) or 6 digits (ASCII). The even
+    abscissa increment is written with 7 significant digits (``%13.6E`` in the E13.5 field), so
+    choose a frequency step that has them (0.25 Hz, 0.125 Hz ...) for an exact axis.
+    """
+    if not isinstance(data, FRFData):
+        raise TypeError(f"data must be an FRFData, got {type(data).__name__}")
+    if accel_unit not in ("m/s^2", "g"):
+        raise ValueError(f"accel_unit must be 'm/s^2' or 'g', got {accel_unit!r}")
+    if abscissa not in ("auto", "even", "uneven"):
+        raise ValueError(f"abscissa must be 'auto', 'even' or 'uneven', got {abscissa!r}")
+    if accel_unit == "g" and data.frf_form != "accelerance":
+        raise ValueError(f"accel_unit='g' needs accelerance data, got {data.frf_form}")
+    bad = ~np.isfinite(data.frf)
+    if bad.any():
+        i, j, k = (int(v[0]) for v in np.nonzero(bad))
+        raise UFFError(
+            f"refusing to write {int(bad.sum())} NaN/inf FRF value(s) (first: {data.out_dofs[i]} / "
+            f"{data.in_dofs[j]} at {data.freq[k]:g} Hz); NaN is never written as 0",
+            file=path,
+        )
+    freq = np.array(data.freq, dtype=np.float64)
+    even = _choose_even(freq, abscissa, binary, data.is_even)
+    if abscissa == "even" and not data.is_even:
+        raise ValueError("abscissa='even' but the frequency lines are not equally spaced")
+    if accel_unit == "g":
+        scale, label = 1.0 / _uff_units.G0, "g"
+    else:
+        scale, label = 1.0, _uff_write._FORM_CODE[data.frf_form][1]
+    date = _uff_write.date_id()
+    chunks: list[bytes] = []
+    for i, o in enumerate(data.out_dofs):
+        o_w, so = o, 1.0
+        if rig is not None:
+            s = rig.sensor_for(o)
+            if s is not None:
+                o_w, so = s.dof, float(o.sign * s.dof.sign)
+        for j, q in enumerate(data.in_dofs):
+            q_w, sq = q, 1.0
+            if rig is not None:
+                rr = _match_ref(rig, q)
+                if rr is not None:
+                    q_w, sq = rr, float(q.sign * rr.sign)
+            y = data.frf[i, j] * (so * sq)  # new array: the caller's data are never touched
+            if scale != 1.0:
+                y = y * scale
+            ids = (f"{o_w} / {q_w} {data.frf_form}", "ema_rig", date, "NONE", "NONE")
+            chunks.append(
+                _uff_write.dataset_bytes(
+                    x=freq, y=y, even=even, binary=binary, double=double, response=o_w, reference=q_w,
+                    frf_form=data.frf_form, unit_label=label, ids=ids,
+                )
+            )
+    try:
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(b"".join(chunks))
+    except OSError as exc:
+        raise UFFError(f"cannot write: {exc.strerror or exc}", file=path) from None
+
+
+def _choose_even(freq: NDArray[np.float64], abscissa: str, binary: bool, is_even: bool) -> bool:
+    if abscissa != "auto":
+        return abscissa == "even"
+    if not is_even or freq.size < 2:
+        return freq.size < 2
+    if not binary:
+        return True
+    f0 = float(f"{freq[0]:13.6E}")
+    df = float(f"{(freq[-1] - freq[0]) / (freq.size - 1):13.6E}")
+    rebuilt = f0 + np.arange(freq.size) * df
+    return bool(np.max(np.abs(rebuilt - freq)) <= 1e-12 * max(float(freq[-1]), 1.0))
+
+
+__all__ = ["FUNCTION_TYPES", "UFFFile", "UFFRecord", "inspect_uff", "read_uff", "read_uff58", "write_uff58"]
