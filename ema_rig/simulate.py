@@ -1,0 +1,446 @@
+"""Synthetic rig measurements with a known truth (DESIGN §4, issue 4).
+
+The simulated FRFs are what the rig's accelerometers (roles and axes from the rig file) would
+record for a force from the radial shaker (and optionally the axial one):
+
+- the three modes of the 3DOF model (:mod:`ema_rig.rig.model`): radial housing sensors see
+  ``x_H``, radial spindle sensors ``x_S``, the radial reference drives ``m_H``. With
+  ``extra_modes=False`` and ``noise=0`` the radial FRFs are exactly the 3DOF model's;
+- the modes the model lacks, as additional modal contributions (they do not move the 3DOF poles):
+  rig rigid-body modes 5.9-16.4 Hz, housing tilt modes below 150 Hz (radial housing sensors out
+  of phase), the spindle's first mode at 287 Hz, the housing axial mode near 300 Hz, a lateral
+  housing mode, flexible frame/housing modes from 663/695 Hz (irregular shapes, large effective
+  mass at the driving point) and the spindle axial mode at 1012 Hz;
+- when rotating (``speed_hz``), narrow, nearly undamped lines at multiples of the shaft speed;
+- complex, seeded, relative noise.
+
+Every contribution is a viscously, proportionally damped mode ``psi_o psi_i / (w_r^2 - w^2 +
+2 j zeta_r w_r w)`` with mass-normalised shapes, so ``|lambda_r| / 2 pi`` is exactly the stated
+natural frequency and the FRF matrix is reciprocal. The extra modes' shapes are fixed (a fixed
+internal seed); ``seed`` only changes the noise and the harmonic lines.
+
+Functions
+---------
+simulate_measurement
+    Build a :class:`Simulation` (FRFData in SI accelerance + truth).
+write_measurement
+    Write it as UFF58 (ASCII or binary, m/s^2 or g) with ``<file>.truth.json`` beside it.
+truth_path
+    Where the truth of a measurement file is stored.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .config import RigConfig, Sensor
+from .dof import DOF
+from .frf import FRFData
+from .rig.model import HOUSING, SPINDLE, RigModel, modal_frf, series_stiffness
+
+DEFAULT_DAMPING: Mapping[str, float] = MappingProxyType(
+    {
+        "frame": 0.03,  # 3DOF mode 1: frame on the bushings
+        "housing_radial": 0.02,  # 3DOF mode 2: housing on k_TB+MS
+        "spindle_bending": 0.01,  # 3DOF mode 3
+        "rigid_body": 0.03,
+        "housing_tilt": 0.02,
+        "spindle_first": 0.015,
+        "housing_axial": 0.02,
+        "housing_lateral": 0.02,
+        "flexible": 0.015,
+        "spindle_axial": 0.01,
+        "harmonic": 2e-4,
+    }
+)
+"""Modal damping ratio per mode kind (plausible for a bolted steel rig, 0.5-3 %)."""
+
+_SHAPE_SEED = 20140601  # fixed: the extra modes' shapes do not change with the noise seed
+_CROSS_AXIS = 0.02  # cross-axis sensitivity: lateral/axial sensors see 2 % of the radial motion
+_RIGID_FREQS = (5.9, 7.7, 9.8, 12.9, 16.4)  # Hz (the sixth rigid-body mode is the 3DOF frame mode)
+_TILT_FREQS = (112.0, 138.0)
+_FLEX_FREQS = (663.0, 695.0, 742.0, 801.0, 846.0, 958.0, 1063.0, 1188.0, 1342.0, 1495.0, 1640.0, 1785.0)
+_LATERAL_RATIO = 0.88  # lateral housing mode: unloaded direction, a bit softer than radial
+
+
+@dataclass(frozen=True, slots=True)
+class Simulation:
+    """A synthetic measurement and its truth.
+
+    Attributes
+    ----------
+    data : FRFData
+        Accelerance [m/s^2/N], outputs = the rig's sensors with sign-corrected (+) DOFs,
+        inputs = the references.
+    truth : mapping
+        ``k_TB``, ``k_MS``, ``k_TB_MS`` [N/m], ``f_H`` and ``f_spindle`` (3DOF housing and
+        spindle-bending natural frequencies, Hz), ``housing_damping``, ``housing_effective_mass``
+        [kg], ``speed_hz``, ``noise``, ``seed``, ``extra_modes`` and ``modes``: one dict per
+        contribution with ``kind``, ``natural_freq`` [Hz], ``damping_ratio`` and
+        ``effective_mass_dp`` [kg] (at the radial driving point).
+    """
+
+    data: FRFData
+    truth: Mapping[str, Any] = field(default_factory=dict)
+
+    def truth_dict(self) -> dict[str, Any]:
+        """The truth as a plain (JSON-ready) dict."""
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.truth.items()}
+
+
+# ----------------------------------------------------------------------------- shapes
+def _group_index(sensors: Sequence[Sensor]) -> list[tuple[int, int]]:
+    """Per sensor: (index within its role/axis group, group size)."""
+    counts: dict[tuple[str, str], int] = {}
+    idx = []
+    for s in sensors:
+        key = (s.role, s.axis)
+        idx.append(counts.get(key, 0))
+        counts[key] = counts.get(key, 0) + 1
+    return [(i, counts[(s.role, s.axis)]) for i, s in zip(idx, sensors, strict=True)]
+
+
+def _tilt_pattern(i: int, n: int, which: int) -> float:
+    """Out-of-phase pattern over the radial housing sensors (first sensor = 1)."""
+    if n <= 1:
+        return 1.0
+    if which == 0:  # rocking about one axis: 1 ... -1
+        return 1.0 - 2.0 * i / (n - 1)
+    return (-1.0) ** i * (1.0 - 0.3 * i / (n - 1))  # alternating: 1, -0.85, 0.7
+
+
+def _extra_modes(sensors: Sequence[Sensor], f_H: float, damping: Mapping[str, float]) -> list[dict[str, Any]]:
+    """The modes the 3DOF model lacks: kind, frequency, damping and shape over the sensors."""
+    rng = np.random.default_rng(_SHAPE_SEED)
+    gi = _group_index(sensors)
+    n = len(sensors)
+    modes: list[dict[str, Any]] = []
+
+    def add(kind: str, freq: float, shape: NDArray[np.float64]) -> None:
+        modes.append({"kind": kind, "natural_freq": float(freq), "damping_ratio": float(damping[kind]), "shape": shape})
+
+    for f in _RIGID_FREQS:
+        # whole rig moving on its bushings: every sensor, effective masses of hundreds of kg
+        add("rigid_body", f, rng.uniform(-1.0, 1.0, n) / math.sqrt(300.0))
+    for w, f in enumerate(_TILT_FREQS):
+        sh = np.zeros(n)
+        for j, (s, (i, m)) in enumerate(zip(sensors, gi, strict=True)):
+            if s.role == "housing" and s.axis == "radial":
+                sh[j] = _tilt_pattern(i, m, w)
+            elif s.role == "housing":
+                sh[j] = 0.3 if s.axis == ("lateral" if w else "axial") else 0.1
+            else:
+                sh[j] = 0.05
+        add("housing_tilt", f, sh / math.sqrt(4.0))
+    sh = np.zeros(n)
+    for j, (s, (i, m)) in enumerate(zip(sensors, gi, strict=True)):
+        if s.role == "spindle" and s.axis == "radial":
+            sh[j] = 1.0 - 1.55 * i / max(m - 1, 1)  # front and back of the shaft out of phase
+        elif s.role == "spindle":
+            sh[j] = 0.1
+        elif s.axis == "radial":
+            sh[j] = 0.08
+        else:
+            sh[j] = 0.02
+    add("spindle_first", 287.0, sh / math.sqrt(1.5))
+    sh = np.array(
+        [
+            1.0 if (s.role, s.axis) == ("housing", "axial")
+            else 0.3 if s.axis == "axial"
+            else 0.05 * (-1.0) ** i if s.axis == "radial"
+            else 0.05
+            for s, (i, _) in zip(sensors, gi, strict=True)
+        ]
+    )
+    add("housing_axial", 302.0, sh / math.sqrt(3.0))
+    sh = np.array(
+        [
+            1.0 if (s.role, s.axis) == ("housing", "lateral")
+            else 0.04 * (-1.0) ** i if s.axis == "radial"
+            else 0.05
+            for s, (i, _) in zip(sensors, gi, strict=True)
+        ]
+    )
+    add("housing_lateral", _LATERAL_RATIO * f_H, sh / math.sqrt(2.8))
+    for f in _FLEX_FREQS:
+        # irregular shapes, effective masses 4-40 kg at the sensors
+        sh = rng.normal(0.0, 1.0, n) / np.sqrt(rng.uniform(4.0, 40.0, n))
+        add("flexible", f, sh)
+    sh = np.array(
+        [
+            1.0 if (s.role, s.axis) == ("spindle", "axial")
+            else 0.2 if s.axis == "axial"
+            else 0.03
+            for s in sensors
+        ]
+    )
+    add("spindle_axial", 1012.0, sh / math.sqrt(2.0))
+    return modes
+
+
+def _sensor_index(sensors: Sequence[Sensor], dof: DOF) -> int | None:
+    for j, s in enumerate(sensors):
+        if s.dof.node == dof.node and abs(s.dof.direction) == abs(dof.direction):
+            return j
+    return None
+
+
+def _flex_driving_point(modes: list[dict[str, Any]], j_dp: int) -> None:
+    """Give the flexible modes a large effective mass (15-60 kg) at the radial driving point."""
+    rng = np.random.default_rng(_SHAPE_SEED + 1)
+    for m in modes:
+        if m["kind"] == "flexible":
+            m["shape"][j_dp] = rng.choice([-1.0, 1.0]) / math.sqrt(rng.uniform(15.0, 60.0))
+
+
+# ----------------------------------------------------------------------------- main
+def simulate_measurement(
+    rig: RigConfig,
+    *,
+    k_tb: float,
+    freq: ArrayLike | None = None,
+    noise: float = 0.01,
+    seed: int = 0,
+    speed_hz: float | None = None,
+    extra_modes: bool = True,
+    references: Sequence[str] | None = None,
+    damping: Mapping[str, float] | None = None,
+    n_harmonics: int = 12,
+    harmonic_level: float = 0.5,
+) -> Simulation:
+    """Synthetic FRFs of the rig with a bearing of stiffness ``k_tb``.
+
+    Parameters
+    ----------
+    rig : RigConfig
+        Rig file: model parameters (Table 1), sensors (role, axis) and references.
+    k_tb : float
+        True bearing stiffness [N/m], > 0; ``math.inf`` = a rigid steel disk (housing mode at
+        ``k_TB+MS = k_MS``, ≈ 897 Hz with Table 1).
+    freq : array_like, shape (n_freq,), optional
+        Frequency lines [Hz]; default 0-2000 Hz every 0.5 Hz (4001 lines).
+    noise : float, optional
+        Relative complex noise level (std of ``|dH| / |H|``), default 0.01; 0 = exact.
+    seed : int, optional
+        Seed of the noise and of the harmonic lines' amplitudes and phases.
+    speed_hz : float, optional
+        Shaft speed [Hz] (rpm / 60); adds lines at ``k * speed_hz``, k = 1..n_harmonics.
+    extra_modes : bool, optional
+        Add the modes the 3DOF model lacks (default True).
+    references : sequence of {'radial', 'axial'}, optional
+        Which shakers drive the structure; 'axial' needs ``rig.axial``. Default: every reference
+        of the rig file (radial, and axial when given), so that ``read_uff58(path, rig=rig)``
+        finds all of them.
+    damping : mapping, optional
+        Damping ratio per mode kind, overriding :data:`DEFAULT_DAMPING`.
+    n_harmonics : int, optional
+        Number of shaft-speed harmonics (those above the last line are dropped).
+    harmonic_level : float, optional
+        Peak of the first harmonic line relative to the local FRF magnitude (decays as 1/sqrt(k)).
+
+    Returns
+    -------
+    Simulation
+
+    Raises
+    ------
+    ValueError
+        For a non-positive stiffness, bad noise level, unknown reference or mode kind.
+    """
+    k_tb = float(k_tb)
+    if not k_tb > 0 or math.isnan(k_tb):
+        raise ValueError(f"k_tb must be a positive stiffness [N/m] (inf = steel disk), got {k_tb!r}")
+    if not (math.isfinite(noise) and noise >= 0):
+        raise ValueError(f"noise must be a finite relative level >= 0, got {noise!r}")
+    if speed_hz is not None and not (math.isfinite(speed_hz) and speed_hz > 0):
+        raise ValueError(f"speed_hz must be a positive shaft speed [Hz], got {speed_hz!r}")
+    damp = dict(DEFAULT_DAMPING)
+    for k, v in (damping or {}).items():
+        if k not in damp:
+            raise ValueError(f"unknown mode kind {k!r} in damping; allowed: {', '.join(damp)}")
+        damp[k] = float(v)
+    f = np.arange(0.0, 2000.0 + 0.25, 0.5) if freq is None else np.asarray(freq, dtype=np.float64)
+
+    if references is None:
+        references = ("radial",) if rig.axial is None else ("radial", "axial")
+    refs: list[DOF] = []
+    for r in references:
+        if r == "radial":
+            refs.append(rig.radial)
+        elif r == "axial":
+            if rig.axial is None:
+                raise ValueError("references includes 'axial' but the rig file has no excitation.axial")
+            refs.append(rig.axial)
+        else:
+            raise ValueError(f"references must be 'radial' and/or 'axial', got {r!r}")
+
+    params = rig.model
+    k_c = series_stiffness(k_tb, params.k_MS)
+    model = RigModel(params, k_c)
+    sensors = list(rig.sensors)
+    # the radial driving point: a sensor at the reference DOF, else a virtual radial housing point
+    points = list(sensors)
+    ref_idx = []
+    for d in refs:
+        j = _sensor_index(sensors, d)
+        if j is None:
+            axis = "radial" if d == rig.radial else "axial"
+            points.append(Sensor(d, "housing", axis))
+            j = len(points) - 1
+        ref_idx.append(j)
+    n_pts = len(points)
+
+    # --- 3DOF modes at every point
+    phi = model.mode_shapes
+    shapes3 = np.zeros((n_pts, 3))
+    for j, s in enumerate(points):
+        row = phi[HOUSING] if s.role == "housing" else phi[SPINDLE]
+        shapes3[j] = row if s.axis == "radial" else _CROSS_AXIS * row
+    z3 = np.array([damp["frame"], damp["housing_radial"], damp["spindle_bending"]])
+    fn_all = [*model.natural_freq]
+    z_all = [*z3]
+    shapes_all = [shapes3[:, r] for r in range(3)]
+    kinds = ["frame", "housing_radial", "spindle_bending"]
+    if extra_modes:
+        extras = _extra_modes(points, model.housing_freq, damp)
+        _flex_driving_point(extras, ref_idx[0])
+        for m in extras:
+            fn_all.append(m["natural_freq"])
+            z_all.append(m["damping_ratio"])
+            shapes_all.append(m["shape"])
+            kinds.append(m["kind"])
+    fn = np.array(fn_all)
+    zz = np.array(z_all)
+    psi = np.array(shapes_all).T  # (n_pts, n_modes)
+    out_idx = list(range(len(sensors)))
+    h = modal_frf(f, fn, psi[out_idx], psi[ref_idx], zz, frf_form="accelerance")
+
+    rng = np.random.default_rng(seed)
+    harmonics: list[dict[str, Any]] = []
+    if speed_hz is not None:
+        w = 2.0 * np.pi * f
+        zh = damp["harmonic"]
+        for k in range(1, int(n_harmonics) + 1):
+            fk = k * speed_hz
+            if fk >= f[-1]:
+                break
+            wk = 2.0 * np.pi * fk
+            line = 2j * zh * wk * w / (wk**2 - w**2 + 2j * zh * wk * w)  # peak 1 at fk
+            local = np.abs(modal_frf([fk], fn, psi[out_idx], psi[ref_idx], zz, frf_form="accelerance")[:, :, 0])
+            amp = harmonic_level / math.sqrt(k) * rng.uniform(0.3, 1.0, local.shape)
+            phase = np.exp(2j * np.pi * rng.uniform(size=local.shape))
+            h = h + (amp * local * phase)[:, :, None] * line[None, None, :]
+            harmonics.append({"kind": "harmonic", "natural_freq": fk, "damping_ratio": zh, "order": k})
+
+    if noise > 0:
+        shape = h.shape
+        n1 = (rng.normal(size=shape) + 1j * rng.normal(size=shape)) / math.sqrt(2.0)
+        n2 = (rng.normal(size=shape) + 1j * rng.normal(size=shape)) / math.sqrt(2.0)
+        rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=2, keepdims=True))
+        # relative noise plus a small floor (1/20 of the level times the channel RMS)
+        h = h + noise * (np.abs(h) * n1 + 0.05 * rms * n2)
+        if f[0] == 0.0:
+            h[:, :, 0] = 0.0  # accelerance is exactly 0 at 0 Hz
+
+    data = FRFData(
+        f,
+        h,
+        tuple(s.dof.positive() for s in sensors),
+        tuple(d.positive() for d in refs),
+        frf_form="accelerance",
+        roles=tuple(s.role for s in sensors),
+        axes=tuple(s.axis for s in sensors),
+        meta={"source": "ema_rig.simulate", "k_TB": k_tb, "seed": seed, "noise": noise},
+    )
+    j_dp = ref_idx[0]
+    mode_list = []
+    for r, kind in enumerate(kinds):
+        p = psi[j_dp, r]
+        mode_list.append(
+            {
+                "kind": kind,
+                "natural_freq": float(fn[r]),
+                "damping_ratio": float(zz[r]),
+                "effective_mass_dp": float(1.0 / p**2) if p != 0 else math.inf,
+            }
+        )
+    mode_list += harmonics
+    mode_list.sort(key=lambda m: m["natural_freq"])
+    truth = {
+        "k_TB": k_tb,
+        "k_MS": params.k_MS,
+        "k_TB_MS": k_c,
+        "f_H": model.housing_freq,
+        "f_spindle": model.spindle_freq,
+        "housing_damping": float(z3[1]),
+        "housing_effective_mass": model.effective_mass(),
+        "natural_freq_3dof": [float(x) for x in model.natural_freq],
+        "speed_hz": speed_hz,
+        "noise": float(noise),
+        "seed": int(seed),
+        "extra_modes": bool(extra_modes),
+        "references": [str(d) for d in refs],
+        "model": params.as_dict(),
+        "modes": mode_list,
+    }
+    return Simulation(data=data, truth=MappingProxyType(truth))
+
+
+def truth_path(path: str | PathLike[str]) -> Path:
+    """The truth file of a measurement: ``<file>.truth.json`` beside it (``m.uff.truth.json``)."""
+    p = Path(path)
+    return p.with_name(p.name + ".truth.json")
+
+
+def write_measurement(
+    sim: Simulation,
+    path: str | PathLike[str],
+    *,
+    binary: bool = False,
+    accel_unit: str = "m/s^2",
+    rig: RigConfig | None = None,
+    double: bool = True,
+) -> Path:
+    """Write a simulation as UFF58 and its truth as ``<file>.truth.json`` (both atomically).
+
+    Parameters
+    ----------
+    sim : Simulation
+    path : str or path-like
+        UFF file to write.
+    binary : bool, optional
+        58b binary instead of ASCII.
+    accel_unit : {'m/s^2', 'g'}, optional
+        Unit of the written accelerations.
+    rig : RigConfig, optional
+        With a rig, sensors mounted along a negative axis (``13-Y``) are written with their signed
+        DOF and flipped values, as a real acquisition would record them.
+    double : bool, optional
+        Double precision (default); False writes single precision (smaller files).
+
+    Returns
+    -------
+    Path
+        The UFF file written.
+    """
+    from . import _atomic
+    from .io.uff import write_uff58
+
+    p = Path(path)
+    write_uff58(p, sim.data, binary=binary, double=double, accel_unit=accel_unit, rig=rig)
+    truth = sim.truth_dict()
+    truth.update({"file": p.name, "binary": bool(binary), "accel_unit": accel_unit, "double": bool(double)})
+    _atomic.write_json(truth_path(p), truth)
+    return p
+
+
+__all__ = ["DEFAULT_DAMPING", "Simulation", "simulate_measurement", "truth_path", "write_measurement"]

@@ -1,0 +1,160 @@
+"""Tests of the synthetic rig measurements (ema_rig.simulate)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from ema_rig.config import load_rig
+from ema_rig.dof import DOF
+from ema_rig.rig.model import RigModel
+from ema_rig.simulate import simulate_measurement, truth_path
+
+K_TB = 7.157e7  # N/m, the paper's 6302 at 626 Hz
+
+
+@pytest.fixture
+def rig(rig_file):
+    return load_rig(rig_file)
+
+
+def _exact(rig, k_tb, freq):
+    m = RigModel.from_k_tb(rig.model, k_tb)
+    return m, m.frf(freq, damping_ratio=[0.03, 0.02, 0.01], frf_form="accelerance", outputs=(0, 1))
+
+
+def test_truth_is_the_3dof_model(rig):
+    sim = simulate_measurement(rig, k_tb=K_TB)
+    m = RigModel.from_k_tb(rig.model, K_TB)
+    # the truth's housing frequency is the 3DOF model's (same eigh computation)
+    assert_allclose(sim.truth["f_H"], m.housing_freq, rtol=1e-12)
+    assert_allclose(sim.truth["f_H"], 626.0, atol=0.05)  # DESIGN §4: 7.157e7 N/m <-> 626 Hz
+    assert_allclose(sim.truth["k_TB_MS"], 4.397e7, rtol=2e-4)
+    kinds = {mo["kind"] for mo in sim.truth["modes"]}
+    assert {"housing_radial", "housing_tilt", "spindle_first", "housing_axial", "housing_lateral",
+            "flexible", "spindle_axial", "rigid_body"} <= kinds
+    d = sim.data
+    # default: both references of the rig file
+    assert d.shape == (8, 2, 4001) and d.freq[-1] == 2000.0 and d.frf_form == "accelerance"
+    assert DOF.parse("13+Y") in d.out_dofs  # sign-corrected DOFs
+    assert d.in_dofs == (DOF.parse("11+Y"), DOF.parse("15+X"))
+    assert simulate_measurement(rig, k_tb=K_TB, references=("radial",)).data.n_in == 1
+    # DESIGN §4: housing-mode effective mass ≈ 2.64 kg; flexible modes many times larger
+    assert_allclose(sim.truth["housing_effective_mass"], 2.64, atol=0.01)
+    flex = [mo["effective_mass_dp"] for mo in sim.truth["modes"] if mo["kind"] == "flexible"]
+    assert min(flex) > 5 * 2.64
+
+
+def test_radial_dynamics_exactly_3dof_without_extras(rig):
+    sim = simulate_measurement(rig, k_tb=K_TB, noise=0.0, extra_modes=False)
+    _, h = _exact(rig, K_TB, sim.data.freq)
+    d = sim.data
+    # same modal sum: equal to rounding
+    for dof in ("11+Y", "12+Y", "13+Y"):
+        assert_allclose(d.sel(out=dof).frf[0, 0], h[0], rtol=1e-12, atol=1e-12)
+    for dof in ("21+Y", "22+Y"):
+        assert_allclose(d.sel(out=dof).frf[0, 0], h[1], rtol=1e-12, atol=1e-12)
+
+
+def test_driving_point_near_housing_mode_within_noise(rig):
+    sim = simulate_measurement(rig, k_tb=K_TB, noise=0.01, seed=4, extra_modes=False)
+    _, h = _exact(rig, K_TB, sim.data.freq)
+    band = (sim.data.freq > 560) & (sim.data.freq < 690)
+    rel = np.abs(sim.data.frf[0, 0, band] / h[0, band] - 1)
+    # 1 % complex relative noise (+ a 5 % floor of it): RMS deviation ≈ 1 %, never > 5 sigma
+    assert 0.007 < np.sqrt(np.mean(rel**2)) < 0.013
+    assert rel.max() < 0.05
+
+
+def test_extra_modes_leave_the_housing_peak_alone(rig):
+    plain = simulate_measurement(rig, k_tb=K_TB, noise=0.0, extra_modes=False).data
+    full = simulate_measurement(rig, k_tb=K_TB, noise=0.0).data
+    near = (plain.freq > 615) & (plain.freq < 637)
+    rel = np.abs(full.frf[0, 0, near] / plain.frf[0, 0, near] - 1)
+    # the extra modes are far away or have large mass at the driving point: < 3 % at the peak
+    assert rel.max() < 0.03
+    # the peak stays on the same line
+    assert plain.freq[near][np.argmax(np.abs(full.frf[0, 0, near]))] == plain.freq[near][np.argmax(np.abs(plain.frf[0, 0, near]))]
+    # but the extra modes are there: the axial driving point shows the 302 Hz axial mode ...
+    ax = full.sel(out="15+X", inp="15+X").frf[0, 0]
+    i302, i250 = np.searchsorted(full.freq, [302.0, 250.0])
+    assert abs(ax[i302]) > 10 * abs(ax[i250])
+    # ... and the tilt modes move the radial housing sensors out of phase (112 Hz)
+    i = np.searchsorted(full.freq, 112.0)
+    tilt = full.frf[:, 0, i] - plain.frf[:, 0, i]
+    assert np.real(tilt[0] * np.conj(tilt[2])) < 0  # 11+Y against 13+Y
+
+
+def test_harmonic_lines_at_multiples_of_speed(rig):
+    still = simulate_measurement(rig, k_tb=K_TB, noise=0.0)
+    rot = simulate_measurement(rig, k_tb=K_TB, noise=0.0, speed_hz=25.0, seed=1)
+    diff = np.abs(rot.data.frf - still.data.frf)[0, 0]
+    f = still.data.freq
+    lines = [mo["natural_freq"] for mo in rot.truth["modes"] if mo["kind"] == "harmonic"]
+    assert_allclose(lines, 25.0 * np.arange(1, 13))  # 12 harmonics by default
+    for fk in lines:
+        i = np.searchsorted(f, fk)
+        # narrow: the line's excess at f_k is > 5 x that one line (0.5 Hz) away
+        assert diff[i] > 5 * max(diff[i - 1], diff[i + 1]), fk
+        assert diff[i] > 0.01 * abs(still.data.frf[0, 0, i])
+    assert all(mo["damping_ratio"] < 1e-3 for mo in rot.truth["modes"] if mo["kind"] == "harmonic")
+
+
+def test_seeded_reproducibility(rig):
+    a = simulate_measurement(rig, k_tb=K_TB, seed=7, speed_hz=20.0)
+    b = simulate_measurement(rig, k_tb=K_TB, seed=7, speed_hz=20.0)
+    c = simulate_measurement(rig, k_tb=K_TB, seed=8, speed_hz=20.0)
+    assert np.array_equal(a.data.frf, b.data.frf)  # bit-identical
+    assert not np.array_equal(a.data.frf, c.data.frf)
+    # the shapes of the extra modes do not depend on the seed: noise-free runs agree
+    n1 = simulate_measurement(rig, k_tb=K_TB, seed=1, noise=0.0)
+    n2 = simulate_measurement(rig, k_tb=K_TB, seed=2, noise=0.0)
+    assert np.array_equal(n1.data.frf, n2.data.frf)
+
+
+def test_steel_disk_and_two_references(rig):
+    disk = simulate_measurement(rig, k_tb=math.inf, noise=0.0, references=("radial", "axial"))
+    # DESIGN §4: rigid bearing -> k_TB+MS = k_MS -> housing mode at 897.35 Hz
+    assert_allclose(disk.truth["f_H"], 897.35, atol=0.01)
+    d = disk.data
+    assert d.shape == (8, 2, 4001) and d.in_dofs == (DOF.parse("11+Y"), DOF.parse("15+X"))
+    # modal superposition with symmetric shapes: reciprocal, H(11Y,15X) = H(15X,11Y)
+    assert_allclose(d.sel(out="11+Y", inp="15+X").frf, d.sel(out="15+X", inp="11+Y").frf, rtol=1e-12)
+
+
+def test_bad_input(rig_toml_text, tmp_path, rig):
+    with pytest.raises(ValueError, match="k_tb"):
+        simulate_measurement(rig, k_tb=-1.0)
+    with pytest.raises(ValueError, match="damping"):
+        simulate_measurement(rig, k_tb=K_TB, damping={"wobble": 0.1})
+    text = rig_toml_text.replace('axial = "15+X"\n\n[[sensor]]', "\n[[sensor]]", 1)
+    (tmp_path / "r2.toml").write_text(text)
+    with pytest.raises(ValueError, match="axial"):
+        simulate_measurement(load_rig(tmp_path / "r2.toml"), k_tb=K_TB, references=("axial",))
+
+
+def test_write_and_read_back(rig, rig_file, tmp_path):
+    uff = pytest.importorskip("ema_rig.io.uff")
+    from ema_rig.cli import main
+    from ema_rig.simulate import write_measurement
+
+    sim = simulate_measurement(rig, k_tb=K_TB, seed=3, speed_hz=10.0)
+    for binary, unit in ((False, "g"), (True, "m/s^2")):
+        p = write_measurement(sim, tmp_path / f"m_{int(binary)}.uff", binary=binary, accel_unit=unit, rig=rig)
+        back = uff.read_uff58(p, rig=rig)
+        assert back.out_dofs == sim.data.out_dofs
+        # double precision round trip (ASCII keeps ~13 significant digits)
+        assert_allclose(back.frf, sim.data.frf, rtol=1e-9, atol=1e-12 * np.abs(sim.data.frf).max())
+        truth = json.loads(truth_path(p).read_text())
+        assert_allclose(truth["f_H"], sim.truth["f_H"], rtol=1e-15)
+    out = tmp_path / "cli.uff"
+    code = main(["simulate", "--rig", str(rig_file), "--k-tb", "3.2e7", "-o", str(out), "--seed", "2",
+                 "--binary", "--units", "g", "--speed", "600"])
+    assert code == 0 and out.exists()
+    t = json.loads(truth_path(out).read_text())
+    assert t["k_TB"] == 3.2e7 and t["speed_hz"] == 10.0
+    assert_allclose(t["f_H"], RigModel.from_k_tb(rig.model, 3.2e7).housing_freq, rtol=1e-12)
