@@ -74,10 +74,15 @@ def default_band(data: FRFData, rig: RigConfig, band: tuple[float, float] | None
 
 
 def _file_of(data: FRFData) -> str | None:
-    for key in ("file", "source_file", "path", "source"):
-        v = data.meta.get(key)
-        if isinstance(v, str) and v:
-            return v
+    """The measurement file of ``data``: ``meta['file']``, else ``meta['source']`` if it is a file."""
+    from pathlib import Path
+
+    v = data.meta.get("file")
+    if isinstance(v, str) and v:
+        return v
+    v = data.meta.get("source")
+    if isinstance(v, str) and v and Path(v).is_file():
+        return v
     return None
 
 
