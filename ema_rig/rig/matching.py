@@ -164,7 +164,7 @@ class MatchCriteria:
     ----------
     min_phase_cos : float
         Minimum ``cos`` of the phase angle between every radial housing sensor and the radial
-        driving point (0.5 = within 60 degrees). Below: tilt mode.
+        driving point (0.2 = within 78 degrees: a close mode makes shapes complex). Below: tilt mode.
     min_amplitude_ratio : float
         Minimum ``min |phi| / max |phi|`` over the radial housing sensors (rigid translation).
     max_cross_axis_ratio : float
@@ -187,7 +187,7 @@ class MatchCriteria:
         than the housing, in anti-phase.
     """
 
-    min_phase_cos: float = 0.5
+    min_phase_cos: float = 0.2
     min_amplitude_ratio: float = 0.5
     max_cross_axis_ratio: float = 0.5
     spindle_ratio_tol: float = 0.15
@@ -377,7 +377,7 @@ def match_modes(
     }
 
     # ---- spindle bending mode, predicted by the model tuned to the housing mode
-    src_name = "modes" if spindle_modes is None else "spindle_modes"
+    src_name: str | None = None
     if spindle_modes is None:
         s_cands = [c for c in cands if c is not best]
     else:
@@ -417,8 +417,6 @@ def match_modes(
             "model_natural_freq": info.spindle_freq,
         }
         src_name = sbest["source"]
-    else:
-        src_name = None
 
     return MatchResult(
         housing_index=int(hi_idx),
