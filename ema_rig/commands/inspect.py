@@ -1,4 +1,9 @@
-"""inspect: (placeholder; being implemented)."""
+"""inspect: list every dataset of a UFF file (type, DOFs, function type, points, band, units).
+
+Each dataset is shown as ``read`` (exactly the header's num_pts values) or ``refused`` with the
+reason. With ``--rig`` the FRF datasets are also assembled with the rig file (roles, signs,
+units) and the result is summarised; with ``--json`` the DESIGN §3.2 JSON is written atomically.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +12,98 @@ import argparse
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig inspect``."""
+    parser.add_argument("file", metavar="FILE", help="UFF file (dataset 58 / 58b)")
+    parser.add_argument("--rig", metavar="R", help="rig file (TOML): also assemble the FRFs with it")
+    parser.add_argument("--json", metavar="OUT", help="write the dataset list as JSON (DESIGN §3.2)")
+
+
+def _cell(v: object) -> str:
+    return "-" if v is None else str(v)
+
+
+def format_table(report: dict) -> str:
+    """The inspect report as a fixed-width text table (one row per dataset)."""
+    head = ("#", "type", "function", "response", "reference", "points", "band [Hz or s]", "units", "status")
+    rows = []
+    for d in report["datasets"]:
+        band = d.get("band")
+        band_s = f"{band[0]:.6g}..{band[1]:.6g}" if band else "-"
+        units = d.get("units") or {}
+        if d["type"] == 58:
+            u = f"{units.get('ordinate') or '-'} / {units.get('denominator') or '-'} vs {units.get('abscissa') or '-'}"
+        elif d["type"] == 164 and units:
+            u = str(units.get("unit_description", "-"))
+        else:
+            u = "-"
+        ft = d.get("function_type")
+        fn = "-" if ft is None else f"{ft} {d.get('function') or ''}".strip()
+        pts = _cell(d["num_pts"]) if d["status"] == "read" else f"({_cell(d.get('num_pts_header'))})"
+        status = d["status"] if d["status"] == "read" else f"refused: {d['reason']}"
+        typ = "-" if d["type"] is None else f"{d['type']}{'b' if d.get('binary') else ''}"
+        rows.append((str(d["index"]), typ, fn, _cell(d["response"]), _cell(d["reference"]),
+                     pts, band_s, u, status))
+    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)]
+    lines = [report["file"], "  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)).rstrip()]
+    lines.append("  ".join("-" * w for w in widths))
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows]
+    n_ref = sum(d["status"] != "read" for d in report["datasets"])
+    lines.append(f"{len(rows)} dataset(s), {len(rows) - n_ref} read, {n_ref} refused")
+    return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``ema-rig inspect``."""
-    from ..errors import EmaRigError
+    """Run ``ema-rig inspect``.
 
-    raise EmaRigError("'inspect' is not implemented yet")
+    The table goes to stdout (and the JSON to ``--json``) in every case; the exit code is 1, with
+    one line on stderr, when a dataset is refused or the FRF datasets cannot be assembled (with
+    the rig file when given): duplicate or missing pairs, mismatched axes, units, rig DOFs.
+    """
+    from .._atomic import write_json
+    from ..errors import EmaRigError, UFFError
+    from ..io.uff import inspect_uff, read_uff58
+
+    report = inspect_uff(args.file)
+    problem: EmaRigError | None = None
+    refused = [d for d in report["datasets"] if d["status"] != "read"]
+    if refused:
+        d = refused[0]
+        more = f" (and {len(refused) - 1} more refused)" if len(refused) > 1 else ""
+        problem = UFFError(f"refused: {d['reason']}{more}", file=report["file"], dataset=d["index"])
+    has_frf = any(d["type"] == 58 and d["function_type"] in (4, None) for d in report["datasets"])
+    rig = None
+    if args.rig:
+        from ..config import load_rig
+
+        rig = load_rig(args.rig)
+    text = format_table(report)
+    if has_frf or rig is not None:
+        try:
+            data = read_uff58(args.file, rig=rig)
+        except EmaRigError as exc:
+            problem = problem or exc
+        else:
+            report["frf"] = {
+                "shape": list(data.shape),
+                "frf_form": data.frf_form,
+                "unit": data.unit_str,
+                "out_dofs": [str(d) for d in data.out_dofs],
+                "in_dofs": [str(d) for d in data.in_dofs],
+                "roles": list(data.roles),
+                "axes": list(data.axes),
+                "unit_decisions": list(data.meta["unit_decisions"]),
+                "sign_flips": list(data.meta["sign_flips"]),
+                "ignored_channels": list(data.meta["ignored_channels"]),
+            }
+            text += f"\nFRFs{' with rig ' + str(args.rig) if rig else ''}: {data!r}\n  outputs: " + ", ".join(
+                str(d) + (f" ({r}, {a})" if r else "")
+                for d, r, a in zip(data.out_dofs, data.roles, data.axes, strict=True)
+            )
+            text += "\n  inputs: " + ", ".join(str(d) for d in data.in_dofs)
+            text += "".join(f"\n  units: {u}" for u in data.meta["unit_decisions"])
+            text += "".join(f"\n  sign: {s}" for s in data.meta["sign_flips"])
+    print(text)
+    if args.json:
+        write_json(args.json, report)
+    if problem is not None:
+        raise problem
+    return 0

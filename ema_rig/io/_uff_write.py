@@ -62,11 +62,13 @@ def dataset_bytes(
     x : ndarray, shape (n,)
         Abscissa in Hz (non-negative, increasing).
     y : ndarray, shape (n,)
-        Complex FRF values in the unit ``unit_label`` per N.
+        Complex FRF values in the unit ``unit_label`` per N; written as real data (ordinate type
+        2 or 4) when every imaginary part is exactly 0.
     """
     n = x.size
     code, _ = _FORM_CODE[frf_form]
-    ord_type = 6 if double else 5
+    is_real = not np.any(y.imag)
+    ord_type = (4 if double else 2) if is_real else (6 if double else 5)
     head = [
         *(_line80(s) for s in ids),
         f"{4:5d}{1:10d}{0:5d}{0:10d} {'NONE':<10}{response.node:10d}{response.direction:4d} "
@@ -79,31 +81,26 @@ def dataset_bytes(
         _fmt_axis(13, 0, 1, "Force", "N"),
         _fmt_axis(0, 0, 0, "NONE", "NONE"),
     ]
-    if even:
-        cols = [y.real, y.imag]
-    else:
-        cols = [x, y.real, y.imag]
+    parts = [y.real] if is_real else [y.real, y.imag]
+    cols = parts if even else [x, *parts]
     if binary:
         fdt = "<f8" if double else "<f4"
-        if even:
-            payload = np.empty((n, 2), dtype=fdt)
-            payload[:, 0] = y.real
-            payload[:, 1] = y.imag
-        else:
-            rec = np.empty(n, dtype=np.dtype([("x", fdt), ("y", fdt, (2,))]))
-            rec["x"] = x
-            rec["y"][:, 0] = y.real
-            rec["y"][:, 1] = y.imag
-            payload = rec
+        # interleaved per point: [x] re [im]; the abscissa has the ordinate's precision
+        payload = np.empty(n, dtype=np.dtype([(f"c{i}", fdt) for i in range(len(cols))]))
+        for i, c in enumerate(cols):
+            payload[f"c{i}"] = c
         data = payload.tobytes()
         first = f"{58:6d}b{1:6d}{2:6d}{11:12d}{len(data):12d}{0:6d}{0:6d}{0:12d}{0:12d}"
         text = "    -1\n" + first + "\n" + "\n".join(head) + "\n"
         return text.encode("utf-8") + data + b"    -1\n"
     flat = np.column_stack(cols).ravel()
     if double:
-        fmts = ["%20.12E"] * 4 if even else ["%13.6E", "%20.12E", "%20.12E"]
+        if even:
+            fmts = ["%20.12E"] * 4
+        else:  # 2(E13.5,E20.12) real, E13.5,2E20.12 complex
+            fmts = ["%13.6E", "%20.12E"] * 2 if is_real else ["%13.6E", "%20.12E", "%20.12E"]
     else:
-        fmts = ["%13.5E"] * 6 if even else ["%13.6E", "%13.5E", "%13.5E"] * 2
+        fmts = ["%13.5E"] * 6 if even else (["%13.6E", "%13.5E"] * 3 if is_real else ["%13.6E", "%13.5E", "%13.5E"] * 2)
     body = format_values(flat, fmts)
     text = "    -1\n" + f"{58:6d}" + "\n" + "\n".join(head) + "\n" + body + "    -1\n"
     return text.encode("utf-8")

@@ -239,7 +239,8 @@ def read_uff(path: str | PathLike[str]) -> UFFFile:
 def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
     d: dict[str, Any] = {
         "index": r.index,
-        "type": None if r.type is None else (f"{r.type}b" if r.binary else str(r.type)),
+        "type": r.type,
+        "binary": r.binary,
         "function_type": r.function_type,
         "response": None if r.response is None else str(r.response),
         "reference": None if r.reference is None else str(r.reference),
