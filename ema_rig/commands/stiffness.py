@@ -21,6 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-order", type=int, default=None, metavar="N", help="maximum PolyMAX order")
     parser.add_argument("--no-spindle", action="store_true",
                         help="skip the identification of the spindle bending mode (faster)")
+    parser.add_argument("--fit", action="store_true",
+                        help="also fit k_TB+MS, k_S, m_S, m_F to the FRFs in 150-700 Hz (paper Fig. 7)")
     parser.add_argument("--json", default=None, metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", default=None, metavar="PNG",
                         help="measured FRFs against the 3DOF model, 150-700 Hz (paper Fig. 7)")
@@ -48,6 +50,11 @@ def summary(res: Any) -> str:
             if v >= 0.005),
         f"candidates    {len(res.candidates)} modes considered:",
     ]
+    if res.fit is not None:
+        ft = res.fit
+        lines.insert(-1, f"model fit     150-700 Hz: k_TB+MS {ft.k_TB_MS / 1e6:.3f} MN/m, k_S {ft.params.k_S / 1e6:.0f} "
+                         f"MN/m, m_S {ft.params.m_S:.2f} kg, m_F {ft.params.m_F:.0f} kg, "
+                         f"rms log error {ft.residual_rms:.3f}")
     for c in res.candidates:
         lines.append(f"  {c['natural_freq']:8.1f} Hz  {c['status']:<8}  {c['reason']}")
     return "\n".join(lines)
@@ -71,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     res = estimate_stiffness(
         data, rig, k_ms=args.k_ms, k_ms_std=args.k_ms_std, speed_hz=speed_hz,
         band=None if args.band is None else tuple(args.band), max_order=args.max_order,
-        spindle=not args.no_spindle, progress=True,
+        spindle=not args.no_spindle, fit=args.fit, progress=True,
     )
     print(summary(res))
     if args.json:

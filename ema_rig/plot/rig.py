@@ -61,8 +61,8 @@ class RigPlot:
 def short_reason(reason: str) -> str:
     """A few words for a candidate's rejection reason (the full text stays in the JSON)."""
     r = reason.lower()
-    for key, word in (("harmonic", "harmonic"), ("tilt", "tilt"), ("lateral mode", "lateral"),
-                      ("axial mode", "axial"), ("spindle mode", "spindle"), ("modal mass", "mass"),
+    for key, word in (("harmonic", "harmonic"), ("spindle mode", "spindle"), ("lateral mode", "lateral"),
+                      ("axial mode", "axial"), ("tilt", "tilt"), ("modal mass", "mass"),
                       ("outside", "range"), ("amplitudes differ", "shape"), ("spindle/housing", "spindle ratio"),
                       ("matches better", "weaker"), ("no radial", "no radial")):
         if key in r:
@@ -70,22 +70,29 @@ def short_reason(reason: str) -> str:
     return "rejected"
 
 
-def _model_parts(result: Any, rig: RigConfig) -> tuple[Any, np.ndarray]:
-    """RigModel and modal damping ratios for the drawn model."""
+def _model_parts(result: Any, rig: RigConfig) -> list[tuple[str, Any, np.ndarray, dict[str, Any]]]:
+    """(label, RigModel, modal damping ratios, line style) of the drawn models.
+
+    Always the model with the inverted ``k_TB+MS`` and the identified damping; in addition the
+    least-squares fit when the result carries one.
+    """
     from dataclasses import replace
 
     from ..rig.model import RigModel
 
-    fit = getattr(result, "fit", None)
-    if fit is not None:
-        return fit.model, np.asarray(fit.damping_ratio, dtype=float)
     k = float(result.k_TB_MS)
     k_ms = getattr(result, "k_MS", None)
     params = rig.model if k_ms is None else replace(rig.model, k_MS=float(k_ms))
     z_h = float(result.housing_mode.get("damping_ratio") or 0.02)
     sm = getattr(result, "spindle_mode", None) or (result.match.spindle_mode if hasattr(result, "match") else None)
     z_s = float(sm["damping_ratio"]) if sm else 0.01
-    return RigModel(params, k), np.array([0.05, z_h, z_s])
+    out = [("3DOF model (housing mode inverted)", RigModel(params, k), np.array([0.03, z_h, z_s]),
+            {"color": _MODEL, "lw": 2.6, "alpha": 0.9})]
+    fit = getattr(result, "fit", None)
+    if fit is not None:
+        out.append((f"3DOF model fitted 150–700 Hz (rms log error {fit.residual_rms:.2f})", fit.model,
+                    np.asarray(fit.damping_ratio, dtype=float), {"color": "0.35", "lw": 1.4, "ls": "--"}))
+    return out
 
 
 def plot_rig_fit(
@@ -148,9 +155,11 @@ def plot_rig_fit(
         return idx
 
     h_out, s_out = outputs("housing"), outputs("spindle")
-    model, zeta = _model_parts(result, rig)
+    models = _model_parts(result, rig)
+    model = models[0][1]
     ff = np.linspace(lo, hi, 1500)
-    h_model = model.frf(ff, damping_ratio=zeta, frf_form=data.frf_form, outputs=(HOUSING, SPINDLE))
+    h_models = [m.frf(ff, damping_ratio=z, frf_form=data.frf_form, outputs=(HOUSING, SPINDLE))
+                for _, m, z, _ in models]
 
     fig = figure if figure is not None else Figure(figsize=(8.0, 7.2), layout="constrained")
     fig.clear()
@@ -175,9 +184,9 @@ def plot_rig_fit(
             (ln,) = ax.semilogy(f, np.abs(data.frf[i, q, sel]), color=_MEAS, lw=0.9,
                                 label="measured" if k == 0 else None)
             artists["measured"].append(ln)
-        (lm,) = ax.semilogy(ff, np.abs(h_model[row]), color=_MODEL, lw=2.6, alpha=0.9, zorder=1,
-                            label="3DOF model")
-        artists["model"].append(lm)
+        for (mlabel, _, _, style), hm in zip(models, h_models, strict=True):
+            (lm,) = ax.semilogy(ff, np.abs(hm[row]), zorder=1, label=mlabel, **style)
+            artists["model"].append(lm)
         ax.set_ylabel(f"|FRF| [{unit}]")
         ax.grid(True, which="major", color="0.88", lw=0.6)
         ax.grid(True, which="minor", axis="y", color="0.94", lw=0.4)
@@ -220,16 +229,19 @@ def plot_rig_fit(
         (pt,) = ax_c.plot([x], [0.28], marker=mk, color=col, ms=7, ls="none")
         artists["candidates"].append(pt)
         lab = "housing mode" if st == "housing" else ("spindle mode" if st == "spindle" else short_reason(c["reason"]))
-        # stack labels that would overlap (label width ~ 0.11 of the axis)
-        level = level + 1 if x - last_x < 0.11 * (hi - lo) else 0
+        # stack labels that would overlap (a label is ~0.15 of the axis wide)
+        level = level + 1 if x - last_x < 0.16 * (hi - lo) else 0
         last_x = x
-        ax_c.text(x, 0.36 + 0.21 * (level % 3), f"{x:.0f} Hz {lab}", rotation=0, ha="center",
+        pos = (x - lo) / (hi - lo)
+        ha = "left" if pos < 0.06 else ("right" if pos > 0.94 else "center")
+        ax_c.text(x, 0.36 + 0.21 * (level % 3), f"{x:.0f} Hz {lab}", rotation=0, ha=ha,
                   va="bottom", fontsize=7.5, color=col, clip_on=True)
     note = "identified modes: " + ("none in this band" if not inside else "x rejected, ▼ chosen")
     if outside:
-        note += f"; {len(outside)} more outside the plotted band: " + ", ".join(
-            f"{c['natural_freq']:.0f} Hz ({c['status'] if c['status'] != 'rejected' else short_reason(c['reason'])})"
-            for c in outside[:6]) + (" ..." if len(outside) > 6 else "")
+        shown = ", ".join(
+            f"{c['natural_freq']:.0f} Hz {c['status'] if c['status'] != 'rejected' else short_reason(c['reason'])}"
+            for c in outside[:5])
+        note += f"; {len(outside)} outside {lo:.0f}–{hi:.0f} Hz:\n{shown}" + (", ..." if len(outside) > 5 else "")
     ax_c.set_title(note, fontsize=8, loc="left")
     ax_c.set_xlabel("Frequency [Hz]")
     for name in [p[0] for p in panels]:

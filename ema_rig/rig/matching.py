@@ -553,15 +553,6 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
         else:
             fails.append("no radial housing sensor in the data")
     else:
-        if c["radial_phase_cos"] < crit.min_phase_cos:
-            fails.append(
-                f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
-            )
-        if (c["radial_amplitude_ratio"] or 0.0) < crit.min_amplitude_ratio:
-            fails.append(
-                f"radial housing amplitudes differ (min/max {_fmt(c['radial_amplitude_ratio'], '.2f')}):"
-                " not a rigid radial translation"
-            )
         sr = c.get("spindle_ratio")
         if info is not None and sr is not None:
             tol = crit.spindle_ratio_tol + 0.5 * abs(info.spindle_ratio)
@@ -576,6 +567,15 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
             fails.append(f"lateral mode (lateral/radial housing motion {lat:.2f})")
         elif ax is not None and ax > crit.max_cross_axis_ratio:
             fails.append(f"axial mode (axial/radial motion {ax:.2f})")
+        if c["radial_phase_cos"] < crit.min_phase_cos:
+            fails.append(
+                f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
+            )
+        if (c["radial_amplitude_ratio"] or 0.0) < crit.min_amplitude_ratio:
+            fails.append(
+                f"radial housing amplitudes differ (min/max {_fmt(c['radial_amplitude_ratio'], '.2f')}):"
+                " not a rigid radial translation"
+            )
     if info is not None and c.get("modal_mass") is not None:
         ratio = c["modal_mass"] / info.modal_mass
         c["mass_ratio"] = ratio

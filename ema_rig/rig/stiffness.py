@@ -170,6 +170,9 @@ class StiffnessResult:
         Shaft speed used to reject harmonics [Hz].
     file : str or None
         Measurement file.
+    fit : RigFit or None
+        The 3DOF model fitted to the measured FRFs in 150–700 Hz (``fit=True``); reported
+        beside, not used for, ``k_TB``.
     """
 
     k_TB: float
@@ -189,6 +192,7 @@ class StiffnessResult:
     spindle_band: tuple[float, float] | None = None
     speed_hz: float | None = None
     file: str | None = None
+    fit: Any = field(default=None, repr=False)
 
     @property
     def candidates(self) -> list[dict[str, Any]]:
@@ -220,6 +224,7 @@ class StiffnessResult:
             "spindle_band": None if self.spindle_band is None else list(self.spindle_band),
             "speed_hz": self.speed_hz,
             "candidates": [dict(c) for c in self.match.candidates],
+            "fit": None if self.fit is None else self.fit.to_dict(),
         }
 
 
@@ -291,6 +296,7 @@ def estimate_stiffness(
     band: tuple[float, float] | None = None,
     max_order: int | None = None,
     spindle: bool = True,
+    fit: bool = False,
     progress: bool = False,
 ) -> StiffnessResult:
     """Bearing stiffness ``k_TB`` of one measurement, with its uncertainty.
@@ -315,6 +321,9 @@ def estimate_stiffness(
     spindle : bool, optional
         Also identify the spindle bending mode in its own band when the data reach it
         (default True; costs a second identification).
+    fit : bool, optional
+        Also fit ``k_TB+MS``, ``k_S``, ``m_S``, ``m_F`` and the housing damping to the measured
+        driving-point and spindle FRFs in 150–700 Hz (paper Sect. 4, Fig. 7; default False).
     progress : bool, optional
         Progress bar of the identification.
 
@@ -357,6 +366,7 @@ def estimate_stiffness(
     if not (math.isfinite(k_tb) and k_tb > 0):  # pragma: no cover - guarded by the inversion
         raise InversionError(f"no positive bearing stiffness from {f_h:.2f} Hz", file=file)
     budget = {t.name: float(t.share) for t in unc.terms}
+    rig_fit = _fit(data, rig, params, m) if fit else None
     return StiffnessResult(
         k_TB=k_tb,
         k_TB_std=float(unc.k_TB_std),
@@ -375,7 +385,34 @@ def estimate_stiffness(
         spindle_band=s_band,
         speed_hz=speed_hz,
         file=file,
+        fit=rig_fit,
     )
+
+
+def _fit(data: FRFData, rig: RigConfig, params: Any, m: MatchResult) -> Any:
+    """Fit the 3DOF model to the radial driving-point and mean spindle FRFs (150–700 Hz)."""
+    from .inversion import fit_rig
+
+    ref = rig.radial.positive()
+    q = next((j for j, d in enumerate(data.in_dofs) if d.positive() == ref), None)
+    p = next((i for i, d in enumerate(data.out_dofs) if d.positive() == ref), None)
+    if q is None or p is None:
+        return None
+    s_idx = [i for i in range(data.n_out) if data.roles[i] == "spindle" and data.axes[i] == "radial"]
+    h_s = data.frf[s_idx, q].mean(axis=0) if s_idx else None
+    sm = m.spindle_mode
+    z_s = float(sm["damping_ratio"]) if sm else 0.01
+    try:
+        return fit_rig(
+            data.freq, data.frf[p, q], h_s, params,
+            f_housing=float(m.housing_mode["natural_freq"]),
+            damping_ratio=[0.03, float(m.housing_mode["damping_ratio"]), z_s],
+            frf_form=data.frf_form,
+            spindle_freq=None if sm is None else float(sm["natural_freq"]),
+        )
+    except ValueError as exc:
+        logger.info("model fit skipped: %s", exc)
+        return None
 
 
 def calibrate(
