@@ -1,0 +1,222 @@
+"""The whole identification of one measurement: pLSCF -> stabilization -> selection -> LSFD.
+
+Functions
+---------
+identify
+    What the stiffness pipeline and the campaign call for every measurement.
+
+Classes
+-------
+Identification
+    Frozen result: pole set, stabilization data, selection, modal model and per-mode spread.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import IdentificationError
+from ..frf import FRFData
+from .lsfd import lsfd
+from .mac import mpc
+from .modal import ModalModel
+from .plscf import PoleSet, check_data, default_max_order, plscf
+from .stabilization import (
+    SelectedMode,
+    Selection,
+    StabilizationData,
+    resolve_selection,
+    select_modes,
+    stabilize,
+)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Identification:
+    """Result of :func:`identify`.
+
+    Parameters
+    ----------
+    poles : PoleSet
+        Poles of every model order.
+    stabilization : StabilizationData
+        The same rows with their status letters.
+    selection : Selection
+        The physical modes (automatic, replayed or hand-picked).
+    modes : ModalModel
+        LSFD on the band with the selection's representative poles (sorted by frequency).
+    natural_freq_std, damping_ratio_std : ndarray, shape (n_modes,)
+        Spread of the natural frequency [Hz] and damping ratio across each mode's cluster,
+        aligned with ``modes``.
+    band : tuple of float
+        Band [Hz] of the identification.
+    """
+
+    poles: PoleSet
+    stabilization: StabilizationData
+    selection: Selection
+    modes: ModalModel
+    natural_freq_std: NDArray[np.float64]
+    damping_ratio_std: NDArray[np.float64]
+    band: tuple[float, float]
+
+    @property
+    def natural_freq(self) -> NDArray[np.float64]:
+        """Natural frequencies of the modal model [Hz], shape (n_modes,)."""
+        return self.modes.natural_freq
+
+    @property
+    def damping_ratio(self) -> NDArray[np.float64]:
+        """Damping ratios of the modal model, shape (n_modes,)."""
+        return self.modes.damping_ratio
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """One dict per mode: frequency, damping, their spread, MPC, provenance, fit error.
+
+        ``modal_mass`` holds the effective modal mass [kg] at every driving point (reference
+        DOF that is also a response DOF), keyed by DOF string.
+        """
+        mm = self.modes
+        drive = [d for d in mm.in_dofs if d in mm.out_dofs]
+        masses = {str(d): mm.modal_mass(d) for d in drive}
+        shapes = mm.mode_shapes(drive[0]) if drive else mm.mode_shapes()
+        mpcs = mpc(shapes)
+        modes_by_pole = {m.pole: m for m in self.selection.modes}
+        out = []
+        for k in range(mm.n_modes):
+            sel: SelectedMode | None = modes_by_pole.get(complex(mm.poles[k]))
+            out.append(
+                {
+                    "natural_freq": float(mm.natural_freq[k]),
+                    "damping_ratio": float(mm.damping_ratio[k]),
+                    "natural_freq_std": float(self.natural_freq_std[k]),
+                    "damping_ratio_std": float(self.damping_ratio_std[k]),
+                    "mpc": float(mpcs[k]),
+                    "n_poles": int(sel.n_poles) if sel else None,
+                    "order": int(sel.order) if sel else None,
+                    "provenance": sel.provenance if sel else None,
+                    "modal_mass": {d: float(v[k]) for d, v in masses.items()},
+                    "participation": [[float(c.real), float(c.imag)] for c in sel.participation] if sel else [],
+                }
+            )
+        return out
+
+
+def identify(
+    data: FRFData,
+    *,
+    band: tuple[float, float] | None = None,
+    max_order: int | None = None,
+    freq_tol: float = 0.01,
+    damping_tol: float = 0.05,
+    mac_tol: float = 0.02,
+    selection: Selection | None = None,
+    near_tol: float = 0.03,
+    residuals: bool = True,
+    progress: bool = False,
+) -> Identification:
+    """Identify the physical modes of a measurement in a band.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs, shape (n_out, n_in, n_freq).
+    band : (float, float), optional
+        ``(freq_lower, freq_upper)`` [Hz]; default the whole data.
+    max_order : int, optional
+        Highest model order (default :func:`~ema_rig.identify.plscf.default_max_order`:
+        64 for one reference, 40 for two, i.e. companion matrices up to 64 / 80 rows).
+    freq_tol, damping_tol, mac_tol : float, optional
+        Stabilization tolerances (defaults 1 %, 5 %, 2 %), see
+        :func:`~ema_rig.identify.stabilization.stabilize`.
+    selection : Selection, optional
+        A saved selection to replay (:func:`~ema_rig.identify.stabilization.resolve_selection`:
+        exact on the same data, nearest mode within ``near_tol`` on other data). Default:
+        automatic selection (:func:`~ema_rig.identify.stabilization.select_modes`).
+    near_tol : float, optional
+        Relative frequency window for replaying a selection on other data (default 0.03).
+    residuals : bool, optional
+        LSFD with lower and upper residuals (default True).
+    progress : bool, optional
+        Progress bar over the model orders.
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    IdentificationError
+        Band outside the data, too few lines for the order, an all-zero FRF, NaN/inf values,
+        no stable pole in the band, no physical mode, or a replayed mode not found.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ema_rig.frf import FRFData
+    >>> f = np.arange(0.0, 400.5, 0.5)
+    >>> jw = 2j * np.pi * f
+    >>> lam = -0.01 * 2 * np.pi * 150 + 2j * np.pi * 150 * np.sqrt(1 - 0.01**2)
+    >>> h = (1 / (jw - lam) + 1 / (jw - lam.conjugate()))[None, None] / (4j * np.pi * 150)
+    >>> ident = identify(FRFData(f, h, ["1+Y"], ["1+Y"], frf_form="receptance"), band=(50, 350))
+    >>> ident.natural_freq.round(6), ident.damping_ratio.round(6)
+    (array([150.]), array([0.01]))
+    """
+    data = check_data(data, band)
+    src = data.meta.get("file")
+    src = str(src) if src else None
+    if max_order is None:
+        max_order = default_max_order(data.n_in)
+    poles = plscf(data, max_order=max_order, progress=progress)
+    stab = stabilize(poles, freq_tol=freq_tol, damping_tol=damping_tol, mac_tol=mac_tol)
+    fband = stab.band
+    n_stable = int(np.sum(np.isin(stab.status, ["s", "d", "v", "f"])))
+    if n_stable == 0:
+        raise IdentificationError(
+            f"no stable pole in the band {fband[0]:g}..{fband[1]:g} Hz up to order {max_order} "
+            f"({len(poles)} poles, {int(np.sum(stab.unstable))} of them unstable)",
+            file=src,
+        )
+    if selection is None:
+        sel = select_modes(stab, source=src)
+        if len(sel) == 0:
+            raise IdentificationError(
+                f"no physical mode in the band {fband[0]:g}..{fband[1]:g} Hz: {n_stable} stable poles "
+                f"but no cluster of them persists over the orders up to {max_order}",
+                file=src,
+            )
+    else:
+        if not isinstance(selection, Selection):
+            raise TypeError(f"selection must be a Selection, got {type(selection).__name__}")
+        try:
+            sel = resolve_selection(stab, selection, tol=near_tol, source=src)
+        except IdentificationError as exc:
+            raise IdentificationError(exc.message, file=src) from None
+    # one LSFD pole per mode; sorted by |pole| so the spreads align with the modal model
+    modes = sorted(sel.modes, key=lambda m: abs(m.pole))
+    unique: dict[complex, SelectedMode] = {}
+    for m in modes:
+        unique.setdefault(m.pole, m)
+    modes = list(unique.values())
+    model = lsfd(data, [m.pole for m in modes], residuals=residuals)
+    meta = dict(model.meta)
+    meta.update({"max_order": int(max_order), "selection": sel.to_dict()})
+    from dataclasses import replace
+
+    model = replace(model, meta=meta)
+    return Identification(
+        poles=poles,
+        stabilization=stab,
+        selection=sel,
+        modes=model,
+        natural_freq_std=np.array([m.natural_freq_std for m in modes]),
+        damping_ratio_std=np.array([m.damping_ratio_std for m in modes]),
+        band=fband,
+    )
+
+
+__all__ = ["Identification", "identify"]

@@ -1,0 +1,757 @@
+"""Stabilization bookkeeping and automatic selection of physical modes.
+
+Functions
+---------
+stabilize
+    Status letter of every pole from its nearest neighbour at the previous model order.
+select_modes
+    Cluster stable poles across orders into physical modes (provenance ``"auto"``).
+select_near
+    For given frequencies, the nearest automatically found mode (provenance ``"near"``).
+select_poles
+    Modes from hand-picked ``(order, index)`` pairs (provenance ``"manual"``).
+resolve_selection
+    Replay a saved :class:`Selection` on (possibly other) data.
+
+Classes
+-------
+StabilizationData
+    The :class:`~ema_rig.identify.plscf.PoleSet` rows plus ``status`` and ``unstable``.
+SelectedMode, Selection
+    The chosen modes with their spread across the cluster; JSON round trip.
+
+Notes
+-----
+Status letters (per pole, against the closest pole in frequency among the stable poles of the
+previous computed order)::
+
+    o  new pole (no neighbour within the frequency tolerance, or the pole itself is unstable)
+    f  frequency stable          |df| / f            <= freq_tol     (default 1 %)
+    d  frequency and damping     |dzeta| / zeta      <= damping_tol  (default 5 %)
+    v  frequency and vector      1 - MAC(l, l_prev)  <= mac_tol      (default 2 %)
+    s  all three
+
+For one reference the participation "vector" is a scalar, the MAC is 1 and ``v`` reduces to
+``f``. Unstable poles (``Re lambda >= 0``) are mathematical poles by construction of the
+estimator (see :mod:`ema_rig.identify.plscf`): they are always ``o`` and flagged in
+``unstable``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..dof import DOF, as_dof
+from ..errors import IdentificationError
+from .mac import mac
+from .plscf import PoleSet
+
+STATUS_LETTERS: tuple[str, ...] = ("o", "f", "d", "v", "s")
+STATUS_LABELS: Mapping[str, str] = MappingProxyType(
+    {
+        "o": "new / unstable",
+        "f": "stable frequency",
+        "d": "stable frequency + damping",
+        "v": "stable frequency + vector",
+        "s": "stable frequency + damping + vector",
+    }
+)
+PROVENANCES: tuple[str, ...] = ("auto", "near", "manual")
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class StabilizationData:
+    """Poles of all orders with their stabilization status (tidy, one row per pole).
+
+    Parameters
+    ----------
+    poles : PoleSet
+        The estimator's output.
+    status : ndarray of str, shape (n_poles,)
+        One of ``o f d v s`` per row.
+    tolerances : mapping
+        ``freq_tol``, ``damping_tol``, ``mac_tol`` used.
+    """
+
+    poles: PoleSet
+    status: NDArray[np.str_]
+    tolerances: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        st = np.asarray(self.status, dtype="<U1").copy()
+        if st.shape != (len(self.poles),):
+            raise ValueError(f"status must have shape ({len(self.poles)},), got {st.shape}")
+        bad = set(np.unique(st)) - set(STATUS_LETTERS)
+        if bad:
+            raise ValueError(f"unknown status letters {sorted(bad)}; allowed {STATUS_LETTERS}")
+        st.setflags(write=False)
+        object.__setattr__(self, "status", st)
+        object.__setattr__(self, "tolerances", MappingProxyType(dict(self.tolerances)))
+
+    def __len__(self) -> int:
+        return len(self.poles)
+
+    # delegated tidy columns --------------------------------------------------
+    @property
+    def order(self) -> NDArray[np.int64]:
+        """Model order per row, shape (n_poles,)."""
+        return self.poles.order
+
+    @property
+    def pole(self) -> NDArray[np.complex128]:
+        """Pole [rad/s] per row, shape (n_poles,)."""
+        return self.poles.pole
+
+    @property
+    def natural_freq(self) -> NDArray[np.float64]:
+        """``|lambda| / 2 pi`` [Hz], shape (n_poles,)."""
+        return self.poles.natural_freq
+
+    @property
+    def damping_ratio(self) -> NDArray[np.float64]:
+        """``-Re lambda / |lambda|``, shape (n_poles,)."""
+        return self.poles.damping_ratio
+
+    @property
+    def participation(self) -> NDArray[np.complex128]:
+        """Participation vectors, shape (n_poles, n_in)."""
+        return self.poles.participation
+
+    @property
+    def unstable(self) -> NDArray[np.bool_]:
+        """True for poles with ``Re lambda >= 0`` (mathematical poles), shape (n_poles,)."""
+        return self.poles.pole.real >= 0
+
+    @property
+    def band(self) -> tuple[float, float]:
+        """Band [Hz] of the estimate."""
+        return self.poles.band
+
+    @property
+    def orders(self) -> tuple[int, ...]:
+        """Computed model orders."""
+        return self.poles.orders
+
+    def counts(self) -> dict[str, int]:
+        """Number of poles per status letter (plus ``"unstable"``)."""
+        out = {k: int(np.sum(self.status == k)) for k in STATUS_LETTERS}
+        out["unstable"] = int(np.sum(self.unstable))
+        return out
+
+    def index_in_order(self, row: int) -> int:
+        """Position of PoleSet row ``row`` among its order's poles sorted by frequency."""
+        return int(np.flatnonzero(self.poles.at_order(int(self.order[row])) == row)[0])
+
+    def row_of(self, order: int, index: int) -> int:
+        """PoleSet row of the ``index``-th pole (by frequency) of model order ``order``."""
+        rows = self.poles.at_order(int(order))
+        if not 0 <= index < rows.size:
+            raise IndexError(f"order {order} has {rows.size} poles in the band, no index {index}")
+        return int(rows[index])
+
+
+def stabilize(
+    poles: PoleSet,
+    *,
+    freq_tol: float = 0.01,
+    damping_tol: float = 0.05,
+    mac_tol: float = 0.02,
+) -> StabilizationData:
+    """Classify every pole against the previous model order.
+
+    Parameters
+    ----------
+    poles : PoleSet
+        Output of :func:`~ema_rig.identify.plscf.plscf`.
+    freq_tol : float, optional
+        Relative natural-frequency tolerance (default 0.01).
+    damping_tol : float, optional
+        Relative damping-ratio tolerance (default 0.05).
+    mac_tol : float, optional
+        Tolerance on ``1 - MAC`` of the participation vectors (default 0.02).
+
+    Returns
+    -------
+    StabilizationData
+
+    Examples
+    --------
+    See :func:`ema_rig.identify.identify` for the whole chain.
+    """
+    for name, v in (("freq_tol", freq_tol), ("damping_tol", damping_tol), ("mac_tol", mac_tol)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be a positive number, got {v!r}")
+    n = len(poles)
+    status = np.full(n, "o", dtype="<U1")
+    fn = poles.natural_freq
+    zeta = poles.damping_ratio
+    part = poles.participation
+    stable_pole = poles.pole.real < 0
+    prev: NDArray[np.intp] | None = None
+    for order in poles.orders:
+        cur = poles.at_order(order)
+        if prev is not None and prev.size and cur.size:
+            pf = fn[prev]
+            j = np.searchsorted(pf, fn[cur])
+            lo = np.clip(j - 1, 0, pf.size - 1)
+            hi = np.clip(j, 0, pf.size - 1)
+            pick = np.where(np.abs(pf[lo] - fn[cur]) <= np.abs(pf[hi] - fn[cur]), lo, hi)
+            ref = prev[pick]
+            df = np.abs(fn[cur] - fn[ref]) / fn[ref]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                dz = np.abs(zeta[cur] - zeta[ref]) / np.abs(zeta[ref])
+            num = np.abs(np.sum(part[cur].conj() * part[ref], axis=1)) ** 2
+            den = np.sum(np.abs(part[cur]) ** 2, axis=1) * np.sum(np.abs(part[ref]) ** 2, axis=1)
+            dm = 1.0 - num / np.where(den > 0, den, 1.0)
+            ok_f = (df <= freq_tol) & stable_pole[cur]
+            ok_d = ok_f & (dz <= damping_tol)
+            ok_v = ok_f & (dm <= mac_tol)
+            st = np.where(ok_d & ok_v, "s", np.where(ok_d, "d", np.where(ok_v, "v", np.where(ok_f, "f", "o"))))
+            status[cur] = st
+        prev = cur[stable_pole[cur]]
+    return StabilizationData(
+        poles, status, {"freq_tol": freq_tol, "damping_tol": damping_tol, "mac_tol": mac_tol}
+    )
+
+
+# ------------------------------------------------------------------------------ selection
+@dataclass(frozen=True, slots=True)
+class SelectedMode:
+    """One selected mode.
+
+    Parameters
+    ----------
+    order, index : int
+        Model order and position (by frequency) among that order's poles of the
+        representative pole (the cluster member closest to the cluster median).
+    pole : complex
+        Representative pole [rad/s], ``Im > 0``.
+    natural_freq, damping_ratio : float
+        Mean over the cluster [Hz], [-].
+    natural_freq_std, damping_ratio_std : float
+        Standard deviation over the cluster (0 for a single pole).
+    n_poles : int
+        Cluster size (one pole per order at most).
+    provenance : {'auto', 'near', 'manual'}
+        How the mode was chosen.
+    participation : tuple of complex
+        Participation vector of the representative pole.
+    """
+
+    order: int
+    index: int
+    pole: complex
+    natural_freq: float
+    damping_ratio: float
+    natural_freq_std: float
+    damping_ratio_std: float
+    n_poles: int
+    provenance: str = "auto"
+    participation: tuple[complex, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (pole and participation as [re, im] pairs)."""
+        return {
+            "order": int(self.order),
+            "index": int(self.index),
+            "pole": [float(self.pole.real), float(self.pole.imag)],
+            "natural_freq": float(self.natural_freq),
+            "damping_ratio": float(self.damping_ratio),
+            "natural_freq_std": float(self.natural_freq_std),
+            "damping_ratio_std": float(self.damping_ratio_std),
+            "n_poles": int(self.n_poles),
+            "provenance": self.provenance,
+            "participation": [[float(c.real), float(c.imag)] for c in self.participation],
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> SelectedMode:
+        """Inverse of :meth:`to_dict`."""
+        prov = str(d.get("provenance", "manual"))
+        if prov not in PROVENANCES:
+            raise ValueError(f"provenance must be one of {PROVENANCES}, got {prov!r}")
+        re, im = d["pole"]
+        return cls(
+            order=int(d["order"]),
+            index=int(d["index"]),
+            pole=complex(float(re), float(im)),
+            natural_freq=float(d["natural_freq"]),
+            damping_ratio=float(d["damping_ratio"]),
+            natural_freq_std=float(d.get("natural_freq_std", 0.0)),
+            damping_ratio_std=float(d.get("damping_ratio_std", 0.0)),
+            n_poles=int(d.get("n_poles", 1)),
+            provenance=prov,
+            participation=tuple(complex(float(a), float(b)) for a, b in d.get("participation", [])),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Selection:
+    """The physical modes chosen from a stabilization diagram.
+
+    Parameters
+    ----------
+    modes : tuple of SelectedMode
+        Sorted by natural frequency.
+    band : tuple of float
+        Band [Hz] of the estimate the modes were chosen from.
+    max_order : int
+        Highest model order of that estimate.
+    tolerances : mapping
+        Stabilization and clustering tolerances used.
+    in_dofs : tuple of str
+        Reference DOFs (participation columns).
+    source : str or None
+        Where the selection was made (file name), for the record.
+
+    Notes
+    -----
+    A selection replays exactly on the data it was made on (same ``(order, index)`` and pole)
+    and by nearest frequency on other data (provenance ``"near"``), see
+    :func:`resolve_selection`.
+    """
+
+    modes: tuple[SelectedMode, ...]
+    band: tuple[float, float]
+    max_order: int
+    tolerances: Mapping[str, float] = field(default_factory=dict)
+    in_dofs: tuple[str, ...] = ()
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        modes = tuple(sorted(self.modes, key=lambda m: m.natural_freq))
+        object.__setattr__(self, "modes", modes)
+        object.__setattr__(self, "band", (float(self.band[0]), float(self.band[1])))
+        object.__setattr__(self, "tolerances", MappingProxyType(dict(self.tolerances)))
+        object.__setattr__(self, "in_dofs", tuple(str(d) for d in self.in_dofs))
+
+    def __len__(self) -> int:
+        return len(self.modes)
+
+    @property
+    def poles(self) -> NDArray[np.complex128]:
+        """Representative poles [rad/s], shape (n_modes,)."""
+        return np.array([m.pole for m in self.modes], dtype=np.complex128)
+
+    @property
+    def natural_freq(self) -> NDArray[np.float64]:
+        """Cluster-mean natural frequencies [Hz], shape (n_modes,)."""
+        return np.array([m.natural_freq for m in self.modes], dtype=np.float64)
+
+    @property
+    def damping_ratio(self) -> NDArray[np.float64]:
+        """Cluster-mean damping ratios, shape (n_modes,)."""
+        return np.array([m.damping_ratio for m in self.modes], dtype=np.float64)
+
+    @property
+    def natural_freq_std(self) -> NDArray[np.float64]:
+        """Spread of the natural frequency across each cluster [Hz], shape (n_modes,)."""
+        return np.array([m.natural_freq_std for m in self.modes], dtype=np.float64)
+
+    @property
+    def damping_ratio_std(self) -> NDArray[np.float64]:
+        """Spread of the damping ratio across each cluster, shape (n_modes,)."""
+        return np.array([m.damping_ratio_std for m in self.modes], dtype=np.float64)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "format": "ema_rig.selection/1",
+            "source": self.source,
+            "band": list(self.band),
+            "max_order": int(self.max_order),
+            "in_dofs": list(self.in_dofs),
+            "tolerances": {k: float(v) for k, v in self.tolerances.items()},
+            "modes": [m.to_dict() for m in self.modes],
+        }
+
+    def to_json(self, path: str | PathLike[str] | None = None) -> str:
+        """Serialise to JSON; also write it (atomically) to ``path`` when given."""
+        text = json.dumps(self.to_dict(), indent=2) + "\n"
+        if path is not None:
+            from .._atomic import write_text
+
+            write_text(path, text)
+        return text
+
+    @classmethod
+    def from_json(cls, text_or_path: str | PathLike[str]) -> Selection:
+        """Read a selection from a JSON string or a file path.
+
+        Raises
+        ------
+        IdentificationError
+            The text is not a selection written by :meth:`to_json`.
+        """
+        src: str | None = None
+        text = str(text_or_path)
+        if isinstance(text_or_path, PathLike) or not text.lstrip().startswith("{"):
+            src = str(text_or_path)
+            text = Path(text_or_path).read_text(encoding="utf-8")
+        try:
+            d = json.loads(text)
+            if d.get("format") != "ema_rig.selection/1":
+                raise ValueError(f"format must be 'ema_rig.selection/1', got {d.get('format')!r}")
+            return cls(
+                modes=tuple(SelectedMode.from_dict(m) for m in d["modes"]),
+                band=tuple(d["band"]),  # type: ignore[arg-type]
+                max_order=int(d["max_order"]),
+                tolerances=d.get("tolerances", {}),
+                in_dofs=tuple(d.get("in_dofs", ())),
+                source=d.get("source"),
+            )
+        except (ValueError, KeyError, TypeError) as exc:
+            raise IdentificationError(f"not a valid mode selection: {exc}", file=src) from None
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """One dict per mode."""
+        return [m.to_dict() for m in self.modes]
+
+
+def _cluster_members(stab: StabilizationData, rows: NDArray[np.intp]) -> NDArray[np.intp]:
+    """Keep at most one pole per order: the one closest to the cluster's median frequency."""
+    fn = stab.natural_freq[rows]
+    med = np.median(fn)
+    order = stab.order[rows]
+    key = np.lexsort((np.abs(fn - med), order))
+    rows, order = rows[key], order[key]
+    first = np.ones(rows.size, bool)
+    first[1:] = order[1:] != order[:-1]
+    return rows[first]
+
+
+def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance: str) -> SelectedMode:
+    fn = stab.natural_freq[rows]
+    zeta = stab.damping_ratio[rows]
+    mf, mz = np.median(fn), np.median(zeta)
+    score = np.abs(fn - mf) / mf + 0.05 * np.abs(zeta - mz) / max(abs(mz), 1e-12)
+    rep = int(rows[np.argmin(score)])
+    ddof = 1 if rows.size > 1 else 0
+    return SelectedMode(
+        order=int(stab.order[rep]),
+        index=stab.index_in_order(rep),
+        pole=complex(stab.pole[rep]),
+        natural_freq=float(fn.mean()),
+        damping_ratio=float(zeta.mean()),
+        natural_freq_std=float(fn.std(ddof=ddof)),
+        damping_ratio_std=float(zeta.std(ddof=ddof)),
+        n_poles=int(rows.size),
+        provenance=provenance,
+        participation=tuple(complex(c) for c in stab.participation[rep]),
+    )
+
+
+def select_modes(
+    stab: StabilizationData,
+    *,
+    statuses: Iterable[str] = ("s",),
+    freq_tol: float = 0.005,
+    damping_tol: float = 0.5,
+    mac_tol: float = 0.1,
+    min_fraction: float = 0.2,
+    min_poles: int = 3,
+    max_damping: float = 0.2,
+    source: str | None = None,
+) -> Selection:
+    """Cluster stable poles across orders into physical modes.
+
+    Parameters
+    ----------
+    stab : StabilizationData
+        Output of :func:`stabilize`.
+    statuses : iterable of str, optional
+        Status letters that make a pole a candidate (default only ``s``).
+    freq_tol : float, optional
+        Clustering scale for the relative frequency distance (default 0.005).
+    damping_tol : float, optional
+        Clustering scale for the relative damping distance (default 0.5).
+    mac_tol : float, optional
+        Clustering scale for ``1 - MAC`` of the participation vectors (default 0.1; ignored
+        for one reference).
+    min_fraction : float, optional
+        A cluster needs poles at ``min_fraction`` of the computed orders (default 0.2) ...
+    min_poles : int, optional
+        ... and at least ``min_poles`` poles (default 3).
+    max_damping : float, optional
+        Clusters with mean damping ratio outside ``(0, max_damping]`` are dropped as
+        unphysical (default 0.2).
+    source : str, optional
+        Recorded in the selection.
+
+    Returns
+    -------
+    Selection
+        Modes sorted by frequency with provenance ``"auto"``; empty if nothing qualifies.
+
+    Notes
+    -----
+    The distance between two candidate poles is the largest of ``|df| / f / freq_tol``,
+    ``|dzeta| / zeta / damping_tol`` and ``(1 - MAC) / mac_tol``; clusters are formed by
+    average linkage cut at 1 (``scipy.cluster.hierarchy``). Each cluster keeps at most one
+    pole per order (the one closest to the cluster's median frequency); the mode reports the
+    mean and standard deviation over those poles and, as its representative pole, the member
+    closest to the cluster median.
+    """
+    from scipy.cluster.hierarchy import fcluster, linkage
+
+    wanted = set(statuses)
+    if not wanted <= set(STATUS_LETTERS):
+        raise ValueError(f"statuses must be among {STATUS_LETTERS}, got {sorted(wanted)}")
+    tol = {
+        **dict(stab.tolerances),
+        "cluster_freq_tol": freq_tol,
+        "cluster_damping_tol": damping_tol,
+        "cluster_mac_tol": mac_tol,
+        "min_fraction": min_fraction,
+        "min_poles": min_poles,
+        "max_damping": max_damping,
+    }
+    zeta = stab.damping_ratio
+    cand = np.flatnonzero(
+        np.isin(stab.status, list(wanted)) & (zeta > 0) & (zeta <= max_damping) & ~stab.unstable
+    )
+    sel_kw = {
+        "band": stab.band,
+        "max_order": max(stab.orders) if stab.orders else 0,
+        "tolerances": tol,
+        "in_dofs": tuple(str(d) for d in stab.poles.in_dofs),
+        "source": source,
+    }
+    if cand.size == 0:
+        return Selection(modes=(), **sel_kw)
+    need = max(min_poles, int(np.ceil(min_fraction * len(stab.orders))))
+    if cand.size == 1:
+        labels = np.array([1])
+    else:
+        fn = stab.natural_freq[cand]
+        zc = zeta[cand]
+        df = np.abs(fn[:, None] - fn[None, :]) / (0.5 * (fn[:, None] + fn[None, :])) / freq_tol
+        dz = np.abs(zc[:, None] - zc[None, :]) / (0.5 * (zc[:, None] + zc[None, :])) / damping_tol
+        dist = np.maximum(df, dz)
+        if stab.poles.n_in > 1:
+            dm = (1.0 - mac(stab.participation[cand])) / mac_tol
+            dist = np.maximum(dist, dm)
+        iu = np.triu_indices(cand.size, 1)
+        z = linkage(dist[iu], method="average")
+        labels = fcluster(z, t=1.0, criterion="distance")
+    modes = []
+    for lab in np.unique(labels):
+        rows = _cluster_members(stab, cand[labels == lab])
+        if rows.size < need:
+            continue
+        m = _mode_from_rows(stab, rows, "auto")
+        if not (0 < m.damping_ratio <= max_damping):
+            continue
+        if not (stab.band[0] <= m.natural_freq <= stab.band[1]):
+            continue
+        modes.append(m)
+    return Selection(modes=tuple(modes), **sel_kw)
+
+
+def _neighbours(stab: StabilizationData, row: int, freq_tol: float) -> NDArray[np.intp]:
+    """Non-unstable poles within ``freq_tol`` of a pole, one per order (closest)."""
+    fn = stab.natural_freq
+    f0 = fn[row]
+    ok = (np.abs(fn - f0) <= freq_tol * f0) & ~stab.unstable & (stab.status != "o")
+    ok[row] = True
+    rows = np.flatnonzero(ok)
+    key = np.lexsort((np.abs(fn[rows] - f0), stab.order[rows]))
+    rows = rows[key]
+    first = np.ones(rows.size, bool)
+    first[1:] = stab.order[rows][1:] != stab.order[rows][:-1]
+    rows = rows[first]
+    # the picked pole itself represents its own order
+    rows = np.concatenate([[row], rows[(stab.order[rows] != stab.order[row])]])
+    return rows.astype(np.intp)
+
+
+def select_poles(
+    stab: StabilizationData,
+    picks: Sequence[tuple[int, int]],
+    *,
+    freq_tol: float = 0.005,
+    provenance: str = "manual",
+    source: str | None = None,
+) -> Selection:
+    """Modes from hand-picked poles.
+
+    Parameters
+    ----------
+    stab : StabilizationData
+    picks : sequence of (order, index)
+        ``index`` is the position of the pole among its order's poles sorted by frequency
+        (what :meth:`StabilizationData.index_in_order` returns).
+    freq_tol : float, optional
+        Relative window in which the non-new poles of the other orders count towards the
+        mode's mean and spread (default 0.005).
+    provenance : str, optional
+        Recorded provenance (default ``"manual"``).
+    source : str, optional
+        Recorded in the selection.
+
+    Returns
+    -------
+    Selection
+        The representative pole of each mode is the picked pole itself.
+    """
+    if provenance not in PROVENANCES:
+        raise ValueError(f"provenance must be one of {PROVENANCES}, got {provenance!r}")
+    modes = []
+    for order, index in picks:
+        row = stab.row_of(order, index)
+        rows = _neighbours(stab, row, freq_tol)
+        m = _mode_from_rows(stab, rows, provenance)
+        modes.append(
+            SelectedMode(
+                order=int(order),
+                index=int(index),
+                pole=complex(stab.pole[row]),
+                natural_freq=m.natural_freq,
+                damping_ratio=m.damping_ratio,
+                natural_freq_std=m.natural_freq_std,
+                damping_ratio_std=m.damping_ratio_std,
+                n_poles=m.n_poles,
+                provenance=provenance,
+                participation=tuple(complex(c) for c in stab.participation[row]),
+            )
+        )
+    return Selection(
+        modes=tuple(modes),
+        band=stab.band,
+        max_order=max(stab.orders) if stab.orders else 0,
+        tolerances={**dict(stab.tolerances), "cluster_freq_tol": freq_tol},
+        in_dofs=tuple(str(d) for d in stab.poles.in_dofs),
+        source=source,
+    )
+
+
+def select_near(
+    stab: StabilizationData,
+    natural_freq: Iterable[float],
+    *,
+    tol: float = 0.03,
+    auto: Selection | None = None,
+    source: str | None = None,
+) -> Selection:
+    """For each requested frequency, the nearest mode found in ``stab``.
+
+    Parameters
+    ----------
+    stab : StabilizationData
+    natural_freq : iterable of float
+        Requested natural frequencies [Hz].
+    tol : float, optional
+        Largest relative distance accepted (default 0.03).
+    auto : Selection, optional
+        Automatic selection of ``stab`` (computed with default settings when omitted); its
+        modes are preferred, otherwise the nearest stable (``s``/``d``) pole is taken.
+    source : str, optional
+        Recorded in the selection.
+
+    Returns
+    -------
+    Selection
+        Provenance ``"near"``, one mode per requested frequency.
+
+    Raises
+    ------
+    IdentificationError
+        Nothing stable within ``tol`` of a requested frequency.
+    """
+    auto = select_modes(stab) if auto is None else auto
+    modes = []
+    for f in natural_freq:
+        f = float(f)
+        best: SelectedMode | None = None
+        if len(auto):
+            k = int(np.argmin(np.abs(auto.natural_freq - f)))
+            if abs(auto.natural_freq[k] - f) <= tol * f:
+                best = auto.modes[k]
+        if best is None:
+            ok = np.flatnonzero(np.isin(stab.status, ["s", "d"]) & ~stab.unstable)
+            if ok.size:
+                k = ok[np.argmin(np.abs(stab.natural_freq[ok] - f))]
+                if abs(stab.natural_freq[k] - f) <= tol * f:
+                    rows = _neighbours(stab, int(k), 0.005)
+                    best = _mode_from_rows(stab, rows, "near")
+        if best is None:
+            raise IdentificationError(
+                f"no stable mode within {100 * tol:g} % of the selected {f:g} Hz "
+                f"(band {stab.band[0]:g}..{stab.band[1]:g} Hz)"
+            )
+        d = best.to_dict()
+        d["provenance"] = "near"
+        modes.append(SelectedMode.from_dict(d))
+    return Selection(
+        modes=tuple(modes),
+        band=stab.band,
+        max_order=max(stab.orders) if stab.orders else 0,
+        tolerances={**dict(stab.tolerances), "near_tol": tol},
+        in_dofs=tuple(str(d) for d in stab.poles.in_dofs),
+        source=source,
+    )
+
+
+def resolve_selection(
+    stab: StabilizationData, selection: Selection, *, tol: float = 0.03, source: str | None = None
+) -> Selection:
+    """Replay a saved selection on ``stab``.
+
+    A mode whose ``(order, index)`` exists in ``stab`` with the same pole (to 1e-9 relative)
+    is taken as it is (same data): its provenance is kept. Every other mode is replaced by the
+    nearest mode found in ``stab`` (:func:`select_near`, provenance ``"near"``).
+
+    Raises
+    ------
+    IdentificationError
+        A mode of the selection has no stable counterpart within ``tol``.
+    """
+    exact: list[SelectedMode] = []
+    todo: list[float] = []
+    for m in selection.modes:
+        try:
+            row = stab.row_of(m.order, m.index)
+        except IndexError:
+            row = -1
+        if row >= 0 and abs(stab.pole[row] - m.pole) <= 1e-9 * abs(m.pole):
+            exact.append(m)
+        else:
+            todo.append(m.natural_freq)
+    near = select_near(stab, todo, tol=tol, source=source) if todo else None
+    modes = tuple(exact) + (near.modes if near is not None else ())
+    return Selection(
+        modes=modes,
+        band=stab.band,
+        max_order=max(stab.orders) if stab.orders else 0,
+        tolerances=dict(selection.tolerances),
+        in_dofs=tuple(str(d) for d in stab.poles.in_dofs),
+        source=source if source is not None else selection.source,
+    )
+
+
+def _as_dofs(dofs: Iterable[str | DOF]) -> tuple[DOF, ...]:
+    return tuple(as_dof(d) for d in dofs)
+
+
+__all__ = [
+    "PROVENANCES",
+    "STATUS_LABELS",
+    "STATUS_LETTERS",
+    "SelectedMode",
+    "Selection",
+    "StabilizationData",
+    "resolve_selection",
+    "select_modes",
+    "select_near",
+    "select_poles",
+    "stabilize",
+]
