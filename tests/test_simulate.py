@@ -77,8 +77,9 @@ def test_extra_modes_leave_the_housing_peak_alone(rig):
     rel = np.abs(full.frf[0, 0, near] / plain.frf[0, 0, near] - 1)
     # the extra modes are far away or have large mass at the driving point: < 3 % at the peak
     assert rel.max() < 0.03
-    # the peak stays on the same line
-    assert plain.freq[near][np.argmax(np.abs(full.frf[0, 0, near]))] == plain.freq[near][np.argmax(np.abs(plain.frf[0, 0, near]))]
+    # the magnitude peak moves by at most one line (0.5 Hz): the pole itself is the 3DOF one
+    fp = plain.freq[near]
+    assert abs(fp[np.argmax(np.abs(full.frf[0, 0, near]))] - fp[np.argmax(np.abs(plain.frf[0, 0, near]))]) <= 0.5
     # but the extra modes are there: the axial driving point shows the 302 Hz axial mode ...
     ax = full.sel(out="15+X", inp="15+X").frf[0, 0]
     i302, i250 = np.searchsorted(full.freq, [302.0, 250.0])
@@ -158,3 +159,26 @@ def test_write_and_read_back(rig, rig_file, tmp_path):
     t = json.loads(truth_path(out).read_text())
     assert t["k_TB"] == 3.2e7 and t["speed_hz"] == 10.0
     assert_allclose(t["f_H"], RigModel.from_k_tb(rig.model, 3.2e7).housing_freq, rtol=1e-12)
+
+
+def _local_pole(freq, h, f0, half=25.0):
+    """Natural frequency [Hz] of one pole pair fitted (linear LS, Levy) to ``h`` within ``f0 ± half``."""
+    sel = (freq > f0 - half) & (freq < f0 + half)
+    s, hh = 1j * freq[sel] / f0, h[sel]
+    a = np.column_stack([-hh * s, -hh] + [s**k for k in range(4)])  # H (s^2 + b1 s + b0) = poly(s)
+    a2, y2 = np.vstack([a.real, a.imag]), np.concatenate([(hh * s**2).real, (hh * s**2).imag])
+    b1, b0 = np.linalg.lstsq(a2, y2, rcond=None)[0][:2]
+    return f0 * math.sqrt(b0)  # |lambda| = sqrt(b0) in units of f0
+
+
+@pytest.mark.parametrize("k_tb, speed", [(32.09e6, None), (7.16e7, 20.0), (8.18e7, 40.0)])
+def test_honest_local_identification_within_1_percent(rig, k_tb, speed):
+    from ema_rig.rig.inversion import k_tb_from_housing_freq
+
+    sim = simulate_measurement(rig, k_tb=k_tb, seed=5, speed_hz=speed)
+    d = sim.data.sel(out=["11+Y", "12+Y", "13+Y"], inp="11+Y").to_form("receptance")
+    f0 = sim.truth["f_H"]
+    f_est = np.mean([_local_pole(d.freq, d.frf[i, 0], f0) for i in range(3)])
+    # all extra modes, harmonics and 1 % noise: a crude one-pole local fit still gives k_TB
+    # within 0.3 % (the brief asks for 1 % from an honest identification)
+    assert abs(k_tb_from_housing_freq(f_est, rig.model) / k_tb - 1) < 0.003

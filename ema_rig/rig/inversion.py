@@ -549,7 +549,8 @@ class RigFit:
     band : (float, float)
         Fit band [Hz].
     residual_rms : float
-        RMS of the log-magnitude residual over the band (natural-log units; 0.01 ~ 1 %).
+        RMS of the driving-point log-magnitude residual over the band (natural-log units;
+        0.01 ~ 1 %).
     cost : float
         ``least_squares`` cost (half the sum of squared residuals).
     nfev : int
@@ -604,6 +605,12 @@ class RigFit:
         }
 
 
+def _soft_l1(r: NDArray[np.float64], scale: float) -> NDArray[np.float64]:
+    """Residual whose square is the soft-L1 loss ``2 c^2 (sqrt(1 + (r/c)^2) - 1)``."""
+    z = r / scale
+    return np.sign(r) * scale * np.sqrt(2.0 * (np.sqrt(1.0 + z * z) - 1.0))
+
+
 def fit_rig(
     freq: ArrayLike,
     frf_housing: ArrayLike,
@@ -616,15 +623,30 @@ def fit_rig(
     frf_form: str = "accelerance",
     band: tuple[float, float] = (150.0, 700.0),
     spindle_freq: float | None = None,
-    spindle_weight: float = 10.0,
+    freq_weight: float = 300.0,
+    spindle_frf_weight: float = 0.2,
     fit: Sequence[str] = _FIT_KEYS,
+    prior_rel_std: float = 0.1,
+    bounds_factor: float = 3.0,
+    robust_scale: float = 0.1,
 ) -> RigFit:
     """Fit ``k_TB+MS``, ``k_S``, ``m_S``, ``m_F`` (and the housing damping) to measured FRFs.
 
-    Residuals are the log-magnitude differences of the driving-point (housing) and the spindle
-    FRF over ``band``, plus ``spindle_weight * ln(f_model / spindle_freq)`` for the measured
-    spindle bending mode (paper: 1908 Hz) when given. Parameters are fitted in log space with
-    :func:`scipy.optimize.least_squares`.
+    Residuals (all in natural-log units, 0.01 ~ 1 %):
+
+    - log-magnitude differences of the driving-point (housing) FRF over ``band`` and, weighted by
+      ``spindle_frf_weight``, of the spindle FRF, through a soft-L1 function of scale
+      ``robust_scale`` (measured FRFs hold modes the model lacks — the spindle's 287 Hz mode, the
+      300 Hz axial mode, antiresonances filled by other modes — which must not drag the fit);
+    - ``freq_weight * ln(f_model / f_measured)`` for the identified housing mode (``f_housing``)
+      and spindle bending mode (``spindle_freq``, paper: 1908 Hz) when given: the model is tuned
+      to the measured natural frequencies, as in the paper;
+    - ``ln(x / x0) / prior_rel_std`` for ``k_S``, ``m_S``, ``m_F``: the FRFs in the band hardly
+      determine ``m_F`` (or, alone, ``k_S`` against ``m_S``), so the starting values act as a
+      prior.
+
+    Parameters are fitted in log space within a factor ``bounds_factor`` of their starting values
+    with :func:`scipy.optimize.least_squares`.
 
     Parameters
     ----------
@@ -639,7 +661,7 @@ def fit_rig(
     k_TB_MS : float, optional
         Starting value; default from ``f_housing`` by the closed form, else 4e7 N/m.
     f_housing : float, optional
-        Identified housing-mode frequency [Hz] for the starting value.
+        Identified housing-mode natural frequency [Hz].
     damping_ratio : float or sequence of 3 floats
         Modal damping ratios; the housing-mode one is the starting value of a fitted parameter.
     frf_form : str
@@ -647,11 +669,20 @@ def fit_rig(
     band : (float, float)
         Fit band [Hz] (paper: 150-700 Hz).
     spindle_freq : float, optional
-        Measured spindle bending-mode frequency [Hz].
-    spindle_weight : float
-        Weight of the spindle-frequency residual.
+        Identified spindle bending-mode natural frequency [Hz].
+    freq_weight : float
+        Weight of the natural-frequency residuals.
+    spindle_frf_weight : float
+        Weight of the spindle FRF's log-magnitude residuals.
     fit : sequence of str
         Which of ``k_TB_MS, k_S, m_S, m_F`` to fit (others kept).
+    prior_rel_std : float
+        Relative spread of the prior on ``k_S``, ``m_S``, ``m_F``; ``inf`` removes the prior.
+    bounds_factor : float
+        Each fitted parameter stays within ``[x0 / bounds_factor, x0 * bounds_factor]``; the
+        housing damping ratio within 1e-4 ... 0.3.
+    robust_scale : float
+        Scale of the soft-L1 function on the magnitude residuals; ``inf`` = plain least squares.
 
     Returns
     -------
@@ -661,6 +692,8 @@ def fit_rig(
     sel = (f >= band[0]) & (f <= band[1])
     if sel.sum() < 5:
         raise ValueError(f"band {band[0]:g}..{band[1]:g} Hz holds fewer than 5 lines of the data")
+    if not bounds_factor > 1:
+        raise ValueError(f"bounds_factor must be > 1, got {bounds_factor!r}")
     fb = f[sel]
     hh = np.asarray(frf_housing)[sel]
     hs = None if frf_spindle is None else np.asarray(frf_spindle)[sel]
@@ -678,6 +711,8 @@ def fit_rig(
         ls_meas = None if hs is None else np.log(np.abs(hs))
     ok_h = np.isfinite(lh_meas)
     ok_s = None if ls_meas is None else np.isfinite(ls_meas)
+    prior_idx = [i for i, n in enumerate(names) if n != "k_TB_MS"]
+    use_prior = math.isfinite(prior_rel_std) and prior_rel_std > 0 and bool(prior_idx)
 
     def unpack(x: NDArray[np.float64]) -> tuple[ModelParams, float, NDArray[np.float64]]:
         vals = dict(start)
@@ -687,22 +722,37 @@ def fit_rig(
         z[HOUSING_MODE] = math.exp(x[-1])
         return p, vals["k_TB_MS"], z
 
-    def resid(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    def robust(r: NDArray[np.float64]) -> NDArray[np.float64]:
+        return r if not math.isfinite(robust_scale) else _soft_l1(r, robust_scale)
+
+    def magnitude(x: NDArray[np.float64]) -> NDArray[np.float64]:
         p, k, z = unpack(x)
-        m = RigModel(p, k)
-        h = m.frf(fb, damping_ratio=z, frf_form=frf_form, outputs=(0, 1))
+        h = RigModel(p, k).frf(fb, damping_ratio=z, frf_form=frf_form, outputs=(0, 1))
         parts = [np.log(np.abs(h[0][ok_h])) - lh_meas[ok_h]]
         if ls_meas is not None:
-            parts.append(np.log(np.abs(h[1][ok_s])) - ls_meas[ok_s])
-        if spindle_freq is not None:
-            parts.append(np.array([spindle_weight * math.log(m.natural_freq[SPINDLE_MODE] / spindle_freq)]))
+            parts.append(spindle_frf_weight * (np.log(np.abs(h[1][ok_s])) - ls_meas[ok_s]))
         return np.concatenate(parts)
 
-    res = scipy.optimize.least_squares(resid, x0, method="trf", x_scale=1.0)
+    def resid(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        p, k, _ = unpack(x)
+        parts = [robust(magnitude(x))]
+        fn = RigModel(p, k).natural_freq
+        if f_housing is not None:
+            parts.append(np.array([freq_weight * math.log(fn[HOUSING_MODE] / f_housing)]))
+        if spindle_freq is not None:
+            parts.append(np.array([freq_weight * math.log(fn[SPINDLE_MODE] / spindle_freq)]))
+        if use_prior:
+            parts.append((x[prior_idx] - x0[prior_idx]) / prior_rel_std)
+        return np.concatenate(parts)
+
+    lb = np.array([v - math.log(bounds_factor) for v in x0[:-1]] + [math.log(1e-4)])
+    ub = np.array([v + math.log(bounds_factor) for v in x0[:-1]] + [math.log(0.3)])
+    x0 = np.clip(x0, lb + 1e-12, ub - 1e-12)
+    res = scipy.optimize.least_squares(resid, x0, method="trf", bounds=(lb, ub))
     p, k, z = unpack(res.x)
-    r = resid(res.x)
-    n_mag = int(ok_h.sum() + (0 if ok_s is None else ok_s.sum()))
-    rms = float(np.sqrt(np.mean(r[:n_mag] ** 2)))
+    r = magnitude(res.x)
+    n_h = int(ok_h.sum())
+    rms = float(np.sqrt(np.mean(r[:n_h] ** 2)))
     initial = {**start, "damping_ratio_H": float(z0[HOUSING_MODE])}
     return RigFit(
         params=p,
