@@ -82,7 +82,8 @@ class Simulation:
         Accelerance [m/s^2/N], outputs = the rig's sensors with sign-corrected (+) DOFs,
         inputs = the references.
     truth : mapping
-        ``k_TB``, ``k_MS``, ``k_TB_MS`` [N/m], ``f_H`` and ``f_spindle`` (3DOF housing and
+        ``k_TB`` (inf for a rigid disk: null in the JSON, with ``rigid_disk`` true), ``k_MS``,
+        ``k_TB_MS`` [N/m], ``f_H`` and ``f_spindle`` (3DOF housing and
         spindle-bending natural frequencies, Hz), ``housing_damping``, ``housing_effective_mass``
         [kg], ``speed_hz``, ``noise``, ``seed``, ``extra_modes`` and ``modes``: one dict per
         contribution with ``kind``, ``natural_freq`` [Hz], ``damping_ratio`` and
@@ -389,7 +390,8 @@ def simulate_measurement(
     mode_list += harmonics
     mode_list.sort(key=lambda m: m["natural_freq"])
     truth = {
-        "k_TB": k_tb,
+        "k_TB": k_tb,  # inf (rigid disk) is written as null in JSON; see "rigid_disk"
+        "rigid_disk": math.isinf(k_tb),
         "k_MS": params.k_MS,
         "k_TB_MS": k_c,
         "f_H": model.housing_freq,
