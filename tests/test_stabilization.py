@@ -1,0 +1,166 @@
+"""Stabilization status letters, automatic selection, JSON round trip and replay."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from lumped import five_mode_system
+
+from ema_rig.errors import IdentificationError
+from ema_rig.identify import (
+    Selection,
+    identify,
+    plscf,
+    select_modes,
+    select_near,
+    select_poles,
+    stabilize,
+)
+from ema_rig.identify.plscf import PoleSet
+
+FREQ = np.arange(0.0, 1000.5, 0.5)
+
+
+def _pole(fn, zeta):
+    w = 2 * np.pi * fn
+    return w * (-zeta + 1j * np.sqrt(1 - zeta**2))
+
+
+def test_status_letters_by_hand():
+    # order 2: one pole; order 4: the same pole moved by known amounts
+    rows = [
+        (2, _pole(100.0, 0.02), [1, 0]),
+        (4, _pole(100.5, 0.0205), [1, 0]),  # 0.5 % / 2.5 % / same vector   -> s
+        (4, _pole(300.0, 0.02), [1, 0]),  # nothing near at order 2        -> o
+        (6, _pole(100.6, 0.03), [1, 0]),  # 0.1 % but damping +46 %        -> v
+        (6, _pole(300.0, 0.0201), [0, 1]),  # damping ok, vector orthogonal  -> d
+        (8, _pole(100.6, 0.03), [0.6, 0.8]),  # damping same, MAC 0.36     -> d
+        (8, _pole(302.0, 0.05), [1, 0]),  # 0.67 %, damping and vector off -> f
+        (10, _pole(100.6, 0.03), [0.6, 0.8]),  # identical               -> s
+        (10, -_pole(302.0, 0.05).conjugate(), [0, 1]),  # unstable        -> o
+    ]
+    order = [r[0] for r in rows]
+    pole = [r[1] for r in rows]
+    part = np.array([r[2] for r in rows], complex)
+    part /= np.linalg.norm(part, axis=1, keepdims=True)
+    ps = PoleSet(order=order, pole=pole, participation=part, band=(0, 500))
+    st = stabilize(ps)
+    assert list(st.status) == ["o", "s", "o", "v", "d", "d", "f", "s", "o"]
+    assert list(st.unstable) == [False] * 8 + [True]
+    assert st.counts() == {"o": 3, "f": 1, "d": 2, "v": 1, "s": 2, "unstable": 1}
+    # tighter frequency tolerance: the 0.5 % step is no longer stable
+    assert stabilize(ps, freq_tol=0.004).status[1] == "o"
+    with pytest.raises(ValueError, match="freq_tol must be a positive number"):
+        stabilize(ps, freq_tol=0)
+
+
+@pytest.fixture(scope="module")
+def mimo():
+    system = five_mode_system()
+    data = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(11))
+    return system, data, identify(data)
+
+
+def test_auto_selection_statistics(mimo):
+    system, data, ident = mimo
+    sel = ident.selection
+    stab = ident.stabilization
+    assert len(sel) == 6 and all(m.provenance == "auto" for m in sel.modes)
+    for m in sel.modes:
+        # the cluster holds one stable pole per order near the mode; recompute its statistics
+        near = np.flatnonzero(
+            (np.abs(stab.natural_freq / m.natural_freq - 1) < 0.003) & (stab.status == "s")
+        )
+        assert m.n_poles <= len(stab.orders)
+        assert m.n_poles >= 0.2 * len(stab.orders)
+        assert len(set(stab.order[near])) >= m.n_poles
+        # the mean over the cluster lies within its own spread of the truth (1 % noise)
+        r = np.argmin(np.abs(system.natural_freq - m.natural_freq))
+        assert abs(m.natural_freq - system.natural_freq[r]) < 5 * m.natural_freq_std + 1e-4 * m.natural_freq
+        assert m.natural_freq_std < 1e-3 * m.natural_freq
+        assert 0 <= m.damping_ratio_std < 0.2 * m.damping_ratio
+    # identification spread arrays are aligned with the modal model
+    assert ident.natural_freq_std.shape == (ident.modes.n_modes,)
+    np.testing.assert_allclose(
+        ident.natural_freq_std, [m.natural_freq_std for m in sorted(sel.modes, key=lambda m: abs(m.pole))]
+    )
+
+
+def test_close_pair_separated_by_participation(mimo):
+    system, _, ident = mimo
+    f = np.sort(ident.selection.natural_freq)
+    # 410 and 414.1 Hz are 1 % apart: two clusters, because their participation vectors differ
+    assert np.sum(np.abs(f - 412) < 5) == 2
+    np.testing.assert_allclose(f[2:4], system.natural_freq[2:4], rtol=1e-4)
+
+
+def test_json_round_trip_and_exact_replay(mimo, tmp_path):
+    _, data, ident = mimo
+    path = tmp_path / "sel.json"
+    text = ident.selection.to_json(path)
+    doc = json.loads(path.read_text())
+    assert doc["format"] == "ema_rig.selection/1" and len(doc["modes"]) == 6
+    back = Selection.from_json(path)
+    assert back == Selection.from_json(text)
+    np.testing.assert_array_equal(back.poles, ident.selection.poles)  # JSON floats round-trip exactly
+    again = identify(data, selection=back)
+    # same data: the same (order, index) poles are taken, provenance kept
+    np.testing.assert_array_equal(again.modes.poles, ident.modes.poles)
+    assert [m.provenance for m in again.selection.modes] == ["auto"] * 6
+
+
+def test_replay_on_other_data_is_near(mimo):
+    system, _, ident = mimo
+    other = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(99))
+    picked = Selection(modes=ident.selection.modes[4:5], band=ident.band, max_order=40)
+    again = identify(other, selection=picked)
+    assert [m.provenance for m in again.selection.modes] == ["near"]
+    # the 640 Hz mode of another noisy realisation
+    np.testing.assert_allclose(again.natural_freq, system.natural_freq[4], rtol=1e-4)
+
+
+def test_replay_fails_clearly_when_mode_is_absent(mimo):
+    system, _, ident = mimo
+    simo = system.frf(FREQ, inputs=(0,))
+    close = Selection(modes=(ident.selection.modes[3],), band=ident.band, max_order=40)
+    # the 414.1 Hz mode is invisible from reference 0 alone, and 410 Hz is 1 % away (> 0.5 %)
+    with pytest.raises(IdentificationError, match="no stable mode within 0.5 % of the selected 414"):
+        identify(simo, selection=close, near_tol=0.005)
+
+
+def test_manual_and_near_selection(mimo):
+    _, _, ident = mimo
+    stab = ident.stabilization
+    row = int(np.flatnonzero((stab.status == "s") & (np.abs(stab.natural_freq - 230) < 1))[-1])
+    order, index = int(stab.order[row]), stab.index_in_order(row)
+    sel = select_poles(stab, [(order, index)])
+    m = sel.modes[0]
+    assert m.provenance == "manual" and (m.order, m.index) == (order, index)
+    assert m.pole == stab.pole[row]
+    assert m.n_poles > 5  # the stable poles of the other orders give the spread
+    near = select_near(stab, [231.0])
+    assert near.modes[0].provenance == "near"
+    np.testing.assert_allclose(near.modes[0].natural_freq, 230.0, rtol=1e-3)
+    with pytest.raises(IndexError):
+        stab.row_of(order, 999)
+
+
+def test_select_modes_drops_sparse_clusters():
+    system = five_mode_system()
+    ps = plscf(system.frf(FREQ, inputs=(0,)), max_order=40)
+    stab = stabilize(ps)
+    n_orders = len(stab.orders)
+    # requiring every order is impossible (order 2 has one pole pair): nothing survives
+    assert len(select_modes(stab, min_fraction=1.0)) == 0
+    # the default keeps the five visible modes
+    assert len(select_modes(stab)) == 5
+    assert n_orders == 20
+
+
+def test_bad_selection_json(tmp_path):
+    p = tmp_path / "bad.json"
+    p.write_text('{"format": "something else"}')
+    with pytest.raises(IdentificationError, match="not a valid mode selection"):
+        Selection.from_json(p)
