@@ -343,17 +343,17 @@ def simulate_measurement(
     if speed_hz is not None:
         w = 2.0 * np.pi * f
         zh = damp["harmonic"]
-        for k in range(1, int(n_harmonics) + 1):
-            fk = k * speed_hz
+        for order in range(1, int(n_harmonics) + 1):
+            fk = order * speed_hz
             if fk >= f[-1]:
                 break
             wk = 2.0 * np.pi * fk
             line = 2j * zh * wk * w / (wk**2 - w**2 + 2j * zh * wk * w)  # peak 1 at fk
             local = np.abs(modal_frf([fk], fn, psi[out_idx], psi[ref_idx], zz, frf_form="accelerance")[:, :, 0])
-            amp = harmonic_level / math.sqrt(k) * rng.uniform(0.3, 1.0, local.shape)
+            amp = harmonic_level / math.sqrt(order) * rng.uniform(0.3, 1.0, local.shape)
             phase = np.exp(2j * np.pi * rng.uniform(size=local.shape))
             h = h + (amp * local * phase)[:, :, None] * line[None, None, :]
-            harmonics.append({"kind": "harmonic", "natural_freq": fk, "damping_ratio": zh, "order": k})
+            harmonics.append({"kind": "harmonic", "natural_freq": fk, "damping_ratio": zh, "order": order})
 
     if noise > 0:
         shape = h.shape
@@ -376,14 +376,14 @@ def simulate_measurement(
         meta={"source": "ema_rig.simulate", "k_TB": k_tb, "seed": seed, "noise": noise},
     )
     j_dp = ref_idx[0]
-    mode_list = []
-    for r, kind in enumerate(kinds):
-        p = psi[j_dp, r]
+    mode_list: list[dict[str, Any]] = []
+    for im, kind in enumerate(kinds):
+        p = psi[j_dp, im]
         mode_list.append(
             {
                 "kind": kind,
-                "natural_freq": float(fn[r]),
-                "damping_ratio": float(zz[r]),
+                "natural_freq": float(fn[im]),
+                "damping_ratio": float(zz[im]),
                 "effective_mass_dp": float(1.0 / p**2) if p != 0 else math.inf,
             }
         )

@@ -32,6 +32,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..config import ModelParams
+from ..dof import DOF
 from ..frf import _FORM_POWER, FRFData, frf_unit
 
 DOF_NAMES: tuple[str, ...] = ("H", "S", "F")
@@ -330,8 +331,8 @@ class RigModel:
         return FRFData(
             np.asarray(freq, dtype=np.float64),
             h[:, None, :],
-            (housing_dof, spindle_dof),
-            (housing_dof,),
+            (DOF.parse(housing_dof), DOF.parse(spindle_dof)),
+            (DOF.parse(housing_dof),),
             frf_form=frf_form,
             roles=("housing", "spindle"),
             axes=("radial", "radial"),
