@@ -280,6 +280,13 @@ def _values_binary(
     s = 8 if is_double else 4
     k = 2 if is_complex else 1
     ft = f"{byte_order}f{s}"
+    with np.errstate(invalid="ignore"):  # signalling NaNs: reported by the finiteness check
+        return _values_binary_cast(payload, ft, xs, k, byte_order)
+
+
+def _values_binary_cast(
+    payload: bytes, ft: str, xs: int, k: int, byte_order: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     if xs == 0:
         return np.frombuffer(payload, dtype=ft).astype(np.float64), None
     dt = np.dtype([("x", f"{byte_order}f{xs}"), ("y", ft, (k,))])
@@ -288,7 +295,8 @@ def _values_binary(
 
 
 def _finish58(h: dict[str, Any], vals: NDArray[np.float64], x_vals: NDArray[np.float64] | None) -> tuple[Any, Any]:
-    x, y = _split_values(h, vals, x_vals)
+    with np.errstate(all="ignore"):  # overflow/NaN are reported by the finiteness check
+        x, y = _split_values(h, vals, x_vals)
     if x.size != h["num_pts"] or y.size != h["num_pts"]:  # pragma: no cover - guarded above
         raise _Refuse("internal: value count differs from num_pts")
     return x, y
