@@ -173,11 +173,14 @@ def test_uncertainty_coverage(rig):
     r = _zero_unc(rig)
     f = np.arange(100.0, 1100.0 + 0.25, 0.5)  # the band of interest only: fast
     hits, n = 0, 20
-    errs = []
+    errs, rel_std = [], []
     for seed in range(n):
         sim = simulate.simulate_measurement(rig, k_tb=71.57e6, noise=0.02, seed=100 + seed, freq=f)
         res = st.estimate_stiffness(sim.data, r, spindle=False, max_order=40)
         z = (res.k_TB - sim.truth["k_TB"]) / res.k_TB_std
         errs.append(z)
+        rel_std.append(res.k_TB_std / res.k_TB)
         hits += abs(z) <= 2.0
     assert hits >= math.ceil(0.9 * n), f"coverage {hits}/{n}, z = {np.round(errs, 2)}"
+    # and the interval stays informative (a huge std would cover trivially): median u(k)/k < 0.5 %
+    assert np.median(rel_std) < 5e-3, f"median relative std {np.median(rel_std):.2e}"
