@@ -614,7 +614,8 @@ def run(
         bar = _progress(progress, len(tasks), reused)
 
         def finish(m: Measurement, key: str, result: dict[str, Any]) -> None:
-            row = {**m.conditions(), **result, "cache_key": key}
+            blank = {c: math.nan for c in COLUMNS}  # every column in every row, errors included
+            row = {**blank, **m.conditions(), **result, "cache_key": key}
             rows[m.id] = row
             if res_dir is not None:
                 _atomic.write_json(res_dir / f"{m.id}.json", row)
