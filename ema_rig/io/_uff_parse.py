@@ -31,7 +31,7 @@ from ..dof import DOF
 
 _EOL = re.compile(rb"\r\n|\r|\n")
 # a delimiter line: optional blanks, -1, optional blanks, end of line (or of file)
-_DELIM = re.compile(rb"(?:\A|(?<=[\r\n]))[ \t]*-1[ \t]*(?=\r|\n|\Z)")
+_DELIM_TAIL = re.compile(rb"-1[ \t]*(?:\r|\n|\Z)")  # literal prefix: fast search
 _NUM = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 _GAP = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*")
 _DELIM_AT = re.compile(rb"[ \t]*-1[ \t]*(?=\r|\n|\Z)")
@@ -62,6 +62,21 @@ class RawDataset:
 
 class _Refuse(Exception):
     """Internal: a dataset cannot be read; the message is the reason."""
+
+
+def _find_delim(buf: bytes, pos: int) -> int | None:
+    """Start of the next line at or after ``pos`` that holds only ``-1`` (and blanks), or None."""
+    while True:
+        m = _DELIM_TAIL.search(buf, pos)
+        if m is None:
+            return None
+        j = m.start()
+        while j > pos and buf[j - 1] in (32, 9):
+            j -= 1
+        if j == 0 or buf[j - 1] in (10, 13):
+            if j >= pos:
+                return j
+        pos = m.start() + 2
 
 
 def _decode(raw: bytes) -> tuple[str, bool]:
@@ -340,11 +355,11 @@ def scan(buf: bytes) -> list[RawDataset]:
     pos = 0
     n = len(buf)
     while pos < n:
-        m = _DELIM.search(buf, pos)
-        if m is None:
+        start_or_none = _find_delim(buf, pos)
+        if start_or_none is None:
             break
-        start = m.start()
-        _, p = _next_line(buf, m.start())
+        start = start_or_none
+        _, p = _next_line(buf, start)
         type_line, p_hdr = _next_line(buf, p)
         if p >= n:
             break
@@ -375,8 +390,8 @@ def _refuse_until_delim(
     buf: bytes, p: int, index: int, start: int, dtype: int | None, binary: bool, reason: str,
     header: dict[str, Any] | None = None,
 ) -> tuple[RawDataset, int]:
-    m = _DELIM.search(buf, p)
-    end = len(buf) if m is None else _next_line(buf, m.start())[1]
+    d = _find_delim(buf, p)
+    end = len(buf) if d is None else _next_line(buf, d)[1]
     if binary and header and isinstance(header.get("n_bytes"), int) and header["n_bytes"] >= 0:
         # skip the announced payload so that a -1 pattern inside it does not end the dataset
         hit = _delim_after(buf, p + header["n_bytes"])
@@ -388,41 +403,45 @@ def _refuse_until_delim(
 
 def _read_ascii(buf: bytes, dtype: int, binary: bool, p: int, index: int, start: int) -> tuple[RawDataset, int]:
     """An ASCII dataset: lines up to the closing delimiter."""
-    m = _DELIM.search(buf, p)
+    d = _find_delim(buf, p)
     notes: list[str] = []
-    if m is None:
+    if d is None:
         body_end, pos = len(buf), len(buf)
         notes.append("no closing -1 delimiter (end of file)")
     else:
-        body_end = m.start()
-        _, pos = _next_line(buf, m.start())
+        body_end = d
+        _, pos = _next_line(buf, d)
         # a missing closing -1: the delimiter found is the next dataset's opening one
         nxt, _ = _next_line(buf, pos)
         if pos < len(buf) and _looks_like_new_dataset(nxt):
             notes.append("closing -1 delimiter missing; the next dataset starts right after the data")
-            pos = m.start()
-    body = buf[p:body_end]
-    lines = _EOL.split(body)
-    if lines and lines[-1] == b"":
-        lines.pop()
+            pos = d
     if binary:
         return RawDataset(index, dtype, binary, start, "refused", f"binary dataset {dtype}b not supported"), pos
     if dtype == 58:
         h: dict[str, Any] = {}
+        lines: list[bytes] = []
+        q = p
+        while len(lines) < 11 and q < body_end:
+            ln, q = _next_line(buf, q)
+            lines.append(ln)
         try:
             h, hn, text = _parse_header(lines)
             notes.extend(hn)
             _check_header_values(h)
             is_complex, _ = ORD_TYPES[h["ord_data_type"]]
             per = (2 if is_complex else 1) + (0 if h["abscissa_spacing"] == 1 else 1)
-            data_lines = lines[11:]
-            last = data_lines[-1] if data_lines else b""
-            vals, vn = _values_ascii(b"\n".join(data_lines), h["num_pts"] * per, last)
+            data = buf[q:body_end].rstrip()
+            last = data[max(data.rfind(b"\n"), data.rfind(b"\r")) + 1 :]
+            vals, vn = _values_ascii(data, h["num_pts"] * per, last)
             notes.extend(vn)
             x, y = _finish58(h, vals, None)
         except _Refuse as exc:
             return RawDataset(index, 58, False, start, "refused", str(exc), h, notes=tuple(notes)), pos
         return RawDataset(index, 58, False, start, "read", None, h, x, y, tuple(notes), text), pos
+    lines = _EOL.split(buf[p:body_end])
+    if lines and lines[-1] == b"":
+        lines.pop()
     text = tuple(_decode(ln)[0] for ln in lines)
     if dtype == 164:
         try:
