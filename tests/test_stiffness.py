@@ -184,3 +184,28 @@ def test_uncertainty_coverage(rig):
     assert hits >= math.ceil(0.9 * n), f"coverage {hits}/{n}, z = {np.round(errs, 2)}"
     # and the interval stays informative (a huge std would cover trivially): median u(k)/k < 0.5 %
     assert np.median(rel_std) < 5e-3, f"median relative std {np.median(rel_std):.2e}"
+
+
+# ----------------------------------------------------------------------------- plot (Fig. 7)
+def test_plot_rig_fit_artists(rig, monkeypatch, mplcleanup, tmp_path):
+    from ema_rig.plot.rig import plot_rig_fit, save_figure
+
+    mm = modal(rig_modes(rig.model, 626.0))
+    _fake_identify(monkeypatch, mm, 0.2)
+    data = _data_from(mm)
+    res = st.estimate_stiffness(data, rig, spindle=False)
+    p = plot_rig_fit(data, res, rig)
+    assert set(p.axes) == {"housing", "spindle", "candidates"}
+    # 3 radial housing + 2 radial spindle sensors drawn, one model line per panel
+    assert len(p.artists["measured"]) == 5 and len(p.artists["model"]) == 2
+    # the chosen mode is marked at its frequency (exact: the known housing mode)
+    xs = [ln.get_xdata()[0] for ln in p.artists["housing_mode"]]
+    np.testing.assert_allclose(xs, 626.0, rtol=1e-12)
+    # the candidates inside 150-700 Hz (287, 300, 410, 626, 663 Hz) each get a marker
+    assert len(p.artists["candidates"]) == 5
+    # the drawn model is the inverted one: its housing mode is the identified frequency
+    np.testing.assert_allclose(housing_freq_from_k_tb_ms(p.model_k_tb_ms, rig.model), 626.0, rtol=1e-9)
+    assert p.axes["housing"].get_ylabel() == "|FRF| [m/s^2/N]"
+    out = tmp_path / "fig7.png"
+    save_figure(p.figure, out)
+    assert out.stat().st_size > 10_000

@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
           + f", damping {100 * hm['damping_ratio']:.2f} % (steel disk)")
     print(f"k_MS          {res.k_MS / 1e6:.3f} +/- {res.k_MS_std / 1e6:.3f} MN/m (1 sigma, frequency spread)"
           + ("" if res.k_disk is None else f", disk {res.k_disk / 1e6:.0f} MN/m in series"))
-    print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; use --k-ms {res.k_MS:.4g} with 'ema-rig stiffness'")
+    print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; use --k-ms {res.k_MS:.6g} with 'ema-rig stiffness'")
     if args.json:
         from .._atomic import write_json
 

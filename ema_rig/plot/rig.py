@@ -188,6 +188,8 @@ def plot_rig_fit(
             (lm,) = ax.semilogy(ff, np.abs(hm[row]), zorder=1, label=mlabel, **style)
             artists["model"].append(lm)
         ax.set_ylabel(f"|FRF| [{unit}]")
+        y0, y1 = ax.get_ylim()
+        ax.set_ylim(y0, y1 * 4.0)  # headroom for the labels above the resonance peak
         ax.grid(True, which="major", color="0.88", lw=0.6)
         ax.grid(True, which="minor", axis="y", color="0.94", lw=0.4)
         dofs = ", ".join(str(data.out_dofs[i]) for i in idx)
@@ -233,7 +235,7 @@ def plot_rig_fit(
         level = level + 1 if x - last_x < 0.16 * (hi - lo) else 0
         last_x = x
         pos = (x - lo) / (hi - lo)
-        ha = "left" if pos < 0.06 else ("right" if pos > 0.94 else "center")
+        ha = "left" if pos < 0.1 else ("right" if pos > 0.88 else "center")
         ax_c.text(x, 0.36 + 0.21 * (level % 3), f"{x:.0f} Hz {lab}", rotation=0, ha=ha,
                   va="bottom", fontsize=7.5, color=col, clip_on=True)
     note = "identified modes: " + ("none in this band" if not inside else "x rejected, ▼ chosen")
