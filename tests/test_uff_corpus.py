@@ -137,12 +137,27 @@ def test_cr_only_equals_lf_and_2e20_doubles(corpus_dir: Path) -> None:
             np.testing.assert_array_equal(a.y, v)
 
 
-def test_zero_padded_last_line_trimmed(corpus_dir: Path) -> None:
+@pytest.mark.parametrize(
+    ("name", "n", "complex_", "pad"),
+    [
+        ("ufffiles_frf.unv", 1600, True, 4),
+        ("ufffiles_frf_utf8unit.unv", 1600, True, 4),
+        ("ufffiles_coh.unv", 1600, False, 2),
+        ("ufffiles_time.unv", 4096, False, 2),
+    ],
+)
+def test_zero_padded_last_line_trimmed(corpus_dir: Path, name: str, n: int, complex_: bool, pad: int) -> None:
+    r = read_uff(corpus_dir / name)[0]
+    v = _split_parse(corpus_dir / name)[0]
+    k = 2 if complex_ else 1
+    assert v.size == k * n + pad and not np.any(v[k * n :])  # the file pads its last line with zeros
+    want = v[0 : k * n : 2] + 1j * v[1 : k * n : 2] if complex_ else v[:n]
+    np.testing.assert_array_equal(r.y, want)
+    assert any(f"{pad} trailing zero(s)" in note for note in r.notes)
+
+
+def test_dof_from_entity_names(corpus_dir: Path) -> None:
     r = read_uff(corpus_dir / "ufffiles_frf.unv")[0]
-    v = _split_parse(corpus_dir / "ufffiles_frf.unv")[0]
-    assert v.size == 2 * 1600 + 4 and not np.any(v[3200:])  # the file pads 4 zeros
-    np.testing.assert_array_equal(r.y, v[0:3200:2] + 1j * v[1:3200:2])
-    assert any("zero-padded" in n for n in r.notes)
     # DOF only in the entity names '.1.Z-' and '.56.Z'
     assert str(r.response) == "1-Z" and str(r.reference) == "56+Z"
 

@@ -175,6 +175,26 @@ def test_missing_closing_delimiter_does_not_swallow_next(tmp_path: Path) -> None
     np.testing.assert_allclose(read_uff58(p).frf, truth, rtol=RTOL_PYUFF)
 
 
+@pytest.mark.parametrize("even", [True, False])
+def test_big_endian_58b(tmp_path: Path, even: bool) -> None:
+    # byte order code 2: the same file with the header code changed and every value byte-swapped
+    d = FRFData(FREQ, _truth(1, 1), ["1+Y"], ["1+Y"])
+    p = tmp_path / "le.ufb"
+    write_uff58(p, d, binary=True, abscissa="even" if even else "uneven")
+    buf = p.read_bytes()
+    head_end = buf.index(b"\n", buf.index(b"58b")) + 1
+    q = head_end
+    for _ in range(11):
+        q = buf.index(b"\n", q) + 1
+    n_bytes = int(buf[buf.index(b"58b") : head_end].split()[4])
+    payload = np.frombuffer(buf[q : q + n_bytes], dtype="<f8").astype(">f8").tobytes()
+    header = buf[:head_end].replace(b"58b     1", b"58b     2", 1)
+    (tmp_path / "be.ufb").write_bytes(header + buf[head_end:q] + payload + buf[q + n_bytes :])
+    back = read_uff58(tmp_path / "be.ufb")
+    np.testing.assert_array_equal(back.frf, d.frf)  # binary double: exact
+    np.testing.assert_array_equal(back.freq, FREQ)
+
+
 # ------------------------------------------------------------------------------ errors
 def _ok_file(tmp_path: Path, binary: bool = False) -> tuple[Path, FRFData]:
     d = FRFData(FREQ, _truth(2, 1), ["1+Y", "2+Y"], ["1+Y"])

@@ -459,10 +459,10 @@ def read_uff58(
     roles: list[str | None] = []
     axes: list[str | None] = []
     if rig is not None:
-        for s in rig.sensors:
-            if s.dof.positive() not in out_order:
+        for sensor in rig.sensors:
+            if sensor.dof.positive() not in out_order:
                 raise UFFError(
-                    f"rig sensor {s.dof} ({rig.path or 'rig file'}) has no FRF in the file "
+                    f"rig sensor {sensor.dof} ({rig.path or 'rig file'}) has no FRF in the file "
                     f"(file responses: {', '.join(str(d) for d in out_order) or 'none'})",
                     file=src,
                 )
@@ -507,7 +507,10 @@ def read_uff58(
         "rig": None if rig is None else rig.path,
     }
     try:
-        return FRFData(freq, frf, out_order, in_order, dec0.frf_form, roles=roles, axes=axes, meta=meta)
+        return FRFData(
+            freq, frf, tuple(out_order), tuple(in_order), dec0.frf_form, roles=tuple(roles), axes=tuple(axes),
+            meta=meta,
+        )
     except ValueError as exc:  # pragma: no cover - all checked above
         raise UFFError(str(exc), file=src) from None
 
