@@ -53,6 +53,8 @@ def _fmt(v: Any, unit: str = "") -> str:
     if isinstance(v, float):
         if unit == "N/m":
             return f"{v / 1e6:.3f}"
+        if unit:
+            return format(v, unit)
         return f"{v:.4g}"
     return html.escape(str(v))
 
@@ -120,8 +122,8 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         cells = [
             ("l", _fmt(r["id"])), ("l", _fmt(r["bearing"])), ("", _fmt(r["radial_load"])), ("", _fmt(r["speed"])),
             ("", _fmt(r["shaft_position"])), ("", _fmt(r["repeat"])), ("", _fmt(r["k_TB"], "N/m")),
-            ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"])),
-            ("", _fmt(r["housing_freq_std"])), ("", _fmt(damp)), ("", _fmt(r["spindle_freq"])),
+            ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
+            ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
             ("l", html.escape(status)),
         ]
         parts.append(f"<tr{cls}>" + "".join(f"<td class='{c}'>{v}</td>" for c, v in cells) + "</tr>")

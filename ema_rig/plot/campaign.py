@@ -163,13 +163,19 @@ def _key(x: Any) -> float:
 
 
 def plot_speed_effect(rows: Sequence[Row], bearing: str) -> Figure:
-    """k_TB versus shaft speed, one series per radial load (rotating measurements only)."""
+    """k_TB versus shaft speed, one series per radial load measured at several speeds.
+
+    The spread (sample standard deviation over mean) of each series is written beside it: the
+    paper (Table 3) finds it no larger than the spread of repeats at one speed.
+    """
     sel = [r for r in _ok(rows) if r["bearing"] == bearing and r["speed"] > 0]
     fig = _figure()
     ax = fig.add_subplot()
     by_load: dict[float, list[Row]] = defaultdict(list)
     for r in sel:
         by_load[r["radial_load"]].append(r)
+    # a speed effect needs one load measured at several speeds; single-speed loads would only clutter
+    by_load = {k: v for k, v in by_load.items() if len({r["speed"] for r in v}) > 1}
     for i, (load, rs) in enumerate(sorted(by_load.items(), key=lambda kv: _key(kv[0]))):
         rs = sorted(rs, key=lambda r: r["speed"])
         ax.errorbar([r["speed"] for r in rs], [r["k_TB"] / _MN for r in rs],
@@ -287,6 +293,8 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
             figs[f"rotating_vs_static_{safe}"], _ = plot_rotating_vs_static(rows, b)
         if len({r["speed"] for r in rs if r["speed"] > 0}) > 1:
             figs[f"speed_{safe}"] = plot_speed_effect(rows, b)
+    # Sect. 5 (validation) before Sect. 6 (operating conditions)
+    figs = dict(sorted(figs.items(), key=lambda kv: not kv[0].startswith("validation")))
     rep = plot_repeatability(rows)
     if rep is not None:
         figs["repeatability"] = rep
