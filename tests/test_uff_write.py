@@ -192,11 +192,25 @@ def test_write_options_checked(tmp_path: Path) -> None:
         write_uff58(tmp_path / "x.uff", d.replace(frf_form="mobility"), accel_unit="g")
 
 
-def test_auto_abscissa_binary_keeps_inexact_step_exact(tmp_path: Path) -> None:
-    # 2000 Hz / 8192 lines = 0.244140625 Hz has 9 digits: the header's 7 cannot hold it, so
-    # binary 'auto' stores the abscissa explicitly and the axis comes back exactly
-    f = np.linspace(0.0, 2000.0, 8193)[:50]
-    d = FRFData(f, np.ones((1, 1, 50), complex), ["1+Y"], ["1+Y"])
-    write_uff58(tmp_path / "a.uff", d, binary=True)
-    assert read_uff(tmp_path / "a.uff")[0].header["abscissa_spacing"] == 0
+@pytest.mark.parametrize("binary", [True, False])
+def test_auto_abscissa_step_with_many_digits(tmp_path: Path, binary: bool) -> None:
+    # 2000 Hz / 8192 lines = 0.244140625 Hz: 9 digits, more than E13.5's 6; the 13-column field
+    # holds it exactly as a plain decimal, so the even axis comes back exactly
+    f = np.linspace(0.0, 2000.0, 8193)
+    d = FRFData(f, np.ones((1, 1, f.size), complex), ["1+Y"], ["1+Y"])
+    write_uff58(tmp_path / "a.uff", d, binary=binary)
+    assert read_uff(tmp_path / "a.uff")[0].header["abscissa_spacing"] == 1
     np.testing.assert_array_equal(read_uff58(tmp_path / "a.uff").freq, f)
+
+
+def test_auto_abscissa_binary_stores_inexact_step_explicitly(tmp_path: Path) -> None:
+    # a 1/3 Hz step has no exact 12-character decimal: binary 'auto' stores the float64
+    # abscissa (exact); ASCII keeps the even header with 10 decimals (drift < 1e-9 Hz here)
+    f = np.arange(50) / 3.0
+    d = FRFData(f, np.ones((1, 1, 50), complex), ["1+Y"], ["1+Y"])
+    write_uff58(tmp_path / "b.uff", d, binary=True)
+    assert read_uff(tmp_path / "b.uff")[0].header["abscissa_spacing"] == 0
+    np.testing.assert_array_equal(read_uff58(tmp_path / "b.uff").freq, f)
+    write_uff58(tmp_path / "a.uff", d)
+    assert read_uff(tmp_path / "a.uff")[0].header["abscissa_spacing"] == 1
+    np.testing.assert_allclose(read_uff58(tmp_path / "a.uff").freq, f, rtol=0, atol=50 * 5e-11)

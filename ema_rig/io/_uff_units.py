@@ -140,7 +140,29 @@ def _code_name(code: int) -> str:
     return f"{code} ({_CODE_NAMES.get(code, 'other')})"
 
 
+_AXIS_WORDS = {
+    "receptance": "receptance", "compliance": "receptance", "flexibility": "receptance",
+    "mobility": "mobility", "admittance": "mobility",
+    "accelerance": "accelerance", "inertance": "accelerance",
+}
+
+
 def decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str | None) -> UnitDecision:
+    """Decide FRF form and SI factor of one dataset-58 FRF (see :func:`_decide`).
+
+    A free-text axis label naming another FRF form (``"Receptance"`` over ``(m/s)/N``) does not
+    decide anything, but the disagreement is added to the decision text.
+    """
+    dec = _decide(h, units164, preference)
+    lab = h.get("ordinate_axis_lab", "")
+    named = next((f for w, f in _AXIS_WORDS.items() if w in lab.lower()), None)
+    if named is not None and named != dec.frf_form:
+        text = f"{dec.text}; note: the axis label {lab!r} names {named}, codes/unit labels decide"
+        return UnitDecision(dec.frf_form, dec.factor, text)
+    return dec
+
+
+def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str | None) -> UnitDecision:
     """Decide FRF form and SI factor of one dataset-58 FRF.
 
     Parameters

@@ -21,6 +21,29 @@ from ..dof import DOF
 _FORM_CODE = {"receptance": (8, "m"), "mobility": (11, "m/s"), "accelerance": (12, "m/s^2")}
 
 
+def fmt13(v: float) -> str:
+    """A non-negative number in a 13-column field with a leading blank, as exact as fits.
+
+    The E13.5 fields of record 7 (abscissa minimum and increment) are read as a 13-column
+    number by every reader; ``%13.6E`` keeps only 7 digits, so an increment such as
+    0.244140625 Hz (2000 Hz / 8192) would drift by 2e-4 Hz at the last line. The shortest
+    round-trip decimal (or the most digits that fit) is written instead when it is closer.
+    """
+    v = float(v)
+    cands = []
+    r = repr(v)
+    if "e" not in r and "inf" not in r and "nan" not in r and len(r) <= 12:
+        cands.append(r)
+    for d in range(11, -1, -1):
+        f = f"{v:.{d}f}"
+        if len(f) <= 12:
+            cands.append(f)
+            break
+    cands.append(f"{v:.6E}")
+    best = min(cands, key=lambda c: abs(float(c) - v))
+    return best.rjust(13)
+
+
 def _line80(text: str) -> str:
     return f"{text[:80]:<80}"
 
@@ -74,7 +97,7 @@ def dataset_bytes(
         f"{4:5d}{1:10d}{0:5d}{0:10d} {'NONE':<10}{response.node:10d}{response.direction:4d} "
         f"{'NONE':<10}{reference.node:10d}{reference.direction:4d}",
         f"{ord_type:10d}{n:10d}{1 if even else 0:10d}"
-        + (f"{x[0]:13.6E}{(x[-1] - x[0]) / (n - 1) if n > 1 else 0.0:13.6E}" if even else f"{0.0:13.6E}{0.0:13.6E}")
+        + (fmt13(x[0]) + fmt13((x[-1] - x[0]) / (n - 1) if n > 1 else 0.0) if even else f"{0.0:13.6E}{0.0:13.6E}")
         + f"{0.0:13.6E}",
         _fmt_axis(18, 0, 0, "Frequency", "Hz"),
         _fmt_axis(code, 1, 0, frf_form.capitalize(), unit_label),

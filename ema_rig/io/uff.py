@@ -547,9 +547,9 @@ def write_uff58(
         ``read_uff58(path, rig=rig)`` gives ``data`` back.
     abscissa : {'auto', 'even', 'uneven'}, optional
         ``'auto'`` writes an even abscissa (minimum and increment in the header) when the lines
-        are equally spaced and, in binary, the header's 7 significant digits reproduce the axis
-        to 1e-12 (else the explicit float64 abscissa is stored); in ASCII an even axis is always
-        written even (the uneven ASCII abscissa has no more digits).
+        are equally spaced and, in binary, the header's 13-column fields reproduce the axis to
+        1e-12 (else the explicit float64 abscissa is stored); in ASCII an even axis is always
+        written even (the uneven ASCII abscissa, E13.5, has fewer digits than the header).
 
     Raises
     ------
@@ -560,8 +560,9 @@ def write_uff58(
     -----
     Round trip precision: binary double is bit-exact (``'g'`` within 1 ulp); ASCII double to
     13 significant digits; single precision to float32 (binary) or 6 digits (ASCII). The even
-    abscissa increment is written with 7 significant digits (``%13.6E`` in the E13.5 field), so
-    choose a frequency step that has them (0.25 Hz, 0.125 Hz ...) for an exact axis.
+    abscissa minimum and increment are written in their 13-column fields as the shortest exact
+    decimal when it fits (0.244140625), else with as many digits as fit (about 11 for steps
+    below 10 Hz); the uneven ASCII abscissa keeps 7 digits (``%13.6E``).
     """
     if not isinstance(data, FRFData):
         raise TypeError(f"data must be an FRFData, got {type(data).__name__}")
@@ -625,8 +626,8 @@ def _choose_even(freq: NDArray[np.float64], abscissa: str, binary: bool, is_even
         return freq.size < 2
     if not binary:
         return True
-    f0 = float(f"{freq[0]:13.6E}")
-    df = float(f"{(freq[-1] - freq[0]) / (freq.size - 1):13.6E}")
+    f0 = float(_uff_write.fmt13(freq[0]))
+    df = float(_uff_write.fmt13((freq[-1] - freq[0]) / (freq.size - 1)))
     rebuilt = f0 + np.arange(freq.size) * df
     return bool(np.max(np.abs(rebuilt - freq)) <= 1e-12 * max(float(freq[-1]), 1.0))
 
