@@ -209,3 +209,13 @@ def test_plot_rig_fit_artists(rig, monkeypatch, mplcleanup, tmp_path):
     out = tmp_path / "fig7.png"
     save_figure(p.figure, out)
     assert out.stat().st_size > 10_000
+
+
+@pytest.mark.skipif(not _has_identify(), reason="ema_rig.identify.identify not available yet")
+def test_end_to_end_spindle_mode(rig):
+    sim = simulate.simulate_measurement(rig, k_tb=71.57e6, noise=0.01, seed=11)
+    res = st.estimate_stiffness(sim.data, rig)
+    assert res.spindle_mode is not None and res.spindle_band is not None
+    # the spindle bending mode of the 3DOF model (1907.2 Hz) found in its own band: 0.1 %
+    np.testing.assert_allclose(res.spindle_mode["natural_freq"], sim.truth["f_spindle"], rtol=1e-3)
+    np.testing.assert_allclose(res.k_TB, sim.truth["k_TB"], rtol=1e-2)
