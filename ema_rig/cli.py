@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 from collections.abc import Sequence
 
 EXIT_OK = 0
@@ -55,6 +56,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: object = None, line: str | None = None) -> None:
+    print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``ema-rig`` with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
     from .errors import EmaRigError
@@ -65,7 +71,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # argparse prints its own message
         return int(exc.code) if isinstance(exc.code, int) else EXIT_USAGE
     try:
-        return int(args._run(args))
+        with warnings.catch_warnings():
+            # user-facing warnings as one line each, no source line (restored on exit)
+            warnings.showwarning = _show_warning
+            return int(args._run(args))
     except EmaRigError as exc:
         text = str(exc).replace("\n", " ")
         print(f"error: {text}", file=sys.stderr)
