@@ -24,7 +24,7 @@ from ..frf import FRFData
 from .lsfd import lsfd
 from .mac import mpc
 from .modal import ModalModel
-from .plscf import PoleSet, check_data, default_max_order, plscf
+from .plscf import PoleSet, check_data, default_max_order, plscf, source_of
 from .stabilization import (
     SelectedMode,
     Selection,
@@ -167,8 +167,7 @@ def identify(
     (array([150.]), array([0.01]))
     """
     data = check_data(data, band)
-    src = data.meta.get("file")
-    src = str(src) if src else None
+    src = source_of(data)
     if max_order is None:
         max_order = default_max_order(data.n_in)
     poles = plscf(data, max_order=max_order, progress=progress)

@@ -75,12 +75,11 @@ def lsfd(
     >>> bool(np.isclose(m.residues[0, 0, 0], res))
     True
     """
-    from ..identify.plscf import check_data
+    from ..identify.plscf import check_data, source_of
 
     data = check_data(data, band)
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
-    src = data.meta.get("file")
-    src = str(src) if src else None
+    src = source_of(data)
     if lam.size == 0:
         raise IdentificationError("LSFD needs at least one pole", file=src)
     if not np.all(np.isfinite(lam)) or np.any(lam.imag <= 0):

@@ -87,6 +87,7 @@ from numpy.typing import NDArray
 from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
+from ._blas import single_threaded
 
 logger = logging.getLogger(__name__)
 
@@ -198,6 +199,12 @@ class PoleSet:
 
 
 # --------------------------------------------------------------------------- checks
+def source_of(data: FRFData) -> str | None:
+    """The file an FRFData came from (``meta['source']`` or ``meta['file']``), for messages."""
+    src = data.meta.get("source") or data.meta.get("file")
+    return str(src) if src else None
+
+
 def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
     """Validate ``data`` for identification and cut it to ``band``.
 
@@ -209,8 +216,7 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
     """
     if not isinstance(data, FRFData):
         raise TypeError(f"data must be an FRFData, got {type(data).__name__}")
-    src = data.meta.get("file") if hasattr(data, "meta") else None
-    src = str(src) if src else None
+    src = source_of(data)
     if band is not None:
         try:
             lo, hi = (float(band[0]), float(band[1]))
@@ -435,6 +441,16 @@ def _poles_of_order(low: NDArray, high: NDArray, dt: float, f_lo: float) -> tupl
     return s + 2j * np.pi * f_lo, part
 
 
+class _Done:
+    """A finished result with the ``Future.result()`` interface."""
+
+    def __init__(self, value: tuple[NDArray, NDArray]) -> None:
+        self._value = value
+
+    def result(self) -> tuple[NDArray, NDArray]:
+        return self._value
+
+
 def _normalise_orders(orders: Iterable[int] | None, max_order: int, n_in: int) -> list[int]:
     if orders is None:
         step = 2 if n_in == 1 else 1
@@ -510,8 +526,7 @@ def plscf(
     if max_order < 1:
         raise ValueError(f"max_order must be >= 1, got {max_order}")
     data = check_data(data, band)
-    src = data.meta.get("file")
-    src = str(src) if src else None
+    src = source_of(data)
     n_in = data.n_in
     if data.n_freq <= 2 * max_order:
         raise IdentificationError(
@@ -523,47 +538,46 @@ def plscf(
     p = order_list[-1]
     f_lo, f_hi = float(data.freq[0]), float(data.freq[-1])
 
-    r, s, t, _, dt = _lag_sums(data, p)
-    T, Q = _reduced_blocks(r, s, t, p)
-
-    # accumulate M_n = T_n - sum_o Q_o[:n+1]^T Q_o[:n+1] and solve every order
-    ncol = (p + 1) * n_in
-    P = np.zeros((ncol, ncol))
-    done = 0
-    alphas: list[NDArray] = []
-    for n in order_list:
-        rows = Q[done : n + 1].reshape(-1, ncol)
-        if rows.size:
-            c = (n + 1) * n_in
-            # only the leading c columns are needed from now on for this order; later orders
-            # need more, so update the full matrix (BLAS syrk-like product)
-            P += rows.T @ rows
-            done = n + 1
-        c = (n + 1) * n_in
-        m = T[:c, :c] - P[:c, :c]
-        alphas.append(_solve_order(m, n, n_in))
-
     nthreads = threads if threads is not None else min(2, os.cpu_count() or 1)
 
-    def work(alpha: tuple[NDArray, NDArray]) -> tuple[NDArray, NDArray]:
-        return _poles_of_order(alpha[0], alpha[1], dt, f_lo)
+    def work(n: int, low: NDArray, high: NDArray) -> tuple[NDArray, NDArray]:
+        with single_threaded():
+            return _poles_of_order(low, high, dt, f_lo)
 
-    it: Iterable[tuple[NDArray, NDArray]]
-    if nthreads > 1 and len(alphas) > 4:
-        # largest problems first so the threads finish together
-        order_idx = sorted(range(len(alphas)), key=lambda k: -order_list[k])
-        with ThreadPoolExecutor(max_workers=nthreads) as pool:
-            res = dict(zip(order_idx, pool.map(lambda k: work(alphas[k]), order_idx), strict=True))
-        it = (res[k] for k in range(len(alphas)))
-    else:
-        it = (work(a) for a in alphas)
-    if progress:
-        from tqdm import tqdm
+    pool = ThreadPoolExecutor(max_workers=nthreads) if nthreads > 1 and len(order_list) > 4 else None
+    futures = []
+    try:
+        with single_threaded():
+            r, s, t, _, dt = _lag_sums(data, p)
+            T, Q = _reduced_blocks(r, s, t, p)
+            # accumulate M_n = T_n - sum_o Q_o[:n+1]^T Q_o[:n+1] order by order; the poles of
+            # each order are computed on the pool while the next order is being solved
+            ncol = (p + 1) * n_in
+            P = np.zeros((ncol, ncol))
+            done = 0
+            for n in order_list:
+                rows = Q[done : n + 1].reshape(-1, ncol)
+                if rows.size:
+                    P += rows.T @ rows
+                    done = n + 1
+                c = (n + 1) * n_in
+                low, high = _solve_order(T[:c, :c] - P[:c, :c], n, n_in)
+                if pool is None:
+                    futures.append(_Done(work(n, low, high)))
+                else:
+                    futures.append(pool.submit(work, n, low, high))
+        it: Iterable[Any] = futures
+        if progress:
+            from tqdm import tqdm
 
-        it = tqdm(it, total=len(alphas), disable=None, desc="pLSCF orders")
+            it = tqdm(futures, total=len(futures), disable=None, desc="pLSCF orders")
+        results = [f.result() for f in it]
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
 
     o_rows, p_rows, l_rows = [], [], []
-    for n, (poles, part) in zip(order_list, it, strict=True):
+    for n, (poles, part) in zip(order_list, results, strict=True):
         fn = np.abs(poles) / (2 * np.pi)
         keep = (fn >= f_lo) & (fn <= f_hi)
         o_rows.append(np.full(int(keep.sum()), n))
@@ -577,7 +591,7 @@ def plscf(
         band=(f_lo, f_hi),
         in_dofs=data.in_dofs,
         orders=tuple(order_list),
-        meta={"dt": dt, "n_freq": data.n_freq, "constraint": "highest (alpha_n = I)", "freq_shift": f_lo},
+        meta={"dt": dt, "n_freq": data.n_freq, "constraint": "alpha_0 = I (roots), polished on alpha_n = I", "freq_shift": f_lo},
     )
 
 
