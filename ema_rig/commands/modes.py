@@ -1,4 +1,4 @@
-"""modes: (placeholder; being implemented)."""
+"""modes: the physical modes of a measurement, selected automatically from the PolyMAX stabilization."""
 
 from __future__ import annotations
 
@@ -7,10 +7,48 @@ import argparse
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig modes``."""
+    from ._ident_args import add_identification_arguments
+
+    add_identification_arguments(parser)
+    parser.add_argument("--json", default=None, metavar="OUT", help="write the modes as JSON")
+    parser.add_argument("--save-selection", default=None, metavar="JSON",
+                        help="write the selection (replayable with --selection)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig modes``."""
-    from ..errors import EmaRigError
+    from ._ident_args import load_and_identify
 
-    raise EmaRigError("'modes' is not implemented yet")
+    data, ident = load_and_identify(args)
+    records = ident.to_records()
+    drive = [str(d) for d in ident.modes.in_dofs if d in ident.modes.out_dofs]
+    print(f"file   {args.file}")
+    print(f"data   {data.n_out} outputs x {data.n_in} reference(s), band {ident.band[0]:g}-{ident.band[1]:g} Hz, "
+          f"orders {min(ident.poles.orders)}-{max(ident.poles.orders)}")
+    head = f"{'f_n [Hz]':>10} {'+/- [Hz]':>9} {'zeta [%]':>9} {'+/- [%]':>8} {'MPC':>6} {'poles':>5}"
+    head += "".join(f" {'m_eff ' + d + ' [kg]':>17}" for d in drive)
+    print(head)
+    for r in records:
+        line = (f"{r['natural_freq']:>10.2f} {r['natural_freq_std']:>9.3f} {100 * r['damping_ratio']:>9.3f} "
+                f"{100 * r['damping_ratio_std']:>8.3f} {r['mpc']:>6.3f} {r['n_poles'] or 0:>5d}")
+        line += "".join(f" {r['modal_mass'][d]:>17.4g}" for d in drive)
+        print(line)
+    if args.json:
+        from .._atomic import write_json
+
+        doc = {
+            "file": str(args.file),
+            "band": list(ident.band),
+            "max_order": int(max(ident.poles.orders)),
+            "in_dofs": [str(d) for d in ident.modes.in_dofs],
+            "out_dofs": [str(d) for d in ident.modes.out_dofs],
+            "modes": records,
+            "fit_error": ident.modes.fit_error.tolist() if ident.modes.fit_error is not None else None,
+            "selection": ident.selection.to_dict(),
+        }
+        write_json(args.json, doc)
+        print(f"wrote {args.json}")
+    if args.save_selection:
+        ident.selection.to_json(args.save_selection)
+        print(f"wrote {args.save_selection}")
+    return 0

@@ -1,16 +1,57 @@
-"""stabilization: (placeholder; being implemented)."""
+"""stabilization: draw the PolyMAX stabilization chart of a measurement."""
 
 from __future__ import annotations
 
 import argparse
 
+_FORMATS = (".png", ".svg", ".pdf")
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stabilization``."""
+    from ._ident_args import add_identification_arguments
+
+    add_identification_arguments(parser)
+    parser.add_argument("-o", "--output", required=True, metavar="CHART",
+                        help="chart file: .png, .svg or .pdf")
+    parser.add_argument("--cmif", action="store_true", help="draw the CMIF instead of the sum of FRFs")
+    parser.add_argument("--show-unstable", action="store_true", help="also draw the unstable (mathematical) poles")
+    parser.add_argument("--colors", default="default", choices=("default", "viridis", "high-contrast"),
+                        help="colour scheme")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stabilization``."""
+    from pathlib import Path
+
     from ..errors import EmaRigError
 
-    raise EmaRigError("'stabilization' is not implemented yet")
+    suffix = Path(args.output).suffix.lower()
+    if suffix not in _FORMATS:
+        raise EmaRigError(f"-o must end in {', '.join(_FORMATS)}, got {args.output!r}", file=args.file)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .._atomic import atomic_path
+    from ..plot.stabilization import plot_stabilization
+    from ._ident_args import load_and_identify
+
+    data, ident = load_and_identify(args)
+    lo, hi = ident.band
+    margin = 0.05 * (hi - lo)
+    shown = data.band(max(lo - margin, data.freq[0]), min(hi + margin, data.freq[-1]))
+    chart = plot_stabilization(
+        ident.stabilization, shown, selection=ident.selection, indicator="cmif" if args.cmif else "sum",
+        show_unstable=args.show_unstable, color_scheme=args.colors,
+        title=f"{Path(args.file).name}: PolyMAX {lo:g}-{hi:g} Hz, {data.n_out} x {data.n_in}",
+    )
+    try:
+        with atomic_path(args.output) as tmp:
+            chart.figure.savefig(tmp, dpi=130, format=suffix[1:])
+    finally:
+        plt.close(chart.figure)
+    print(f"{len(ident.selection)} modes: " + ", ".join(f"{f:.1f}" for f in ident.natural_freq) + " Hz")
+    print(f"wrote {args.output}")
+    return 0

@@ -74,17 +74,38 @@ class Identification:
         """Damping ratios of the modal model, shape (n_modes,)."""
         return self.modes.damping_ratio
 
+    def best_reference(self) -> NDArray[np.intp]:
+        """Index (into ``modes.in_dofs``) of the reference that excites each mode best, shape (n_modes,)."""
+        mm = self.modes
+        drive = [q for q, d in enumerate(mm.in_dofs) if d in mm.out_dofs]
+        if drive:
+            mass = np.stack([mm.modal_mass(mm.in_dofs[q]) for q in drive], axis=1)
+            return np.asarray(drive)[np.argmin(mass, axis=1)]
+        col = np.linalg.norm(mm.residues, axis=1)  # (n_modes, n_in)
+        return np.argmax(col, axis=1)
+
+    def best_shapes(self) -> NDArray[np.complex128]:
+        """Each mode's shape from its best reference (mass-normalised at a driving point), (n_modes, n_out)."""
+        mm = self.modes
+        best = self.best_reference()
+        out = np.empty((mm.n_modes, len(mm.out_dofs)), np.complex128)
+        for q in np.unique(best):
+            shapes = mm.mode_shapes(mm.in_dofs[q])
+            out[best == q] = shapes[best == q]
+        return out
+
     def to_records(self) -> list[dict[str, Any]]:
         """One dict per mode: frequency, damping, their spread, MPC, provenance, fit error.
 
         ``modal_mass`` holds the effective modal mass [kg] at every driving point (reference
-        DOF that is also a response DOF), keyed by DOF string.
+        DOF that is also a response DOF), keyed by DOF string. ``mpc`` is computed on each
+        mode's shape from the reference that excites it best (smallest effective modal mass, or
+        largest residue column without a driving point).
         """
         mm = self.modes
+        mpcs = mpc(self.best_shapes())
         drive = [d for d in mm.in_dofs if d in mm.out_dofs]
         masses = {str(d): mm.modal_mass(d) for d in drive}
-        shapes = mm.mode_shapes(drive[0]) if drive else mm.mode_shapes()
-        mpcs = mpc(shapes)
         modes_by_pole = {m.pole: m for m in self.selection.modes}
         out = []
         for k in range(mm.n_modes):

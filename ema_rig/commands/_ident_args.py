@@ -1,0 +1,43 @@
+"""Options and data loading shared by ``ema-rig modes`` and ``ema-rig stabilization``."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+
+def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
+    """FILE, --rig, --band, --max-order and the selection options."""
+    parser.add_argument("file", metavar="FILE", help="UFF58 file with the FRFs")
+    parser.add_argument("--rig", default=None, metavar="R",
+                        help="rig file (TOML): sensor signs, roles and the default band")
+    parser.add_argument("--band", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                        help="identification band [Hz] (default: the rig file's, else the whole file)")
+    parser.add_argument("--max-order", type=int, default=None, metavar="N",
+                        help="highest PolyMAX model order (default: the rig file's, else 64 for one "
+                             "reference, 40 for two)")
+    parser.add_argument("--selection", default=None, metavar="JSON",
+                        help="replay a saved mode selection instead of the automatic one")
+
+
+def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
+    """Read the file (with the rig, if given) and run :func:`ema_rig.identify.identify`."""
+    from ..config import load_rig
+    from ..errors import EmaRigError
+    from ..identify import Selection, identify
+    from ..io.uff import read_uff58
+
+    if args.max_order is not None and args.max_order < 1:
+        raise EmaRigError(f"--max-order must be >= 1, got {args.max_order}", file=args.file)
+    rig = load_rig(args.rig) if args.rig else None
+    data = read_uff58(args.file, rig=rig)
+    data = data.with_meta(file=str(args.file))
+    band = tuple(args.band) if args.band is not None else None
+    max_order = args.max_order
+    if rig is not None:
+        ident_cfg = rig.identification
+        band = band if band is not None else ident_cfg.get("band")
+        max_order = max_order if max_order is not None else ident_cfg.get("max_order")
+    selection = Selection.from_json(args.selection) if args.selection else None
+    ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True)
+    return data, ident

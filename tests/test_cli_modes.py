@@ -1,0 +1,101 @@
+"""``ema-rig modes`` and ``ema-rig stabilization`` end to end through UFF files."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from lumped import five_mode_system
+
+from ema_rig.cli import main
+
+FREQ = np.arange(0.0, 1000.5, 0.5)
+
+
+@pytest.fixture(scope="module")
+def system():
+    return five_mode_system()
+
+
+@pytest.fixture
+def uff_file(tmp_path, system):
+    from ema_rig.io.uff import write_uff58
+
+    data = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(8))
+    path = tmp_path / "lumped.uff"
+    write_uff58(path, data, binary=True)
+    return path
+
+
+def test_modes_json(uff_file, tmp_path, system, capsys):
+    out = tmp_path / "modes.json"
+    sel = tmp_path / "sel.json"
+    rc = main(["modes", str(uff_file), "--band", "0", "1000", "--json", str(out), "--save-selection", str(sel)])
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    modes = doc["modes"]
+    f = np.array([m["natural_freq"] for m in modes])
+    z = np.array([m["damping_ratio"] for m in modes])
+    # the six modes (two of them 1 % apart) of the lumped system, 1 % noise
+    np.testing.assert_allclose(f, system.natural_freq, rtol=1e-4)
+    np.testing.assert_allclose(z, system.damping_ratio, rtol=5e-2)
+    for m in modes:
+        assert {"natural_freq", "damping_ratio", "natural_freq_std", "damping_ratio_std", "mpc"} <= set(m)
+        assert 0 <= m["natural_freq_std"] < 1e-3 * m["natural_freq"]
+        # classically damped: real shapes (each from its best-excited driving point)
+        assert m["mpc"] > 0.99
+    assert doc["band"] == [0.0, 1000.0]
+    assert capsys.readouterr().err == ""
+    # replaying the saved selection on the same file gives the same modes
+    out2 = tmp_path / "modes2.json"
+    assert main(["modes", str(uff_file), "--band", "0", "1000", "--selection", str(sel), "--json", str(out2)]) == 0
+    f2 = [m["natural_freq"] for m in json.loads(out2.read_text())["modes"]]
+    np.testing.assert_allclose(f2, f, rtol=1e-12)
+
+
+def test_modes_with_rig_file(tmp_path, rig_file, capsys):
+    from ema_rig.config import load_rig
+    from ema_rig.simulate import simulate_measurement, write_measurement
+
+    rig = load_rig(rig_file)
+    sim = simulate_measurement(rig, k_tb=7.157e7, noise=0.01, seed=1, freq=np.arange(0.0, 1200.5, 0.5))
+    path = write_measurement(sim, tmp_path / "meas.uff", rig=rig, binary=True)
+    truth = json.loads((tmp_path / "meas.uff.truth.json").read_text())
+    out = tmp_path / "m.json"
+    assert main(["modes", str(path), "--rig", str(rig_file), "--band", "150", "1000", "--json", str(out)]) == 0
+    modes = json.loads(out.read_text())["modes"]
+    k = int(np.argmin([abs(m["natural_freq"] - truth["f_H"]) for m in modes]))
+    # the housing mode of the 3DOF model (626 Hz), found among the rig's other modes
+    np.testing.assert_allclose(modes[k]["natural_freq"], truth["f_H"], rtol=1e-3)
+    # effective modal mass at the radial driving point close to the model's ~2.64 kg
+    np.testing.assert_allclose(modes[k]["modal_mass"]["11+Y"], 2.64, rtol=0.05)
+    assert "m_eff 11+Y" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("suffix", [".png", ".svg", ".pdf"])
+def test_stabilization_chart_file(uff_file, tmp_path, suffix, mplcleanup):
+    import matplotlib.pyplot as plt
+
+    out = tmp_path / f"chart{suffix}"
+    assert main(["stabilization", str(uff_file), "--band", "100", "900", "--max-order", "20", "-o", str(out)]) == 0
+    head = out.read_bytes()[:8]
+    magic = {".png": b"\x89PNG", ".svg": b"<?xml", ".pdf": b"%PDF"}[suffix]
+    assert head.startswith(magic)
+    assert plt.get_fignums() == []  # the CLI closes its figure
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".chart")] == []  # no temp left
+
+
+def test_cli_errors(uff_file, tmp_path, capsys):
+    assert main(["modes", str(uff_file), "--band", "900", "1500"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and str(uff_file) in err and "outside the data" in err
+    assert main(["stabilization", str(uff_file), "-o", str(tmp_path / "chart.gif")]) == 1
+    assert "-o must end in .png, .svg, .pdf" in capsys.readouterr().err
+    assert not (tmp_path / "chart.gif").exists()
+    assert main(["modes", str(uff_file), "--max-order", "2000"]) == 1
+    assert "too few lines for max_order=2000" in capsys.readouterr().err
+    bad = tmp_path / "sel.json"
+    bad.write_text("{}")
+    assert main(["modes", str(uff_file), "--selection", str(bad)]) == 1
+    assert "not a valid mode selection" in capsys.readouterr().err

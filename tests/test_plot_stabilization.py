@@ -1,0 +1,118 @@
+"""The stabilization chart and the pole picker: inspect the returned artists."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from lumped import five_mode_system
+
+from ema_rig.identify import Selection, identify
+
+FREQ = np.arange(0.0, 1000.5, 0.5)
+
+
+@pytest.fixture(scope="module")
+def case():
+    system = five_mode_system()
+    data = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(4))
+    ident = identify(data, band=(100.0, 900.0))
+    return data, ident
+
+
+def test_chart_artists(case, mplcleanup):
+    import matplotlib.pyplot as plt
+
+    from ema_rig.plot.stabilization import plot_stabilization
+
+    data, ident = case
+    stab = ident.stabilization
+    chart = plot_stabilization(stab, data, selection=ident.selection)
+    # a new, pyplot-free figure: nothing registered with pyplot, nothing shown
+    assert plt.get_fignums() == []
+    assert set(chart.poles) == {"o", "f", "d", "v", "s"}
+    for letter, line in chart.poles.items():
+        rows = chart.rows[letter]
+        expected = np.flatnonzero((stab.status == letter) & ~stab.unstable)
+        np.testing.assert_array_equal(rows, expected)
+        # every point sits at (natural frequency, model order) of its pole
+        np.testing.assert_array_equal(line.get_xdata(), stab.natural_freq[rows])
+        np.testing.assert_array_equal(line.get_ydata(), stab.order[rows])
+        assert line.get_label().endswith(f"({rows.size})")
+    # FRF summary on a log twin axis with the SI unit
+    assert chart.frf_axes is not None and chart.frf_axes.get_yscale() == "log"
+    assert "m/s^2/N" in chart.frf_axes.get_ylabel()
+    np.testing.assert_allclose(chart.frf_lines[0].get_ydata(), data.sum_frf(), rtol=1e-12)
+    # the band is shaded because the FRF spans more than the band
+    x0 = chart.band_patch.get_x()
+    np.testing.assert_allclose([x0, x0 + chart.band_patch.get_width()], [100.0, 900.0], rtol=1e-12)
+    # one dashed line and one label per selected mode, at the mode's mean frequency
+    assert len(chart.mode_lines) == len(ident.selection) == 6
+    np.testing.assert_allclose([ln.get_xdata()[0] for ln in chart.mode_lines], ident.selection.natural_freq)
+    assert [t.get_text().strip() for t in chart.mode_labels] == [
+        f"{f:.1f} Hz" for f in ident.selection.natural_freq
+    ]
+    assert chart.axes.get_xlabel() == "frequency [Hz]" and chart.axes.get_ylabel() == "model order"
+
+
+def test_chart_options(case, mplcleanup):
+    import matplotlib.pyplot as plt
+
+    from ema_rig.plot.stabilization import plot_stabilization
+
+    data, ident = case
+    stab = ident.stabilization
+    fig, ax = plt.subplots()
+    chart = plot_stabilization(stab, data, ax=ax, indicator="cmif", show_unstable=True, color_scheme="viridis")
+    assert chart.axes is ax and chart.figure is fig
+    assert chart.rows["u"].size == int(stab.unstable.sum()) > 0
+    assert len(chart.frf_lines) == 2  # two references: two singular values
+    assert "CMIF" in chart.frf_axes.get_ylabel()
+    bare = plot_stabilization(stab, show_new=False)
+    assert "o" not in bare.poles and bare.frf_axes is None and bare.band_patch is None
+    with pytest.raises(ValueError, match="indicator"):
+        plot_stabilization(stab, indicator="peaks")
+    with pytest.raises(ValueError, match="color_scheme"):
+        plot_stabilization(stab, color_scheme="rainbow")
+
+
+def _pick(chart, letter, ind):
+    from matplotlib.backend_bases import MouseEvent, PickEvent
+
+    line = chart.poles[letter]
+    x, y = line.get_xdata()[ind], line.get_ydata()[ind]
+    px, py = chart.axes.transData.transform((x, y))
+    canvas = chart.figure.canvas
+    me = MouseEvent("button_press_event", canvas, px, py, button=1)
+    canvas.callbacks.process("pick_event", PickEvent("pick_event", canvas, me, line, ind=[ind]))
+
+
+def test_picker_builds_a_replayable_selection(case, mplcleanup, tmp_path):
+    from ema_rig.plot.picker import PolePicker
+    from ema_rig.plot.stabilization import plot_stabilization
+
+    data, ident = case
+    chart = plot_stabilization(ident.stabilization, data)
+    seen = []
+    picker = PolePicker(chart, on_change=seen.append, source="test")
+    stab = ident.stabilization
+    s_rows = chart.rows["s"]
+    near_640 = int(np.argmin(np.abs(stab.natural_freq[s_rows] - 640.0) + 1e-3 * (60 - stab.order[s_rows])))
+    _pick(chart, "s", near_640)
+    _pick(chart, "o", 0)  # new poles are not pickable
+    assert len(picker.picks) == 1 and len(seen) == 1
+    sel = picker.selection
+    assert sel.modes[0].provenance == "manual"
+    row = s_rows[near_640]
+    assert sel.modes[0].pole == stab.pole[row]
+    assert len(picker.markers) == 1 and len(chart.mode_lines) == 1
+    path = tmp_path / "picked.json"
+    sel.to_json(path)
+    again = identify(data, band=(100.0, 900.0), selection=Selection.from_json(path))
+    # the same data: the hand-picked pole itself goes into LSFD
+    assert again.modes.poles.tolist() == [stab.pole[row]]
+    # picking it again removes it
+    _pick(chart, "s", near_640)
+    assert picker.picks == [] and len(chart.mode_lines) == 0
+    picker.disconnect()
+    _pick(chart, "s", near_640)
+    assert picker.picks == []
