@@ -54,6 +54,41 @@ def test_lower_orders_are_exact_from_max_order_factors(system):
     np.testing.assert_allclose(a, b, rtol=1e-9)
 
 
+def test_root_finders_agree(system):
+    data = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(3))
+    warm = plscf(data, max_order=40)
+    eig = plscf(data, max_order=40, root_finder="eig", threads=2)
+    # orders 32..40 (degree >= 64) by the warm-started iteration, none fell back
+    assert warm.meta["aberth_orders"] == 9 and warm.meta["fallbacks"] == 0
+    np.testing.assert_array_equal(warm.order, eig.order)
+    for n in warm.orders:
+        a, b = warm.pole[warm.at_order(n)], eig.pole[eig.at_order(n)]
+        # warm-started Aberth iteration and companion QR find the same roots (round-off only)
+        np.testing.assert_allclose(a, b, rtol=1e-9)
+    with pytest.raises(ValueError, match="root_finder"):
+        plscf(data, max_order=4, root_finder="roots")
+
+
+def test_warm_started_roots():
+    from ema_rig.identify._roots import aberth, det_coefficients, warm_start
+
+    rng = np.random.default_rng(0)
+    alpha = rng.standard_normal((6, 2, 2))
+    c = det_coefficients(alpha)
+    # det of a degree-5 2x2 polynomial matrix: degree 10, checked at a random point
+    z = 0.3 + 0.7j
+    a = sum(alpha[j] * z**j for j in range(6))
+    np.testing.assert_allclose(np.polyval(c[::-1], z), np.linalg.det(a), rtol=1e-12)
+    truth = np.roots(c[::-1])
+    found = aberth(c, warm_start(truth[:-2] * 1.01, 10))
+    assert found is not None
+    # every root found to round-off (roots of a well-conditioned random polynomial)
+    dist = np.abs(found[:, None] - truth[None, :]).min(axis=0)
+    np.testing.assert_allclose(dist, 0.0, atol=1e-9 * np.abs(truth).max())
+    # no convergence within the limit: None, so the caller falls back to eigenvalues
+    assert aberth(c, warm_start(np.zeros(0), 10), maxiter=1) is None
+
+
 def test_reduced_normal_equations_match_explicit_least_squares(system):
     from ema_rig.identify.plscf import _lag_sums, _reduced_blocks
 

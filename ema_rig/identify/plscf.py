@@ -58,7 +58,10 @@ Hessenberg for one reference), ``z = 1 / w``; the participation vector ``l_r`` o
 ``z_r`` is the null vector of ``A(z_r)^T`` (the last ``n_in`` rows of the companion
 eigenvector), computed directly from the ``n_in x n_in`` matrix, which is cheaper than the
 eigenvectors. The eigenvalue problems of the different orders run on a small thread pool
-(LAPACK releases the GIL).
+(LAPACK releases the GIL) — or, by default, the roots of each order are found by the
+Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`; O(N^2) per
+sweep instead of the O(N^3) QR iteration; an order that does not converge falls back to the
+companion eigenvalues).
 
 References
 ----------
@@ -88,8 +91,12 @@ from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
 from ._blas import single_threaded
+from ._roots import aberth, det_coefficients, warm_start
 
 logger = logging.getLogger(__name__)
+
+#: Below this polynomial degree the companion QR is cheaper than the warm-started iteration.
+_ABERTH_MIN_DEGREE = 64
 
 #: Default maximum model order per number of references (denominator degree).
 DEFAULT_MAX_ORDER = {1: 64, 2: 40}
@@ -423,15 +430,29 @@ def _participation(alpha: NDArray, z: NDArray) -> NDArray:
     return vec
 
 
-def _poles_of_order(low: NDArray, high: NDArray, dt: float, f_lo: float) -> tuple[NDArray, NDArray]:
-    """Physical poles (rad/s, Im > 0) and participation vectors of one order."""
+def _roots_eig(low: NDArray) -> NDArray:
+    """All roots z of det A_low(z), from the companion matrix of the reversed polynomial."""
     # roots of A_low(z) (alpha_0 = I) are 1 / w with w the roots of the reversed, monic polynomial
     w = _eigvals(_companion(low[::-1]))
     w = w[(w != 0) & np.isfinite(w)]
-    z = 1.0 / w
+    return 1.0 / w
+
+
+def _poles_of_order(
+    low: NDArray, high: NDArray, dt: float, f_lo: float, z: NDArray | None = None
+) -> tuple[NDArray, NDArray]:
+    """Physical poles (rad/s, Im > 0) and participation vectors of one order.
+
+    ``z`` are the roots of ``det A_low`` when already known (warm-started root finder).
+    """
+    if z is None:
+        z = _roots_eig(low)
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.log(z) / dt
-    z = z[s.imag > 0]
+    # one root of each complex pair; real roots (z > 0: no oscillation, z < 0: exactly at the
+    # band's top) are not modes
+    nyq = np.pi / dt
+    z = z[(s.imag > 1e-9 * nyq) & (s.imag < (1 - 1e-9) * nyq)]
     stable = np.abs(z) < 1.0
     if stable.any():
         z[stable] = _refine(high, z[stable])
@@ -468,6 +489,7 @@ def plscf(
     band: tuple[float, float] | None = None,
     orders: Iterable[int] | None = None,
     progress: bool = False,
+    root_finder: str = "aberth",
     threads: int | None = None,
 ) -> PoleSet:
     """Estimate poles and participation factors with PolyMAX for a range of model orders.
@@ -487,8 +509,14 @@ def plscf(
         order 1..max_order for several).
     progress : bool, optional
         Show a tqdm progress bar over the orders.
+    root_finder : {'aberth', 'eig'}, optional
+        ``'aberth'`` (default): roots of each order of degree >= 64 by the Aberth-Ehrlich
+        iteration started from the previous order's roots (several times faster; an order
+        that does not converge falls back to the companion eigenvalues), smaller orders by
+        the companion eigenvalues. ``'eig'``: companion eigenvalues
+        for every order, spread over ``threads`` worker threads.
     threads : int, optional
-        Worker threads for the eigenvalue problems (default: ``min(2, os.cpu_count())``).
+        Worker threads for ``root_finder='eig'`` (default: ``min(2, os.cpu_count())``).
 
     Returns
     -------
@@ -538,23 +566,33 @@ def plscf(
     p = order_list[-1]
     f_lo, f_hi = float(data.freq[0]), float(data.freq[-1])
 
+    if root_finder not in ("aberth", "eig"):
+        raise ValueError(f"root_finder must be 'aberth' or 'eig', got {root_finder!r}")
     nthreads = threads if threads is not None else min(2, os.cpu_count() or 1)
 
     def work(n: int, low: NDArray, high: NDArray) -> tuple[NDArray, NDArray]:
         with single_threaded():
             return _poles_of_order(low, high, dt, f_lo)
 
-    pool = ThreadPoolExecutor(max_workers=nthreads) if nthreads > 1 and len(order_list) > 4 else None
-    futures = []
+    use_pool = root_finder == "eig" and nthreads > 1 and len(order_list) > 4
+    pool = ThreadPoolExecutor(max_workers=nthreads) if use_pool else None
+    futures: list[Any] = []
+    fallbacks = 0
+    n_aberth = 0
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(order_list), disable=None, desc="pLSCF orders")
     try:
         with single_threaded():
             r, s, t, _, dt = _lag_sums(data, p)
             T, Q = _reduced_blocks(r, s, t, p)
-            # accumulate M_n = T_n - sum_o Q_o[:n+1]^T Q_o[:n+1] order by order; the poles of
-            # each order are computed on the pool while the next order is being solved
+            # accumulate M_n = T_n - sum_o Q_o[:n+1]^T Q_o[:n+1] order by order
             ncol = (p + 1) * n_in
             P = np.zeros((ncol, ncol))
             done = 0
+            prev: NDArray | None = None
             for n in order_list:
                 rows = Q[done : n + 1].reshape(-1, ncol)
                 if rows.size:
@@ -562,19 +600,33 @@ def plscf(
                     done = n + 1
                 c = (n + 1) * n_in
                 low, high = _solve_order(T[:c, :c] - P[:c, :c], n, n_in)
-                if pool is None:
-                    futures.append(_Done(work(n, low, high)))
-                else:
+                if pool is not None:
                     futures.append(pool.submit(work, n, low, high))
-        it: Iterable[Any] = futures
-        if progress:
-            from tqdm import tqdm
-
-            it = tqdm(futures, total=len(futures), disable=None, desc="pLSCF orders")
-        results = [f.result() for f in it]
+                    continue
+                z = None
+                if root_finder == "aberth" and prev is not None and n * n_in >= _ABERTH_MIN_DEGREE:
+                    coef = det_coefficients(low)
+                    z = aberth(coef, warm_start(prev, coef.size - 1))
+                    n_aberth += z is not None
+                if z is None:
+                    fallbacks += prev is not None and root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
+                    z = _roots_eig(low)
+                prev = z
+                futures.append(_Done(_poles_of_order(low, high, dt, f_lo, z)))
+                if bar is not None:
+                    bar.update()
+        results = []
+        for f in futures:
+            results.append(f.result())
+            if bar is not None and pool is not None:
+                bar.update()
     finally:
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
+        if bar is not None:
+            bar.close()
+    if fallbacks:
+        logger.debug("pLSCF: %d orders fell back to companion eigenvalues", fallbacks)
 
     o_rows, p_rows, l_rows = [], [], []
     for n, (poles, part) in zip(order_list, results, strict=True):
@@ -591,7 +643,8 @@ def plscf(
         band=(f_lo, f_hi),
         in_dofs=data.in_dofs,
         orders=tuple(order_list),
-        meta={"dt": dt, "n_freq": data.n_freq, "constraint": "alpha_0 = I (roots), polished on alpha_n = I", "freq_shift": f_lo},
+        meta={"dt": dt, "n_freq": data.n_freq, "constraint": "alpha_0 = I (roots), polished on alpha_n = I", "root_finder": root_finder,
+              "aberth_orders": int(n_aberth), "fallbacks": int(fallbacks), "freq_shift": f_lo},
     )
 
 

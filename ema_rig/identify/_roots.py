@@ -1,0 +1,132 @@
+"""Warm-started polynomial roots for a sequence of model orders (Aberth-Ehrlich iteration).
+
+The poles of consecutive pLSCF orders are mostly the same: the physical ones barely move and
+the mathematical ones shift a little. Starting the simultaneous Aberth-Ehrlich iteration from
+the previous order's roots finds all roots of the next order in a handful of O(N^2) sweeps,
+several times faster than the O(N^3) QR iteration on the companion matrix. Every root is
+accepted only when its backward error is at rounding level (the stopping rule of MPSolve);
+when an order does not converge within the iteration limit, the caller falls back to the
+companion-matrix eigenvalues, so the result never depends on the warm start.
+
+References
+----------
+.. [1] O. Aberth, "Iteration methods for finding all zeros of a polynomial simultaneously",
+   Math. Comp. 27 (1973) 339-344.
+.. [2] D. A. Bini, "Numerical computation of polynomial zeros by means of Aberth's method",
+   Numer. Algorithms 13 (1996) 179-200.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+_EPS = np.finfo(float).eps
+
+
+def det_coefficients(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Coefficients of ``det A(z)`` for ``A(z) = sum_j alpha_j z^j``.
+
+    Parameters
+    ----------
+    alpha : ndarray, shape (n + 1, n_in, n_in)
+        Real coefficient blocks.
+
+    Returns
+    -------
+    ndarray, shape (n * n_in + 1,)
+        ``c_0 .. c_N`` of ``det A(z) = sum_j c_j z^j`` (N = n n_in): interpolated from the
+        values at N + 1 points on the unit circle (two FFTs, well conditioned).
+    """
+    n1, n_in, _ = alpha.shape
+    if n_in == 1:
+        return alpha[:, 0, 0].astype(float).copy()
+    deg = (n1 - 1) * n_in
+    k = deg + 1
+    vals = np.fft.fft(alpha, n=k, axis=0)  # A(exp(-2 pi i m / k)), shape (k, n_in, n_in)
+    d = np.linalg.det(vals)
+    return np.fft.ifft(d).real * 1.0
+
+
+def _ratio(c: NDArray, dc: NDArray, cr: NDArray, dcr: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
+    """Newton ratio p(z) / p'(z) and a flag "p(z) is at rounding level" for every z.
+
+    Inside the unit circle p is evaluated directly, outside through the reversed polynomial
+    ``q(y) = y^N p(1/y)``, so no power of z exceeds 1 in modulus.
+    """
+    n = c.size - 1
+    r = np.empty(z.size, dtype=np.complex128)
+    small = np.empty(z.size, dtype=bool)
+    inside = np.abs(z) <= 1.0
+    for mask, coef, dcoef, flip in ((inside, c, dc, False), (~inside, cr, dcr, True)):
+        if not mask.any():
+            continue
+        x = z[mask] if not flip else 1.0 / z[mask]
+        pw = np.empty((x.size, n + 1), dtype=np.complex128)
+        pw[:, 0] = 1.0
+        pw[:, 1:] = x[:, None]
+        np.cumprod(pw[:, 1:], axis=1, out=pw[:, 1:])
+        p = pw @ coef
+        dp = pw[:, :-1] @ dcoef
+        small[mask] = np.abs(p) <= 4.0 * n * _EPS * (np.abs(pw) @ np.abs(coef))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # outside: p'(z) / p(z) = N y - y^2 q'(y) / q(y)
+            r[mask] = p / dp if not flip else 1.0 / (n * x - x * x * dp / p)
+    return r, small
+
+
+def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int = 60) -> NDArray[np.complex128] | None:
+    """All roots of ``sum_j c_j z^j`` from initial guesses ``z0`` (one per root).
+
+    Returns None when the iteration does not converge (the caller then uses an eigenvalue
+    method).
+    """
+    n = c.size - 1
+    if n < 1 or z0.size != n or c[-1] == 0 or not np.all(np.isfinite(c)):
+        return None
+    c = np.asarray(c, dtype=float)
+    j = np.arange(1, n + 1)
+    dc = c[1:] * j  # coefficients of p'
+    cr = c[::-1].copy()
+    dcr = cr[1:] * j  # coefficients of q'
+    z = np.asarray(z0, dtype=np.complex128).copy()
+    act = np.arange(n)  # roots still iterating
+    for _ in range(maxiter):
+        za = z[act]
+        r, small = _ratio(c, dc, cr, dcr, za)
+        diff = za[:, None] - z[None, :]
+        diff[np.arange(act.size), act] = 1.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (1.0 / diff).sum(axis=1) - 1.0  # without the diagonal's 1/1
+            w = r / (1.0 - r * s)
+        ok = np.isfinite(w)
+        step = ~small & ok
+        z[act[step]] = za[step] - w[step]
+        # converged: backward error at rounding level, or a correction at rounding level
+        conv = small | (ok & (np.abs(w) <= 4.0 * _EPS * np.abs(za)))
+        act = act[~conv]
+        if act.size == 0:
+            break
+    if act.size:
+        _, small = _ratio(c, dc, cr, dcr, z[act])
+        if not small.all():
+            return None
+    return z if np.all(np.isfinite(z)) else None
+
+
+def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex128]:
+    """Initial guesses: the previous order's roots plus new points spread on a circle.
+
+    The guesses are rotated by a tiny angle so that they are not conjugate-symmetric (Aberth's
+    iteration would otherwise keep every pair symmetric).
+    """
+    m = n_roots - prev.size
+    if m < 0:
+        prev = prev[np.argsort(np.abs(np.abs(prev) - 1.0))][:n_roots]
+        m = 0
+    k = np.arange(m)
+    new = 1.1 * np.exp(1j * (0.4 + 2 * np.pi * (k + 0.5) / max(m, 1)))
+    return np.concatenate([prev, new]) * np.exp(1e-3j)
+
+
+__all__ = ["aberth", "det_coefficients", "warm_start"]
