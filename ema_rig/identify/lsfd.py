@@ -22,8 +22,10 @@ each basis column to unit norm. Lines at 0 Hz are skipped when the basis is sing
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import IdentificationError
 from ..frf import _FORM_POWER, FRFData
@@ -96,7 +98,7 @@ def lsfd(
         fac = jw**p
         pos = 1.0 / (jw[:, None] - lam[None, :])
         neg = 1.0 / (jw[:, None] - lam.conj()[None, :])
-        cols = [fac[:, None] * (pos + neg), fac[:, None] * (1j * pos - 1j * neg)]
+        cols: list[NDArray[Any]] = [fac[:, None] * (pos + neg), fac[:, None] * (1j * pos - 1j * neg)]
         if residuals:
             lr = jw ** (p - 2) if p >= 2 else 1.0 / jw ** (2 - p)
             cols += [lr[:, None], fac[:, None]]

@@ -332,13 +332,13 @@ def _solve_order(m: NDArray, n: int, n_in: int) -> tuple[NDArray, NDArray]:
 
 
 def _spd_solve(a: NDArray, b: NDArray) -> NDArray:
-    """Solve ``a x = b`` for symmetric positive (semi)definite ``a`` (Cholesky, lstsq fallback)."""
-    from scipy.linalg import LinAlgError, cho_factor, cho_solve, lstsq
+    """Solve ``a x = b`` for symmetric positive (semi)definite ``a`` (LAPACK posv, lstsq fallback)."""
+    from scipy.linalg import lapack, lstsq
 
-    try:
-        return cho_solve(cho_factor(a, lower=True, check_finite=False), b, check_finite=False)
-    except LinAlgError:
+    _, x, info = lapack.dposv(a, b, lower=1, overwrite_a=0, overwrite_b=0)
+    if info != 0:
         return lstsq(a, b, check_finite=False)[0]
+    return x
 
 
 def _companion(beta: NDArray) -> NDArray:
@@ -370,7 +370,7 @@ def _eval_poly(alpha: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
     return a, da
 
 
-def _refine(alpha: NDArray, z: NDArray, iters: int = 4) -> NDArray:
+def _refine(alpha: NDArray, z: NDArray, iters: int = 3) -> NDArray:
     """Newton steps on ``det A(z) = 0`` from the starting roots ``z``.
 
     The step is ``det A / (d det A / dz)`` with the derivative from Jacobi's formula (sum of
@@ -395,6 +395,8 @@ def _refine(alpha: NDArray, z: NDArray, iters: int = 4) -> NDArray:
                 step = np.linalg.det(a) / ddet
         step = np.where(np.isfinite(step), step, 0.0)
         zk = zk - step
+        if np.all(np.abs(step) <= 1e-12 * np.abs(zk)):
+            break
     moved = np.abs(zk - z0)
     bad = ~np.isfinite(zk) | (moved > 0.1 * np.abs(1.0 - np.abs(z0)))
     zk[bad] = z0[bad]

@@ -519,7 +519,7 @@ def select_modes(
     cand = np.flatnonzero(
         np.isin(stab.status, list(wanted)) & (zeta > 0) & (zeta <= max_damping) & ~stab.unstable
     )
-    sel_kw = {
+    sel_kw: dict[str, Any] = {
         "band": stab.band,
         "max_order": max(stab.orders) if stab.orders else 0,
         "tolerances": tol,
