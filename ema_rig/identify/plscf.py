@@ -22,9 +22,9 @@ Notes
 **Frequency normalisation.** The band ``[f_lo, f_hi]`` is shifted to start at 0 Hz
 (``w' = 2 pi (f - f_lo)``) and scaled onto the whole upper half of the unit circle,
 ``dt = 1 / (2 (f_hi - f_lo))``, so ``theta_k = w'_k dt`` runs from 0 to pi. On an even grid the
-matrix ``R`` is then almost ``n_freq`` times the identity (its condition number stays below
-~2 at any order), whereas keeping 0 Hz but dropping the lines below the band leaves a gap on
-the circle that makes ``R`` singular to working precision at high orders. A pole
+matrix ``R`` is then almost ``n_freq`` times the identity: cond(R) = 1.03 at order 100 and
+1.06 at order 200 for 150-1000 Hz of a 0-2000 Hz, 0.5 Hz file, whereas keeping 0 Hz and
+dropping the lines below 150 Hz (a gap on the circle) gives 9e8 and 1e17. A pole
 ``s' = ln(z) / dt`` of the shifted model is the physical pole ``s = s' + j 2 pi f_lo``; of each
 conjugate pair only the root with ``Im s' > 0`` maps into the band and is kept.
 
@@ -41,27 +41,28 @@ coefficient, ``alpha_0 = I``, makes the least-squares solution put the physical 
 the unit circle (stable, ``Re s < 0``) and the mathematical poles that absorb noise, edge
 effects and out-of-band dynamics outside it (``Re s > 0``, negative damping ratio): about three
 quarters of all poles of a noisy rig measurement come out unstable and never count as stable
-in :func:`~ema_rig.identify.stabilization.stabilize`, which cleans the chart. (In the
-``z^-1 = exp(-j w dt)`` basis of Peeters et al. this is the usual highest-order constraint; the
-opposite choice, ``alpha_n = I`` here, makes every pole stable.) The price is a noise bias: on
-noisy data the stable roots of the ``alpha_0 = I`` solution are several times less accurate
-than those of ``alpha_n = I`` (1.2e-5 against 1.5e-6 relative frequency error on the 626 Hz
-mode of the benchmark), because the model can then represent out-of-band and edge dynamics
-only with unstable poles. Both solutions come from the same reduced matrix ``M_n`` (two small
-Cholesky solves), so each stable root of the ``alpha_0 = I`` polynomial is polished by a few
-Newton steps on ``det A(z)`` of the ``alpha_n = I`` polynomial: the classification of the
-first, the accuracy of the second, for one eigenvalue problem per order.
+in :func:`~ema_rig.identify.stabilization.stabilize`, which cleans the chart. (With the basis
+``z^-1 = exp(-j w dt)``, as in sdypy-EMA's LSCF, the same choice is the highest-order
+coefficient; the opposite choice, ``alpha_n = I`` here, makes nearly every pole stable.) The
+price is a noise bias: on noisy data the stable roots of the ``alpha_0 = I`` solution are
+about ten times less accurate than those of ``alpha_n = I`` (relative frequency error ~1e-5
+against ~1e-6 for a 1 %-damped mode with 1 % noise), because the model can then represent
+out-of-band and edge dynamics only with unstable poles. Both solutions come from the same
+reduced matrix ``M_n`` (two small Cholesky solves), so each stable root of the
+``alpha_0 = I`` polynomial is polished by a few Newton steps on ``det A(z)`` of the
+``alpha_n = I`` polynomial: the classification of the first, the accuracy of the second, for
+one root-finding problem per order.
 
-**Poles and participation factors.** The roots of order ``n`` are the eigenvalues of the block
-companion matrix of the coefficient-reversed, transposed polynomial (``n n_in`` square; upper
-Hessenberg for one reference), ``z = 1 / w``; the participation vector ``l_r`` of pole
-``z_r`` is the null vector of ``A(z_r)^T`` (the last ``n_in`` rows of the companion
-eigenvector), computed directly from the ``n_in x n_in`` matrix, which is cheaper than the
-eigenvectors. The eigenvalue problems of the different orders run on a small thread pool
-(LAPACK releases the GIL) — or, by default, the roots of each order are found by the
-Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`; O(N^2) per
-sweep instead of the O(N^3) QR iteration; an order that does not converge falls back to the
-companion eigenvalues).
+**Poles and participation factors.** The roots of order ``n`` are those of ``det A(z)``:
+eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
+(``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
+``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
+roots (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
+round-off; an order that does not converge falls back to the companion eigenvalues). The
+participation vector ``l_r`` of pole ``z_r`` is the null vector of ``A(z_r)^T`` (what the last
+``n_in`` rows of a companion eigenvector hold), computed directly from the ``n_in x n_in``
+matrix, which is cheaper than eigenvectors. All dense algebra runs with single-threaded
+OpenBLAS (:mod:`._blas`); ``root_finder='eig'`` spreads the orders over a thread pool instead.
 
 References
 ----------
