@@ -57,7 +57,10 @@ def _ratio(c: NDArray, dc: NDArray, cr: NDArray, dcr: NDArray, z: NDArray) -> tu
     n = c.size - 1
     r = np.empty(z.size, dtype=np.complex128)
     small = np.empty(z.size, dtype=bool)
-    inside = np.abs(z) <= 1.0
+    az = np.abs(z)
+    # direct evaluation everywhere while the powers stay far from overflow (one pass);
+    # otherwise the roots outside the unit circle go through the reversed polynomial
+    inside = az <= 1.0 if az.size and n * np.log10(max(az.max(), 1.0)) > 150 else np.ones(z.size, bool)
     for mask, coef, dcoef, flip in ((inside, c, dc, False), (~inside, cr, dcr, True)):
         if not mask.any():
             continue
