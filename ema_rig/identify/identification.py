@@ -156,8 +156,9 @@ def identify(
         :func:`~ema_rig.identify.stabilization.stabilize`.
     selection : Selection, optional
         A saved selection to replay (:func:`~ema_rig.identify.stabilization.resolve_selection`:
-        exact on the same data, nearest mode within ``near_tol`` on other data). Default:
-        automatic selection (:func:`~ema_rig.identify.stabilization.select_modes`).
+        exact on the same data, nearest mode within ``near_tol`` on other data); its band and
+        maximum order are used unless ``band`` / ``max_order`` are given. Default: automatic
+        selection (:func:`~ema_rig.identify.stabilization.select_modes`).
     near_tol : float, optional
         Relative frequency window for replaying a selection on other data (default 0.03).
     residuals : bool, optional
@@ -187,6 +188,12 @@ def identify(
     >>> ident.natural_freq.round(6), ident.damping_ratio.round(6)
     (array([150.]), array([0.01]))
     """
+    if selection is not None and not isinstance(selection, Selection):
+        raise TypeError(f"selection must be a Selection, got {type(selection).__name__}")
+    if selection is not None:
+        # replay: the selection's band and order unless given explicitly
+        band = selection.band if band is None else band
+        max_order = selection.max_order if max_order is None and selection.max_order >= 1 else max_order
     data = check_data(data, band)
     src = source_of(data)
     if max_order is None:
@@ -210,8 +217,6 @@ def identify(
                 file=src,
             )
     else:
-        if not isinstance(selection, Selection):
-            raise TypeError(f"selection must be a Selection, got {type(selection).__name__}")
         try:
             sel = resolve_selection(stab, selection, tol=near_tol, source=src)
         except IdentificationError as exc:
