@@ -114,7 +114,17 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
         _, small = _ratio(c, dc, cr, dcr, z[act])
         if not small.all():
             return None
-    return z if np.all(np.isfinite(z)) else None
+    if not np.all(np.isfinite(z)):
+        return None
+    # two approximations on one root would leave another root unfound: check the sum of the
+    # roots (Vieta) and that no two coincide
+    vieta = -c[-2] / c[-1]
+    if abs(z.sum() - vieta) > 1e-8 * (np.abs(z).sum() + abs(vieta)):
+        return None
+    zs = np.sort_complex(z)
+    if np.any(np.abs(np.diff(zs)) <= 1e-12 * np.abs(zs[1:])):
+        return None
+    return z
 
 
 def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex128]:
