@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import IdentificationError
 from ..frf import _FORM_POWER, FRFData
 from .modal import ModalModel
+from .plscf import check_data, source_of
 
 
 def lsfd(
@@ -77,8 +78,6 @@ def lsfd(
     >>> bool(np.isclose(m.residues[0, 0, 0], res))
     True
     """
-    from ..identify.plscf import check_data, source_of
-
     data = check_data(data, band)
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)

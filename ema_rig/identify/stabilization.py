@@ -50,7 +50,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..dof import DOF, as_dof
 from ..errors import IdentificationError
 from .mac import mac
 from .plscf import PoleSet
@@ -736,10 +735,6 @@ def resolve_selection(
         in_dofs=tuple(str(d) for d in stab.poles.in_dofs),
         source=source if source is not None else selection.source,
     )
-
-
-def _as_dofs(dofs: Iterable[str | DOF]) -> tuple[DOF, ...]:
-    return tuple(as_dof(d) for d in dofs)
 
 
 __all__ = [
