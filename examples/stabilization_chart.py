@@ -41,7 +41,7 @@ def simulated_file(tmp: Path) -> tuple[Path, Path]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("-o", "--output", default="stabilization_chart.png")
+    ap.add_argument("--out", default="examples-out", help="output folder")
     ap.add_argument("--simulate", action="store_true", help="write and use a two-shaker synthetic file")
     ap.add_argument("--cmif", action="store_true", help="CMIF instead of the sum of FRFs")
     args = ap.parse_args()
@@ -69,9 +69,10 @@ def main() -> int:
             show_unstable=True,
             title=f"{uff.name}: {data.n_out} outputs x {data.n_in} reference(s), PolyMAX {band[0]:g}-{band[1]:g} Hz",
         )
-        with atomic_path(args.output) as tmp:
+        output = Path(args.out) / ("stabilization_chart_2ref.png" if args.simulate else "stabilization_chart.png")
+        with atomic_path(output) as tmp:
             chart.figure.savefig(tmp, dpi=130)
-    print(f"wrote {args.output}")
+    print(f"wrote {output}")
     for rec in ident.to_records():
         mass = ", ".join(f"{k}: {v:.3g} kg" for k, v in rec["modal_mass"].items())
         print(
