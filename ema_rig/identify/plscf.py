@@ -62,7 +62,7 @@ round-off; an order that does not converge falls back to the companion eigenvalu
 participation vector ``l_r`` of pole ``z_r`` is the null vector of ``A(z_r)^T`` (what the last
 ``n_in`` rows of a companion eigenvector hold), computed directly from the ``n_in x n_in``
 matrix, which is cheaper than eigenvectors. All dense algebra runs with single-threaded
-OpenBLAS (:mod:`._blas`); ``root_finder='eig'`` spreads the orders over a thread pool instead.
+BLAS (:mod:`._blas`, threadpoolctl); ``root_finder='eig'`` spreads the orders over a thread pool instead.
 
 References
 ----------
