@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-CORPUS = REPO.parent / "shared" / "uff-corpus"
+# the shared corpus lives beside the repository; EMA_RIG_UFF_CORPUS points elsewhere
+CORPUS = Path(os.environ.get("EMA_RIG_UFF_CORPUS", REPO.parent / "shared" / "uff-corpus"))
 
 
 @pytest.fixture

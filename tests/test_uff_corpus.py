@@ -17,11 +17,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import CORPUS  # noqa: E402
 
 from ema_rig.errors import UFFError
 from ema_rig.io.uff import inspect_uff, read_uff, read_uff58
-
-CORPUS = Path(__file__).resolve().parent.parent.parent / "shared" / "uff-corpus"  # as in conftest
 
 MANIFEST = json.loads((CORPUS / "manifest.json").read_text()) if (CORPUS / "manifest.json").is_file() else []
 NAMES = [e["short"] for e in MANIFEST]
