@@ -79,6 +79,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         text = str(exc).replace("\n", " ")
         print(f"error: {text}", file=sys.stderr)
         return EXIT_ERROR
+    except BrokenPipeError:  # output piped into `head` and closed early: not an error of ours
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except (OSError, ValueError) as exc:
         # files that cannot be opened, values that cannot be used: user input, not a bug
         name = getattr(exc, "filename", None)
