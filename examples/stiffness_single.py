@@ -21,63 +21,14 @@ from ema_rig.io.uff import read_uff58
 from ema_rig.plot.rig import plot_rig_fit, save_figure
 from ema_rig.rig.stiffness import calibrate, estimate_stiffness
 
-RIG_TOML = """
-[model]
-m_H = 2.566
-m_S = 2.8
-m_F = 205.0
-k_MS = 114e6
-k_AS = 650e3
-k_S = 348e6
-k_B = 180e3
-
-[excitation]
-radial = "11+Y"
-
-[identification]
-band = [150.0, 1000.0]
-
-[[sensor]]
-dof = "11+Y"
-role = "housing"
-axis = "radial"
-[[sensor]]
-dof = "12+Y"
-role = "housing"
-axis = "radial"
-[[sensor]]
-dof = "13-Y"
-role = "housing"
-axis = "radial"
-[[sensor]]
-dof = "14+Z"
-role = "housing"
-axis = "lateral"
-[[sensor]]
-dof = "15+X"
-role = "housing"
-axis = "axial"
-[[sensor]]
-dof = "21+Y"
-role = "spindle"
-axis = "radial"
-[[sensor]]
-dof = "22+Y"
-role = "spindle"
-axis = "radial"
-[[sensor]]
-dof = "23+X"
-role = "spindle"
-axis = "axial"
-"""
+REPO_RIG = Path(__file__).resolve().parents[1] / "data" / "rig.toml"  # the paper's rig, 8 sensors
 
 
 def simulate_inputs(out: Path) -> tuple[Path, Path, Path]:
     """Write a rig file, a steel-disk run and a bearing run (k_TB = 92 MN/m, 1500 rpm)."""
     from ema_rig.simulate import simulate_measurement, write_measurement
 
-    rig_path = out / "rig.toml"
-    rig_path.write_text(RIG_TOML, encoding="utf-8")
+    rig_path = REPO_RIG
     rig = load_rig(rig_path)
     disk = write_measurement(simulate_measurement(rig, k_tb=math.inf, noise=0.01, seed=1), out / "disk.uff", rig=rig)
     sim = simulate_measurement(rig, k_tb=92e6, noise=0.01, seed=2, speed_hz=25.0)
