@@ -19,19 +19,30 @@ def _stiffness(text: str) -> float:
     return v
 
 
+def _accel_unit(text: str) -> str:
+    key = text.strip().lower().replace(" ", "").replace("²", "^2")
+    if key in ("g", "gn"):
+        return "g"
+    if key in ("m/s^2", "m/s2", "ms-2", "m/s**2", "si"):
+        return "m/s^2"
+    raise argparse.ArgumentTypeError(f"unit must be 'm/s^2' or 'g', got {text!r}")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig simulate``."""
     parser.add_argument("--rig", required=True, help="rig file (TOML): model, sensors, references")
     parser.add_argument("--k-tb", required=True, type=_stiffness, metavar="V",
                         help="true bearing stiffness [N/m]; 'inf' simulates the steel disk")
     parser.add_argument("-o", "--output", required=True, metavar="FILE", help="UFF58 file to write")
-    parser.add_argument("--noise", type=float, default=0.01, help="relative complex noise level (default 0.01)")
+    parser.add_argument("--noise", type=float, nargs="?", const=0.01, default=0.01, metavar="LEVEL",
+                        help="relative complex noise level (default 0.01; 0 = noise-free)")
     parser.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     parser.add_argument("--speed", type=float, default=0.0, metavar="RPM",
                         help="shaft speed [rpm]; > 0 adds lines at multiples of the speed")
     parser.add_argument("--binary", action="store_true", help="write binary 58b datasets")
     parser.add_argument("--single", action="store_true", help="single precision (smaller files)")
-    parser.add_argument("--units", choices=("m/s^2", "g"), default="m/s^2", help="acceleration unit written")
+    parser.add_argument("--units", type=_accel_unit, default="m/s^2", metavar="{m/s^2,g}",
+                        help="acceleration unit written (default m/s^2)")
     parser.add_argument("--radial-only", action="store_true",
                         help="drive only the radial shaker (default: every reference of the rig file)")
     parser.add_argument("--no-extra-modes", action="store_true",
