@@ -220,8 +220,9 @@ def plot_rig_fit(
     ax_c.set_ylim(0, 1)
     ax_c.set_yticks([])
     ax_c.set_xlim(lo, hi)
-    last_x = -math.inf
-    level = 0
+    # label packing: each label occupies [left, right] in axis fraction; take the lowest free row
+    axis_pt = ax_c.get_position().width * fig.get_figwidth() * 72.0
+    rows: list[list[tuple[float, float]]] = [[] for _ in range(4)]
     for c in inside:
         x = c["natural_freq"]
         st = c["status"]
@@ -231,12 +232,16 @@ def plot_rig_fit(
         (pt,) = ax_c.plot([x], [0.28], marker=mk, color=col, ms=7, ls="none")
         artists["candidates"].append(pt)
         lab = "housing mode" if st == "housing" else ("spindle mode" if st == "spindle" else short_reason(c["reason"]))
-        # stack labels that would overlap (a label is ~0.15 of the axis wide)
-        level = level + 1 if x - last_x < 0.16 * (hi - lo) else 0
-        last_x = x
+        text = f"{x:.0f} Hz {lab}"
         pos = (x - lo) / (hi - lo)
         ha = "left" if pos < 0.1 else ("right" if pos > 0.88 else "center")
-        ax_c.text(x, 0.36 + 0.21 * (level % 3), f"{x:.0f} Hz {lab}", rotation=0, ha=ha,
+        width = (len(text) * 0.56 * 7.5 + 6.0) / axis_pt  # ~0.56 em per character at 7.5 pt
+        left = {"left": pos, "right": pos - width, "center": pos - width / 2}[ha]
+        span = (left, left + width)
+        level = next((i for i, row in enumerate(rows)
+                      if all(span[1] <= a or span[0] >= b for a, b in row)), len(rows) - 1)
+        rows[level].append(span)
+        ax_c.text(x, 0.34 + 0.165 * level, text, rotation=0, ha=ha,
                   va="bottom", fontsize=7.5, color=col, clip_on=True)
     note = "identified modes: " + ("none in this band" if not inside else "x rejected, ▼ chosen")
     if outside:
