@@ -99,3 +99,10 @@ def test_cli_errors(uff_file, tmp_path, capsys):
     bad.write_text("{}")
     assert main(["modes", str(uff_file), "--selection", str(bad)]) == 1
     assert "not a valid mode selection" in capsys.readouterr().err
+
+
+def test_modes_synthesis_plot(uff_file, tmp_path, mplcleanup):
+    png = tmp_path / "syn.png"
+    assert main(["modes", str(uff_file), "--band", "50", "950", "--plot", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    assert not list(tmp_path.glob(".syn.png*"))  # written atomically, no temporary left behind

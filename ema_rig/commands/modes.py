@@ -13,6 +13,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", default=None, metavar="OUT", help="write the modes as JSON")
     parser.add_argument("--save-selection", default=None, metavar="JSON",
                         help="write the selection (replayable with --selection)")
+    parser.add_argument("--plot", default=None, metavar="PNG",
+                        help="draw measured vs synthesised FRFs (png, svg or pdf)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -48,6 +50,14 @@ def run(args: argparse.Namespace) -> int:
         }
         write_json(args.json, doc)
         print(f"wrote {args.json}")
+    if args.plot:
+        from .._atomic import atomic_path
+        from ..plot.synthesis import plot_synthesis
+
+        chart = plot_synthesis(data, ident.modes)
+        with atomic_path(args.plot) as tmp:
+            chart.figure.savefig(tmp, dpi=110)
+        print(f"wrote {args.plot}")
     if args.save_selection:
         ident.selection.to_json(args.save_selection)
         print(f"wrote {args.save_selection}")

@@ -1,0 +1,143 @@
+"""Measured FRFs against the FRFs synthesised from the identified modal model.
+
+Functions
+---------
+plot_synthesis
+    Small multiples, one panel per (output, reference) channel: measured and synthesised
+    magnitude, the fitted band shaded, the identified natural frequencies marked and the
+    per-channel fit error in the title.
+
+Classes
+-------
+SynthesisPlot
+    What :func:`plot_synthesis` returns: the figure, the axes and the artists by kind.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from ..frf import FRFData
+    from ..identify.modal import ModalModel
+
+
+@dataclass(frozen=True, slots=True)
+class SynthesisPlot:
+    """Result of :func:`plot_synthesis`.
+
+    Attributes
+    ----------
+    figure : matplotlib.figure.Figure
+    axes : list of Axes
+        One per channel shown, row-major.
+    measured, synthesized : list of Line2D
+        One line per channel.
+    channels : list of tuple of int
+        ``(output index, reference index)`` of each panel.
+    """
+
+    figure: Figure
+    axes: list[Axes] = field(default_factory=list)
+    measured: list[Any] = field(default_factory=list)
+    synthesized: list[Any] = field(default_factory=list)
+    channels: list[tuple[int, int]] = field(default_factory=list)
+
+
+def plot_synthesis(
+    data: FRFData,
+    modes: ModalModel,
+    *,
+    channels: Sequence[tuple[int, int]] | None = None,
+    max_channels: int = 12,
+    margin: float = 0.1,
+    title: str | None = None,
+) -> SynthesisPlot:
+    """Overlay measured and synthesised FRFs, one panel per channel.
+
+    Parameters
+    ----------
+    data : FRFData
+        The measurement, shape (n_out, n_in, n_freq); its outputs and references must include
+        those of ``modes``.
+    modes : ModalModel
+        The LSFD model (poles, residues and residual terms).
+    channels : sequence of (int, int), optional
+        ``(output, reference)`` indices into ``modes.out_dofs`` / ``modes.in_dofs``; default:
+        every output against every reference, at most ``max_channels``.
+    max_channels : int, optional
+        Upper bound on the panels drawn by default (12).
+    margin : float, optional
+        Fraction of the fitted band shown on each side of it (0.1): the synthesis is only valid
+        inside the band, the margin shows where it stops being so.
+    title : str, optional
+        Figure title (default: the source file and the band).
+
+    Returns
+    -------
+    SynthesisPlot
+
+    Raises
+    ------
+    KeyError
+        If a DOF of the model is missing from the data.
+    """
+    from matplotlib.figure import Figure
+
+    lo, hi = (float(modes.band[0]), float(modes.band[1]))
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        lo, hi = float(data.freq[0]), float(data.freq[-1])
+    width = hi - lo
+    shown = data.band(max(float(data.freq[0]), lo - margin * width), min(float(data.freq[-1]), hi + margin * width))
+    meas = shown.sel(out=list(modes.out_dofs), inp=list(modes.in_dofs)).to_form(modes.frf_form)
+    syn = modes.synthesize(meas.freq, frf_form=modes.frf_form)
+    if channels is None:
+        channels = [(i, j) for j in range(len(modes.in_dofs)) for i in range(len(modes.out_dofs))][:max_channels]
+    n = len(channels)
+    ncol = 2 if n > 1 else 1
+    nrow = math.ceil(n / ncol)
+    fig = Figure(figsize=(11.0 if ncol == 2 else 7.0, 1.0 + 2.0 * nrow), layout="constrained")
+    axs = fig.subplots(nrow, ncol, sharex=True, squeeze=False)
+    out = SynthesisPlot(figure=fig)
+    in_band = (meas.freq >= lo) & (meas.freq <= hi)
+    for k, (i, j) in enumerate(channels):
+        ax = axs[k // ncol][k % ncol]
+        m = np.abs(meas.frf[i, j])
+        s = np.abs(syn.frf[i, j])
+        (lm,) = ax.semilogy(meas.freq, m, color="k", lw=1.0, label="measured")
+        (ls,) = ax.semilogy(meas.freq, s, color="C3", lw=1.0, ls="--", label="synthesised (LSFD)")
+        ax.axvspan(lo, hi, color="C0", alpha=0.06, lw=0)
+        for fn in modes.natural_freq:
+            ax.axvline(fn, color="0.6", lw=0.6, ls=":")
+        err = np.linalg.norm(meas.frf[i, j, in_band] - syn.frf[i, j, in_band]) / max(
+            np.linalg.norm(meas.frf[i, j, in_band]), np.finfo(float).tiny)
+        role = modes.roles[i] or ""
+        axis = modes.axes[i] or ""
+        ax.set_title(f"{modes.out_dofs[i]} / {modes.in_dofs[j]}  {role} {axis}  fit error {100 * err:.1f} %",
+                     fontsize=8.5, loc="left")
+        ax.grid(True, which="both", alpha=0.25)
+        ax.set_ylabel(f"|H| [{meas.unit_str}]", fontsize=8)
+        out.axes.append(ax)
+        out.measured.append(lm)
+        out.synthesized.append(ls)
+        out.channels.append((i, j))
+    for k in range(n, nrow * ncol):  # unused panels of the last row
+        axs[k // ncol][k % ncol].set_visible(False)
+    for ax in axs[-1]:
+        ax.set_xlabel("frequency [Hz]")
+    axs[0][0].legend(fontsize=8, loc="lower right")
+    src = modes.meta.get("file") or data.meta.get("source") or ""
+    fig.suptitle(title or f"{src}  measured vs synthesised FRFs, {len(modes.poles)} modes in {lo:g}–{hi:g} Hz "
+                 "(dotted: natural frequencies)", fontsize=10)
+    return out
+
+
+__all__ = ["SynthesisPlot", "plot_synthesis"]
