@@ -179,8 +179,11 @@ def plot_speed_effect(rows: Sequence[Row], bearing: str) -> Figure:
     for i, (load, rs) in enumerate(sorted(by_load.items(), key=lambda kv: _key(kv[0]))):
         rs = sorted(rs, key=lambda r: r["speed"])
         ax.errorbar([r["speed"] for r in rs], [r["k_TB"] / _MN for r in rs],
-                    yerr=[r["k_TB_std"] / _MN for r in rs], fmt="o-", color=f"C{i}", capsize=3,
+                    yerr=[r["k_TB_std"] / _MN for r in rs], fmt="o", color=f"C{i}", capsize=3,
                     label=f"{load:g} N" if _finite(load) else "load n/a")
+        speeds = sorted({r["speed"] for r in rs})  # repeats at one speed: the line joins their mean
+        means = [np.mean([r["k_TB"] for r in rs if r["speed"] == v]) / _MN for v in speeds]
+        ax.plot(speeds, means, "-", color=f"C{i}", lw=1)
         k = np.array([r["k_TB"] for r in rs])
         if k.size > 1:
             ax.annotate(f"spread {100 * k.std(ddof=1) / k.mean():.1f} %", (rs[-1]["speed"], k[-1] / _MN),
