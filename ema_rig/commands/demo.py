@@ -16,28 +16,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def find_data_dir(explicit: str | None = None):
-    """The folder with the bundled ``campaign.toml``.
+    """The folder with the bundled ``campaign.toml``, or None.
 
-    Looks in ``explicit``, then ``./data``, then the ``data/`` folder of the source tree.
+    Looks in ``explicit`` (an error if it has no campaign), then ``./data``, then the ``data/``
+    folder of the source tree.
     """
     from pathlib import Path
 
     from ..errors import EmaRigError
 
-    candidates = [Path(explicit)] if explicit else [Path.cwd() / "data", Path(__file__).resolve().parents[2] / "data"]
-    for c in candidates:
-        if (c / "campaign.toml").is_file():
+    if explicit:
+        if not (Path(explicit) / "campaign.toml").is_file():
+            raise EmaRigError("no campaign.toml in this folder", file=explicit)
+        return Path(explicit)
+    for c in (Path.cwd() / "data", Path(__file__).resolve().parents[2] / "data"):
+        if (c / "campaign.toml").is_file() and (c / "rig.toml").is_file():
             return c
-    raise EmaRigError(
-        "bundled campaign.toml not found; run from the repository root or pass --data DIR",
-        file=str(candidates[0]),
-    )
+    return None
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig demo``."""
+    from pathlib import Path
+
     from .campaign import run_campaign
 
     data = find_data_dir(args.data)
+    if data is None:  # installed without the source tree: regenerate the (seeded) bundled data
+        from ..demo_data import generate
+
+        data = Path(args.out) / "data"
+        print(f"ema-rig demo: no bundled data/ here; generating the seeded campaign into {data}")
+        generate(data)
     print(f"ema-rig demo: bundled campaign {data / 'campaign.toml'} -> {args.out}")
     return run_campaign(str(data / "campaign.toml"), args.out, args.jobs, args.force)

@@ -11,6 +11,7 @@ read back by pyuff (tests cross-check this) and by :func:`ema_rig.io.uff.read_uf
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -130,5 +131,11 @@ def dataset_bytes(
 
 
 def date_id() -> str:
-    """Record-3 date in the customary ``DD-Mon-YY HH:MM:SS`` form (UTC)."""
-    return time.strftime("%d-%b-%y %H:%M:%S", time.gmtime())
+    """Record-3 date in the customary ``DD-Mon-YY HH:MM:SS`` form (UTC).
+
+    ``SOURCE_DATE_EPOCH`` (seconds, the reproducible-builds convention) replaces the clock, so
+    that generated files can be byte-identical from run to run.
+    """
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "")
+    stamp = time.gmtime(int(epoch)) if epoch.strip().isdigit() else time.gmtime()
+    return time.strftime("%d-%b-%y %H:%M:%S", stamp)
