@@ -15,7 +15,15 @@ DOF
 RigConfig, load_rig
     The rig configuration file (``ema_rig.config``).
 read_uff58, write_uff58
-    UFF dataset 58 import and export (``ema_rig.io.uff``), imported on first use.
+    UFF dataset 58 import and export (``ema_rig.io.uff``).
+identify
+    PolyMAX identification with stabilization, selection and LSFD (``ema_rig.identify``).
+estimate_stiffness, calibrate
+    k_TB of a mounted bearing / k_MS from a steel-disk run (``ema_rig.rig.stiffness``).
+load_campaign, run_campaign
+    Campaign files and runs (``ema_rig.campaign``).
+
+The names after FRFData/DOF/RigConfig are imported on first use, so ``import ema_rig`` stays light.
 """
 
 from __future__ import annotations
@@ -48,6 +56,11 @@ logging.getLogger(__name__).addHandler(logging.NullHandler())
 _LAZY = {
     "read_uff58": ("ema_rig.io.uff", "read_uff58"),
     "write_uff58": ("ema_rig.io.uff", "write_uff58"),
+    "identify": ("ema_rig.identify", "identify"),
+    "estimate_stiffness": ("ema_rig.rig.stiffness", "estimate_stiffness"),
+    "calibrate": ("ema_rig.rig.stiffness", "calibrate"),
+    "load_campaign": ("ema_rig.campaign", "load_campaign"),
+    "run_campaign": ("ema_rig.campaign", "run"),
 }
 
 
@@ -73,7 +86,12 @@ __all__ = [
     "UFFError",
     "UnitWarning",
     "__version__",
+    "calibrate",
+    "estimate_stiffness",
+    "identify",
+    "load_campaign",
     "load_rig",
     "read_uff58",
+    "run_campaign",
     "write_uff58",
 ]
