@@ -441,6 +441,15 @@ def process_measurement(task: Mapping[str, Any]) -> dict[str, Any]:
         measurement (bad file, no housing mode) are returned in ``error``, never raised, so that one
         bad file does not stop a campaign.
     """
+    from ._blas import single_threaded
+
+    # one BLAS thread per measurement: the matrices are small, and with --jobs N the N workers
+    # would otherwise each start a thread per core and fight over the cores
+    with single_threaded():
+        return _process_measurement(task)
+
+
+def _process_measurement(task: Mapping[str, Any]) -> dict[str, Any]:
     from .io.uff import read_uff58
     from .rig.stiffness import estimate_stiffness
 

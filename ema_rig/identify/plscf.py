@@ -62,7 +62,7 @@ round-off; an order that does not converge falls back to the companion eigenvalu
 participation vector ``l_r`` of pole ``z_r`` is the null vector of ``A(z_r)^T`` (what the last
 ``n_in`` rows of a companion eigenvector hold), computed directly from the ``n_in x n_in``
 matrix, which is cheaper than eigenvectors. All dense algebra runs with single-threaded
-BLAS (:mod:`._blas`, threadpoolctl); ``root_finder='eig'`` spreads the orders over a thread pool instead.
+BLAS (:mod:`ema_rig._blas`, threadpoolctl); ``root_finder='eig'`` spreads the orders over a thread pool instead.
 
 References
 ----------
@@ -88,10 +88,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._blas import single_threaded
 from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
-from ._blas import single_threaded
 from ._roots import aberth, det_coefficients, warm_start
 
 logger = logging.getLogger(__name__)
