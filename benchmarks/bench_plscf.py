@@ -59,7 +59,7 @@ def make_data(n_in: int, seed: int = 0):
 
 
 def run_ema_rig(data, max_order: int, repeat: int, root_finder: str = "aberth"):
-    from ema_rig.identify import plscf, stabilize
+    from ema_rig.identification import plscf, stabilize
 
     orders = list(range(2, max_order + 1, 2))
     best = np.inf
@@ -73,7 +73,7 @@ def run_ema_rig(data, max_order: int, repeat: int, root_finder: str = "aberth"):
 
 def companions(data, max_order: int):
     """The companion matrices ema_rig builds for every even order (for the floor)."""
-    from ema_rig.identify.plscf import (
+    from ema_rig.identification.plscf import (
         _companion,
         _lag_sums,
         _reduced_blocks,
@@ -174,7 +174,7 @@ def main() -> int:
         floor_worker(args.floor_worker, args.repeat)
         return 0
 
-    from ema_rig.identify import identify
+    from ema_rig.identification import identify
 
     print(f"ema_rig pLSCF benchmark — numpy {np.__version__}, {os.cpu_count()} CPUs, best of {args.repeat}")
     print("data: 8 outputs x 4001 lines (0-2000 Hz), modes", ", ".join(f"{f:g}" for f in MODES_HZ), "Hz, 1 % noise\n")

@@ -17,7 +17,7 @@ RigConfig, load_rig
 read_uff58, write_uff58
     UFF dataset 58 import and export (``ema_rig.io.uff``).
 identify
-    PolyMAX identification with stabilization, selection and LSFD (``ema_rig.identify``).
+    PolyMAX identification with stabilization, selection and LSFD (``ema_rig.identification``).
 estimate_stiffness, calibrate
     k_TB of a mounted bearing / k_MS from a steel-disk run (``ema_rig.rig.stiffness``).
 load_campaign, run_campaign
@@ -56,7 +56,7 @@ logging.getLogger(__name__).addHandler(logging.NullHandler())
 _LAZY = {
     "read_uff58": ("ema_rig.io.uff", "read_uff58"),
     "write_uff58": ("ema_rig.io.uff", "write_uff58"),
-    "identify": ("ema_rig.identify", "identify"),
+    "identify": ("ema_rig.identification", "identify"),
     "estimate_stiffness": ("ema_rig.rig.stiffness", "estimate_stiffness"),
     "calibrate": ("ema_rig.rig.stiffness", "calibrate"),
     "load_campaign": ("ema_rig.campaign", "load_campaign"),

@@ -48,7 +48,7 @@ def main() -> int:
 
     from ema_rig._atomic import atomic_path
     from ema_rig.config import load_rig
-    from ema_rig.identify import identify
+    from ema_rig.identification import identify
     from ema_rig.io.uff import read_uff58
     from ema_rig.plot.stabilization import plot_stabilization
 

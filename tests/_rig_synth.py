@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_rig.identify.modal import ModalModel
+from ema_rig.identification.modal import ModalModel
 from ema_rig.rig.matching import model_mode_at
 
 # outputs in the rig's sensor order, sign-corrected (13-Y appears as 13+Y)

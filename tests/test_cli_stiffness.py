@@ -12,10 +12,10 @@ from ema_rig.cli import main
 from ema_rig.config import load_rig
 
 simulate = pytest.importorskip("ema_rig.simulate")
-identify_mod = pytest.importorskip("ema_rig.identify")
+identify_mod = pytest.importorskip("ema_rig.identification")
 pytest.importorskip("ema_rig.io.uff")
 needs_identify = pytest.mark.skipif(not hasattr(identify_mod, "identify"),
-                                    reason="ema_rig.identify.identify not available yet")
+                                    reason="ema_rig.identification.identify not available yet")
 
 FREQ = np.arange(0.0, 1100.0 + 0.25, 0.5)  # up to the housing band's top: small files, fast runs
 

@@ -7,7 +7,7 @@ import pytest
 from lumped import five_mode_system
 
 from ema_rig.errors import IdentificationError
-from ema_rig.identify import identify, lsfd, mac, mpc
+from ema_rig.identification import identify, lsfd, mac, mpc
 
 FREQ = np.arange(0.0, 1000.5, 0.5)
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from lumped import five_mode_system
 
-from ema_rig.identify import Selection, identify
+from ema_rig.identification import Selection, identify
 
 FREQ = np.arange(0.0, 1000.5, 0.5)
 

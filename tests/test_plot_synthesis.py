@@ -7,7 +7,7 @@ import pytest
 from lumped import five_mode_system
 from numpy.testing import assert_allclose
 
-from ema_rig.identify import lsfd
+from ema_rig.identification import lsfd
 from ema_rig.plot.synthesis import plot_synthesis
 
 

@@ -8,7 +8,7 @@ from lumped import five_mode_system
 
 from ema_rig.errors import IdentificationError
 from ema_rig.frf import FRFData
-from ema_rig.identify import identify, mac, plscf
+from ema_rig.identification import identify, mac, plscf
 
 FREQ = np.arange(0.0, 1000.5, 0.5)
 CLOSE = 3  # index of the 414.1 Hz mode: node at reference 0, 1 % above mode 2
@@ -70,7 +70,7 @@ def test_root_finders_agree(system):
 
 
 def test_warm_started_roots():
-    from ema_rig.identify._roots import aberth, det_coefficients, warm_start
+    from ema_rig.identification._roots import aberth, det_coefficients, warm_start
 
     rng = np.random.default_rng(0)
     alpha = rng.standard_normal((6, 2, 2))
@@ -90,7 +90,7 @@ def test_warm_started_roots():
 
 
 def test_reduced_normal_equations_match_explicit_least_squares(system):
-    from ema_rig.identify.plscf import _lag_sums, _reduced_blocks
+    from ema_rig.identification.plscf import _lag_sums, _reduced_blocks
 
     data = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(2)).band(100, 900)
     p, n_in = 6, 2

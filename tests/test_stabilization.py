@@ -9,7 +9,7 @@ import pytest
 from lumped import five_mode_system
 
 from ema_rig.errors import IdentificationError
-from ema_rig.identify import (
+from ema_rig.identification import (
     Selection,
     identify,
     plscf,
@@ -18,7 +18,7 @@ from ema_rig.identify import (
     select_poles,
     stabilize,
 )
-from ema_rig.identify.plscf import PoleSet
+from ema_rig.identification.plscf import PoleSet
 
 FREQ = np.arange(0.0, 1000.5, 0.5)
 

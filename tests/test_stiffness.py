@@ -140,7 +140,7 @@ def test_band_outside_data_is_error(rig, monkeypatch):
 
 
 # ----------------------------------------------------------------------------- end to end
-identify_mod = pytest.importorskip("ema_rig.identify")
+identify_mod = pytest.importorskip("ema_rig.identification")
 simulate = pytest.importorskip("ema_rig.simulate")
 
 
@@ -148,7 +148,7 @@ def _has_identify():
     return hasattr(identify_mod, "identify")
 
 
-@pytest.mark.skipif(not _has_identify(), reason="ema_rig.identify.identify not available yet")
+@pytest.mark.skipif(not _has_identify(), reason="ema_rig.identification.identify not available yet")
 @pytest.mark.parametrize(
     ("k_tb", "speed_hz"),
     [(71.57e6, None), (32.6e6, None), (90e6, 25.0)],  # 626 Hz bearing, dummy, rotating 1500 rpm
@@ -163,7 +163,7 @@ def test_end_to_end_simulated(rig, k_tb, speed_hz):
     assert "housing" in kinds and "rejected" in kinds
 
 
-@pytest.mark.skipif(not _has_identify(), reason="ema_rig.identify.identify not available yet")
+@pytest.mark.skipif(not _has_identify(), reason="ema_rig.identification.identify not available yet")
 def test_uncertainty_coverage(rig):
     """k_TB +- 2 k_TB_std (1 sigma std, ~95 % nominal) covers the truth in >= 90 % of 20 runs.
 
@@ -211,7 +211,7 @@ def test_plot_rig_fit_artists(rig, monkeypatch, mplcleanup, tmp_path):
     assert out.stat().st_size > 10_000
 
 
-@pytest.mark.skipif(not _has_identify(), reason="ema_rig.identify.identify not available yet")
+@pytest.mark.skipif(not _has_identify(), reason="ema_rig.identification.identify not available yet")
 def test_end_to_end_spindle_mode(rig):
     sim = simulate.simulate_measurement(rig, k_tb=71.57e6, noise=0.01, seed=11)
     res = st.estimate_stiffness(sim.data, rig)

@@ -21,10 +21,10 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
-    """Read the file (with the rig, if given) and run :func:`ema_rig.identify.identify`."""
+    """Read the file (with the rig, if given) and run :func:`ema_rig.identification.identify`."""
     from ..config import load_rig
     from ..errors import EmaRigError
-    from ..identify import Selection, identify
+    from ..identification import Selection, identify
     from ..io.uff import read_uff58
 
     if args.max_order is not None and args.max_order < 1:

@@ -4,7 +4,7 @@ Classes
 -------
 PolePicker
     Click poles of a :class:`~ema_rig.plot.stabilization.StabilizationPlot` to select modes;
-    the result is a :class:`~ema_rig.identify.stabilization.Selection` that saves to JSON and
+    the result is a :class:`~ema_rig.identification.stabilization.Selection` that saves to JSON and
     replays in batch.
 
 Notes
@@ -14,7 +14,7 @@ backend delivers: a Qt or Tk window, and Jupyter with ipympl (``%matplotlib widg
 toolkit is imported here. Typical use::
 
     import matplotlib.pyplot as plt
-    from ema_rig.identify import identify
+    from ema_rig.identification import identify
     from ema_rig.plot.stabilization import plot_stabilization
     from ema_rig.plot.picker import PolePicker
 
@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from ..identify.stabilization import Selection
+    from ..identification.stabilization import Selection
     from .stabilization import StabilizationPlot
 
 
@@ -142,7 +142,7 @@ class PolePicker:
     @property
     def selection(self) -> Selection:
         """The picked modes (provenance ``"manual"``), sorted by frequency."""
-        from ..identify.stabilization import select_poles
+        from ..identification.stabilization import select_poles
 
         return select_poles(self.plot.stab, self.picks, freq_tol=self.freq_tol, source=self.source)
 

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from ..frf import FRFData
-    from ..identify.stabilization import Selection, StabilizationData
+    from ..identification.stabilization import Selection, StabilizationData
 
 #: Marker style per status letter: (marker, filled, legend label).
 _MARKERS: Mapping[str, tuple[str, bool, str]] = {
@@ -165,7 +165,7 @@ def plot_stabilization(
     Parameters
     ----------
     stab : StabilizationData
-        Poles with status letters (:func:`~ema_rig.identify.stabilization.stabilize`).
+        Poles with status letters (:func:`~ema_rig.identification.stabilization.stabilize`).
     frf : FRFData, optional
         Drawn behind the poles on a log twin axis, unit from ``frf.unit_str``.
     ax : Axes, optional

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from ..frf import FRFData
-    from ..identify.modal import ModalModel
+    from ..identification.modal import ModalModel
 
 
 @dataclass(frozen=True, slots=True)

@@ -57,7 +57,7 @@ from numpy.typing import NDArray
 from ..config import ModelParams, RigConfig
 from ..dof import DOF
 from ..errors import MatchingError
-from ..identify.modal import ModalModel
+from ..identification.modal import ModalModel
 
 __all__ = [
     "MatchCriteria",

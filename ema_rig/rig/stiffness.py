@@ -17,7 +17,7 @@ Notes
 -----
 Steps of :func:`estimate_stiffness`:
 
-1. PolyMAX identification (:func:`ema_rig.identify.identify`) in the housing band (default the
+1. PolyMAX identification (:func:`ema_rig.identification.identify`) in the housing band (default the
    rig file's ``[identification] band``, else 150–1000 Hz clipped to the data);
 2. :func:`ema_rig.rig.matching.match_modes` picks the radial housing mode by shape and scale;
 3. when the data reach it, a second identification in a band around the spindle bending mode
@@ -87,7 +87,7 @@ def _file_of(data: FRFData) -> str | None:
 
 
 def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool) -> Any:
-    from ..identify import identify
+    from ..identification import identify
 
     return identify(data, band=band, max_order=max_order, progress=progress)
 

@@ -3,7 +3,7 @@
 Classes
 -------
 ModalModel
-    Frozen result of LSFD (:func:`ema_rig.identify.lsfd.lsfd`): everything needed to synthesise
+    Frozen result of LSFD (:func:`ema_rig.identification.lsfd.lsfd`): everything needed to synthesise
     FRFs, compare shapes and scale modes.
 
 Notes

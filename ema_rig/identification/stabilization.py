@@ -16,7 +16,7 @@ resolve_selection
 Classes
 -------
 StabilizationData
-    The :class:`~ema_rig.identify.plscf.PoleSet` rows plus ``status`` and ``unstable``.
+    The :class:`~ema_rig.identification.plscf.PoleSet` rows plus ``status`` and ``unstable``.
 SelectedMode, Selection
     The chosen modes with their spread across the cluster; JSON round trip.
 
@@ -33,7 +33,7 @@ previous computed order)::
 
 For one reference the participation "vector" is a scalar, the MAC is 1 and ``v`` reduces to
 ``f``. Unstable poles (``Re lambda >= 0``) are mathematical poles by construction of the
-estimator (see :mod:`ema_rig.identify.plscf`): they are always ``o`` and flagged in
+estimator (see :mod:`ema_rig.identification.plscf`): they are always ``o`` and flagged in
 ``unstable``.
 """
 
@@ -170,7 +170,7 @@ def stabilize(
     Parameters
     ----------
     poles : PoleSet
-        Output of :func:`~ema_rig.identify.plscf.plscf`.
+        Output of :func:`~ema_rig.identification.plscf.plscf`.
     freq_tol : float, optional
         Relative natural-frequency tolerance (default 0.01).
     damping_tol : float, optional
@@ -184,7 +184,7 @@ def stabilize(
 
     Examples
     --------
-    See :func:`ema_rig.identify.identify` for the whole chain.
+    See :func:`ema_rig.identification.identify` for the whole chain.
     """
     for name, v in (("freq_tol", freq_tol), ("damping_tol", damping_tol), ("mac_tol", mac_tol)):
         if not (np.isfinite(v) and v > 0):

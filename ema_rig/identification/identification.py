@@ -149,16 +149,16 @@ def identify(
     band : (float, float), optional
         ``(freq_lower, freq_upper)`` [Hz]; default the whole data.
     max_order : int, optional
-        Highest model order (default :func:`~ema_rig.identify.plscf.default_max_order`:
+        Highest model order (default :func:`~ema_rig.identification.plscf.default_max_order`:
         64 for one reference, 40 for two, i.e. companion matrices up to 64 / 80 rows).
     freq_tol, damping_tol, mac_tol : float, optional
         Stabilization tolerances (defaults 1 %, 5 %, 2 %), see
-        :func:`~ema_rig.identify.stabilization.stabilize`.
+        :func:`~ema_rig.identification.stabilization.stabilize`.
     selection : Selection, optional
-        A saved selection to replay (:func:`~ema_rig.identify.stabilization.resolve_selection`:
+        A saved selection to replay (:func:`~ema_rig.identification.stabilization.resolve_selection`:
         exact on the same data, nearest mode within ``near_tol`` on other data); its band and
         maximum order are used unless ``band`` / ``max_order`` are given. Default: automatic
-        selection (:func:`~ema_rig.identify.stabilization.select_modes`).
+        selection (:func:`~ema_rig.identification.stabilization.select_modes`).
     near_tol : float, optional
         Relative frequency window for replaying a selection on other data (default 0.03).
     residuals : bool, optional

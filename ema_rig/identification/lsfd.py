@@ -4,7 +4,7 @@ Functions
 ---------
 lsfd
     Residues of every output/input pair for given poles, with lower and upper residual terms,
-    as a :class:`~ema_rig.identify.modal.ModalModel`.
+    as a :class:`~ema_rig.identification.modal.ModalModel`.
 
 Notes
 -----

@@ -41,7 +41,7 @@ coefficient, ``alpha_0 = I``, makes the least-squares solution put the physical 
 the unit circle (stable, ``Re s < 0``) and the mathematical poles that absorb noise, edge
 effects and out-of-band dynamics outside it (``Re s > 0``, negative damping ratio): about three
 quarters of all poles of a noisy rig measurement come out unstable and never count as stable
-in :func:`~ema_rig.identify.stabilization.stabilize`, which cleans the chart. (With the basis
+in :func:`~ema_rig.identification.stabilization.stabilize`, which cleans the chart. (With the basis
 ``z^-1 = exp(-j w dt)``, as in sdypy-EMA's LSCF, the same choice is the highest-order
 coefficient; the opposite choice, ``alpha_n = I`` here, makes nearly every pole stable.) The
 price is a noise bias: on noisy data the stable roots of the ``alpha_0 = I`` solution are
@@ -536,7 +536,7 @@ def plscf(
 
     See Also
     --------
-    ema_rig.identify.stabilization.stabilize, ema_rig.identify.identify
+    ema_rig.identification.stabilization.stabilize, ema_rig.identification.identify
 
     Examples
     --------
