@@ -8,16 +8,35 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-# the shared corpus lives beside the repository; EMA_RIG_UFF_CORPUS points elsewhere
-CORPUS = Path(os.environ.get("EMA_RIG_UFF_CORPUS", REPO.parent / "shared" / "uff-corpus"))
+# The shared folder (real UFF files from other programs, real measured FRFs) lives beside the
+# repository as ../shared; EMA_RIG_SHARED points elsewhere, EMA_RIG_UFF_CORPUS at the corpus alone.
+# With EMA_RIG_REQUIRE_SHARED=1 (set by .ci/run when ../shared exists) a missing folder fails
+# the test instead of skipping it, so CI cannot pass by skipping.
+SHARED = Path(os.environ.get("EMA_RIG_SHARED", REPO.parent / "shared"))
+CORPUS = Path(os.environ.get("EMA_RIG_UFF_CORPUS", SHARED / "uff-corpus"))
+REAL_FRF = SHARED / "real-frf"
+_HOW = "set EMA_RIG_SHARED=/path/to/shared (the folder holding uff-corpus/ and real-frf/)"
+
+
+def _shared_dir(path: Path, what: str) -> Path:
+    if not path.is_dir():
+        msg = f"{what} not found at {path}; {_HOW}"
+        if os.environ.get("EMA_RIG_REQUIRE_SHARED") == "1":
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return path
 
 
 @pytest.fixture
 def corpus_dir() -> Path:
     """The shared UFF conformance corpus; the test is skipped when it is absent."""
-    if not CORPUS.is_dir():
-        pytest.skip(f"UFF corpus not found at {CORPUS}")
-    return CORPUS
+    return _shared_dir(CORPUS, "UFF corpus")
+
+
+@pytest.fixture
+def real_frf_dir() -> Path:
+    """The shared real measured FRFs (``real-frf/``); the test is skipped when absent."""
+    return _shared_dir(REAL_FRF, "real measured FRFs")
 
 
 @pytest.fixture

@@ -203,3 +203,8 @@ def test_corpus_utf8_unit_garbled_is_refused(corpus_dir: Path) -> None:
 def test_corpus_non_frf_file_refused_for_frf(corpus_dir: Path) -> None:
     with pytest.raises(UFFError, match="no FRF dataset .* found coherence"):
         read_uff58(corpus_dir / "ufffiles_coh.unv")
+
+
+def test_corpus_manifest_lists_files(corpus_dir: Path) -> None:
+    """The parametrised tests above run on every corpus file, not on an empty list."""
+    assert len(NAMES) >= 30, f"manifest in {corpus_dir} lists {len(NAMES)} files"
