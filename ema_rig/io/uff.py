@@ -33,6 +33,9 @@ the independent cross-check in the tests and the benchmark. Units: see :func:`re
 
 from __future__ import annotations
 
+import os
+import re
+import stat
 import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -192,19 +195,73 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
     )
 
 
+MAX_FILE_BYTES = 1 << 34
+"""Largest UFF file read (16 GiB); larger files are refused before reading."""
+_HEAD_BYTES = 1 << 16
+_HEAD_OK = re.compile(rb"(?:\xef\xbb\xbf)?(?:[ \t]*(?:\r\n|\r|\n))*[ \t]*-1[ \t]*(?:\r|\n|\Z)")
+
+
 def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
+    """Read a regular file that starts like a UFF file, refusing everything else early.
+
+    FIFOs, devices, sockets and directories are refused from ``os.stat`` before any open (a
+    FIFO would block, ``/dev/zero`` never ends); the file is then opened non-blocking and checked
+    again on the open descriptor. Its first 64 KiB must start with a ``-1`` delimiter line
+    (blank lines before it are allowed) before the rest is read, so a large file of zeros or
+    text is refused after reading 64 KiB.
+    """
     p = Path(path)
-    if not p.exists():
-        raise UFFError("file not found", file=p)
-    if p.is_dir():
-        raise UFFError("is a directory, expected a UFF file", file=p)
     try:
-        buf = p.read_bytes()
+        st = os.stat(p)
+    except FileNotFoundError:
+        raise UFFError("file not found", file=p) from None
     except OSError as exc:
-        raise UFFError(f"cannot read: {exc.strerror}", file=p) from None
-    if not buf.strip():
+        raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise UFFError("is a directory, expected a UFF file", file=p)
+    if not stat.S_ISREG(st.st_mode):
+        raise UFFError(f"is a {_file_kind(st.st_mode)}, not a regular file; only regular files are read", file=p)
+    if st.st_size == 0:
         raise UFFError("empty file (no UFF dataset)", file=p)
+    if st.st_size > MAX_FILE_BYTES:
+        raise UFFError(f"file of {st.st_size} bytes is larger than the limit of {MAX_FILE_BYTES} bytes", file=p)
+    try:
+        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except OSError as exc:
+        raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+    with os.fdopen(fd, "rb", buffering=0) as fh:
+        try:
+            st = os.fstat(fh.fileno())
+            if not stat.S_ISREG(st.st_mode):  # replaced between stat and open
+                raise UFFError(f"is a {_file_kind(st.st_mode)}, not a regular file", file=p)
+            head = fh.read(_HEAD_BYTES)
+            if not _HEAD_OK.match(head):
+                if not head.strip():
+                    raise UFFError("empty file (no UFF dataset)", file=p)
+                raise UFFError(
+                    "not a UFF file: the first line that is not blank is not the dataset delimiter '    -1'",
+                    file=p,
+                )
+            if len(head) < _HEAD_BYTES:
+                buf = head
+            else:
+                fh.seek(0)
+                buf = fh.read()  # one bytes object of the file's size, no intermediate copies
+        except MemoryError:
+            raise UFFError(f"not enough memory to read {st.st_size} bytes", file=p) from None
+        except OSError as exc:
+            raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+    if len(buf) > MAX_FILE_BYTES:
+        raise UFFError(f"file grew past the limit of {MAX_FILE_BYTES} bytes while being read", file=p)
     return p, buf
+
+
+def _file_kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "FIFO (named pipe)"), (stat.S_ISCHR, "character device"),
+                       (stat.S_ISBLK, "block device"), (stat.S_ISSOCK, "socket")):
+        if test(mode):
+            return name
+    return "special file"
 
 
 def read_uff(path: str | PathLike[str]) -> UFFFile:
@@ -347,6 +404,11 @@ def read_uff58(
         if r.type == 164 and r.status == "read":
             current164 = r.header
             continue
+        if r.status != "read" and r.type in (None, 164):
+            # an unreadable type line may hide an FRF; a refused 164 would change the units of
+            # the FRFs after it: neither can be skipped silently
+            what = "dataset of unknown type" if r.type is None else "units dataset 164"
+            raise UFFError(f"{what} refused: {r.reason}", file=src, dataset=r.index)
         if r.type != 58:
             ignored_datasets.append(f"dataset {r.index}: type {r.type} (not 58)")
             continue
@@ -490,7 +552,9 @@ def read_uff58(
             idx, sign, r = pairs[(o, q)]
             dec = dec_by_index[idx]
             assert r.y is not None
-            frf[i, j] = r.y * (sign * dec.factor)
+            with np.errstate(over="ignore", under="ignore"):
+                frf[i, j] = r.y * (sign * dec.factor)
+            _check_scaled(r.y, frf[i, j], dec.factor, src, idx)
             decisions.append(f"dataset {idx}: {dec.text}")
             used_idx.append(idx)
             ids[idx] = r.ids
@@ -513,6 +577,18 @@ def read_uff58(
         )
     except ValueError as exc:  # pragma: no cover - all checked above
         raise UFFError(str(exc), file=src) from None
+
+
+def _check_scaled(y: NDArray[Any], scaled: NDArray[Any], factor: float, src: str, idx: int) -> None:
+    """Refuse values that overflow or vanish when the unit factor is applied."""
+    if not np.all(np.isfinite(scaled)):
+        raise UFFError(f"values overflow when the unit factor {factor:g} is applied", file=src, dataset=idx)
+    lost = (scaled == 0) & (y != 0)
+    if lost.any():
+        raise UFFError(
+            f"{int(lost.sum())} non-zero value(s) become 0 when the unit factor {factor:g} is applied (underflow)",
+            file=src, dataset=idx,
+        )
 
 
 # -------------------------------------------------------------------------- write_uff58
