@@ -620,13 +620,16 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
         )
     if _AFTER_CLOSE.match(buf, end[1]) is None:
         # the -1 taken for the close is followed by a dataset body: it was the next dataset's
-        # opening -1 and the payload swallowed the real close; resume the scan at that -1
+        # opening -1 and the payload swallowed the real close; resume the scan at that -1 line
+        resume = end[0]
+        while resume > 0 and buf[resume - 1] in (32, 9):
+            resume -= 1
         return RawDataset(
             index, 58, True, start, "refused",
             f"the -1 after {nb} bytes of binary data is followed by more data, not by the next dataset "
             "or the end of the file (num_pts or byte count too large?)",
             h,
-        ), end[0]
+        ), resume
     gap = buf[q + nb : end[0]]
     if gap:
         notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
