@@ -50,9 +50,9 @@ from numpy.typing import NDArray
 from .._atomic import atomic_path
 from ..config import RigConfig
 from ..dof import DOF
-from ..errors import UFFError, UnitWarning
+from ..errors import DataWarning, UFFError, UnitWarning
 from ..frf import FRFData
-from . import _uff_parse, _uff_units, _uff_write
+from . import _uff_coherence, _uff_parse, _uff_units, _uff_write
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -367,8 +367,11 @@ def read_uff58(
     -------
     FRFData
         ``frf`` shape (n_out, n_in, n_freq) in SI (m/s^2/N, m/s/N or m/N), ``freq`` in Hz.
-        ``meta``: ``source`` (path), ``datasets`` (indices used), ``unit_decisions`` (one str per
-        dataset used), ``sign_flips``, ``ignored_channels``, ``ignored_datasets``, ``notes``,
+        ``coherence`` (n_out, n_in, n_freq) from the file's coherence datasets, or None (see Notes);
+        ``n_averages`` when an id line states it (UFF58 has no field for it), else None.
+        ``meta``: ``source`` (path), ``datasets`` (indices used), ``coherence_datasets``,
+        ``unit_decisions`` (one str per dataset used), ``sign_flips``, ``ignored_channels``,
+        ``ignored_datasets``, ``notes``, ``warnings`` (one-line strings: coherence clipped ...),
         ``ids`` (id lines per dataset index), ``rig`` (rig file path or None).
 
     Raises
@@ -393,6 +396,13 @@ def read_uff58(
     ``13-Y`` is flipped whether the file writes 13-Y or 13+Y (a disagreement is noted in
     ``meta["sign_flips"]``); the same holds for the references ``rig.radial`` / ``rig.axial``.
     File responses with no rig sensor are ignored with a :class:`~ema_rig.errors.UnitWarning`.
+
+    Coherence. Datasets of function type 6 are attached to the FRF of the same (response,
+    reference) pair (mapped like the FRFs, sign-free) when they lie on the same frequency lines;
+    values above 1 (which real analysers write) or below 0 are clipped into 0..1, listed in
+    ``meta["warnings"]`` and warned with :class:`~ema_rig.errors.DataWarning`. A coherence
+    whose pair has no FRF, whose lines differ, or that is refused is ignored with a note. FRFs
+    without coherence get NaN in ``coherence``; with no usable coherence at all it is None.
     """
     uf = read_uff(path)
     src = uf.path
@@ -400,6 +410,7 @@ def read_uff58(
     current164: Mapping[str, Any] | None = None
     used: list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]] = []
     ignored_datasets: list[str] = []
+    coh_recs: list[UFFRecord] = []
     for r in uf.records:
         if r.type == 164 and r.status == "read":
             current164 = r.header
@@ -411,6 +422,9 @@ def read_uff58(
             raise UFFError(f"{what} refused: {r.reason}", file=src, dataset=r.index)
         if r.type != 58:
             ignored_datasets.append(f"dataset {r.index}: type {r.type} (not 58)")
+            continue
+        if r.function_type == 6:
+            coh_recs.append(r)
             continue
         if r.function_type not in (4, None):
             name = FUNCTION_TYPES.get(r.function_type, "other")  # type: ignore[arg-type]
@@ -559,21 +573,38 @@ def read_uff58(
             used_idx.append(idx)
             ids[idx] = r.ids
     notes = [f"dataset {r.index}: {n}" for r, _, _ in used for n in r.notes]
+
+    def coh_key(rd: DOF, fd: DOF) -> tuple[DOF, DOF] | None:
+        if rig is None:
+            return rd.positive(), fd.positive()
+        sensor, rref = rig.sensor_for(rd), _match_ref(rig, fd)
+        return None if sensor is None or rref is None else (sensor.dof.positive(), rref.positive())
+
+    coh = _uff_coherence.attach(coh_recs, freq, tol, out_order, in_order, coh_key)
+    attached = set(coh.datasets)
+    ignored_datasets += [f"dataset {r.index}: function type 6 (coherence), not attached" for r in coh_recs
+                         if r.index not in attached]
+    n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
+    notes += list(coh.notes) + ([avg_note] if avg_note else [])
+    for w in coh.warnings:
+        warnings.warn(f"{src}: {w}", DataWarning, stacklevel=2)
     meta = {
         "source": src,
         "datasets": sorted(used_idx),
+        "coherence_datasets": list(coh.datasets),
         "unit_decisions": decisions,
         "sign_flips": sign_flips,
         "ignored_channels": ignored_channels,
         "ignored_datasets": ignored_datasets,
         "notes": notes,
+        "warnings": list(coh.warnings),
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
     try:
         return FRFData(
             freq, frf, tuple(out_order), tuple(in_order), dec0.frf_form, roles=tuple(roles), axes=tuple(axes),
-            meta=meta,
+            meta=meta, coherence=coh.values, n_averages=n_avg,
         )
     except ValueError as exc:  # pragma: no cover - all checked above
         raise UFFError(str(exc), file=src) from None
