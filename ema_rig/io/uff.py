@@ -20,15 +20,18 @@ UFFRecord, UFFFile
 
 Notes
 -----
-Only function type 4 (frequency response function) is assembled into ``FRFData``. Type 3
-(cross spectrum) is a spectrum, not a ratio to force, and its scaling depends on the analyser's
-averaging; it is listed by :func:`read_uff` like time data, coherence and PSDs.
+Only function type 4 (frequency response function) is assembled into ``FRFData``; coherence
+datasets (type 6) of the same pairs are attached to it as ``FRFData.coherence``. Type 3 (cross
+spectrum) is a spectrum, not a ratio to force, and its scaling depends on the analyser's
+averaging; it is listed by :func:`read_uff` like time data and PSDs.
 
 Every dataset is checked against its header: exactly ``num_pts`` values (a zero-padded last line
 is trimmed, anything else refused), the 58b byte count, the dataset framing (a 58b payload is
 framed by its byte count, so a ``-1`` byte pattern inside it cannot cut it). Why the framing and
 parsing are done here rather than by pyuff is listed in ``ema_rig/io/_uff_parse.py``; pyuff is
 the independent cross-check in the tests and the benchmark. Units: see :func:`read_uff58`.
+The reader refuses what it cannot vouch for (see :func:`read_uff`): one error type,
+:class:`~ema_rig.errors.UFFError`, naming the file and the dataset.
 """
 
 from __future__ import annotations
@@ -284,7 +287,21 @@ def read_uff(path: str | PathLike[str]) -> UFFFile:
     Raises
     ------
     UFFError
-        If the file is missing, empty or holds no UFF dataset at all.
+        If the file is missing, not a regular file (FIFO, device, directory: refused from
+        ``os.stat`` before opening, so nothing blocks), empty, larger than ``MAX_FILE_BYTES``,
+        or its first line that is not blank is not a ``-1`` delimiter (checked on the first
+        64 KiB before the rest is read).
+
+    Notes
+    -----
+    What a dataset is refused for, besides a wrong value count: an ASCII dataset without its
+    closing ``-1`` before the end of the file (the last value may be cut); a 58b dataset whose
+    byte count disagrees with num_pts and data type, unless the closing ``-1`` follows the
+    payload exactly and is itself followed by the next dataset or the end of the file; a 58b
+    closing ``-1`` that is followed by more data (num_pts too large swallowed the real one);
+    integer header fields longer than 11 characters; header lines over 4096 bytes; data
+    sections holding other bytes than numbers and blanks. ASCII values are parsed in 1 MB
+    chunks, so memory stays about the file size plus the float64 values.
     """
     p, buf = _load_bytes(path)
     raws = _uff_parse.scan(buf)
