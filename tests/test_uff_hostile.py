@@ -342,3 +342,11 @@ def test_sparse_and_huge_files_memory(tmp_path: Path) -> None:
     verdict, rss = _peak_rss(text)
     assert verdict.startswith("refused") and "header announces 10" in verdict
     assert rss - base < 1.5 * n_text  # a token list would need ~20x (one Python bytes per value)
+
+
+@pytest.mark.parametrize("tail", [b"   ", b"\x00\x00", b"\x1a", b"\r\n\r\n", b""])
+def test_58b_trailing_blanks_after_last_close_still_read(tmp_path: Path, tail: bytes) -> None:
+    # what follows the last closing -1 is not data: blanks, NULs or a DOS end-of-file mark
+    p, buf = _binary_real(tmp_path)
+    p.write_bytes(buf + tail)
+    assert [r.status for r in read_uff(p)] == ["read", "read"]

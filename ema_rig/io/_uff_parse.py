@@ -42,8 +42,9 @@ _ENTITY_DOF = re.compile(r"^\.?(\d+)\.?(RX|RY|RZ|X|Y|Z)([+-]?)$", re.I)
 _NOT_DATA = re.compile(rb"[^0-9eEdD+\-. \t\r\n\x0b\x0cnNaAiIfFtTyY]")
 # a closing -1 that follows a binary payload exactly (at most one line end before it)
 _CLOSE_EXACT = re.compile(rb"(?:\r\n|\r|\n)?[ \t]*-1[ \t]*(?:\r\n|\r|\n|\Z)")
-# what may follow a closing -1: blank lines, then the end of the file or the next dataset's -1
-_AFTER_CLOSE = re.compile(rb"(?:[ \t]*(?:\r\n|\r|\n))*(?:\Z|[ \t]*-1[ \t]*(?:\r|\n|\Z))")
+# what may follow a closing -1: blank lines, then the end of the file (after blanks, NULs or a
+# DOS end-of-file mark) or the next dataset's -1
+_AFTER_CLOSE = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*(?:[ \t\x00\x1a]*\Z|[ \t]*-1[ \t]*(?:\r|\n|\Z))")
 
 MAX_HEADER_LINE = 4096
 """Longest header line accepted, in bytes (a UFF record is 80 columns)."""
