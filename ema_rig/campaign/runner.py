@@ -400,7 +400,8 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         path = result_path(m.id)
         cached = None if (force or path is None) else _load_cached(path, key, row=True)
         if cached is not None:
-            rows[m.id] = cached
+            # the conditions (bearing, load, tags ...) do not change the computation but are today's
+            rows[m.id] = {**cached, **m.conditions()}
         else:
             todo.append((m, t, key))
     reused = len(rows)

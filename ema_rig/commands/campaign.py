@@ -59,10 +59,10 @@ def run_campaign(campaign: str, out: str | None, jobs: int, force: bool) -> int:
     from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
     from ..errors import EmaRigError
 
-    cfg = load_campaign(campaign)
-    out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
     if jobs < 1:
         raise EmaRigError(f"--jobs must be >= 1, got {jobs}", file=campaign)
+    cfg = load_campaign(campaign)
+    out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
     result = run(cfg, out_dir=out_dir, jobs=jobs, force=force, progress=True)
     print_table(result)
     print(f"\n{len(result.rows) - result.n_failed}/{len(result.rows)} measurements ok "
