@@ -98,7 +98,7 @@ class RigConfig:
         ``'code'`` or ``'label'``: which wins in a UFF unit conflict.
     name : str
     path : str or None
-        File it was read from.
+        File it was read from (for messages; excluded from cache keys: the content counts).
     """
 
     model: ModelParams
@@ -109,7 +109,8 @@ class RigConfig:
     identification: Mapping[str, Any] = field(default_factory=dict)
     unit_preference: str | None = None
     name: str = ""
-    path: str | None = None
+    # where it was read from: named in messages, but not part of what a result depends on
+    path: str | None = field(default=None, metadata={"cache_key": False})
 
     def sensor_for(self, dof: DOF) -> Sensor | None:
         """The sensor whose node and axis match ``dof`` (sign ignored), or None."""

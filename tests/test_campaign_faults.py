@@ -495,3 +495,36 @@ def test_campaign_values_strictly_typed(small: Path, tmp_path: Path, old: str, n
     assert main(["campaign", str(d / "campaign.toml"), "-o", str(tmp_path / "o")]) == EXIT_ERROR
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and key in err
+
+
+# ------------------------------------------------------------------------ one definition of the key
+def test_every_task_field_enters_the_key(small: Path) -> None:
+    import dataclasses
+
+    from ema_rig.campaign.runner import MeasurementTask, task_key
+
+    rig = load_rig(small / "rig.toml")
+    base = MeasurementTask(kind="measurement", file=small / "m1.uff", rig=rig, k_ms=1.14e8, k_ms_std=1e6,
+                           k_disk=None, speed_hz=10.0, band=(150.0, 1000.0), max_order=16)
+    other_model = dataclasses.replace(rig.model, k_S=rig.model.k_S * 1.001)
+    changed = {
+        "kind": "calibration", "k_ms": 1.15e8, "k_ms_std": 2e6, "k_disk": 2e9, "speed_hz": 10.5,
+        "band": (150.0, 999.0), "max_order": 18, "rig": dataclasses.replace(rig, model=other_model),
+    }
+    assert set(changed) | {"file"} == {f.name for f in dataclasses.fields(MeasurementTask)}
+    key = task_key(base, "digest")
+    for name, value in changed.items():
+        assert task_key(dataclasses.replace(base, **{name: value}), "digest") != key, name
+    assert task_key(base, "other digest") != key
+    # the rig's content counts, not its path; the file's content counts, not its name
+    assert task_key(dataclasses.replace(base, rig=dataclasses.replace(rig, path="/elsewhere/rig.toml"),
+                                        file=Path("/elsewhere/m.uff")), "digest") == key
+
+
+def test_moved_rig_file_with_the_same_content_is_reused(small: Path, tmp_path: Path) -> None:
+    d = _copy(small, tmp_path / "c")
+    out = tmp_path / "out"
+    run(d / "campaign.toml", out_dir=out, report=False)
+    (d / "rig.toml").rename(d / "rig2.toml")
+    (d / "campaign.toml").write_text((d / "campaign.toml").read_text().replace("rig.toml", "rig2.toml"))
+    assert run(d / "campaign.toml", out_dir=out, report=False).reused == len(K_TB)

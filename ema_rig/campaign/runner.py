@@ -60,7 +60,7 @@ class MeasurementTask:
     file : Path
         The UFF file (in the key by its content hash, not by its name).
     rig : RigConfig
-        The resolved rig, with ``path`` cleared: its content counts, not where it was read from.
+        The resolved rig; its content enters the key, not where it was read from (``path``).
     k_ms, k_ms_std : float or None
         Mounting stiffness [N/m] used for k_TB and its standard uncertainty.
     k_disk : float or None
@@ -93,7 +93,8 @@ def _canonical(obj: Any) -> Any:
         return os.fspath(obj)
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         return {"__type__": type(obj).__name__,
-                **{f.name: _canonical(getattr(obj, f.name)) for f in dataclasses.fields(obj)}}
+                **{f.name: _canonical(getattr(obj, f.name)) for f in dataclasses.fields(obj)
+                   if f.metadata.get("cache_key", True)}}
     if isinstance(obj, Mapping):
         return {str(k): _canonical(v) for k, v in sorted(obj.items(), key=lambda kv: str(kv[0]))}
     if isinstance(obj, (list, tuple)):
@@ -104,8 +105,9 @@ def _canonical(obj: Any) -> Any:
 def task_key(task: MeasurementTask, digest: str) -> str:
     """The cache key of a task whose file has content hash ``digest``.
 
-    Every field of the task except the file name enters the key, with the file's content hash,
-    the ema_rig version and the key schema.
+    Every field of the task except the file name enters the key (recursively; only fields marked
+    ``metadata={"cache_key": False}``, such as the rig's path, are left out), with the file's
+    content hash, the ema_rig version and the key schema.
     """
     from .. import __version__
 
@@ -349,7 +351,7 @@ def run(
 def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
          progress: bool | Callable[[int, int], None], report: bool) -> CampaignResult:
     res_dir = None if out is None else out / "results"
-    rig = dataclasses.replace(cfg.rig, path=None)  # the content counts, not where it was read from
+    rig = cfg.rig
 
     def result_path(name: str) -> Path | None:
         if res_dir is None:
