@@ -528,3 +528,11 @@ def test_moved_rig_file_with_the_same_content_is_reused(small: Path, tmp_path: P
     (d / "rig.toml").rename(d / "rig2.toml")
     (d / "campaign.toml").write_text((d / "campaign.toml").read_text().replace("rig.toml", "rig2.toml"))
     assert run(d / "campaign.toml", out_dir=out, report=False).reused == len(K_TB)
+
+
+def test_dollar_in_a_file_name_keeps_the_stiffness_figure(small: Path, tmp_path: Path) -> None:
+    src = tmp_path / "a$x^$b.uff"  # an unescaped "$x^$" is invalid mathtext: savefig raised
+    shutil.copy(small / "m1.uff", src)
+    png = tmp_path / "fit.png"
+    code = main(["stiffness", str(src), "--rig", str(small / "rig.toml"), "--max-order", "16", "--plot", str(png)])
+    assert code == 0 and png.stat().st_size > 10_000

@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ._text import plain
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -49,11 +51,6 @@ def _figure(figsize: tuple[float, float] = (7.0, 4.4)) -> Figure:
 
     fig = Figure(figsize=figsize, layout="constrained")
     return fig
-
-
-def plain(text: Any) -> str:
-    """``text`` as a string that matplotlib draws literally (``$`` escaped for mathtext)."""
-    return str(text).replace("$", r"\$")
 
 
 def figure_stem(bearing: str) -> str:
@@ -332,5 +329,4 @@ __all__ = [
     "plot_rotating_vs_static",
     "plot_speed_effect",
     "plot_validation",
-    "plain",
 ]
