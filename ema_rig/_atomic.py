@@ -104,6 +104,9 @@ def folder_lock(folder: str | PathLike[str], name: str = ".ema-rig.lock") -> Ite
     d = Path(folder)
     try:
         d.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _named(exc, d) from exc
+    try:
         fd = os.open(d / name, os.O_RDWR | os.O_CREAT, 0o644)
     except OSError as exc:
         raise _named(exc, d / name) from exc

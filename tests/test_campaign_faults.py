@@ -82,6 +82,22 @@ def test_small_campaign_is_right(small: Path) -> None:
         assert _k(res)[mid] == pytest.approx(k, rel=0.01), mid
 
 
+@pytest.fixture
+def alarm():
+    """Fail instead of hanging: SIGALRM after 30 s."""
+    if not hasattr(signal, "setitimer"):
+        pytest.skip("needs SIGALRM")
+
+    def boom(signum, frame):
+        raise TimeoutError("blocked on a special file")
+
+    old = signal.signal(signal.SIGALRM, boom)
+    signal.setitimer(signal.ITIMER_REAL, 30.0)
+    yield
+    signal.setitimer(signal.ITIMER_REAL, 0.0)
+    signal.signal(signal.SIGALRM, old)
+
+
 # ------------------------------------------------------------------------ 1. stale results
 @pytest.mark.parametrize(
     ("old", "new"),
@@ -283,11 +299,18 @@ def test_id_derived_from_a_hidden_file_name_says_to_give_one(small: Path, tmp_pa
         load_campaign(d / "campaign.toml")
 
 
-@pytest.mark.parametrize("doc", ["[1, 2]", "42", "null", '"text"', "{}", '{"cache_key": 3}'])
-def test_foreign_result_json_is_recomputed(small: Path, tmp_path: Path, doc: str) -> None:
+@pytest.mark.parametrize("doc", ["[1, 2]", "42", "null", '"text"', "{}", '{"cache_key": 3}', "[" * 100_000,
+                                 '{"status": "ok"', "\udcff", "fifo"])
+def test_foreign_result_json_is_recomputed(small: Path, tmp_path: Path, doc: str, alarm) -> None:
     out = tmp_path / "out"
     run(small / "campaign.toml", out_dir=out, report=False)
-    (out / "results" / "m1.json").write_text(doc)
+    (out / "results" / "m1.json").unlink()
+    if doc == "fifo":
+        if not hasattr(os, "mkfifo"):
+            pytest.skip("needs FIFOs")
+        os.mkfifo(out / "results" / "m1.json")  # reading it would block; writing replaces it
+    else:
+        (out / "results" / "m1.json").write_bytes(doc.encode("utf-8", "surrogateescape"))
     res = run(small / "campaign.toml", out_dir=out, report=False)
     assert (res.computed, res.reused) == (1, 3) and res.ok
 
@@ -304,22 +327,6 @@ def test_tampered_result_with_the_right_key_is_recomputed(small: Path, tmp_path:
 
 
 # ------------------------------------------------------------------------ 6. special files
-@pytest.fixture
-def alarm():
-    """Fail instead of hanging: SIGALRM after 30 s."""
-    if not hasattr(signal, "setitimer"):
-        pytest.skip("needs SIGALRM")
-
-    def boom(signum, frame):
-        raise TimeoutError("blocked on a special file")
-
-    old = signal.signal(signal.SIGALRM, boom)
-    signal.setitimer(signal.ITIMER_REAL, 30.0)
-    yield
-    signal.setitimer(signal.ITIMER_REAL, 0.0)
-    signal.signal(signal.SIGALRM, old)
-
-
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
 def test_fifo_and_device_measurements_do_not_block(small: Path, tmp_path: Path, alarm) -> None:
     d = _copy(small, tmp_path / "c")

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _atomic
+from ..config import read_regular_file
 from .result import CampaignResult
 
 #: The figures written by the last run of a folder (to remove those no longer produced).
@@ -69,8 +70,8 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str]) -> dict[
 def _previous_figures(out: Path) -> set[str]:
     """Names of the PNG files the previous run wrote into ``out`` (only plain ``*.png`` names)."""
     try:
-        names = json.loads((out / _MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        names = json.loads(read_regular_file(out / _MANIFEST, max_bytes=1 << 20).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
         return set()
     if not isinstance(names, list):
         return set()

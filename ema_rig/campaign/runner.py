@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _atomic
-from ..config import RigConfig
+from ..config import RigConfig, read_regular_file
 from ..errors import EmaRigError
 from .result import COLUMNS, CampaignResult
 from .schema import CampaignConfig, Measurement, load_campaign
@@ -45,6 +45,7 @@ logger = logging.getLogger(__name__)
 CALIBRATION_NAME = "_calibration"
 #: Bump when the meaning of a cached result changes without a version change.
 _KEY_SCHEMA = 2
+_MAX_RESULT_BYTES = 64 * 1024 * 1024
 _NUMERIC = ("radial_load", "speed", "shaft_position", "k_TB", "k_TB_std", "k_TB_MS", "k_MS", "housing_freq",
             "housing_freq_std", "housing_damping", "spindle_freq", "spindle_damping", "elapsed_s")
 
@@ -216,9 +217,9 @@ def _cacheable(result: Mapping[str, Any]) -> bool:
 
 def _load_cached(path: Path, key: str, *, row: bool) -> dict[str, Any] | None:
     """A previous result with this key, or None (missing, unreadable, foreign or malformed)."""
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    try:  # a regular file of sane size only (a FIFO planted as results/<id>.json must not block)
+        doc = json.loads(read_regular_file(path, max_bytes=_MAX_RESULT_BYTES).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
         return None
     if not isinstance(doc, dict) or doc.get("cache_key") != key or doc.get("status") not in ("ok", "error"):
         return None
