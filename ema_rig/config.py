@@ -132,7 +132,7 @@ class RigConfig:
 _INT64 = 2**63
 
 
-def _show(v: Any) -> str:
+def short_repr(v: Any) -> str:
     """``repr`` of a value, shortened so a 5000-digit integer does not flood the message."""
     text = repr(v)
     return text if len(text) <= 40 else f"{text[:30]}... ({len(text)} characters)"
@@ -170,39 +170,39 @@ def toml_number(v: Any, key: str, file: str | None, *, lo: float | None = None, 
         For a non-number, a huge integer, NaN/inf or a value below the bound.
     """
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ConfigError(f"must be a number, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be a number, got {short_repr(v)}", file=file, key=key)
     if isinstance(v, int):
         _int64(v, key, file)
     x = float(v)
     if not math.isfinite(x):
-        raise ConfigError(f"must be a finite number, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be a finite number, got {short_repr(v)}", file=file, key=key)
     if lo is not None and (x < lo or (lo_open and x == lo)):
         what = "a finite positive number" if (lo == 0 and lo_open) else f"{'>' if lo_open else '>='} {lo:g}"
-        raise ConfigError(f"must be {what}, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be {what}, got {short_repr(v)}", file=file, key=key)
     return x
 
 
 def toml_int(v: Any, key: str, file: str | None, *, lo: int | None = None) -> int:
     """An integer (never a bool or a float) inside TOML's 64-bit range, optionally ``>= lo``."""
     if isinstance(v, bool) or not isinstance(v, int):
-        raise ConfigError(f"must be an integer, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be an integer, got {short_repr(v)}", file=file, key=key)
     _int64(v, key, file)
     if lo is not None and v < lo:
-        raise ConfigError(f"must be an integer >= {lo}, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be an integer >= {lo}, got {short_repr(v)}", file=file, key=key)
     return v
 
 
 def toml_bool(v: Any, key: str, file: str | None) -> bool:
     """``true`` or ``false`` (a string such as ``"false"`` or a number is an error)."""
     if not isinstance(v, bool):
-        raise ConfigError(f"must be true or false, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be true or false, got {short_repr(v)}", file=file, key=key)
     return v
 
 
 def toml_str(v: Any, key: str, file: str | None, *, nonempty: bool = False) -> str:
     """A string (a number or a bool is an error), optionally not empty."""
     if not isinstance(v, str):
-        raise ConfigError(f"must be a string, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be a string, got {short_repr(v)}", file=file, key=key)
     if nonempty and not v.strip():
         raise ConfigError("must not be empty", file=file, key=key)
     return v
@@ -235,23 +235,25 @@ def toml_table(doc: Mapping[str, Any], name: str, file: str | None, *, required:
 def toml_band(v: Any, key: str, file: str | None) -> tuple[float, float]:
     """A frequency band ``[lo, hi]`` in Hz with ``0 <= lo < hi``."""
     if not isinstance(v, (list, tuple)) or len(v) != 2:
-        raise ConfigError(f"must be a pair [lo, hi] in Hz, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must be a pair [lo, hi] in Hz, got {short_repr(v)}", file=file, key=key)
     lo = toml_number(v[0], key, file, lo=0.0)
     hi = toml_number(v[1], key, file, lo=0.0, lo_open=True)
     if not lo < hi:
-        raise ConfigError(f"must satisfy 0 <= lo < hi, got {_show(v)}", file=file, key=key)
+        raise ConfigError(f"must satisfy 0 <= lo < hi, got {short_repr(v)}", file=file, key=key)
     return lo, hi
 
 
 def _dof(v: Any, key: str, file: str | None) -> DOF:
     if not isinstance(v, str):
-        raise ConfigError(f"must be a DOF string such as '11+Y', got {v!r}", file=file, key=key)
+        raise ConfigError(f"must be a DOF string such as '11+Y', got {short_repr(v)}", file=file, key=key)
+    if len(v) > 40:  # no DOF is this long; keep the message short
+        raise ConfigError(f"must be a DOF string such as '11+Y', got {short_repr(v)}", file=file, key=key)
     try:
         d = DOF.parse(v)
     except ValueError as exc:
         raise ConfigError(str(exc), file=file, key=key) from None
     if d.direction == 0:
-        raise ConfigError(f"DOF {v!r} needs a signed direction such as '11+Y'", file=file, key=key)
+        raise ConfigError(f"DOF {short_repr(v)} needs a signed direction such as '11+Y'", file=file, key=key)
     return d
 
 
@@ -314,9 +316,9 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         dof = _dof(s["dof"], f"{where}.dof", fname)
         role, axis = s["role"], s["axis"]
         if role not in SENSOR_ROLES:
-            raise ConfigError(f"must be one of {', '.join(SENSOR_ROLES)}, got {role!r}", file=fname, key=f"{where}.role")
+            raise ConfigError(f"must be one of {', '.join(SENSOR_ROLES)}, got {short_repr(role)}", file=fname, key=f"{where}.role")
         if axis not in SENSOR_AXES:
-            raise ConfigError(f"must be one of {', '.join(SENSOR_AXES)}, got {axis!r}", file=fname, key=f"{where}.axis")
+            raise ConfigError(f"must be one of {', '.join(SENSOR_AXES)}, got {short_repr(axis)}", file=fname, key=f"{where}.axis")
         node_axis = (dof.node, abs(dof.direction))
         if node_axis in seen:
             raise ConfigError(
@@ -332,7 +334,7 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         x = toml_number(v, f"uncertainty.{k}", fname)
         if not 0 <= x < 1:
             raise ConfigError(
-                f"is a relative standard uncertainty (fraction, 0.01 = 1 %), must be in [0, 1), got {v!r}",
+                f"is a relative standard uncertainty (fraction, 0.01 = 1 %), must be in [0, 1), got {short_repr(v)}",
                 file=fname,
                 key=f"uncertainty.{k}",
             )
@@ -351,7 +353,7 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
     check_keys(units_t, ("prefer",), "units", fname)
     pref = units_t.get("prefer")
     if pref is not None and pref not in ("code", "label"):
-        raise ConfigError(f"must be 'code' or 'label', got {pref!r}", file=fname, key="units.prefer")
+        raise ConfigError(f"must be 'code' or 'label', got {short_repr(pref)}", file=fname, key="units.prefer")
 
     rig_t = toml_table(doc, "rig", fname, required=False)
     check_keys(rig_t, ("name", "description"), "rig", fname)
@@ -464,6 +466,7 @@ __all__ = [
     "parse_rig",
     "read_regular_file",
     "read_toml",
+    "short_repr",
     "toml_band",
     "toml_bool",
     "toml_int",

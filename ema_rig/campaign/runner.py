@@ -424,7 +424,7 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         finish(m, None, outcome)
     own_pool: ProcessPoolExecutor | None = None
     if executor is None and jobs > 1 and len(todo) > 1:
-        own_pool = executor = make_pool(jobs)
+        own_pool = executor = make_pool(min(jobs, len(todo)))  # no idle processes
     try:
         if executor is None:
             for m, t, key in todo:

@@ -24,6 +24,7 @@ from ..config import (
     check_keys,
     load_rig,
     read_toml,
+    short_repr,
     toml_band,
     toml_bool,
     toml_int,
@@ -187,7 +188,7 @@ def check_id(mid: str, key: str, file: str | None, *, derived: bool = False) -> 
     hint = " (derived from the file name; give an explicit id)" if derived else ""
 
     def bad(what: str) -> ConfigError:
-        return ConfigError(f"measurement id {mid!r} {what}{hint}", file=file, key=key)
+        return ConfigError(f"measurement id {short_repr(mid)} {what}{hint}", file=file, key=key)
 
     if not mid:
         raise bad("is empty")
@@ -211,14 +212,15 @@ def check_id(mid: str, key: str, file: str | None, *, derived: bool = False) -> 
 def _existing_file(v: Any, key: str, fname: str, base: Path) -> Path:
     """A path key that must name an existing regular file (stat only: a FIFO is never opened)."""
     q = (base / toml_str(v, key, fname, nonempty=True)).resolve()
+    shown = str(q) if len(str(q)) <= 200 else short_repr(str(q))
     try:
         st = os.stat(q)
     except FileNotFoundError:
-        raise ConfigError(f"file not found: {q}", file=fname, key=key) from None
+        raise ConfigError(f"file not found: {shown}", file=fname, key=key) from None
     except OSError as exc:
-        raise ConfigError(f"cannot access {q}: {exc.strerror}", file=fname, key=key) from None
+        raise ConfigError(f"cannot access {shown}: {exc.strerror}", file=fname, key=key) from None
     if not stat.S_ISREG(st.st_mode):
-        raise ConfigError(f"not a regular file: {q}", file=fname, key=key)
+        raise ConfigError(f"not a regular file: {shown}", file=fname, key=key)
     return q
 
 
@@ -295,7 +297,7 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
         norm = normalized_id(mid)
         if norm in seen:
             raise ConfigError(
-                f"duplicate measurement id {mid!r} (also measurement[{seen[norm]}], ids are compared "
+                f"duplicate measurement id {short_repr(mid)} (also measurement[{seen[norm]}], ids are compared "
                 "ignoring case); give an explicit id",
                 file=fname, key=f"{where}.id",
             )
