@@ -543,3 +543,11 @@ def test_dollar_in_a_file_name_keeps_the_stiffness_figure(small: Path, tmp_path:
     png = tmp_path / "fit.png"
     code = main(["stiffness", str(src), "--rig", str(small / "rig.toml"), "--max-order", "16", "--plot", str(png)])
     assert code == 0 and png.stat().st_size > 10_000
+
+
+def test_runner_does_not_import_plotting() -> None:
+    code = ("import sys, ema_rig.campaign, ema_rig.campaign.runner; "
+            "print(sorted(m for m in sys.modules if m.startswith(('matplotlib', 'ema_rig.plot', 'ema_rig.report'))))")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[1]), *sys.path])}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
