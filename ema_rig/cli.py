@@ -33,6 +33,7 @@ COMMANDS: dict[str, str] = {
     "stiffness": "bearing stiffness k_TB from the housing mode",
     "campaign": "a whole campaign: table, plots, report",
     "simulate": "write a synthetic rig measurement (UFF58)",
+    "frf": "FRFs and coherence (UFF58) from force and response time histories",
     "demo": "run the bundled campaign in data/ end to end",
 }
 
