@@ -205,7 +205,8 @@ def test_vt_case1_ratio_is_explained_by_the_analysers_spectra(real_frf_dir: Path
 
 # ------------------------------------------------------------------------------------ CLI
 def _write_time_uff(path: Path, force: np.ndarray, resp: dict[tuple[int, int], np.ndarray], *,
-                    force_label: str = "N", resp_label: str = "m/s^2", records: int = 1) -> None:
+                    force_label: str = "N", resp_label: str = "m/s^2", records: int = 1,
+                    force_dof: tuple[int, int] = (1, 3)) -> None:
     import pyuff
 
     n = force.shape[-1]
@@ -216,7 +217,8 @@ def _write_time_uff(path: Path, force: np.ndarray, resp: dict[tuple[int, int], n
         common = dict(func_type=1, ord_data_type=4, num_pts=n, abscissa_spacing=1, abscissa_min=0.0,
                       abscissa_inc=1.0 / FS, abscissa_spec_data_type=17, orddenom_spec_data_type=0,
                       abscissa_axis_units_lab="s", binary=0, x=t, ref_node=1, ref_dir=3)
-        sets.append(pyuff.prepare_58(id1="force", rsp_node=1, rsp_dir=3, ordinate_spec_data_type=13,
+        sets.append(pyuff.prepare_58(id1="force", rsp_node=force_dof[0], rsp_dir=force_dof[1],
+                                     ordinate_spec_data_type=13,
                                      ordinate_axis_units_lab=force_label, data=f_r, **common))
         for (node, d), y in resp.items():
             y_r = y if y.ndim == 1 else y[r]
@@ -278,3 +280,26 @@ def test_cli_frf_bad_input_one_line_error(tmp_path: Path, capsys):
     assert rc == 1
     assert err[-1] == f"error: {src}: no force channel (ordinate type 13 or 9) among the time histories"
     assert not out.exists()
+
+
+def test_cli_frf_with_rig_orders_and_signs_like_the_rig(tmp_path: Path, rig_file: Path):
+    n = 2048  # the response decays to 1e-13 within the record: no leakage with 'rect'
+    x = np.zeros(n)
+    x[3:6] = [100.0, 60.0, 20.0]
+    y = lfilter(B, A, x)
+    sensors = [(11, 2), (12, 2), (13, 2), (14, 3), (15, 1), (21, 2), (22, 2), (23, 1), (99, 2)]
+    # file: every channel written along + ; node 99 is not in the rig; gains 1..9 per channel
+    resp = {(node, d): (k + 1) * y for k, (node, d) in enumerate(sensors)}
+    src = tmp_path / "rig_time.uff"
+    _write_time_uff(src, x, resp, force_dof=(11, 2))
+    out = tmp_path / "rig_frf.uff"
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        rc = main(["frf", str(src), "-o", str(out), "--rig", str(rig_file), "--window", "rect"])
+    assert rc == 0
+    data = read_uff58(out)
+    assert [str(d) for d in data.out_dofs] == ["11+Y", "12+Y", "13+Y", "14+Z", "15+X", "21+Y", "22+Y", "23+X"]
+    h = exact(data.freq)
+    gains = np.array([1, 2, -3, 4, 5, 6, 7, 8])  # the rig mounts 13 along -Y: +Y motion is -y13
+    np.testing.assert_allclose(data.frf[:, 0, :], gains[:, None] * h[None, :], rtol=1e-8,
+                               atol=1e-10 * np.abs(h).max() * 8)
