@@ -303,3 +303,39 @@ def test_cli_frf_with_rig_orders_and_signs_like_the_rig(tmp_path: Path, rig_file
     gains = np.array([1, 2, -3, 4, 5, 6, 7, 8])  # the rig mounts 13 along -Y: +Y motion is -y13
     np.testing.assert_allclose(data.frf[:, 0, :], gains[:, None] * h[None, :], rtol=1e-8,
                                atol=1e-10 * np.abs(h).max() * 8)
+
+
+def test_time_reader_refuses_inconsistent_files(tmp_path: Path):
+    from ema_rig.errors import UFFError
+
+    x = np.zeros(256)
+    x[2] = 1.0
+    y = lfilter(B, A, x)
+    bad_unit = tmp_path / "bad_unit.uff"
+    _write_time_uff(bad_unit, x, {(2, 3): y}, force_label="g")
+    with pytest.raises(UFFError, match=r"bad_unit.uff: dataset 0: ordinate unit 'g' is not a force unit"):
+        read_time_uff(bad_unit)
+    unknown = tmp_path / "unknown.uff"
+    _write_time_uff(unknown, x, {(2, 3): y}, resp_label="furlong/fortnight")
+    with pytest.raises(UFFError, match=r"dataset 1: ordinate unit label 'furlong/fortnight' not understood"):
+        read_time_uff(unknown)
+    uneven = tmp_path / "records.uff"
+    _write_time_uff(uneven, x, {(2, 3): y}, records=2)
+    import pyuff
+
+    t = np.arange(256) / FS
+    pyuff.UFF(str(uneven)).write_sets([pyuff.prepare_58(
+        func_type=1, ord_data_type=4, num_pts=256, abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1 / FS,
+        abscissa_spec_data_type=17, ordinate_spec_data_type=12, orddenom_spec_data_type=0, binary=0,
+        rsp_node=2, rsp_dir=3, ref_node=1, ref_dir=3, data=y, x=t, id1="third")], mode="add")
+    with pytest.raises(UFFError, match=r"different numbers of records: force 1\+Z: 2, response 2\+Z: 3"):
+        read_time_uff(uneven)
+    fast = tmp_path / "fast.uff"
+    _write_time_uff(fast, x, {(2, 3): y})
+    t2 = np.arange(256) / (2 * FS)
+    pyuff.UFF(str(fast)).write_sets([pyuff.prepare_58(
+        func_type=1, ord_data_type=4, num_pts=256, abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=0.5 / FS,
+        abscissa_spec_data_type=17, ordinate_spec_data_type=12, orddenom_spec_data_type=0, binary=0,
+        rsp_node=3, rsp_dir=3, ref_node=1, ref_dir=3, data=y, x=t2, id1="2 kHz")], mode="add")
+    with pytest.raises(UFFError, match=r"dataset 2: sampling \(256 samples, dt 0.0005 s\) differs from dataset 0"):
+        read_time_uff(fast)

@@ -95,7 +95,10 @@ class TimeData:
 
 def _scale(r: UFFRecord, kind: str, src: str, notes: list[str]) -> float:
     label = str(r.units.get("ordinate", {}).get("label") or "")
-    unit = _uff_units.parse_unit(label)
+    try:
+        unit = _uff_units.parse_unit(label)
+    except ValueError as exc:  # a label understood but out of range
+        raise UFFError(f"ordinate unit label {label!r}: {exc}", file=src, dataset=r.index) from None
     if unit is None:
         if label.strip().lower() not in _uff_units._NO_LABEL:
             raise UFFError(f"ordinate unit label {label!r} not understood", file=src, dataset=r.index)
