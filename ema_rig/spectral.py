@@ -53,6 +53,9 @@ from .dof import DOF, as_dof
 from .frf import FRFData
 
 ESTIMATORS: tuple[str, ...] = ("H1", "H2", "Hv")
+LOW_COHERENCE = 0.8
+"""Coherence below which a line is counted as poorly measured (a warning is given when more
+than a quarter of the lines are)."""
 IMPACT_WINDOWS: tuple[str, ...] = ("force", "exponential", "impact")
 """Window names for impact tests: ``force`` (force window on the force, none on the
 response), ``exponential`` (the same exponential on both), ``impact`` (force window times the
@@ -228,7 +231,9 @@ def estimate_frf(
     -------
     FRFEstimate
         ``frf`` with lines ``fs/segment`` .. ``fs/2`` [Hz] (0 Hz omitted), ``coherence``, the
-        averaging used and ``warnings``.
+        averaging used and ``warnings``: one average (coherence meaningless), the damping added
+        by an exponential window, a force peak outside the force window (blow cut off or
+        absent), coherence below :data:`LOW_COHERENCE` on more than a quarter of the lines.
 
     Raises
     ------
@@ -277,6 +282,7 @@ def estimate_frf(
     if not 0.0 <= ov < 1.0:
         raise ValueError(f"overlap must lie in [0, 1), got {ov}")
     w_x, w_y, added = time_window(window, nseg, fs, force_width=force_width, exp_end=exp_end)
+    warn: list[str] = []
     step = max(1, int(round(nseg * (1.0 - ov))))
     starts = np.arange(0, n_samp - nseg + 1, step)
     n_avg = n_rec * starts.size
@@ -293,6 +299,14 @@ def estimate_frf(
         n_force = int(np.count_nonzero(time_window("force", nseg, fs, force_width=force_width)[0]))
         tail = xs[..., n_force:] if n_force < nseg else xs
         xs = xs - tail.mean(axis=-1, keepdims=True)
+        if key in ("force", "impact") and n_force < nseg:
+            peak_at = np.argmax(np.abs(xs), axis=-1)  # (n_rec, n_in, n_seg)
+            late = peak_at >= n_force
+            if late.any():
+                t_late = float(peak_at[late].max()) / fs
+                warn.append(f"the largest force sample of {int(late.sum())} segment(s) lies outside the force "
+                            f"window (at {t_late:.4g} s > {n_force / fs:.4g} s): the blow is cut off or the force "
+                            "holds no blow; check the trigger and --force-width")
     else:
         xs = xs - xs.mean(axis=-1, keepdims=True)
         ys = ys - ys.mean(axis=-1, keepdims=True)
@@ -329,10 +343,13 @@ def estimate_frf(
         bad = ~np.all(np.isfinite(h), axis=(0, 1))
         raise ValueError(f"{estimator} is undefined at {int(bad.sum())} line(s), first {freq[np.argmax(bad)]:g} Hz "
                          "(a response or cross spectrum is zero there)")
-    warn: list[str] = []
     if n_avg == 1:
         warn.append("one average: the coherence is 1 by definition and says nothing about noise or "
                     "nonlinearity; average several records (impacts) or segments")
+    elif np.mean(coh < LOW_COHERENCE) > 0.25:
+        warn.append(f"coherence below {LOW_COHERENCE:g} on {100 * np.mean(coh < LOW_COHERENCE):.0f} % of the "
+                    f"lines (median {np.median(coh):.2f}): noise, leakage, or a force that does not drive "
+                    "the response; the FRF is unreliable there")
     if added > 0:
         warn.append(f"exponential window: every pole is {added:.4g} rad/s more damped in this FRF; a "
                     f"damping ratio identified from it is too high by {added:.4g} / (2 pi f_n)")
@@ -345,4 +362,4 @@ def estimate_frf(
     return FRFEstimate(data, coh, estimator, window, nseg, ov, n_avg, added, tuple(warn))
 
 
-__all__ = ["ESTIMATORS", "IMPACT_WINDOWS", "FRFEstimate", "estimate_frf", "time_window"]
+__all__ = ["ESTIMATORS", "IMPACT_WINDOWS", "LOW_COHERENCE", "FRFEstimate", "estimate_frf", "time_window"]

@@ -55,6 +55,7 @@ def test_noise_free_estimators_match_the_exact_frf(random_io):
         assert rel[band].max() < 0.08, est
         assert np.median(rel[band]) < 1e-3, est
         assert e.n_averages == 127  # (65536 - 1024) / 512 + 1 with 50 % overlap
+        assert e.warnings == ()  # nothing to warn about: many averages, coherence ~1
 
 
 def test_response_noise_h1_unbiased_h2_high_by_one_over_coherence(random_io):
@@ -183,6 +184,17 @@ def test_vt_case1_h1_against_the_analysers_frf_and_coherence(real_frf_dir: Path)
     assert np.median(coh_ref[band]) < 0.4  # the analyser averaged: coherence 0.32, not 1
     np.testing.assert_allclose(e.coherence, 1.0, atol=1e-12)  # one record: 1 by definition ...
     assert any("one average" in w for w in e.warnings)  # ... and said so
+
+
+def test_vt_case2_is_flagged_not_trusted(real_frf_dir: Path):
+    """vt_case2: the README says the blow sits at sample 4068 of 4096 and coherence is poor."""
+    td = read_time_uff(real_frf_dir / "vt_case2_full.uff")
+    args = dict(in_dofs=td.in_dofs, out_dofs=td.out_dofs)
+    e = estimate_frf(td.force, td.response, td.fs, window="impact", **args)
+    assert any("outside the force window (at 3.178 s" in w for w in e.warnings)  # 4068 / 1280 Hz
+    e = estimate_frf(td.force, td.response, td.fs, window="hann", **args)
+    low = [w for w in e.warnings if w.startswith("coherence below 0.8")]
+    assert low and np.median(e.coherence) < 0.8  # measured: 81 % of the lines, median 0.65
 
 
 def test_vt_case1_ratio_is_explained_by_the_analysers_spectra(real_frf_dir: Path):
