@@ -73,6 +73,11 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module 'ema_rig' has no attribute {name!r}")
 
 
+def __dir__() -> list[str]:
+    # the lazy names are part of the API: show them before their first use (tab completion)
+    return sorted(set(globals()) | set(_LAZY))
+
+
 __all__ = [
     "ConfigError",
     "DOF",

@@ -61,8 +61,29 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
     print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
 
 
+_SUBJECT_KEYS = ("file", "campaign", "output", "out")
+"""Namespace attributes naming the file a command is about, in order of preference."""
+
+
+def _subject(args: argparse.Namespace) -> str | None:
+    """The file an error without a file of its own is reported against (the command's input)."""
+    for key in _SUBJECT_KEYS:
+        value = getattr(args, key, None)
+        if value:
+            return str(value)
+    return None
+
+
+def _error_line(head: str | None, text: str) -> str:
+    return f"error: {head}: {text}".replace("\n", " ") if head else f"error: {text}".replace("\n", " ")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``ema-rig`` with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
+    """Run ``ema-rig`` with ``argv`` (default ``sys.argv[1:]``) and return the exit code.
+
+    Every error line names a file: the one the error carries, else the command's input
+    (``FILE``, ``CAMPAIGN.toml``, or the output of ``simulate`` / ``demo``).
+    """
     from .errors import EmaRigError
 
     parser = build_parser()
@@ -76,8 +97,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.showwarning = _show_warning
             return int(args._run(args))
     except EmaRigError as exc:
-        text = str(exc).replace("\n", " ")
-        print(f"error: {text}", file=sys.stderr)
+        # str(exc) starts with the error's own file when it has one
+        print(_error_line(None if exc.file else _subject(args), str(exc)), file=sys.stderr)
         return EXIT_ERROR
     except BrokenPipeError:  # output piped into `head` and closed early: not an error of ours
         import os
@@ -86,10 +107,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
     except (OSError, ValueError) as exc:
         # files that cannot be opened, values that cannot be used: user input, not a bug
-        name = getattr(exc, "filename", None)
-        head = f"{name}: " if name else ""
+        name = getattr(exc, "filename", None) or _subject(args)
         msg = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        print(f"error: {head}{msg}".replace("\n", " "), file=sys.stderr)
+        print(_error_line(name, msg), file=sys.stderr)
+        return EXIT_ERROR
+    except MemoryError as exc:  # an input far larger than the machine (numpy says how many bytes)
+        detail = f" ({exc})" if str(exc) else ""
+        print(_error_line(_subject(args), f"not enough memory for this input{detail}"), file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
