@@ -457,7 +457,11 @@ def write_measurement(
     write_uff58(p, sim.data, binary=binary, double=double, accel_unit=accel_unit, rig=rig)
     truth = sim.truth_dict()
     truth.update({"file": p.name, "binary": bool(binary), "accel_unit": accel_unit, "double": bool(double)})
-    _atomic.write_json(truth_path(p), truth)
+    try:
+        _atomic.write_json(truth_path(p), truth)
+    except BaseException:
+        p.unlink(missing_ok=True)  # a measurement without its truth (or with an old one) is worse than none
+        raise
     return p
 
 
