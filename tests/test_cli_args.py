@@ -196,3 +196,17 @@ def test_simulate_write_failure_names_the_output(tmp_path, rig_file, capsys):
     argv = ["simulate", "--rig", str(rig_file), "--k-tb", "7e7", "-o", str(out), "--fmax", "10", "--df", "1"]
     assert main(argv) == EXIT_ERROR
     assert _one_error_line(capsys).startswith(f"error: {out}: ")
+
+
+def test_simulate_leaves_no_measurement_without_its_truth(tmp_path, rig_file, capsys, monkeypatch):
+    import ema_rig._atomic
+
+    def full(path, obj):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(ema_rig._atomic, "write_json", full)
+    out = tmp_path / "m.uff"
+    argv = ["simulate", "--rig", str(rig_file), "--k-tb", "7e7", "-o", str(out), "--fmax", "10", "--df", "1"]
+    assert main(argv) == EXIT_ERROR
+    assert _one_error_line(capsys) == f"error: {out}.truth.json: No space left on device"
+    assert list(tmp_path.iterdir()) == [rig_file]  # the UFF written first was removed again
