@@ -23,17 +23,34 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
     suffix (``savefig``) behave the same. On error the temporary file is removed.
     """
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}", dir=target.parent)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        why = "a file is in the way" if isinstance(exc, (FileExistsError, NotADirectoryError)) else exc.strerror
+        raise _about(exc, target, f"cannot create the folder {target.parent} ({why or exc})") from exc
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}", dir=target.parent)
+    except OSError as exc:
+        raise _about(exc, target, exc.strerror or str(exc)) from exc
     os.close(fd)
     tmp_path = Path(tmp)
     os.chmod(tmp_path, 0o644)  # mkstemp makes 0600; outputs are ordinary readable files
     try:
         yield tmp_path
         os.replace(tmp_path, target)
+    except OSError as exc:  # disk full, permissions ...: name the output, not the temporary file
+        tmp_path.unlink(missing_ok=True)
+        if exc.errno is None or (exc.filename is not None and str(exc.filename) != str(tmp_path)):
+            raise  # about another file (the writer's own input, say): keep its name
+        raise _about(exc, target, exc.strerror or str(exc)) from exc
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
+
+
+def _about(exc: OSError, target: Path, text: str) -> OSError:
+    """An OSError with ``exc``'s errno (hence its subclass) and ``text``, naming ``target``."""
+    return OSError(exc.errno, text, str(target))
 
 
 def write_text(path: str | PathLike[str], text: str) -> None:
