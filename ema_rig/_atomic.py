@@ -25,14 +25,6 @@ from .errors import EmaRigError
 _TEMP_NAME = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp(\.[^.]*)?$")
 
 
-def _named(exc: OSError, target: Path) -> OSError:
-    """The same OS error, naming the output file (the CLI prints ``<file>: <strerror>``)."""
-    if exc.errno is None:
-        return exc
-    new = type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), os.fspath(target))
-    return new
-
-
 @contextmanager
 def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds.
@@ -44,21 +36,32 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
     target = Path(path)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        why = "a file is in the way" if isinstance(exc, (FileExistsError, NotADirectoryError)) else exc.strerror
+        raise _about(exc, target, f"cannot create the folder {target.parent} ({why or exc})") from exc
+    try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}", dir=target.parent)
     except OSError as exc:
-        raise _named(exc, target) from exc
+        raise _about(exc, target, exc.strerror or str(exc)) from exc
     os.close(fd)
     tmp_path = Path(tmp)
     try:
         os.chmod(tmp_path, 0o644)  # mkstemp makes 0600; outputs are ordinary readable files
         yield tmp_path
         os.replace(tmp_path, target)
-    except OSError as exc:
+    except OSError as exc:  # disk full, permissions ...: name the output, not the temporary file
         tmp_path.unlink(missing_ok=True)
-        raise _named(exc, target) from exc
+        if exc.errno is None or (exc.filename is not None and str(exc.filename) != str(tmp_path)):
+            raise  # about another file (the writer's own input, say): keep its name
+        raise _about(exc, target, exc.strerror or str(exc)) from exc
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
+
+
+def _about(exc: OSError, target: Path, text: str) -> OSError:
+    """An OSError with ``exc``'s errno (hence its subclass) and ``text``, naming ``target``."""
+    return OSError(exc.errno, text, str(target))
 
 
 def remove_temporaries(folder: str | PathLike[str]) -> list[Path]:
@@ -105,11 +108,11 @@ def folder_lock(folder: str | PathLike[str], name: str = ".ema-rig.lock") -> Ite
     try:
         d.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise _named(exc, d) from exc
+        raise _about(exc, d, exc.strerror or str(exc)) from exc
     try:
         fd = os.open(d / name, os.O_RDWR | os.O_CREAT, 0o644)
     except OSError as exc:
-        raise _named(exc, d / name) from exc
+        raise _about(exc, d / name, exc.strerror or str(exc)) from exc
     try:
         try:
             _lock_fd(fd)

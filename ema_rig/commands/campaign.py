@@ -6,13 +6,15 @@ import argparse
 import math
 from typing import Any
 
+from . import _args
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig campaign``."""
     parser.add_argument("campaign", metavar="CAMPAIGN.toml", help="campaign file")
     parser.add_argument("-o", "--out", default=None, metavar="DIR",
                         help="output folder (default: <campaign stem>-out beside the campaign file)")
-    parser.add_argument("--jobs", "-j", type=int, default=1, metavar="N", help="parallel worker processes")
+    parser.add_argument("--jobs", "-j", type=_args.positive_int, default=1, metavar="N", help="parallel worker processes")
     parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
 
 
