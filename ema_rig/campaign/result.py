@@ -35,7 +35,8 @@ class CampaignResult:
     out_dir : Path or None
         Where tables, figures and the report were written.
     computed, reused : int
-        How many measurements were computed in this run and how many reused from a previous run.
+        How many measurements were computed (or found missing/unreadable) in this run and how many
+        were reused from a previous run; ``computed + reused`` is the number of measurements.
     files : dict
         Written outputs by kind (``"table"``, ``"report"``, figure names ...).
     """
