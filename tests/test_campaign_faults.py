@@ -55,6 +55,14 @@ def small(tmp_path_factory: pytest.TempPathFactory, rig_toml_text: str) -> Path:
     return d
 
 
+@pytest.fixture(scope="module")
+def small_out(small: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The output folder of one run of the small campaign (tests copy it before changing it)."""
+    out = tmp_path_factory.mktemp("small_out") / "out"
+    run(small / "campaign.toml", out_dir=out, report=False)
+    return out
+
+
 def _copy(small: Path, dst: Path) -> Path:
     """The campaign in a folder of its own: TOML files copied (tests edit them), UFF files linked."""
     dst.mkdir()
@@ -301,9 +309,8 @@ def test_id_derived_from_a_hidden_file_name_says_to_give_one(small: Path, tmp_pa
 
 @pytest.mark.parametrize("doc", ["[1, 2]", "42", "null", '"text"', "{}", '{"cache_key": 3}', "[" * 100_000,
                                  '{"status": "ok"', "\udcff", "fifo"])
-def test_foreign_result_json_is_recomputed(small: Path, tmp_path: Path, doc: str, alarm) -> None:
-    out = tmp_path / "out"
-    run(small / "campaign.toml", out_dir=out, report=False)
+def test_foreign_result_json_is_recomputed(small: Path, small_out: Path, tmp_path: Path, doc: str, alarm) -> None:
+    out = shutil.copytree(small_out, tmp_path / "out")
     (out / "results" / "m1.json").unlink()
     if doc == "fifo":
         if not hasattr(os, "mkfifo"):
@@ -315,9 +322,8 @@ def test_foreign_result_json_is_recomputed(small: Path, tmp_path: Path, doc: str
     assert (res.computed, res.reused) == (1, 3) and res.ok
 
 
-def test_tampered_result_with_the_right_key_is_recomputed(small: Path, tmp_path: Path) -> None:
-    out = tmp_path / "out"
-    run(small / "campaign.toml", out_dir=out, report=False)
+def test_tampered_result_with_the_right_key_is_recomputed(small: Path, small_out: Path, tmp_path: Path) -> None:
+    out = shutil.copytree(small_out, tmp_path / "out")
     p = out / "results" / "m1.json"
     doc = json.loads(p.read_text())
     doc["k_TB"] = "huge"
