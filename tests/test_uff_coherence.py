@@ -216,3 +216,15 @@ def test_inspect_shows_coherence(tmp_path: Path, capsys: pytest.CaptureFixture[s
     rep = json.loads((tmp_path / "i.json").read_text())["frf"]
     assert rep["coherence"] == {"attached": True, "datasets": [1], "pairs": 1, "of_pairs": 1, "min": 0.2, "max": 1.0}
     assert rep["n_averages"] is None and len(rep["warnings"]) == 1
+
+
+def test_rounding_excess_clipped_silently(tmp_path: Path) -> None:
+    # 1 + 1e-9 is rounding of an estimate that is 1 (one average): clipped, not flagged
+    c = np.full(FREQ.size, 1.0 + 1e-9)
+    p = _write(tmp_path / "c.uff", [_set(1, 2, 1, 2, _frf(1)), _set(1, 2, 1, 2, c, coherence=True)])
+    cm = _no_data_warning()
+    try:
+        d = read_uff58(p)
+    finally:
+        cm.__exit__(None, None, None)
+    assert d.meta["warnings"] == [] and np.all(d.coherence == 1.0)

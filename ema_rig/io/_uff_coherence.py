@@ -2,7 +2,8 @@
 
 A coherence dataset belongs to the FRF with the same (response, reference) pair, mapped like the
 FRFs (signs do not matter: coherence is |gamma|^2), on the same frequency lines. Values above 1
-(some analysers write them) and below 0 are clipped and flagged; anything that cannot be attached
+(some analysers write them) and below 0 are clipped, and flagged when they exceed the range by
+more than rounding (``ROUNDING``); anything that cannot be attached
 is ignored with a note saying why, never an error: the FRFs do not depend on it.
 """
 
@@ -24,6 +25,10 @@ _AVERAGES = re.compile(
     r"|\b(\d{1,6})\s*(?:avgs?|averages)\b)",
     re.IGNORECASE,
 )
+
+
+ROUNDING = 1e-6
+"""Excess beyond 0..1 clipped without a warning (rounding of float32 or short decimal output)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,7 +115,7 @@ def attach(
             )
             continue
         y = np.real(np.asarray(r.y, dtype=np.complex128 if np.iscomplexobj(r.y) else np.float64))
-        hi, lo = y > 1.0, y < 0.0
+        hi, lo = y > 1.0 + ROUNDING, y < -ROUNDING
         if hi.any():
             warns.append(
                 f"dataset {r.index}: coherence {key[0]} / {key[1]} above 1 at {int(hi.sum())} of {y.size} lines "
