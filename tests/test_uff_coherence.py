@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -57,11 +58,12 @@ def _frf(seed: int) -> np.ndarray:
     return rng.standard_normal(FREQ.size) + 1j * rng.standard_normal(FREQ.size)
 
 
-def _no_data_warning() -> contextlib.AbstractContextManager:
-    cm = warnings.catch_warnings()
-    cm.__enter__()
-    warnings.simplefilter("error", DataWarning)
-    return cm
+@contextlib.contextmanager
+def _no_data_warning() -> Iterator[None]:
+    """A DataWarning inside is an error (the suite's default, stated here for clarity)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        yield
 
 
 # ------------------------------------------------------------------------- real files
@@ -96,11 +98,8 @@ def test_vt_case1_coherence_above_one_clipped_and_flagged(real_frf_dir: Path) ->
 def test_vt_case2_coherence_in_range_no_warning(real_frf_dir: Path) -> None:
     truth = _mat_coherence(real_frf_dir, 2)
     assert truth.max() <= 1.0
-    cm = _no_data_warning()
-    try:
+    with _no_data_warning():
         d = read_uff58(real_frf_dir / "vt_case2_full.uff")
-    finally:
-        cm.__exit__(None, None, None)
     np.testing.assert_allclose(d.coherence[0, 0], truth, rtol=RTOL_PYUFF, atol=0)
     assert d.meta["warnings"] == []
     # the README: coherence at the 192.6 Hz peak is 0.07-0.5, a poor measurement
@@ -140,11 +139,8 @@ def test_pairs_missing_ignored_and_mismatched(tmp_path: Path) -> None:
         _set(2, 2, 1, 2, np.full(FREQ.size, 0.6), coherence=True, x=FREQ * 1.01),  # other lines
         _set(1, 2, 1, 2, np.full(FREQ.size, 0.3), coherence=True),  # duplicate of dataset 4
     ]
-    cm = _no_data_warning()
-    try:
+    with _no_data_warning():
         d = read_uff58(_write(tmp_path / "c.uff", sets))
-    finally:
-        cm.__exit__(None, None, None)
     assert d.coherence is not None
     expected = np.array([[0.9, 0.8], [np.nan, 0.7]])
     np.testing.assert_array_equal(d.coherence[:, :, 3], expected)  # exact: 0.9 etc. written with 12 digits
@@ -222,9 +218,6 @@ def test_rounding_excess_clipped_silently(tmp_path: Path) -> None:
     # 1 + 1e-9 is rounding of an estimate that is 1 (one average): clipped, not flagged
     c = np.full(FREQ.size, 1.0 + 1e-9)
     p = _write(tmp_path / "c.uff", [_set(1, 2, 1, 2, _frf(1)), _set(1, 2, 1, 2, c, coherence=True)])
-    cm = _no_data_warning()
-    try:
+    with _no_data_warning():
         d = read_uff58(p)
-    finally:
-        cm.__exit__(None, None, None)
     assert d.meta["warnings"] == [] and np.all(d.coherence == 1.0)
