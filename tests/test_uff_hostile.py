@@ -350,3 +350,10 @@ def test_58b_trailing_blanks_after_last_close_still_read(tmp_path: Path, tail: b
     p, buf = _binary_real(tmp_path)
     p.write_bytes(buf + tail)
     assert [r.status for r in read_uff(p)] == ["read", "read"]
+
+
+def test_underscore_in_number_refused(tmp_path: Path) -> None:
+    # Python's float() reads "2_5" as 25: a UFF number never holds "_", so the dataset is refused
+    p, buf = _ascii(tmp_path)
+    p.write_bytes(buf.replace(b"2.500000000000E-01", b"2_500000000000E-01", 1))
+    assert read_uff(p)[0].status == "refused" and "'_'" in (read_uff(p)[0].reason or "")

@@ -238,10 +238,6 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
     values than announced is refused as soon as that is clear.
     """
     notes: list[str] = []
-    bad = _NOT_DATA.search(buf, start, end)
-    if bad is not None:
-        shown = buf[bad.start() : bad.start() + 20].decode("latin-1")
-        raise _Refuse(f"data section holds text that is not a number: {shown!r}")
     parts: list[NDArray[np.float64]] = []
     count = 0
     run_together = False
@@ -254,10 +250,16 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
                 if cut > pos:
                     break
             if cut <= pos:
+                bad = _NOT_DATA.search(buf, pos, stop)
+                if bad is not None:
+                    shown = buf[bad.start() : bad.start() + 20].decode("latin-1")
+                    raise _Refuse(f"data section holds text that is not a number: {shown!r}")
                 raise _Refuse(f"data section holds a run of over {_CHUNK} characters without a blank")
             stop = cut + 1
         chunk = buf[pos:stop]
         pos = stop
+        if b"_" in chunk:  # float() would read "1_000" as 1000
+            raise _Refuse("data section holds text that is not a number: '_'")
         if b"d" in chunk or b"D" in chunk:
             chunk = chunk.translate(_DEXP)
         toks = chunk.split()
@@ -267,7 +269,8 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
             arr = np.array(toks, dtype=np.float64)
         except ValueError:
             toks = _NUM.findall(chunk)
-            rest = _NUM.sub(b"", chunk).strip()
+            bad = _NOT_DATA.search(chunk)
+            rest = _NUM.sub(b"", chunk).strip() if bad is None else chunk[bad.start() : bad.start() + 20]
             if rest:
                 raise _Refuse(f"data section holds text that is not a number: {rest[:20].decode('latin-1')!r}") from None
             arr = np.array(toks, dtype=np.float64)
