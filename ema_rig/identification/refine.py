@@ -78,8 +78,8 @@ class Refinement:
         Refined modal model (the input model unchanged when ``converged`` is False), modes in
         the order of the input model (sorted by natural frequency).
     natural_freq_std, damping_ratio_std : ndarray, shape (n_modes,)
-        Standard deviations of natural frequency [Hz] and damping ratio [-]; NaN when the
-        refinement fell back.
+        Standard deviations of natural frequency [Hz] and damping ratio [-]; NaN for a mode kept
+        at its PolyMAX pole and for all modes when the refinement fell back.
     pole_cov : ndarray, shape (n_modes, 2, 2)
         Covariance of (Re, Im) of each pole [rad^2/s^2]; NaN on fall-back.
     residue_std : ndarray, shape (n_modes, n_out, n_in)
@@ -99,6 +99,9 @@ class Refinement:
         Function evaluations of the optimiser, summed over the noise rounds.
     initial : ModalModel
         The model the refinement started from.
+    refined : ndarray of bool, shape (n_modes,), optional
+        Which poles were refined; the others were kept at their PolyMAX value (NaN standard
+        deviations, the reason in ``warnings``). None on fall-back.
     warnings : tuple of str
         One-line caveats (clipped coherence, large moves, poor fit ...).
     """
@@ -115,6 +118,7 @@ class Refinement:
     chi2_red: float
     n_iter: int
     initial: ModalModel
+    refined: NDArray[np.bool_] | None = None
     warnings: tuple[str, ...] = ()
 
     @property
@@ -172,28 +176,40 @@ class _Problem:
         jw: NDArray[np.complex128],
         power: int,
         y: NDArray[np.complex128],
-        scale: NDArray[np.float64],
+        lam0: NDArray[np.complex128],
+        free: NDArray[np.bool_],
         residuals: bool,
     ) -> None:
         self.jw = jw
         self.fac = jw**power
         self.y = y  # (n_chan, n_freq)
         self.yr = np.concatenate([y.real, y.imag], axis=1)  # (n_chan, 2 n_freq)
-        self.scale = scale  # (n_modes,) rad/s per unit of theta
+        self.lam0 = lam0  # (n_modes,) start poles; the frozen ones stay there
+        self.free = np.flatnonzero(free)  # modes whose poles are refined
+        self.scale = np.abs(lam0[self.free])  # rad/s per unit of theta
         self.residuals = residuals
-        self.n_modes = scale.size
+        self.n_modes = lam0.size
         self.n_lin = 2 * self.n_modes + (2 if residuals else 0)
         self.w = np.ones(self.yr.shape)  # sqrt(2 / variance) on the stacked rows
+
+    def theta0(self) -> NDArray[np.float64]:
+        lam = self.lam0[self.free] / self.scale
+        theta = np.empty(2 * lam.size)
+        theta[0::2], theta[1::2] = lam.real, lam.imag
+        return theta
 
     def set_variance(self, var: NDArray[np.float64]) -> None:
         w = np.sqrt(2.0 / var)
         self.w = np.concatenate([w, w], axis=1)
 
     def poles(self, theta: NDArray[np.float64]) -> NDArray[np.complex128]:
-        return np.asarray(self.scale * (theta[0::2] + 1j * theta[1::2]), dtype=np.complex128)
+        """All poles [rad/s]: the refined ones from ``theta``, the frozen ones at their start."""
+        lam = self.lam0.copy()
+        lam[self.free] = self.scale * (theta[0::2] + 1j * theta[1::2])
+        return lam
 
     def _basis(self, theta: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
-        """LSFD basis (n_freq, n_lin) and pole-derivative functions (n_freq, 2 n_modes)."""
+        """LSFD basis (n_freq, n_lin) and pole-derivative functions of the free modes (n_freq, 2 n_free)."""
         lam = self.poles(theta)
         pos = 1.0 / (self.jw[:, None] - lam[None, :])
         neg = 1.0 / (self.jw[:, None] - lam.conj()[None, :])
@@ -201,23 +217,25 @@ class _Problem:
         cols = [fac * (pos + neg), fac * (1j * (pos - neg))]
         if self.residuals:
             cols += [(self.fac / self.jw**2)[:, None], fac]
-        return np.concatenate(cols, axis=1), np.concatenate([fac * pos**2, fac * neg**2], axis=1)
+        fr = self.free
+        return np.concatenate(cols, axis=1), np.concatenate([fac * pos[:, fr] ** 2, fac * neg[:, fr] ** 2], axis=1)
 
     @staticmethod
     def _stack(z: NDArray[np.complex128]) -> NDArray[np.float64]:
         return np.concatenate([z.real, z.imag], axis=0)
 
     def _deriv(self, f: NDArray[np.complex128], x: NDArray[np.float64]) -> NDArray[np.complex128]:
-        """Derivative of one channel's model w.r.t. theta, (n_freq, 2 n_modes).
+        """Derivative of one channel's model w.r.t. theta, (n_freq, 2 n_free).
 
         ``d/dRe(l_r) = s_r (R P2_r + conj(R) N2_r)``, ``d/dIm(l_r) = j s_r (R P2_r - conj(R) N2_r)``
         with ``P2_r = (jw)^p / (jw - l_r)^2``, ``N2_r = (jw)^p / (jw - conj(l_r))^2``.
         """
-        nm = self.n_modes
-        res = (x[:nm] + 1j * x[nm : 2 * nm]) * self.scale
-        dp = f[:, :nm] * res
-        dn = f[:, nm:] * res.conj()
-        out = np.empty((f.shape[0], 2 * nm), np.complex128)
+        nm, fr = self.n_modes, self.free
+        res = (x[fr] + 1j * x[nm + fr]) * self.scale
+        nf = fr.size
+        dp = f[:, :nf] * res
+        dn = f[:, nf:] * res.conj()
+        out = np.empty((f.shape[0], 2 * nf), np.complex128)
         out[:, 0::2] = dp + dn
         out[:, 1::2] = 1j * (dp - dn)
         return out
@@ -265,7 +283,7 @@ class _Problem:
 
     def gauss_newton(self, val: _Value) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``J^T J`` and ``J^T r`` of Kaufman's Jacobian ``J = P_perp V`` (formed explicitly)."""
-        nt = 2 * self.n_modes
+        nt = 2 * self.free.size
         hess = np.zeros((nt, nt))
         grad = np.zeros(nt)
         for _, r, _, pv, _ in self._channels(val):
@@ -494,12 +512,9 @@ def _refine(
     y = data.frf[:, :, idx].reshape(n_chan, -1)
     jw = np.asarray(2j * np.pi * freq, dtype=np.complex128)
     lam0 = np.asarray(model.poles, dtype=np.complex128)
-    scale = np.abs(lam0)
-    theta0 = np.empty(2 * lam0.size)
-    theta0[0::2], theta0[1::2] = lam0.real / scale, lam0.imag / scale
-    prob = _Problem(jw, power, y, scale, residuals)
+    n_lin = 2 * lam0.size + (2 if residuals else 0)
     n_eq = 2 * y.size
-    n_par = 2 * lam0.size + n_chan * prob.n_lin
+    n_par = 2 * lam0.size + n_chan * n_lin
     if n_eq <= n_par:
         raise IdentificationError(
             f"refinement: {n_eq} real equations cannot determine {n_par} parameters "
@@ -507,65 +522,45 @@ def _refine(
             file=src,
         )
     dof = n_eq - n_par
+    fband = (float(freq[0]), float(freq[-1]))
 
     def as_noise(var: NDArray[np.float64], source: str) -> NoiseModel:
         return NoiseModel(var.reshape(cut.n_out, cut.n_in, -1), source, n_avg if coh is not None else None, tuple(warns))
 
-    theta = theta0
-    n_iter = 0
-    source = "given" if given_var is not None else "estimated"
-    var = np.ones(y.shape)
-    sol: Any = None
-    try:
-        # start values of the weights, from the unweighted LSFD at the PolyMAX poles
-        e = prob.value(theta0)
-        resid2, model2 = np.abs(e.model - y) ** 2, np.abs(e.model) ** 2
-        if given_var is not None:
-            var, rounds = given_var, 1
-        elif coh is not None:
-            source = "coherence" if n_avg is not None else "coherence-scaled"
-            var = _coherence_var(coh, model2, n_avg, resid2, None)
-            rounds = 2
-        else:
-            var = fit_noise_model(resid2, model2)[2]
-            rounds = max(1, noise_rounds)
-        for k in range(rounds):
-            prob.set_variance(var)
-            final = k == rounds - 1
-            sol, e = _gn_solve(prob, theta, max_nfev, final)
-            n_iter += int(sol.nfev)
-            theta = sol.x
-            if final:
-                break
-            # re-estimate the weights from the new model (and the leverage of its lines)
-            resid2, model2 = np.abs(e.model - y) ** 2, np.abs(e.model) ** 2
-            if source == "coherence":
-                var = _coherence_var(coh, model2, n_avg, resid2, None)  # type: ignore[arg-type]
-                continue
-            cov = _inv_psd(prob.gauss_newton(e)[0])
-            lev = None if cov is None else prob.second_order(e, cov)[0]
-            if source == "estimated":
-                var = fit_noise_model(resid2, model2, lev)[2]
-            else:  # coherence-scaled
-                var = _coherence_var(coh, model2, None, resid2, lev)  # type: ignore[arg-type]
-        hess, _ = prob.gauss_newton(e)
-    except (np.linalg.LinAlgError, ValueError) as exc:
-        return _fallback(
-            model, as_noise(var, source), f"refinement failed: {exc}", n_iter, float("nan"), float("nan"), warns
-        )
-    noise = as_noise(var, source)
-    chi2 = float(e.cost)
-    chi2_red = chi2 / dof
-    if sol is None or sol.status <= 0:
-        return _fallback(model, noise, f"no convergence within {max_nfev} evaluations", n_iter, chi2, chi2_red, warns)
-    lam = prob.poles(theta)
-    reason = _check_poles(lam, lam0, (float(freq[0]), float(freq[-1])))
-    cov_u = _inv_psd(hess)
-    if reason is None and cov_u is None:
-        reason = "Fisher information is singular: the poles are not identifiable from these data"
-    if reason is not None:
-        return _fallback(model, noise, reason, n_iter, chi2, chi2_red, warns)
+    # a mode whose refinement fails (unstable, out of the band, jumps to another mode ...) is
+    # frozen at its PolyMAX pole and the others are refined again
+    free = np.ones(lam0.size, bool)
+    frozen_why: dict[int, str] = {}
+    for _attempt in range(4):
+        prob = _Problem(jw, power, y, lam0, free, residuals)
+        try:
+            fit = _fit(prob, y, given_var, coh, n_avg, noise_rounds, max_nfev)
+        except (np.linalg.LinAlgError, ValueError) as exc:
+            return _fallback(model, as_noise(np.ones(y.shape), "estimated"), f"refinement failed: {exc}", 0,
+                             float("nan"), float("nan"), warns)
+        sol, e, var, source, n_iter, hess = fit
+        chi2 = float(e.cost)
+        chi2_red = chi2 / dof
+        noise = as_noise(var, source)
+        lam = prob.poles(sol.x)
+        cov_u = _inv_psd(hess)
+        bad = _bad_modes(lam, lam0, prob.free, fband, float(np.median(np.diff(freq))), hess if cov_u is None else None)
+        if sol.status <= 0 and not bad:
+            return _fallback(model, noise, f"no convergence within {max_nfev} evaluations", n_iter, chi2, chi2_red,
+                             warns)
+        if not bad:
+            break
+        for r, why in bad.items():
+            frozen_why[r] = why
+            free[r] = False
+        if not free.any():
+            return _fallback(model, noise, "; ".join(f"mode {r + 1}: {w}" for r, w in sorted(frozen_why.items())),
+                             n_iter, chi2, chi2_red, warns)
+    else:
+        return _fallback(model, noise, "modes kept failing the checks after freezing", n_iter, chi2, chi2_red, warns)
     assert cov_u is not None
+    for r, why in sorted(frozen_why.items()):
+        warns.append(f"mode {r + 1} ({abs(lam0[r]) / (2 * np.pi):.6g} Hz) kept at its PolyMAX pole: {why}")
     s2 = chi2_red if source in ("estimated", "coherence-scaled") else max(1.0, chi2_red)
     if source in ("given", "coherence") and chi2_red > 2.0:
         warns.append(
@@ -574,13 +569,14 @@ def _refine(
         )
     cov_theta = cov_u * s2
     _, res_var = prob.second_order(e, cov_u)
-    res_std = np.sqrt(res_var * s2).T.reshape(lam.size, cut.n_out, cut.n_in)
-    # (Re, Im) covariance in rad/s, then the delta method
-    pole_cov = np.empty((lam.size, 2, 2))
-    fn_std = np.empty(lam.size)
-    z_std = np.empty(lam.size)
-    for r in range(lam.size):
-        c = cov_theta[2 * r : 2 * r + 2, 2 * r : 2 * r + 2] * scale[r] ** 2
+    nm = lam.size
+    res_std = np.sqrt(res_var * s2).T.reshape(nm, cut.n_out, cut.n_in)
+    # (Re, Im) covariance in rad/s, then the delta method; NaN for frozen modes
+    pole_cov = np.full((nm, 2, 2), np.nan)
+    fn_std = np.full(nm, np.nan)
+    z_std = np.full(nm, np.nan)
+    for i, r in enumerate(prob.free.tolist()):
+        c = cov_theta[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] * prob.scale[i] ** 2
         pole_cov[r] = c
         sig, wd = lam[r].real, lam[r].imag
         mod = abs(lam[r])
@@ -588,17 +584,16 @@ def _refine(
         g_z = np.array([-(wd**2), sig * wd]) / mod**3
         fn_std[r] = np.sqrt(max(float(g_f @ c @ g_f), 0.0))
         z_std[r] = np.sqrt(max(float(g_z @ c @ g_z), 0.0))
-    if not (np.all(np.isfinite(fn_std)) and np.all(np.isfinite(z_std))):
+    if not (np.all(np.isfinite(fn_std[free])) and np.all(np.isfinite(z_std[free]))):
         return _fallback(model, noise, "non-finite standard deviation", n_iter, chi2, chi2_red, warns)
     fn0, fn1 = np.abs(lam0) / (2 * np.pi), np.abs(lam) / (2 * np.pi)
-    moved = np.abs(fn1 - fn0) > np.maximum(-lam0.real / (2 * np.pi), 4 * fn_std)
+    moved = free & (np.abs(fn1 - fn0) > np.maximum(-lam0.real / (4 * np.pi), 4 * np.nan_to_num(fn_std)))
     for r in np.flatnonzero(moved).tolist():
         warns.append(
             f"mode {r + 1} moved from {fn0[r]:.6g} to {fn1[r]:.6g} Hz in the refinement "
-            "(more than its half-power half-bandwidth)"
+            "(more than half its half-power half-bandwidth)"
         )
     x = e.x
-    nm = lam.size
     residues = (x[:, :nm] + 1j * x[:, nm : 2 * nm]).T.reshape(nm, cut.n_out, cut.n_in)
     if residuals:
         lower = x[:, 2 * nm].reshape(cut.n_out, cut.n_in).astype(np.complex128)
@@ -613,6 +608,7 @@ def _refine(
         {
             "method": "ml-refinement",
             "polymax_poles": [[float(p.real), float(p.imag)] for p in lam0],
+            "refined": [bool(v) for v in free],
             "noise_source": source,
             "chi2_red": chi2_red,
             "residuals": bool(residuals),
@@ -624,7 +620,7 @@ def _refine(
         residues=residues,
         lower_residual=lower,
         upper_residual=upper,
-        band=(float(freq[0]), float(freq[-1])),
+        band=fband,
         fit_error=fit_error,
         meta=meta,
     )
@@ -641,8 +637,93 @@ def _refine(
         chi2_red=chi2_red,
         n_iter=n_iter,
         initial=model,
+        refined=free.copy(),
         warnings=tuple(warns),
     )
+
+
+def _fit(
+    prob: _Problem, y: NDArray[np.complex128], given_var: NDArray[np.float64] | None,
+    coh: NDArray[np.float64] | None, n_avg: float | None, noise_rounds: int, max_nfev: int,
+) -> tuple[Any, _Value, NDArray[np.float64], str, int, NDArray[np.float64]]:
+    """Noise rounds of weighted fits: (scipy result, value, variance, source, evaluations, J^T J)."""
+    theta = prob.theta0()
+    n_iter = 0
+    # start values of the weights, from the unweighted LSFD at the PolyMAX poles
+    e = prob.value(theta)
+    resid2, model2 = np.abs(e.model - y) ** 2, np.abs(e.model) ** 2
+    if given_var is not None:
+        source, var, rounds = "given", given_var, 1
+    elif coh is not None:
+        source = "coherence" if n_avg is not None else "coherence-scaled"
+        var = _coherence_var(coh, model2, n_avg, resid2, None)
+        rounds = 2
+    else:
+        source = "estimated"
+        var = fit_noise_model(resid2, model2)[2]
+        rounds = max(1, noise_rounds)
+    sol: Any = None
+    for k in range(rounds):
+        prob.set_variance(var)
+        final = k == rounds - 1
+        if prob.free.size == 0:
+            break
+        sol, e = _gn_solve(prob, theta, max_nfev, final)
+        n_iter += int(sol.nfev)
+        theta = sol.x
+        if final:
+            break
+        # re-estimate the weights from the new model (and the leverage of its lines)
+        resid2, model2 = np.abs(e.model - y) ** 2, np.abs(e.model) ** 2
+        if source == "coherence":
+            var = _coherence_var(coh, model2, n_avg, resid2, None)  # type: ignore[arg-type]
+            continue
+        cov = _inv_psd(prob.gauss_newton(e)[0])
+        lev = None if cov is None else prob.second_order(e, cov)[0]
+        if source == "estimated":
+            var = fit_noise_model(resid2, model2, lev)[2]
+        else:  # coherence-scaled
+            var = _coherence_var(coh, model2, None, resid2, lev)  # type: ignore[arg-type]
+    return sol, e, var, source, n_iter, prob.gauss_newton(e)[0]
+
+
+def _bad_modes(
+    lam: NDArray[np.complex128], lam0: NDArray[np.complex128], free: NDArray[np.intp], band: tuple[float, float],
+    df: float, singular_hess: NDArray[np.float64] | None,
+) -> dict[int, str]:
+    """Refined modes that cannot be accepted, with the reason (empty when all are fine).
+
+    A mode may move by its PolyMAX half-power half-bandwidth, or two line spacings ``df`` when
+    that is larger; further means it left for another feature of the data.
+    """
+    fn, fn0 = np.abs(lam) / (2 * np.pi), np.abs(lam0) / (2 * np.pi)
+    hbw0 = np.maximum(-lam0.real / (2 * np.pi), 2 * df)  # allowed move [Hz]
+    bad: dict[int, str] = {}
+    for r in free.tolist():
+        if not np.isfinite(lam[r]):
+            bad[r] = "the refined pole is not finite"
+        elif lam[r].real >= 0:
+            bad[r] = f"the refinement made it unstable (to {fn[r]:.6g} Hz, damping ratio <= 0)"
+        elif not band[0] <= fn[r] <= band[1]:
+            bad[r] = f"the refinement moved it out of the band {band[0]:g}..{band[1]:g} Hz (to {fn[r]:.6g} Hz)"
+        elif abs(fn[r] - fn0[r]) > hbw0[r]:
+            bad[r] = (f"the refinement moved it to {fn[r]:.6g} Hz, further than its half-power "
+                      f"half-bandwidth or two lines ({hbw0[r]:.3g} Hz): not the same mode")
+    if not bad:
+        order = np.argsort(fn, kind="stable")
+        if np.any(order != np.arange(fn.size)) or np.any(np.diff(fn[order]) <= 0):
+            # the free mode that moved most (in half-bandwidths) is the one that jumped
+            mv = np.abs(fn - fn0) / np.maximum(hbw0, 1e-300)
+            r = int(free[np.argmax(mv[free])])
+            bad[r] = f"the refinement moved it to {fn[r]:.6g} Hz, past a neighbouring mode"
+    if not bad and singular_hess is not None:
+        d = np.sqrt(np.abs(np.diag(singular_hess)))
+        d = np.where(d > 0, d, 1.0)
+        vals, vecs = np.linalg.eigh(singular_hess / np.outer(d, d))
+        weight = vecs[:, 0] ** 2
+        r = int(free[np.argmax(weight[0::2] + weight[1::2])])
+        bad[r] = "its pole is not identifiable from these data (singular Fisher information)"
+    return bad
 
 
 def _coherence_var(
@@ -677,25 +758,6 @@ def _inv_psd(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
         return None
     ci = np.linalg.inv(c)
     return (ci.T @ ci) / np.outer(d, d)
-
-
-def _check_poles(
-    lam: NDArray[np.complex128], lam0: NDArray[np.complex128], band: tuple[float, float]
-) -> str | None:
-    """Why refined poles are not acceptable, or None."""
-    fn = np.abs(lam) / (2 * np.pi)
-    if not np.all(np.isfinite(lam)):
-        return "a pole became NaN or inf"
-    bad = np.flatnonzero(lam.real >= 0)
-    if bad.size:
-        return f"mode {bad[0] + 1} ({fn[bad[0]]:.6g} Hz) became unstable (damping ratio <= 0)"
-    out = np.flatnonzero((fn < band[0]) | (fn > band[1]) | (lam.imag <= 0))
-    if out.size:
-        return f"mode {out[0] + 1} moved out of the band {band[0]:g}..{band[1]:g} Hz (to {fn[out[0]]:.6g} Hz)"
-    if np.any(np.diff(fn) <= 0):
-        k = int(np.flatnonzero(np.diff(fn) <= 0)[0])
-        return f"modes {k + 1} and {k + 2} swapped or merged ({fn[k]:.6g}, {fn[k + 1]:.6g} Hz)"
-    return None
 
 
 __all__ = ["Refinement", "refine"]
