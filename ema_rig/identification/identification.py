@@ -276,13 +276,10 @@ def _refined(ident: Identification, data: FRFData) -> Identification:
             stacklevel=3,
         )
         return replace(ident, refinement=ref)
-    kept = [w for w in ref.warnings if "kept at its PolyMAX pole" in w]
-    if kept:
-        warnings.warn(
-            f"{source_of(data) or 'data'}: " + "; ".join(kept) + " (its standard deviations are the pole-cluster spread)",
-            IdentificationWarning,
-            stacklevel=3,
-        )
+    for w in ref.warnings:
+        if "kept at its PolyMAX pole" in w:
+            w += " (its standard deviations are the pole-cluster spread)"
+        warnings.warn(f"{source_of(data) or 'data'}: {w}", IdentificationWarning, stacklevel=3)
     # modes kept at their PolyMAX pole keep their cluster spread
     return replace(
         ident,

@@ -539,7 +539,7 @@ def _refine(
     # frozen at its PolyMAX pole and the others are refined again
     free = np.ones(lam0.size, bool)
     frozen_why: dict[int, str] = {}
-    for _attempt in range(4):
+    for _attempt in range(min(lam0.size, 6)):
         prob = _Problem(jw, power, y, lam0, free, residuals)
         try:
             fit = _fit(prob, y, given_var, coh, n_avg, noise_rounds, max_nfev)
@@ -558,14 +558,17 @@ def _refine(
                              warns)
         if not bad:
             break
-        for r, why in bad.items():
-            frozen_why[r] = why
-            free[r] = False
+        # freeze the worst one (the others may be pulled back once it no longer wanders)
+        worst = max(bad, key=lambda r: bad[r][0])
+        frozen_why[worst] = bad[worst][1]
+        free[worst] = False
         if not free.any():
             return _fallback(model, noise, "; ".join(f"mode {r + 1}: {w}" for r, w in sorted(frozen_why.items())),
                              n_iter, chi2, chi2_red, warns)
     else:
-        return _fallback(model, noise, "modes kept failing the checks after freezing", n_iter, chi2, chi2_red, warns)
+        return _fallback(model, noise, "modes kept failing the checks after freezing "
+                         + "; ".join(f"mode {r + 1}: {w}" for r, w in sorted(frozen_why.items())),
+                         n_iter, chi2, chi2_red, warns)
     assert cov_u is not None
     for r, why in sorted(frozen_why.items()):
         warns.append(f"mode {r + 1} ({abs(lam0[r]) / (2 * np.pi):.6g} Hz) kept at its PolyMAX pole: {why}")
@@ -594,6 +597,7 @@ def _refine(
         z_std[r] = np.sqrt(max(float(g_z @ c @ g_z), 0.0))
     if not (np.all(np.isfinite(fn_std[free])) and np.all(np.isfinite(z_std[free]))):
         return _fallback(model, noise, "non-finite standard deviation", n_iter, chi2, chi2_red, warns)
+    warns += _edge_misfit(np.abs(e.model - y) ** 2 / var, freq)
     fn0, fn1 = np.abs(lam0) / (2 * np.pi), np.abs(lam) / (2 * np.pi)
     moved = free & (np.abs(fn1 - fn0) > np.maximum(-lam0.real / (4 * np.pi), 4 * np.nan_to_num(fn_std)))
     for r in np.flatnonzero(moved).tolist():
@@ -650,6 +654,28 @@ def _refine(
     )
 
 
+def _edge_misfit(z: NDArray[np.float64], freq: NDArray[np.float64]) -> list[str]:
+    """Warnings when the fit is poor next to a band edge (a mode just outside the band).
+
+    ``z`` is ``|residual|^2 / variance`` of every line (n_chan, n_freq), 1 on average for a model
+    that fits to the noise. Residual terms stand for far-away modes only; a mode just outside
+    the band leaves a misfit near that edge and biases the nearest modes by more than their
+    (noise-only) standard deviations.
+    """
+    n = freq.size
+    k = max(5, n // 20)
+    out = []
+    for name, sl in (("lower", slice(0, k)), ("upper", slice(n - k, n))):
+        chi = float(np.mean(z[:, sl]))
+        if chi > 3.0:
+            out.append(
+                f"the model misses the data near the {name} band edge ({freq[sl][0]:.6g}..{freq[sl][-1]:.6g} Hz: "
+                f"residual {chi:.3g} times the noise), probably a mode just outside the band; the modes nearest "
+                "that edge may be biased beyond their standard deviations: move the edge away from it"
+            )
+    return out
+
+
 def _fit(
     prob: _Problem, y: NDArray[np.complex128], given_var: NDArray[np.float64] | None,
     coh: NDArray[np.float64] | None, n_avg: float | None, noise_rounds: int, max_nfev: int,
@@ -698,24 +724,26 @@ def _fit(
 def _bad_modes(
     lam: NDArray[np.complex128], lam0: NDArray[np.complex128], free: NDArray[np.intp], band: tuple[float, float],
     df: float, singular_hess: NDArray[np.float64] | None,
-) -> dict[int, str]:
-    """Refined modes that cannot be accepted, with the reason (empty when all are fine).
+) -> dict[int, tuple[float, str]]:
+    """Refined modes that cannot be accepted: severity and reason (empty when all are fine).
 
     A mode may move by its PolyMAX half-power half-bandwidth, or two line spacings ``df`` when
     that is larger; further means it left for another feature of the data.
     """
     fn, fn0 = np.abs(lam) / (2 * np.pi), np.abs(lam0) / (2 * np.pi)
     hbw0 = np.maximum(-lam0.real / (2 * np.pi), 2 * df)  # allowed move [Hz]
-    bad: dict[int, str] = {}
+    bad: dict[int, tuple[float, str]] = {}
+    inf = float("inf")
     for r in free.tolist():
         if not np.isfinite(lam[r]):
-            bad[r] = "the refined pole is not finite"
+            bad[r] = (inf, "the refined pole is not finite")
         elif lam[r].real >= 0:
-            bad[r] = f"the refinement made it unstable (to {fn[r]:.6g} Hz, damping ratio <= 0)"
+            bad[r] = (inf, f"the refinement made it unstable (to {fn[r]:.6g} Hz, damping ratio <= 0)")
         elif not band[0] <= fn[r] <= band[1]:
-            bad[r] = f"the refinement moved it out of the band {band[0]:g}..{band[1]:g} Hz (to {fn[r]:.6g} Hz)"
+            bad[r] = (inf, f"the refinement moved it out of the band {band[0]:g}..{band[1]:g} Hz (to {fn[r]:.6g} Hz)")
         elif abs(fn[r] - fn0[r]) > hbw0[r]:
-            bad[r] = (f"the refinement moved it to {fn[r]:.6g} Hz, further than its half-power "
+            bad[r] = (abs(fn[r] - fn0[r]) / hbw0[r],
+                      f"the refinement moved it to {fn[r]:.6g} Hz, further than its half-power "
                       f"half-bandwidth or two lines ({hbw0[r]:.3g} Hz): not the same mode")
     if not bad:
         order = np.argsort(fn, kind="stable")
@@ -723,14 +751,14 @@ def _bad_modes(
             # the free mode that moved most (in half-bandwidths) is the one that jumped
             mv = np.abs(fn - fn0) / np.maximum(hbw0, 1e-300)
             r = int(free[np.argmax(mv[free])])
-            bad[r] = f"the refinement moved it to {fn[r]:.6g} Hz, past a neighbouring mode"
+            bad[r] = (1.0, f"the refinement moved it to {fn[r]:.6g} Hz, past a neighbouring mode")
     if not bad and singular_hess is not None:
         d = np.sqrt(np.abs(np.diag(singular_hess)))
         d = np.where(d > 0, d, 1.0)
         vals, vecs = np.linalg.eigh(singular_hess / np.outer(d, d))
         weight = vecs[:, 0] ** 2
         r = int(free[np.argmax(weight[0::2] + weight[1::2])])
-        bad[r] = "its pole is not identifiable from these data (singular Fisher information)"
+        bad[r] = (1.0, "its pole is not identifiable from these data (singular Fisher information)")
     return bad
 
 
