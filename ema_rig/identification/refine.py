@@ -266,7 +266,7 @@ class _Problem:
         return _Value(theta, cost, x, x @ b.T, tuple(chol))
 
     def _channels(self, val: _Value) -> Any:
-        """Per channel: weighted basis, residual, G^-1 A^T V, projected Jacobian, G^-1 (callable)."""
+        """Per channel: weighted basis A, residual r, A^T V, G^-1 A^T V, V, G^-1 (callable)."""
         import scipy.linalg
 
         b, f = self._basis(val.theta)
@@ -280,20 +280,28 @@ class _Problem:
             a = self.w[c][:, None] * br
             r = a @ val.x[c] - self.w[c] * self.yr[c]
             v = self.w[c][:, None] * self._stack(self._deriv(f, val.x[c]))
-            m = gsolve(a.T @ v)
-            yield a, r, m, v - a @ m, gsolve
+            atv = a.T @ v
+            yield a, r, atv, gsolve(atv), v, gsolve
 
-    def gauss_newton(self, val: _Value) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``J^T J`` and ``J^T r`` of Kaufman's Jacobian ``J = P_perp V`` (formed explicitly)."""
-        key = val.theta.tobytes()
+    def gauss_newton(self, val: _Value, exact: bool = False) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``J^T J`` and ``J^T r`` of Kaufman's Jacobian ``J = P_perp V``.
+
+        ``exact`` forms ``P_perp V`` explicitly (no cancellation: for the covariance); otherwise
+        ``V^T V - (A^T V)^T G^-1 A^T V`` (for the iterations). ``J^T r = V^T r`` as ``A^T r = 0``.
+        """
+        key = val.theta.tobytes() + bytes([exact])
         if self._gn_last is not None and self._gn_last[0] == key:
             return self._gn_last[1]
         nt = 2 * self.free.size
         hess = np.zeros((nt, nt))
         grad = np.zeros(nt)
-        for _, r, _, pv, _ in self._channels(val):
-            hess += pv.T @ pv
-            grad += pv.T @ r
+        for a, r, atv, m, v, _ in self._channels(val):
+            if exact:
+                pv = v - a @ m
+                hess += pv.T @ pv
+            else:
+                hess += v.T @ v - atv.T @ m
+            grad += v.T @ r
         self._gn_last = (key, (0.5 * (hess + hess.T), grad))
         return self._gn_last[1]
 
@@ -309,7 +317,8 @@ class _Problem:
         lev = np.empty((n_chan, n_f))
         res_var = np.empty((n_chan, nm))
         eye = np.eye(self.n_lin)
-        for c, (a, _, m, pv, gsolve) in enumerate(self._channels(val)):
+        for c, (a, _, _, m, v, gsolve) in enumerate(self._channels(val)):
+            pv = v - a @ m
             ginv = gsolve(eye)
             h = np.sum((a @ ginv) * a, axis=1) + np.sum((pv @ cov_theta) * pv, axis=1)
             lev[c] = 0.5 * (h[:n_f] + h[n_f:])
@@ -718,7 +727,7 @@ def _fit(
             var = fit_noise_model(resid2, model2, lev)[2]
         else:  # coherence-scaled
             var = _coherence_var(coh, model2, None, resid2, lev)  # type: ignore[arg-type]
-    return sol, e, var, source, n_iter, prob.gauss_newton(e)[0]
+    return sol, e, var, source, n_iter, prob.gauss_newton(e, exact=True)[0]
 
 
 def _bad_modes(
