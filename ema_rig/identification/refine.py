@@ -43,6 +43,13 @@ Gauss-Newton quantities ``J^T J`` and ``J^T r``, and the optimiser sees an equiv
 with the same cost, gradient and Gauss-Newton model, so memory does not grow with the number of
 outputs.
 
+The standard deviations describe the noise only. Model error (a mode just outside the band
+that the residual terms cannot represent, an unmodelled line in the band, a mode PolyMAX did not
+select) biases the estimates without necessarily raising the residual; with low noise and many
+lines such a bias can be several standard deviations. A misfit near a band edge and a residual
+above the stated noise are reported in ``warnings``; a band that keeps modes outside it at a
+distance of several half-power bandwidths from its edges avoids the first cause.
+
 Noise: see :mod:`ema_rig.identification.noise`. Without a given variance, the weights are
 refined in rounds (fit, re-estimate the variance from the new model, fit again).
 
