@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig calibrate``."""
     parser.add_argument("file", metavar="DISK_FILE", help="UFF58 measurement with the steel disk mounted")
     parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
-    parser.add_argument("--k-disk", type=float, default=None, metavar="V",
+    parser.add_argument("--k-disk", type=_args.positive_float, default=None, metavar="V",
                         help="finite disk stiffness [N/m] in series (default: rigid, as the paper)")
-    parser.add_argument("--band", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+    parser.add_argument("--band", type=_args.finite_float, nargs=2, action=_args.BandAction, default=None,
+                        metavar=("LO", "HI"),
                         help="identification band [Hz] (default: rig file k_MS_band / band, else 150 1000)")
-    parser.add_argument("--max-order", type=int, default=None, metavar="N", help="maximum PolyMAX order")
+    parser.add_argument("--max-order", type=_args.model_order, default=None, metavar="N", help="maximum PolyMAX order")
     parser.add_argument("--json", default=None, metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", default=None, metavar="PNG",
                         help="measured FRFs against the 3DOF model with the disk, 150-1000 Hz")
