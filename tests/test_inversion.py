@@ -144,13 +144,23 @@ def test_k_ms_calibration_from_disk():
     assert_allclose(cal.k_MS, 114e6, rtol=1e-9)  # exact inversion
     # std from the slope: d ln k / d ln f at ~897 Hz, numerically from the closed form
     slope = (k_tb_ms_from_housing_freq(f_disk + 0.01, TABLE1) - k_tb_ms_from_housing_freq(f_disk - 0.01, TABLE1)) / 0.02
-    assert_allclose(cal.k_MS_std, slope * 1.0, rtol=1e-5)
+    assert_allclose(cal.k_MS_std_measured, slope * 1.0, rtol=1e-5)
+    # disk assumed rigid: the model-form term (1/10)/sqrt(3) of k_MS joins the measured one
+    assert_allclose(cal.disk_std, 114e6 * 0.1 / math.sqrt(3), rtol=1e-9)
+    assert_allclose(cal.k_MS_std, math.hypot(slope, 114e6 * 0.1 / math.sqrt(3)), rtol=1e-5)
     # a disk of finite stiffness (10 x k_MS) in series: measured frequency is lower, k_MS the same
     k_disk = 1.14e9
     f2 = RigModel(TABLE1, series_stiffness(k_disk, TABLE1.k_MS)).housing_freq
     assert f2 < f_disk
-    assert_allclose(calibrate_k_ms(f2, TABLE1, k_disk=k_disk).k_MS, 114e6, rtol=1e-9)
-    assert_allclose(calibrate_k_ms(f2, TABLE1).k_MS, series_stiffness(k_disk, 114e6), rtol=1e-9)
+    known = calibrate_k_ms(f2, TABLE1, k_disk=k_disk, k_disk_std=0.1 * k_disk)
+    assert_allclose(known.k_MS, 114e6, rtol=1e-9)
+    # d k_MS / d k_disk = -(k_MS / k_disk)^2 = -0.01: 10 % of k_disk -> 0.1 % of k_MS
+    assert_allclose(known.disk_std, 0.01 * 0.1 * k_disk, rtol=1e-9)
+    # the paper's rigid-disk assumption with a disk only 10x stiffer: -9.1 % but within 2 sigma
+    rigid = calibrate_k_ms(f2, TABLE1)
+    assert_allclose(rigid.k_MS, series_stiffness(k_disk, 114e6), rtol=1e-9)
+    z = (114e6 - rigid.k_MS) / rigid.k_MS_std
+    assert 1.5 < z < 2.0  # sqrt(3) * 1/1.1 ... the edge of the assumed range, not beyond 2 sigma
     with pytest.raises(InversionError):
         calibrate_k_ms(1400.0, TABLE1)
 

@@ -78,6 +78,69 @@ by the calibration's own std when given), k_AS and k_B 10 % (manufacturer data; 
 the housing mode is tiny)."""
 
 
+KIND_MEASURED = "measured"
+KIND_RIG = "assumed (rig file)"
+KIND_DEFAULT = "assumed (default)"
+KIND_MODEL = "model form"
+KINDS: tuple[str, ...] = (KIND_MEASURED, KIND_RIG, KIND_DEFAULT, KIND_MODEL)
+"""The labels of :attr:`UncertaintyTerm.kind`."""
+
+DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
+"""Declared damping models for :func:`undamped_freq`."""
+
+
+# --------------------------------------------------------------------------- damping
+def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: str = "viscous") -> tuple[float, float]:
+    """Undamped natural frequency of the (real-stiffness) model from an identified pole.
+
+    The identification gives ``|lambda| / 2 pi`` and ``zeta = -Re(lambda) / |lambda|``; the 3DOF
+    model is undamped. What ``|lambda|`` means depends on the damping model:
+
+    * viscous, proportional: ``lambda = -zeta w0 + j w0 sqrt(1 - zeta^2)``, so ``w0 = |lambda|``;
+    * hysteretic (structural), ``K (1 + j eta)``: ``lambda^2 = -w0^2 (1 + j eta)``, so
+      ``|lambda| = w0 (1 + eta^2)^(1/4)`` and ``zeta = sin(atan(eta) / 2)``; eliminating ``eta``
+      (``cos(atan eta) = 1 - 2 zeta^2``) gives ``w0 = |lambda| sqrt(1 - 2 zeta^2)``
+      (``-zeta^2`` relative to first order: -1.0 % in frequency, -3.9 % in k_TB at 10 %).
+
+    The difference ``delta = 1 - sqrt(1 - 2 zeta^2)`` (~ ``zeta^2``) between the two readings is
+    the size of the damping model-form term: whichever model is declared, the truth may lie
+    anywhere between the two (and a non-proportional dashpot, e.g. in the bearing, shifts the
+    pole by a similar ``O(zeta^2)``), so the relative standard uncertainty of the undamped
+    frequency is ``delta / sqrt(3)`` (a rectangular distribution of half-width ``delta``).
+
+    Parameters
+    ----------
+    abs_freq : float
+        ``|lambda| / 2 pi`` of the identified mode [Hz].
+    damping_ratio : float
+        Identified damping ratio ``-Re(lambda) / |lambda|``, in [0, 1/sqrt(2)).
+    damping_model : {'viscous', 'hysteretic'}
+        The declared damping model.
+
+    Returns
+    -------
+    f0 : float
+        Undamped natural frequency [Hz] to invert.
+    rel_std : float
+        Relative standard uncertainty of ``f0`` from the damping model (fraction).
+
+    Examples
+    --------
+    >>> f0, u = undamped_freq(700.0, 0.10, "hysteretic")
+    >>> round(f0, 3), round(100 * u, 3)
+    (692.965, 0.58)
+    """
+    if damping_model not in DAMPING_MODELS:
+        raise ValueError(f"damping_model must be one of {DAMPING_MODELS}, got {damping_model!r}")
+    z = float(damping_ratio)
+    if not (math.isfinite(z) and 0.0 <= z < math.sqrt(0.5)):
+        z = min(max(z, 0.0), 0.7) if math.isfinite(z) else 0.0
+    root = math.sqrt(1.0 - 2.0 * z * z)
+    delta = 1.0 - root
+    f0 = float(abs_freq) * (root if damping_model == "hysteretic" else 1.0)
+    return f0, delta / math.sqrt(3.0)
+
+
 # --------------------------------------------------------------------------- forward / bounds
 def housing_freq_from_k_tb_ms(k_TB_MS: float, params: ModelParams) -> float:
     """Natural frequency of the housing mode [Hz] for a combined stiffness ``k_TB+MS`` [N/m]."""
@@ -246,6 +309,10 @@ def _dk_df(f_H: float, params: ModelParams) -> float:
 
 
 # --------------------------------------------------------------------------- k_MS calibration
+DISK_STIFFNESS_RATIO: float = 10.0
+"""The paper's bound on the steel disk: "at least a factor 10" stiffer than ``k_MS``."""
+
+
 @dataclass(frozen=True, slots=True)
 class KmsCalibration:
     """Mounting-system stiffness from a steel-disk measurement.
@@ -253,13 +320,24 @@ class KmsCalibration:
     Attributes
     ----------
     k_MS, k_MS_std : float
-        Mounting stiffness and its standard uncertainty from the frequency spread [N/m].
+        Mounting stiffness and its total standard uncertainty [N/m]: the measured term (housing
+        frequency) and the disk term combined.
     f_disk, f_disk_std : float
         Housing-mode natural frequency with the disk mounted and its std [Hz].
     k_TB_MS : float
         Combined stiffness from the disk frequency [N/m] (= k_MS when the disk is rigid).
     k_disk : float or None
-        Disk stiffness put in series [N/m]; None = neglected (rigid disk).
+        Disk stiffness put in series [N/m]; None = assumed rigid (the paper's assumption).
+    k_disk_std : float or None
+        Standard uncertainty of ``k_disk`` [N/m] (None: not given, taken as 0).
+    k_MS_std_measured : float
+        The part of ``k_MS_std`` from the identified frequency alone [N/m].
+    disk_std : float
+        The part from the disk [N/m]: ``k_disk_std`` propagated through the series relation,
+        or, with the disk assumed rigid, the model-form term of :func:`calibrate_k_ms`.
+    disk_term_kind : str
+        ``'assumed (rig file)'`` (a given disk stiffness) or ``'model form'`` (disk assumed
+        rigid).
     """
 
     k_MS: float
@@ -268,16 +346,24 @@ class KmsCalibration:
     f_disk_std: float
     k_TB_MS: float
     k_disk: float | None = None
+    k_disk_std: float | None = None
+    k_MS_std_measured: float = 0.0
+    disk_std: float = 0.0
+    disk_term_kind: str = KIND_MODEL
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-dict form for JSON."""
         return {
             "k_MS": self.k_MS,
             "k_MS_std": self.k_MS_std,
+            "k_MS_std_measured": self.k_MS_std_measured,
+            "k_MS_std_disk": self.disk_std,
+            "disk_term_kind": self.disk_term_kind,
             "f_disk": self.f_disk,
             "f_disk_std": self.f_disk_std,
             "k_TB_MS": self.k_TB_MS,
             "k_disk": self.k_disk,
+            "k_disk_std": self.k_disk_std,
         }
 
 
@@ -287,11 +373,23 @@ def calibrate_k_ms(
     *,
     f_disk_std: float = 0.0,
     k_disk: float | None = None,
+    k_disk_std: float | None = None,
+    disk_ratio: float = DISK_STIFFNESS_RATIO,
 ) -> KmsCalibration:
     """Mounting stiffness ``k_MS`` from the housing mode with a steel disk mounted.
 
-    The paper neglects the disk (``k_TB`` >> ``k_MS``) so ``k_MS = k_TB+MS``. With a finite disk
-    stiffness ``k_disk`` the disk is taken in series: ``1/k_MS = 1/k_TB+MS - 1/k_disk``.
+    The disk sits in series with the mounting system: ``1/k_TB+MS = 1/k_MS + 1/k_disk``.
+
+    * ``k_disk`` given (e.g. from FE): ``1/k_MS = 1/k_TB+MS - 1/k_disk``, and ``k_disk_std``
+      propagates with ``d k_MS / d k_disk = -(k_MS / k_disk)^2``.
+    * ``k_disk`` unknown: the paper's convention ``k_MS = k_TB+MS`` (disk rigid) is kept, with a
+      model-form term for it. With the disk at least ``disk_ratio`` times stiffer than
+      ``k_MS`` (paper: 10), ``k_MS / k_TB+MS = 1 + k_MS / k_disk`` lies in
+      ``[1, 1 + 1/disk_ratio]``: the uncorrected value is low by between 0 and 10 %. The term
+      is the root-mean-square error of that one-sided rectangular spread,
+      ``(1 / disk_ratio) / sqrt(3)`` (5.8 % of ``k_MS`` at 10x), so even a disk only 10x
+      stiffer lies within 1.7 sigma; the calibration never reports ``k_MS`` tighter than its
+      disk assumption allows.
 
     Parameters
     ----------
@@ -302,7 +400,11 @@ def calibrate_k_ms(
     f_disk_std : float, optional
         Standard uncertainty of ``f_disk`` [Hz].
     k_disk : float, optional
-        Disk stiffness [N/m]; default None (rigid).
+        Disk stiffness [N/m]; default None (assumed rigid, with the model-form term).
+    k_disk_std : float, optional
+        Standard uncertainty of ``k_disk`` [N/m].
+    disk_ratio : float, optional
+        Lower bound of ``k_disk / k_MS`` when ``k_disk`` is unknown (default 10).
 
     Returns
     -------
@@ -317,7 +419,11 @@ def calibrate_k_ms(
     k = _closed_form(f, params)
     dk = abs(_dk_df(f, params)) * float(f_disk_std)
     if k_disk is None:
-        kms, kms_std = k, dk
+        if not disk_ratio > 0:
+            raise ValueError(f"disk_ratio must be > 0, got {disk_ratio!r}")
+        kms, meas = k, dk
+        disk = k / disk_ratio / math.sqrt(3.0)
+        kind = KIND_MODEL
     else:
         kd = float(k_disk)
         if not (kd > k):
@@ -326,8 +432,21 @@ def calibrate_k_ms(
                 f"frequency {f:.6g} Hz"
             )
         kms = 1.0 / (1.0 / k - 1.0 / kd)
-        kms_std = dk * (kms / k) ** 2  # d kms / d k = (kms / k)^2
-    return KmsCalibration(kms, float(kms_std), f, float(f_disk_std), k, None if k_disk is None else float(k_disk))
+        meas = dk * (kms / k) ** 2  # d kms / d k = (kms / k)^2
+        disk = (kms / kd) ** 2 * float(k_disk_std or 0.0)
+        kind = KIND_RIG
+    return KmsCalibration(
+        k_MS=kms,
+        k_MS_std=math.hypot(meas, disk),
+        f_disk=f,
+        f_disk_std=float(f_disk_std),
+        k_TB_MS=k,
+        k_disk=None if k_disk is None else float(k_disk),
+        k_disk_std=None if k_disk_std is None else float(k_disk_std),
+        k_MS_std_measured=float(meas),
+        disk_std=float(disk),
+        disk_term_kind=kind,
+    )
 
 
 # --------------------------------------------------------------------------- uncertainty
@@ -347,6 +466,12 @@ class UncertaintyTerm:
         Contribution to the standard uncertainty of k_TB [N/m] (``|sens| rel_input k_TB``).
     share : float
         Fraction of the total variance (shares sum to 1).
+    kind : str
+        Where the input uncertainty comes from: ``'measured'`` (identified from the data),
+        ``'assumed (rig file)'`` (the rig file's ``[uncertainty]`` or a calibration),
+        ``'assumed (default)'`` (:data:`DEFAULT_REL_UNCERTAINTY`, the rig file has no entry) or
+        ``'model form'`` (a stated allowance for what the 3DOF model does not describe: damping
+        model, rigid disk, a neighbouring mode, an effective modal mass off the model's).
     """
 
     name: str
@@ -354,6 +479,7 @@ class UncertaintyTerm:
     sensitivity: float
     std: float
     share: float
+    kind: str = KIND_RIG
 
 
 @dataclass(frozen=True, slots=True)
@@ -363,15 +489,21 @@ class StiffnessUncertainty:
     Attributes
     ----------
     k_TB, k_TB_std : float
-        Bearing stiffness and its combined standard uncertainty [N/m].
+        Bearing stiffness and its combined (total) standard uncertainty [N/m].
     k_TB_MS, k_TB_MS_std : float
         Combined stiffness and the std of the terms acting on it (all but k_MS) [N/m].
     k_MS : float
         Mounting stiffness used [N/m].
     f_H, f_H_std : float
-        Housing-mode natural frequency and its std [Hz].
+        Undamped housing-mode frequency inverted (see :func:`undamped_freq`) and its measured
+        std [Hz].
     terms : tuple of UncertaintyTerm
         The budget, largest share first.
+    k_TB_std_measured : float
+        The part of ``k_TB_std`` from the terms of kind ``'measured'`` [N/m].
+    defaults_used : tuple of str
+        Parameters whose tolerance came from :data:`DEFAULT_REL_UNCERTAINTY` (the rig file has
+        no entry for them).
     """
 
     k_TB: float
@@ -382,6 +514,8 @@ class StiffnessUncertainty:
     f_H: float
     f_H_std: float
     terms: tuple[UncertaintyTerm, ...] = field(default_factory=tuple)
+    k_TB_std_measured: float = 0.0
+    defaults_used: tuple[str, ...] = ()
 
     @property
     def shares(self) -> dict[str, float]:
@@ -393,10 +527,15 @@ class StiffnessUncertainty:
         """Relative sensitivity ``d ln k_TB / d ln x`` per input name."""
         return {t.name: t.sensitivity for t in self.terms}
 
+    def std_of(self, kind: str) -> float:
+        """Root-sum-square of the terms of one ``kind`` [N/m]."""
+        return math.sqrt(sum(t.std**2 for t in self.terms if t.kind == kind))
+
     def to_records(self) -> list[dict[str, Any]]:
         """One row per budget term."""
         return [
-            {"name": t.name, "rel_input": t.rel_input, "sensitivity": t.sensitivity, "std": t.std, "share": t.share}
+            {"name": t.name, "kind": t.kind, "rel_input": t.rel_input, "sensitivity": t.sensitivity,
+             "std": t.std, "share": t.share}
             for t in self.terms
         ]
 
@@ -405,11 +544,14 @@ class StiffnessUncertainty:
         return {
             "k_TB": self.k_TB,
             "k_TB_std": self.k_TB_std,
+            "k_TB_std_measured": self.k_TB_std_measured,
+            "k_TB_std_by_kind": {k: self.std_of(k) for k in KINDS},
             "k_TB_MS": self.k_TB_MS,
             "k_TB_MS_std": self.k_TB_MS_std,
             "k_MS": self.k_MS,
             "f_H": self.f_H,
             "f_H_std": self.f_H_std,
+            "defaults_used": list(self.defaults_used),
             "budget": self.to_records(),
         }
 
@@ -451,27 +593,36 @@ def stiffness_uncertainty(
     k_MS_std: float | None = None,
     *,
     k_MS: float | None = None,
+    model_form: Mapping[str, float] | None = None,
 ) -> StiffnessUncertainty:
     """Bearing stiffness and its standard uncertainty by linearised error propagation.
 
-    ``(u_k / k)^2 = (S_f u_f / f)^2 + sum_x (S_x u_x / x)^2`` with relative sensitivities
-    ``S = d ln k_TB / d ln x`` (:func:`sensitivities`), inputs assumed uncorrelated.
+    ``(u_k / k)^2 = (S_f u_f / f)^2 + sum_x (S_x u_x / x)^2 + sum_m (S_f u_m)^2`` with relative
+    sensitivities ``S = d ln k_TB / d ln x`` (:func:`sensitivities`), inputs assumed
+    uncorrelated. Terms are labelled (:attr:`UncertaintyTerm.kind`): the identified frequency
+    std is ``'measured'``; parameter tolerances are ``'assumed (rig file)'`` or, for parameters
+    the rig file does not list, ``'assumed (default)'``; ``model_form`` entries are relative
+    standard uncertainties of the housing frequency that the 3DOF model cannot remove (damping
+    model, a neighbouring mode, an effective modal mass off the model's).
 
     Parameters
     ----------
     f_H : float
-        Housing-mode natural frequency [Hz].
+        Undamped housing-mode natural frequency [Hz].
     f_H_std : float
-        Its standard uncertainty [Hz] (spread over model orders / repeats), >= 0.
+        Its measured standard uncertainty [Hz], >= 0.
     params : ModelParams
         Rig parameters.
     rel_unc : mapping, optional
         Relative standard uncertainty per parameter name (``RigConfig.uncertainty``); missing
-        names take :data:`DEFAULT_REL_UNCERTAINTY`. A value of 0 removes the term.
+        names take :data:`DEFAULT_REL_UNCERTAINTY` (and are listed in ``defaults_used``). A value
+        of 0 removes the term.
     k_MS_std : float, optional
         Absolute std of ``k_MS`` [N/m] (from :func:`calibrate_k_ms`); overrides ``rel_unc['k_MS']``.
     k_MS : float, optional
         Calibrated mounting stiffness [N/m]; default ``params.k_MS``.
+    model_form : mapping, optional
+        Name -> relative standard uncertainty (fraction) of the housing frequency.
 
     Returns
     -------
@@ -491,29 +642,41 @@ def stiffness_uncertainty(
     k_c = _closed_form(float(f_H), params)
     sens = sensitivities(f_H, params)
     rel = dict(DEFAULT_REL_UNCERTAINTY)
+    kinds = {n: KIND_DEFAULT for n in rel}
     for name, v in (rel_unc or {}).items():
         if name not in rel:
             raise ValueError(f"unknown parameter {name!r} in rel_unc; allowed: {', '.join(MODEL_KEYS)}")
         rel[name] = float(v)
+        kinds[name] = KIND_RIG
     if k_MS_std is not None:
         rel["k_MS"] = float(k_MS_std) / params.k_MS
-    inputs = {"f_H": f_std / float(f_H), **rel}
-    stds = {n: abs(sens[n]) * u * k_tb for n, u in inputs.items()}
+        kinds["k_MS"] = KIND_RIG
+    inputs: dict[str, tuple[float, float, str]] = {"f_H": (f_std / float(f_H), sens["f_H"], KIND_MEASURED)}
+    for n, u in rel.items():
+        inputs[n] = (u, sens[n], kinds[n])
+    for n, u in (model_form or {}).items():
+        u = float(u)
+        if not (math.isfinite(u) and u >= 0):
+            raise ValueError(f"model_form[{n!r}] must be a finite relative std >= 0, got {u!r}")
+        if n in inputs:
+            raise ValueError(f"model_form term {n!r} clashes with an input name")
+        inputs[n] = (u, sens["f_H"], KIND_MODEL)
+    stds = {n: abs(s_) * u * k_tb for n, (u, s_, _) in inputs.items()}
     var = sum(s**2 for s in stds.values())
     total = math.sqrt(var)
     terms = tuple(
         sorted(
             (
-                UncertaintyTerm(n, inputs[n], sens[n], stds[n], (stds[n] ** 2 / var) if var > 0 else 0.0)
-                for n in inputs
+                UncertaintyTerm(n, u, s_, stds[n], (stds[n] ** 2 / var) if var > 0 else 0.0, kind)
+                for n, (u, s_, kind) in inputs.items()
             ),
             key=lambda t: -t.share,
         )
     )
-    # k_TB+MS does not depend on k_MS: its std from every other term, d ln k_c = d ln k_TB * k_c/k_TB ... use
-    # the chain rule d ln k_TB / d ln k_c = k_MS / (k_MS - k_c)
+    # k_TB+MS does not depend on k_MS; chain rule d ln k_TB / d ln k_c = k_MS / (k_MS - k_c)
     g = params.k_MS / (params.k_MS - k_c)
     var_c = sum((stds[n] / k_tb / g * k_c) ** 2 for n in inputs if n != "k_MS")
+    defaults = tuple(n for n in MODEL_KEYS if kinds.get(n) == KIND_DEFAULT and rel[n] > 0)
     return StiffnessUncertainty(
         k_TB=k_tb,
         k_TB_std=total,
@@ -523,6 +686,8 @@ def stiffness_uncertainty(
         f_H=float(f_H),
         f_H_std=f_std,
         terms=terms,
+        k_TB_std_measured=stds["f_H"],
+        defaults_used=defaults,
     )
 
 
@@ -770,7 +935,10 @@ def fit_rig(
 
 
 __all__ = [
+    "DAMPING_MODELS",
     "DEFAULT_REL_UNCERTAINTY",
+    "DISK_STIFFNESS_RATIO",
+    "KINDS",
     "KmsCalibration",
     "RigFit",
     "StiffnessUncertainty",
@@ -783,4 +951,5 @@ __all__ = [
     "k_tb_ms_from_housing_freq",
     "sensitivities",
     "stiffness_uncertainty",
+    "undamped_freq",
 ]

@@ -185,6 +185,12 @@ class MatchCriteria:
     min_spindle_ratio : float
         A spindle bending mode moves the spindle radial sensors at least this many times more
         than the housing, in anti-phase.
+    neighbour_bandwidths : float
+        A mode closer to the housing mode than this many (mean) half-power bandwidths
+        ``(zeta_1 f_1 + zeta_2 f_2)`` is a close neighbour (coupled, or able to bias it).
+    neighbour_participation : float
+        ... when its radial housing participation is at least this fraction of the housing
+        mode's.
     """
 
     min_phase_cos: float = 0.2
@@ -196,6 +202,8 @@ class MatchCriteria:
     harmonic_max_damping: float = 5e-3
     spindle_freq_tol: float = 0.2
     min_spindle_ratio: float = 1.0
+    neighbour_bandwidths: float = 4.0
+    neighbour_participation: float = 0.1
 
 
 # --------------------------------------------------------------------------- result
@@ -221,6 +229,22 @@ class MatchResult:
         metrics, ``status`` (``'housing'``, ``'spindle'``, ``'rejected'``) and ``reason``.
     valid_range : (float, float)
         The housing-frequency range searched [Hz].
+    driving_point : bool
+        True when the radial driving-point FRF was identified (effective modal masses from it);
+        False: masses estimated from the radial housing transfer FRFs (rigid housing assumed).
+    alternatives : tuple of int
+        Indices of the other modes that pass every housing criterion.
+    neighbours : tuple of int
+        Indices of the modes within :attr:`MatchCriteria.neighbour_bandwidths` half-power
+        bandwidths of the housing mode that move the radial housing sensors (housing
+        participation at least :attr:`MatchCriteria.neighbour_participation` of its own).
+    participation : tuple of float
+        Radial housing participation of every mode, ``mean_p |phi_p phi_q|`` over the radial
+        housing sensors ``p`` (``q`` the radial reference) [1/kg]: ``1 / m_eff`` for a rigid
+        housing.
+    warnings : tuple of str
+        One-line caveats found while matching (missing driving point, several modes passing,
+        a sensor whose polarity looks reversed).
     """
 
     housing_index: int
@@ -230,6 +254,11 @@ class MatchResult:
     spindle_source: str | None
     candidates: list[dict[str, Any]] = field(default_factory=list)
     valid_range: tuple[float, float] = (0.0, math.inf)
+    driving_point: bool = True
+    alternatives: tuple[int, ...] = ()
+    neighbours: tuple[int, ...] = ()
+    participation: tuple[float, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict: ``housing_mode``, ``spindle_mode``, ``candidates``, ``valid_range``."""
@@ -238,6 +267,8 @@ class MatchResult:
             "spindle_mode": None if self.spindle_mode is None else dict(self.spindle_mode),
             "candidates": [dict(c) for c in self.candidates],
             "valid_range": list(self.valid_range),
+            "driving_point": self.driving_point,
+            "warnings": list(self.warnings),
         }
 
 
@@ -339,13 +370,7 @@ def match_modes(
     passing = [c for c in cands if not c["_fail"]]
     if not passing:
         out = _public(cands)
-        lines = "; ".join(f"{c['natural_freq']:.1f} Hz: {c['reason']}" for c in out) or "no mode identified"
-        raise MatchingError(
-            f"no identified mode matches the radial housing mode (searched {lo:.1f}-{hi:.1f} Hz); "
-            f"candidates: {lines}",
-            candidates=out,
-            file=file,
-        )
+        raise MatchingError(_refusal(out, lo, hi, rig), candidates=out, file=file)
     # best: the closest effective modal mass and the most in-phase, similar radial motion
     def score(c: dict[str, Any]) -> float:
         s = 0.0
@@ -371,11 +396,43 @@ def match_modes(
         "damping_ratio": float(modes.damping_ratio[hi_idx]),
         "natural_freq_std": None if natural_freq_std is None else _clean(natural_freq_std[hi_idx]),
         "modal_mass": best.get("modal_mass"),
+        "modal_mass_source": best.get("mass_source"),
         "model_modal_mass": info.modal_mass,
         "spindle_ratio": best.get("spindle_ratio"),
         "model_spindle_ratio": info.spindle_ratio,
     }
-
+    warns: list[str] = []
+    has_dp = _find(modes.out_dofs, rig.radial.positive()) is not None
+    if not has_dp:
+        warns.append(
+            f"no radial driving-point FRF ({rig.radial}): effective modal mass estimated from the "
+            "radial housing transfer FRFs (rigid housing assumed); the housing mode rests on shape"
+        )
+    alts = tuple(int(c["index"]) for c in passing if c is not best)
+    if alts:
+        fs = ", ".join(f"{modes.natural_freq[i]:.1f}" for i in alts)
+        warns.append(
+            f"{len(alts) + 1} modes pass the housing criteria: chose {best['natural_freq']:.1f} Hz "
+            f"(closest effective modal mass) over {fs} Hz"
+        )
+    for c in cands:
+        sus = c.get("polarity_suspect")
+        if c is not best and sus and c["_model"] is not None:
+            warns.append(
+                f"{c['natural_freq']:.1f} Hz would be a clean radial translation with {sus} reversed: "
+                f"check the polarity of {sus}"
+            )
+    part = tuple(float(c.get("participation") or 0.0) for c in cands)
+    neigh = []
+    p_h = part[hi_idx]
+    for c in cands:
+        r = int(c["index"])
+        if r == hi_idx:
+            continue
+        bw = float(c["damping_ratio"]) * c["natural_freq"] + housing["damping_ratio"] * housing["natural_freq"]
+        close = abs(c["natural_freq"] - housing["natural_freq"]) <= crit.neighbour_bandwidths * max(bw, 1e-9)
+        if close and p_h > 0 and part[r] >= crit.neighbour_participation * p_h and c["harmonic"] is None:
+            neigh.append(r)
     # ---- spindle bending mode, predicted by the model tuned to the housing mode
     src_name: str | None = None
     if spindle_modes is None:
@@ -426,7 +483,46 @@ def match_modes(
         spindle_source=src_name,
         candidates=_public(cands),
         valid_range=(lo, hi),
+        driving_point=has_dp,
+        alternatives=alts,
+        neighbours=tuple(neigh),
+        participation=part,
+        warnings=tuple(warns),
     )
+
+
+MAX_MESSAGE = 300
+"""Longest refusal line [characters]; the full candidate list goes to the JSON."""
+
+
+def _refusal(cands: list[dict[str, Any]], lo: float, hi: float, rig: RigConfig) -> str:
+    """One short line: why no mode is the housing mode, naming the most likely cause."""
+    inside = [c for c in cands if lo < c["natural_freq"] < hi]
+    head = f"no identified mode matches the radial housing mode ({lo:.0f}-{hi:.0f} Hz, {len(cands)} candidates)"
+    if not inside:
+        return head + "; none in range"
+
+    def closeness(c: dict[str, Any]) -> float:
+        r = c.get("mass_ratio")
+        return (0.0 if r is None else abs(math.log(r))) + len(c["reason"].split("; ")) * 0.5
+
+    sus = [c for c in inside if c.get("polarity_suspect")]
+    units = [c for c in inside if "units" in c["reason"]]
+    if sus:
+        c = sus[0]
+        cause = f"{c['natural_freq']:.1f} Hz is a clean translation with {c['polarity_suspect']} reversed: check its polarity"
+    elif units:
+        c = units[0]
+        cause = f"{c['natural_freq']:.1f} Hz: " + next(x for x in c["reason"].split("; ") if "units" in x)
+    else:
+        c = min(inside, key=closeness)
+        cause = f"nearest {c['natural_freq']:.1f} Hz: {c['reason'].split('; ')[0]}"
+    if all(c.get("mass_source") != "driving point" for c in inside):
+        cause += f"; no radial driving point ({rig.radial})"
+    msg = f"{head}; {cause}"
+    if len(msg) > MAX_MESSAGE:
+        msg = msg[: MAX_MESSAGE - 3] + "..."
+    return msg
 
 
 def _public(cands: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -460,17 +556,25 @@ def _candidates(
     s_rad = groups.get(("spindle", "radial"), [])
     s_ax = groups.get(("spindle", "axial"), [])
 
-    if p is not None:
-        shapes = modes.mode_shapes(modes.in_dofs[q])
-        mass = modes.modal_mass(modes.in_dofs[q]) if modes.out_dofs[p] == modes.in_dofs[q] else None
-        if mass is None:
-            # driving point written with opposite sign conventions: |R_pp| is sign-free
-            with np.errstate(divide="ignore"):
-                mass = 1.0 / (2.0 * modes.poles.imag * np.abs(modes.residues[:, p, q]))
+    shapes = modes.mode_shapes(modes.in_dofs[q])
+    # radial housing participation |phi_p phi_q| = |2 w_d R_pq| (sign-free; the mass-normalised
+    # value whatever the scaling of the shapes): 1 / m_eff at the reference for a rigid housing
+    wd = np.abs(modes.poles.imag)
+    if h_rad:
+        part = np.mean(np.abs(2.0 * wd[:, None] * modes.residues[:, h_rad, q]), axis=1)
     else:
-        shapes = modes.mode_shapes(modes.in_dofs[q])
-        mass = None
-    # reference point for phases: the driving point, else the largest radial housing sensor
+        part = np.zeros(modes.n_modes)
+    if p is not None:
+        # |R_pp| is sign-free, whatever sign convention the driving point was written with
+        with np.errstate(divide="ignore"):
+            mass = 1.0 / (2.0 * wd * np.abs(modes.residues[:, p, q]))
+        mass_source = "driving point"
+    elif h_rad:
+        with np.errstate(divide="ignore"):
+            mass = 1.0 / part
+        mass_source = "radial housing transfer FRFs"
+    else:
+        mass, mass_source = None, None
     out = []
     fn_all, z_all = modes.natural_freq, modes.damping_ratio
     for r in range(modes.n_modes):
@@ -487,7 +591,10 @@ def _candidates(
         }
         if h_rad:
             _shape_metrics(c, phi, p, h_rad, h_lat, h_ax, s_rad, s_ax)
+            c["polarity_suspect"] = _polarity_suspect(phi, p, h_rad, modes.out_dofs, crit)
         c["modal_mass"] = None if mass is None else _clean(float(mass[r]))
+        c["mass_source"] = mass_source
+        c["participation"] = _clean(float(part[r]))
         # harmonic of the shaft speed?
         c["harmonic"] = None
         if speed_hz is not None and fn >= 0.5 * speed_hz:
@@ -531,6 +638,39 @@ def _shape_metrics(c: dict[str, Any], phi: NDArray[np.complex128], p: int | None
             c["spindle_axial_ratio"] = None
 
 
+def _polarity_suspect(phi: NDArray[np.complex128], p: int | None, h_rad: list[int],
+                      out_dofs: tuple[DOF, ...], crit: MatchCriteria) -> str | None:
+    """The radial housing sensor whose sign flip would make a tilt-like shape a clean translation.
+
+    A rigid radial translation moves every radial housing sensor in phase with similar
+    amplitude; a tilt mode moves them out of phase *and* with different amplitudes (a sensor near
+    the tilt axis hardly moves). When flipping exactly one sensor gives in-phase motion
+    (``cos >= 0.9``) with similar amplitudes, that sensor's polarity is the likely cause.
+    """
+    a = np.asarray(phi[h_rad], dtype=complex)
+    if len(h_rad) < 2 or not np.all(np.abs(a) > 0):
+        return None
+    pref = h_rad.index(p) if p is not None and p in h_rad else int(np.argmax(np.abs(a)))
+
+    def clean(v: NDArray[np.complex128]) -> bool:
+        cos = np.real(v * np.conj(v[pref])) / (np.abs(v) * abs(v[pref]))
+        amp = np.min(np.abs(v)) / np.max(np.abs(v))
+        return bool(np.min(cos) >= 0.9 and amp >= crit.min_amplitude_ratio)
+
+    if clean(a):
+        return None
+    hits = []
+    for i in range(len(h_rad)):
+        b = a.copy()
+        b[i] = -b[i]
+        if clean(b):
+            hits.append(i)
+    if len(h_rad) == 2:
+        # two sensors: out of phase is a tilt or a reversed sensor; name both
+        return " or ".join(str(out_dofs[h_rad[i]]) for i in range(2)) if hits else None
+    return str(out_dofs[h_rad[hits[0]]]) if len(hits) == 1 else None
+
+
 def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
                    crit: MatchCriteria) -> None:
     """Fill ``_fail`` (reasons) and the model comparison metrics of one candidate."""
@@ -568,9 +708,16 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
         elif ax is not None and ax > crit.max_cross_axis_ratio:
             fails.append(f"axial mode (axial/radial motion {ax:.2f})")
         if c["radial_phase_cos"] < crit.min_phase_cos:
-            fails.append(
-                f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
-            )
+            sus = c.get("polarity_suspect")
+            if sus:
+                fails.append(
+                    f"radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f}) but a "
+                    f"clean translation with {sus} reversed: check the polarity (sign) of {sus}"
+                )
+            else:
+                fails.append(
+                    f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
+                )
         if (c["radial_amplitude_ratio"] or 0.0) < crit.min_amplitude_ratio:
             fails.append(
                 f"radial housing amplitudes differ (min/max {_fmt(c['radial_amplitude_ratio'], '.2f')}):"
@@ -581,9 +728,16 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
         c["mass_ratio"] = ratio
         lo_m, hi_m = crit.mass_ratio_range
         if not lo_m <= ratio <= hi_m:
+            hint = ""
+            g = 9.80665
+            # a units hint only for a mode whose shape is the housing mode's in every other way
+            if not fails and abs(math.log(ratio / g)) < 0.25:
+                hint = ": accelerations in g read as m/s^2? check the file's units"
+            elif not fails and abs(math.log(ratio * g)) < 0.25:
+                hint = ": off by a factor g? check the file's units"
             fails.append(
-                f"effective modal mass {c['modal_mass']:.3g} kg at the radial driving point, "
-                f"model {info.modal_mass:.3g} kg (ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g})"
+                f"effective modal mass {c['modal_mass']:.3g} kg, model {info.modal_mass:.3g} kg "
+                f"(ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g}){hint}"
             )
     if fails:
         c["status"] = "rejected"

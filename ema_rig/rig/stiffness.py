@@ -38,11 +38,19 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..config import RigConfig
-from ..errors import EmaRigError, IdentificationError, InversionError
+from ..errors import EmaRigError, IdentificationError, InversionError, MatchingError
 from ..frf import FRFData
 from .matching import MatchResult, match_modes, model_mode_at
 
-__all__ = ["CalibrationResult", "StiffnessResult", "calibrate", "estimate_stiffness", "default_band"]
+__all__ = [
+    "Assessment",
+    "CalibrationResult",
+    "StiffnessResult",
+    "assess_housing_mode",
+    "calibrate",
+    "default_band",
+    "estimate_stiffness",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -173,6 +181,19 @@ class StiffnessResult:
     fit : RigFit or None
         The 3DOF model fitted to the measured FRFs in 150–700 Hz (``fit=True``); reported
         beside, not used for, ``k_TB``.
+    k_TB_std_measured : float
+        The part of ``k_TB_std`` from the identified housing frequency alone [N/m] (kind
+        ``'measured'``); ``k_TB_std`` adds the rig-file tolerances and model-form terms.
+    inverted_freq : float
+        The frequency inverted [Hz]: the undamped frequency for ``damping_model`` (and, with
+        coupled neighbours, the recovered uncoupled one); ``housing_mode['natural_freq']`` stays
+        the identified ``|lambda| / 2 pi``.
+    damping_model : str
+        Declared damping model (``'viscous'`` or ``'hysteretic'``).
+    warnings : tuple of str
+        One-line caveats; without any, ``k_TB`` lies within 2 ``k_TB_std`` of the truth.
+    notes : tuple of str
+        One-line information that is not a caveat (default tolerances applied).
     """
 
     k_TB: float
@@ -193,6 +214,11 @@ class StiffnessResult:
     speed_hz: float | None = None
     file: str | None = None
     fit: Any = field(default=None, repr=False)
+    k_TB_std_measured: float = 0.0
+    inverted_freq: float = math.nan
+    damping_model: str = "viscous"
+    warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def candidates(self) -> list[dict[str, Any]]:
@@ -212,10 +238,16 @@ class StiffnessResult:
             "file": self.file,
             "k_TB": self.k_TB,
             "k_TB_std": self.k_TB_std,
+            "k_TB_std_measured": self.k_TB_std_measured,
+            "k_TB_std_by_kind": self.uncertainty.to_dict()["k_TB_std_by_kind"],
             "k_TB_MS": self.k_TB_MS,
             "k_TB_MS_std": self.k_TB_MS_std,
             "k_MS": self.k_MS,
             "k_MS_std": self.k_MS_std,
+            "inverted_freq": self.inverted_freq,
+            "damping_model": self.damping_model,
+            "warnings": list(self.warnings),
+            "notes": list(self.notes),
             "housing_mode": dict(self.housing_mode),
             "spindle_mode": None if self.spindle_mode is None else dict(self.spindle_mode),
             "uncertainty_budget": dict(self.uncertainty_budget),
@@ -247,6 +279,12 @@ class CalibrationResult:
     identification : Identification
     band : tuple of float
     file : str or None
+    k_MS_std_measured : float
+        The part of ``k_MS_std`` from the identified frequency alone [N/m].
+    warnings : tuple of str
+        One-line caveats (as for :class:`StiffnessResult`).
+    notes : tuple of str
+        Information (the rigid-disk model-form term when no disk stiffness is given).
     """
 
     k_MS: float
@@ -259,6 +297,9 @@ class CalibrationResult:
     identification: Any = field(default=None, repr=False)
     band: tuple[float, float] | None = None
     file: str | None = None
+    k_MS_std_measured: float = 0.0
+    warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def candidates(self) -> list[dict[str, Any]]:
@@ -271,6 +312,10 @@ class CalibrationResult:
             "file": self.file,
             "k_MS": self.k_MS,
             "k_MS_std": self.k_MS_std,
+            "k_MS_std_measured": self.k_MS_std_measured,
+            "calibration": self.calibration.to_dict(),
+            "warnings": list(self.warnings),
+            "notes": list(self.notes),
             "k_TB_MS": self.k_TB_MS,
             "k_disk": self.k_disk,
             "housing_mode": dict(self.housing_mode),
@@ -280,137 +325,194 @@ class CalibrationResult:
         }
 
 
-# --------------------------------------------------------------------------- pipeline
-def _combine_freq_std(data: FRFData, ident: Any, m: MatchResult, rig: RigConfig) -> tuple[float, MatchResult]:
-    """Standard uncertainty of the housing frequency [Hz] and the match with it recorded.
+# --------------------------------------------------------------------------- assessment
+MASS_WARN_RATIO = 1.1
+"""Effective modal mass off the model's by more than this factor: warning + model-form term."""
 
-    ``sqrt(s_cluster^2 + s_noise^2)``: the spread of the housing mode's stable poles across model
-    orders (from the identification) and the statistical std from the FRF noise
-    (:func:`local_freq_std`). On simulated data with 1-2 % noise the cluster spread dominates and
-    is conservative (it exceeds the actual scatter of the estimate several times).
+MAX_ALTERNATIVE_SPREAD = 0.10
+"""Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
+
+
+@dataclass(frozen=True, slots=True)
+class Assessment:
+    """What the inversion uses, and why it may be wrong (see :func:`assess_housing_mode`).
+
+    Attributes
+    ----------
+    abs_freq : float
+        ``|lambda| / 2 pi`` of the matched housing mode [Hz].
+    undamped_freq : float
+        Undamped frequency for the declared damping model [Hz].
+    inverted_freq : float
+        Frequency inverted for ``k_TB`` [Hz]: ``undamped_freq``, or the uncoupled frequency
+        recovered from coupled neighbours.
+    model_form : dict
+        Name -> relative standard uncertainty of the housing frequency (fraction).
+    warnings : tuple of str
+        One line each.
+    mass_ratio : float or None
+        Identified / model effective modal mass at the driving point.
     """
-    s = m.housing_mode.get("natural_freq_std")
-    s_cluster = 0.0 if s is None or not math.isfinite(s) else float(s)
-    try:
-        s_noise = local_freq_std(data, ident.modes, m.housing_index, rig)
-    except (ValueError, IndexError, KeyError, ArithmeticError) as exc:  # pragma: no cover - defensive
-        logger.info("local frequency std not computed: %s", exc)
-        s_noise = 0.0
-    from dataclasses import replace
 
-    total = math.hypot(s_cluster, s_noise)
-    hm = dict(m.housing_mode, natural_freq_std=total, natural_freq_std_cluster=s_cluster,
-              natural_freq_std_noise=s_noise)
-    return total, replace(m, housing_mode=hm)
+    abs_freq: float
+    undamped_freq: float
+    inverted_freq: float
+    model_form: dict[str, float]
+    warnings: tuple[str, ...]
+    mass_ratio: float | None
 
 
-def local_freq_std(data: FRFData, modes: Any, index: int, rig: RigConfig, *, width: float = 3.0) -> float:
-    """Statistical standard uncertainty [Hz] of one mode's natural frequency from the FRF noise.
+def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> float | None:
+    """Uncoupled housing frequency [Hz] from a group of modes sharing its radial motion.
 
-    A local Gauss-Newton linearisation around the identified mode: the other modes of ``modes``
-    are subtracted from the data; in ``f_n (1 +- width * 2 zeta)`` the radial housing and spindle
-    channels of the radial reference are modelled by the mode (pole and one residue per channel)
-    plus a constant per channel. With relative noise (weights ``1/|H|``) estimated per channel
-    from the residual, the covariance ``s^2 (J^T J)^-1`` gives the std of ``|lambda| / 2 pi``.
+    The driving-point compliance ``sum_r |phi_p,r|^2 / w_r^2`` does not depend on how the
+    housing's mass is split among rigidly or flexibly attached parts (it is ``(K^-1)_pp``); the
+    3DOF model puts all of the group's compliance in one housing mode with effective mass
+    ``m_model(f)``. Solve ``1 / (m_model(f) f^2) = sum_r P_r / f_r^2`` for ``f`` (fixed point;
+    ``m_model`` varies slowly with ``f``).
+    """
+    s = sum(p_ / f_**2 for f_, p_ in zip(freqs, parts, strict=True))
+    if not s > 0:
+        return None
+    f = freqs[0]
+    for _ in range(30):
+        info = model_mode_at(params, f)
+        if info is None:
+            return None
+        f_new = math.sqrt(1.0 / (info.modal_mass * s))
+        if abs(f_new - f) < 1e-9 * f:
+            return f_new
+        f = f_new
+    return f
+
+
+def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: str = "viscous",
+                        file: str | None = None) -> Assessment:
+    """Frequency to invert and the model-form terms and warnings of one matched housing mode.
+
+    The rule: a ``k_TB`` reported without a warning lies within 2 sigma of the truth, so every
+    ambiguity either widens the budget by a stated model-form term and warns, or is refused:
+
+    * **damping model** (always, no warning): :func:`ema_rig.rig.inversion.undamped_freq`;
+    * **several modes pass** the housing criteria: warning; term = half the largest relative
+      spread of their frequencies (the alternatives sit at 2 sigma); refused above
+      :data:`MAX_ALTERNATIVE_SPREAD`;
+    * **close neighbours** with radial housing motion (within a few half-power bandwidths):
+      warning; in-phase neighbours are taken as parts of the housing motion and the uncoupled
+      frequency is recovered from the group's driving-point compliance
+      (:func:`_uncoupled_freq`), with half the correction as the term; out-of-phase (tilt)
+      neighbours add a term of a quarter of their distance (the coupled pair's frequencies
+      straddle the uncoupled ones, so the shift is at most half the distance);
+    * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
+      identified mass scatters by a few % under 10 % noise and the model's by the m_H
+      tolerance): warning; term ``|ln r| / 4``: if all of the housing's compliance sits in this
+      mode (the mass difference being participation missing from the identified mode), the
+      uncoupled frequency is ``f sqrt(r)``; that alternative sits at 2 sigma.
 
     Parameters
     ----------
-    data : FRFData
-        The measurement.
+    m : MatchResult
     modes : ModalModel
-        Identified modes (from the same data).
-    index : int
-        The mode of interest.
+        The identified modes ``m`` indexes.
     rig : RigConfig
-        Sensor roles/axes and the radial reference.
-    width : float, optional
-        Half-width of the local band in half-power bandwidths (default 3).
+    damping_model : {'viscous', 'hysteretic'}
+    file : str, optional
+        For error messages.
 
     Returns
     -------
-    float
-        Standard uncertainty [Hz]; 0.0 when it cannot be computed (too few lines, no channel).
+    Assessment
+
+    Raises
+    ------
+    MatchingError
+        When passing modes are too far apart to cover by a term.
     """
-    import numpy as np
+    from .inversion import undamped_freq
 
-    lam = complex(modes.poles[index])
-    fn = abs(lam) / (2 * np.pi)
-    z = max(-lam.real / abs(lam), 1e-4)
-    half = max(width * 2 * z * fn, 2.5 * (data.freq[1] - data.freq[0]) if data.n_freq > 1 else 0.0)
-    sel = (data.freq >= fn - half) & (data.freq <= fn + half) & (data.freq > 0)
-    ref = rig.radial.positive()
-    q = next((j for j, d in enumerate(data.in_dofs) if d.positive() == ref), None)
-    rows = [i for i in range(data.n_out) if data.axes[i] == "radial" and data.roles[i] in ("housing", "spindle")]
-    if q is None or not rows or sel.sum() < 6:
-        return 0.0
-    f = data.freq[sel]
-    jw = 1j * 2 * np.pi * f
-    power = {"receptance": 0, "mobility": 1, "accelerance": 2}[data.frf_form]
-    others = [r for r in range(modes.n_modes) if r != index]
-    # data minus the other modes (receptance form of the identified model, then back to the form)
-    h_meas = data.frf[rows][:, q][:, sel]
-    if others:
-        lo_ = modes.poles[others]
-        res_o = modes.residues[others][:, :, :]
-        p_idx = [modes.out_dofs.index(data.out_dofs[i]) if data.out_dofs[i] in modes.out_dofs else -1 for i in rows]
-        q_m = next((j for j, d in enumerate(modes.in_dofs) if d.positive() == ref), None)
-        if q_m is None or min(p_idx) < 0:
-            return 0.0
-        ro = res_o[:, p_idx, q_m]  # (n_others, n_rows)
-        h_o = (ro.T[:, :, None] / (jw[None, None, :] - lo_[None, :, None])
-               + ro.conj().T[:, :, None] / (jw[None, None, :] - lo_.conj()[None, :, None])).sum(axis=1)
-        h_meas = h_meas - h_o * jw**power
-    a = 1.0 / (jw - lam)
-    b = 1.0 / (jw - np.conj(lam))
-    g = jw**power
-    n_r, n_f = len(rows), f.size
-    # linear least squares for residue (complex) and constant (complex) per channel at the pole
-    jac_cols = []
-    resid = []
-    for k in range(n_r):
-        h = h_meas[k]
-        # real unknowns: Re R, Im R, Re c, Im c;  model = g (R a + R* b) + c
-        cols = [g * (a + b), 1j * g * (a - b), np.ones(n_f), 1j * np.ones(n_f)]
-        A = np.stack(cols, axis=1)
-        Ar = np.vstack([A.real, A.imag])
-        x, *_ = np.linalg.lstsq(Ar, np.concatenate([h.real, h.imag]), rcond=None)
-        r_c = x[0] + 1j * x[1]
-        model = A @ x
-        w = 1.0 / np.maximum(np.abs(model), 1e-300)
-        resid.append((h - model) * w)
-        # derivatives with respect to sigma = Re(lam) and wd = Im(lam)
-        da = a**2  # d a / d lam
-        db = b**2  # d b / d conj(lam)
-        d_sigma = g * (r_c * da + np.conj(r_c) * db)
-        d_wd = g * (1j * r_c * da - 1j * np.conj(r_c) * db)
-        jac_cols.append((A, d_sigma, d_wd, w))
-    # assemble the full real Jacobian: [sigma, wd, (4 per channel)]
-    n_p = 2 + 4 * n_r
-    J = np.zeros((2 * n_r * n_f, n_p))
-    sig2 = []
-    for k, (A, ds, dw, w) in enumerate(jac_cols):
-        r0, r1 = 2 * k * n_f, 2 * (k + 1) * n_f
-        blk = np.zeros((n_f, n_p), dtype=complex)
-        blk[:, 0] = ds * w
-        blk[:, 1] = dw * w
-        blk[:, 2 + 4 * k: 6 + 4 * k] = A * w[:, None]
-        J[r0:r1] = np.vstack([blk.real, blk.imag])
-        rk = resid[k]
-        dof = max(2 * n_f - 4 - 2.0 / n_r, 1.0)
-        sig2.append(float(np.sum(rk.real**2 + rk.imag**2)) / dof)
-    # weight each channel by its own noise level
-    for k in range(n_r):
-        J[2 * k * n_f: 2 * (k + 1) * n_f] /= math.sqrt(max(sig2[k], 1e-300))
-    try:
-        cov = np.linalg.pinv(J.T @ J)
-    except np.linalg.LinAlgError:
-        return 0.0
-    grad = np.zeros(n_p)
-    grad[0], grad[1] = lam.real / abs(lam), lam.imag / abs(lam)
-    var = float(grad @ cov[:, :] @ grad)
-    return math.sqrt(max(var, 0.0)) / (2 * math.pi)
+    hm = m.housing_mode
+    f_abs = float(hm["natural_freq"])
+    zeta = float(hm["damping_ratio"])
+    f0, u_damp = undamped_freq(f_abs, zeta, damping_model)
+    terms: dict[str, float] = {"damping model": u_damp}
+    warns = list(m.warnings)
+    f_inv = f0
+    params = rig.model
+    # several passing modes
+    if m.alternatives:
+        spread = max(abs(math.log(float(modes.natural_freq[i]) / f_abs)) for i in m.alternatives)
+        if spread > MAX_ALTERNATIVE_SPREAD:
+            fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in (m.housing_index, *m.alternatives))
+            raise MatchingError(
+                f"ambiguous housing mode: {fs} Hz all pass the housing criteria and lie "
+                f"{100 * spread:.0f} % apart; narrow --band or add the radial driving point",
+                candidates=m.candidates, file=file,
+            )
+        terms["alternative modes"] = spread / 2.0
+    # close neighbours
+    by_index = {c["index"]: c for c in m.candidates if c.get("source") == "modes"}
+    inphase, tilt = [], []
+    for i in m.neighbours:
+        c = by_index.get(i, {})
+        cos = c.get("radial_phase_cos")
+        (inphase if cos is not None and cos >= 0.5 else tilt).append(i)
+    parts = m.participation
+    ratio = None
+    if hm.get("modal_mass") is not None and hm.get("model_modal_mass"):
+        ratio = float(hm["modal_mass"]) / float(hm["model_modal_mass"])
+    if inphase and parts:
+        group = [m.housing_index, *inphase]
+        fu = _uncoupled_freq(params, [float(modes.natural_freq[i]) for i in group],
+                             [parts[i] for i in group])
+        fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in inphase)
+        if fu is not None:
+            fu = fu * f0 / f_abs  # same damping-model reading
+            terms["neighbour coupling"] = abs(math.log(fu / f0)) / 2.0
+            warns.append(
+                f"mode(s) at {fs} Hz share the radial housing motion within a few half-power "
+                f"bandwidths: uncoupled housing frequency {fu:.1f} Hz from their compliance "
+                f"(identified {f_abs:.1f} Hz)"
+            )
+            f_inv = fu
+            ratio = None  # the group's mass is what the correction used
+    for i in tilt:
+        d = abs(math.log(float(modes.natural_freq[i]) / f_abs))
+        terms[f"neighbour {float(modes.natural_freq[i]):.0f} Hz"] = d / 4.0
+        warns.append(
+            f"mode at {float(modes.natural_freq[i]):.1f} Hz (out-of-phase radial housing motion) lies "
+            f"within a few half-power bandwidths of the housing mode: possible coupling"
+        )
+    if ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
+        terms["effective mass"] = abs(math.log(ratio)) / 4.0
+        warns.append(
+            f"effective modal mass {hm['modal_mass']:.3g} kg is {ratio:.2f}x the model's "
+            f"{hm['model_modal_mass']:.3g} kg: an unidentified part of the housing motion or an "
+            "off m_H; wider (model-form) uncertainty"
+        )
+    return Assessment(
+        abs_freq=f_abs, undamped_freq=f0, inverted_freq=f_inv, model_form=terms,
+        warnings=tuple(warns), mass_ratio=ratio,
+    )
 
 
+def _freq_std(m: MatchResult) -> float:
+    """Measured standard uncertainty of the housing frequency [Hz]: the identified mode's
+    ``natural_freq_std`` (:attr:`Identification.natural_freq_std`); 0 when not available."""
+    s = m.housing_mode.get("natural_freq_std")
+    return 0.0 if s is None or not math.isfinite(s) else float(s)
+
+
+def _defaults_note(unc: Any) -> list[str]:
+    from .inversion import DEFAULT_REL_UNCERTAINTY
+
+    if not unc.defaults_used:
+        return []
+    vals = ", ".join(f"{n} {100 * DEFAULT_REL_UNCERTAINTY[n]:g} %" for n in unc.defaults_used)
+    return [f"rig file has no [uncertainty] entry for {', '.join(unc.defaults_used)}: default tolerances "
+            f"applied ({vals})"]
+
+
+# --------------------------------------------------------------------------- pipeline
 def estimate_stiffness(
     data: FRFData,
     rig: RigConfig,
@@ -423,6 +525,7 @@ def estimate_stiffness(
     spindle: bool = True,
     fit: bool = False,
     progress: bool = False,
+    damping_model: str = "viscous",
 ) -> StiffnessResult:
     """Bearing stiffness ``k_TB`` of one measurement, with its uncertainty.
 
@@ -451,6 +554,9 @@ def estimate_stiffness(
         driving-point and spindle FRFs in 150–700 Hz (paper Sect. 4, Fig. 7; default False).
     progress : bool, optional
         Progress bar of the identification.
+    damping_model : {'viscous', 'hysteretic'}, optional
+        Declared damping model: which undamped frequency the identified pole stands for
+        (:func:`ema_rig.rig.inversion.undamped_freq`; the difference enters the budget).
 
     Returns
     -------
@@ -480,11 +586,13 @@ def estimate_stiffness(
         data, rig, band=band, max_order=max_order, speed_hz=speed_hz, spindle=spindle,
         progress=progress, file=file,
     )
-    f_h = float(m.housing_mode["natural_freq"])
-    f_std, m = _combine_freq_std(data, ident, m, rig)
+    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    f_h = asm.inverted_freq
+    f_std = _freq_std(m)
     params = replace(rig.model, k_MS=kms)
     try:
-        unc = stiffness_uncertainty(f_h, f_std, params, dict(rig.uncertainty), k_MS_std=k_ms_std)
+        unc = stiffness_uncertainty(f_h, f_std, params, dict(rig.uncertainty), k_MS_std=k_ms_std,
+                                    model_form=asm.model_form)
     except InversionError as exc:
         exc.file = exc.file or file
         raise
@@ -512,6 +620,11 @@ def estimate_stiffness(
         speed_hz=speed_hz,
         file=file,
         fit=rig_fit,
+        k_TB_std_measured=float(unc.k_TB_std_measured),
+        inverted_freq=float(f_h),
+        damping_model=damping_model,
+        warnings=asm.warnings,
+        notes=tuple(_defaults_note(unc)),
     )
 
 
@@ -549,6 +662,8 @@ def calibrate(
     band: tuple[float, float] | None = None,
     max_order: int | None = None,
     progress: bool = False,
+    k_disk_std: float | None = None,
+    damping_model: str = "viscous",
 ) -> CalibrationResult:
     """Mounting stiffness ``k_MS`` from a steel-disk measurement (paper Sect. 4).
 
@@ -562,7 +677,12 @@ def calibrate(
     rig : RigConfig
         Rig parameters (their ``k_MS`` is not used).
     k_disk : float, optional
-        Finite disk stiffness [N/m], in series.
+        Finite disk stiffness [N/m], in series (e.g. from FE); default: assumed rigid, with a
+        model-form term (:func:`ema_rig.rig.inversion.calibrate_k_ms`).
+    k_disk_std : float, optional
+        Standard uncertainty of ``k_disk`` [N/m].
+    damping_model : {'viscous', 'hysteretic'}, optional
+        Declared damping model (see :func:`estimate_stiffness`).
     band : (float, float), optional
         Identification band [Hz]; default the rig file's ``k_MS_band``, else its ``band``, else
         150–1000 Hz.
@@ -588,13 +708,22 @@ def calibrate(
         data, rig, band=band, max_order=max_order, speed_hz=None, spindle=False,
         progress=progress, file=file,
     )
-    f_d = float(m.housing_mode["natural_freq"])
-    f_std, m = _combine_freq_std(data, ident, m, rig)
+    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    f_d = asm.inverted_freq
+    # measured and model-form frequency terms act on k_TB+MS through the same slope
+    u_f = math.hypot(_freq_std(m) / f_d, *asm.model_form.values())
     try:
-        cal = calibrate_k_ms(f_d, rig.model, f_disk_std=f_std, k_disk=k_disk)
+        cal = calibrate_k_ms(f_d, rig.model, f_disk_std=u_f * f_d, k_disk=k_disk, k_disk_std=k_disk_std)
+        meas = calibrate_k_ms(f_d, rig.model, f_disk_std=_freq_std(m), k_disk=k_disk).k_MS_std_measured
     except InversionError as exc:
         exc.file = exc.file or file
         raise
+    notes = []
+    if k_disk is None:
+        notes.append(
+            f"steel disk assumed rigid (paper: at least 10x k_MS): k_MS may be up to 10 % low; "
+            f"model-form term {100 * cal.disk_std / cal.k_MS:.1f} % in k_MS_std (give the disk stiffness)"
+        )
     return CalibrationResult(
         k_MS=float(cal.k_MS),
         k_MS_std=float(cal.k_MS_std),
@@ -606,4 +735,7 @@ def calibrate(
         identification=ident,
         band=b,
         file=file,
+        k_MS_std_measured=float(meas),
+        warnings=asm.warnings,
+        notes=tuple(notes),
     )
