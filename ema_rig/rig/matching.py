@@ -429,8 +429,9 @@ def match_modes(
         r = int(c["index"])
         if r == hi_idx:
             continue
-        bw = float(c["damping_ratio"]) * c["natural_freq"] + housing["damping_ratio"] * housing["natural_freq"]
-        close = abs(c["natural_freq"] - housing["natural_freq"]) <= crit.neighbour_bandwidths * max(bw, 1e-9)
+        f_h, z_h = float(modes.natural_freq[hi_idx]), float(modes.damping_ratio[hi_idx])
+        bw = float(c["damping_ratio"]) * float(c["natural_freq"]) + z_h * f_h
+        close = abs(float(c["natural_freq"]) - f_h) <= crit.neighbour_bandwidths * max(bw, 1e-9)
         if close and p_h > 0 and part[r] >= crit.neighbour_participation * p_h and c["harmonic"] is None:
             neigh.append(r)
     # ---- spindle bending mode, predicted by the model tuned to the housing mode
@@ -708,16 +709,9 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
         elif ax is not None and ax > crit.max_cross_axis_ratio:
             fails.append(f"axial mode (axial/radial motion {ax:.2f})")
         if c["radial_phase_cos"] < crit.min_phase_cos:
-            sus = c.get("polarity_suspect")
-            if sus:
-                fails.append(
-                    f"radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f}) but a "
-                    f"clean translation with {sus} reversed: check the polarity (sign) of {sus}"
-                )
-            else:
-                fails.append(
-                    f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
-                )
+            fails.append(
+                f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
+            )
         if (c["radial_amplitude_ratio"] or 0.0) < crit.min_amplitude_ratio:
             fails.append(
                 f"radial housing amplitudes differ (min/max {_fmt(c['radial_amplitude_ratio'], '.2f')}):"
@@ -739,6 +733,15 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
                 f"effective modal mass {c['modal_mass']:.3g} kg, model {info.modal_mass:.3g} kg "
                 f"(ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g}){hint}"
             )
+    sus = c.get("polarity_suspect")
+    if sus and len(fails) == 1 and fails[0].startswith("tilt"):
+        # out of phase is the only objection, and one sign flip makes a clean translation
+        fails[0] = (
+            f"radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f}) but a clean "
+            f"translation with {sus} reversed: check the polarity (sign) of {sus}"
+        )
+    else:
+        c["polarity_suspect"] = None
     if fails:
         c["status"] = "rejected"
         c["reason"] = "; ".join(fails)

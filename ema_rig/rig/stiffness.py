@@ -451,7 +451,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         terms["alternative modes"] = spread / 2.0
     # close neighbours
     by_index = {c["index"]: c for c in m.candidates if c.get("source") == "modes"}
-    inphase, tilt = [], []
+    inphase: list[int] = []
+    tilt: list[int] = []
     for i in m.neighbours:
         c = by_index.get(i, {})
         cos = c.get("radial_phase_cos")
