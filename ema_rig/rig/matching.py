@@ -202,7 +202,7 @@ class MatchCriteria:
     harmonic_max_damping: float = 5e-3
     spindle_freq_tol: float = 0.2
     min_spindle_ratio: float = 1.0
-    neighbour_bandwidths: float = 4.0
+    neighbour_bandwidths: float = 3.0
     neighbour_participation: float = 0.1
 
 
@@ -508,7 +508,12 @@ def _refusal(cands: list[dict[str, Any]], lo: float, hi: float, rig: RigConfig) 
         return (0.0 if r is None else abs(math.log(r))) + len(c["reason"].split("; ")) * 0.5
 
     sus = [c for c in inside if c.get("polarity_suspect")]
-    units = [c for c in inside if "units" in c["reason"]]
+    units = [c for c in inside if "units" in c["reason"] and c.get("mass_source") == "driving point"]
+    if all(c.get("mass_source") != "driving point" for c in inside):
+        c = min(inside, key=closeness)
+        msg = (f"{head}; no radial driving point ({rig.radial}): without it the shapes do not single out "
+               f"the housing mode; nearest {c['natural_freq']:.1f} Hz: {c['reason'].split('; ')[0]}")
+        return msg if len(msg) <= MAX_MESSAGE else msg[: MAX_MESSAGE - 3] + "..."
     if sus:
         c = sus[0]
         cause = f"{c['natural_freq']:.1f} Hz is a clean translation with {c['polarity_suspect']} reversed: check its polarity"
@@ -518,8 +523,6 @@ def _refusal(cands: list[dict[str, Any]], lo: float, hi: float, rig: RigConfig) 
     else:
         c = min(inside, key=closeness)
         cause = f"nearest {c['natural_freq']:.1f} Hz: {c['reason'].split('; ')[0]}"
-    if all(c.get("mass_source") != "driving point" for c in inside):
-        cause += f"; no radial driving point ({rig.radial})"
     msg = f"{head}; {cause}"
     if len(msg) > MAX_MESSAGE:
         msg = msg[: MAX_MESSAGE - 3] + "..."
@@ -725,9 +728,10 @@ def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
             hint = ""
             g = 9.80665
             # a units hint only for a mode whose shape is the housing mode's in every other way
-            if not fails and abs(math.log(ratio / g)) < 0.25:
+            dp = c.get("mass_source") == "driving point"
+            if dp and not fails and abs(math.log(ratio / g)) < 0.25:
                 hint = ": accelerations in g read as m/s^2? check the file's units"
-            elif not fails and abs(math.log(ratio * g)) < 0.25:
+            elif dp and not fails and abs(math.log(ratio * g)) < 0.25:
                 hint = ": off by a factor g? check the file's units"
             fails.append(
                 f"effective modal mass {c['modal_mass']:.3g} kg, model {info.modal_mass:.3g} kg "

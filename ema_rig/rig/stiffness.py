@@ -32,6 +32,7 @@ interval under a normal assumption.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass, field
@@ -451,37 +452,64 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         terms["alternative modes"] = spread / 2.0
     # close neighbours
     by_index = {c["index"]: c for c in m.candidates if c.get("source") == "modes"}
-    inphase: list[int] = []
-    tilt: list[int] = []
-    for i in m.neighbours:
-        c = by_index.get(i, {})
-        cos = c.get("radial_phase_cos")
-        (inphase if cos is not None and cos >= 0.5 else tilt).append(i)
     parts = m.participation
     ratio = None
     if hm.get("modal_mass") is not None and hm.get("model_modal_mass"):
         ratio = float(hm["modal_mass"]) / float(hm["model_modal_mass"])
-    if inphase and parts:
-        group = [m.housing_index, *inphase]
-        fu = _uncoupled_freq(params, [float(modes.natural_freq[i]) for i in group],
-                             [parts[i] for i in group])
-        fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in inphase)
-        if fu is not None:
+    # partners that may carry the housing participation missing from its mode: in-phase radial
+    # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
+    # bandwidths), participation at least a tenth of the housing mode's
+    partners = [
+        i for i, c in by_index.items()
+        if i != m.housing_index and (c.get("radial_phase_cos") or -1.0) >= 0.5
+        and abs(math.log(float(modes.natural_freq[i]) / f_abs)) < 0.25 and c.get("harmonic") is None
+        and parts and parts[i] >= 0.1 * parts[m.housing_index]
+    ]
+    used: list[int] = []
+    if partners and ratio is not None and ratio > MASS_WARN_RATIO:
+        # the housing mode lacks part of its participation and in-phase neighbours carry it:
+        # the housing mass is split between them (an appendage, a flexible part) -> recover the
+        # uncoupled frequency from the group's compliance, with the subset of partners that
+        # completes the housing's participation best
+        best: tuple[float, list[int], float] | None = None
+        for n_sub in range(1, min(3, len(partners)) + 1):
+            for combo in itertools.combinations(partners, n_sub):
+                group = [m.housing_index, *combo]
+                f_try = _uncoupled_freq(params, [float(modes.natural_freq[i]) for i in group],
+                                        [parts[i] for i in group])
+                info = None if f_try is None else model_mode_at(params, f_try * f0 / f_abs)
+                if f_try is None or info is None:
+                    continue
+                g_ratio = 1.0 / (sum(parts[i] for i in group) * info.modal_mass)
+                if best is None or abs(math.log(g_ratio)) < abs(math.log(best[2])):
+                    best = (f_try, list(combo), g_ratio)
+        # only when the group together carries the model's participation (the mass is split, not
+        # missing): otherwise the neighbours are other modes and the mass term below applies
+        if best is not None and abs(math.log(best[2])) <= math.log(MASS_WARN_RATIO):
+            fu, sub, g_ratio = best
+            fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in sub)
             fu = fu * f0 / f_abs  # same damping-model reading
             terms["neighbour coupling"] = abs(math.log(fu / f0)) / 2.0
+            ratio = g_ratio
             warns.append(
-                f"mode(s) at {fs} Hz share the radial housing motion within a few half-power "
-                f"bandwidths: uncoupled housing frequency {fu:.1f} Hz from their compliance "
-                f"(identified {f_abs:.1f} Hz)"
+                f"mode(s) at {fs} Hz share the radial housing motion (housing mode {hm['modal_mass']:.3g} kg, "
+                f"model {hm['model_modal_mass']:.3g} kg): uncoupled frequency {fu:.1f} Hz from their "
+                f"compliance (identified {f_abs:.1f} Hz)"
             )
             f_inv = fu
-            ratio = None  # the group's mass is what the correction used
-    for i in tilt:
-        d = abs(math.log(float(modes.natural_freq[i]) / f_abs))
-        terms[f"neighbour {float(modes.natural_freq[i]):.0f} Hz"] = d / 4.0
+            used = sub
+    for i in m.neighbours:
+        if i in used:
+            continue  # used by the correction (its own term)
+        fn = float(modes.natural_freq[i])
+        # weak coupling c moves a mode by ~c^2 / (f_n - f_h) while leaking eps^2 = (c / df)^2 of its
+        # participation into the neighbour: shift ~ eps^2 |df| with eps^2 <= P_n / P_h
+        eps2 = min(1.0, parts[i] / parts[m.housing_index]) if parts and parts[m.housing_index] > 0 else 1.0
+        terms[f"neighbour {fn:.0f} Hz"] = eps2 * abs(math.log(fn / f_abs))
         warns.append(
-            f"mode at {float(modes.natural_freq[i]):.1f} Hz (out-of-phase radial housing motion) lies "
-            f"within a few half-power bandwidths of the housing mode: possible coupling"
+            f"mode at {fn:.1f} Hz moves the radial housing sensors within a few half-power bandwidths "
+            f"of the housing mode: possible coupling (term {100 * eps2 * abs(math.log(fn / f_abs)):.2f} % "
+            "of the frequency)"
         )
     if ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
         terms["effective mass"] = abs(math.log(ratio)) / 4.0
