@@ -387,6 +387,15 @@ def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> floa
     return f
 
 
+def _housing_like_but_mass(c: dict[str, Any]) -> bool:
+    """Does candidate ``c`` pass every housing criterion except (perhaps) the effective mass?"""
+    reason = str(c.get("reason", ""))
+    if reason.startswith("passes the housing criteria") or reason.startswith("radial housing mode"):
+        return True
+    parts = reason.split("; ")
+    return bool(reason) and all(x.startswith("effective modal mass") for x in parts)
+
+
 def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: str = "viscous",
                         file: str | None = None) -> Assessment:
     """Frequency to invert and the model-form terms and warnings of one matched housing mode.
@@ -459,10 +468,12 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     # partners that may carry the housing participation missing from its mode: in-phase radial
     # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
     # bandwidths), participation at least a tenth of the housing mode's
+    # and a housing-mode shape in every respect but the mass (in phase, similar amplitudes, the
+    # model's spindle/housing ratio): a part of the housing, not another mode
     partners = [
         i for i, c in by_index.items()
-        if i != m.housing_index and (c.get("radial_phase_cos") or -1.0) >= 0.5
-        and abs(math.log(float(modes.natural_freq[i]) / f_abs)) < 0.25 and c.get("harmonic") is None
+        if i != m.housing_index and _housing_like_but_mass(c)
+        and abs(math.log(float(modes.natural_freq[i]) / f_abs)) < 0.25
         and parts and parts[i] >= 0.1 * parts[m.housing_index]
     ]
     used: list[int] = []
@@ -489,14 +500,18 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             fu, sub, g_ratio = best
             fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in sub)
             fu = fu * f0 / f_abs  # same damping-model reading
-            terms["neighbour coupling"] = abs(math.log(fu / f0)) / 2.0
+            # two readings the modal data cannot tell apart: the housing mass split between the
+            # modes (an appendage: fu) or independent close modes whose identified participations
+            # leak into each other (f0). Invert the geometric mean; each reading lies 1 sigma away.
+            d = abs(math.log(fu / f0))
+            terms["neighbour coupling"] = d / 2.0
             ratio = g_ratio
+            f_inv = math.sqrt(fu * f0)
             warns.append(
                 f"mode(s) at {fs} Hz share the radial housing motion (housing mode {hm['modal_mass']:.3g} kg, "
-                f"model {hm['model_modal_mass']:.3g} kg): uncoupled frequency {fu:.1f} Hz from their "
-                f"compliance (identified {f_abs:.1f} Hz)"
+                f"model {hm['model_modal_mass']:.3g} kg): split-mass frequency {fu:.1f} Hz, identified "
+                f"{f_abs:.1f} Hz; inverted {f_inv:.1f} Hz +/- {100 * d / 2:.1f} %"
             )
-            f_inv = fu
             used = sub
     for i in m.neighbours:
         if i in used:
