@@ -527,6 +527,13 @@ class StiffnessUncertainty:
         """Relative sensitivity ``d ln k_TB / d ln x`` per input name."""
         return {t.name: t.sensitivity for t in self.terms}
 
+    def term(self, name: str) -> UncertaintyTerm:
+        """The budget term called ``name`` (KeyError if absent)."""
+        for t in self.terms:
+            if t.name == name:
+                return t
+        raise KeyError(name)
+
     def std_of(self, kind: str) -> float:
         """Root-sum-square of the terms of one ``kind`` [N/m]."""
         return math.sqrt(sum(t.std**2 for t in self.terms if t.kind == kind))
