@@ -20,6 +20,7 @@ from ema_rig.rig.inversion import (
     k_tb_ms_from_housing_freq,
     sensitivities,
     stiffness_uncertainty,
+    undamped_freq,
 )
 from ema_rig.rig.model import RigModel, series_stiffness
 
@@ -201,3 +202,46 @@ def test_fit_rig_on_simulated_rig_with_extra_modes(rig_file):
     assert abs(fit.k_TB_MS / sim.truth["k_TB_MS"] - 1) < 0.02
     assert_allclose(fit.natural_freq[1:], [sim.truth["f_H"], sim.truth["f_spindle"]], rtol=2e-3)
     assert fit.success and fit.residual_rms < 0.3
+
+
+@pytest.mark.parametrize("zeta", [0.0, 0.02, 0.1, 0.3])
+def test_undamped_freq_against_complex_eigenvalues(zeta):
+    # oracle: the poles of a single DOF solved directly, m s^2 + k (1 + j eta) = 0 (hysteretic)
+    # and m s^2 + c s + k = 0 (viscous); the identified quantities are |s| / 2 pi and -Re s / |s|
+    m, k = 2.566, 4.0e7
+    f0 = math.sqrt(k / m) / (2 * math.pi)
+    eta = math.tan(2 * math.asin(zeta))
+    s_h = 1j * math.sqrt(k / m) * np.sqrt(1 + 1j * eta)
+    s_h = complex(s_h if s_h.imag > 0 else -s_h)
+    f_abs, z_id = abs(s_h) / (2 * math.pi), -s_h.real / abs(s_h)
+    assert z_id == pytest.approx(zeta, abs=1e-12)
+    f_hyst, u = undamped_freq(f_abs, z_id, "hysteretic")
+    assert f_hyst == pytest.approx(f0, rel=1e-12)
+    # the viscous reading of the same pole is off by exactly the term's half-width delta
+    f_visc, _ = undamped_freq(f_abs, z_id, "viscous")
+    assert f_visc / f0 - 1 == pytest.approx(1 / math.sqrt(1 - 2 * zeta**2) - 1, rel=1e-9)
+    assert u * math.sqrt(3) == pytest.approx(1 - math.sqrt(1 - 2 * zeta**2), rel=1e-12)
+    c = 2 * zeta * math.sqrt(k * m)
+    s_v = np.roots([m, c, k])
+    s_v = complex(s_v[np.argmax(s_v.imag)])
+    assert undamped_freq(abs(s_v) / (2 * math.pi), -s_v.real / abs(s_v))[0] == pytest.approx(f0, rel=1e-12)
+    with pytest.raises(ValueError):
+        undamped_freq(f_abs, z_id, "coulomb")
+
+
+def test_budget_kinds_and_model_form_terms():
+    # every parameter from the rig file except k_B (default 10 %), plus a 0.5 % model-form term
+    rel = {k: 0.0 for k in ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S")}
+    u = stiffness_uncertainty(626.0, 0.626, TABLE1, rel, model_form={"neighbour": 0.005})
+    kinds = {t.name: t.kind for t in u.terms}
+    assert kinds["f_H"] == "measured" and kinds["m_H"] == "assumed (rig file)"
+    assert kinds["k_B"] == "assumed (default)" and kinds["neighbour"] == "model form"
+    assert u.defaults_used == ("k_B",)
+    # measured: S_f * 0.1 % = 0.384 %; model form: S_f * 0.5 % (same sensitivity as f_H)
+    s_f = sensitivities(626.0, TABLE1)["f_H"]
+    assert u.k_TB_std_measured / u.k_TB == pytest.approx(s_f * 1e-3, rel=1e-9)
+    assert u.term("neighbour").std / u.k_TB == pytest.approx(s_f * 5e-3, rel=1e-9)
+    assert u.k_TB_std == pytest.approx(math.sqrt(sum(t.std**2 for t in u.terms)), rel=1e-12)
+    assert u.std_of("model form") == pytest.approx(u.term("neighbour").std, rel=1e-12)
+    with pytest.raises(ValueError, match="clashes"):
+        stiffness_uncertainty(626.0, 0.6, TABLE1, model_form={"m_H": 0.01})
