@@ -22,12 +22,37 @@ Steps of :func:`estimate_stiffness`:
 2. :func:`ema_rig.rig.matching.match_modes` picks the radial housing mode by shape and scale;
 3. when the data reach it, a second identification in a band around the spindle bending mode
    the model predicts (±20 %), matched by shape (reported, not used for ``k_TB``);
-4. :func:`ema_rig.rig.inversion.stiffness_uncertainty` inverts the housing frequency for
-   ``k_TB`` and propagates the identified frequency spread, the rig parameter tolerances
-   (``[uncertainty]`` of the rig file, defaults otherwise) and the ``k_MS`` std.
+4. :func:`assess_housing_mode` decides which frequency to invert and which model-form terms
+   and warnings the result carries (the rule below);
+5. :func:`ema_rig.rig.inversion.stiffness_uncertainty` inverts it for ``k_TB`` and propagates
+   the identified frequency std (``'measured'``: the mode's ``natural_freq_std`` from the
+   identification), the rig parameter tolerances (``'assumed (rig file)'``, or
+   ``'assumed (default)'`` with a note when the rig file has no ``[uncertainty]`` entry), the
+   ``k_MS`` std, and the model-form terms.
 
 The uncertainty is a standard uncertainty (1 sigma); ``k_TB +- 2 k_TB_std`` is the ~95 %
-interval under a normal assumption.
+interval under a normal assumption. ``k_TB_std_measured`` is the identification term alone.
+
+The rule
+--------
+**A k_TB reported without a warning lies within 2 k_TB_std of the truth.** Ambiguity is never
+resolved silently; it is either covered by a stated model-form term *and* a warning, or refused:
+
+* no radial driving-point FRF: the effective modal mass comes from the radial housing transfer
+  FRFs (rigid housing); warning; refused with that reason when no mode qualifies;
+* several modes pass the housing criteria: warning and a term covering them; refused when they
+  lie more than :data:`MAX_ALTERNATIVE_SPREAD` apart;
+* a mode with radial housing motion within a few half-power bandwidths: warning and a coupling
+  term; when the housing mode lacks participation that in-phase, housing-like partners carry
+  (a split housing mass: an appendage, a load arm), the uncoupled frequency is recovered from
+  the group's driving-point compliance and the result placed between both readings;
+* effective modal mass off the model's by more than 10 %: warning and a term ``|ln r| / 4``;
+* damping: the declared model (viscous default) gives the undamped frequency; the
+  viscous/hysteretic difference is always in the budget (no warning);
+* calibration with the disk assumed rigid: a model-form term of 5.8 % in ``k_MS_std`` (note).
+
+Refusals are one line (at most 300 characters) naming the likely cause (polarity of a named
+sensor, units, missing driving point); every candidate with its metrics is in the JSON.
 """
 
 from __future__ import annotations
