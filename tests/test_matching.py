@@ -124,3 +124,68 @@ def test_spindle_mode_absent_is_none(rig):
     assert res.spindle_mode is None and res.spindle_index is None
     d = res.to_dict()
     assert d["spindle_mode"] is None and d["housing_mode"]["natural_freq"] == pytest.approx(626.0, rel=1e-12)
+
+
+def _only_housing(rig, f_h=626.0):
+    """The realistic mode set without its housing mode (the test adds its own)."""
+    return [m for m in _rig_modes(rig.model, f_h) if abs(m[0] - f_h) > 1e-9]
+
+
+def test_reversed_sensor_refusal_names_it(rig):
+    h = _housing_shape(rig.model, 626.0)
+    h[1] = -h[1]  # 12+Y wired the wrong way round
+    mm = _modal(_only_housing(rig) + [(626.0, 0.02, h)])
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    msg = ei.value.message
+    assert "12+Y" in msg and "polarity" in msg and len(msg) <= 300
+    (c,) = [c for c in ei.value.candidates if abs(c["natural_freq"] - 626.0) < 1e-6]
+    assert c["polarity_suspect"] == "12+Y"
+
+
+def test_tilt_is_not_a_polarity_suspect(rig):
+    # a tilt: one sensor on the axis hardly moves, the other two opposite: no single sign flip fixes it
+    tilt = np.array([0.05, 0.3, -0.3, 0.02, 0.01, 0.01, 0.01, 0.0])
+    mm = _modal([(626.0, 0.02, tilt)])
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    assert "polarity" not in ei.value.message
+    assert ei.value.candidates[0]["polarity_suspect"] is None
+
+
+def test_g_file_refusal_names_units(rig):
+    # accelerations in g read as m/s^2: every FRF 9.81x too small, the effective mass 9.81x too large
+    h = _housing_shape(rig.model, 626.0, mass_factor=9.80665)
+    mm = _modal(_only_housing(rig) + [(626.0, 0.02, h)])
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    assert "units" in ei.value.message and "ratio 9.8" in ei.value.message
+
+
+def test_without_driving_point_mass_from_transfer(rig):
+    # outputs without 11+Y: the rigid housing's transfer residues give the same effective mass
+    keep = [1, 2, 3, 4, 5, 6, 7]
+    modes = [(f, z, phi) for f, z, phi in _rig_modes(rig.model, 626.0)]
+    full = _modal(modes)
+    mm = type(full)(
+        poles=full.poles, residues=full.residues[:, keep], lower_residual=full.lower_residual[keep],
+        upper_residual=full.upper_residual[keep], out_dofs=tuple(full.out_dofs[i] for i in keep),
+        in_dofs=full.in_dofs, roles=tuple(full.roles[i] for i in keep), axes=tuple(full.axes[i] for i in keep),
+    )
+    m = match_modes(mm, rig)
+    assert not m.driving_point and any("no radial driving-point FRF" in w for w in m.warnings)
+    assert m.housing_mode["natural_freq"] == pytest.approx(626.0, rel=1e-12)
+    # exact shapes: the transfer estimate equals the model's mass (to rounding)
+    assert m.housing_mode["modal_mass"] == pytest.approx(model_mode_at(rig.model, 626.0).modal_mass, rel=1e-9)
+    assert m.housing_mode["modal_mass_source"] == "radial housing transfer FRFs"
+
+
+def test_close_neighbour_with_radial_housing_motion(rig):
+    h = _housing_shape(rig.model, 626.0)
+    modes = _rig_modes(rig.model, 626.0) + [(632.0, 0.02, h / np.sqrt(4.0))]  # 6 Hz away, 4x the mass
+    mm = _modal(modes)
+    m = match_modes(mm, rig)
+    (j,) = [i for i in range(mm.n_modes) if abs(mm.natural_freq[i] - 632.0) < 1e-6]
+    assert j in m.neighbours
+    # participation = 1 / m_eff for a rigid housing: the neighbour carries a quarter of the housing's
+    assert m.participation[j] / m.participation[m.housing_index] == pytest.approx(0.25, rel=1e-9)
