@@ -231,3 +231,27 @@ def test_end_to_end_spindle_mode(rig):
     # the spindle bending mode of the 3DOF model (1907.2 Hz) found in its own band: 0.1 %
     np.testing.assert_allclose(res.spindle_mode["natural_freq"], sim.truth["f_spindle"], rtol=1e-3)
     np.testing.assert_allclose(res.k_TB, sim.truth["k_TB"], rtol=1e-2)
+
+
+def test_mass_off_the_model_warns_and_widens(rig, monkeypatch):
+    # the housing mode with 1.3x the model's effective mass (exact modal data): warning and a
+    # model-form term |ln 1.3| / 4 of the frequency (the split-mass reading f sqrt(1.3) at 2 sigma)
+    modes = [m for m in rig_modes(rig.model, 626.0) if abs(m[0] - 626.0) > 1e-9]
+    mm = modal(modes + [(626.0, 0.02, housing_shape(rig.model, 626.0, mass_factor=1.3))])
+    _fake_identify(monkeypatch, mm, 0.1)
+    res = st.estimate_stiffness(_data_from(mm), _zero_unc(rig), spindle=False)
+    assert any("1.30x the model's" in w for w in res.warnings)
+    assert res.uncertainty.term("effective mass").rel_input == pytest.approx(math.log(1.3) / 4, rel=1e-9)
+    # the value itself is untouched (the identified frequency is inverted)
+    assert res.inverted_freq == pytest.approx(626.0, rel=1e-12)
+    assert res.to_dict()["warnings"] == list(res.warnings)
+
+
+def test_two_passing_modes_far_apart_are_refused(rig, monkeypatch):
+    # two perfect housing-like modes 20 % apart: no term can cover that -> refused, one line
+    h1, h2 = housing_shape(rig.model, 560.0), housing_shape(rig.model, 680.0)
+    mm = modal([(560.0, 0.02, h1), (680.0, 0.02, h2)])
+    _fake_identify(monkeypatch, mm, 0.1)
+    with pytest.raises(MatchingError, match="ambiguous housing mode") as ei:
+        st.estimate_stiffness(_data_from(mm), rig, spindle=False)
+    assert len(ei.value.message) <= 300 and ei.value.candidates
