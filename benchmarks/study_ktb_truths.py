@@ -71,6 +71,8 @@ def scenarios() -> dict[str, Callable[[Path, int], tuple[str, float, float]]]:
     return {
         "baseline (k_TB 40-90 MN/m, 536-652 Hz)": lambda t, s: _run(
             t, "base", RigTruth(k_TB=float(rng(s).uniform(40e6, 90e6)), seed=s)),
+        "baseline, 10 % noise": lambda t, s: _run(
+            t, "noisy", RigTruth(k_TB=float(rng(s).uniform(40e6, 90e6)), seed=s), noise=0.10),
         "among frame/flexible modes (90-150 MN/m)": lambda t, s: _run(
             t, "crowd", RigTruth(k_TB=float(rng(s).uniform(90e6, 150e6)), seed=s)),
         "no driving point + tilt within 0.5 %": lambda t, s: _run(
