@@ -18,11 +18,9 @@ from ema_rig.rig.inversion import (
     housing_freq_from_k_tb_ms,
     k_tb_from_housing_freq,
     k_tb_ms_from_housing_freq,
-    sensitivities,
-    stiffness_uncertainty,
-    undamped_freq,
 )
 from ema_rig.rig.model import RigModel, series_stiffness
+from ema_rig.rig.uncertainty import sensitivities, stiffness_uncertainty, undamped_freq
 
 TABLE1 = ModelParams(m_H=2.566, m_S=2.8, m_F=205.0, k_MS=114e6, k_AS=650e3, k_S=348e6, k_B=180e3)
 

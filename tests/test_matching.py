@@ -53,12 +53,14 @@ def test_picks_housing_and_spindle_modes(rig, f_h):
     np.testing.assert_allclose(res.spindle_mode["natural_freq"], info.spindle_freq * 1.003, rtol=1e-12)
     # every mode is listed with a reason
     assert len(res.candidates) == mm.n_modes
-    by_f = {round(c["natural_freq"], 1): c for c in res.candidates}
-    assert "tilt" in by_f[120.0]["reason"]
-    assert "spindle" in by_f[287.0]["reason"]
-    assert "axial" in by_f[300.0]["reason"]
-    assert "lateral" in by_f[410.0]["reason"]
-    assert "modal mass" in by_f[round(f_h + 37.0, 1)]["reason"]
+    by_f = {round(c.natural_freq, 1): c for c in res.candidates}
+    assert "tilt" in by_f[120.0].reason
+    assert "spindle" in by_f[287.0].reason
+    assert "axial" in by_f[300.0].reason
+    assert "lateral" in by_f[410.0].reason
+    assert "modal mass" in by_f[round(f_h + 37.0, 1)].reason
+    # typed, frozen records; the JSON form carries the same fields
+    assert by_f[120.0].failures and by_f[120.0].to_dict()["reason"] == by_f[120.0].reason
     # the measured effective mass equals the model's (shapes built from it): rtol 1e-9
     np.testing.assert_allclose(res.housing_mode["modal_mass"], info.modal_mass, rtol=1e-9)
 
@@ -70,8 +72,8 @@ def test_tilt_one_percent_away_rejected_by_shape(rig):
     mm = _modal([(626.0 * 1.01, 0.02, tilt), (626.0, 0.02, h)])
     res = match_modes(mm, rig)
     np.testing.assert_allclose(res.housing_mode["natural_freq"], 626.0, rtol=1e-12)
-    c = [c for c in res.candidates if abs(c["natural_freq"] - 632.26) < 0.1][0]
-    assert c["status"] == "rejected" and "tilt" in c["reason"]
+    c = [c for c in res.candidates if abs(c.natural_freq - 632.26) < 0.1][0]
+    assert c.status == "rejected" and "tilt" in c.reason
     # and the tilt mode alone is not accepted: MatchingError listing it with the reason
     with pytest.raises(MatchingError) as ei:
         match_modes(_modal([(626.0 * 1.01, 0.02, tilt)]), rig)
@@ -100,8 +102,8 @@ def test_harmonic_line_rejected_when_rotating(rig):
     # rotating: it is recognised as the 24th harmonic and rejected
     res = match_modes(mm, rig, speed_hz=speed)
     np.testing.assert_allclose(res.housing_mode["natural_freq"], 626.0, rtol=1e-12)
-    c = [c for c in res.candidates if c["natural_freq"] < 610][0]
-    assert c["harmonic"] == 24 and "harmonic" in c["reason"]
+    c = [c for c in res.candidates if c.natural_freq < 610][0]
+    assert c.harmonic == 24 and "harmonic" in c.reason
     with pytest.raises(MatchingError, match="harmonic"):
         match_modes(only_line, rig, speed_hz=speed)
     # a well-damped mode at a harmonic frequency is NOT a harmonic line (damping evidence)

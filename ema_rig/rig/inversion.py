@@ -15,16 +15,17 @@ k_tb_ms_from_housing_freq
 k_tb_from_housing_freq
     ``k_TB`` from the housing frequency.
 calibrate_k_ms
-    ``k_MS`` (with its standard uncertainty) from the steel-disk housing mode.
-stiffness_uncertainty
-    ``k_TB`` with a linearised uncertainty budget (frequency spread and model parameters).
+    ``k_MS`` (with its standard uncertainty, the disk's term included) from the steel-disk
+    housing mode.
 fit_rig
     Least-squares fit of ``k_TB+MS``, ``k_S``, ``m_S``, ``m_F`` to measured FRFs (paper Sect. 4).
 
 Classes
 -------
-KmsCalibration, UncertaintyTerm, StiffnessUncertainty, RigFit
+KmsCalibration, RigFit
     Frozen results with ``to_dict()`` / ``to_records()``.
+
+The uncertainty budget of ``k_TB`` is in :mod:`ema_rig.rig.uncertainty`.
 
 Notes
 -----
@@ -41,7 +42,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -49,7 +50,7 @@ import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from ..config import MODEL_KEYS, ModelParams
+from ..config import ModelParams
 from ..errors import InversionError
 from .model import (
     HOUSING_MODE,
@@ -62,84 +63,12 @@ from .model import (
 
 _E = np.array([1.0, -1.0, 0.0])
 
-DEFAULT_REL_UNCERTAINTY: Mapping[str, float] = {
-    "m_H": 0.005,  # housing mass from CAD / a scale: 0.5 %
-    "m_S": 0.02,  # equivalent spindle mass (fitted): 2 %
-    "m_F": 0.05,  # equivalent frame mass (fitted): 5 %
-    "k_MS": 0.02,  # mounting stiffness when no calibration std is given: 2 %
-    "k_AS": 0.10,  # air springs (manufacturer data): 10 %
-    "k_S": 0.02,  # spindle bending stiffness (fitted to the 1908 Hz mode): 2 %
-    "k_B": 0.10,  # bushings (manufacturer data): 10 %
-}
-"""Relative standard uncertainties used when the rig file has no ``[uncertainty]`` entry.
-
-m_H 0.5 % (CAD mass), m_S 2 %, m_F 5 %, k_S 2 % (fitted model parameters), k_MS 2 % (replaced
-by the calibration's own std when given), k_AS and k_B 10 % (manufacturer data; their effect on
-the housing mode is tiny)."""
-
-
 KIND_MEASURED = "measured"
 KIND_RIG = "assumed (rig file)"
 KIND_DEFAULT = "assumed (default)"
 KIND_MODEL = "model form"
 KINDS: tuple[str, ...] = (KIND_MEASURED, KIND_RIG, KIND_DEFAULT, KIND_MODEL)
-"""The labels of :attr:`UncertaintyTerm.kind`."""
-
-DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
-"""Declared damping models for :func:`undamped_freq`."""
-
-
-# --------------------------------------------------------------------------- damping
-def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: str = "viscous") -> tuple[float, float]:
-    """Undamped natural frequency of the (real-stiffness) model from an identified pole.
-
-    The identification gives ``|lambda| / 2 pi`` and ``zeta = -Re(lambda) / |lambda|``; the 3DOF
-    model is undamped. What ``|lambda|`` means depends on the damping model:
-
-    * viscous, proportional: ``lambda = -zeta w0 + j w0 sqrt(1 - zeta^2)``, so ``w0 = |lambda|``;
-    * hysteretic (structural), ``K (1 + j eta)``: ``lambda^2 = -w0^2 (1 + j eta)``, so
-      ``|lambda| = w0 (1 + eta^2)^(1/4)`` and ``zeta = sin(atan(eta) / 2)``; eliminating ``eta``
-      (``cos(atan eta) = 1 - 2 zeta^2``) gives ``w0 = |lambda| sqrt(1 - 2 zeta^2)``
-      (``-zeta^2`` relative to first order: -1.0 % in frequency, -3.9 % in k_TB at 10 %).
-
-    The difference ``delta = 1 - sqrt(1 - 2 zeta^2)`` (~ ``zeta^2``) between the two readings is
-    the size of the damping model-form term: whichever model is declared, the truth may lie
-    anywhere between the two (and a non-proportional dashpot, e.g. in the bearing, shifts the
-    pole by a similar ``O(zeta^2)``), so the relative standard uncertainty of the undamped
-    frequency is ``delta / sqrt(3)`` (a rectangular distribution of half-width ``delta``).
-
-    Parameters
-    ----------
-    abs_freq : float
-        ``|lambda| / 2 pi`` of the identified mode [Hz].
-    damping_ratio : float
-        Identified damping ratio ``-Re(lambda) / |lambda|``, in [0, 1/sqrt(2)).
-    damping_model : {'viscous', 'hysteretic'}
-        The declared damping model.
-
-    Returns
-    -------
-    f0 : float
-        Undamped natural frequency [Hz] to invert.
-    rel_std : float
-        Relative standard uncertainty of ``f0`` from the damping model (fraction).
-
-    Examples
-    --------
-    >>> f0, u = undamped_freq(700.0, 0.10, "hysteretic")
-    >>> round(f0, 3), round(100 * u, 3)
-    (692.965, 0.58)
-    """
-    if damping_model not in DAMPING_MODELS:
-        raise ValueError(f"damping_model must be one of {DAMPING_MODELS}, got {damping_model!r}")
-    z = float(damping_ratio)
-    if not (math.isfinite(z) and 0.0 <= z < math.sqrt(0.5)):
-        z = min(max(z, 0.0), 0.7) if math.isfinite(z) else 0.0
-    root = math.sqrt(1.0 - 2.0 * z * z)
-    delta = 1.0 - root
-    f0 = float(abs_freq) * (root if damping_model == "hysteretic" else 1.0)
-    return f0, delta / math.sqrt(3.0)
-
+"""The labels of :attr:`ema_rig.rig.uncertainty.UncertaintyTerm.kind` (uncertainty kinds)."""
 
 # --------------------------------------------------------------------------- forward / bounds
 def housing_freq_from_k_tb_ms(k_TB_MS: float, params: ModelParams) -> float:
@@ -449,255 +378,6 @@ def calibrate_k_ms(
     )
 
 
-# --------------------------------------------------------------------------- uncertainty
-@dataclass(frozen=True, slots=True)
-class UncertaintyTerm:
-    """One input of the k_TB uncertainty budget.
-
-    Attributes
-    ----------
-    name : str
-        ``'f_H'`` (frequency spread) or a model parameter name.
-    rel_input : float
-        Relative standard uncertainty of the input (fraction).
-    sensitivity : float
-        Relative sensitivity ``d ln k_TB / d ln x``.
-    std : float
-        Contribution to the standard uncertainty of k_TB [N/m] (``|sens| rel_input k_TB``).
-    share : float
-        Fraction of the total variance (shares sum to 1).
-    kind : str
-        Where the input uncertainty comes from: ``'measured'`` (identified from the data),
-        ``'assumed (rig file)'`` (the rig file's ``[uncertainty]`` or a calibration),
-        ``'assumed (default)'`` (:data:`DEFAULT_REL_UNCERTAINTY`, the rig file has no entry) or
-        ``'model form'`` (a stated allowance for what the 3DOF model does not describe: damping
-        model, rigid disk, a neighbouring mode, an effective modal mass off the model's).
-    """
-
-    name: str
-    rel_input: float
-    sensitivity: float
-    std: float
-    share: float
-    kind: str = KIND_RIG
-
-
-@dataclass(frozen=True, slots=True)
-class StiffnessUncertainty:
-    """Bearing stiffness with a linearised (GUM) uncertainty budget.
-
-    Attributes
-    ----------
-    k_TB, k_TB_std : float
-        Bearing stiffness and its combined (total) standard uncertainty [N/m].
-    k_TB_MS, k_TB_MS_std : float
-        Combined stiffness and the std of the terms acting on it (all but k_MS) [N/m].
-    k_MS : float
-        Mounting stiffness used [N/m].
-    f_H, f_H_std : float
-        Undamped housing-mode frequency inverted (see :func:`undamped_freq`) and its measured
-        std [Hz].
-    terms : tuple of UncertaintyTerm
-        The budget, largest share first.
-    k_TB_std_measured : float
-        The part of ``k_TB_std`` from the terms of kind ``'measured'`` [N/m].
-    defaults_used : tuple of str
-        Parameters whose tolerance came from :data:`DEFAULT_REL_UNCERTAINTY` (the rig file has
-        no entry for them).
-    """
-
-    k_TB: float
-    k_TB_std: float
-    k_TB_MS: float
-    k_TB_MS_std: float
-    k_MS: float
-    f_H: float
-    f_H_std: float
-    terms: tuple[UncertaintyTerm, ...] = field(default_factory=tuple)
-    k_TB_std_measured: float = 0.0
-    defaults_used: tuple[str, ...] = ()
-
-    @property
-    def shares(self) -> dict[str, float]:
-        """Variance share per input name."""
-        return {t.name: t.share for t in self.terms}
-
-    @property
-    def sensitivities(self) -> dict[str, float]:
-        """Relative sensitivity ``d ln k_TB / d ln x`` per input name."""
-        return {t.name: t.sensitivity for t in self.terms}
-
-    def term(self, name: str) -> UncertaintyTerm:
-        """The budget term called ``name`` (KeyError if absent)."""
-        for t in self.terms:
-            if t.name == name:
-                return t
-        raise KeyError(name)
-
-    def std_of(self, kind: str) -> float:
-        """Root-sum-square of the terms of one ``kind`` [N/m]."""
-        return math.sqrt(sum(t.std**2 for t in self.terms if t.kind == kind))
-
-    def to_records(self) -> list[dict[str, Any]]:
-        """One row per budget term."""
-        return [
-            {"name": t.name, "kind": t.kind, "rel_input": t.rel_input, "sensitivity": t.sensitivity,
-             "std": t.std, "share": t.share}
-            for t in self.terms
-        ]
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain-dict form for JSON."""
-        return {
-            "k_TB": self.k_TB,
-            "k_TB_std": self.k_TB_std,
-            "k_TB_std_measured": self.k_TB_std_measured,
-            "k_TB_std_by_kind": {k: self.std_of(k) for k in KINDS},
-            "k_TB_MS": self.k_TB_MS,
-            "k_TB_MS_std": self.k_TB_MS_std,
-            "k_MS": self.k_MS,
-            "f_H": self.f_H,
-            "f_H_std": self.f_H_std,
-            "defaults_used": list(self.defaults_used),
-            "budget": self.to_records(),
-        }
-
-
-def _k_tb_raw(f_H: float, p: ModelParams) -> float:
-    k = _closed_form(f_H, p)
-    return 1.0 / (1.0 / k - 1.0 / p.k_MS)
-
-
-def sensitivities(f_H: float, params: ModelParams) -> dict[str, float]:
-    """Relative sensitivities ``d ln k_TB / d ln x`` at ``f_H`` for x = f_H and every parameter.
-
-    Central differences with a relative step of 1e-5 (the functions are smooth; truncation error
-    ~1e-10). With Table 1 at 626 Hz: f_H 3.84, m_H 1.88, k_MS -0.62, k_S -0.26.
-
-    Returns
-    -------
-    dict
-        Keys ``'f_H'`` and the names of :data:`ema_rig.config.MODEL_KEYS`.
-    """
-    k_tb_from_housing_freq(f_H, params)  # raises on an invalid frequency
-    h = 1e-5
-    out = {}
-    kp, km = _k_tb_raw(f_H * (1 + h), params), _k_tb_raw(f_H * (1 - h), params)
-    out["f_H"] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
-    for name in MODEL_KEYS:
-        v = getattr(params, name)
-        kp = _k_tb_raw(f_H, replace(params, **{name: v * (1 + h)}))
-        km = _k_tb_raw(f_H, replace(params, **{name: v * (1 - h)}))
-        out[name] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
-    return out
-
-
-def stiffness_uncertainty(
-    f_H: float,
-    f_H_std: float,
-    params: ModelParams,
-    rel_unc: Mapping[str, float] | None = None,
-    k_MS_std: float | None = None,
-    *,
-    k_MS: float | None = None,
-    model_form: Mapping[str, float] | None = None,
-) -> StiffnessUncertainty:
-    """Bearing stiffness and its standard uncertainty by linearised error propagation.
-
-    ``(u_k / k)^2 = (S_f u_f / f)^2 + sum_x (S_x u_x / x)^2 + sum_m (S_f u_m)^2`` with relative
-    sensitivities ``S = d ln k_TB / d ln x`` (:func:`sensitivities`), inputs assumed
-    uncorrelated. Terms are labelled (:attr:`UncertaintyTerm.kind`): the identified frequency
-    std is ``'measured'``; parameter tolerances are ``'assumed (rig file)'`` or, for parameters
-    the rig file does not list, ``'assumed (default)'``; ``model_form`` entries are relative
-    standard uncertainties of the housing frequency that the 3DOF model cannot remove (damping
-    model, a neighbouring mode, an effective modal mass off the model's).
-
-    Parameters
-    ----------
-    f_H : float
-        Undamped housing-mode natural frequency [Hz].
-    f_H_std : float
-        Its measured standard uncertainty [Hz], >= 0.
-    params : ModelParams
-        Rig parameters.
-    rel_unc : mapping, optional
-        Relative standard uncertainty per parameter name (``RigConfig.uncertainty``); missing
-        names take :data:`DEFAULT_REL_UNCERTAINTY` (and are listed in ``defaults_used``). A value
-        of 0 removes the term.
-    k_MS_std : float, optional
-        Absolute std of ``k_MS`` [N/m] (from :func:`calibrate_k_ms`); overrides ``rel_unc['k_MS']``.
-    k_MS : float, optional
-        Calibrated mounting stiffness [N/m]; default ``params.k_MS``.
-    model_form : mapping, optional
-        Name -> relative standard uncertainty (fraction) of the housing frequency.
-
-    Returns
-    -------
-    StiffnessUncertainty
-
-    Raises
-    ------
-    InversionError
-        If ``f_H`` is outside the valid range.
-    """
-    if k_MS is not None:
-        params = replace(params, k_MS=float(k_MS))
-    f_std = float(f_H_std)
-    if not (math.isfinite(f_std) and f_std >= 0):
-        raise ValueError(f"f_H_std must be a finite non-negative frequency [Hz], got {f_H_std!r}")
-    k_tb = k_tb_from_housing_freq(f_H, params)
-    k_c = _closed_form(float(f_H), params)
-    sens = sensitivities(f_H, params)
-    rel = dict(DEFAULT_REL_UNCERTAINTY)
-    kinds = {n: KIND_DEFAULT for n in rel}
-    for name, v in (rel_unc or {}).items():
-        if name not in rel:
-            raise ValueError(f"unknown parameter {name!r} in rel_unc; allowed: {', '.join(MODEL_KEYS)}")
-        rel[name] = float(v)
-        kinds[name] = KIND_RIG
-    if k_MS_std is not None:
-        rel["k_MS"] = float(k_MS_std) / params.k_MS
-        kinds["k_MS"] = KIND_RIG
-    inputs: dict[str, tuple[float, float, str]] = {"f_H": (f_std / float(f_H), sens["f_H"], KIND_MEASURED)}
-    for n, u in rel.items():
-        inputs[n] = (u, sens[n], kinds[n])
-    for n, u in (model_form or {}).items():
-        u = float(u)
-        if not (math.isfinite(u) and u >= 0):
-            raise ValueError(f"model_form[{n!r}] must be a finite relative std >= 0, got {u!r}")
-        if n in inputs:
-            raise ValueError(f"model_form term {n!r} clashes with an input name")
-        inputs[n] = (u, sens["f_H"], KIND_MODEL)
-    stds = {n: abs(s_) * u * k_tb for n, (u, s_, _) in inputs.items()}
-    var = sum(s**2 for s in stds.values())
-    total = math.sqrt(var)
-    terms = tuple(
-        sorted(
-            (
-                UncertaintyTerm(n, u, s_, stds[n], (stds[n] ** 2 / var) if var > 0 else 0.0, kind)
-                for n, (u, s_, kind) in inputs.items()
-            ),
-            key=lambda t: -t.share,
-        )
-    )
-    # k_TB+MS does not depend on k_MS; chain rule d ln k_TB / d ln k_c = k_MS / (k_MS - k_c)
-    g = params.k_MS / (params.k_MS - k_c)
-    var_c = sum((stds[n] / k_tb / g * k_c) ** 2 for n in inputs if n != "k_MS")
-    defaults = tuple(n for n in MODEL_KEYS if kinds.get(n) == KIND_DEFAULT and rel[n] > 0)
-    return StiffnessUncertainty(
-        k_TB=k_tb,
-        k_TB_std=total,
-        k_TB_MS=k_c,
-        k_TB_MS_std=math.sqrt(var_c),
-        k_MS=params.k_MS,
-        f_H=float(f_H),
-        f_H_std=f_std,
-        terms=terms,
-        k_TB_std_measured=stds["f_H"],
-        defaults_used=defaults,
-    )
-
-
 # --------------------------------------------------------------------------- model fit
 _FIT_KEYS = ("k_TB_MS", "k_S", "m_S", "m_F")
 
@@ -942,21 +622,18 @@ def fit_rig(
 
 
 __all__ = [
-    "DAMPING_MODELS",
-    "DEFAULT_REL_UNCERTAINTY",
     "DISK_STIFFNESS_RATIO",
     "KINDS",
+    "KIND_DEFAULT",
+    "KIND_MEASURED",
+    "KIND_MODEL",
+    "KIND_RIG",
     "KmsCalibration",
     "RigFit",
-    "StiffnessUncertainty",
-    "UncertaintyTerm",
     "calibrate_k_ms",
     "fit_rig",
     "housing_freq_bounds",
     "housing_freq_from_k_tb_ms",
     "k_tb_from_housing_freq",
     "k_tb_ms_from_housing_freq",
-    "sensitivities",
-    "stiffness_uncertainty",
-    "undamped_freq",
 ]

@@ -22,9 +22,9 @@ Steps of :func:`estimate_stiffness`:
 2. :func:`ema_rig.rig.matching.match_modes` picks the radial housing mode by shape and scale;
 3. when the data reach it, a second identification in a band around the spindle bending mode
    the model predicts (±20 %), matched by shape (reported, not used for ``k_TB``);
-4. :func:`assess_housing_mode` decides which frequency to invert and which model-form terms
+4. :func:`ema_rig.rig.uncertainty.assess_housing_mode` decides which frequency to invert and which model-form terms
    and warnings the result carries (the rule below);
-5. :func:`ema_rig.rig.inversion.stiffness_uncertainty` inverts it for ``k_TB`` and propagates
+5. :func:`ema_rig.rig.uncertainty.stiffness_uncertainty` inverts it for ``k_TB`` and propagates
    the identified frequency std (``'measured'``: the mode's ``natural_freq_std`` from the
    identification), the rig parameter tolerances (``'assumed (rig file)'``, or
    ``'assumed (default)'`` with a note when the rig file has no ``[uncertainty]`` entry), the
@@ -57,22 +57,20 @@ sensor, units, missing driving point); every candidate with its metrics is in th
 
 from __future__ import annotations
 
-import itertools
 import logging
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..config import RigConfig
-from ..errors import EmaRigError, IdentificationError, InversionError, MatchingError
+from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
 from .matching import MatchResult, match_modes, model_mode_at
+from .uncertainty import assess_housing_mode, defaults_note, measured_freq_std
 
 __all__ = [
-    "Assessment",
     "CalibrationResult",
     "StiffnessResult",
-    "assess_housing_mode",
     "calibrate",
     "default_band",
     "estimate_stiffness",
@@ -249,7 +247,7 @@ class StiffnessResult:
     @property
     def candidates(self) -> list[dict[str, Any]]:
         """Every mode considered by the matching, with metrics and reason."""
-        return self.match.candidates
+        return [c.to_dict() for c in self.match.candidates]
 
     def interval(self, coverage: float = 0.95) -> tuple[float, float]:
         """Two-sided interval ``k_TB +- z sigma`` [N/m] for a normal ``coverage`` (0.95 -> z = 1.96)."""
@@ -281,7 +279,7 @@ class StiffnessResult:
             "band": None if self.band is None else list(self.band),
             "spindle_band": None if self.spindle_band is None else list(self.spindle_band),
             "speed_hz": self.speed_hz,
-            "candidates": [dict(c) for c in self.match.candidates],
+            "candidates": [c.to_dict() for c in self.match.candidates],
             "fit": None if self.fit is None else self.fit.to_dict(),
         }
 
@@ -330,7 +328,7 @@ class CalibrationResult:
     @property
     def candidates(self) -> list[dict[str, Any]]:
         """Every mode considered by the matching."""
-        return self.match.candidates
+        return [c.to_dict() for c in self.match.candidates]
 
     def to_dict(self) -> dict[str, Any]:
         """JSON of ``ema-rig calibrate`` (DESIGN §3.2: ``k_MS``, ``k_MS_std``, ``housing_mode``)."""
@@ -347,238 +345,8 @@ class CalibrationResult:
             "housing_mode": dict(self.housing_mode),
             "spindle_mode": None if self.match.spindle_mode is None else dict(self.match.spindle_mode),
             "band": None if self.band is None else list(self.band),
-            "candidates": [dict(c) for c in self.match.candidates],
+            "candidates": [c.to_dict() for c in self.match.candidates],
         }
-
-
-# --------------------------------------------------------------------------- assessment
-MASS_WARN_RATIO = 1.1
-"""Effective modal mass off the model's by more than this factor: warning + model-form term."""
-
-MAX_ALTERNATIVE_SPREAD = 0.10
-"""Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
-
-
-@dataclass(frozen=True, slots=True)
-class Assessment:
-    """What the inversion uses, and why it may be wrong (see :func:`assess_housing_mode`).
-
-    Attributes
-    ----------
-    abs_freq : float
-        ``|lambda| / 2 pi`` of the matched housing mode [Hz].
-    undamped_freq : float
-        Undamped frequency for the declared damping model [Hz].
-    inverted_freq : float
-        Frequency inverted for ``k_TB`` [Hz]: ``undamped_freq``, or the uncoupled frequency
-        recovered from coupled neighbours.
-    model_form : dict
-        Name -> relative standard uncertainty of the housing frequency (fraction).
-    warnings : tuple of str
-        One line each.
-    mass_ratio : float or None
-        Identified / model effective modal mass at the driving point.
-    """
-
-    abs_freq: float
-    undamped_freq: float
-    inverted_freq: float
-    model_form: dict[str, float]
-    warnings: tuple[str, ...]
-    mass_ratio: float | None
-
-
-def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> float | None:
-    """Uncoupled housing frequency [Hz] from a group of modes sharing its radial motion.
-
-    The driving-point compliance ``sum_r |phi_p,r|^2 / w_r^2`` does not depend on how the
-    housing's mass is split among rigidly or flexibly attached parts (it is ``(K^-1)_pp``); the
-    3DOF model puts all of the group's compliance in one housing mode with effective mass
-    ``m_model(f)``. Solve ``1 / (m_model(f) f^2) = sum_r P_r / f_r^2`` for ``f`` (fixed point;
-    ``m_model`` varies slowly with ``f``).
-    """
-    s = sum(p_ / f_**2 for f_, p_ in zip(freqs, parts, strict=True))
-    if not s > 0:
-        return None
-    f = freqs[0]
-    for _ in range(30):
-        info = model_mode_at(params, f)
-        if info is None:
-            return None
-        f_new = math.sqrt(1.0 / (info.modal_mass * s))
-        if abs(f_new - f) < 1e-9 * f:
-            return f_new
-        f = f_new
-    return f
-
-
-def _housing_like_but_mass(c: dict[str, Any]) -> bool:
-    """Does candidate ``c`` pass every housing criterion except (perhaps) the effective mass?"""
-    reason = str(c.get("reason", ""))
-    if reason.startswith("passes the housing criteria") or reason.startswith("radial housing mode"):
-        return True
-    parts = reason.split("; ")
-    return bool(reason) and all(x.startswith("effective modal mass") for x in parts)
-
-
-def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: str = "viscous",
-                        file: str | None = None) -> Assessment:
-    """Frequency to invert and the model-form terms and warnings of one matched housing mode.
-
-    The rule: a ``k_TB`` reported without a warning lies within 2 sigma of the truth, so every
-    ambiguity either widens the budget by a stated model-form term and warns, or is refused:
-
-    * **damping model** (always, no warning): :func:`ema_rig.rig.inversion.undamped_freq`;
-    * **several modes pass** the housing criteria: warning; term = half the largest relative
-      spread of their frequencies (the alternatives sit at 2 sigma); refused above
-      :data:`MAX_ALTERNATIVE_SPREAD`;
-    * **close neighbours** with radial housing motion (within a few half-power bandwidths):
-      warning; in-phase neighbours are taken as parts of the housing motion and the uncoupled
-      frequency is recovered from the group's driving-point compliance
-      (:func:`_uncoupled_freq`), with half the correction as the term; out-of-phase (tilt)
-      neighbours add a term of a quarter of their distance (the coupled pair's frequencies
-      straddle the uncoupled ones, so the shift is at most half the distance);
-    * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
-      identified mass scatters by a few % under 10 % noise and the model's by the m_H
-      tolerance): warning; term ``|ln r| / 4``: if all of the housing's compliance sits in this
-      mode (the mass difference being participation missing from the identified mode), the
-      uncoupled frequency is ``f sqrt(r)``; that alternative sits at 2 sigma.
-
-    Parameters
-    ----------
-    m : MatchResult
-    modes : ModalModel
-        The identified modes ``m`` indexes.
-    rig : RigConfig
-    damping_model : {'viscous', 'hysteretic'}
-    file : str, optional
-        For error messages.
-
-    Returns
-    -------
-    Assessment
-
-    Raises
-    ------
-    MatchingError
-        When passing modes are too far apart to cover by a term.
-    """
-    from .inversion import undamped_freq
-
-    hm = m.housing_mode
-    f_abs = float(hm["natural_freq"])
-    zeta = float(hm["damping_ratio"])
-    f0, u_damp = undamped_freq(f_abs, zeta, damping_model)
-    terms: dict[str, float] = {"damping model": u_damp}
-    warns = list(m.warnings)
-    f_inv = f0
-    params = rig.model
-    # several passing modes
-    if m.alternatives:
-        spread = max(abs(math.log(float(modes.natural_freq[i]) / f_abs)) for i in m.alternatives)
-        if spread > MAX_ALTERNATIVE_SPREAD:
-            fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in (m.housing_index, *m.alternatives))
-            raise MatchingError(
-                f"ambiguous housing mode: {fs} Hz all pass the housing criteria and lie "
-                f"{100 * spread:.0f} % apart; narrow --band or add the radial driving point",
-                candidates=m.candidates, file=file,
-            )
-        terms["alternative modes"] = spread / 2.0
-    # close neighbours
-    by_index = {c["index"]: c for c in m.candidates if c.get("source") == "modes"}
-    parts = m.participation
-    ratio = None
-    if hm.get("modal_mass") is not None and hm.get("model_modal_mass"):
-        ratio = float(hm["modal_mass"]) / float(hm["model_modal_mass"])
-    # partners that may carry the housing participation missing from its mode: in-phase radial
-    # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
-    # bandwidths), participation at least a tenth of the housing mode's
-    # and a housing-mode shape in every respect but the mass (in phase, similar amplitudes, the
-    # model's spindle/housing ratio): a part of the housing, not another mode
-    partners = [
-        i for i, c in by_index.items()
-        if i != m.housing_index and _housing_like_but_mass(c)
-        and abs(math.log(float(modes.natural_freq[i]) / f_abs)) < 0.25
-        and parts and parts[i] >= 0.1 * parts[m.housing_index]
-    ]
-    used: list[int] = []
-    if partners and ratio is not None and ratio > MASS_WARN_RATIO:
-        # the housing mode lacks part of its participation and in-phase neighbours carry it:
-        # the housing mass is split between them (an appendage, a flexible part) -> recover the
-        # uncoupled frequency from the group's compliance, with the subset of partners that
-        # completes the housing's participation best
-        best: tuple[float, list[int], float] | None = None
-        for n_sub in range(1, min(3, len(partners)) + 1):
-            for combo in itertools.combinations(partners, n_sub):
-                group = [m.housing_index, *combo]
-                f_try = _uncoupled_freq(params, [float(modes.natural_freq[i]) for i in group],
-                                        [parts[i] for i in group])
-                info = None if f_try is None else model_mode_at(params, f_try * f0 / f_abs)
-                if f_try is None or info is None:
-                    continue
-                g_ratio = 1.0 / (sum(parts[i] for i in group) * info.modal_mass)
-                if best is None or abs(math.log(g_ratio)) < abs(math.log(best[2])):
-                    best = (f_try, list(combo), g_ratio)
-        # only when the group together carries the model's participation (the mass is split, not
-        # missing): otherwise the neighbours are other modes and the mass term below applies
-        if best is not None and abs(math.log(best[2])) <= math.log(MASS_WARN_RATIO):
-            fu, sub, g_ratio = best
-            fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in sub)
-            fu = fu * f0 / f_abs  # same damping-model reading
-            # two readings the modal data cannot tell apart: the housing mass split between the
-            # modes (an appendage: fu) or independent close modes whose identified participations
-            # leak into each other (f0). Invert the geometric mean; each reading lies 1 sigma away.
-            d = abs(math.log(fu / f0))
-            terms["neighbour coupling"] = d / 2.0
-            ratio = g_ratio
-            f_inv = math.sqrt(fu * f0)
-            warns.append(
-                f"mode(s) at {fs} Hz share the radial housing motion (housing mode {hm['modal_mass']:.3g} kg, "
-                f"model {hm['model_modal_mass']:.3g} kg): split-mass frequency {fu:.1f} Hz, identified "
-                f"{f_abs:.1f} Hz; inverted {f_inv:.1f} Hz +/- {100 * d / 2:.1f} %"
-            )
-            used = sub
-    for i in m.neighbours:
-        if i in used:
-            continue  # used by the correction (its own term)
-        fn = float(modes.natural_freq[i])
-        # weak coupling c moves a mode by ~c^2 / (f_n - f_h) while leaking eps^2 = (c / df)^2 of its
-        # participation into the neighbour: shift ~ eps^2 |df| with eps^2 <= P_n / P_h
-        eps2 = min(1.0, parts[i] / parts[m.housing_index]) if parts and parts[m.housing_index] > 0 else 1.0
-        terms[f"neighbour {fn:.0f} Hz"] = eps2 * abs(math.log(fn / f_abs))
-        warns.append(
-            f"mode at {fn:.1f} Hz moves the radial housing sensors within a few half-power bandwidths "
-            f"of the housing mode: possible coupling (term {100 * eps2 * abs(math.log(fn / f_abs)):.2f} % "
-            "of the frequency)"
-        )
-    if ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
-        terms["effective mass"] = abs(math.log(ratio)) / 4.0
-        warns.append(
-            f"effective modal mass {hm['modal_mass']:.3g} kg is {ratio:.2f}x the model's "
-            f"{hm['model_modal_mass']:.3g} kg: an unidentified part of the housing motion or an "
-            "off m_H; wider (model-form) uncertainty"
-        )
-    return Assessment(
-        abs_freq=f_abs, undamped_freq=f0, inverted_freq=f_inv, model_form=terms,
-        warnings=tuple(warns), mass_ratio=ratio,
-    )
-
-
-def _freq_std(m: MatchResult) -> float:
-    """Measured standard uncertainty of the housing frequency [Hz]: the identified mode's
-    ``natural_freq_std`` (:attr:`Identification.natural_freq_std`); 0 when not available."""
-    s = m.housing_mode.get("natural_freq_std")
-    return 0.0 if s is None or not math.isfinite(s) else float(s)
-
-
-def _defaults_note(unc: Any) -> list[str]:
-    from .inversion import DEFAULT_REL_UNCERTAINTY
-
-    if not unc.defaults_used:
-        return []
-    vals = ", ".join(f"{n} {100 * DEFAULT_REL_UNCERTAINTY[n]:g} %" for n in unc.defaults_used)
-    return [f"rig file has no [uncertainty] entry for {', '.join(unc.defaults_used)}: default tolerances "
-            f"applied ({vals})"]
 
 
 # --------------------------------------------------------------------------- pipeline
@@ -625,7 +393,7 @@ def estimate_stiffness(
         Progress bar of the identification.
     damping_model : {'viscous', 'hysteretic'}, optional
         Declared damping model: which undamped frequency the identified pole stands for
-        (:func:`ema_rig.rig.inversion.undamped_freq`; the difference enters the budget).
+        (:func:`ema_rig.rig.uncertainty.undamped_freq`; the difference enters the budget).
 
     Returns
     -------
@@ -643,7 +411,7 @@ def estimate_stiffness(
     """
     from dataclasses import replace
 
-    from .inversion import stiffness_uncertainty
+    from .uncertainty import stiffness_uncertainty
 
     file = _file_of(data)
     kms = rig.model.k_MS if k_ms is None else float(k_ms)
@@ -657,7 +425,7 @@ def estimate_stiffness(
     )
     asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
     f_h = asm.inverted_freq
-    f_std = _freq_std(m)
+    f_std = measured_freq_std(m)
     params = replace(rig.model, k_MS=kms)
     try:
         unc = stiffness_uncertainty(f_h, f_std, params, dict(rig.uncertainty), k_MS_std=k_ms_std,
@@ -693,7 +461,7 @@ def estimate_stiffness(
         inverted_freq=float(f_h),
         damping_model=damping_model,
         warnings=asm.warnings,
-        notes=tuple(_defaults_note(unc)),
+        notes=tuple(defaults_note(unc)),
     )
 
 
@@ -780,10 +548,10 @@ def calibrate(
     asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
     f_d = asm.inverted_freq
     # measured and model-form frequency terms act on k_TB+MS through the same slope
-    u_f = math.hypot(_freq_std(m) / f_d, *asm.model_form.values())
+    u_f = math.hypot(measured_freq_std(m) / f_d, *asm.model_form.values())
     try:
         cal = calibrate_k_ms(f_d, rig.model, f_disk_std=u_f * f_d, k_disk=k_disk, k_disk_std=k_disk_std)
-        meas = calibrate_k_ms(f_d, rig.model, f_disk_std=_freq_std(m), k_disk=k_disk).k_MS_std_measured
+        meas = calibrate_k_ms(f_d, rig.model, f_disk_std=measured_freq_std(m), k_disk=k_disk).k_MS_std_measured
     except InversionError as exc:
         exc.file = exc.file or file
         raise
