@@ -269,9 +269,11 @@ def measure_candidates(
             else np.zeros(modes.n_modes))
     mass: NDArray[np.float64] | None
     if p is not None:
-        # |R_pp| is sign-free, whatever sign convention the driving point was written with
-        with np.errstate(divide="ignore"):
-            mass = 1.0 / (2.0 * wd * np.abs(modes.residues[:, p, q]))
+        if modes.out_dofs[p] == modes.in_dofs[q]:
+            mass = modes.modal_mass(modes.in_dofs[q])
+        else:  # written with opposite signs: |R_pp| is sign-free, the same 1 / (2 w_d |R_pp|)
+            with np.errstate(divide="ignore"):
+                mass = 1.0 / (2.0 * wd * np.abs(modes.residues[:, p, q]))
         mass_source: str | None = "driving point"
     elif h_rad:
         with np.errstate(divide="ignore"):

@@ -144,15 +144,14 @@ def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | N
     k = k_tb_ms_from_housing_freq(natural_freq, params)
     model = RigModel(params, k)
     ph, ps = model.mode_shapes[:, HOUSING_MODE], model.mode_shapes[:, SPINDLE_MODE]
-    h, sp = HOUSING, SPINDLE
     return ModelModeInfo(
         natural_freq=float(natural_freq),
         k_tb_ms=float(k),
-        modal_mass=float(1.0 / ph[h] ** 2),
-        spindle_ratio=float(ph[sp] / ph[h]),
+        modal_mass=model.effective_mass(HOUSING_MODE, HOUSING),
+        spindle_ratio=float(ph[SPINDLE] / ph[HOUSING]),
         spindle_freq=model.spindle_freq,
-        spindle_mode_ratio=float(ps[sp] / ps[h]),
-        spindle_modal_mass=float(1.0 / ps[h] ** 2),
+        spindle_mode_ratio=float(ps[SPINDLE] / ps[HOUSING]),
+        spindle_modal_mass=model.effective_mass(SPINDLE_MODE, HOUSING),
     )
 
 
