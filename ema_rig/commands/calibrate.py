@@ -4,20 +4,23 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig calibrate``."""
     parser.add_argument("file", metavar="DISK_FILE", help="UFF58 measurement with the steel disk mounted")
     parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
-    parser.add_argument("--k-disk", type=float, default=None, metavar="V",
+    parser.add_argument("--k-disk", type=_args.positive_float, default=None, metavar="V",
                         help="finite disk stiffness [N/m] in series (default: rigid, as the paper)")
-    parser.add_argument("--k-disk-std", type=float, default=None, metavar="V",
+    parser.add_argument("--k-disk-std", type=_args.nonneg_float, default=None, metavar="V",
                         help="standard uncertainty of --k-disk [N/m]")
     parser.add_argument("--damping-model", choices=("viscous", "hysteretic"), default="viscous",
                         help="which undamped frequency the identified pole stands for (default viscous)")
-    parser.add_argument("--band", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+    parser.add_argument("--band", type=_args.finite_float, nargs=2, action=_args.BandAction, default=None,
+                        metavar=("LO", "HI"),
                         help="identification band [Hz] (default: rig file k_MS_band / band, else 150 1000)")
-    parser.add_argument("--max-order", type=int, default=None, metavar="N", help="maximum PolyMAX order")
+    parser.add_argument("--max-order", type=_args.model_order, default=None, metavar="N", help="maximum PolyMAX order")
     parser.add_argument("--json", default=None, metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", default=None, metavar="PNG",
                         help="measured FRFs against the 3DOF model with the disk, 150-1000 Hz")
@@ -37,8 +40,8 @@ def run(args: argparse.Namespace) -> int:
         raise EmaRigError(f"--max-order must be >= 2, got {args.max_order}", file=args.file)
     rig = load_rig(args.rig)
     data = read_uff58(args.file, rig=rig).with_meta(file=str(args.file))
-    if args.k_disk_std is not None and not (args.k_disk_std >= 0 and args.k_disk is not None):
-        raise EmaRigError("--k-disk-std needs --k-disk and must be >= 0", file=args.file)
+    if args.k_disk_std is not None and args.k_disk is None:
+        raise EmaRigError("--k-disk-std needs --k-disk", file=args.file)
     try:
         res = calibrate(data, rig, k_disk=args.k_disk, k_disk_std=args.k_disk_std,
                         band=None if args.band is None else tuple(args.band), max_order=args.max_order,

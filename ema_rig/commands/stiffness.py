@@ -5,20 +5,23 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from . import _args
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stiffness``."""
     parser.add_argument("file", metavar="FILE", help="UFF58 measurement (FRFs of the eight sensors)")
     parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
-    parser.add_argument("--k-ms", type=float, default=None, metavar="V",
+    parser.add_argument("--k-ms", type=_args.positive_float, default=None, metavar="V",
                         help="mounting stiffness k_MS [N/m] from 'ema-rig calibrate' (default: the rig file's)")
-    parser.add_argument("--k-ms-std", type=float, default=None, metavar="V",
+    parser.add_argument("--k-ms-std", type=_args.nonneg_float, default=None, metavar="V",
                         help="standard uncertainty of k_MS [N/m] (default: the rig file's relative value)")
-    parser.add_argument("--speed", type=float, default=None, metavar="RPM",
+    parser.add_argument("--speed", type=_args.nonneg_float, default=None, metavar="RPM",
                         help="shaft speed in rpm when the bearing rotates (rejects harmonic lines)")
-    parser.add_argument("--band", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+    parser.add_argument("--band", type=_args.finite_float, nargs=2, action=_args.BandAction, default=None,
+                        metavar=("LO", "HI"),
                         help="identification band of the housing mode [Hz] (default: rig file, else 150 1000)")
-    parser.add_argument("--max-order", type=int, default=None, metavar="N", help="maximum PolyMAX order")
+    parser.add_argument("--max-order", type=_args.model_order, default=None, metavar="N", help="maximum PolyMAX order")
     parser.add_argument("--no-spindle", action="store_true",
                         help="skip the identification of the spindle bending mode (faster)")
     parser.add_argument("--fit", action="store_true",
