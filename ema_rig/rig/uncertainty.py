@@ -451,12 +451,19 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     * **several modes pass** the housing criteria: warning; term = half the largest relative
       spread of their frequencies (the alternatives sit at 2 sigma); refused above
       :data:`MAX_ALTERNATIVE_SPREAD`;
-    * **close neighbours** with radial housing motion (within a few half-power bandwidths):
-      warning; in-phase neighbours are taken as parts of the housing motion and the uncoupled
-      frequency is recovered from the group's driving-point compliance
-      (:func:`_uncoupled_freq`), with half the correction as the term; out-of-phase (tilt)
-      neighbours add a term of a quarter of their distance (the coupled pair's frequencies
-      straddle the uncoupled ones, so the shift is at most half the distance);
+    * **split housing mass**: the housing mode's effective mass is >10 % above the model's and
+      modes within +-25 % that look like the housing mode in every respect but the mass carry
+      the missing participation (an appendage, a load arm): the uncoupled frequency ``fu`` is
+      recovered from the group's driving-point compliance (:func:`_uncoupled_freq`) when the
+      group's participation matches the model's within 10 %. Modal data cannot tell this from
+      independent close modes whose identified participations leak into each other (reading
+      ``f0``), so ``sqrt(fu f0)`` is inverted with a term ``|ln(fu / f0)| / 2``: each reading
+      1 sigma away; warning;
+    * **close neighbours** moving the radial housing sensors (within
+      ``MatchCriteria.neighbour_bandwidths`` half-power bandwidths, participation >= 10 % of
+      the housing mode's): warning; a weak coupling ``c`` shifts the housing mode by
+      ``c^2 / df`` while leaking ``eps^2 = (c / df)^2 <= P_n / P_h`` of its participation, so
+      the term is ``(P_n / P_h) |ln(f_n / f_h)|``;
     * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
       identified mass scatters by a few % under 10 % noise and the model's by the m_H
       tolerance): warning; term ``|ln r| / 4``: if all of the housing's compliance sits in this
