@@ -38,23 +38,23 @@ FREQ = np.arange(0.0, 1100.25, 0.5)
 
 
 def _run(tmp: Path, name: str, truth: RigTruth, k_ms: float | None = None, k_ms_std: float | None = None,
-         **kw: object) -> tuple[str, float, float]:
-    """(outcome, bias %, z) of one case; outcome refused / warned / ok / SILENT."""
+         **kw: object) -> tuple[str, float, float, float]:
+    """(outcome, bias %, z, sigma %) of one case; outcome refused / warned / ok / SILENT."""
     uff, rig_path = write_case(tmp, name, truth, FREQ, **kw)
     rig = load_rig(rig_path)
     data = read_uff58(uff, rig=rig)
     try:
         res = st.estimate_stiffness(data, rig, spindle=False, k_ms=k_ms, k_ms_std=k_ms_std)
     except EmaRigError:
-        return "refused", math.nan, math.nan
+        return "refused", math.nan, math.nan, math.nan
     w = tuple(getattr(res, "warnings", ()))
     bias = res.k_TB / truth.k_TB - 1
     z = (res.k_TB - truth.k_TB) / res.k_TB_std
     out = "warned" if w else ("ok" if abs(z) <= 2 else "SILENT")
-    return out, 100 * bias, z
+    return out, 100 * bias, z, 100 * res.k_TB_std / res.k_TB
 
 
-def _calibrated(tmp: Path, name: str, seed: int) -> tuple[str, float, float]:
+def _calibrated(tmp: Path, name: str, seed: int) -> tuple[str, float, float, float]:
     """Soft disk (10x k_MS) calibration, then the bearing with the calibrated k_MS."""
     disk = RigTruth(k_TB=10 * 114e6, seed=seed)
     uff, rig_path = write_case(tmp, name + "_disk", disk, FREQ)
@@ -64,7 +64,7 @@ def _calibrated(tmp: Path, name: str, seed: int) -> tuple[str, float, float]:
     return _run(tmp, name, truth, k_ms=cal.k_MS, k_ms_std=cal.k_MS_std)
 
 
-def scenarios() -> dict[str, Callable[[Path, int], tuple[str, float, float]]]:
+def scenarios() -> dict[str, Callable[[Path, int], tuple[str, float, float, float]]]:
     def rng(s: int) -> np.random.Generator:
         return np.random.default_rng(10_000 + s)
 
@@ -103,17 +103,19 @@ def main() -> None:
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     print(f"{'class':42s} {'n':>3s} {'refused':>7s} {'warned':>6s} {'ok':>4s} {'SILENT':>6s}  "
-          f"{'max|bias| %':>11s} {'max|z| unwarned':>15s} {'max|z| warned':>13s}")
+          f"{'max|bias| %':>11s} {'median sigma %':>14s} {'max|z| unwarned':>15s} {'max|z| warned':>13s}")
     total_silent = 0
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         for name, fn in scenarios().items():
             counts = {"refused": 0, "warned": 0, "ok": 0, "SILENT": 0}
             worst, z_ok, z_w = 0.0, 0.0, 0.0
+            sigmas = []
             for s in range(args.seeds):
-                out, bias, z = fn(tmp, s)
+                out, bias, z, sig = fn(tmp, s)
                 counts[out] += 1
                 if math.isfinite(bias):
+                    sigmas.append(sig)
                     worst = max(worst, abs(bias))
                     if out == "warned":
                         z_w = max(z_w, abs(z))
@@ -121,7 +123,8 @@ def main() -> None:
                         z_ok = max(z_ok, abs(z))
             total_silent += counts["SILENT"]
             print(f"{name:42s} {args.seeds:3d} {counts['refused']:7d} {counts['warned']:6d} {counts['ok']:4d} "
-                  f"{counts['SILENT']:6d}  {worst:11.1f} {z_ok:15.2f} {z_w:13.2f}")
+                  f"{counts['SILENT']:6d}  {worst:11.1f} {np.median(sigmas) if sigmas else math.nan:14.2f} "
+                  f"{z_ok:15.2f} {z_w:13.2f}")
     print(f"silently wrong (no warning, |z| > 2): {total_silent}")
 
 
