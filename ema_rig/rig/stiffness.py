@@ -65,6 +65,7 @@ from typing import Any
 from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
+from .candidates import find_dof
 from .matching import MatchResult, match_modes, model_mode_at
 from .uncertainty import assess_housing_mode, defaults_note, measured_freq_std
 
@@ -469,9 +470,8 @@ def _fit(data: FRFData, rig: RigConfig, params: Any, m: MatchResult) -> Any:
     """Fit the 3DOF model to the radial driving-point and mean spindle FRFs (150–700 Hz)."""
     from .inversion import fit_rig
 
-    ref = rig.radial.positive()
-    q = next((j for j, d in enumerate(data.in_dofs) if d.positive() == ref), None)
-    p = next((i for i, d in enumerate(data.out_dofs) if d.positive() == ref), None)
+    q = find_dof(data.in_dofs, rig.radial)
+    p = find_dof(data.out_dofs, rig.radial)
     if q is None or p is None:
         return None
     s_idx = [i for i in range(data.n_out) if data.roles[i] == "spindle" and data.axes[i] == "radial"]
