@@ -47,7 +47,6 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from ..config import ModelParams
@@ -142,6 +141,8 @@ def _root_finder(f_H: float, params: ModelParams) -> float:
     # the housing eigenvalue rises monotonically in k: bracket in log k
     scale = params.k_S
     lo, hi = math.log(scale * 1e-9), math.log(scale * 1e9)
+    import scipy.optimize  # lazy: only the root-finder path needs it (CLI cold start)
+
     log_k = scipy.optimize.brentq(g, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=500)
     return math.exp(log_k)
 
@@ -600,6 +601,8 @@ def fit_rig(
     lb = np.array([v - math.log(bounds_factor) for v in x0[:-1]] + [math.log(1e-4)])
     ub = np.array([v + math.log(bounds_factor) for v in x0[:-1]] + [math.log(0.3)])
     x0 = np.clip(x0, lb + 1e-12, ub - 1e-12)
+    import scipy.optimize  # lazy: only the model fit needs it
+
     res = scipy.optimize.least_squares(resid, x0, method="trf", bounds=(lb, ub))
     p, k, z = unpack(res.x)
     r = magnitude(res.x)
