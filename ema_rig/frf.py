@@ -60,11 +60,10 @@ def _check_coherence(coherence: Any, shape: tuple[int, ...]) -> NDArray[np.float
     coh = coh.astype(np.float64)
     if coh.shape != shape:
         raise ValueError(f"coherence must have the FRF shape {shape}, got {coh.shape}")
-    known = coh[~np.isnan(coh)]
-    if known.size and not (np.all(np.isfinite(known)) and known.min() >= 0.0 and known.max() <= 1.0):
-        raise ValueError(
-            f"coherence values must lie in 0..1 (NaN: not measured), got {known.min():g}..{known.max():g}"
-        )
+    if not np.all(np.isfinite(coh)):
+        raise ValueError("coherence contains NaN or inf values")
+    if coh.size and not (coh.min() >= 0.0 and coh.max() <= 1.0):
+        raise ValueError(f"coherence values must lie in 0..1, got {coh.min():g}..{coh.max():g}")
     coh.setflags(write=False)
     return coh
 
@@ -92,9 +91,8 @@ class FRFData:
     meta : mapping, optional
         Provenance (source file, unit decisions, UFF header ids, ``warnings``). Read-only.
     coherence : array_like, shape (n_out, n_in, n_freq), optional
-        Ordinary coherence of each FRF (unit-less, float64, 0 <= value <= 1; NaN where the
-        measurement has no coherence for that pair), e.g. from UFF58 function type 6 datasets.
-        None when no coherence is known.
+        Ordinary coherence ``gamma^2`` of each FRF (unit-less, float64, finite, 0 <= value <= 1),
+        e.g. from UFF58 function type 6 datasets. None when not known for every FRF.
     n_averages : int, optional
         Number of averages behind the FRFs and the coherence (>= 1), None when unknown.
 

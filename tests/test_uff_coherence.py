@@ -141,18 +141,23 @@ def test_pairs_missing_ignored_and_mismatched(tmp_path: Path) -> None:
     ]
     with _no_data_warning():
         d = read_uff58(_write(tmp_path / "c.uff", sets))
-    assert d.coherence is not None
-    expected = np.array([[0.9, 0.8], [np.nan, 0.7]])
-    np.testing.assert_array_equal(d.coherence[:, :, 3], expected)  # exact: 0.9 etc. written with 12 digits
+    # 2+Y / 1+Y has no usable coherence: a partial array is not attached
+    assert d.coherence is None and d.meta["coherence_datasets"] == []
     notes = " | ".join(d.meta["notes"])
     assert "dataset 7: coherence 9+Y / 1+Y ignored: no FRF for this pair" in notes
     assert "dataset 8: coherence ignored: frequency lines differ" in notes
     assert "dataset 9: coherence 1+Y / 1+Y ignored: already given by dataset 4" in notes
-    assert "no coherence for 1 FRF(s) (2+Y / 1+Y): NaN there" in notes
-    assert d.meta["coherence_datasets"] == [4, 5, 6]
+    assert "coherence not attached: only 3 of 4 FRFs have one (none for 2+Y / 1+Y)" in notes
+    assert sum("function type 6 (coherence), not attached" in s for s in d.meta["ignored_datasets"]) == 6
+    # with the fourth coherence on the right lines, all four are attached in the FRF order
+    sets.append(_set(2, 2, 1, 2, np.full(FREQ.size, 0.6), coherence=True))
+    with _no_data_warning():
+        d = read_uff58(_write(tmp_path / "c4.uff", sets))
+    np.testing.assert_array_equal(d.coherence[:, :, 3], [[0.9, 0.8], [0.6, 0.7]])  # exact in 12 digits
+    assert d.meta["coherence_datasets"] == [4, 5, 6, 10]
     # selections carry it along
     s = d.sel(out="2+Y", inp=["5+Y", "1+Y"])
-    np.testing.assert_array_equal(s.coherence[0, :, 0], [0.7, np.nan])
+    np.testing.assert_array_equal(s.coherence[0, :, 0], [0.7, 0.6])
 
 
 def test_negative_and_above_one_clipped(tmp_path: Path) -> None:

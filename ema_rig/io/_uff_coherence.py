@@ -88,14 +88,14 @@ def attach(
     Returns
     -------
     Coherence
-        ``values`` None when no record could be attached; else float64 in 0..1, NaN for pairs
-        without coherence.
+        ``values`` float64 in 0..1, or None when not every FRF has a usable coherence record
+        (then nothing is attached and a note says which FRFs lack one).
     """
     notes: list[str] = []
     warns: list[str] = []
     out_ix = {d: i for i, d in enumerate(out_order)}
     in_ix = {d: j for j, d in enumerate(in_order)}
-    coh = np.full((len(out_order), len(in_order), freq.size), np.nan)
+    coh = np.zeros((len(out_order), len(in_order), freq.size))
     filled: dict[tuple[int, int], int] = {}
     for r in records:
         why = _unusable(r, freq, tol)
@@ -133,8 +133,12 @@ def attach(
     missing = [f"{out_order[i]} / {in_order[j]}" for i in range(len(out_order)) for j in range(len(in_order))
                if (i, j) not in filled]
     if missing:
-        notes.append(f"no coherence for {len(missing)} FRF(s) ({', '.join(missing[:6])}"
-                     f"{', ...' if len(missing) > 6 else ''}): NaN there")
+        # a noise model needs the coherence of every FRF; a partial array is not attached
+        notes.append(
+            f"coherence not attached: only {len(filled)} of {len(filled) + len(missing)} FRFs have one "
+            f"(none for {', '.join(missing[:6])}{', ...' if len(missing) > 6 else ''})"
+        )
+        return Coherence(None, (), tuple(notes), tuple(warns))
     return Coherence(coh, tuple(sorted(filled.values())), tuple(notes), tuple(warns))
 
 

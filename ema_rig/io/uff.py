@@ -384,7 +384,8 @@ def read_uff58(
     -------
     FRFData
         ``frf`` shape (n_out, n_in, n_freq) in SI (m/s^2/N, m/s/N or m/N), ``freq`` in Hz.
-        ``coherence`` (n_out, n_in, n_freq) from the file's coherence datasets, or None (see Notes);
+        ``coherence`` (n_out, n_in, n_freq), 0..1, from the file's coherence datasets, or None
+        (see Notes);
         ``n_averages`` when an id line states it (UFF58 has no field for it), else None.
         ``meta``: ``source`` (path), ``datasets`` (indices used), ``coherence_datasets``,
         ``unit_decisions`` (one str per dataset used), ``sign_flips``, ``ignored_channels``,
@@ -418,8 +419,9 @@ def read_uff58(
     reference) pair (mapped like the FRFs, sign-free) when they lie on the same frequency lines;
     values above 1 (which real analysers write) or below 0 are clipped into 0..1, listed in
     ``meta["warnings"]`` and warned with :class:`~ema_rig.errors.DataWarning`. A coherence
-    whose pair has no FRF, whose lines differ, or that is refused is ignored with a note. FRFs
-    without coherence get NaN in ``coherence``; with no usable coherence at all it is None.
+    whose pair has no FRF, whose lines differ, or that is refused is ignored with a note. The
+    coherence is attached only when every FRF has one (else ``coherence`` is None, with a note
+    naming the FRFs without).
     """
     uf = read_uff(path)
     src = uf.path
