@@ -357,3 +357,13 @@ def test_underscore_in_number_refused(tmp_path: Path) -> None:
     p, buf = _ascii(tmp_path)
     p.write_bytes(buf.replace(b"2.500000000000E-01", b"2_500000000000E-01", 1))
     assert read_uff(p)[0].status == "refused" and "'_'" in (read_uff(p)[0].reason or "")
+
+
+@pytest.mark.parametrize("label", ["(um^-12)^12", "(mm^-9*um^-9)^2", "(um^12)^12"])
+def test_nested_unit_powers_refused(tmp_path: Path, label: str) -> None:
+    # (1e72)^12 would raise OverflowError in Python's float power: the exponent check comes first
+    p, buf = _ascii(tmp_path)
+    p.write_bytes(_label(buf, "m/s^2", label))
+    with pytest.raises(UFFError, match="beyond|out of range") as exc:
+        read_uff58(p)
+    _named(exc, p, 0)

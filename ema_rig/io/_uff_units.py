@@ -125,7 +125,13 @@ def _mul(a: Unit, b: Unit, sign: int) -> Unit:
 def _pow(u: Unit, p: int) -> Unit:
     if abs(p) > MAX_UNIT_POWER:
         raise UnitRangeError(f"exponent {p} out of range (at most {MAX_UNIT_POWER} in magnitude)")
-    return _checked(tuple(x * p for x in u.dims), u.factor**p, f"exponent {p}")
+    dims = tuple(x * p for x in u.dims)
+    _checked(dims, 1.0, f"exponent {p}")  # exponents first: then the power below cannot overflow...
+    try:
+        factor = u.factor**p
+    except OverflowError:  # ...unless the factor itself is extreme (a product of many prefixes)
+        factor = math.inf
+    return _checked(dims, factor, f"exponent {p}")
 
 
 def _term(toks: list[tuple[str, str | None]], i: int) -> tuple[Unit, int]:
