@@ -22,9 +22,10 @@ How the numbers are taken
 * Peak memory: the peak resident set of the child during one call minus its resident set just
   before the call (after import, data and ``gc.collect()``); the kernel's high-water mark is reset
   before each call (``/proc/self/clear_refs``, Linux), so each call gets its own peak. The table
-  gives the largest peak of the warm calls (at least one warm round always runs), so the lazy
-  imports of the first call are not counted; the first call's peak is in the JSON
-  (``peak_first``). Reported as ``peak / data`` with data = n_out * n_in * n_lines * 16 bytes (the
+  gives the largest peak of the warm calls, so the lazy imports of the first call are not
+  counted, or, for a row too slow for a warm round in its time budget, the first call's peak
+  (marked ``*``; the imports add some 10-40 MB there). The first call's peak is always in the
+  JSON (``peak_first``). Reported as ``peak / data`` with data = n_out * n_in * n_lines * 16 bytes (the
   complex128 FRF array).
 * Time: the first call of each function in the fresh process is reported apart (``first``; the
   first call of the process is ``identify`` and pays the lazy imports and BLAS start-up). Then
@@ -240,8 +241,7 @@ def run_child(spec: dict[str, Any]) -> dict[str, Any]:
     ok = [n for n in STEPS if res["steps"][n]["first"] is not None]
     round_s = sum(res["steps"][n]["first"] for n in ok) * len(settings)
     budget = float(spec["row_budget_s"]) - (time.perf_counter() - t_row)
-    # at least one warm round: its peaks exclude the lazy imports of the first call
-    n_warm = max(1, int(min(spec["repeat"], budget // max(round_s, 1e-9)))) if ok else 0
+    n_warm = int(min(spec["repeat"], budget // max(round_s, 1e-9))) if ok else 0
     for k in range(n_warm):
         order = [(b, n) for b in settings for n in ok]
         for b, name in order if k % 2 == 0 else order[::-1]:
@@ -250,8 +250,10 @@ def run_child(spec: dict[str, Any]) -> dict[str, Any]:
             del out
             res["steps"][name]["warm"][str(b)].append(dt)
             res["steps"][name]["peak_warm"].append(peak)
-    for name in ok:
-        res["steps"][name]["peak"] = max(res["steps"][name]["peak_warm"])
+    for name in ok:  # warm peaks exclude the lazy imports of the first call; else the first call's
+        st = res["steps"][name]
+        st["peak"] = max(st["peak_warm"]) if st["peak_warm"] else st["peak_first"]
+        st["peak_source"] = "warm" if st["peak_warm"] else "first"
     res["found"] = found
     res["error"] = error
     return res
@@ -293,10 +295,11 @@ def _row_lines(row: Row, m: dict[str, Any], settings: list[int]) -> list[str]:
         for n in STEPS:
             st = m["steps"][n]
             if st["first"] is None:
-                cells.append(f"{'error':<34}" if k == 0 else f"{'':<34}")
+                cells.append(f"{'error':<35}" if k == 0 else f"{'':<35}")
                 continue
             first = f"{st['first']:6.2f}" if k == 0 else f"{'':>6}"
-            peak = f"{st['peak'] / row.size:5.2f}" if k == 0 else f"{'':>5}"
+            star = "*" if st.get("peak_source") == "first" else " "
+            peak = f"{st['peak'] / row.size:5.2f}{star}" if k == 0 else f"{'':>6}"
             cells.append(f"{first} {_fmt_warm(st['warm'][str(b)]):<21} {peak}")
         found = (f"{m['found']}/{MODES_HZ.size}" if m.get("found") is not None else "-") if k == 0 else ""
         blas = "default" if b == 0 else f"{b} thr"
@@ -332,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     print("time [s]: first call in a fresh process, then median [min-max] of warm interleaved calls; "
           "peak/data: peak RSS of the call above the RSS before it, over the FRF array bytes")
     head = (f"{'out x ref x lines  order':<26} {'data MB':>8} {'BLAS':>7} | "
-            + " | ".join(f"{n + ': first, warm':<28} {'pk/d':>5}" for n in STEPS) + " | modes")
+            + " | ".join(f"{n + ': first, warm':<28} {'pk/d':>5} " for n in STEPS) + " | modes")
     print(head)
     print("-" * len(head))
     done: dict[Row, dict[str, Any]] = {}
