@@ -36,11 +36,18 @@ How the numbers are taken
   and scipy's BLAS) unless told otherwise; one line per setting. (``plscf`` pins its own small
   LAPACK kernels to one thread by design; that is part of what is measured.)
 * Modes found: how many of the six true natural frequencies ``identify`` returned within 0.1 %.
-* Limits: rows run smallest first. A row whose ``identify`` first call is projected (from the
-  largest finished row of the same references and order, scaled by the data size) above
+* Allocator: the children run with ``MALLOC_MMAP_THRESHOLD_=65536`` and call ``malloc_trim(0)``
+  before each call, so that memory freed by an earlier call goes back to the system instead of
+  staying resident and hiding part of the next call's peak (glibc's adaptive threshold would
+  otherwise serve arrays up to 32 MB from a heap that is not returned).
+* Limits: rows run smallest first. A row whose ``identify`` first call is projected above
   ``--max-row-s`` (60 s), or whose projected memory (data + peak) exceeds ``--max-mem-gb`` (8 GB),
-  or that does not fit in the remaining ``--budget-s`` (840 s in the full mode), is skipped and
-  listed as skipped with the reason; a child that runs past 3 x ``--max-row-s`` is killed.
+  or that does not fit in the remaining ``--budget-s`` (840 s), is skipped and listed with the
+  reason. Projection: a straight line ``a + b * data size`` through the finished rows with the
+  same references and order (the slope from the same references at any order when only one such
+  row exists), the peak from the largest such row's peak / data. Warm rounds run while they fit in
+  ``--warm-s`` (20 s) per row, so the largest rows may have first calls only; a child that runs
+  past 3 x ``--max-row-s`` + 60 s is killed.
 
 Run from the repository root::
 
@@ -159,9 +166,20 @@ def reset_peak() -> None:
         fh.write("5")
 
 
+def _malloc_trim() -> None:
+    """Give freed heap memory back to the system (glibc; a no-op elsewhere)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
+
+
 def measure_call(fn: Callable[[], Any]) -> tuple[float, int, Any]:
     """Run ``fn`` once: (seconds, peak RSS above the RSS before the call [bytes], result)."""
     gc.collect()
+    _malloc_trim()
     reset_peak()
     before = rss_bytes()
     t0 = time.perf_counter()
@@ -220,7 +238,6 @@ def run_child(spec: dict[str, Any]) -> dict[str, Any]:
     res: dict[str, Any] = {"import_s": t_import, "data_s": t_data, "rss_base": rss_bytes(), "steps": {}}
     found: int | None = None
     error: str | None = None
-    t_row = time.perf_counter()
     for name in STEPS:  # first calls, under the first BLAS setting
         try:
             with _blas_limit(settings[0]):
@@ -240,7 +257,7 @@ def run_child(spec: dict[str, Any]) -> dict[str, Any]:
         del out
     ok = [n for n in STEPS if res["steps"][n]["first"] is not None]
     round_s = sum(res["steps"][n]["first"] for n in ok) * len(settings)
-    budget = float(spec["row_budget_s"]) - (time.perf_counter() - t_row)
+    budget = float(spec["warm_s"])
     n_warm = int(min(spec["repeat"], budget // max(round_s, 1e-9))) if ok else 0
     for k in range(n_warm):
         order = [(b, n) for b in settings for n in ok]
@@ -268,18 +285,41 @@ def grid(quick: bool) -> list[Row]:
     return sorted(rows, key=lambda r: (r.size, r.order, r.n_in))
 
 
-def project(row: Row, done: dict[Row, dict[str, Any]]) -> tuple[float, float] | None:
-    """(identify first-call seconds, peak bytes above baseline) projected from the largest finished
-    row with the same references and order, scaled by the data size; None without such a row."""
-    peers = [r for r, m in done.items()
-             if r.n_in == row.n_in and r.order == row.order and m["steps"]["identify"]["first"] is not None]
-    if not peers:
+def _slope(points: list[tuple[int, float]]) -> float | None:
+    """Seconds per byte through the two largest distinct sizes, or None."""
+    pts = sorted(dict(points).items())
+    if len(pts) < 2:
         return None
-    ref = max(peers, key=lambda r: r.size)
-    step = done[ref]["steps"]["identify"]
-    scale = row.size / ref.size
-    peaks = [done[ref]["steps"][n]["peak"] or 0 for n in STEPS if n in done[ref]["steps"]]
-    return step["first"] * scale, max(peaks) * scale
+    (s1, t1), (s2, t2) = pts[-2], pts[-1]
+    return max((t2 - t1) / (s2 - s1), 0.0)
+
+
+def project(row: Row, done: dict[Row, dict[str, Any]]) -> tuple[float, float] | None:
+    """(identify first-call seconds, peak bytes above the baseline) projected for ``row``.
+
+    A line ``a + b * size`` through the finished rows with the same references and order (slope
+    from the same references at any order if only one such row); None without such a row.
+    """
+    def first(r: Row) -> float | None:
+        return done[r]["steps"]["identify"]["first"]
+
+    same = [r for r in done if r.n_in == row.n_in and r.order == row.order and first(r) is not None]
+    if not same:
+        return None
+    slope = _slope([(r.size, first(r)) for r in same])
+    if slope is None:
+        by_order: dict[int, list[tuple[int, float]]] = {}
+        for r in done:
+            f = first(r)
+            if r.n_in == row.n_in and f is not None:
+                by_order.setdefault(r.order, []).append((r.size, f))
+        slopes = [x for pts in by_order.values() if (x := _slope(pts)) is not None]
+        slope = max(slopes) if slopes else 0.0
+    ref = max(same, key=lambda r: r.size)
+    t_ref = first(ref) or 0.0
+    t = max(t_ref - slope * ref.size, 0.0) + slope * row.size
+    peaks = [st["peak"] or 0 for st in done[ref]["steps"].values()]
+    return t, max(peaks) / ref.size * row.size
 
 
 def _fmt_warm(w: list[float]) -> str:
@@ -314,6 +354,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-row-s", type=float, default=60.0, help="skip rows projected above this [s]")
     ap.add_argument("--max-mem-gb", type=float, default=8.0, help="skip rows projected above this [GB]")
     ap.add_argument("--budget-s", type=float, default=840.0, help="total time budget [s]")
+    ap.add_argument("--warm-s", type=float, default=20.0, help="time for warm rounds per row [s]")
     ap.add_argument("--blas", default="0,1",
                     help="BLAS thread settings timed in each row, comma-separated (0 = the default; "
                          "default '0,1': both, interleaved; the first call runs under the first)")
@@ -328,6 +369,7 @@ def main(argv: list[str] | None = None) -> int:
     env = dict(os.environ)
     root = str(Path(__file__).resolve().parents[1])
     env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    env["MALLOC_MMAP_THRESHOLD_"] = "65536"
     settings = [int(x) for x in args.blas.split(",")]
     blas = ", ".join("default" if b == 0 else f"{b}" for b in settings)
     print(f"bench_scale {time.strftime('%Y-%m-%d %H:%M %Z')}  python {platform.python_version()}  "
@@ -364,7 +406,7 @@ def main(argv: list[str] | None = None) -> int:
             record["skipped"] = reason
             out_rows.append(record)
             continue
-        spec = {**asdict(row), "repeat": repeat, "row_budget_s": min(args.max_row_s, max(remaining, 0.0)),
+        spec = {**asdict(row), "repeat": repeat, "warm_s": min(args.warm_s, max(remaining, 0.0)),
                 "blas": settings}
         cmd = [sys.executable, __file__, "--child", json.dumps(spec)]
         try:
