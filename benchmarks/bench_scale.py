@@ -358,6 +358,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--blas", default="0,1",
                     help="BLAS thread settings timed in each row, comma-separated (0 = the default; "
                          "default '0,1': both, interleaved; the first call runs under the first)")
+    ap.add_argument("--only", default=None, metavar="ROWS",
+                    help="run only these rows, e.g. '256x3x64001x200,8x1x4001x50' (OUTxREFxLINESxORDER)")
     ap.add_argument("--json", default=None, metavar="OUT", help="also write the rows as JSON")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -366,6 +368,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
     rows = grid(args.quick)
+    if args.only:
+        try:
+            rows = sorted((Row(*(int(x) for x in item.lower().split("x"))) for item in args.only.split(",")),
+                          key=lambda r: (r.size, r.order, r.n_in))
+        except TypeError:
+            ap.error(f"--only: expected OUTxREFxLINESxORDER items, got {args.only!r}")
     env = dict(os.environ)
     root = str(Path(__file__).resolve().parents[1])
     env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
