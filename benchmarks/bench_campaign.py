@@ -25,6 +25,11 @@ progress callback sees in the parent and the per-measurement ``elapsed_s`` the w
   two share the cores with each other and with everything else on the machine;
 * ``ideal``: head(jobs 1) + work(jobs 1) / 2, what perfect splitting of the measurements would
   give; ``lost`` lists the gap by cause.
+* ``cpu``: CPU seconds of the run, parent and pool workers (``getrusage``). Unlike the wall times
+  it hardly depends on what else runs on the machine, so on a busy machine it tells whether
+  ``--jobs 2`` costs more work (CPU ratio) and what a quiet machine would allow: the CPU of
+  --jobs 1 over the serial head plus half of the rest of --jobs 2's CPU (the head taken at the
+  CPU share of the --jobs 1 run).
 
 With ``--cli N`` the same comparison is also made N times with the command line
 (``ema-rig campaign data/campaign.toml --out DIR --jobs J --force``, a fresh process each time,
@@ -35,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -57,9 +63,11 @@ def _one_run(cfg: CampaignConfig, jobs: int) -> dict[str, Any]:
         done_at.append(time.perf_counter())
 
     with tempfile.TemporaryDirectory() as tmp:
+        c0 = _cpu()
         t0 = time.perf_counter()
         res = run(cfg, out_dir=tmp, jobs=jobs, force=True, report=False, progress=progress)
         t1 = time.perf_counter()
+        cpu = _cpu() - c0
     elapsed = [float(r["elapsed_s"]) for r in res.rows]
     n_ok = len(res.rows) - res.n_failed
     # the first completion is some measurement; its own time is unknown from the parent, so the
@@ -68,7 +76,16 @@ def _one_run(cfg: CampaignConfig, jobs: int) -> dict[str, Any]:
     head = (done_at[0] - t0) - first_own if done_at else t1 - t0
     body = (done_at[-1] - done_at[0]) + first_own if done_at else 0.0
     tail = t1 - done_at[-1] if done_at else 0.0
-    return {"total": t1 - t0, "head": head, "body": body, "tail": tail, "work": sum(elapsed), "n_ok": n_ok}
+    return {"total": t1 - t0, "head": head, "body": body, "tail": tail, "work": sum(elapsed), "cpu": cpu,
+            "n_ok": n_ok}
+
+
+def _cpu() -> float:
+    """CPU seconds (user + system) of this process and of its reaped children (the pool's workers,
+    reaped when ``run`` shuts its pool down)."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def _stat(xs: list[float]) -> str:
@@ -115,10 +132,10 @@ def main() -> None:
         ratios.append(pair[1] / pair[2])
     print(f"in-process, force, no report; first run apart, then {args.repeat} interleaved pairs, "
           "median [min-max] in s:")
-    print(f"{'':9} {'first':>6} {'total':>20} {'head':>20} {'body':>20} {'tail':>20} {'work':>20}  ok")
+    print(f"{'':9} {'first':>6} {'total':>20} {'head':>20} {'body':>20} {'tail':>20} {'work':>20} {'cpu':>20}  ok")
     for jobs in (1, 2):
         rs = runs[jobs]
-        cells = " ".join(f"{_stat([r[k] for r in rs]):>20}" for k in ("total", "head", "body", "tail", "work"))
+        cells = " ".join(f"{_stat([r[k] for r in rs]):>20}" for k in ("total", "head", "body", "tail", "work", "cpu"))
         print(f"--jobs {jobs}  {first[jobs]:6.2f} {cells}  {rs[-1]['n_ok']}/{n}")
     med = {j: {k: statistics.median(r[k] for r in runs[j]) for k in runs[j][0]} for j in (1, 2)}
     speed = statistics.median(ratios)
@@ -135,6 +152,13 @@ def main() -> None:
           f"{(j2['work'] - med[1]['work']) / 2:+.2f} s")
     print(f"  uneven end (body - work/2): {j2['body'] - j2['work'] / 2:+.2f} s;  tail: {j2['tail']:.2f} s "
           f"(--jobs 1: {med[1]['tail']:.2f} s)")
+    c1, c2 = med[1]["cpu"], med[2]["cpu"]
+    print(f"CPU per run: --jobs 1 {c1:.2f} s, --jobs 2 {c2:.2f} s ({c2 / c1:.2f}x); wall of --jobs 1 / its CPU "
+          f"{med[1]['total'] / c1:.2f} (> 1: the run waited for a core; on a quiet machine ~1)")
+    head_cpu = med[1]["head"] * min(1.0, c1 / med[1]["total"])  # the serial part, at the run's CPU share
+    quiet = c1 / (head_cpu + (c2 - head_cpu) / 2)
+    print(f"speed-up a quiet 2-core machine would allow from these CPU times (serial head scaled the same way): "
+          f"~{quiet:.2f}x")
     if args.cli:
         t = _cli_runs(args.campaign, args.cli)
         r = [a / b for a, b in zip(t[1], t[2], strict=True)]
