@@ -15,7 +15,7 @@ public calls of the same data, each on the whole band:
 
 * ``identify``: ``ema_rig.identification.identify(data, band=(lo, hi), max_order=P)``;
 * ``plscf``: ``ema_rig.identification.plscf(data, max_order=P)``;
-* ``lsfd``: ``ema_rig.identification.lsfd(data, poles=<true poles>, band=(lo, hi))``.
+* ``lsfd``: ``ema_rig.identification.lsfd(data, <true poles>, band=(lo, hi))``.
 
 How the numbers are taken
 -------------------------
@@ -53,6 +53,7 @@ Run from the repository root::
 
     python benchmarks/bench_scale.py --quick
     python benchmarks/bench_scale.py [--repeat N] [--json OUT]
+    python benchmarks/bench_scale.py --only 256x3x64001x200 --max-row-s 200   # chosen rows
 """
 
 from __future__ import annotations
