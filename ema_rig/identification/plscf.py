@@ -596,12 +596,9 @@ class PlscfEngine:
         self.threads = threads if threads is not None else min(2, os.cpu_count() or 1)
         self.n_in = data.n_in
         self.f_lo, self.f_hi = float(data.freq[0]), float(data.freq[-1])
-        p = max_order
         with single_threaded():
-            r, s, t, _, self.dt = _lag_sums(data, p)
-            self._T, self._Q = _reduced_blocks(r, s, t, p)
-        ncol = (p + 1) * self.n_in
-        self._P = np.zeros((ncol, ncol))
+            self._r, self._s, self._t, _, self.dt = _lag_sums(data, max_order)
+        self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
         self._prev: NDArray | None = None
@@ -609,9 +606,31 @@ class PlscfEngine:
         self.n_aberth = 0
         self.fallbacks = 0
 
+    def _blocks(self, n: int) -> None:
+        """Build (or enlarge) the reduced blocks so that orders up to ``n`` can be formed.
+
+        The blocks of order ``p`` are built from the lag sums of the cap; the leading rows of
+        ``Q`` and the leading blocks of ``T`` do not depend on ``p``, so enlarging only
+        re-accumulates ``P`` from the rows already used. The size at least doubles each time.
+        """
+        if n <= self._alloc:
+            return
+        p = min(self.max_order, max(n, 2 * self._alloc))
+        cap = self.max_order
+        lags = np.arange(cap - p, cap + p + 1)  # lags -p..p inside the cap's -cap..cap
+        self._T, self._Q = _reduced_blocks(self._r[: p + 1], self._s[:, :, lags], self._t[:, :, lags], p)
+        ncol = (p + 1) * self.n_in
+        self._P = np.zeros((ncol, ncol))
+        if self._done:
+            rows = self._Q[: self._done].reshape(-1, ncol)
+            self._P += rows.T @ rows
+        self._alloc = p
+
     def _compute(self, order_list: list[int], bar: Any) -> None:
         """Solve and root every order of ``order_list`` (ascending, above those already done)."""
         n_in, dt, f_lo = self.n_in, self.dt, self.f_lo
+        with single_threaded():
+            self._blocks(order_list[-1])
         ncol = self._P.shape[0]
         pool = None
         futures: list[tuple[int, Any]] = []

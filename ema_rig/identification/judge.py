@@ -1,0 +1,275 @@
+"""Physical-mode judgement: every cluster of stable poles gets a verdict and a reason.
+
+Functions
+---------
+judge_clusters
+    Candidates of a stabilization (clusters of stable poles) judged on stability over the
+    orders, damping, duplicates, shape phase (MPC) and their support in the measured FRFs.
+
+Classes
+-------
+Candidate
+    One cluster with its verdict (``accepted``) and the reason.
+
+Notes
+-----
+A candidate is rejected, in this order, when
+
+1. it is stable at fewer than ``min_poles`` orders, or present at less than
+   ``min_persistence`` of the computed orders from its first appearance up (it flickers);
+2. its mean damping ratio lies outside ``(0, max_damping]``;
+3. it duplicates a longer-lived cluster (frequencies within three standard deviations and
+   participation MAC above 0.9, or shapes MAC above 0.95 and less than a tenth of a half-power
+   bandwidth apart);
+4. it lies inside the half-power bandwidth ``2 zeta f`` of a stronger candidate while its shape
+   is far less monophase (MPC below ``split_mpc`` and at least 0.3 below the neighbour's): a
+   pole that splits a mode;
+5. removing it from the LSFD fit does not worsen the fit: the F statistic of its two real
+   parameters per channel, ``(dRSS / 2) / (RSS / dof)`` summed over channels, is below
+   ``min_support`` (white noise gives about 1; a mode of the data gives thousands).
+
+The MPC is computed on the residues along the longer axis of the measurement (outputs for a
+classical test, references for a roving hammer), from the row or column that carries the
+mode most strongly; for a single-channel measurement it is 1 by construction and rule 4 cannot
+apply.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._blas import single_threaded
+from ..frf import _FORM_POWER, FRFData
+from .mac import mac, mpc
+from .stabilization import SelectedMode, StabilizationData, _mode_from_rows, cluster_poles
+
+
+@dataclass(frozen=True, slots=True)
+class Candidate:
+    """One cluster of stable poles and its verdict.
+
+    Parameters
+    ----------
+    mode : SelectedMode
+        The cluster as a mode (mean frequency and damping, spread, representative pole,
+        ``order_min`` .. ``order_max``).
+    accepted : bool
+        True when judged a physical mode.
+    reason : str
+        Why (one line).
+    mpc : float
+        MPC of the candidate's shape (NaN when not fitted).
+    support : float
+        F statistic of the candidate in the LSFD fit (NaN when not fitted).
+    persistence : float
+        Fraction of the computed orders from ``order_min`` up at which the cluster has a pole.
+    """
+
+    mode: SelectedMode
+    accepted: bool
+    reason: str
+    mpc: float = float("nan")
+    support: float = float("nan")
+    persistence: float = float("nan")
+
+    @property
+    def natural_freq(self) -> float:
+        """Mean natural frequency of the cluster [Hz]."""
+        return self.mode.natural_freq
+
+    @property
+    def damping_ratio(self) -> float:
+        """Mean damping ratio of the cluster."""
+        return self.mode.damping_ratio
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: the mode's fields plus ``verdict``, ``reason``, ``mpc``, ``support``."""
+        d = self.mode.to_dict()
+
+        def num(x: float) -> float | None:
+            return float(x) if np.isfinite(x) else None
+
+        d.update({"verdict": "accepted" if self.accepted else "rejected", "reason": self.reason,
+                  "mpc": num(self.mpc), "support": num(self.support), "persistence": num(self.persistence)})
+        return d
+
+
+def _basis(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, int]:
+    """Real LSFD design matrix (2 n_freq, 2 n_modes + 2) with residual terms, data (2 n_freq, n_chan)."""
+    p = _FORM_POWER[data.frf_form]
+    f, h = data.freq, data.frf
+    if p < 2 and f[0] == 0.0:
+        f, h = f[1:], h[:, :, 1:]
+    w = 2 * np.pi * f
+    jw = 1j * w
+    fac = np.ones_like(jw)
+    for _ in range(p):
+        fac = fac * jw
+    pos = 1.0 / (jw[:, None] - poles[None, :])
+    neg = 1.0 / (jw[:, None] - poles.conj()[None, :])
+    # LR / (j w)^2 in the data's form (0 Hz was dropped above unless the form is accelerance)
+    lr = np.ones_like(jw) if p == 2 else fac / (jw * jw)
+    cols = [fac[:, None] * (pos + neg), fac[:, None] * (1j * (pos - neg)), lr[:, None], fac[:, None]]
+    a = np.concatenate(cols, axis=1)
+    y = h.reshape(-1, f.size).T
+    return np.concatenate([a.real, a.imag]), np.concatenate([y.real, y.imag]), f.size
+
+
+def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
+    """Residues (n_modes, n_out, n_in) and the F statistic of every mode (n_modes,).
+
+    The increase of the residual sum of squares when mode ``k``'s two real parameters are
+    dropped is ``x_K^T (C_KK)^-1 x_K`` per channel, ``C = (A^T A)^-1`` (no refit needed).
+    """
+    from scipy.linalg import solve_triangular
+
+    n = poles.size
+    a, b, n_f = _basis(data, poles)
+    scale = np.linalg.norm(a, axis=0)
+    a = a / np.where(scale > 0, scale, 1.0)
+    q, r = np.linalg.qr(a)
+    c = q.T @ b  # (n_unk, n_chan)
+    x = solve_triangular(r, c, check_finite=False)
+    rss = float(np.sum(b**2) - np.sum(c**2))
+    n_chan = b.shape[1]
+    dof = max(b.shape[0] - a.shape[1], 1) * n_chan
+    sigma2 = max(rss / dof, 1e-14 * float(np.sum(b**2)) / max(b.size, 1))
+    rinv = solve_triangular(r, np.eye(r.shape[0]), check_finite=False)
+    cov = rinv @ rinv.T
+    k = np.arange(n)
+    blk = np.empty((n, 2, 2))
+    blk[:, 0, 0], blk[:, 0, 1] = cov[k, k], cov[k, n + k]
+    blk[:, 1, 0], blk[:, 1, 1] = cov[n + k, k], cov[n + k, n + k]
+    xk = np.stack([x[:n], x[n : 2 * n]], axis=1)  # (n, 2, n_chan)
+    d_rss = np.einsum("kic,kic->k", xk, np.linalg.solve(blk, xk))
+    support = np.maximum(d_rss, 0.0) / (2 * n_chan) / sigma2
+    x = x / np.where(scale > 0, scale, 1.0)[:, None]
+    res = (x[:n] + 1j * x[n : 2 * n]).T.reshape(data.n_out, data.n_in, n)
+    return np.moveaxis(res, 2, 0), support
+
+
+def shape_mpc(residues: NDArray[np.complex128]) -> NDArray[np.float64]:
+    """MPC of each mode along the longer axis of the residues (n_modes, n_out, n_in) -> (n_modes,).
+
+    The shape is the residue column (outputs) of the strongest reference, or, when there are
+    more references than outputs, the residue row (references) of the strongest output.
+    """
+    res = np.asarray(residues)
+    if res.shape[2] > res.shape[1]:
+        res = np.swapaxes(res, 1, 2)
+    strongest = np.argmax(np.linalg.norm(res, axis=1), axis=1)  # (n_modes,)
+    shapes = res[np.arange(res.shape[0]), :, strongest]
+    return mpc(shapes)
+
+
+def judge_clusters(
+    stab: StabilizationData,
+    data: FRFData,
+    *,
+    min_poles: int = 4,
+    min_persistence: float = 0.5,
+    max_damping: float = 0.2,
+    min_support: float = 5.0,
+    split_mpc: float = 0.5,
+) -> tuple[Candidate, ...]:
+    """Judge every cluster of stable poles of ``stab`` against the data ``data``.
+
+    Parameters
+    ----------
+    stab : StabilizationData
+        Stabilization of the pLSCF estimate (its participation vectors belong to the layout
+        the poles were estimated on, which may be the transposed one).
+    data : FRFData
+        The measured FRFs in the band (original layout), used for the LSFD-based rules.
+    min_poles, min_persistence, max_damping, min_support, split_mpc : optional
+        Thresholds of the rules in the module notes.
+
+    Returns
+    -------
+    tuple of Candidate
+        Sorted by frequency; ``accepted`` ones are the physical modes.
+    """
+    orders = np.asarray(stab.orders)
+    clusters = cluster_poles(stab, max_damping=max_damping)
+    modes = [_mode_from_rows(stab, rows, "auto") for rows in clusters]
+    verdict: list[str | None] = [None] * len(modes)
+    persistence = np.full(len(modes), np.nan)
+    lo, hi = stab.band
+    for i, m in enumerate(modes):
+        span = int(np.sum(orders >= m.order_min))
+        persistence[i] = m.n_poles / max(span, 1)
+        if m.n_poles < min_poles:
+            verdict[i] = f"stable at only {m.n_poles} orders (need {min_poles})"
+        elif persistence[i] < min_persistence:
+            verdict[i] = (f"intermittent: present at {m.n_poles} of the {span} orders from "
+                          f"{m.order_min} up")
+        elif not 0 < m.damping_ratio <= max_damping:
+            verdict[i] = f"implausible damping ratio {m.damping_ratio:.3g}"
+        elif not lo <= m.natural_freq <= hi:
+            verdict[i] = "outside the band"
+    # duplicates by participation: same frequency within the spread, same participation
+    alive = [i for i in range(len(modes)) if verdict[i] is None]
+    for a_i, i in enumerate(alive):
+        for j in alive[a_i + 1 :]:
+            if verdict[i] is not None or verdict[j] is not None:
+                continue
+            mi, mj = modes[i], modes[j]
+            close = abs(mi.natural_freq - mj.natural_freq) <= 3 * (mi.natural_freq_std + mj.natural_freq_std)
+            same = float(mac(np.array(mi.participation), np.array(mj.participation))[0, 0]) > 0.9
+            if close and same:
+                weak, strong = (j, i) if mi.n_poles >= mj.n_poles else (i, j)
+                verdict[weak] = f"duplicate of {modes[strong].natural_freq:.6g} Hz"
+    mpcs = np.full(len(modes), np.nan)
+    support = np.full(len(modes), np.nan)
+    for _ in range(4):
+        alive = [i for i in range(len(modes)) if verdict[i] is None]
+        if not alive:
+            break
+        poles = np.array([modes[i].pole for i in alive])
+        with single_threaded():
+            res, sup = _fit(data, poles)
+        mp = shape_mpc(res)
+        mpcs[alive] = mp
+        support[alive] = sup
+        new = False
+        # duplicates by shape, splits by shape phase, then support
+        shapes = _shapes(res)
+        for a_i, i in enumerate(alive):
+            for b_i, j in enumerate(alive):
+                if i == j or verdict[i] is not None or verdict[j] is not None:
+                    continue
+                fi, fj = modes[i].natural_freq, modes[j].natural_freq
+                bw = 2 * max(modes[j].damping_ratio, 1e-4) * fj
+                stronger = sup[b_i] > sup[a_i]
+                if not stronger or abs(fi - fj) > bw:
+                    continue
+                if abs(fi - fj) < 0.1 * bw and float(mac(shapes[a_i], shapes[b_i])[0, 0]) > 0.95:
+                    verdict[i] = f"duplicate of {fj:.6g} Hz (shape MAC > 0.95)"
+                    new = True
+                elif mp[a_i] < split_mpc and mp[a_i] < mp[b_i] - 0.3:
+                    verdict[i] = f"splits the {fj:.6g} Hz mode (MPC {mp[a_i]:.2f} against {mp[b_i]:.2f})"
+                    new = True
+        for a_i, i in enumerate(alive):
+            if verdict[i] is None and sup[a_i] < min_support:
+                verdict[i] = f"negligible contribution to the fit (F = {sup[a_i]:.3g} < {min_support:g})"
+                new = True
+        if not new:
+            break
+    out = []
+    for i, m in enumerate(modes):
+        v = verdict[i]
+        out.append(Candidate(mode=m, accepted=v is None, reason=v or "physical", mpc=float(mpcs[i]),
+                             support=float(support[i]), persistence=float(persistence[i])))
+    return tuple(out)
+
+
+def _shapes(res: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """All residues of each mode flattened to one vector, (n_modes, n_out * n_in)."""
+    return res.reshape(res.shape[0], -1)
+
+
+__all__ = ["Candidate", "judge_clusters", "shape_mpc"]
