@@ -25,8 +25,14 @@ A candidate is rejected, in this order, when
    is far less monophase (MPC below ``split_mpc`` and at least 0.3 below the neighbour's): a
    pole that splits a mode;
 5. removing it from the LSFD fit does not worsen the fit: the F statistic of its two real
-   parameters per channel, ``(dRSS / 2) / (RSS / dof)`` summed over channels, is below
-   ``min_support`` (white noise gives about 1; a mode of the data gives thousands).
+   parameters per channel, ``dRSS / (2 n_chan) / sigma^2``, is below ``min_support`` (a pole
+   that only fits noise gives about 1; a mode of the data tens to thousands). ``sigma^2`` is
+   the residual per real number over the lines within two half-power bandwidths (at least
+   five lines) of the candidate: the noise where the candidate acts;
+6. its own term of the fit is less than ``min_peak_share`` (5 %) of the measured FRFs within
+   its half-power bandwidth (``peak_share``): it makes no peak;
+7. with three or more response (or reference) DOFs, its shape is far from monophase (MPC below
+   ``split_mpc``) and its evidence is weak (F below ``4 min_support`` or peak share below 30 %).
 
 The MPC is computed on the residues along the longer axis of the measurement (outputs for a
 classical test, references for a roving hammer), from the row or column that carries the
@@ -67,6 +73,9 @@ class Candidate:
         F statistic of the candidate in the LSFD fit (NaN when not fitted).
     persistence : float
         Fraction of the computed orders from ``order_min`` up at which the cluster has a pole.
+    peak_share : float
+        ``||H_k|| / ||H||`` near the candidate's frequency (its own term of the fit against
+        the measured FRFs; NaN when not fitted).
     """
 
     mode: SelectedMode
@@ -75,6 +84,7 @@ class Candidate:
     mpc: float = float("nan")
     support: float = float("nan")
     persistence: float = float("nan")
+    peak_share: float = float("nan")
 
     @property
     def natural_freq(self) -> float:
@@ -94,7 +104,8 @@ class Candidate:
             return float(x) if np.isfinite(x) else None
 
         d.update({"verdict": "accepted" if self.accepted else "rejected", "reason": self.reason,
-                  "mpc": num(self.mpc), "support": num(self.support), "persistence": num(self.persistence)})
+                  "mpc": num(self.mpc), "support": num(self.support), "persistence": num(self.persistence),
+                  "peak_share": num(self.peak_share)})
         return d
 
 
@@ -119,8 +130,12 @@ def _basis(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArr
     return np.concatenate([a.real, a.imag]), np.concatenate([y.real, y.imag]), f.size
 
 
-def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
-    """Residues (n_modes, n_out, n_in) and the F statistic of every mode (n_modes,).
+def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
+    """Residues (n_modes, n_out, n_in), the F statistic and the peak share of every mode (n_modes,).
+
+    The peak share is ``||H_k|| / ||H||`` over the lines within one half-power bandwidth (at
+    least two lines each side) of mode ``k``, ``H_k`` its own term of the fit: about 1 for a
+    mode that makes its peak, small for a pole in a trough or under a stronger mode.
 
     The increase of the residual sum of squares when mode ``k``'s two real parameters are
     dropped is ``x_K^T (C_KK)^-1 x_K`` per channel, ``C = (A^T A)^-1`` (no refit needed).
@@ -134,10 +149,28 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray
     q, r = np.linalg.qr(a)
     c = q.T @ b  # (n_unk, n_chan)
     x = solve_triangular(r, c, check_finite=False)
-    rss = float(np.sum(b**2) - np.sum(c**2))
+    # noise level near each mode: residual per real number over the lines within two
+    # half-power bandwidths (at least 5 lines each side), so junk far away cannot mask it
+    e = b - a @ x
+    line = np.sum(e[:n_f] ** 2 + e[n_f:] ** 2, axis=1)  # (n_f,)
     n_chan = b.shape[1]
-    dof = max(b.shape[0] - a.shape[1], 1) * n_chan
-    sigma2 = max(rss / dof, 1e-14 * float(np.sum(b**2)) / max(b.size, 1))
+    f = data.freq[-n_f:]
+    df = float(np.median(np.diff(f))) if n_f > 1 else 1.0
+    floor = 1e-14 * float(np.sum(b**2)) / max(b.size, 1)
+    sigma2 = np.empty(n)
+    share = np.empty(n)
+    y2 = np.sum(b[:n_f] ** 2 + b[n_f:] ** 2, axis=1)  # |H|^2 per line, summed over channels
+    for k, lam in enumerate(poles):
+        fk = abs(lam) / (2 * np.pi)
+        bw = -lam.real / (2 * np.pi)  # half of the half-power bandwidth [Hz]
+        win = np.abs(f - fk) <= max(2.0 * bw, 5 * df)
+        sigma2[k] = max(float(line[win].mean() if win.any() else line.mean()) / (2 * n_chan), floor)
+        near = np.abs(f - fk) <= max(bw, 2 * df)
+        if not near.any():
+            near = np.abs(f - fk) <= np.min(np.abs(f - fk))
+        term = a[:, [k, n + k]] @ x[[k, n + k]]  # (2 n_f, n_chan)
+        t2 = np.sum(term[:n_f] ** 2 + term[n_f:] ** 2, axis=1)
+        share[k] = float(np.sqrt(t2[near].sum() / max(y2[near].sum(), floor)))
     rinv = solve_triangular(r, np.eye(r.shape[0]), check_finite=False)
     cov = rinv @ rinv.T
     k = np.arange(n)
@@ -149,7 +182,7 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray
     support = np.maximum(d_rss, 0.0) / (2 * n_chan) / sigma2
     x = x / np.where(scale > 0, scale, 1.0)[:, None]
     res = (x[:n] + 1j * x[n : 2 * n]).T.reshape(data.n_out, data.n_in, n)
-    return np.moveaxis(res, 2, 0), support
+    return np.moveaxis(res, 2, 0), support, share
 
 
 def shape_mpc(residues: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -175,6 +208,7 @@ def judge_clusters(
     max_damping: float = 0.2,
     min_support: float = 5.0,
     split_mpc: float = 0.5,
+    min_peak_share: float = 0.05,
 ) -> tuple[Candidate, ...]:
     """Judge every cluster of stable poles of ``stab`` against the data ``data``.
 
@@ -185,7 +219,7 @@ def judge_clusters(
         the poles were estimated on, which may be the transposed one).
     data : FRFData
         The measured FRFs in the band (original layout), used for the LSFD-based rules.
-    min_poles, min_persistence, max_damping, min_support, split_mpc : optional
+    min_poles, min_persistence, max_damping, min_support, split_mpc, min_peak_share : optional
         Thresholds of the rules in the module notes.
 
     Returns
@@ -225,16 +259,18 @@ def judge_clusters(
                 verdict[weak] = f"duplicate of {modes[strong].natural_freq:.6g} Hz"
     mpcs = np.full(len(modes), np.nan)
     support = np.full(len(modes), np.nan)
+    peak = np.full(len(modes), np.nan)
     for _ in range(4):
         alive = [i for i in range(len(modes)) if verdict[i] is None]
         if not alive:
             break
         poles = np.array([modes[i].pole for i in alive])
         with single_threaded():
-            res, sup = _fit(data, poles)
+            res, sup, shr = _fit(data, poles)
         mp = shape_mpc(res)
         mpcs[alive] = mp
         support[alive] = sup
+        peak[alive] = shr
         new = False
         # duplicates by shape, splits by shape phase, then support
         shapes = _shapes(res)
@@ -253,9 +289,20 @@ def judge_clusters(
                 elif mp[a_i] < split_mpc and mp[a_i] < mp[b_i] - 0.3:
                     verdict[i] = f"splits the {fj:.6g} Hz mode (MPC {mp[a_i]:.2f} against {mp[b_i]:.2f})"
                     new = True
+        n_dof = max(data.n_out, data.n_in)
         for a_i, i in enumerate(alive):
-            if verdict[i] is None and sup[a_i] < min_support:
+            if verdict[i] is not None:
+                continue
+            if sup[a_i] < min_support:
                 verdict[i] = f"negligible contribution to the fit (F = {sup[a_i]:.3g} < {min_support:g})"
+                new = True
+            elif shr[a_i] < min_peak_share:
+                verdict[i] = (f"no peak of its own: {100 * shr[a_i]:.0f} % of the FRF near {modes[i].natural_freq:.5g} Hz "
+                              f"(< {100 * min_peak_share:g} %)")
+                new = True
+            elif n_dof >= 3 and mp[a_i] < split_mpc and (sup[a_i] < 4 * min_support or shr[a_i] < 0.3):
+                verdict[i] = (f"weak (F = {sup[a_i]:.3g}, {100 * shr[a_i]:.0f} % of the FRF near it) with a shape "
+                              f"far from monophase (MPC {mp[a_i]:.2f} < {split_mpc:g})")
                 new = True
         if not new:
             break
@@ -263,7 +310,8 @@ def judge_clusters(
     for i, m in enumerate(modes):
         v = verdict[i]
         out.append(Candidate(mode=m, accepted=v is None, reason=v or "physical", mpc=float(mpcs[i]),
-                             support=float(support[i]), persistence=float(persistence[i])))
+                             support=float(support[i]), persistence=float(persistence[i]),
+                             peak_share=float(peak[i])))
     return tuple(out)
 
 
