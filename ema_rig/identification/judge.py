@@ -173,10 +173,10 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray
         share[k] = float(np.sqrt(t2[near].sum() / max(y2[near].sum(), floor)))
     rinv = solve_triangular(r, np.eye(r.shape[0]), check_finite=False)
     cov = rinv @ rinv.T
-    k = np.arange(n)
+    ks = np.arange(n)
     blk = np.empty((n, 2, 2))
-    blk[:, 0, 0], blk[:, 0, 1] = cov[k, k], cov[k, n + k]
-    blk[:, 1, 0], blk[:, 1, 1] = cov[n + k, k], cov[n + k, n + k]
+    blk[:, 0, 0], blk[:, 0, 1] = cov[ks, ks], cov[ks, n + ks]
+    blk[:, 1, 0], blk[:, 1, 1] = cov[n + ks, ks], cov[n + ks, n + ks]
     xk = np.stack([x[:n], x[n : 2 * n]], axis=1)  # (n, 2, n_chan)
     d_rss = np.einsum("kic,kic->k", xk, np.linalg.solve(blk, xk))
     support = np.maximum(d_rss, 0.0) / (2 * n_chan) / sigma2
