@@ -23,6 +23,8 @@ here (it imports matplotlib.pyplot).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import time
 import warnings
 from dataclasses import dataclass
@@ -133,11 +135,13 @@ def crosscheck(data: FRFData, ident: Identification, *, order: int | None = None
     natural_freq, damping_ratio = ident.natural_freq, ident.damping_ratio
     d = data.band(float(data.freq[0]), hi)
     frf = d.frf.reshape(-1, d.n_freq)
+    # sdypy-EMA's LSCF needs at least one line below its lower limit (none at 0 Hz)
+    lower = max(lo, float(d.freq[1]))
     half = max(2, int(order) // 2)
     t0 = time.perf_counter()
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
         warnings.simplefilter("ignore")
-        m = EMA.Model(frf=frf, freq=d.freq, lower=lo, upper=hi, pol_order_high=half, frf_form=d.frf_form)
+        m = EMA.Model(frf=frf, freq=d.freq, lower=lower, upper=hi, pol_order_high=half, frf_form=d.frf_form)
         m.get_poles(method="lscf", show_progress=False)
         fn, xi, test_fn, test_xi = sdy_stab._stabilization(m.all_poles, m.n_bands * half, err_fn=0.01, err_xi=0.05)
     seconds = time.perf_counter() - t0
