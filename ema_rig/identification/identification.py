@@ -352,12 +352,14 @@ def identify(
         span = max(2 * step, (start // 4) // step * step)
         t0 = time.perf_counter()
         prev_n = max(start - span, min_order)
-        stab = stabilized(prev_n)
-        prev = [c.mode for c in judge_clusters(stab, data) if c.accepted]
         n = start
+        stab = stabilized(n)
+        # the orders up to prev_n are a leading part of the same estimate (same status letters)
+        prev = [c.mode for c in judge_clusters(_up_to(stab, prev_n), data) if c.accepted]
         history = []
         while True:
-            stab = stabilized(n)
+            if max(stab.orders) < n:
+                stab = stabilized(n)
             candidates = judge_clusters(stab, data)
             cur = [c.mode for c in candidates if c.accepted]
             history.append(f"{n}: {len(cur)}")
@@ -414,6 +416,15 @@ def identify(
         notes=tuple(notes),
         transposed=transposed,
     )
+
+
+def _up_to(stab: StabilizationData, n: int) -> StabilizationData:
+    """The rows of ``stab`` of the orders up to ``n`` (their status letters do not depend on later orders)."""
+    ps = stab.poles
+    keep = ps.order <= n
+    sub = PoleSet(order=ps.order[keep], pole=ps.pole[keep], participation=ps.participation[keep], band=ps.band,
+                  in_dofs=ps.in_dofs, orders=tuple(o for o in ps.orders if o <= n), meta=ps.meta)
+    return StabilizationData(sub, stab.status[keep], stab.tolerances)
 
 
 def _require_stable(stab: StabilizationData, n: int, src: str | None, work: FRFData) -> None:

@@ -253,8 +253,7 @@ def judge_clusters(
                 continue
             mi, mj = modes[i], modes[j]
             close = abs(mi.natural_freq - mj.natural_freq) <= 3 * (mi.natural_freq_std + mj.natural_freq_std)
-            same = float(mac(np.array(mi.participation), np.array(mj.participation))[0, 0]) > 0.9
-            if close and same:
+            if close and float(mac(np.array(mi.participation), np.array(mj.participation))[0, 0]) > 0.9:
                 weak, strong = (j, i) if mi.n_poles >= mj.n_poles else (i, j)
                 verdict[weak] = f"duplicate of {modes[strong].natural_freq:.6g} Hz"
     mpcs = np.full(len(modes), np.nan)
