@@ -17,7 +17,8 @@ A candidate is rejected, in this order, when
 
 1. it is stable at fewer than ``min_poles`` orders, or present at less than
    ``min_persistence`` of the computed orders from its first appearance up (it flickers);
-2. its mean damping ratio lies outside ``(0, max_damping]``;
+2. its mean damping ratio lies outside ``(0, max_damping]``, or its standard deviation over
+   the cluster exceeds ``max_damping_spread`` (half) of the mean;
 3. it duplicates a longer-lived cluster (frequencies within three standard deviations and
    participation MAC above 0.9, or shapes MAC above 0.95 and less than a tenth of a half-power
    bandwidth apart);
@@ -31,8 +32,11 @@ A candidate is rejected, in this order, when
    five lines) of the candidate: the noise where the candidate acts;
 6. its own term of the fit is less than ``min_peak_share`` (5 %) of the measured FRFs within
    its half-power bandwidth (``peak_share``): it makes no peak;
-7. with three or more response (or reference) DOFs, its shape is far from monophase (MPC below
-   ``split_mpc``) and its evidence is weak (F below ``4 min_support`` or peak share below 30 %).
+7. with three or more response (or reference) DOFs, its shape has no common phase (MPC below
+   ``min_mpc``, 0.25: the noise columns of a measurement), or it is far from monophase (MPC
+   below ``split_mpc``) and its evidence is weak (F below ``4 min_support`` or peak share below
+   30 %). Physical modes of a lightly damped structure are nearly monophase; the dam's
+   most complex accepted shapes have MPC 0.34-0.45.
 
 The MPC is computed on the residues along the longer axis of the measurement (outputs for a
 classical test, references for a roving hammer), from the row or column that carries the
@@ -209,6 +213,8 @@ def judge_clusters(
     min_support: float = 5.0,
     split_mpc: float = 0.5,
     min_peak_share: float = 0.05,
+    min_mpc: float = 0.25,
+    max_damping_spread: float = 0.5,
 ) -> tuple[Candidate, ...]:
     """Judge every cluster of stable poles of ``stab`` against the data ``data``.
 
@@ -219,7 +225,8 @@ def judge_clusters(
         the poles were estimated on, which may be the transposed one).
     data : FRFData
         The measured FRFs in the band (original layout), used for the LSFD-based rules.
-    min_poles, min_persistence, max_damping, min_support, split_mpc, min_peak_share : optional
+    min_poles, min_persistence, max_damping, min_support, split_mpc, min_peak_share, min_mpc, \
+    max_damping_spread : optional
         Thresholds of the rules in the module notes.
 
     Returns
@@ -243,6 +250,9 @@ def judge_clusters(
                           f"{m.order_min} up")
         elif not 0 < m.damping_ratio <= max_damping:
             verdict[i] = f"implausible damping ratio {m.damping_ratio:.3g}"
+        elif m.damping_ratio_std > max_damping_spread * m.damping_ratio:
+            verdict[i] = (f"damping not stable over the orders ({100 * m.damping_ratio:.2g} +/- "
+                          f"{100 * m.damping_ratio_std:.2g} %)")
         elif not lo <= m.natural_freq <= hi:
             verdict[i] = "outside the band"
     # duplicates by participation: same frequency within the spread, same participation
@@ -298,6 +308,9 @@ def judge_clusters(
             elif shr[a_i] < min_peak_share:
                 verdict[i] = (f"no peak of its own: {100 * shr[a_i]:.0f} % of the FRF near {modes[i].natural_freq:.5g} Hz "
                               f"(< {100 * min_peak_share:g} %)")
+                new = True
+            elif n_dof >= 3 and mp[a_i] < min_mpc:
+                verdict[i] = f"shape without a common phase (MPC {mp[a_i]:.2f} < {min_mpc:g})"
                 new = True
             elif n_dof >= 3 and mp[a_i] < split_mpc and (sup[a_i] < 4 * min_support or shr[a_i] < 0.3):
                 verdict[i] = (f"weak (F = {sup[a_i]:.3g}, {100 * shr[a_i]:.0f} % of the FRF near it) with a shape "
