@@ -353,16 +353,21 @@ def identify(
         t0 = time.perf_counter()
         prev_n = max(start - span, min_order)
         n = start
-        stab = stabilized(n)
-        # the orders up to prev_n are a leading part of the same estimate (same status letters)
-        prev = [c.mode for c in judge_clusters(_up_to(stab, prev_n), data) if c.accepted]
+        prev: list[SelectedMode] | None = None
         history = []
         while True:
-            if max(stab.orders) < n:
-                stab = stabilized(n)
+            stab = stabilized(n)
             candidates = judge_clusters(stab, data)
             cur = [c.mode for c in candidates if c.accepted]
             history.append(f"{n}: {len(cur)}")
+            if prev is None:
+                # the orders up to prev_n are a leading part of the same estimate (same status
+                # letters). When exactly the modes accepted now already pass the stability rules
+                # there, the LSFD verdicts (which judge the same modes) are taken over.
+                early = _up_to(stab, prev_n)
+                prev = [c.mode for c in judge_clusters(early, data, fit=False) if c.accepted]
+                if not _same_modes(prev, cur):
+                    prev = [c.mode for c in judge_clusters(early, data) if c.accepted]
             converged = bool(cur) and _same_modes(prev, cur)
             if converged or n >= cap or time.perf_counter() - t0 > time_budget:
                 break

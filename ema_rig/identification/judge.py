@@ -24,7 +24,8 @@ A candidate is rejected, in this order, when
    bandwidth apart);
 4. it lies inside the half-power bandwidth ``2 zeta f`` of a stronger candidate while its shape
    is far less monophase (MPC below ``split_mpc`` and at least 0.3 below the neighbour's): a
-   pole that splits a mode;
+   pole that splits a mode -- unless it is well founded on its own (stable at 80 % of its
+   orders, damping stable to 20 %, F at least a tenth of the neighbour's);
 5. removing it from the LSFD fit does not worsen the fit: the F statistic of its two real
    parameters per channel, ``dRSS / (2 n_chan) / sigma^2``, is below ``min_support`` (a pole
    that only fits noise gives about 1; a mode of the data tens to thousands). ``sigma^2`` is
@@ -33,9 +34,10 @@ A candidate is rejected, in this order, when
 6. its own term of the fit is less than ``min_peak_share`` (5 %) of the measured FRFs within
    its half-power bandwidth (``peak_share``): it makes no peak;
 7. with three or more response (or reference) DOFs, its shape has no common phase (MPC below
-   ``min_mpc``, 0.25: the noise columns of a measurement), or it is far from monophase (MPC
+   ``min_mpc``, 0.25: the noise columns of a measurement; unless well founded as in rule 4 with
+   F at least ``10 min_support``), or it is far from monophase (MPC
    below ``split_mpc``) and its evidence is weak (F below ``4 min_support`` or peak share below
-   30 %). Physical modes of a lightly damped structure are nearly monophase; the dam's
+   30 %) and it is not well founded otherwise (as in rule 4, F at least ``10 min_support``). Physical modes of a lightly damped structure are nearly monophase; the dam's
    most complex accepted shapes have MPC 0.34-0.45.
 
 The MPC is computed on the residues along the longer axis of the measurement (outputs for a
@@ -55,7 +57,13 @@ from numpy.typing import NDArray
 from .._blas import single_threaded
 from ..frf import _FORM_POWER, FRFData
 from .mac import mac, mpc
-from .stabilization import SelectedMode, StabilizationData, _mode_from_rows, cluster_poles
+from .stabilization import (
+    SelectedMode,
+    StabilizationData,
+    _mode_from_rows,
+    cluster_poles,
+    order_ranks,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -215,6 +223,7 @@ def judge_clusters(
     min_peak_share: float = 0.05,
     min_mpc: float = 0.25,
     max_damping_spread: float = 0.5,
+    fit: bool = True,
 ) -> tuple[Candidate, ...]:
     """Judge every cluster of stable poles of ``stab`` against the data ``data``.
 
@@ -228,6 +237,9 @@ def judge_clusters(
     min_poles, min_persistence, max_damping, min_support, split_mpc, min_peak_share, min_mpc, \
     max_damping_spread : optional
         Thresholds of the rules in the module notes.
+    fit : bool, optional
+        Apply the LSFD-based rules 4-7 (default True); False judges on stability,
+        damping and participation duplicates only (rules 1-3).
 
     Returns
     -------
@@ -236,7 +248,8 @@ def judge_clusters(
     """
     orders = np.asarray(stab.orders)
     clusters = cluster_poles(stab, max_damping=max_damping)
-    modes = [_mode_from_rows(stab, rows, "auto") for rows in clusters]
+    ranks = order_ranks(stab)
+    modes = [_mode_from_rows(stab, rows, "auto", ranks) for rows in clusters]
     verdict: list[str | None] = [None] * len(modes)
     persistence = np.full(len(modes), np.nan)
     lo, hi = stab.band
@@ -269,7 +282,7 @@ def judge_clusters(
     mpcs = np.full(len(modes), np.nan)
     support = np.full(len(modes), np.nan)
     peak = np.full(len(modes), np.nan)
-    for _ in range(4):
+    for _ in range(4 if fit else 0):
         alive = [i for i in range(len(modes)) if verdict[i] is None]
         if not alive:
             break
@@ -295,7 +308,8 @@ def judge_clusters(
                 if abs(fi - fj) < 0.1 * bw and float(mac(shapes[a_i], shapes[b_i])[0, 0]) > 0.95:
                     verdict[i] = f"duplicate of {fj:.6g} Hz (shape MAC > 0.95)"
                     new = True
-                elif mp[a_i] < split_mpc and mp[a_i] < mp[b_i] - 0.3:
+                elif (mp[a_i] < split_mpc and mp[a_i] < mp[b_i] - 0.3
+                      and not _well_founded(modes[i], persistence[i], sup[a_i], 0.1 * sup[b_i])):
                     verdict[i] = f"splits the {fj:.6g} Hz mode (MPC {mp[a_i]:.2f} against {mp[b_i]:.2f})"
                     new = True
         n_dof = max(data.n_out, data.n_in)
@@ -309,10 +323,12 @@ def judge_clusters(
                 verdict[i] = (f"no peak of its own: {100 * shr[a_i]:.0f} % of the FRF near {modes[i].natural_freq:.5g} Hz "
                               f"(< {100 * min_peak_share:g} %)")
                 new = True
-            elif n_dof >= 3 and mp[a_i] < min_mpc:
+            elif n_dof >= 3 and mp[a_i] < min_mpc and not _well_founded(
+                    modes[i], persistence[i], sup[a_i], 10 * min_support):
                 verdict[i] = f"shape without a common phase (MPC {mp[a_i]:.2f} < {min_mpc:g})"
                 new = True
-            elif n_dof >= 3 and mp[a_i] < split_mpc and (sup[a_i] < 4 * min_support or shr[a_i] < 0.3):
+            elif (n_dof >= 3 and mp[a_i] < split_mpc and (sup[a_i] < 4 * min_support or shr[a_i] < 0.3)
+                  and not _well_founded(modes[i], persistence[i], sup[a_i], 10 * min_support)):
                 verdict[i] = (f"weak (F = {sup[a_i]:.3g}, {100 * shr[a_i]:.0f} % of the FRF near it) with a shape "
                               f"far from monophase (MPC {mp[a_i]:.2f} < {split_mpc:g})")
                 new = True
@@ -325,6 +341,16 @@ def judge_clusters(
                              support=float(support[i]), persistence=float(persistence[i]),
                              peak_share=float(peak[i])))
     return tuple(out)
+
+
+def _well_founded(m: SelectedMode, persistence: float, support: float, need: float) -> bool:
+    """A candidate whose other evidence outweighs a poor shape phase.
+
+    Stable at 80 % of the orders from its first appearance up (a split or noise pole flickers),
+    with damping stable to 20 % and an F statistic of at least ``need``: closely spaced,
+    heavily overlapping modes can have residues whose phase LSFD cannot separate cleanly.
+    """
+    return (persistence >= 0.8 and m.damping_ratio_std <= 0.2 * m.damping_ratio and support >= need)
 
 
 def _shapes(res: NDArray[np.complex128]) -> NDArray[np.complex128]:

@@ -437,7 +437,17 @@ def _cluster_members(stab: StabilizationData, rows: NDArray[np.intp]) -> NDArray
     return rows[first]
 
 
-def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance: str) -> SelectedMode:
+def order_ranks(stab: StabilizationData) -> NDArray[np.intp]:
+    """For every row, its position among its order's poles sorted by frequency (all rows at once)."""
+    key = np.lexsort((stab.natural_freq, stab.order))
+    ranks = np.empty(len(stab), np.intp)
+    first = np.searchsorted(stab.order[key], stab.order[key], side="left")
+    ranks[key] = np.arange(key.size) - first
+    return ranks
+
+
+def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance: str,
+                    ranks: NDArray[np.intp] | None = None) -> SelectedMode:
     fn = stab.natural_freq[rows]
     zeta = stab.damping_ratio[rows]
     mf, mz = np.median(fn), np.median(zeta)
@@ -446,7 +456,7 @@ def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance:
     ddof = 1 if rows.size > 1 else 0
     return SelectedMode(
         order=int(stab.order[rep]),
-        index=stab.index_in_order(rep),
+        index=stab.index_in_order(rep) if ranks is None else int(ranks[rep]),
         pole=complex(stab.pole[rep]),
         natural_freq=float(fn.mean()),
         damping_ratio=float(zeta.mean()),
