@@ -147,6 +147,8 @@ class PoleSet:
     in_dofs: tuple[DOF, ...] = ()
     orders: tuple[int, ...] = ()
     meta: Mapping[str, Any] = field(default_factory=dict)
+    _fn: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _zeta: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         order = np.asarray(self.order, dtype=np.int64).reshape(-1).copy()
@@ -167,6 +169,14 @@ class PoleSet:
         orders = self.orders or tuple(int(o) for o in np.unique(order))
         object.__setattr__(self, "orders", tuple(int(o) for o in orders))
         object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+        # derived columns, computed once (the selection reads them per cluster)
+        fn = np.abs(pole) / (2 * np.pi)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            zeta = -pole.real / np.abs(pole)
+        fn.setflags(write=False)
+        zeta.setflags(write=False)
+        object.__setattr__(self, "_fn", fn)
+        object.__setattr__(self, "_zeta", zeta)
 
     def __len__(self) -> int:
         return int(self.pole.size)
@@ -178,14 +188,13 @@ class PoleSet:
 
     @property
     def natural_freq(self) -> NDArray[np.float64]:
-        """``|lambda| / 2 pi`` [Hz], shape (n_poles,)."""
-        return np.abs(self.pole) / (2 * np.pi)
+        """``|lambda| / 2 pi`` [Hz], shape (n_poles,) (read-only)."""
+        return self._fn
 
     @property
     def damping_ratio(self) -> NDArray[np.float64]:
-        """``-Re(lambda) / |lambda|`` [-], shape (n_poles,)."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return -self.pole.real / np.abs(self.pole)
+        """``-Re(lambda) / |lambda|`` [-], shape (n_poles,) (read-only)."""
+        return self._zeta
 
     def at_order(self, order: int) -> NDArray[np.intp]:
         """Row indices of the poles of one model order, by increasing frequency."""
