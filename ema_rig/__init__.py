@@ -23,13 +23,13 @@ estimate_stiffness, calibrate
 load_campaign, run_campaign
     Campaign files and runs (``ema_rig.campaign``).
 
-The names after FRFData/DOF/RigConfig are imported on first use, so ``import ema_rig`` stays light.
+The names after FRFData/DOF/RigConfig (and ``__version__``) are resolved on first use, so
+``import ema_rig`` stays light.
 """
 
 from __future__ import annotations
 
 import logging
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
 from .config import RigConfig, load_rig
@@ -46,11 +46,6 @@ from .errors import (
 )
 from .frf import FRFData
 
-try:
-    __version__ = version("ema-rig")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
-
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 _LAZY = {
@@ -64,13 +59,31 @@ _LAZY = {
 }
 
 
+def _version() -> str:
+    # importlib.metadata costs ~40 ms: only when the version is asked for
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("ema-rig")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        return "0.0.0+unknown"
+
+
 def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        globals()["__version__"] = v = _version()
+        return v
     if name in _LAZY:
         import importlib
 
         mod, attr = _LAZY[name]
         return getattr(importlib.import_module(mod), attr)
     raise AttributeError(f"module 'ema_rig' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    # the lazy names are part of the API: show them before their first use (tab completion)
+    return sorted(set(globals()) | set(_LAZY) | {"__version__"})
 
 
 __all__ = [

@@ -33,19 +33,33 @@ COMMANDS: dict[str, str] = {
     "stiffness": "bearing stiffness k_TB from the housing mode",
     "campaign": "a whole campaign: table, plots, report",
     "simulate": "write a synthetic rig measurement (UFF58)",
+    "frf": "FRFs and coherence (UFF58) from force and response time histories",
     "demo": "run the bundled campaign in data/ end to end",
 }
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: print the version and exit (looked up only when asked: importlib.metadata is slow)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str = "show the version and exit") -> None:
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: object, option_string: str | None = None) -> None:
+        from . import __version__
+
+        print(f"ema-rig {__version__}")
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command registered."""
-    from . import __version__
-
     parser = argparse.ArgumentParser(
         prog="ema-rig",
         description="Experimental modal analysis for bearing test rigs.",
     )
-    parser.add_argument("--version", action="version", version=f"ema-rig {__version__}")
+    parser.add_argument("--version", action=_VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name, help_text in COMMANDS.items():
@@ -61,8 +75,29 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
     print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
 
 
+_SUBJECT_KEYS = ("file", "campaign", "output", "out")
+"""Namespace attributes naming the file a command is about, in order of preference."""
+
+
+def _subject(args: argparse.Namespace) -> str | None:
+    """The file an error without a file of its own is reported against (the command's input)."""
+    for key in _SUBJECT_KEYS:
+        value = getattr(args, key, None)
+        if value:
+            return str(value)
+    return None
+
+
+def _error_line(head: str | None, text: str) -> str:
+    return f"error: {head}: {text}".replace("\n", " ") if head else f"error: {text}".replace("\n", " ")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``ema-rig`` with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
+    """Run ``ema-rig`` with ``argv`` (default ``sys.argv[1:]``) and return the exit code.
+
+    Every error line names a file: the one the error carries, else the command's input
+    (``FILE``, ``CAMPAIGN.toml``, or the output of ``simulate`` / ``demo``).
+    """
     from .errors import EmaRigError
 
     parser = build_parser()
@@ -76,8 +111,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.showwarning = _show_warning
             return int(args._run(args))
     except EmaRigError as exc:
-        text = str(exc).replace("\n", " ")
-        print(f"error: {text}", file=sys.stderr)
+        # str(exc) starts with the error's own file when it has one
+        print(_error_line(None if exc.file else _subject(args), str(exc)), file=sys.stderr)
         return EXIT_ERROR
     except BrokenPipeError:  # output piped into `head` and closed early: not an error of ours
         import os
@@ -86,10 +121,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
     except (OSError, ValueError) as exc:
         # files that cannot be opened, values that cannot be used: user input, not a bug
-        name = getattr(exc, "filename", None)
-        head = f"{name}: " if name else ""
+        name = getattr(exc, "filename", None) or _subject(args)
         msg = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        print(f"error: {head}{msg}".replace("\n", " "), file=sys.stderr)
+        print(_error_line(name, msg), file=sys.stderr)
+        return EXIT_ERROR
+    except MemoryError as exc:  # an input far larger than the machine (numpy says how many bytes)
+        detail = f" ({exc})" if str(exc) else ""
+        print(_error_line(_subject(args), f"not enough memory for this input{detail}"), file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)

@@ -98,7 +98,7 @@ class RigConfig:
         ``'code'`` or ``'label'``: which wins in a UFF unit conflict.
     name : str
     path : str or None
-        File it was read from.
+        File it was read from (for messages; excluded from cache keys: the content counts).
     """
 
     model: ModelParams
@@ -109,7 +109,8 @@ class RigConfig:
     identification: Mapping[str, Any] = field(default_factory=dict)
     unit_preference: str | None = None
     name: str = ""
-    path: str | None = None
+    # where it was read from: named in messages, but not part of what a result depends on
+    path: str | None = field(default=None, metadata={"cache_key": False})
 
     def sensor_for(self, dof: DOF) -> Sensor | None:
         """The sensor whose node and axis match ``dof`` (sign ignored), or None."""
@@ -124,28 +125,91 @@ class RigConfig:
         return (self.radial,) if self.axial is None else (self.radial, self.axial)
 
 
-def _num(v: Any, key: str, file: str | None, *, positive: bool = True) -> float:
+# ---------------------------------------------------------------- strict TOML value checks
+# One set of checks for every TOML file of ema_rig (rig and campaign): bool is not a number, a
+# string is not a bool, integers outside TOML's 64-bit range are refused, every error names the
+# key path.
+_INT64 = 2**63
+
+
+def short_repr(v: Any) -> str:
+    """``repr`` of a value, shortened so a 5000-digit integer does not flood the message."""
+    text = repr(v)
+    return text if len(text) <= 40 else f"{text[:30]}... ({len(text)} characters)"
+
+
+def _int64(v: int, key: str, file: str | None) -> None:
+    if not -_INT64 <= v < _INT64:
+        raise ConfigError(
+            f"integer with {len(str(abs(v)))} digits is outside the 64-bit range TOML allows",
+            file=file, key=key,
+        )
+
+
+def toml_number(v: Any, key: str, file: str | None, *, lo: float | None = None, lo_open: bool = False) -> float:
+    """A finite number (TOML integer or float, never a bool or a string), optionally bounded below.
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value.
+    key : str
+        Dotted key path for the message, e.g. ``"measurement[3].speed"``.
+    file : str or None
+        The TOML file, for the message.
+    lo : float, optional
+        Lower bound; ``lo_open=True`` excludes it (``lo=0, lo_open=True``: positive).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ConfigError
+        For a non-number, a huge integer, NaN/inf or a value below the bound.
+    """
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ConfigError(f"must be a number, got {v!r}", file=file, key=key)
+        raise ConfigError(f"must be a number, got {short_repr(v)}", file=file, key=key)
+    if isinstance(v, int):
+        _int64(v, key, file)
     x = float(v)
-    if not math.isfinite(x) or (positive and x <= 0):
-        raise ConfigError(f"must be a finite positive number, got {v!r}", file=file, key=key)
+    if not math.isfinite(x):
+        raise ConfigError(f"must be a finite number, got {short_repr(v)}", file=file, key=key)
+    if lo is not None and (x < lo or (lo_open and x == lo)):
+        what = "a finite positive number" if (lo == 0 and lo_open) else f"{'>' if lo_open else '>='} {lo:g}"
+        raise ConfigError(f"must be {what}, got {short_repr(v)}", file=file, key=key)
     return x
 
 
-def _dof(v: Any, key: str, file: str | None) -> DOF:
+def toml_int(v: Any, key: str, file: str | None, *, lo: int | None = None) -> int:
+    """An integer (never a bool or a float) inside TOML's 64-bit range, optionally ``>= lo``."""
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ConfigError(f"must be an integer, got {short_repr(v)}", file=file, key=key)
+    _int64(v, key, file)
+    if lo is not None and v < lo:
+        raise ConfigError(f"must be an integer >= {lo}, got {short_repr(v)}", file=file, key=key)
+    return v
+
+
+def toml_bool(v: Any, key: str, file: str | None) -> bool:
+    """``true`` or ``false`` (a string such as ``"false"`` or a number is an error)."""
+    if not isinstance(v, bool):
+        raise ConfigError(f"must be true or false, got {short_repr(v)}", file=file, key=key)
+    return v
+
+
+def toml_str(v: Any, key: str, file: str | None, *, nonempty: bool = False) -> str:
+    """A string (a number or a bool is an error), optionally not empty."""
     if not isinstance(v, str):
-        raise ConfigError(f"must be a DOF string such as '11+Y', got {v!r}", file=file, key=key)
-    try:
-        d = DOF.parse(v)
-    except ValueError as exc:
-        raise ConfigError(str(exc), file=file, key=key) from None
-    if d.direction == 0:
-        raise ConfigError(f"DOF {v!r} needs a signed direction such as '11+Y'", file=file, key=key)
-    return d
+        raise ConfigError(f"must be a string, got {short_repr(v)}", file=file, key=key)
+    if nonempty and not v.strip():
+        raise ConfigError("must not be empty", file=file, key=key)
+    return v
 
 
-def _check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, file: str | None) -> None:
+def check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, file: str | None) -> None:
+    """Refuse a key of ``table`` that is not in ``allowed``, naming it and the allowed keys."""
     for k in table:
         if k not in allowed:
             key = f"{where}.{k}" if where else k
@@ -154,25 +218,43 @@ def _check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, 
             )
 
 
-def _table(doc: Mapping[str, Any], name: str, file: str | None, *, required: bool) -> Mapping[str, Any]:
+def toml_table(doc: Mapping[str, Any], name: str, file: str | None, *, required: bool,
+               where: str = "") -> Mapping[str, Any]:
+    """The sub-table ``doc[name]`` (empty when absent and not required)."""
+    key = f"{where}.{name}" if where else name
     if name not in doc:
         if required:
-            raise ConfigError(f"missing required table [{name}]", file=file, key=name)
+            raise ConfigError(f"missing required table [{key}]", file=file, key=key)
         return {}
     t = doc[name]
     if not isinstance(t, Mapping):
-        raise ConfigError(f"must be a table [{name}]", file=file, key=name)
+        raise ConfigError(f"must be a table [{key}]", file=file, key=key)
     return t
 
 
-def _band(v: Any, key: str, file: str | None) -> tuple[float, float]:
+def toml_band(v: Any, key: str, file: str | None) -> tuple[float, float]:
+    """A frequency band ``[lo, hi]`` in Hz with ``0 <= lo < hi``."""
     if not isinstance(v, (list, tuple)) or len(v) != 2:
-        raise ConfigError(f"must be a pair [lo, hi] in Hz, got {v!r}", file=file, key=key)
-    lo = _num(v[0], key, file, positive=False)
-    hi = _num(v[1], key, file)
-    if not 0 <= lo < hi:
-        raise ConfigError(f"must satisfy 0 <= lo < hi, got {v!r}", file=file, key=key)
+        raise ConfigError(f"must be a pair [lo, hi] in Hz, got {short_repr(v)}", file=file, key=key)
+    lo = toml_number(v[0], key, file, lo=0.0)
+    hi = toml_number(v[1], key, file, lo=0.0, lo_open=True)
+    if not lo < hi:
+        raise ConfigError(f"must satisfy 0 <= lo < hi, got {short_repr(v)}", file=file, key=key)
     return lo, hi
+
+
+def _dof(v: Any, key: str, file: str | None) -> DOF:
+    if not isinstance(v, str):
+        raise ConfigError(f"must be a DOF string such as '11+Y', got {short_repr(v)}", file=file, key=key)
+    if len(v) > 40:  # no DOF is this long; keep the message short
+        raise ConfigError(f"must be a DOF string such as '11+Y', got {short_repr(v)}", file=file, key=key)
+    try:
+        d = DOF.parse(v)
+    except ValueError as exc:
+        raise ConfigError(str(exc), file=file, key=key) from None
+    if d.direction == 0:
+        raise ConfigError(f"DOF {short_repr(v)} needs a signed direction such as '11+Y'", file=file, key=key)
+    return d
 
 
 def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None) -> RigConfig:
@@ -195,9 +277,9 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         Naming the key path and the allowed values.
     """
     fname = None if file is None else str(file)
-    _check_keys(doc, _TOP_KEYS, "", fname)
-    m = _table(doc, "model", fname, required=True)
-    _check_keys(m, MODEL_KEYS, "model", fname)
+    check_keys(doc, _TOP_KEYS, "", fname)
+    m = toml_table(doc, "model", fname, required=True)
+    check_keys(m, MODEL_KEYS, "model", fname)
     for k in MODEL_KEYS:
         if k not in m:
             raise ConfigError(
@@ -205,10 +287,10 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
                 file=fname,
                 key=f"model.{k}",
             )
-    model = ModelParams(**{k: _num(m[k], f"model.{k}", fname) for k in MODEL_KEYS})
+    model = ModelParams(**{k: toml_number(m[k], f"model.{k}", fname, lo=0.0, lo_open=True) for k in MODEL_KEYS})
 
-    ex = _table(doc, "excitation", fname, required=True)
-    _check_keys(ex, ("radial", "axial"), "excitation", fname)
+    ex = toml_table(doc, "excitation", fname, required=True)
+    check_keys(ex, ("radial", "axial"), "excitation", fname)
     if "radial" not in ex:
         raise ConfigError("missing required key (reference DOF of the radial shaker)", file=fname, key="excitation.radial")
     radial = _dof(ex["radial"], "excitation.radial", fname)
@@ -227,16 +309,16 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         where = f"sensor[{i}]"
         if not isinstance(s, Mapping):
             raise ConfigError("must be a table", file=fname, key=where)
-        _check_keys(s, ("dof", "role", "axis", "name"), where, fname)
+        check_keys(s, ("dof", "role", "axis", "name"), where, fname)
         for req in ("dof", "role", "axis"):
             if req not in s:
                 raise ConfigError("missing required key (dof, role, axis)", file=fname, key=f"{where}.{req}")
         dof = _dof(s["dof"], f"{where}.dof", fname)
         role, axis = s["role"], s["axis"]
         if role not in SENSOR_ROLES:
-            raise ConfigError(f"must be one of {', '.join(SENSOR_ROLES)}, got {role!r}", file=fname, key=f"{where}.role")
+            raise ConfigError(f"must be one of {', '.join(SENSOR_ROLES)}, got {short_repr(role)}", file=fname, key=f"{where}.role")
         if axis not in SENSOR_AXES:
-            raise ConfigError(f"must be one of {', '.join(SENSOR_AXES)}, got {axis!r}", file=fname, key=f"{where}.axis")
+            raise ConfigError(f"must be one of {', '.join(SENSOR_AXES)}, got {short_repr(axis)}", file=fname, key=f"{where}.axis")
         node_axis = (dof.node, abs(dof.direction))
         if node_axis in seen:
             raise ConfigError(
@@ -245,39 +327,38 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         seen[node_axis] = i
         sensors.append(Sensor(dof, role, axis))
 
-    unc_t = _table(doc, "uncertainty", fname, required=False)
-    _check_keys(unc_t, MODEL_KEYS, "uncertainty", fname)
+    unc_t = toml_table(doc, "uncertainty", fname, required=False)
+    check_keys(unc_t, MODEL_KEYS, "uncertainty", fname)
     uncertainty = {}
     for k, v in unc_t.items():
-        x = _num(v, f"uncertainty.{k}", fname, positive=False)
+        x = toml_number(v, f"uncertainty.{k}", fname)
         if not 0 <= x < 1:
             raise ConfigError(
-                f"is a relative standard uncertainty (fraction, 0.01 = 1 %), must be in [0, 1), got {v!r}",
+                f"is a relative standard uncertainty (fraction, 0.01 = 1 %), must be in [0, 1), got {short_repr(v)}",
                 file=fname,
                 key=f"uncertainty.{k}",
             )
         uncertainty[k] = x
 
-    id_t = _table(doc, "identification", fname, required=False)
-    _check_keys(id_t, ("band", "max_order", "k_MS_band"), "identification", fname)
+    id_t = toml_table(doc, "identification", fname, required=False)
+    check_keys(id_t, ("band", "max_order", "k_MS_band"), "identification", fname)
     ident: dict[str, Any] = {}
     for k in ("band", "k_MS_band"):
         if k in id_t:
-            ident[k] = _band(id_t[k], f"identification.{k}", fname)
+            ident[k] = toml_band(id_t[k], f"identification.{k}", fname)
     if "max_order" in id_t:
-        mo = id_t["max_order"]
-        if isinstance(mo, bool) or not isinstance(mo, int) or mo < 2:
-            raise ConfigError(f"must be an integer >= 2, got {mo!r}", file=fname, key="identification.max_order")
-        ident["max_order"] = mo
+        ident["max_order"] = toml_int(id_t["max_order"], "identification.max_order", fname, lo=2)
 
-    units_t = _table(doc, "units", fname, required=False)
-    _check_keys(units_t, ("prefer",), "units", fname)
+    units_t = toml_table(doc, "units", fname, required=False)
+    check_keys(units_t, ("prefer",), "units", fname)
     pref = units_t.get("prefer")
     if pref is not None and pref not in ("code", "label"):
-        raise ConfigError(f"must be 'code' or 'label', got {pref!r}", file=fname, key="units.prefer")
+        raise ConfigError(f"must be 'code' or 'label', got {short_repr(pref)}", file=fname, key="units.prefer")
 
-    rig_t = _table(doc, "rig", fname, required=False)
-    _check_keys(rig_t, ("name", "description"), "rig", fname)
+    rig_t = toml_table(doc, "rig", fname, required=False)
+    check_keys(rig_t, ("name", "description"), "rig", fname)
+    if "description" in rig_t:
+        toml_str(rig_t["description"], "rig.description", fname)
 
     return RigConfig(
         model=model,
@@ -287,25 +368,69 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         uncertainty=uncertainty,
         identification=ident,
         unit_preference=pref,
-        name=str(rig_t.get("name", "")),
+        name=toml_str(rig_t.get("name", ""), "rig.name", fname),
         path=fname,
     )
 
 
+#: Largest TOML file read [bytes]; rig and campaign files are a few kB.
+MAX_TOML_BYTES = 16 * 1024 * 1024
+
+
+def read_regular_file(path: str | PathLike[str], *, max_bytes: int) -> bytes:
+    """The bytes of a regular file, refusing FIFOs, devices and directories without blocking.
+
+    The file is opened non-blocking and checked with ``fstat`` on the open descriptor, so a FIFO
+    or a device given as a file name gives an error instead of a hang (or an endless read).
+
+    Raises
+    ------
+    OSError
+        When the file cannot be opened (not found, permission).
+    ValueError
+        When it is not a regular file or larger than ``max_bytes``; the message names no file.
+    """
+    import os
+    import stat
+
+    fd = os.open(os.fspath(path), os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise IsADirectoryError(21, "is a directory", os.fspath(path))
+        if not stat.S_ISREG(st.st_mode):
+            raise ValueError("is not a regular file (a FIFO, socket or device?)")
+        if st.st_size > max_bytes:
+            raise ValueError(f"is {st.st_size} bytes, larger than the {max_bytes} bytes allowed")
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            return fh.read(max_bytes + 1)
+    finally:
+        os.close(fd)
+
+
 def read_toml(path: str | PathLike[str]) -> dict[str, Any]:
-    """Read a TOML file, turning IO and syntax errors into :class:`ConfigError`."""
+    """Read a TOML file, turning IO and syntax errors into :class:`ConfigError`.
+
+    Only regular files up to :data:`MAX_TOML_BYTES` are read (a FIFO or device is refused at once).
+    """
     p = Path(path)
     try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
+        raw = read_regular_file(p, max_bytes=MAX_TOML_BYTES)
+        return tomllib.loads(raw.decode("utf-8"))
     except FileNotFoundError:
         raise ConfigError("file not found", file=p) from None
     except IsADirectoryError:
         raise ConfigError("is a directory, expected a TOML file", file=p) from None
+    except PermissionError:
+        raise ConfigError("permission denied", file=p) from None
+    except OSError as exc:
+        raise ConfigError(f"cannot read: {exc.strerror or exc}", file=p) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"invalid TOML: {exc}", file=p) from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"not UTF-8 text: {exc.reason}", file=p) from None
+    except ValueError as exc:
+        raise ConfigError(str(exc), file=p) from None
 
 
 def load_rig(path: str | PathLike[str]) -> RigConfig:
@@ -329,13 +454,23 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
 
 
 __all__ = [
+    "MAX_TOML_BYTES",
     "MODEL_KEYS",
     "ModelParams",
     "RigConfig",
     "SENSOR_AXES",
     "SENSOR_ROLES",
     "Sensor",
+    "check_keys",
     "load_rig",
     "parse_rig",
+    "read_regular_file",
     "read_toml",
+    "short_repr",
+    "toml_band",
+    "toml_bool",
+    "toml_int",
+    "toml_number",
+    "toml_str",
+    "toml_table",
 ]

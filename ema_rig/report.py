@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 from . import _atomic
 
 if TYPE_CHECKING:
-    from .campaign import CampaignResult
+    from .campaign.result import CampaignResult
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2em auto;max-width:1100px;

@@ -268,13 +268,16 @@ def simulate_measurement(
     Raises
     ------
     ValueError
-        For a non-positive stiffness, bad noise level, unknown reference or mode kind.
+        For a non-positive stiffness, bad noise level, negative seed, unknown reference or mode
+        kind.
     """
     k_tb = float(k_tb)
     if not k_tb > 0 or math.isnan(k_tb):
         raise ValueError(f"k_tb must be a positive stiffness [N/m] (inf = steel disk), got {k_tb!r}")
     if not (math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise must be a finite relative level >= 0, got {noise!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     if speed_hz is not None and not (math.isfinite(speed_hz) and speed_hz > 0):
         raise ValueError(f"speed_hz must be a positive shaft speed [Hz], got {speed_hz!r}")
     damp = dict(DEFAULT_DAMPING)
@@ -454,7 +457,11 @@ def write_measurement(
     write_uff58(p, sim.data, binary=binary, double=double, accel_unit=accel_unit, rig=rig)
     truth = sim.truth_dict()
     truth.update({"file": p.name, "binary": bool(binary), "accel_unit": accel_unit, "double": bool(double)})
-    _atomic.write_json(truth_path(p), truth)
+    try:
+        _atomic.write_json(truth_path(p), truth)
+    except BaseException:
+        p.unlink(missing_ok=True)  # a measurement without its truth (or with an old one) is worse than none
+        raise
     return p
 
 

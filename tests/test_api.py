@@ -21,9 +21,85 @@ def test_import_has_no_pyplot_or_sdypy() -> None:
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-def test_all_names_resolve() -> None:
-    for name in ema_rig.__all__:
-        assert getattr(ema_rig, name) is not None, name
+# What each top-level name IS, and where the package docstring says it comes from. Written out
+# by hand (not derived from ema_rig._LAZY), so a wrong lazy table or a sub-package that shadows a
+# function fails here.
+_FUNCTIONS = {
+    "load_rig": "ema_rig.config",
+    "read_uff58": "ema_rig.io.uff",
+    "write_uff58": "ema_rig.io.uff",
+    "identify": "ema_rig.identification",
+    "estimate_stiffness": "ema_rig.rig.stiffness",
+    "calibrate": "ema_rig.rig.stiffness",
+    "load_campaign": "ema_rig.campaign",
+    "run_campaign": "ema_rig.campaign:run",
+}
+_CLASSES = {"FRFData": "ema_rig.frf", "DOF": "ema_rig.dof", "RigConfig": "ema_rig.config"}
+_ERRORS = ("ConfigError", "IdentificationError", "InversionError", "MatchingError", "UFFError")
+_WARNINGS = ("IdentificationWarning", "UnitWarning")
+
+
+def _home(spec: str, name: str) -> object:
+    import importlib
+
+    mod, _, attr = spec.partition(":")
+    return getattr(importlib.import_module(mod), attr or name)
+
+
+def test_every_top_level_name_is_what_it_says() -> None:
+    import inspect
+
+    listed = set(_FUNCTIONS) | set(_CLASSES) | set(_ERRORS) | set(_WARNINGS) | {"EmaRigError", "__version__"}
+    assert set(ema_rig.__all__) == listed  # a new public name needs a line above
+    for name, spec in _FUNCTIONS.items():
+        obj = getattr(ema_rig, name)
+        assert inspect.isfunction(obj), f"ema_rig.{name} is {obj!r}, not a function"
+        assert obj is _home(spec, name), name
+    for name, spec in _CLASSES.items():
+        obj = getattr(ema_rig, name)
+        assert inspect.isclass(obj) and obj is _home(spec, name), name
+    assert issubclass(ema_rig.EmaRigError, Exception)
+    for name in _ERRORS:
+        assert issubclass(getattr(ema_rig, name), ema_rig.EmaRigError), name
+    for name in _WARNINGS:
+        assert issubclass(getattr(ema_rig, name), UserWarning), name
+    assert isinstance(ema_rig.__version__, str) and ema_rig.__version__
+    # the main steps take what the pipeline hands them
+    assert list(inspect.signature(ema_rig.identify).parameters)[0] == "data"
+    assert list(inspect.signature(ema_rig.estimate_stiffness).parameters)[:2] == ["data", "rig"]
+    assert list(inspect.signature(ema_rig.read_uff58).parameters)[0] == "path"
+
+
+def test_no_top_level_name_is_also_a_submodule() -> None:
+    # ema_rig.identify used to be both the function and a sub-package: importing the sub-package
+    # replaced the function on the package (issue 8, item 9)
+    import pkgutil
+
+    submodules = {m.name for m in pkgutil.iter_modules(ema_rig.__path__)}
+    assert not submodules & set(ema_rig.__all__), submodules & set(ema_rig.__all__)
+
+
+def test_identify_stays_the_function_after_importing_the_subpackage() -> None:
+    # a fresh interpreter, in the README's import order, then every sub-module of identification
+    code = (
+        "import inspect, pkgutil, importlib\n"
+        "from ema_rig import identify as first\n"
+        "import ema_rig.identification.plscf\n"
+        "from ema_rig.identification import identify as home\n"
+        "import ema_rig.identification as pkg\n"
+        "for m in pkgutil.iter_modules(pkg.__path__): importlib.import_module('ema_rig.identification.' + m.name)\n"
+        "from ema_rig import identify\n"
+        "import ema_rig\n"
+        "assert inspect.isfunction(identify), identify\n"
+        "assert identify is first is home is ema_rig.identify\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_dir_shows_the_lazy_names() -> None:
+    names = dir(ema_rig)
+    assert set(ema_rig.__all__) <= set(names)
+    assert names == sorted(names)
 
 
 def test_every_module_all_resolves_and_is_documented() -> None:

@@ -123,8 +123,9 @@ def test_parallel_jobs_match_serial(campaign_dir: Path, first_run) -> None:
 def test_dask_distributed_executor(campaign_dir: Path, first_run) -> None:
     distributed = pytest.importorskip("distributed")
     reference, _ = first_run
+    # dashboard on a free port: None means the default 8787, and a taken 8787 failed the test
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
         res = run(campaign_dir / "campaign.toml", executor=client.get_executor(), report=False)
     assert _ok_rows(res).keys() == _ok_rows(reference).keys()
     for mid, r in _ok_rows(res).items():

@@ -132,6 +132,12 @@ def test_bad_input(rig_toml_text, tmp_path, rig):
         simulate_measurement(rig, k_tb=-1.0)
     with pytest.raises(ValueError, match="damping"):
         simulate_measurement(rig, k_tb=K_TB, damping={"wobble": 0.1})
+    # a negative seed was numpy's "expected non-negative integer", which the CLI blamed on the rig
+    for seed in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="seed must be an integer >= 0"):
+            simulate_measurement(rig, k_tb=K_TB, seed=seed)
+    with pytest.raises(ValueError, match="speed_hz"):
+        simulate_measurement(rig, k_tb=K_TB, speed_hz=math.nan)
     text = rig_toml_text.replace('axial = "15+X"\n\n[[sensor]]', "\n[[sensor]]", 1)
     (tmp_path / "r2.toml").write_text(text)
     with pytest.raises(ValueError, match="axial"):

@@ -5,15 +5,18 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from . import _args
+
 
 def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
     """FILE, --rig, --band, --max-order and the selection options."""
     parser.add_argument("file", metavar="FILE", help="UFF58 file with the FRFs")
     parser.add_argument("--rig", default=None, metavar="R",
                         help="rig file (TOML): sensor signs, roles and the default band")
-    parser.add_argument("--band", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+    parser.add_argument("--band", type=_args.finite_float, nargs=2, action=_args.BandAction, default=None,
+                        metavar=("LO", "HI"),
                         help="identification band [Hz] (default: the rig file's, else the whole file)")
-    parser.add_argument("--max-order", type=int, default=None, metavar="N",
+    parser.add_argument("--max-order", type=_args.model_order, default=None, metavar="N",
                         help="cap on the PolyMAX model order, which grows until the mode set converges "
                              "(default: the rig file's, else 256 for one reference, 160 for two)")
     parser.add_argument("--selection", default=None, metavar="JSON",

@@ -6,13 +6,15 @@ import argparse
 import math
 from typing import Any
 
+from . import _args
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig campaign``."""
     parser.add_argument("campaign", metavar="CAMPAIGN.toml", help="campaign file")
     parser.add_argument("-o", "--out", default=None, metavar="DIR",
                         help="output folder (default: <campaign stem>-out beside the campaign file)")
-    parser.add_argument("--jobs", "-j", type=int, default=1, metavar="N", help="parallel worker processes")
+    parser.add_argument("--jobs", "-j", type=_args.positive_int, default=1, metavar="N", help="parallel worker processes")
     parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
 
 
@@ -59,10 +61,10 @@ def run_campaign(campaign: str, out: str | None, jobs: int, force: bool) -> int:
     from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
     from ..errors import EmaRigError
 
-    cfg = load_campaign(campaign)
-    out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
     if jobs < 1:
         raise EmaRigError(f"--jobs must be >= 1, got {jobs}", file=campaign)
+    cfg = load_campaign(campaign)
+    out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
     result = run(cfg, out_dir=out_dir, jobs=jobs, force=force, progress=True)
     print_table(result)
     print(f"\n{len(result.rows) - result.n_failed}/{len(result.rows)} measurements ok "

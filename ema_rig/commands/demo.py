@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig demo``."""
@@ -11,7 +13,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder (default: ./ema-rig-demo)")
     parser.add_argument("--data", default=None, metavar="DIR",
                         help="folder holding campaign.toml (default: ./data, else the source tree's data/)")
-    parser.add_argument("--jobs", "-j", type=int, default=1, metavar="N", help="parallel worker processes")
+    parser.add_argument("--jobs", "-j", type=_args.positive_int, default=1, metavar="N", help="parallel worker processes")
     parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
 
 

@@ -8,15 +8,10 @@ from __future__ import annotations
 
 import argparse
 
+from . import _args
 
-def _stiffness(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a stiffness in N/m: {text!r}") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"stiffness must be > 0 N/m (inf = steel disk), got {text!r}")
-    return v
+MAX_LINES = 200_001
+"""Most frequency lines ``simulate`` writes (0.01 Hz over 2000 Hz; a few hundred MB in memory)."""
 
 
 def _accel_unit(text: str) -> str:
@@ -28,16 +23,19 @@ def _accel_unit(text: str) -> str:
     raise argparse.ArgumentTypeError(f"unit must be 'm/s^2' or 'g', got {text!r}")
 
 
+_NOISE = _args.number(float, lo=0.0, hi=10.0)  # 10 = noise ten times the FRF: no signal left
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig simulate``."""
     parser.add_argument("--rig", required=True, help="rig file (TOML): model, sensors, references")
-    parser.add_argument("--k-tb", required=True, type=_stiffness, metavar="V",
+    parser.add_argument("--k-tb", required=True, type=_args.positive_stiffness, metavar="V",
                         help="true bearing stiffness [N/m]; 'inf' simulates the steel disk")
     parser.add_argument("-o", "--output", required=True, metavar="FILE", help="UFF58 file to write")
-    parser.add_argument("--noise", type=float, nargs="?", const=0.01, default=0.01, metavar="LEVEL",
+    parser.add_argument("--noise", type=_NOISE, nargs="?", const=0.01, default=0.01, metavar="LEVEL",
                         help="relative complex noise level (default 0.01; 0 = noise-free)")
-    parser.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    parser.add_argument("--speed", type=float, default=0.0, metavar="RPM",
+    parser.add_argument("--seed", type=_args.nonneg_int, default=0, help="noise seed (default 0)")
+    parser.add_argument("--speed", type=_args.nonneg_float, default=0.0, metavar="RPM",
                         help="shaft speed [rpm]; > 0 adds lines at multiples of the speed")
     parser.add_argument("--binary", action="store_true", help="write binary 58b datasets")
     parser.add_argument("--single", action="store_true", help="single precision (smaller files)")
@@ -47,8 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="drive only the radial shaker (default: every reference of the rig file)")
     parser.add_argument("--no-extra-modes", action="store_true",
                         help="only the 3DOF model's modes (no tilt, axial, flexible ... modes)")
-    parser.add_argument("--fmax", type=float, default=2000.0, help="last frequency line [Hz] (default 2000)")
-    parser.add_argument("--df", type=float, default=0.5, help="frequency resolution [Hz] (default 0.5)")
+    parser.add_argument("--fmax", type=_args.positive_float, default=2000.0, help="last frequency line [Hz] (default 2000)")
+    parser.add_argument("--df", type=_args.positive_float, default=0.5, help="frequency resolution [Hz] (default 0.5)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -59,12 +57,14 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import EmaRigError
     from ..simulate import simulate_measurement, truth_path, write_measurement
 
+    # every option is range-checked by argparse; what is left is how many lines they make
+    span = args.fmax / args.df  # lines after the one at 0 Hz (inf when df is tiny)
+    if not 2.0 <= span + 0.5 < MAX_LINES:
+        raise EmaRigError(f"--fmax {args.fmax:g} with --df {args.df:g} gives {span + 1:.4g} frequency lines; "
+                          f"need 3..{MAX_LINES}", file=args.output)
+    n_lines = int(span + 0.5) + 1
     rig = load_rig(args.rig)
-    if not (args.df > 0 and args.fmax > args.df):
-        raise EmaRigError(f"need 0 < --df < --fmax, got df={args.df}, fmax={args.fmax}")
-    if args.speed < 0:
-        raise EmaRigError(f"--speed must be >= 0 rpm, got {args.speed}")
-    freq = np.arange(0.0, args.fmax + 0.5 * args.df, args.df)
+    freq = np.arange(n_lines) * args.df
     refs = ("radial",) if args.radial_only else None
     try:
         sim = simulate_measurement(
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
             extra_modes=not args.no_extra_modes,
             references=refs,
         )
-    except ValueError as exc:
+    except ValueError as exc:  # the options are checked: what is left comes from the rig file
         raise EmaRigError(str(exc), file=args.rig) from None
     path = write_measurement(sim, args.output, binary=args.binary, accel_unit=args.units, rig=rig,
                              double=not args.single)

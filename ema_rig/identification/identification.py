@@ -26,6 +26,7 @@ from .judge import Candidate, judge_clusters, shape_mpc
 from .lsfd import lsfd
 from .modal import ModalModel
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
+from .refine import Refinement
 from .stabilization import (
     SelectedMode,
     Selection,
@@ -72,6 +73,9 @@ class Identification:
     transposed : bool
         True when the poles were estimated on the transposed layout (reciprocity: the
         references as outputs), because the data had more references than outputs.
+    refinement : Refinement or None
+        The maximum-likelihood refinement when ``identify(..., refine=True)``; when it converged,
+        ``modes`` is its model and the standard deviations are its Fisher-information ones.
     """
 
     poles: PoleSet
@@ -86,6 +90,7 @@ class Identification:
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     transposed: bool = False
+    refinement: Refinement | None = None
 
     @property
     def fit_error(self) -> NDArray[np.float64]:
@@ -137,9 +142,11 @@ class Identification:
         drive = [d for d in mm.in_dofs if d in mm.out_dofs]
         masses = {str(d): mm.modal_mass(d) for d in drive}
         modes_by_pole = {m.pole: m for m in self.selection.modes}
+        # a refined model keeps the PolyMAX pole of each mode in meta (same order)
+        start = [complex(*p) for p in mm.meta.get("polymax_poles", [])] or [complex(p) for p in mm.poles]
         out = []
         for k in range(mm.n_modes):
-            sel: SelectedMode | None = modes_by_pole.get(complex(mm.poles[k]))
+            sel: SelectedMode | None = modes_by_pole.get(start[k])
             out.append(
                 {
                     "natural_freq": float(mm.natural_freq[k]),
@@ -229,6 +236,7 @@ def identify(
     progress: bool = False,
     time_budget: float = TIME_BUDGET,
     transpose: bool | None = None,
+    refine: bool = False,
 ) -> Identification:
     """Identify the physical modes of a measurement in a band.
 
@@ -268,6 +276,12 @@ def identify(
     transpose : bool, optional
         Estimate the poles on the transposed layout (reciprocity). Default: when the data have
         more references than outputs (roving hammer), which gives the estimator more outputs.
+    refine : bool, optional
+        Refine the modal model by maximum likelihood
+        (:func:`~ema_rig.identification.refine.refine`, using ``data.coherence`` when present) and
+        report its Fisher-information standard deviations (default False). When it does not
+        converge, the PolyMAX model and cluster spreads are kept with an
+        :class:`~ema_rig.errors.IdentificationWarning` giving the reason.
 
     Returns
     -------
@@ -396,8 +410,6 @@ def identify(
         unique.setdefault(m.pole, m)
     modes = list(unique.values())
     model = lsfd(data, [m.pole for m in modes], residuals=residuals)
-    # (a refinement of the selected poles, e.g. maximum likelihood, goes here: it takes
-    #  ``data`` and ``model`` and returns an improved model with the same modes)
     meta = dict(model.meta)
     meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed})
     model = replace(model, meta=meta)
@@ -407,7 +419,7 @@ def identify(
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
                         f"(above {100 * POOR_FIT:.0f} %); modes may be missing or the data noisy")
     warnings += _edge_warnings(modes, stab.band)
-    return Identification(
+    ident = Identification(
         poles=stab.poles,
         stabilization=stab,
         selection=sel,
@@ -420,6 +432,44 @@ def identify(
         warnings=tuple(warnings),
         notes=tuple(notes),
         transposed=transposed,
+    )
+    # ---- optional maximum-likelihood refinement (issue 10) ----
+    if refine:
+        ident = _refined(ident, data)
+    return ident
+
+
+def _refined(ident: Identification, data: FRFData) -> Identification:
+    """``ident`` with the ML-refined modes and their standard deviations, or unchanged with a warning."""
+    import warnings
+
+    from ..errors import IdentificationWarning
+    from .refine import refine as refine_model
+
+    ref = refine_model(data, ident.modes)
+    if not ref.converged:
+        warnings.warn(
+            f"{source_of(data) or 'data'}: ML refinement fell back to PolyMAX ({ref.reason}); "
+            "the standard deviations are the pole-cluster spreads",
+            IdentificationWarning,
+            stacklevel=3,
+        )
+        return replace(ident, refinement=ref, warnings=ident.warnings + (
+            f"ML refinement fell back to PolyMAX ({ref.reason})",))
+    carried = []
+    for w in ref.warnings:
+        if "kept at its PolyMAX pole" in w:
+            w += " (its standard deviations are the pole-cluster spread)"
+        warnings.warn(f"{source_of(data) or 'data'}: {w}", IdentificationWarning, stacklevel=3)
+        carried.append(w)
+    # modes kept at their PolyMAX pole keep their cluster spread
+    return replace(
+        ident,
+        modes=ref.model,
+        natural_freq_std=np.where(np.isnan(ref.natural_freq_std), ident.natural_freq_std, ref.natural_freq_std),
+        damping_ratio_std=np.where(np.isnan(ref.damping_ratio_std), ident.damping_ratio_std, ref.damping_ratio_std),
+        refinement=ref,
+        warnings=ident.warnings + tuple(carried),
     )
 
 

@@ -16,11 +16,13 @@ plot_repeatability
     Deviation of each repeat from its condition's mean.
 
 All functions take the result rows and return a matplotlib Figure (never shown).
-Error bars are +/- one standard uncertainty (k_TB_std).
+Error bars are +/- one standard uncertainty (k_TB_std). Names that come from the campaign file
+(bearings, repeats) are escaped for matplotlib's mathtext, so a ``$`` is drawn as a ``$``.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
@@ -28,10 +30,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ._text import plain
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from ..campaign import BearingInfo, CampaignResult
+    from ..campaign.result import CampaignResult
+    from ..campaign.schema import BearingInfo
 
 Row = Mapping[str, Any]
 _MN = 1e6  # plots in MN/m = N/um
@@ -46,6 +51,18 @@ def _figure(figsize: tuple[float, float] = (7.0, 4.4)) -> Figure:
 
     fig = Figure(figsize=figsize, layout="constrained")
     return fig
+
+
+def figure_stem(bearing: str) -> str:
+    """A file-name-safe stem for a bearing, unique per bearing name.
+
+    Letters, digits, ``-`` and ``_`` are kept; a name that needed changes (``"a/b"``, ``"a b"``) gets
+    a short hash of the original, so two names never share a file.
+    """
+    safe = "".join(ch if (ch.isascii() and ch.isalnum()) or ch in "-_" else "_" for ch in bearing)[:60]
+    if safe != bearing or not safe:
+        safe = f"{safe or 'bearing'}-{hashlib.sha256(bearing.encode('utf-8')).hexdigest()[:8]}"
+    return safe
 
 
 def _finite(x: Any) -> bool:
@@ -98,7 +115,7 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
                     label="Hertz estimate, bearing alone (Harris & Kotzalas)")
     ax.set_xlabel("radial load F_r [N]")
     ax.set_ylabel("bearing stiffness k_TB [MN/m]")
-    ax.set_title(f"Bearing {bearing}: stiffness versus radial load")
+    ax.set_title(f"Bearing {plain(bearing)}: stiffness versus radial load")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     return fig
@@ -150,7 +167,7 @@ def plot_rotating_vs_static(rows: Sequence[Row], bearing: str) -> tuple[Figure, 
     ax.set_xticks(range(len(labels)), labels, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("bearing stiffness k_TB [MN/m]")
     load_txt = f" at {', '.join(f'{v:g}' for v in sorted(loads))} N" if loads else ""
-    ttl = f"Bearing {bearing}{load_txt}: rotating vs non-rotating"
+    ttl = f"Bearing {plain(bearing)}{load_txt}: rotating vs non-rotating"
     if math.isfinite(change):
         ttl += f" — mean change {change:+.1f} %"
     ax.set_title(ttl, fontsize=10)
@@ -190,7 +207,7 @@ def plot_speed_effect(rows: Sequence[Row], bearing: str) -> Figure:
                         textcoords="offset points", xytext=(6, 0), fontsize=8, va="center")
     ax.set_xlabel("shaft speed [rpm]")
     ax.set_ylabel("bearing stiffness k_TB [MN/m]")
-    ax.set_title(f"Bearing {bearing}: effect of speed")
+    ax.set_title(f"Bearing {plain(bearing)}: effect of speed")
     ax.grid(True, alpha=0.3)
     if by_load:
         ax.legend(title="radial load", fontsize=8)
@@ -229,7 +246,7 @@ def plot_validation(rows: Sequence[Row], bearing: str, info: BearingInfo) -> Fig
     ax.set_xlim(lo_x - pad, hi_x + pad)
     ax.set_xlabel("radial load of the air springs [N]")
     ax.set_ylabel("estimated stiffness k_TB [MN/m]")
-    ax.set_title(f"Validation on the {bearing} bearing: {inside}/{len(sel)} estimates inside the FE bounds",
+    ax.set_title(f"Validation on the {plain(bearing)} bearing: {inside}/{len(sel)} estimates inside the FE bounds",
                  fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="best")
@@ -258,7 +275,7 @@ def plot_repeatability(rows: Sequence[Row]) -> Figure | None:
         rel = 100 * np.array([r["k_TB_std"] for r in rs]) / vals.mean()
         ax.errorbar([i + 0.15], [0.0], yerr=[rel.mean()], fmt="none", ecolor="0.5", capsize=3)
         b, load, speed, _pos = k
-        labels.append(f"{b}\n{load:g} N, {speed:g} rpm")
+        labels.append(f"{plain(b)}\n{load:g} N, {speed:g} rpm")
     ax.axhline(0, color="k", lw=0.8)
     ax.set_xticks(range(len(labels)), labels, fontsize=7, rotation=30, ha="right")
     ax.set_ylabel("deviation from condition mean [%]")
@@ -277,7 +294,7 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
         ``k_vs_load_<bearing>``, ``rotating_vs_static_<bearing>``, ``speed_<bearing>`` where the
         data exist, and ``repeatability``.
     """
-    from ..campaign import BearingInfo
+    from ..campaign.schema import BearingInfo
 
     rows = result.rows
     ok = _ok(rows)
@@ -286,7 +303,7 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
     for b in bearings:
         info = result.config.bearings.get(b, BearingInfo())
         rs = [r for r in ok if r["bearing"] == b]
-        safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in b) or "bearing"
+        safe = figure_stem(b)
         if info.k_lower is not None and info.k_upper is not None:
             figs[f"validation_{safe}"] = plot_validation(rows, b, info)
             continue
@@ -306,6 +323,7 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
 
 __all__ = [
     "campaign_figures",
+    "figure_stem",
     "plot_k_vs_load",
     "plot_repeatability",
     "plot_rotating_vs_static",

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ._text import plain
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -257,7 +259,7 @@ def plot_rig_fit(
     if title is None:
         fname = getattr(result, "file", None)
         base = str(fname).replace("\\", "/").rsplit("/", 1)[-1] if fname else "measurement"
-        title = f"{base}: measured FRFs (black) and 3DOF model (grey), {lo:.0f}–{hi:.0f} Hz"
+        title = f"{plain(base)}: measured FRFs (black) and 3DOF model (grey), {lo:.0f}–{hi:.0f} Hz"
     fig.suptitle(title, fontsize=10)
     return RigPlot(figure=fig, axes=axes, artists=artists, model_k_tb_ms=float(model.k_TB_MS))
 

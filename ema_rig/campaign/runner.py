@@ -1,0 +1,498 @@
+"""Running a campaign: what a measurement depends on, the result cache, the worker pool.
+
+What one computation depends on is a single frozen dataclass, :class:`MeasurementTask`: the
+resolved rig (its content: model parameters, sensors, ``[identification]``, ``[units]``,
+``[uncertainty]``), k_MS and its uncertainty, the speed, band and order, the kind of computation.
+The worker receives exactly that object (it never re-reads the rig file), and the cache key is
+the hash of every one of its fields plus the file's content hash and the ema_rig version, so
+nothing that changes a result can be left out of the key by accident.
+
+Only results that depend on the data are cached: a good result, or an ema_rig error about the
+data (bad file, no housing mode). Infrastructure failures (a worker killed, an interruption, an
+unexpected exception) are reported in the row but never reused: the next run computes them again.
+
+Pool workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and a
+watchdog thread on the parent's process id everywhere but Windows).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import logging
+import math
+import os
+import stat
+import sys
+import time
+from collections.abc import Callable, Mapping
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+from .. import _atomic
+from ..config import RigConfig, read_regular_file
+from ..errors import EmaRigError
+from .result import COLUMNS, CampaignResult
+from .schema import CampaignConfig, Measurement, load_campaign
+
+logger = logging.getLogger(__name__)
+
+#: Name of the calibration's result in ``results/`` (ids may not start with ``_``).
+CALIBRATION_NAME = "_calibration"
+#: Bump when the meaning of a cached result changes without a version change.
+_KEY_SCHEMA = 2
+_MAX_RESULT_BYTES = 64 * 1024 * 1024
+_NUMERIC = ("radial_load", "speed", "shaft_position", "k_TB", "k_TB_std", "k_TB_MS", "k_MS", "housing_freq",
+            "housing_freq_std", "housing_damping", "spindle_freq", "spindle_damping", "elapsed_s")
+
+
+@dataclass(frozen=True, slots=True)
+class MeasurementTask:
+    """Everything one computation depends on; the worker's only input and the cache key's source.
+
+    Attributes
+    ----------
+    kind : str
+        ``"measurement"`` (k_TB) or ``"calibration"`` (k_MS from a steel disk).
+    file : Path
+        The UFF file (in the key by its content hash, not by its name).
+    rig : RigConfig
+        The resolved rig; its content enters the key, not where it was read from (``path``).
+    k_ms, k_ms_std : float or None
+        Mounting stiffness [N/m] used for k_TB and its standard uncertainty.
+    k_disk : float or None
+        Steel-disk stiffness [N/m] (calibration).
+    speed_hz : float or None
+        Shaft speed [Hz] (None: not rotating).
+    band : (float, float) or None
+        Identification band [Hz] (None: the rig's, else the default).
+    max_order : int or None
+    """
+
+    kind: str
+    file: Path
+    rig: RigConfig
+    k_ms: float | None = None
+    k_ms_std: float | None = None
+    k_disk: float | None = None
+    speed_hz: float | None = None
+    band: tuple[float, float] | None = None
+    max_order: int | None = None
+
+
+def _canonical(obj: Any) -> Any:
+    """A JSON-able, order-independent form of a task's value (floats by their exact repr)."""
+    if obj is None or isinstance(obj, (bool, int, str)):
+        return obj
+    if isinstance(obj, float):
+        return repr(obj)
+    if isinstance(obj, PathLike):
+        return os.fspath(obj)
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {"__type__": type(obj).__name__,
+                **{f.name: _canonical(getattr(obj, f.name)) for f in dataclasses.fields(obj)
+                   if f.metadata.get("cache_key", True)}}
+    if isinstance(obj, Mapping):
+        return {str(k): _canonical(v) for k, v in sorted(obj.items(), key=lambda kv: str(kv[0]))}
+    if isinstance(obj, (list, tuple)):
+        return [_canonical(v) for v in obj]
+    raise TypeError(f"cannot put a {type(obj).__name__} into a cache key")  # a new field type: add it here
+
+
+def task_key(task: MeasurementTask, digest: str) -> str:
+    """The cache key of a task whose file has content hash ``digest``.
+
+    Every field of the task except the file name enters the key (recursively; only fields marked
+    ``metadata={"cache_key": False}``, such as the rig's path, are left out), with the file's
+    content hash, the ema_rig version and the key schema.
+    """
+    from .. import __version__
+
+    fields = _canonical(task)
+    fields.pop("file")
+    payload = {"task": fields, "digest": digest, "version": __version__, "schema": _KEY_SCHEMA}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a regular file's content.
+
+    The file is opened non-blocking and checked on the open descriptor, so a FIFO or a device
+    given as a measurement raises at once instead of blocking the campaign.
+
+    Raises
+    ------
+    EmaRigError
+        When the file is missing, not a regular file or unreadable (naming the file).
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except FileNotFoundError:
+        raise EmaRigError("file not found", file=path) from None
+    except OSError as exc:
+        raise EmaRigError(f"cannot open: {exc.strerror}", file=path) from None
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise EmaRigError("not a regular file (a FIFO, socket, device or folder?)", file=path)
+        h = hashlib.sha256()
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                h.update(chunk)
+        return h.hexdigest()
+    except OSError as exc:
+        raise EmaRigError(f"cannot read: {exc.strerror}", file=path) from None
+    finally:
+        os.close(fd)
+
+
+def _nan(x: Any) -> float:
+    return math.nan if x is None else float(x)
+
+
+def process_measurement(task: MeasurementTask) -> dict[str, Any]:
+    """Run one task (k_TB of a measurement, or the k_MS calibration): a picklable worker.
+
+    Parameters
+    ----------
+    task : MeasurementTask
+
+    Returns
+    -------
+    dict
+        ``status`` ("ok" or "error"), ``error`` (message), ``error_kind`` ("" / "data" for an
+        ema_rig error about the data / "internal" for anything else), ``warnings``, the result
+        columns, ``detail`` and ``elapsed_s``. Errors are returned, never raised, so that one bad
+        file does not stop a campaign; ``KeyboardInterrupt`` and ``SystemExit`` propagate.
+    """
+    from .._blas import single_threaded
+
+    t0 = time.perf_counter()
+    # one BLAS thread per measurement: the matrices are small, and with --jobs N the N workers
+    # would otherwise each start a thread per core and fight over the cores
+    try:
+        with single_threaded():
+            out = _compute(task)
+    except EmaRigError as exc:
+        out = {"status": "error", "error": str(exc), "error_kind": "data"}
+    except Exception as exc:  # a bug or an unexpected file: reported, logged, never cached
+        logger.exception("%s failed unexpectedly", task.file)
+        out = {"status": "error", "error": f"internal error ({type(exc).__name__}): {exc}", "error_kind": "internal"}
+    out["elapsed_s"] = time.perf_counter() - t0
+    return out
+
+
+def _compute(task: MeasurementTask) -> dict[str, Any]:
+    from ..io.uff import read_uff58
+    from ..rig.stiffness import calibrate, estimate_stiffness
+
+    data = read_uff58(task.file, rig=task.rig)
+    if task.kind == "calibration":
+        d = calibrate(data, task.rig, k_disk=task.k_disk, band=task.band, max_order=task.max_order).to_dict()
+        return {**d, "status": "ok", "error": "", "error_kind": "", "warnings": list(d.get("warnings") or [])}
+    res = estimate_stiffness(data, task.rig, k_ms=task.k_ms, k_ms_std=task.k_ms_std, speed_hz=task.speed_hz,
+                             band=task.band, max_order=task.max_order)
+    d = res.to_dict()
+    hm = d.get("housing_mode") or {}
+    sm = d.get("spindle_mode") or {}
+    return {
+        "status": "ok", "error": "", "error_kind": "",
+        "k_TB": _nan(d.get("k_TB")), "k_TB_std": _nan(d.get("k_TB_std")), "k_TB_MS": _nan(d.get("k_TB_MS")),
+        "k_MS": _nan(d.get("k_MS")),
+        "housing_freq": _nan(hm.get("natural_freq")), "housing_freq_std": _nan(hm.get("natural_freq_std")),
+        "housing_damping": _nan(hm.get("damping_ratio")),
+        "spindle_freq": _nan(sm.get("natural_freq")), "spindle_damping": _nan(sm.get("damping_ratio")),
+        "warnings": list(d.get("warnings") or []),
+        "detail": d,
+    }
+
+
+def _cacheable(result: Mapping[str, Any]) -> bool:
+    """Only a result of the data is reused: ok, or an ema_rig error about the data."""
+    return result.get("status") == "ok" or result.get("error_kind") == "data"
+
+
+def _load_cached(path: Path, key: str, *, row: bool) -> dict[str, Any] | None:
+    """A previous result with this key, or None (missing, unreadable, foreign or malformed)."""
+    try:  # a regular file of sane size only (a FIFO planted as results/<id>.json must not block)
+        doc = json.loads(read_regular_file(path, max_bytes=_MAX_RESULT_BYTES).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(doc, dict) or doc.get("cache_key") != key or doc.get("status") not in ("ok", "error"):
+        return None
+    if not isinstance(doc.get("error", ""), str):
+        return None
+    if row:
+        for k in _NUMERIC:
+            v = doc.get(k)
+            if v is None:
+                doc[k] = math.nan  # JSON null back to NaN
+            elif isinstance(v, bool) or not isinstance(v, (int, float)):
+                return None
+    elif doc["status"] == "ok" and not _positive(doc.get("k_MS")):
+        return None
+    return doc
+
+
+def _positive(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0
+
+
+# --------------------------------------------------------------------------- workers
+def _worker_init(parent: int) -> None:
+    """Initializer of pool workers: die with ``parent``; leave Ctrl-C to the parent."""
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles an interrupt and stops the pool
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG: killed when the parent dies
+        except (OSError, AttributeError):  # pragma: no cover - no prctl: the watchdog remains
+            pass
+    if os.name == "nt":  # pragma: no cover - os.kill(pid, 0) would terminate the process on Windows
+        return
+    if not _alive(parent):  # the parent died before the death signal was armed
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent, os.getppid()), name="ema-rig-parent-watch",
+                     daemon=True).start()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _watch_parent(parent: int, ppid: int) -> None:  # pragma: no cover - runs in the workers
+    while True:
+        time.sleep(1.0)
+        if os.getppid() != ppid or not _alive(parent):
+            os._exit(1)
+
+
+def make_pool(jobs: int) -> ProcessPoolExecutor:
+    """A process pool whose workers die with this process and ignore Ctrl-C."""
+    return ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init, initargs=(os.getpid(),))
+
+
+# --------------------------------------------------------------------------- run
+def run(
+    campaign: CampaignConfig | str | PathLike[str],
+    *,
+    out_dir: str | PathLike[str] | None = None,
+    jobs: int = 1,
+    executor: Executor | None = None,
+    force: bool = False,
+    progress: bool | Callable[[int, int], None] = False,
+    report: bool = True,
+) -> CampaignResult:
+    """Run a campaign: calibrate k_MS, estimate k_TB for every measurement, write the outputs.
+
+    Parameters
+    ----------
+    campaign : CampaignConfig or path
+        A loaded campaign or the path of a campaign file.
+    out_dir : path, optional
+        Output folder. Per-measurement results go to ``out_dir/results/<id>.json`` as they finish;
+        ``campaign.csv``, ``settings.json``, the figures and ``report.html`` are written at the
+        end. The folder is locked for the run: a second run on it raises. Without it, nothing is
+        written and nothing can be reused.
+    jobs : int, optional
+        Number of worker processes when no ``executor`` is given (1 = in this process).
+    executor : concurrent.futures.Executor, optional
+        Any executor, e.g. ``dask.distributed.Client(...).get_executor()``; overrides ``jobs``.
+    force : bool, optional
+        Recompute every measurement even when a valid previous result exists.
+    progress : bool or callable, optional
+        True shows a tqdm bar (hidden when not a TTY); a callable gets ``(done, total)``.
+    report : bool, optional
+        Write the table, figures and HTML report (default True; needs ``out_dir``).
+
+    Returns
+    -------
+    CampaignResult
+
+    Raises
+    ------
+    FolderBusyError
+        When another run holds ``out_dir``.
+    OSError
+        When an output cannot be written (naming the file).
+
+    Notes
+    -----
+    A measurement is reused when its JSON result exists and its key - the hash of the file
+    content and of every field of its :class:`MeasurementTask` (the rig's content, k_MS, band,
+    order, speed) and the ema_rig version - is unchanged, so a run killed halfway loses only the
+    measurements in flight. Failures of the infrastructure are never reused.
+    """
+    cfg = campaign if isinstance(campaign, CampaignConfig) else load_campaign(campaign)
+    if jobs < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    if out_dir is None:
+        return _run(cfg, None, jobs, executor, force, progress, report)
+    out = Path(out_dir)
+    with _atomic.folder_lock(out):
+        for folder in (out, out / "results"):
+            _atomic.remove_temporaries(folder)
+        return _run(cfg, out, jobs, executor, force, progress, report)
+
+
+def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
+         progress: bool | Callable[[int, int], None], report: bool) -> CampaignResult:
+    res_dir = None if out is None else out / "results"
+    rig = cfg.rig
+
+    def result_path(name: str) -> Path | None:
+        if res_dir is None:
+            return None
+        p = res_dir / f"{name}.json"
+        if p.parent != res_dir:  # ids are validated in the schema; never write elsewhere
+            raise EmaRigError(f"measurement id {name!r} is not a plain file name")
+        return p
+
+    # 1. k_MS from the steel disk (or the rig file)
+    k_ms, k_ms_std = cfg.rig.model.k_MS, None
+    calib: dict[str, Any] | None = None
+    if cfg.calibration is not None:
+        ctask = MeasurementTask(kind="calibration", file=cfg.calibration, rig=rig, k_disk=cfg.k_disk,
+                                max_order=cfg.max_order)
+        cpath = result_path(CALIBRATION_NAME)
+        try:
+            ckey: str | None = task_key(ctask, file_digest(cfg.calibration))
+        except EmaRigError as exc:
+            ckey, calib = None, {"status": "error", "error": str(exc), "error_kind": "input"}
+        if calib is None and ckey is not None:
+            calib = None if (force or cpath is None) else _load_cached(cpath, ckey, row=False)
+            if calib is None:
+                calib = process_measurement(ctask)
+        assert calib is not None
+        calib["file"] = str(cfg.calibration)
+        calib["cache_key"] = ckey if _cacheable(calib) else None
+        if cpath is not None:
+            _atomic.write_json(cpath, calib)
+        if calib["status"] == "ok":
+            k_ms, k_ms_std = float(calib["k_MS"]), calib.get("k_MS_std")
+        else:
+            logger.warning("calibration failed (%s); using k_MS from the rig file", calib["error"])
+
+    # 2. the measurements: a task each, reused when the key matches
+    rows: dict[str, dict[str, Any]] = {}
+    todo: list[tuple[Measurement, MeasurementTask, str]] = []
+    failed_input: list[tuple[Measurement, dict[str, Any]]] = []
+    for m in cfg.measurements:
+        t = MeasurementTask(kind="measurement", file=m.file, rig=rig, k_ms=k_ms, k_ms_std=k_ms_std,
+                            speed_hz=m.speed / 60.0 if m.speed > 0 else None, band=cfg.band,
+                            max_order=cfg.max_order)
+        try:
+            key = task_key(t, file_digest(m.file))
+        except EmaRigError as exc:  # missing, unreadable or not a regular file: checked every run
+            failed_input.append((m, {"status": "error", "error": str(exc), "error_kind": "input"}))
+            continue
+        path = result_path(m.id)
+        cached = None if (force or path is None) else _load_cached(path, key, row=True)
+        if cached is not None:
+            # the conditions (bearing, load, tags ...) do not change the computation but are today's
+            rows[m.id] = {**cached, **m.conditions()}
+        else:
+            todo.append((m, t, key))
+    reused = len(rows)
+    bar = _progress(progress, len(cfg.measurements), reused)
+
+    def finish(m: Measurement, key: str | None, result: dict[str, Any]) -> None:
+        blank = {c: math.nan for c in COLUMNS}  # every column in every row, errors included
+        row = {**blank, "warnings": [], **m.conditions(), **result,
+               "cache_key": key if _cacheable(result) else None}
+        rows[m.id] = row
+        path = result_path(m.id)
+        if path is not None:
+            _atomic.write_json(path, row)
+        bar(1)
+
+    for m, outcome in failed_input:
+        finish(m, None, outcome)
+    own_pool: ProcessPoolExecutor | None = None
+    if executor is None and jobs > 1 and len(todo) > 1:
+        own_pool = executor = make_pool(min(jobs, len(todo)))  # no idle processes
+    try:
+        if executor is None:
+            for m, t, key in todo:
+                finish(m, key, process_measurement(t))
+        else:
+            futs: dict[Future[dict[str, Any]], tuple[Measurement, str]] = {
+                executor.submit(process_measurement, t): (m, key) for m, t, key in todo
+            }
+            for fut in as_completed(futs):
+                m, key = futs[fut]
+                try:
+                    outcome = fut.result()
+                except Exception as exc:  # the worker died (killed process, lost dask worker)
+                    outcome = {"status": "error", "error_kind": "infrastructure",
+                               "error": f"worker failed ({type(exc).__name__}: {exc or 'no message'}); "
+                                        "not cached, computed again on the next run"}
+                finish(m, key, outcome)
+    except BaseException:
+        if own_pool is not None:
+            own_pool.shutdown(wait=False, cancel_futures=True)
+            own_pool = None
+        raise
+    finally:
+        bar(None)
+        if own_pool is not None:
+            own_pool.shutdown()
+
+    ordered = tuple(
+        {c: rows[m.id].get(c, math.nan if c not in ("error", "status") else "") for c in COLUMNS}
+        | {"detail": rows[m.id].get("detail"), "warnings": list(rows[m.id].get("warnings") or [])}
+        for m in cfg.measurements
+    )
+    result = CampaignResult(
+        config=cfg, rows=ordered, calibration=calib, k_MS=k_ms, k_MS_std=k_ms_std,
+        out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
+    )
+    if out is not None and report:
+        from .outputs import write_outputs
+
+        result = dataclasses.replace(result, files=write_outputs(result, out))
+    return result
+
+
+def _progress(progress: bool | Callable[[int, int], None], total: int, initial: int) -> Callable[[int | None], None]:
+    """A tiny adapter: ``step(1)`` advances, ``step(None)`` closes."""
+    if callable(progress):
+        state = {"done": initial}
+
+        def step(n: int | None) -> None:
+            if n is not None:
+                state["done"] += n
+                progress(state["done"], total)  # type: ignore[operator]
+
+        return step
+    if progress:
+        from tqdm.auto import tqdm
+
+        pbar = tqdm(total=total, initial=initial, desc="measurements", unit="meas", disable=None)
+
+        def step(n: int | None) -> None:
+            if n is None:
+                pbar.close()
+            else:
+                pbar.update(n)
+
+        return step
+    return lambda n: None
+
+
+__all__ = ["CALIBRATION_NAME", "MeasurementTask", "file_digest", "make_pool", "process_measurement", "run",
+           "task_key"]

@@ -1,0 +1,111 @@
+"""Checked number types for the ``ema-rig`` command line (one definition for every command).
+
+argparse calls a ``type=`` function on the text of an option; the functions here turn it into a
+number and refuse, with a one-line reason, anything outside the option's physical range: NaN
+and infinities (unless a command gives ``inf`` a meaning), negative speeds, zero resolutions,
+negative seeds. argparse then prints ``ema-rig <command>: error: argument <option>: <reason>``
+and exits with code 2, before any file is read or written.
+
+Functions
+---------
+finite_float, positive_float, nonneg_float
+    A finite float; one > 0; one >= 0.
+positive_stiffness
+    A stiffness > 0 [N/m] where ``inf`` is allowed (a rigid steel disk).
+nonneg_int, positive_int, model_order
+    An integer >= 0; >= 1; a PolyMAX model order >= 2 (orders step by 2 for one reference).
+number
+    Build a checked type with other bounds.
+BandAction
+    ``--band LO HI``: two finite frequencies with 0 <= LO < HI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+
+def _describe(kind: type, lo: float | None, hi: float | None, lo_open: bool, allow_inf: bool) -> str:
+    what = "an integer" if kind is int else ("a number" if allow_inf else "a finite number")
+    parts = []
+    if lo is not None:
+        parts.append(f"{'>' if lo_open else '>='} {lo:g}")
+    if hi is not None:
+        parts.append(f"<= {hi:g}")
+    return what + (" " + " and ".join(parts) if parts else "")
+
+
+def number(
+    kind: type = float,
+    *,
+    lo: float | None = None,
+    hi: float | None = None,
+    lo_open: bool = False,
+    allow_inf: bool = False,
+    unit: str = "",
+) -> Callable[[str], Any]:
+    """An argparse ``type=`` that parses ``kind`` (int or float) and checks its range.
+
+    Parameters
+    ----------
+    kind : {int, float}
+        Integers refuse ``1.5`` and ``1e3``; floats always refuse NaN.
+    lo, hi : float, optional
+        Inclusive bounds (``lo`` exclusive with ``lo_open``).
+    lo_open : bool, optional
+        Require ``value > lo`` instead of ``>=``.
+    allow_inf : bool, optional
+        Accept ``inf`` (floats only, still checked against the bounds).
+    unit : str, optional
+        Unit named in the message, e.g. ``"Hz"``.
+
+    Returns
+    -------
+    callable
+        ``f(text) -> int | float`` raising :class:`argparse.ArgumentTypeError`.
+    """
+    desc = _describe(kind, lo, hi, lo_open, allow_inf) + (f" [{unit}]" if unit else "")
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except (ValueError, OverflowError):
+            raise argparse.ArgumentTypeError(f"must be {desc}, got {text!r}") from None
+        if kind is float and (math.isnan(value) or (math.isinf(value) and not allow_inf)):
+            raise argparse.ArgumentTypeError(f"must be {desc}, got {text!r}")
+        if lo is not None and (value <= lo if lo_open else value < lo):
+            raise argparse.ArgumentTypeError(f"must be {desc}, got {text!r}")
+        if hi is not None and value > hi:
+            raise argparse.ArgumentTypeError(f"must be {desc}, got {text!r}")
+        return value
+
+    parse.__doc__ = f"The option's text as {desc}; argparse.ArgumentTypeError otherwise."
+    return parse
+
+
+finite_float = number(float)
+positive_float = number(float, lo=0.0, lo_open=True)
+nonneg_float = number(float, lo=0.0)
+positive_stiffness = number(float, lo=0.0, lo_open=True, allow_inf=True, unit="N/m")
+nonneg_int = number(int, lo=0)
+positive_int = number(int, lo=1)
+model_order = number(int, lo=2)  # the upper limit depends on the data: identify checks it
+
+
+class BandAction(argparse.Action):
+    """``--band LO HI`` [Hz]: two finite frequencies with ``0 <= LO < HI`` (use with ``nargs=2``)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: str | Sequence[Any] | None, option_string: str | None = None) -> None:
+        assert values is not None and not isinstance(values, str)
+        lo, hi = (float(v) for v in values)
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 <= lo < hi):
+            raise argparse.ArgumentError(self, f"needs 0 <= LO < HI, two finite frequencies [Hz], got {lo:g} {hi:g}")
+        setattr(namespace, self.dest, (lo, hi))
+
+
+__all__ = ["BandAction", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
+           "positive_float", "positive_int", "positive_stiffness"]
