@@ -53,12 +53,11 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
     try:
         ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True)
     except IdentificationError as exc:
-        findings = diagnose_file(args.file, data)
+        findings = [f for f in diagnose_file(args.file, data) if f not in exc.message]
         if not findings:
             raise
-        raise IdentificationError(
-            exc.message + "; the measurement itself is suspect: " + "; ".join(findings), file=exc.file
-        ) from None
+        head = "; " if "the measurement itself is suspect" in exc.message else "; the measurement itself is suspect: "
+        raise IdentificationError(exc.message + head + "; ".join(findings), file=exc.file) from None
     findings = diagnose_file(args.file, data.band(*ident.band))
     if findings:
         ident = replace(ident, warnings=ident.warnings + tuple(f"data: {f}" for f in findings))

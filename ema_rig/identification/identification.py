@@ -355,7 +355,7 @@ def identify(
     converged = True
     if selection is not None:
         stab = stabilized(cap)
-        _require_stable(stab, cap, src, work)
+        _require_stable(stab, cap, src, data)
         try:
             sel = resolve_selection(stab, selection, tol=near_tol, source=src)
         except IdentificationError as exc:
@@ -386,7 +386,7 @@ def identify(
             if converged or n >= cap or time.perf_counter() - t0 > time_budget:
                 break
             prev, n = cur, min(n + span, cap)
-        _require_stable(stab, n, src, work)
+        _require_stable(stab, n, src, data)
         notes.append(f"model order grown to {n} (modes per order: {', '.join(history)}); "
                      + ("the mode set converged" if converged else "the mode set did NOT converge"))
         if not converged:
@@ -400,7 +400,7 @@ def identify(
             rejected = "; ".join(f"{c.natural_freq:.5g} Hz: {c.reason}" for c in candidates[:6])
             raise IdentificationError(
                 f"no physical mode in the band {stab.band[0]:g}..{stab.band[1]:g} Hz up to order {n}"
-                + (f" (candidates rejected: {rejected})" if rejected else ""),
+                + (f" (candidates rejected: {rejected})" if rejected else "") + _why(data),
                 file=src,
             )
     # one LSFD pole per mode; sorted by |pole| so the spreads align with the modal model
@@ -482,13 +482,21 @@ def _up_to(stab: StabilizationData, n: int) -> StabilizationData:
     return StabilizationData(sub, stab.status[keep], stab.tolerances)
 
 
-def _require_stable(stab: StabilizationData, n: int, src: str | None, work: FRFData) -> None:
+def _why(data: FRFData) -> str:
+    """What in the FRFs makes them untrustworthy (phase, coherence), as a clause for a refusal."""
+    from .diagnose import diagnose_frf
+
+    findings = diagnose_frf(data)
+    return ("; the measurement itself is suspect: " + "; ".join(findings)) if findings else ""
+
+
+def _require_stable(stab: StabilizationData, n: int, src: str | None, data: FRFData) -> None:
     n_stable = int(np.sum(np.isin(stab.status, ["s", "d", "v", "f"])))
     if n_stable == 0:
         fband = stab.band
         raise IdentificationError(
             f"no stable pole in the band {fband[0]:g}..{fband[1]:g} Hz up to order {n} "
-            f"({len(stab)} poles, {int(np.sum(stab.unstable))} of them unstable)",
+            f"({len(stab)} poles, {int(np.sum(stab.unstable))} of them unstable)" + _why(data),
             file=src,
         )
 
