@@ -304,3 +304,33 @@ def test_cli_crosscheck_prints_agreement_table(real_frf_dir, capsys):
     assert len(rows) == 3  # one row per identified mode
     for r in rows:
         assert abs(float(r[4])) < 0.02  # df [%]: measured at most 0.008 %
+
+
+def test_vt_case2_library_refusal_names_the_phase(real_frf_dir):
+    from ema_rig.io.uff import read_uff58
+
+    d = read_uff58(real_frf_dir / "vt_case2_full.uff")
+    with pytest.raises(IdentificationError, match=r"phase jumps by more than 90 degrees .* at 18 % of the lines"):
+        identify(d, max_order=64)
+
+
+def test_diagnose_frf_reads_coherence_when_the_data_carry_it():
+    # FRFData gains an optional ``coherence`` (n_out, n_in, n_freq) elsewhere; the diagnosis
+    # uses it when present: low at the peak is reported, above 1 is reported as invalid
+    from types import SimpleNamespace
+
+    from ema_rig.identification import diagnose_frf
+
+    sys5 = five_mode_system(close_pair=False)
+    d = sys5.frf(FREQ, outputs=[0], inputs=[0])
+    low = np.ones(d.frf.shape)
+    k = int(np.argmax(np.abs(d.frf[0, 0])))
+    low[0, 0, k - 2 : k + 3] = 0.2
+    view = SimpleNamespace(freq=d.freq, frf=d.frf, out_dofs=d.out_dofs, in_dofs=d.in_dofs,
+                           n_out=d.n_out, n_in=d.n_in, coherence=low)
+    (line,) = diagnose_frf(view)  # type: ignore[arg-type]
+    assert "at the largest peak" in line and "0.20" in line
+    view.coherence = np.full(d.frf.shape, 1.2)
+    (line,) = diagnose_frf(view)  # type: ignore[arg-type]
+    assert "exceeds 1" in line and "not used" in line
+    assert diagnose_frf(d) == []  # exact FRFs, no coherence: nothing to report
