@@ -31,6 +31,7 @@ from .stabilization import (
     SelectedMode,
     Selection,
     StabilizationData,
+    cluster_poles,
     resolve_selection,
     stabilize,
 )
@@ -371,15 +372,19 @@ def identify(
         history = []
         while True:
             stab = stabilized(n)
-            candidates = judge_clusters(stab, data)
+            clusters = cluster_poles(stab)
+            candidates = judge_clusters(stab, data, clusters=clusters)
             cur = [c.mode for c in candidates if c.accepted]
             history.append(f"{n}: {len(cur)}")
             if prev is None:
                 # the orders up to prev_n are a leading part of the same estimate (same status
-                # letters). When exactly the modes accepted now already pass the stability rules
-                # there, the LSFD verdicts (which judge the same modes) are taken over.
+                # letters, and the first rows of the pole set). When exactly the modes accepted
+                # now already pass the stability rules there (the same clusters cut to those
+                # orders), the LSFD verdicts, which judge the same modes, are taken over.
                 early = _up_to(stab, prev_n)
-                prev = [c.mode for c in judge_clusters(early, data, fit=False) if c.accepted]
+                k = len(early)
+                cut = [r[r < k] for r in clusters if np.any(r < k)]
+                prev = [c.mode for c in judge_clusters(early, data, fit=False, clusters=cut) if c.accepted]
                 if not _same_modes(prev, cur):
                     prev = [c.mode for c in judge_clusters(early, data) if c.accepted]
             converged = bool(cur) and _same_modes(prev, cur)
@@ -476,7 +481,7 @@ def _refined(ident: Identification, data: FRFData) -> Identification:
 def _up_to(stab: StabilizationData, n: int) -> StabilizationData:
     """The rows of ``stab`` of the orders up to ``n`` (their status letters do not depend on later orders)."""
     ps = stab.poles
-    keep = ps.order <= n
+    keep = ps.order <= n  # a prefix: the pole set is stored order by order, ascending
     sub = PoleSet(order=ps.order[keep], pole=ps.pole[keep], participation=ps.participation[keep], band=ps.band,
                   in_dofs=ps.in_dofs, orders=tuple(o for o in ps.orders if o <= n), meta=ps.meta)
     return StabilizationData(sub, stab.status[keep], stab.tolerances)

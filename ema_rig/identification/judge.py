@@ -224,6 +224,7 @@ def judge_clusters(
     min_mpc: float = 0.25,
     max_damping_spread: float = 0.5,
     fit: bool = True,
+    clusters: list[NDArray[np.intp]] | None = None,
 ) -> tuple[Candidate, ...]:
     """Judge every cluster of stable poles of ``stab`` against the data ``data``.
 
@@ -240,6 +241,8 @@ def judge_clusters(
     fit : bool, optional
         Apply the LSFD-based rules 4-7 (default True); False judges on stability,
         damping and participation duplicates only (rules 1-3).
+    clusters : list of ndarray, optional
+        Rows of ``stab`` per cluster (default :func:`~ema_rig.identification.stabilization.cluster_poles`).
 
     Returns
     -------
@@ -247,7 +250,8 @@ def judge_clusters(
         Sorted by frequency; ``accepted`` ones are the physical modes.
     """
     orders = np.asarray(stab.orders)
-    clusters = cluster_poles(stab, max_damping=max_damping)
+    if clusters is None:
+        clusters = cluster_poles(stab, max_damping=max_damping)
     ranks = order_ranks(stab)
     modes = [_mode_from_rows(stab, rows, "auto", ranks) for rows in clusters]
     verdict: list[str | None] = [None] * len(modes)
