@@ -370,6 +370,7 @@ def identify(
         n = start
         prev: list[SelectedMode] | None = None
         history = []
+        prev_order = prev_n
         while True:
             stab = stabilized(n)
             clusters = cluster_poles(stab)
@@ -390,14 +391,14 @@ def identify(
             converged = bool(cur) and _same_modes(prev, cur)
             if converged or n >= cap or time.perf_counter() - t0 > time_budget:
                 break
-            prev, n = cur, min(n + span, cap)
+            prev, prev_order, n = cur, n, min(n + span, cap)
         _require_stable(stab, n, src, data)
         notes.append(f"model order grown to {n} (modes per order: {', '.join(history)}); "
                      + ("the mode set converged" if converged else "the mode set did NOT converge"))
         if not converged:
             why = "the order cap" if n >= cap else f"the time budget ({time_budget:g} s)"
             warnings.append(f"the mode set did not converge up to order {n} (stopped by {why}): "
-                            f"{len(prev)} modes at order {n - span}, {len(cur)} at order {n}")
+                            f"{len(prev or [])} modes at order {prev_order}, {len(cur)} at order {n}")
         sel = Selection(modes=tuple(cur), band=stab.band, max_order=n,
                         tolerances=dict(stab.tolerances),
                         in_dofs=tuple(str(d) for d in work.in_dofs), source=src)
