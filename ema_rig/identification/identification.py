@@ -1,14 +1,20 @@
-"""The whole identification of one measurement: pLSCF -> stabilization -> selection -> LSFD.
+"""The whole identification of one measurement: pLSCF -> stabilization -> judgement -> LSFD.
 
 Functions
 ---------
 identify
-    What the stiffness pipeline and the campaign call for every measurement.
+    What the stiffness pipeline and the campaign call for every measurement: the model order
+    grows (reusing the leading blocks of one pLSCF estimate) until the judged mode set converges.
+default_order_cap
+    Default cap on the model order.
+transpose_layout
+    The same FRFs with references and responses exchanged (reciprocity).
 
 Classes
 -------
 Identification
-    Frozen result: pole set, stabilization data, selection, modal model and per-mode spread.
+    Frozen result: pole set, stabilization data, selection, modal model, per-mode spread,
+    every candidate with its verdict, convergence, warnings and notes.
 """
 
 from __future__ import annotations
