@@ -20,8 +20,6 @@ MatchingError
     No identified mode matches the housing mode; ``candidates`` lists why each was rejected.
 IdentificationWarning, UnitWarning
     User-facing numerical or unit doubts.
-DataWarning
-    A doubt about the measured data themselves (coherence above 1 clipped ...).
 """
 
 from __future__ import annotations
@@ -150,13 +148,8 @@ class UnitWarning(UserWarning):
     """A unit decision that the user should know about (assumed unit, ignored channel ...)."""
 
 
-class DataWarning(UserWarning):
-    """A doubt about the measured data that was repaired on reading (coherence above 1 clipped ...)."""
-
-
 __all__ = [
     "ConfigError",
-    "DataWarning",
     "EmaRigError",
     "IdentificationError",
     "IdentificationWarning",

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ema_rig.errors import DataWarning, EmaRigError, UnitWarning
+from ema_rig.errors import EmaRigError, UnitWarning
 from ema_rig.io.uff import inspect_uff, read_uff, read_uff58
 
 Mutator = Callable[[bytes, np.random.Generator], bytes]
@@ -229,14 +229,13 @@ def exercise(path: Path, buf: bytes) -> tuple[str, str | None]:
     (outcome, detail)
         ``("read", None)``, ``("refused", None)`` (an :class:`EmaRigError`, with or without
         some refused datasets) or ``("foreign", traceback text)`` for any other exception or a
-        warning other than UnitWarning / DataWarning.
+        warning other than UnitWarning.
     """
     path.write_bytes(buf)
     outcome = "read"
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         warnings.filterwarnings("ignore", category=UnitWarning)
-        warnings.filterwarnings("ignore", category=DataWarning)
         try:
             f = read_uff(path)
             inspect_uff(path)

@@ -3,7 +3,7 @@ mutation classes of ``_uff_mutants`` (unit labels, dataset-164 factors and expon
 integers, value counts, delimiters, truncation).
 
 Any exception other than ema_rig's own error types is a bug, and so is any warning other than
-UnitWarning (an ignored channel) and DataWarning (coherence clipped).
+UnitWarning (an ignored channel).
 The budget is fixed (a few hundred examples each, no deadline per example), a few seconds in all.
 The long run (>= 10 000 mutants over the corpus and data/) is ``benchmarks/fuzz_uff.py``.
 """
@@ -19,7 +19,7 @@ from _uff_mutants import MUTATORS, exercise
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ema_rig.errors import DataWarning, EmaRigError, UnitWarning
+from ema_rig.errors import EmaRigError, UnitWarning
 from ema_rig.frf import FRFData
 from ema_rig.io.uff import inspect_uff, read_uff, read_uff58, write_uff58
 
@@ -52,7 +52,6 @@ def _exercise(path: Path, buf: bytes) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a numpy RuntimeWarning is a bug too
         warnings.filterwarnings("ignore", category=UnitWarning)
-        warnings.filterwarnings("ignore", category=DataWarning)
         for fn in (read_uff, inspect_uff, read_uff58):
             try:
                 fn(path)

@@ -53,7 +53,7 @@ from numpy.typing import NDArray
 from .._atomic import atomic_path
 from ..config import RigConfig
 from ..dof import DOF
-from ..errors import DataWarning, UFFError, UnitWarning
+from ..errors import UFFError, UnitWarning
 from ..frf import FRFData
 from . import _uff_coherence, _uff_parse, _uff_units, _uff_write
 
@@ -417,8 +417,8 @@ def read_uff58(
 
     Coherence. Datasets of function type 6 are attached to the FRF of the same (response,
     reference) pair (mapped like the FRFs, sign-free) when they lie on the same frequency lines;
-    values above 1 (which real analysers write) or below 0 are clipped into 0..1, listed in
-    ``meta["warnings"]`` and warned with :class:`~ema_rig.errors.DataWarning`. A coherence
+    values above 1 (which real analysers write) or below 0 are clipped into 0..1 and listed in
+    ``meta["warnings"]`` (a result caveat, not a Python warning: reading a real file is routine). A coherence
     whose pair has no FRF, whose lines differ, or that is refused is ignored with a note. The
     coherence is attached only when every FRF has one (else ``coherence`` is None, with a note
     naming the FRFs without).
@@ -605,8 +605,6 @@ def read_uff58(
                          if r.index not in attached]
     n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
     notes += list(coh.notes) + ([avg_note] if avg_note else [])
-    for w in coh.warnings:
-        warnings.warn(f"{src}: {w}", DataWarning, stacklevel=2)
     meta = {
         "source": src,
         "datasets": sorted(used_idx),
