@@ -323,7 +323,8 @@ def identify(
     src = source_of(data)
     band, notes = _clip_band(data, band)
     data = check_data(data, band)
-    warnings: list[str] = []
+    # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result
+    warnings: list[str] = [f"data: {w}" for w in data.meta.get("warnings", ()) if isinstance(w, str)]
     transposed = (data.n_in > data.n_out) if transpose is None else bool(transpose)
     if selection is not None and selection.in_dofs:
         # a replayed selection fixes the layout its participation vectors belong to
