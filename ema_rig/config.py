@@ -459,6 +459,8 @@ BEARING_GEOMETRY_KEYS: tuple[str, ...] = (
     "youngs_modulus", "poisson_ratio", "ball_youngs_modulus", "ball_poisson_ratio",
 )
 _GEOMETRY_REQUIRED = ("n_balls", "ball_diameter", "pitch_diameter")
+#: Upper bounds [m] that catch a length typed in millimetres (the largest bearings stay below them).
+_GEOMETRY_LIMITS_M = {"ball_diameter": 0.5, "pitch_diameter": 10.0, "clearance": 1e-3}
 
 
 def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -> Any:
@@ -505,8 +507,9 @@ def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -
                               key=f"{where}.{k}")
         if "poisson" in k and not v < 0.5:
             raise ConfigError(f"must lie in [0, 0.5), got {v:g}", file=file, key=f"{where}.{k}")
-        if k in ("ball_diameter", "pitch_diameter", "clearance") and v > 10.0:
-            raise ConfigError(f"is in metres: {v:g} m is not a ball bearing (7.938 mm is 7.938e-3)",
+        limit = _GEOMETRY_LIMITS_M.get(k)
+        if limit is not None and v > limit:
+            raise ConfigError(f"is in metres: {v:g} m exceeds {limit:g} m (7.938 mm is 7.938e-3)",
                               file=file, key=f"{where}.{k}")
         kw[k] = v
     try:
