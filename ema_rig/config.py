@@ -1,6 +1,6 @@
 """Rig and campaign configuration files (TOML) into validated, frozen dataclasses.
 
-The rig file's keys are a contract (DESIGN §3.1)::
+The rig file's keys are a stable interface (README, "The rig file")::
 
     [model]                # all seven keys required, SI units
     m_H, m_S, m_F, k_MS, k_AS, k_S, k_B
@@ -439,7 +439,7 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
     Parameters
     ----------
     path : str or path-like
-        TOML file with the tables of DESIGN §3.1.
+        TOML file with the tables above (README, "The rig file").
 
     Returns
     -------

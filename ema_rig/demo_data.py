@@ -13,7 +13,7 @@ Contents:
   inside the FE bounds 31.14e6 ... 34.12e6 N/m, rising slightly with load (paper Sect. 5);
 - ``b6302_<F>N_<rpm>rpm[_r<k>].uff``: the 6302 at 4 radial loads (1200 rpm), 4 speeds at
   1000 N (one repeated), following a Hertzian trend ``k = 7.16e7 (F / 1 kN)^(1/3)`` N/m
-  (DESIGN §4, scaled so 1 kN gives the paper's 626 Hz);
+  (scaled so 1 kN gives the paper's 626 Hz);
 - ``b6302_1000N_static_<deg>deg.uff``: non-rotating at 3 shaft positions, on average
   1 / (1 - 0.088) stiffer than rotating (the paper's 8.8 % decrease), varying with the ball
   positions as the discrete Hertz load distribution does;

@@ -10,7 +10,7 @@ from . import _args
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig calibrate``."""
     parser.add_argument("file", metavar="DISK_FILE", help="UFF58 measurement with the steel disk mounted")
-    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
+    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
     parser.add_argument("--k-disk", type=_args.positive_float, default=None, metavar="V",
                         help="finite disk stiffness [N/m] in series (default: rigid, as the paper)")
     parser.add_argument("--band", type=_args.finite_float, nargs=2, action=_args.BandAction, default=None,
@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
           + f", damping {100 * hm['damping_ratio']:.2f} % (steel disk)")
     print(f"k_MS          {res.k_MS / 1e6:.3f} +/- {res.k_MS_std / 1e6:.3f} MN/m (1 sigma, frequency spread)"
           + ("" if res.k_disk is None else f", disk {res.k_disk / 1e6:.0f} MN/m in series"))
-    print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; use --k-ms {res.k_MS:.6g} with 'ema-rig stiffness'")
+    print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; pass on to 'ema-rig stiffness': "
+          f"--k-ms {res.k_MS:.6g} --k-ms-std {res.k_MS_std:.6g}")
     if args.json:
         from .._atomic import write_json
 
