@@ -13,7 +13,7 @@ Identification
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -25,6 +25,7 @@ from .lsfd import lsfd
 from .mac import mpc
 from .modal import ModalModel
 from .plscf import PoleSet, check_data, default_max_order, plscf, source_of
+from .refine import Refinement
 from .stabilization import (
     SelectedMode,
     Selection,
@@ -54,6 +55,9 @@ class Identification:
         aligned with ``modes``.
     band : tuple of float
         Band [Hz] of the identification.
+    refinement : Refinement or None
+        The maximum-likelihood refinement when ``identify(..., refine=True)``; when it converged,
+        ``modes`` is its model and the standard deviations are its Fisher-information ones.
     """
 
     poles: PoleSet
@@ -63,6 +67,7 @@ class Identification:
     natural_freq_std: NDArray[np.float64]
     damping_ratio_std: NDArray[np.float64]
     band: tuple[float, float]
+    refinement: Refinement | None = None
 
     @property
     def natural_freq(self) -> NDArray[np.float64]:
@@ -107,9 +112,11 @@ class Identification:
         drive = [d for d in mm.in_dofs if d in mm.out_dofs]
         masses = {str(d): mm.modal_mass(d) for d in drive}
         modes_by_pole = {m.pole: m for m in self.selection.modes}
+        # a refined model keeps the PolyMAX pole of each mode in meta (same order)
+        start = [complex(*p) for p in mm.meta.get("polymax_poles", [])] or [complex(p) for p in mm.poles]
         out = []
         for k in range(mm.n_modes):
-            sel: SelectedMode | None = modes_by_pole.get(complex(mm.poles[k]))
+            sel: SelectedMode | None = modes_by_pole.get(start[k])
             out.append(
                 {
                     "natural_freq": float(mm.natural_freq[k]),
@@ -139,6 +146,7 @@ def identify(
     near_tol: float = 0.03,
     residuals: bool = True,
     progress: bool = False,
+    refine: bool = False,
 ) -> Identification:
     """Identify the physical modes of a measurement in a band.
 
@@ -165,6 +173,12 @@ def identify(
         LSFD with lower and upper residuals (default True).
     progress : bool, optional
         Progress bar over the model orders.
+    refine : bool, optional
+        Refine the modal model by maximum likelihood
+        (:func:`~ema_rig.identification.refine.refine`, using ``data.coherence`` when present) and
+        report its Fisher-information standard deviations (default False). When it does not
+        converge, the PolyMAX model and cluster spreads are kept with an
+        :class:`~ema_rig.errors.IdentificationWarning` giving the reason.
 
     Returns
     -------
@@ -230,10 +244,8 @@ def identify(
     model = lsfd(data, [m.pole for m in modes], residuals=residuals)
     meta = dict(model.meta)
     meta.update({"max_order": int(max_order), "selection": sel.to_dict()})
-    from dataclasses import replace
-
     model = replace(model, meta=meta)
-    return Identification(
+    ident = Identification(
         poles=poles,
         stabilization=stab,
         selection=sel,
@@ -241,6 +253,40 @@ def identify(
         natural_freq_std=np.array([m.natural_freq_std for m in modes]),
         damping_ratio_std=np.array([m.damping_ratio_std for m in modes]),
         band=fband,
+    )
+    # ---- optional maximum-likelihood refinement (issue 10) ----
+    if refine:
+        ident = _refined(ident, data)
+    return ident
+
+
+def _refined(ident: Identification, data: FRFData) -> Identification:
+    """``ident`` with the ML-refined modes and their standard deviations, or unchanged with a warning."""
+    import warnings
+
+    from ..errors import IdentificationWarning
+    from .refine import refine as refine_model
+
+    ref = refine_model(data, ident.modes)
+    if not ref.converged:
+        warnings.warn(
+            f"{source_of(data) or 'data'}: ML refinement fell back to PolyMAX ({ref.reason}); "
+            "the standard deviations are the pole-cluster spreads",
+            IdentificationWarning,
+            stacklevel=3,
+        )
+        return replace(ident, refinement=ref)
+    for w in ref.warnings:
+        if "kept at its PolyMAX pole" in w:
+            w += " (its standard deviations are the pole-cluster spread)"
+        warnings.warn(f"{source_of(data) or 'data'}: {w}", IdentificationWarning, stacklevel=3)
+    # modes kept at their PolyMAX pole keep their cluster spread
+    return replace(
+        ident,
+        modes=ref.model,
+        natural_freq_std=np.where(np.isnan(ref.natural_freq_std), ident.natural_freq_std, ref.natural_freq_std),
+        damping_ratio_std=np.where(np.isnan(ref.damping_ratio_std), ident.damping_ratio_std, ref.damping_ratio_std),
+        refinement=ref,
     )
 
 
