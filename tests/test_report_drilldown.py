@@ -131,3 +131,11 @@ def test_output_units_in_the_campaign_file(campaign_dir: Path, tmp_path: Path) -
     (d / "campaign.toml").write_text(cfg_text.replace('"MN/m"', '"kN/mm"'), encoding="utf-8")
     with pytest.raises(ConfigError, match=re.escape("output.stiffness_unit")):
         load_campaign(d / "campaign.toml")
+
+
+def test_result_repr_is_short(first) -> None:
+    result, _ = first
+    text = repr(result)
+    assert len(text) < 300 and "3 measurements, 1 failed" in text  # not the rows (kB of text)
+    html = result._repr_html_()
+    assert html.count("<tr>") == 1 + len(result.rows) and "not a UFF file" in html

@@ -60,7 +60,7 @@ class MeasurementFigures:
         One line per figure that could not be drawn or that may not show the row's result.
     """
 
-    png: dict[str, bytes] = field(default_factory=dict)
+    png: dict[str, bytes] = field(default_factory=dict, repr=False)
     warnings: tuple[str, ...] = ()
 
 

@@ -71,6 +71,26 @@ class CampaignResult:
     reused: int = 0
     files: Mapping[str, Path] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        cal = "" if self.calibration is None else f", calibration {self.calibration.get('status')}"
+        return (f"CampaignResult({self.config.title!r}: {len(self.rows)} measurements, {self.n_failed} failed, "
+                f"k_MS {self.k_MS / 1e6:.2f} MN/m{cal}, computed {self.computed}, reused {self.reused}, "
+                f"out_dir={str(self.out_dir) if self.out_dir else None!r})")
+
+    def _repr_html_(self) -> str:
+        """The summary table in Jupyter (id, conditions, k_TB ± std in MN/m, housing mode, status)."""
+        import html
+
+        head = "".join(f"<th>{html.escape(h)}</th>" for h in
+                       ("id", "bearing", "load [N]", "speed [rpm]", "k_TB [MN/m]", "± [MN/m]", "f_H [Hz]", "status"))
+        body = []
+        for r in self.rows:
+            cells = (r["id"], r["bearing"], f"{r['radial_load']:g}", f"{r['speed']:g}", f"{r['k_TB'] / 1e6:.2f}",
+                     f"{r['k_TB_std'] / 1e6:.2f}", f"{r['housing_freq']:.1f}",
+                     "ok" if r["status"] == "ok" else f"error: {r['error']}")
+            body.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in cells) + "</tr>")
+        return f"<p>{html.escape(repr(self))}</p><table><tr>{head}</tr>{''.join(body)}</table>"
+
     @property
     def n_failed(self) -> int:
         """Number of measurements that ended in an error."""
