@@ -93,8 +93,24 @@ def test_cli_errors(uff_file, tmp_path, capsys):
     assert main(["stabilization", str(uff_file), "-o", str(tmp_path / "chart.gif")]) == 1
     assert "-o must end in .png, .svg, .pdf" in capsys.readouterr().err
     assert not (tmp_path / "chart.gif").exists()
-    assert main(["modes", str(uff_file), "--max-order", "2000"]) == 1
-    assert "too few lines for max_order=2000" in capsys.readouterr().err
+    # a cap above what the lines allow is reduced with a note, not refused
+    assert main(["modes", str(uff_file), "--max-order", "2000"]) == 0
+    assert "max_order reduced from 2000 to 1000" in capsys.readouterr().out
+    # issue 8: --max-order 1 is a clear one-line error, not an IndexError: the CLI refuses it
+    # as an argument, the library with the reason
+    one_ref = tmp_path / "one_ref.uff"
+    from ema_rig.errors import IdentificationError
+    from ema_rig.identification import identify
+    from ema_rig.io.uff import read_uff58, write_uff58
+
+    d = read_uff58(uff_file)
+    write_uff58(one_ref, d.sel(inp=d.in_dofs[0]))
+    for cmd in (["modes"], ["stabilization", "-o", str(tmp_path / "c.png")]):
+        assert main([*cmd[:1], str(one_ref), "--max-order", "1", *cmd[1:]]) == 2
+        err = capsys.readouterr().err
+        assert "--max-order: must be an integer >= 2" in err and "Traceback" not in err
+    with pytest.raises(IdentificationError, match="max_order=1 is below the smallest useful order 2"):
+        identify(read_uff58(one_ref), max_order=1)
     bad = tmp_path / "sel.json"
     bad.write_text("{}")
     assert main(["modes", str(uff_file), "--selection", str(bad)]) == 1
