@@ -79,8 +79,9 @@ def _caption(name: str) -> str:
     return name
 
 
-#: A measurement's figures (kind -> PNG path) and the warnings of drawing them, by measurement id.
-MeasurementFigurePaths = Mapping[str, tuple[Mapping[str, "str | PathLike[str]"], list[str]]]
+#: By measurement id: its figures (kind -> PNG path), the warnings of drawing them, and the
+#: identification's candidates with their verdicts (dicts: natural_freq, damping_ratio, verdict, reason).
+MeasurementFigurePaths = Mapping[str, tuple[Mapping[str, "str | PathLike[str]"], list[str], list[Any]]]
 
 
 def anchor(index: int) -> str:
@@ -173,7 +174,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
 
 
 def _measurement_section(i: int, r: Mapping[str, Any],
-                         figs: tuple[Mapping[str, str | PathLike[str]], list[str]] | None) -> str:
+                         figs: tuple[Mapping[str, str | PathLike[str]], list[str], list[Any]] | None) -> str:
     """The section of one measurement: conditions, result, warnings, figures, candidate modes."""
     from .campaign.drilldown import KINDS
 
@@ -203,13 +204,15 @@ def _measurement_section(i: int, r: Mapping[str, Any],
     detail = r.get("detail")
     cands = detail.get("candidates") if isinstance(detail, Mapping) else None
     if isinstance(cands, list) and cands:
-        parts.append(_candidate_table(cands))
+        parts.append(_candidate_table(cands, "Modes matched to the 3DOF model (the housing mode is the one kept):"))
+    if figs and figs[2]:
+        parts.append(_candidate_table(figs[2], "Identification: every cluster of stable poles and its verdict:"))
     parts.append("</section>")
     return "\n".join(parts)
 
 
-def _candidate_table(cands: list[Any]) -> str:
-    """Every mode the matching considered, with its verdict and the reason."""
+def _candidate_table(cands: list[Any], title: str) -> str:
+    """Candidate modes with their verdict and the reason."""
     verdict_key = "verdict" if any(isinstance(c, Mapping) and "verdict" in c for c in cands) else "status"
     rows = ["<table class='cand'><tr><th>f [Hz]</th><th>± f [Hz]</th><th>ζ [%]</th><th class='l'>verdict</th>"
             "<th class='l'>reason</th></tr>"]
@@ -224,7 +227,7 @@ def _candidate_table(cands: list[Any]) -> str:
                     f"<td class='l'>{html.escape(verdict)}</td>"
                     f"<td class='reason'>{html.escape(str(c.get('reason', '')))}</td></tr>")
     rows.append("</table>")
-    return "<p>Candidate modes (the housing mode is the one kept):</p>" + "".join(rows)
+    return f"<p>{html.escape(title)}</p>" + "".join(rows)
 
 
 def write_report(result: CampaignResult, path: str | PathLike[str],

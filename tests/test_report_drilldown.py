@@ -63,6 +63,8 @@ def test_every_row_links_to_its_section(first) -> None:
             # the candidate table, with the housing mode's verdict and the rejected modes' reasons
             assert "<table class='cand'>" in section and ">housing<" in section and ">rejected<" in section
             assert f"{r['housing_freq']:.2f}" in section
+            # and the identification's clusters of stable poles with theirs
+            assert "Identification: every cluster" in section and ">physical<" in section
         else:
             assert "not a UFF file" in section and "data:image" not in section
     # the per-measurement PNGs are small: the whole report stays well below 1 MB per measurement

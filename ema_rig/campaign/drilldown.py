@@ -40,7 +40,7 @@ KINDS: dict[str, str] = {
                  "sensor of each kind (housing/spindle, radial/lateral/axial); shaded: the identification band.",
 }
 #: Bump when the drawing changes (size, resolution, content): every per-measurement figure is redrawn.
-_DRAW_VERSION = 1
+_DRAW_VERSION = 3
 #: Pixel density and size of the embedded figures: readable on screen, small in the report.
 DPI = 64
 _SIZE = (8.0, 4.8)
@@ -57,11 +57,16 @@ class MeasurementFigures:
     png : dict of str to bytes
         Figure kind (:data:`KINDS`) -> PNG image; kinds that could not be drawn are absent.
     warnings : tuple of str
-        One line per figure that could not be drawn or that may not show the row's result.
+        One line per figure that could not be drawn or that may not show the row's result, and
+        the identification's own warnings (non-converged mode set ...) not already in the row.
+    candidates : tuple of dict
+        The identification's stable-pole clusters with their verdict: ``natural_freq`` and
+        ``natural_freq_std`` [Hz], ``damping_ratio``, ``verdict`` ("physical" or "rejected"), ``reason``.
     """
 
     png: dict[str, bytes] = field(default_factory=dict, repr=False)
     warnings: tuple[str, ...] = ()
+    candidates: tuple[dict[str, Any], ...] = ()
 
 
 def figure_key(row: Mapping[str, Any]) -> str | None:
@@ -149,6 +154,12 @@ def measurement_figures(
             ident = identify(data, band=band, max_order=mo)
     except EmaRigError as exc:  # a failed row already says why; a good one that fails now is news
         return MeasurementFigures({}, () if row.get("status") != "ok" else (f"no figures: {exc}",))
+    known = {str(w) for w in (row.get("warnings") or ())}
+    warns += [f"identification: {w}" for w in getattr(ident, "warnings", ()) if str(w) not in known]
+    cands = tuple({"natural_freq": float(c.natural_freq), "natural_freq_std": float(c.mode.natural_freq_std),
+                   "damping_ratio": float(c.damping_ratio),
+                   "verdict": "physical" if c.accepted else "rejected", "reason": str(c.reason)}
+                  for c in getattr(ident, "candidates", ()))
     lo, hi = ident.band
     width = hi - lo
     view = data.band(max(float(data.freq[0]), lo - 0.05 * width), min(float(data.freq[-1]), hi + 0.05 * width))
@@ -168,7 +179,7 @@ def measurement_figures(
             png[kind] = png_bytes(draw())
         except (ValueError, KeyError, EmaRigError) as exc:  # a figure that cannot be drawn: said, not hidden
             warns.append(f"{kind} figure not drawn: {exc}")
-    return MeasurementFigures(png, tuple(warns))
+    return MeasurementFigures(png, tuple(warns), cands)
 
 
 def _synthesis_channels(data: Any, modes: Any, n: int = 4) -> list[tuple[int, int]]:

@@ -79,7 +79,7 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str]) -> dict[
         if _safe_rel(stale):
             (out / stale).unlink(missing_ok=True)
     files.update(figures)
-    for mid, (paths, _) in per_meas.items():
+    for mid, (paths, _, _) in per_meas.items():
         files.update({f"{mid}/{k}": p for k, p in paths.items()})
     files["report"] = out / "report.html"
     manifest["report"] = write_report_if_changed(result, files["report"], figures, measurements=per_meas,
@@ -133,8 +133,8 @@ def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, 
 
 
 def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
-                         manifest: dict[str, Any]) -> dict[str, tuple[dict[str, Path], list[str]]]:
-    """Each measurement's figures (``measurements/<id>.<kind>.png``) and the warnings of drawing them."""
+                         manifest: dict[str, Any]) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
+    """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
     from .drilldown import KINDS, figure_key, measurement_figures
 
     folder = out / MEASUREMENT_DIR
@@ -142,7 +142,7 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
         _atomic.remove_temporaries(folder)
     old_figs = previous.get("figures", {})
     old_meas = previous.get("measurements", {})
-    done: dict[str, tuple[dict[str, Path], list[str]]] = {}
+    done: dict[str, tuple[dict[str, Path], list[str], list[Any]]] = {}
     if not result.config.measurement_figures:
         return done
     for m, row in zip(result.config.measurements, result.rows, strict=True):
@@ -152,11 +152,12 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
         rels = {k: f"{MEASUREMENT_DIR}/{m.id}.{k}.png" for k in KINDS}
         info = old_meas.get(m.id)
         if (isinstance(info, dict) and info.get("key") == key and isinstance(info.get("kinds"), list)
-                and isinstance(info.get("warnings"), list)
+                and isinstance(info.get("warnings"), list) and isinstance(info.get("candidates"), list)
                 and all(k in rels and old_figs.get(rels[k]) == key and (out / rels[k]).is_file()
                         for k in info["kinds"])):
             kinds = [k for k in KINDS if k in info["kinds"]]
             warns = [str(w) for w in info["warnings"]]
+            cands = [c for c in info["candidates"] if isinstance(c, dict)]
         else:
             drawn = measurement_figures(m, row, result.config, k_ms=result.k_MS, k_ms_std=result.k_MS_std)
             folder.mkdir(exist_ok=True)
@@ -165,12 +166,12 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
                 if path.parent != folder:  # ids are validated in the schema; never write elsewhere
                     raise OSError(f"{path}: measurement id is not a plain file name")
                 _atomic.write_bytes(path, png)
-            kinds, warns = list(drawn.png), list(drawn.warnings)
+            kinds, warns, cands = list(drawn.png), list(drawn.warnings), list(drawn.candidates)
             for w in warns:
                 logger.warning("%s: %s", m.id, w)
-        manifest["measurements"][m.id] = {"key": key, "kinds": kinds, "warnings": warns}
+        manifest["measurements"][m.id] = {"key": key, "kinds": kinds, "warnings": warns, "candidates": cands}
         manifest["figures"].update({rels[k]: key for k in kinds})
-        done[m.id] = ({k: out / rels[k] for k in kinds}, warns)
+        done[m.id] = ({k: out / rels[k] for k in kinds}, warns, cands)
     return done
 
 
