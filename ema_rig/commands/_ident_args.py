@@ -21,6 +21,13 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: the rig file's, else 256 for one reference, 160 for two)")
     parser.add_argument("--selection", default=None, metavar="JSON",
                         help="replay a saved mode selection instead of the automatic one")
+    parser.add_argument("--refine", action="store_true", default=None,
+                        help="maximum-likelihood refinement after PolyMAX: every mode's +/- from the "
+                             "Fisher information (noise only, not model error; slower). Default: the rig "
+                             "file's [identification] refine, else off")
+    parser.add_argument("--averages", type=_args.positive_float, default=None, metavar="N",
+                        help="number of averages behind the FRFs and coherence (used by --refine; "
+                             "default: the rig file's [identification] n_averages)")
 
 
 def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
@@ -49,9 +56,17 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
         ident_cfg = rig.identification
         band = band if band is not None else ident_cfg.get("band")
         max_order = max_order if max_order is not None else ident_cfg.get("max_order")
+    refine = getattr(args, "refine", None)
+    n_averages = getattr(args, "averages", None)
+    if rig is not None:
+        refine = refine if refine is not None else rig.identification.get("refine")
+        n_averages = n_averages if n_averages is not None else rig.identification.get("n_averages")
+    if n_averages is not None:
+        data = data.with_meta(n_averages=float(n_averages))
     selection = Selection.from_json(args.selection) if args.selection else None
     try:
-        ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True)
+        ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True,
+                         refine=bool(refine))
     except IdentificationError as exc:
         findings = [f for f in diagnose_file(args.file, data) if f not in exc.message]
         if not findings:
