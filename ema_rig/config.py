@@ -1,6 +1,6 @@
 """Rig and campaign configuration files (TOML) into validated, frozen dataclasses.
 
-The rig file's keys are a contract (DESIGN §3.1)::
+The rig file's keys are a stable interface (README, "The rig file")::
 
     [model]                # all seven keys required, SI units
     m_H, m_S, m_F, k_MS, k_AS, k_S, k_B
@@ -445,7 +445,7 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
     Parameters
     ----------
     path : str or path-like
-        TOML file with the tables of DESIGN §3.1.
+        TOML file with the tables above (README, "The rig file").
 
     Returns
     -------
@@ -459,7 +459,73 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
     return parse_rig(read_toml(path), file=path)
 
 
+#: Geometry keys of a ``[bearings.NAME]`` table (SI units), see :func:`parse_bearing_geometry`.
+BEARING_GEOMETRY_KEYS: tuple[str, ...] = (
+    "n_balls", "ball_diameter", "pitch_diameter", "clearance", "inner_conformity", "outer_conformity",
+    "youngs_modulus", "poisson_ratio", "ball_youngs_modulus", "ball_poisson_ratio",
+)
+_GEOMETRY_REQUIRED = ("n_balls", "ball_diameter", "pitch_diameter")
+#: Upper bounds [m] that catch a length typed in millimetres (the largest bearings stay below them).
+_GEOMETRY_LIMITS_M = {"ball_diameter": 0.5, "pitch_diameter": 10.0, "clearance": 1e-3}
+
+
+def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -> Any:
+    """The deep-groove ball-bearing geometry of a bearing table, or None when it gives none.
+
+    Keys (SI units): ``n_balls``, ``ball_diameter`` [m], ``pitch_diameter`` [m] (all three
+    required once any geometry key is given), ``clearance`` (diametral radial clearance [m],
+    default 0), ``inner_conformity`` / ``outer_conformity`` (groove radius / ball diameter,
+    default 0.52), ``youngs_modulus`` [Pa] and ``poisson_ratio`` of the rings (default steel,
+    208 GPa, 0.3), ``ball_youngs_modulus`` / ``ball_poisson_ratio`` when the balls differ.
+    The 6302 of the paper::
+
+        [bearings.6302]
+        n_balls = 7
+        ball_diameter = 7.938e-3
+        pitch_diameter = 28.5e-3
+
+    Returns
+    -------
+    BallBearingGeometry or None
+
+    Raises
+    ------
+    ConfigError
+        Naming the key: a missing required key, a wrong type, a value out of range, or a
+        geometry that cannot exist (balls larger than the pitch circle, too many balls).
+    """
+    from .rig.hertz import BallBearingGeometry
+
+    given = [k for k in BEARING_GEOMETRY_KEYS if k in t]
+    if not given:
+        return None
+    for k in _GEOMETRY_REQUIRED:
+        if k not in t:
+            raise ConfigError(f"missing required key (the bearing geometry also gives {', '.join(given)})",
+                              file=file, key=f"{where}.{k}")
+    kw: dict[str, Any] = {"n_balls": toml_int(t["n_balls"], f"{where}.n_balls", file, lo=3)}
+    for k in given:
+        if k == "n_balls":
+            continue
+        v = toml_number(t[k], f"{where}.{k}", file, lo=0.0, lo_open=k != "clearance" and "poisson" not in k)
+        if k.endswith("conformity") and not v > 0.5:
+            raise ConfigError(f"must exceed 0.5 (groove radius / ball diameter), got {v:g}", file=file,
+                              key=f"{where}.{k}")
+        if "poisson" in k and not v < 0.5:
+            raise ConfigError(f"must lie in [0, 0.5), got {v:g}", file=file, key=f"{where}.{k}")
+        limit = _GEOMETRY_LIMITS_M.get(k)
+        if limit is not None and v > limit:
+            raise ConfigError(f"is in metres: {v:g} m exceeds {limit:g} m (7.938 mm is 7.938e-3)",
+                              file=file, key=f"{where}.{k}")
+        kw[k] = v
+    try:
+        return BallBearingGeometry(**kw)
+    except ValueError as exc:
+        raise ConfigError(str(exc), file=file, key=where) from None
+
+
 __all__ = [
+    "BEARING_GEOMETRY_KEYS",
     "MAX_TOML_BYTES",
     "MODEL_KEYS",
     "ModelParams",
@@ -469,6 +535,7 @@ __all__ = [
     "Sensor",
     "check_keys",
     "load_rig",
+    "parse_bearing_geometry",
     "parse_rig",
     "read_regular_file",
     "read_toml",

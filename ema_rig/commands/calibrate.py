@@ -10,7 +10,7 @@ from . import _args
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig calibrate``."""
     parser.add_argument("file", metavar="DISK_FILE", help="UFF58 measurement with the steel disk mounted")
-    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
+    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
     parser.add_argument("--k-disk", type=_args.positive_float, default=None, metavar="V",
                         help="finite disk stiffness [N/m] in series (default: rigid, as the paper)")
     parser.add_argument("--k-disk-std", type=_args.nonneg_float, default=None, metavar="V",

@@ -2,7 +2,7 @@
 
 Each dataset is shown as ``read`` (exactly the header's num_pts values) or ``refused`` with the
 reason. With ``--rig`` the FRF datasets are also assembled with the rig file (roles, signs,
-units) and the result is summarised; with ``--json`` the DESIGN §3.2 JSON is written atomically.
+units) and the result is summarised; with ``--json`` the dataset list is written atomically as JSON.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig inspect``."""
     parser.add_argument("file", metavar="FILE", help="UFF file (dataset 58 / 58b)")
     parser.add_argument("--rig", metavar="R", help="rig file (TOML): also assemble the FRFs with it")
-    parser.add_argument("--json", metavar="OUT", help="write the dataset list as JSON (DESIGN §3.2)")
+    parser.add_argument("--json", metavar="OUT", help="write the dataset list as JSON")
 
 
 def _cell(v: object) -> str:

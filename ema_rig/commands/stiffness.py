@@ -11,7 +11,7 @@ from . import _args
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stiffness``."""
     parser.add_argument("file", metavar="FILE", help="UFF58 measurement (FRFs of the eight sensors)")
-    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
+    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
     parser.add_argument("--k-ms", type=_args.positive_float, default=None, metavar="V",
                         help="mounting stiffness k_MS [N/m] from 'ema-rig calibrate' (default: the rig file's)")
     parser.add_argument("--k-ms-std", type=_args.nonneg_float, default=None, metavar="V",
