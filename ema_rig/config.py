@@ -14,7 +14,9 @@ Optional tables (extensions, all keys optional):
 
 - ``[uncertainty]``: relative standard uncertainty (fraction, 0.01 = 1 %) of any of the seven
   model parameters, used by the k_TB uncertainty budget.
-- ``[identification]``: ``band = [lo, hi]`` (Hz), ``max_order`` (int), ``k_MS_band = [lo, hi]``.
+- ``[identification]``: ``band = [lo, hi]`` (Hz), ``max_order`` (int, the cap of the adaptive order),
+  ``k_MS_band = [lo, hi]``, ``refine`` (bool: maximum-likelihood refinement after PolyMAX),
+  ``n_averages`` (number of averages behind the FRFs and coherence, >= 1).
 - ``[units]``: ``prefer = "code" | "label"``: which wins when a UFF unit label contradicts the
   ordinate data-type code (default: a conflict is an error).
 - ``[rig]``: ``name``, ``description`` (free text).
@@ -341,13 +343,17 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         uncertainty[k] = x
 
     id_t = toml_table(doc, "identification", fname, required=False)
-    check_keys(id_t, ("band", "max_order", "k_MS_band"), "identification", fname)
+    check_keys(id_t, ("band", "max_order", "k_MS_band", "refine", "n_averages"), "identification", fname)
     ident: dict[str, Any] = {}
     for k in ("band", "k_MS_band"):
         if k in id_t:
             ident[k] = toml_band(id_t[k], f"identification.{k}", fname)
     if "max_order" in id_t:
         ident["max_order"] = toml_int(id_t["max_order"], "identification.max_order", fname, lo=2)
+    if "refine" in id_t:
+        ident["refine"] = toml_bool(id_t["refine"], "identification.refine", fname)
+    if "n_averages" in id_t:
+        ident["n_averages"] = toml_number(id_t["n_averages"], "identification.n_averages", fname, lo=1.0)
 
     units_t = toml_table(doc, "units", fname, required=False)
     check_keys(units_t, ("prefer",), "units", fname)

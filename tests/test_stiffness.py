@@ -42,9 +42,9 @@ def _fake_identify(monkeypatch, mm, freq_std):
     """Replace PolyMAX by a known modal model (natural_freq_std per mode, Hz)."""
     calls = []
 
-    def fake(data, band, max_order, progress):
+    def fake(data, band, max_order, progress, *_rig):
         calls.append(band)
-        return types.SimpleNamespace(modes=mm, natural_freq_std=np.full(mm.n_modes, freq_std))
+        return types.SimpleNamespace(modes=mm, natural_freq_std=np.full(mm.n_modes, freq_std), warnings=())
 
     monkeypatch.setattr(st, "_identify", fake)
     return calls

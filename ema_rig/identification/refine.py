@@ -529,7 +529,8 @@ def _refine(
     idx = _line_index(data, cut)
     power = _FORM_POWER[cut.frf_form]
     freq = cut.freq
-    if residuals and power < 2 and freq[0] == 0.0:
+    if residuals and freq[0] == 0.0:
+        # the lower-residual column (jw)^p / (jw)^2 is singular (p < 2) or 0/0 (p = 2) at 0 Hz
         freq, idx = freq[1:], idx[1:]
     given_var, coh, n_avg, warns = _input_noise(data, cut, idx, variance, coherence, n_averages, src)
     n_chan = cut.n_out * cut.n_in

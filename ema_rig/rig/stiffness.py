@@ -119,10 +119,15 @@ def _file_of(data: FRFData) -> str | None:
     return None
 
 
-def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool) -> Any:
+def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool,
+              rig: RigConfig) -> Any:
+    """PolyMAX (and, when the rig file's ``[identification] refine`` is true, the ML refinement)."""
     from ..identification import identify
 
-    return identify(data, band=band, max_order=max_order, progress=progress)
+    cfg = rig.identification
+    if cfg.get("n_averages") is not None:
+        data = data.with_meta(n_averages=float(cfg["n_averages"]))
+    return identify(data, band=band, max_order=max_order, progress=progress, refine=bool(cfg.get("refine", False)))
 
 
 def _max_order(rig: RigConfig, max_order: int | None) -> int | None:
@@ -143,7 +148,7 @@ def _identify_and_match(
     b = default_band(data, rig, band)
     mo = _max_order(rig, max_order)
     try:
-        ident = _identify(data, b, mo, progress)
+        ident = _identify(data, b, mo, progress, rig)
     except EmaRigError as exc:
         if exc.file is None and file is not None:
             exc.file = file
@@ -158,7 +163,7 @@ def _identify_and_match(
             if hi > info.spindle_freq * 1.02 and lo > b[1] * 0.5:
                 s_band = (lo, hi)
                 try:
-                    s_ident = _identify(data, s_band, mo, progress)
+                    s_ident = _identify(data, s_band, mo, progress, rig)
                 except EmaRigError as exc:
                     logger.info("spindle band %.0f-%.0f Hz not identified: %s", lo, hi, exc)
                     s_ident = None
@@ -461,7 +466,7 @@ def estimate_stiffness(
         k_TB_std_measured=float(unc.k_TB_std_measured),
         inverted_freq=float(f_h),
         damping_model=damping_model,
-        warnings=asm.warnings,
+        warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
         notes=tuple(defaults_note(unc)),
     )
 
@@ -573,6 +578,6 @@ def calibrate(
         band=b,
         file=file,
         k_MS_std_measured=float(meas),
-        warnings=asm.warnings,
+        warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
         notes=tuple(notes),
     )
