@@ -16,8 +16,11 @@ For poles ``lambda_r`` (fixed) the FRFs are linear in the unknowns. In receptanc
 and the data of form ``p`` (0 receptance, 1 mobility, 2 accelerance) are
 ``(j w)^p H_rec(w)``. ``R_r`` is complex (two real unknowns per mode), ``LR`` and ``UR`` are real:
 one real least-squares problem (real and imaginary parts of every line stacked) whose basis is
-shared by all ``n_out * n_in`` channels, solved once with many right-hand sides after scaling
-each basis column to unit norm. Lines at 0 Hz are skipped when the basis is singular there.
+shared by all ``n_out * n_in`` channels. Each basis column is scaled to unit norm and the small
+basis factored once by SVD (the minimum-norm solution ``lstsq`` gives, with its default cutoff);
+the channels are then projected in chunks of outputs, the complex FRFs read as interleaved real
+pairs without a copy, so the work arrays stay a fraction of the data (BLAS on one thread).
+Lines at 0 Hz are skipped when the basis is singular there.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._blas import single_threaded
 from ..errors import IdentificationError
 from ..frf import _FORM_POWER, FRFData
 from .modal import ModalModel
@@ -102,30 +106,51 @@ def lsfd(
             lr = jw ** (p - 2) if p >= 2 else 1.0 / jw ** (2 - p)
             cols += [lr[:, None], fac[:, None]]
     basis = np.concatenate(cols, axis=1)  # (n_freq, n_unknown) complex
+    del pos, neg, cols
     n_unk = basis.shape[1]
-    if 2 * f.size < n_unk:
+    n_f = f.size
+    if 2 * n_f < n_unk:
         raise IdentificationError(
-            f"LSFD: {f.size} lines cannot determine {n_unk} real unknowns ({n_modes} modes)", file=src
+            f"LSFD: {n_f} lines cannot determine {n_unk} real unknowns ({n_modes} modes)", file=src
         )
-    a = np.concatenate([basis.real, basis.imag], axis=0)
-    scale = np.linalg.norm(a, axis=0)
+    # real rows interleaved (Re, Im) per line: the same order as a complex FRF row viewed as float64
+    a = basis.view(np.float64).reshape(n_f, n_unk, 2).transpose(0, 2, 1).reshape(2 * n_f, n_unk)
+    scale = np.sqrt(np.einsum("kj,kj->j", a, a))
     scale = np.where(scale > 0, scale, 1.0)
-    n_out, n_in, n_f = h.shape
-    y = h.reshape(n_out * n_in, n_f).T  # (n_freq, n_chan)
-    b = np.concatenate([y.real, y.imag], axis=0)
-    x, *_ = np.linalg.lstsq(a / scale, b, rcond=None)
-    x = x / scale[:, None]  # (n_unk, n_chan)
-    res = (x[:n_modes] + 1j * x[n_modes : 2 * n_modes]).T.reshape(n_out, n_in, n_modes)
-    residues = np.moveaxis(res, 2, 0)
+    a = a / scale
+    n_out, n_in, _ = h.shape
+    x = np.empty((n_out, n_in, n_unk))
+    num = np.empty((n_out, n_in))
+    den = np.empty((n_out, n_in))
+    # channels in chunks of outputs, each chunk's work arrays (the fit) within `budget` bytes
+    budget = int(min(max(h.nbytes // 8, 8 << 20), 64 << 20))
+    step = max(1, budget // (n_in * n_f * 16))
+    with single_threaded():
+        # minimum-norm least squares through the SVD of the small shared basis, as lstsq does
+        u, sv, vt = np.linalg.svd(a, full_matrices=False)
+        keep = sv > np.finfo(float).eps * max(a.shape) * sv[0]
+        proj = vt[keep].T / sv[keep]  # (n_unk, rank): x = proj @ u[:, keep].T @ b
+        uk = np.ascontiguousarray(u[:, keep])
+        for o0 in range(0, n_out, step):
+            o1 = min(o0 + step, n_out)
+            blk = h[o0:o1]
+            if blk.strides[-1] != blk.itemsize:
+                blk = np.ascontiguousarray(blk)
+            yv = blk.view(np.float64)  # (chunk, n_in, 2 n_freq): Re, Im interleaved, no copy
+            xs = (yv @ uk) @ proj.T  # scaled unknowns (chunk, n_in, n_unk)
+            x[o0:o1] = xs / scale
+            res = xs @ a.T
+            np.subtract(yv, res, out=res)
+            num[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", res, res))
+            den[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", yv, yv))
+            del res, xs, yv, blk
+    residues = np.moveaxis(x[:, :, :n_modes] + 1j * x[:, :, n_modes : 2 * n_modes], 2, 0)
     if residuals:
-        lower = x[2 * n_modes].reshape(n_out, n_in).astype(np.complex128)
-        upper = x[2 * n_modes + 1].reshape(n_out, n_in).astype(np.complex128)
+        lower = x[:, :, 2 * n_modes].astype(np.complex128)
+        upper = x[:, :, 2 * n_modes + 1].astype(np.complex128)
     else:
         lower = np.zeros((n_out, n_in), np.complex128)
         upper = np.zeros((n_out, n_in), np.complex128)
-    fit = (basis @ x).T.reshape(n_out, n_in, n_f)
-    num = np.linalg.norm(h - fit, axis=2)
-    den = np.linalg.norm(h, axis=2)
     fit_error = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
     return ModalModel(
         poles=lam,

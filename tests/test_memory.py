@@ -1,0 +1,171 @@
+"""Peak memory and numerical agreement of the chunked identification kernels (issue 13).
+
+``_lag_sums`` (pLSCF) and ``lsfd`` work on the FRF array in chunks of outputs. These tests check
+them against oracles written here (a direct sum over the lines with ``exp(j theta_k l)`` built
+whole; a per-channel real least-squares solve with ``np.linalg.lstsq``) on data large enough to
+need several chunks, and measure their peak allocation with ``tracemalloc`` (numpy reports its
+buffers to it).
+"""
+
+from __future__ import annotations
+
+import importlib
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from ema_rig.frf import FRFData
+from ema_rig.identification import lsfd
+
+plscf_mod = importlib.import_module("ema_rig.identification.plscf")
+
+# 64 outputs x 3 references x 8 001 lines: 24.6 MB of FRFs, more than the 8 MB work budget of
+# the kernels, so both split the outputs into several chunks (lag sums: 3-4 chunks, LSFD: 4)
+N_OUT, N_IN, N_LINES = 64, 3, 8001
+FREQ = np.linspace(50.0, 2000.0, N_LINES)
+MODES_HZ = np.array([150.0, 455.0, 626.0, 1100.0, 1600.0])
+DAMPING = np.array([0.012, 0.010, 0.006, 0.015, 0.012])
+
+
+def _poles() -> np.ndarray:
+    wn = 2 * np.pi * MODES_HZ
+    return -DAMPING * wn + 1j * wn * np.sqrt(1 - DAMPING**2)
+
+
+@pytest.fixture(scope="module")
+def big() -> FRFData:
+    """Accelerance modal sum with 1 % complex noise, shape (64, 3, 8001)."""
+    rng = np.random.default_rng(13)
+    lam = _poles()
+    phi = rng.standard_normal((lam.size, N_OUT))
+    jw = 2j * np.pi * FREQ
+    pole_terms = 1 / (jw[None, :] - lam[:, None]) + 1 / (jw[None, :] - lam.conj()[:, None])  # (mode, line)
+    # residue of mode r at (o, i): phi_r,o phi_r,i / (2 j w_d), references = first outputs
+    res = phi[:, :, None] * phi[:, None, :N_IN] / (2j * lam.imag)[:, None, None]
+    h = np.einsum("roi,rk->oik", res, pole_terms) * (jw**2)[None, None, :]
+    h += 0.01 * np.abs(h).mean() * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape))
+    outs = [f"{o + 1}+Y" for o in range(N_OUT)]
+    return FRFData(FREQ, h, outs, outs[:N_IN], frf_form="accelerance")
+
+
+def _oracle_lag_sums(freq, h, p):
+    """Direct sums over the lines with every exponential built whole (no FFT, no chunks)."""
+    theta = np.pi * (freq - freq[0]) / (freq[-1] - freq[0])
+    lags = np.arange(-p, p + 1)
+    e = np.exp(1j * np.outer(theta, lags))
+    w = 1 / np.sqrt(np.mean(np.abs(h) ** 2, axis=(1, 2)))
+    hw = h * w[:, None, None]
+    s = (hw.reshape(-1, freq.size) @ e).reshape(*h.shape[:2], -1)
+    n_in = h.shape[1]
+    g = np.array([[np.sum(hw[:, a].conj() * hw[:, b], axis=0) for b in range(n_in)] for a in range(n_in)])
+    t = g @ e
+    r = np.cos(np.outer(np.arange(p + 1), theta)).sum(axis=1)
+    return r, s, t, w
+
+
+def _check_lag_sums(data, p):
+    r, s, t, w, dt = plscf_mod._lag_sums(data, p)
+    r0, s0, t0, w0 = _oracle_lag_sums(data.freq, data.frf, p)
+    assert dt == pytest.approx(1 / (2 * (data.freq[-1] - data.freq[0])), rel=1e-15)
+    # both are sums of the same products in another order: round-off of n terms, well below 1e-12
+    np.testing.assert_allclose(w, w0, rtol=1e-13)
+    np.testing.assert_allclose(r, r0, rtol=0, atol=1e-12 * np.abs(r0).max())
+    np.testing.assert_allclose(s, s0, rtol=0, atol=1e-12 * np.abs(s0).max())
+    np.testing.assert_allclose(t, t0, rtol=0, atol=1e-12 * np.abs(t0).max())
+
+
+# p = 4 takes the direct sum against the exponential table, p = 120 the chunked zero-padded FFT
+# (the cost rule in _lag_sums: 8 001 lines, 201 channels, FFT cheaper from 2p+1 of about 180)
+@pytest.mark.parametrize("p", [4, 120])
+def test_lag_sums_match_direct_sum_in_chunks(big, p):
+    _check_lag_sums(big, p)
+
+
+@pytest.mark.parametrize(
+    ("n_out", "n_in", "n", "p", "even"),
+    [(7, 2, 501, 4, True), (7, 2, 501, 40, True), (5, 1, 300, 20, False), (3, 2, 20, 30, True)],
+    ids=["direct", "fft", "uneven", "order-above-lines"],
+)
+def test_lag_sums_small_cases(n_out, n_in, n, p, even):
+    rng = np.random.default_rng(n + p)
+    freq = np.linspace(10.0, 500.0, n) if even else np.sort(rng.uniform(10.0, 500.0, n))
+    h = rng.standard_normal((n_out, n_in, n)) + 1j * rng.standard_normal((n_out, n_in, n))
+    outs = [f"{o + 1}+Y" for o in range(n_out)]
+    _check_lag_sums(FRFData(freq, h, outs, outs[:n_in]), p)
+
+
+def _lstsq_lsfd(freq, h, lam):
+    """Real least squares (all channels as right-hand sides, one lstsq) of the accelerance modal model with residual terms."""
+    jw = 2j * np.pi * freq
+    pos = 1 / (jw[:, None] - lam[None, :])
+    neg = 1 / (jw[:, None] - lam.conj()[None, :])
+    fac = jw**2
+    basis = np.concatenate(
+        [fac[:, None] * (pos + neg), fac[:, None] * 1j * (pos - neg), np.ones((freq.size, 1)), fac[:, None]],
+        axis=1,
+    )
+    a = np.concatenate([basis.real, basis.imag])
+    n_out, n_in, n = h.shape
+    y = h.reshape(-1, n).T
+    sol = np.linalg.lstsq(a, np.concatenate([y.real, y.imag]), rcond=None)[0]  # all channels at once
+    err = np.linalg.norm(y - basis @ sol, axis=0) / np.linalg.norm(y, axis=0)
+    return sol.T.reshape(n_out, n_in, -1), err.reshape(n_out, n_in)
+
+
+def test_lsfd_in_chunks_matches_a_direct_solve(big):
+    lam = _poles()
+    model = lsfd(big, lam)
+    x, err = _lstsq_lsfd(big.freq, big.frf, lam)
+    n = lam.size
+    res0 = np.moveaxis(x[:, :, :n] + 1j * x[:, :, n : 2 * n], 2, 0)
+    # a well-conditioned problem (scaled basis): two solvers agree to ~1e-12; 1e-10 with margin
+    scale = np.abs(res0).max()
+    np.testing.assert_allclose(model.residues, res0, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(model.lower_residual.real, x[:, :, 2 * n], rtol=0,
+                               atol=1e-10 * np.abs(x[:, :, 2 * n]).max())
+    np.testing.assert_allclose(model.upper_residual.real, x[:, :, 2 * n + 1], rtol=0,
+                               atol=1e-10 * np.abs(x[:, :, 2 * n + 1]).max())
+    np.testing.assert_allclose(model.fit_error, err, rtol=1e-10)
+
+
+def test_lsfd_non_contiguous_frf_and_zero_hz_line():
+    rng = np.random.default_rng(5)
+    freq = np.linspace(0.0, 800.0, 801)
+    lam = _poles()[:3]
+    h = np.asfortranarray(rng.standard_normal((4, 2, 801)) + 1j * rng.standard_normal((4, 2, 801)))
+    outs = [f"{o + 1}+Y" for o in range(4)]
+    model = lsfd(FRFData(freq, h, outs, outs[:2], frf_form="accelerance"), lam)
+    # accelerance keeps the 0 Hz line (its basis is finite there)
+    x, err = _lstsq_lsfd(freq, h, lam)
+    res0 = np.moveaxis(x[:, :, :3] + 1j * x[:, :, 3:6], 2, 0)
+    np.testing.assert_allclose(model.residues, res0, rtol=0, atol=1e-10 * np.abs(res0).max())
+    np.testing.assert_allclose(model.fit_error, err, rtol=1e-10)
+
+
+def _peak(fn) -> int:
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        out = fn()
+        peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    del out
+    return peak
+
+
+def test_peak_memory_near_data_size(big):
+    data_bytes = big.frf.nbytes
+    # Budget: the kernels hold one chunk of weighted FRFs (or its zero-padded FFT) of at most
+    # 8 MB here, plus arrays of n_in^2 x lines (g) and the outputs; the former implementation
+    # (a weighted copy of every channel and a full-length FFT of all of them at once) peaked at
+    # ~3-4x the data. LSFD: check_data's validation temporaries (|H|^2, about 1x the data) plus
+    # one chunk of fits; the former implementation stacked Re/Im of all channels (1x), copied
+    # them for lstsq (1x) and built the full fit and its difference (2 x 1x).
+    for p in (4, 120):
+        peak = _peak(lambda p=p: plscf_mod._lag_sums(big, p))
+        assert peak <= 1.0 * data_bytes, f"_lag_sums p={p}: peak {peak / data_bytes:.2f}x the data"
+    peak = _peak(lambda: lsfd(big, _poles()))
+    assert peak <= 2.0 * data_bytes, f"lsfd: peak {peak / data_bytes:.2f}x the data"
