@@ -173,7 +173,8 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray
         y = yv.reshape(-1, n_f, 2)
         y2 += np.einsum("cfk,cfk->f", y, y)
         for k, rows in enumerate(near_rows):
-            term = xs[:, :, [k, n + k]] @ a[np.ix_(rows, [k, n + k])].T  # (chunk, n_in, rows)
+            kk = np.array([k, n + k])
+            term = xs[:, :, kk] @ a[rows][:, kk].T  # (chunk, n_in, rows)
             t2[k] += float(np.einsum("oir,oir->", term, term))
         del xs, yv, y
     floor = 1e-14 * float(y2.sum()) / max(2 * n_f * n_chan, 1)

@@ -350,7 +350,7 @@ def _binary_layouts(h: dict[str, Any]) -> list[tuple[int, int]]:
 
 
 def _values_binary(
-    h: dict[str, Any], payload: bytes, xs: int, byte_order: str
+    h: dict[str, Any], payload: bytes | memoryview, xs: int, byte_order: str
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     is_complex, is_double = ORD_TYPES[h["ord_data_type"]]
     s = 8 if is_double else 4
@@ -361,7 +361,7 @@ def _values_binary(
 
 
 def _values_binary_cast(
-    payload: bytes, ft: str, xs: int, k: int, byte_order: str
+    payload: bytes | memoryview, ft: str, xs: int, k: int, byte_order: str
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     if xs == 0:
         return np.frombuffer(payload, dtype=ft).astype(np.float64), None
@@ -639,7 +639,7 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
         notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
     if xs == 4 and ORD_TYPES[h["ord_data_type"]][1]:
         notes.append("uneven abscissa stored as float32 (ordinate float64)")
-    vals, x_vals = _values_binary(h, buf[q : q + nb], xs, "<" if bo == 1 else ">")
+    vals, x_vals = _values_binary(h, memoryview(buf)[q : q + nb], xs, "<" if bo == 1 else ">")
     x, y = _finish58(h, vals, x_vals)
     return RawDataset(index, 58, True, start, "read", None, h, x, y, tuple(notes), text), end[1]
 
