@@ -251,15 +251,20 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
     if data.n_freq < 8:
         raise IdentificationError(f"only {data.n_freq} frequency lines in the band; need at least 8", file=src)
     frf = data.frf
-    if not np.all(np.isfinite(frf)):
-        bad = np.argwhere(~np.isfinite(frf))
-        o, i, k = bad[0]
-        raise IdentificationError(
-            f"FRF contains {len(bad)} NaN/inf values (first: output {data.out_dofs[o]}, "
-            f"input {data.in_dofs[i]}, {data.freq[k]:g} Hz)",
-            file=src,
-        )
-    power = np.sum(np.abs(frf) ** 2, axis=2)
+    # in chunks of outputs (about 8 MB each): no temporary of the data's size
+    power = np.empty(frf.shape[:2])
+    step = max(1, (8 << 20) // max(frf[0].nbytes, 1))
+    for o0 in range(0, frf.shape[0], step):
+        blk = frf[o0 : o0 + step]
+        if not np.all(np.isfinite(blk)):
+            bad = np.argwhere(~np.isfinite(frf))
+            o, i, k = bad[0]
+            raise IdentificationError(
+                f"FRF contains {len(bad)} NaN/inf values (first: output {data.out_dofs[o]}, "
+                f"input {data.in_dofs[i]}, {data.freq[k]:g} Hz)",
+                file=src,
+            )
+        power[o0 : o0 + step] = np.sum(blk.real**2 + blk.imag**2, axis=2)
     if np.all(power == 0):
         raise IdentificationError("the FRF is zero everywhere in the band", file=src)
     zero_in = np.flatnonzero(np.all(power == 0, axis=0))
