@@ -282,3 +282,31 @@ def test_binary_reader_peak_near_file_plus_data(tmp_path):
     # and copied the assembled array into FRFData (3.5x).
     peak = _peak(lambda: read_uff58(path))
     assert peak <= 2.3 * src.frf.nbytes, f"read_uff58: peak {peak / src.frf.nbytes:.2f}x the data"
+
+
+def test_reduced_blocks_in_chunks_match_one_solve():
+    from scipy.linalg import cholesky, solve_triangular
+
+    # 150 outputs x 2 references at p = 60: S is 150 * 61 * 122 * 8 B = 8.9 MB, five chunks
+    rng = np.random.default_rng(7)
+    n_out, n_in, p = 150, 2, 60
+    lags = np.arange(-p, p + 1)
+    r = np.exp(-0.05 * np.arange(p + 1))  # lags of an SPD Toeplitz matrix (exponential decay)
+    s = rng.standard_normal((n_out, n_in, 2 * p + 1)) + 1j * rng.standard_normal((n_out, n_in, 2 * p + 1))
+    t = rng.standard_normal((n_in, n_in, 2 * p + 1)) + 0j
+    T, Q = plscf_mod._reduced_blocks(r, s, t, p)
+    # oracle: every output's block built by its definition and solved alone
+    L = cholesky(np.exp(-0.05 * np.abs(lags[p:, None] - lags[None, p:])), lower=True)
+    for o in (0, 77, 149):
+        so = np.empty((p + 1, p + 1, n_in))
+        for i in range(p + 1):
+            for j in range(p + 1):
+                so[i, j] = -s[o, :, j - i + p].real
+        qo = solve_triangular(L, so.reshape(p + 1, -1), lower=True)
+        # the same triangular solve on the same columns: round-off only
+        np.testing.assert_allclose(Q[:, o], qo, rtol=0, atol=1e-12 * np.abs(qo).max())
+    assert T.shape == ((p + 1) * n_in, (p + 1) * n_in)
+    peak = _peak(lambda: plscf_mod._reduced_blocks(r, s, t, p))
+    # Q itself (8.9 MB) plus a chunk of S (<= 2 MB), its transposed copy and the solve's
+    # output and work copy (<= 4 x 2 MB); the former code held S three times besides Q (~4x Q)
+    assert peak <= Q.nbytes + (8 << 20), f"_reduced_blocks: peak {peak / Q.nbytes:.2f}x Q"

@@ -376,10 +376,17 @@ def _reduced_blocks(r: NDArray, s: NDArray, t: NDArray, p: int) -> tuple[NDArray
     lag = i[None, :] - i[:, None] + p  # (i, j) -> (j - i) + p
     R = r[np.abs(lag - p)]
     L = cholesky(R, lower=True, check_finite=False)
-    # S_o[i, (j, b)] = -Re s_ob(j - i)
-    S = -s.real[:, :, lag]  # (n_out, n_in, i, j)
-    S = S.transpose(2, 0, 3, 1).reshape(p + 1, n_out * (p + 1) * n_in)
-    Q = solve_triangular(L, S, lower=True, check_finite=False).reshape(p + 1, n_out, (p + 1) * n_in)
+    # S_o[i, (j, b)] = -Re s_ob(j - i), solved in chunks of outputs (~2 MB of S each) straight
+    # into Q: no full-size S and no transposed copy of it
+    Q = np.empty((p + 1, n_out, (p + 1) * n_in))
+    step = max(1, (2 << 20) // ((p + 1) ** 2 * n_in * 8))
+    for o0 in range(0, n_out, step):
+        o1 = min(o0 + step, n_out)
+        S = s.real[o0:o1, :, lag]  # (chunk, n_in, i, j), a fresh array
+        np.negative(S, out=S)
+        S = S.transpose(2, 0, 3, 1).reshape(p + 1, (o1 - o0) * (p + 1) * n_in)
+        Q[:, o0:o1] = solve_triangular(L, S, lower=True, check_finite=False).reshape(p + 1, o1 - o0, -1)
+        del S
     # T[(i, a), (j, b)] = Re t_ab(j - i)
     T = t.real[:, :, lag].transpose(2, 0, 3, 1).reshape((p + 1) * n_in, (p + 1) * n_in)
     return T, Q
