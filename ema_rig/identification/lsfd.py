@@ -83,7 +83,15 @@ def lsfd(
     >>> bool(np.isclose(m.residues[0, 0, 0], res))
     True
     """
-    data = check_data(data, band)
+    return _lsfd_checked(check_data(data, band), poles, residuals=residuals)
+
+
+def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) -> ModalModel:
+    """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
+
+    For callers that checked the data once for several steps (``identify``); same parameters,
+    result and pole errors as :func:`lsfd`, without the band and the second data check.
+    """
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
