@@ -368,6 +368,9 @@ def identify(
             sel = resolve_selection(stab, selection, tol=near_tol, source=src)
         except IdentificationError as exc:
             raise IdentificationError(exc.message, file=src) from None
+        warnings += [f"mode at {m.natural_freq:.2f} Hz tracked from the replayed selection by frequency order "
+                     f"(no mode within {100 * near_tol:g} % of a selected one): check it on the chart"
+                     for m in sel.modes if m.provenance == "tracked"]
     else:
         # grow the order until the accepted mode set holds over one span of orders
         start = min(default_max_order(n_in), cap)
