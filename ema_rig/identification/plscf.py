@@ -150,6 +150,11 @@ class PoleSet:
     _fn: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     _zeta: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
+    def __repr__(self) -> str:
+        o = self.orders
+        span = f"orders {min(o)}-{max(o)}" if o else "no orders"
+        return f"PoleSet({len(self)} poles, {span}, band {self.band[0]:g}-{self.band[1]:g} Hz)"
+
     def __post_init__(self) -> None:
         order = np.asarray(self.order, dtype=np.int64).reshape(-1).copy()
         pole = np.asarray(self.pole, dtype=np.complex128).reshape(-1).copy()

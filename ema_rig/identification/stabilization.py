@@ -85,6 +85,10 @@ class StabilizationData:
     status: NDArray[np.str_]
     tolerances: Mapping[str, float] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        n_s = int(np.count_nonzero(self.status == "s"))
+        return f"StabilizationData({len(self.status)} poles, {n_s} stable in all criteria; {self.poles!r})"
+
     def __post_init__(self) -> None:
         st = np.asarray(self.status, dtype="<U1").copy()
         if st.shape != (len(self.poles),):
