@@ -764,9 +764,9 @@ class PlscfEngine:
             raise ValueError(f"orders below {self._last + 1} can no longer be added, got {todo[0]}")
         bar = None
         if progress and todo:
-            from tqdm import tqdm
+            from .._progress import progress_bar
 
-            bar = tqdm(total=len(todo), disable=None, desc="pLSCF orders")
+            bar = progress_bar(total=len(todo), desc="pLSCF orders", unit="order")
         try:
             if todo:
                 self._compute(todo, bar)
