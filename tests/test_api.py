@@ -116,3 +116,25 @@ def test_every_module_all_resolves_and_is_documented() -> None:
             if (inspect.isfunction(obj) or inspect.isclass(obj)) and not inspect.getdoc(obj):
                 missing.append(f"{info.name}.{name}")
     assert not missing, f"public names without a docstring: {missing}"
+
+
+def test_result_reprs_are_short():
+    """Notebook printing: a result's repr is a summary (one line per mode), not its arrays."""
+    from pathlib import Path
+
+    from ema_rig import identify, load_rig
+    from ema_rig.io.uff import read_uff58
+    from ema_rig.rig.stiffness import estimate_stiffness
+
+    data_dir = Path(__file__).resolve().parent.parent / "data"
+    rig = load_rig(data_dir / "rig.toml")
+    data = read_uff58(data_dir / "b6302_1000N_1200rpm.uff", rig=rig)
+    ident = identify(data, band=(150.0, 1000.0))
+    res = estimate_stiffness(data, rig)
+    for obj, limit in ((ident, 120 * (ident.modes.n_modes + 2)), (ident.modes, 400), (ident.poles, 200),
+                       (ident.stabilization, 300), (res, 600), (res.match, 200)):
+        text = repr(obj)
+        assert len(text) < limit, (type(obj).__name__, len(text))
+    assert "MN/m" in repr(res) and "measured" in repr(res)
+    assert f"{ident.modes.n_modes} modes" in repr(ident)
+    assert "<table>" in ident._repr_html_()

@@ -99,6 +99,30 @@ class Identification:
     transposed: bool = False
     refinement: Refinement | None = None
 
+    def __repr__(self) -> str:
+        """One line per mode, not the arrays (a notebook prints this)."""
+        head = (f"Identification({self.modes.n_modes} modes, band {self.band[0]:g}-{self.band[1]:g} Hz, "
+                f"{'converged' if self.converged else 'NOT converged'}"
+                f"{', ML-refined' if self.refinement is not None and self.refinement.converged else ''}, "
+                f"{len(self.warnings)} warning(s))")
+        rows = [f"  {f:10.3f} Hz ± {sf:.3g}   zeta {100 * z:6.3f} % ± {100 * sz:.2g}"
+                for f, sf, z, sz in zip(self.natural_freq, self.natural_freq_std, self.damping_ratio,
+                                        self.damping_ratio_std, strict=True)]
+        return "\n".join([head, *rows, *(f"  warning: {w}" for w in self.warnings)])
+
+    def _repr_html_(self) -> str:
+        import html
+
+        rows = "".join(
+            f"<tr><td>{f:.3f}</td><td>{sf:.3g}</td><td>{100 * z:.3f}</td><td>{100 * sz:.2g}</td></tr>"
+            for f, sf, z, sz in zip(self.natural_freq, self.natural_freq_std, self.damping_ratio,
+                                    self.damping_ratio_std, strict=True))
+        warns = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
+        return (f"<p><b>Identification</b>: {self.modes.n_modes} modes, band {self.band[0]:g}–{self.band[1]:g} Hz, "
+                f"{'converged' if self.converged else '<b>not converged</b>'}</p>"
+                "<table><tr><th>f_n [Hz]</th><th>± [Hz]</th><th>ζ [%]</th><th>± [%]</th></tr>"
+                f"{rows}</table>" + (f"<ul>{warns}</ul>" if warns else ""))
+
     @property
     def fit_error(self) -> NDArray[np.float64]:
         """Relative synthesis error per channel ``||H - H_syn|| / ||H||``, shape (n_out, n_in)."""
@@ -368,6 +392,9 @@ def identify(
             sel = resolve_selection(stab, selection, tol=near_tol, source=src)
         except IdentificationError as exc:
             raise IdentificationError(exc.message, file=src) from None
+        warnings += [f"mode at {m.natural_freq:.2f} Hz tracked from the replayed selection by frequency order "
+                     f"(no mode within {100 * near_tol:g} % of a selected one): check it on the chart"
+                     for m in sel.modes if m.provenance == "tracked"]
     else:
         # grow the order until the accepted mode set holds over one span of orders
         start = min(default_max_order(n_in), cap)

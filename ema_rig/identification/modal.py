@@ -74,6 +74,12 @@ class ModalModel:
     fit_error: NDArray[np.float64] | None = None
     meta: Mapping[str, Any] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        f = ", ".join(f"{v:.4g}" for v in self.natural_freq[:12])
+        more = ", ..." if self.n_modes > 12 else ""
+        return (f"ModalModel({self.n_modes} modes at [{f}{more}] Hz, {len(self.out_dofs)} outputs x "
+                f"{len(self.in_dofs)} references, {self.frf_form})")
+
     def __post_init__(self) -> None:
         poles = np.atleast_1d(np.asarray(self.poles, dtype=np.complex128)).copy()
         res = np.asarray(self.residues, dtype=np.complex128).copy()

@@ -151,6 +151,11 @@ class PoleSet:
     _fn: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     _zeta: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
+    def __repr__(self) -> str:
+        o = self.orders
+        span = f"orders {min(o)}-{max(o)}" if o else "no orders"
+        return f"PoleSet({len(self)} poles, {span}, band {self.band[0]:g}-{self.band[1]:g} Hz)"
+
     def __post_init__(self) -> None:
         order = np.asarray(self.order, dtype=np.int64).reshape(-1).copy()
         pole = np.asarray(self.pole, dtype=np.complex128).reshape(-1).copy()
@@ -776,9 +781,9 @@ class PlscfEngine:
             raise ValueError(f"orders below {self._last + 1} can no longer be added, got {todo[0]}")
         bar = None
         if progress and todo:
-            from tqdm import tqdm
+            from .._progress import progress_bar
 
-            bar = tqdm(total=len(todo), disable=None, desc="pLSCF orders")
+            bar = progress_bar(total=len(todo), desc="pLSCF orders", unit="order")
         try:
             if todo:
                 self._compute(todo, bar)

@@ -64,7 +64,7 @@ STATUS_LABELS: Mapping[str, str] = MappingProxyType(
         "s": "stable frequency + damping + vector",
     }
 )
-PROVENANCES: tuple[str, ...] = ("auto", "near", "manual")
+PROVENANCES: tuple[str, ...] = ("auto", "near", "manual", "tracked")
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -84,6 +84,10 @@ class StabilizationData:
     poles: PoleSet
     status: NDArray[np.str_]
     tolerances: Mapping[str, float] = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        n_s = int(np.count_nonzero(self.status == "s"))
+        return f"StabilizationData({len(self.status)} poles, {n_s} stable in all criteria; {self.poles!r})"
 
     def __post_init__(self) -> None:
         st = np.asarray(self.status, dtype="<U1").copy()
@@ -770,18 +774,28 @@ def select_near(
 
 
 def resolve_selection(
-    stab: StabilizationData, selection: Selection, *, tol: float = 0.03, source: str | None = None
+    stab: StabilizationData,
+    selection: Selection,
+    *,
+    tol: float = 0.03,
+    source: str | None = None,
+    track_tol: float = 0.2,
 ) -> Selection:
     """Replay a saved selection on ``stab``.
 
     A mode whose ``(order, index)`` exists in ``stab`` with the same pole (to 1e-9 relative)
     is taken as it is (same data): its provenance is kept. Every other mode is replaced by the
-    nearest mode found in ``stab`` (:func:`select_near`, provenance ``"near"``).
+    nearest mode found in ``stab`` within ``tol`` (:func:`select_near`, provenance ``"near"``).
+    Modes that moved further (another load, another speed) are *tracked* when frequency order
+    makes it one to one: as many automatically selected modes of ``stab`` are left unclaimed as
+    selected modes are lost, and each pair (in frequency order) lies within ``track_tol``; they get
+    provenance ``"tracked"`` — :func:`~ema_rig.identification.identify` warns
+    about every tracked mode, since frequency order alone decided the correspondence.
 
     Raises
     ------
     IdentificationError
-        A mode of the selection has no stable counterpart within ``tol``.
+        A mode of the selection has no counterpart, not even a tracked one.
     """
     exact: list[SelectedMode] = []
     todo: list[float] = []
@@ -794,8 +808,34 @@ def resolve_selection(
             exact.append(m)
         else:
             todo.append(m.natural_freq)
-    near = select_near(stab, todo, tol=tol, source=source) if todo else None
-    modes = tuple(exact) + (near.modes if near is not None else ())
+    found: list[SelectedMode] = []
+    lost: list[float] = []
+    auto: Selection | None = None
+    for f in todo:
+        auto = select_modes(stab) if auto is None else auto
+        try:
+            found.extend(select_near(stab, [f], tol=tol, auto=auto, source=source).modes)
+        except IdentificationError:
+            lost.append(f)
+    if lost:
+        assert auto is not None
+        claimed = {round(m.natural_freq, 9) for m in (*exact, *found)}
+        free = sorted((m for m in auto.modes if round(m.natural_freq, 9) not in claimed),
+                      key=lambda m: m.natural_freq)
+        lost.sort()
+        # frequency order decides only when it is one to one: as many free automatic modes as lost ones
+        pairs = list(zip(lost, free, strict=True)) if len(free) == len(lost) else []
+        if not pairs or any(abs(m.natural_freq - f) > track_tol * f for f, m in pairs):
+            raise IdentificationError(
+                f"no stable mode within {100 * tol:g} % of the selected {lost[0]:g} Hz, and it cannot be "
+                f"tracked by frequency order ({len(lost)} selected mode(s) lost, {len(free)} free automatic "
+                f"mode(s), tracking limit {100 * track_tol:g} %; band {stab.band[0]:g}..{stab.band[1]:g} Hz)"
+            )
+        for _, best in pairs:
+            d = best.to_dict()
+            d["provenance"] = "tracked"
+            found.append(SelectedMode.from_dict(d))
+    modes = tuple(sorted((*exact, *found), key=lambda m: m.natural_freq))
     return Selection(
         modes=modes,
         band=stab.band,

@@ -260,6 +260,11 @@ class MatchResult:
     participation: tuple[float, ...] = ()
     warnings: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:
+        hm = self.housing_mode or {}
+        return (f"MatchResult(housing mode {hm.get('natural_freq', float('nan')):.2f} Hz, "
+                f"{len(self.candidates)} candidates)")
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict: ``housing_mode``, ``spindle_mode``, ``candidates``, ``valid_range``."""
         return {

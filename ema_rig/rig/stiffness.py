@@ -250,6 +250,14 @@ class StiffnessResult:
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:
+        """k_TB with its measured and total standard uncertainty, the housing mode, the warnings."""
+        hm = self.housing_mode
+        lines = [f"StiffnessResult(k_TB = {self.k_TB / 1e6:.3f} MN/m ± {self.k_TB_std_measured / 1e6:.3f} measured "
+                 f"± {self.k_TB_std / 1e6:.3f} total; housing mode {hm.get('natural_freq', math.nan):.2f} Hz; "
+                 f"file {self.file})"]
+        return "\n".join([*lines, *(f"  warning: {w}" for w in self.warnings)])
+
     @property
     def candidates(self) -> list[dict[str, Any]]:
         """Every mode considered by the matching, with metrics and reason."""
@@ -330,6 +338,12 @@ class CalibrationResult:
     k_MS_std_measured: float = 0.0
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+
+    def __repr__(self) -> str:
+        """k_MS with its measured and total standard uncertainty and the warnings."""
+        lines = [f"CalibrationResult(k_MS = {self.k_MS / 1e6:.3f} MN/m ± {self.k_MS_std_measured / 1e6:.3f} measured "
+                 f"± {self.k_MS_std / 1e6:.3f} total; file {self.file})"]
+        return "\n".join([*lines, *(f"  warning: {w}" for w in self.warnings)])
 
     @property
     def candidates(self) -> list[dict[str, Any]]:
