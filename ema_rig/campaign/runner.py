@@ -13,6 +13,15 @@ unexpected exception) are reported in the row but never reused: the next run com
 
 Pool workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and a
 watchdog thread on the parent's process id everywhere but Windows).
+
+Where the time goes with ``jobs > 1`` (on the bundled campaign, 2 cores): the calibration runs
+first in this process, and its first call pays the imports of the numerical stack (scipy, the
+identification); the pool is started after it, so its forked workers inherit those modules
+instead of importing them again. While the calibration runs, the other core is idle: an output
+process is started at once and imports the plotting stack (matplotlib, the report), and the
+table, figures and report are written there at the end. The measurements are submitted longest
+first (by their time in the previous run, else by file size), so that no worker is left with
+one long measurement at the end.
 """
 
 from __future__ import annotations
@@ -351,6 +360,26 @@ def run(
 
 def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
          progress: bool | Callable[[int, int], None], report: bool) -> CampaignResult:
+    out_pool = None
+    if out is not None and report and executor is None and jobs > 1 and cfg.measurements:
+        # the plotting stack is imported on the idle core while this process calibrates
+        out_pool = make_pool(1)
+        out_pool.submit(_preload_outputs)
+    try:
+        return _run_tasks(cfg, out, jobs, executor, force, progress, report, out_pool)
+    except BaseException:
+        if out_pool is not None:
+            _stop(out_pool)  # it must not write into the folder after its lock is released
+            out_pool = None
+        raise
+    finally:
+        if out_pool is not None:
+            out_pool.shutdown()
+
+
+def _run_tasks(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
+               progress: bool | Callable[[int, int], None], report: bool,
+               out_pool: Executor | None) -> CampaignResult:
     res_dir = None if out is None else out / "results"
     rig = cfg.rig
 
@@ -407,6 +436,9 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
             rows[m.id] = {**cached, **m.conditions()}
         else:
             todo.append((m, t, key))
+    if executor is not None or jobs > 1:
+        # longest first: a long measurement started last would keep one worker busy alone at the end
+        todo.sort(key=lambda mtk: _expected_cost(mtk[0].file, result_path(mtk[0].id)), reverse=True)
     reused = len(rows)
     bar = _progress(progress, len(cfg.measurements), reused)
 
@@ -462,10 +494,70 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
     )
     if out is not None and report:
-        from .outputs import write_outputs
-
-        result = dataclasses.replace(result, files=write_outputs(result, out))
+        result = dataclasses.replace(result, files=_write_outputs(result, out, out_pool))
     return result
+
+
+def _expected_cost(file: Path, previous: Path | None) -> tuple[float, float]:
+    """Sort key of a measurement's expected run time: its time in the previous run, then its size.
+
+    Only an ordering hint; any unreadable value counts as unknown (0).
+    """
+    seconds = 0.0
+    if previous is not None:
+        try:
+            doc = json.loads(read_regular_file(previous, max_bytes=_MAX_RESULT_BYTES).decode("utf-8"))
+            value = doc.get("elapsed_s") if isinstance(doc, dict) else None
+            if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+                seconds = float(value)
+        except (OSError, ValueError, RecursionError):
+            pass
+    try:
+        size = float(os.stat(file).st_size)
+    except OSError:
+        size = 0.0
+    return seconds, size
+
+
+def _preload_outputs() -> None:
+    """Import and exercise the plotting stack once (in the output worker, while the parent calibrates).
+
+    A first figure saved to memory loads the font cache and the PNG writer too.
+    """
+    import io
+
+    from matplotlib.figure import Figure
+
+    from ..plot import campaign as _campaign_plots  # noqa: F401
+    from . import outputs as _outputs  # noqa: F401
+
+    fig = Figure(figsize=(1.0, 1.0))
+    fig.add_subplot().plot([0.0, 1.0], [0.0, 1.0], label="k")
+    fig.savefig(io.BytesIO(), format="png", dpi=20)
+
+
+def _write_outputs(result: CampaignResult, out: Path, out_pool: Executor | None) -> dict[str, Path]:
+    """The table, figures and report: in the output worker when there is one, else here."""
+    from concurrent.futures import BrokenExecutor
+
+    from .outputs import write_outputs
+
+    if out_pool is not None:
+        try:
+            return out_pool.submit(write_outputs, result, out).result()
+        except BrokenExecutor as exc:  # the output process died: write them here instead
+            logger.info("output worker failed (%s); writing the outputs in this process", exc)
+    return write_outputs(result, out)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Shut a pool down now: pending work cancelled, running work killed with its process."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        proc.terminate()
+    for proc in procs:
+        proc.join(timeout=5.0)
 
 
 def _progress(progress: bool | Callable[[int, int], None], total: int, initial: int) -> Callable[[int | None], None]:

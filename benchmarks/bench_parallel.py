@@ -1,0 +1,105 @@
+"""Campaign parallelism end to end: ``ema-rig campaign --jobs 1`` against ``--jobs 2``, paired.
+
+Run from the repository root::
+
+    python benchmarks/bench_parallel.py [--pairs 5] [--tree OTHER_SOURCE_TREE ...] [--dask]
+
+Each round runs the command line (a fresh interpreter: start-up, imports, calibration, the
+measurements, table, figures and report, with ``--force``) once per configuration, in an order
+that alternates between rounds (A B, B A, ...), so a change of machine load hits both alike. For
+each configuration: the median wall time with its min-max, and the CPU time of the processes
+(user + system, children included); then the ratio ``--jobs 1 / --jobs 2`` of each round, as a
+median with its min-max. The load average is printed before and after: on a busy machine the
+ratios spread and the medians mean less.
+
+``--tree`` adds source trees (e.g. an older checkout, ``git archive <commit> | tar -x -C DIR``)
+run through ``PYTHONPATH`` in the same rounds, so a before/after comparison is paired too.
+``--dask`` adds the campaign through a ``dask.distributed.LocalCluster`` (2 worker processes, 1
+thread each, cluster start-up included) to the rounds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CAMPAIGN = ROOT / "data" / "campaign.toml"
+
+_DASK = """
+import sys
+from distributed import Client, LocalCluster
+from ema_rig.campaign import run
+with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cl, Client(cl) as c:
+    res = run(sys.argv[1], out_dir=sys.argv[2], executor=c.get_executor(), force=True)
+sys.exit(0 if res.n_failed == 0 else 3)
+"""
+
+
+def _once(tree: Path, argv: list[str], out: Path) -> tuple[float, float]:
+    """Wall and CPU seconds (children included) of one command in a fresh interpreter."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "MPLBACKEND": "Agg"}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, *argv, str(out)], env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode not in (0,):
+        raise SystemExit(f"{argv} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def _fmt(xs: list[float]) -> str:
+    return f"{statistics.median(xs):6.2f} ({min(xs):.2f}-{max(xs):.2f})"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pairs", type=int, default=5, help="rounds (default 5)")
+    ap.add_argument("--campaign", default=str(CAMPAIGN))
+    ap.add_argument("--tree", action="append", default=[], help="another source tree to compare")
+    ap.add_argument("--dask", action="store_true", help="also run through a 2-process LocalCluster")
+    args = ap.parse_args()
+
+    trees = [("this", ROOT)] + [(Path(t).name, Path(t).resolve()) for t in args.tree]
+    configs: list[tuple[str, Path, list[str]]] = []
+    for name, tree in trees:
+        for jobs in (1, 2):
+            cli = ["-m", "ema_rig.cli", "campaign", args.campaign, "--jobs", str(jobs), "--force", "-o"]
+            configs.append((f"{name} --jobs {jobs}", tree, cli))
+    if args.dask:
+        configs.append(("this dask 2 procs", ROOT, ["-c", _DASK, args.campaign]))
+
+    print(f"campaign {args.campaign}, {os.cpu_count()} cores, load average before "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    wall: dict[str, list[float]] = {c[0]: [] for c in configs}
+    cpu: dict[str, list[float]] = {c[0]: [] for c in configs}
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in range(args.pairs):
+            order = configs if r % 2 == 0 else configs[::-1]
+            for label, tree, argv in order:
+                w, c = _once(tree, argv, Path(tmp) / label.replace(" ", "_"))
+                wall[label].append(w)
+                cpu[label].append(c)
+    print(f"load average after {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(f"{'configuration':<24} {'wall s, median (min-max)':>26} {'CPU s, median (min-max)':>26}")
+    for label, _, _ in configs:
+        print(f"{label:<24} {_fmt(wall[label]):>26} {_fmt(cpu[label]):>26}")
+    for name, _ in trees:
+        ratios = [a / b for a, b in zip(wall[f"{name} --jobs 1"], wall[f"{name} --jobs 2"], strict=True)]
+        print(f"{name}: --jobs 1 / --jobs 2 per round: {_fmt(ratios)}  (goal >= 1.7)")
+    if args.dask:
+        ratios = [a / b for a, b in zip(wall["this --jobs 1"], wall["this dask 2 procs"], strict=True)]
+        print(f"this: --jobs 1 / dask 2 processes per round: {_fmt(ratios)}")
+
+
+if __name__ == "__main__":
+    main()
