@@ -48,7 +48,8 @@ def _once(tree: Path, argv: list[str], out: Path) -> tuple[float, float]:
     env = {**os.environ, "PYTHONPATH": str(tree), "MPLBACKEND": "Agg"}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, *argv, str(out)], env=env, capture_output=True, text=True)
+    # run in the tree: `python -m` and `-c` put the working directory first on sys.path
+    proc = subprocess.run([sys.executable, *argv, str(out)], env=env, capture_output=True, text=True, cwd=tree)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode not in (0,):
@@ -64,7 +65,7 @@ def _fmt(xs: list[float]) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pairs", type=int, default=5, help="rounds (default 5)")
-    ap.add_argument("--campaign", default=str(CAMPAIGN))
+    ap.add_argument("--campaign", default=str(CAMPAIGN), type=lambda p: str(Path(p).resolve()))
     ap.add_argument("--tree", action="append", default=[], help="another source tree to compare")
     ap.add_argument("--dask", action="store_true", help="also run through a 2-process LocalCluster")
     args = ap.parse_args()
