@@ -360,26 +360,25 @@ def run(
 
 def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
          progress: bool | Callable[[int, int], None], report: bool) -> CampaignResult:
-    out_pool = None
+    out_proc = None
     if out is not None and report and executor is None and jobs > 1 and cfg.measurements:
         # the plotting stack is imported on the idle core while this process calibrates
-        out_pool = make_pool(1)
-        out_pool.submit(_preload_outputs)
+        out_proc = _OutputProcess()
     try:
-        return _run_tasks(cfg, out, jobs, executor, force, progress, report, out_pool)
+        return _run_tasks(cfg, out, jobs, executor, force, progress, report, out_proc)
     except BaseException:
-        if out_pool is not None:
-            _stop(out_pool)  # it must not write into the folder after its lock is released
-            out_pool = None
+        if out_proc is not None:
+            out_proc.kill()  # it must not write into the folder after its lock is released
+            out_proc = None
         raise
     finally:
-        if out_pool is not None:
-            out_pool.shutdown()
+        if out_proc is not None:
+            out_proc.close()
 
 
 def _run_tasks(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
                progress: bool | Callable[[int, int], None], report: bool,
-               out_pool: Executor | None) -> CampaignResult:
+               out_proc: _OutputProcess | None) -> CampaignResult:
     res_dir = None if out is None else out / "results"
     rig = cfg.rig
 
@@ -494,7 +493,7 @@ def _run_tasks(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Execu
         out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
     )
     if out is not None and report:
-        result = dataclasses.replace(result, files=_write_outputs(result, out, out_pool))
+        result = dataclasses.replace(result, files=_write_outputs(result, out, out_proc))
     return result
 
 
@@ -520,7 +519,7 @@ def _expected_cost(file: Path, previous: Path | None) -> tuple[float, float]:
 
 
 def _preload_outputs() -> None:
-    """Import and exercise the plotting stack once (in the output worker, while the parent calibrates).
+    """Import and exercise the plotting stack once (in the output process, while the parent calibrates).
 
     A first figure saved to memory loads the font cache and the PNG writer too.
     """
@@ -536,28 +535,85 @@ def _preload_outputs() -> None:
     fig.savefig(io.BytesIO(), format="png", dpi=20)
 
 
-def _write_outputs(result: CampaignResult, out: Path, out_pool: Executor | None) -> dict[str, Path]:
-    """The table, figures and report: in the output worker when there is one, else here."""
-    from concurrent.futures import BrokenExecutor
-
+def _output_main(conn: Any, parent: int) -> None:  # pragma: no cover - runs in the output process
+    """The output process: preload, then write the outputs of the one result it is sent."""
     from .outputs import write_outputs
 
-    if out_pool is not None:
+    _worker_init(parent)
+    try:
+        _preload_outputs()
+    except Exception:  # only a head start: write_outputs below meets the same problem and reports it
+        logger.debug("preloading the plotting stack failed", exc_info=True)
+    try:
+        job = conn.recv()
+    except EOFError:  # the parent closed the pipe: nothing to write
+        return
+    if job is None:
+        return
+    try:
+        reply: tuple[bool, Any] = (True, write_outputs(*job))
+    except Exception as exc:
+        reply = (False, exc)
+    try:
+        conn.send(reply)
+    except Exception:  # an exception that does not pickle: its type and text
+        conn.send((False, RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}")))
+
+
+class _OutputProcess:
+    """One child process that writes the table, figures and report (``jobs > 1``).
+
+    Started before the calibration, it imports matplotlib while this process calibrates. A plain
+    process and a pipe, not an executor: an executor's threads in this process would make the
+    later fork of the measurement pool unsafe.
+    """
+
+    def __init__(self) -> None:
+        import multiprocessing
+
+        self._conn, child = multiprocessing.Pipe()
+        self._proc = multiprocessing.Process(target=_output_main, args=(child, os.getpid()),
+                                             name="ema-rig-outputs", daemon=True)
+        self._proc.start()
+        child.close()
+
+    def write(self, result: CampaignResult, out: Path) -> dict[str, Path]:
+        """Write the outputs there; raises what ``write_outputs`` raised, EOFError if the process died."""
+        self._conn.send((result, out))
+        ok, value = self._conn.recv()
+        if ok:
+            return dict(value)
+        raise value
+
+    def close(self) -> None:
+        """Let the process end (it does after one job or on a closed pipe) and reap it."""
         try:
-            return out_pool.submit(write_outputs, result, out).result()
-        except BrokenExecutor as exc:  # the output process died: write them here instead
-            logger.info("output worker failed (%s); writing the outputs in this process", exc)
+            self._conn.send(None)
+        except OSError:  # it has ended already
+            pass
+        self._conn.close()
+        self._proc.join(timeout=10.0)
+        if self._proc.is_alive():  # pragma: no cover - a hung child
+            self.kill()
+
+    def kill(self) -> None:
+        """End the process now (an interruption or an error of the run)."""
+        self._conn.close()
+        self._proc.terminate()
+        self._proc.join(timeout=5.0)
+
+
+def _write_outputs(result: CampaignResult, out: Path, out_proc: _OutputProcess | None) -> dict[str, Path]:
+    """The table, figures and report: in the output process when there is one, else here."""
+    from .outputs import write_outputs
+
+    if out_proc is not None:
+        try:
+            return out_proc.write(result, out)
+        except (EOFError, ConnectionError) as exc:  # the output process died: write them here
+            logger.warning("the output process ended (%s); writing the outputs in this process",
+                           type(exc).__name__)
     return write_outputs(result, out)
-
-
-def _stop(pool: ProcessPoolExecutor) -> None:
-    """Shut a pool down now: pending work cancelled, running work killed with its process."""
-    procs = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in procs:
-        proc.terminate()
-    for proc in procs:
-        proc.join(timeout=5.0)
 
 
 def _progress(progress: bool | Callable[[int, int], None], total: int, initial: int) -> Callable[[int | None], None]:
