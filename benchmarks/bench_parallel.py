@@ -16,6 +16,14 @@ ratios spread and the medians mean less.
 run through ``PYTHONPATH`` in the same rounds, so a before/after comparison is paired too.
 ``--dask`` adds the campaign through a ``dask.distributed.LocalCluster`` (2 worker processes, 1
 thread each, cluster start-up included) to the rounds.
+
+``--cpu-path`` estimates instead what the wall times would be on an idle machine, from CPU times,
+which another session's load changes far less than wall times (Linux shares the cores between
+sessions, so on a busy machine a second worker process of one session gains little wall time):
+each phase's CPU time is measured (import, calibration, every measurement, the outputs; with
+``--jobs 2`` also the output process's preload beside the calibration) and the critical path is
+``import + max(calibration, preload) + LPT schedule of the measurements on 2 workers + outputs``,
+against the sum of all of them for ``--jobs 1``.
 """
 
 from __future__ import annotations
@@ -43,6 +51,69 @@ sys.exit(0 if res.n_failed == 0 else 3)
 """
 
 
+_CPU_PATH = """
+import json, sys, time
+C = time.process_time
+c0 = C()
+import ema_rig.campaign.runner as R
+import ema_rig.campaign.outputs as O
+rec = {"import": C() - c0}
+log = sys.argv[2] + ".tasks"
+
+def pm(t, _orig=R.process_measurement):
+    c = C(); r = _orig(t)
+    with open(log, "a") as fh:
+        fh.write(json.dumps([t.kind, C() - c]) + "\\n")
+    return r
+
+def wo(result, out, _orig=O.write_outputs):
+    c = C(); files = _orig(result, out)
+    with open(log, "a") as fh:
+        fh.write(json.dumps(["outputs", C() - c]) + "\\n")
+    return files
+
+R.process_measurement, O.write_outputs = pm, wo
+if hasattr(R, "_preload_outputs"):
+    def pl(_orig=R._preload_outputs):
+        c = C(); _orig()
+        with open(log, "a") as fh:
+            fh.write(json.dumps(["preload", C() - c]) + "\\n")
+    R._preload_outputs = pl
+R.run(sys.argv[1], out_dir=sys.argv[2], jobs=int(sys.argv[3]), force=True)
+tasks = [json.loads(line) for line in open(log)]
+rec["tasks"] = tasks
+print(json.dumps(rec))
+"""
+
+
+def _lpt(times: list[float], workers: int) -> float:
+    """Makespan of the longest-first schedule of ``times`` on ``workers``."""
+    load = [0.0] * workers
+    for t in sorted(times, reverse=True):
+        load[load.index(min(load))] += t
+    return max(load)
+
+
+def _cpu_path(tree: Path, campaign: str, jobs: int, out: Path) -> float:
+    """The CPU-time critical path of one run (see the module docstring)."""
+    import json
+
+    env = {**os.environ, "PYTHONPATH": str(tree), "MPLBACKEND": "Agg"}
+    proc = subprocess.run([sys.executable, "-c", _CPU_PATH, campaign, str(out), str(jobs)], env=env,
+                          capture_output=True, text=True, cwd=tree)
+    if proc.returncode != 0:
+        raise SystemExit(f"cpu path run failed:\n{proc.stderr[-2000:]}")
+    rec = json.loads(proc.stdout.strip().splitlines()[-1])
+    by: dict[str, list[float]] = {}
+    for kind, seconds in rec["tasks"]:
+        by.setdefault(kind, []).append(seconds)
+    calib, outputs = sum(by.get("calibration", [])), sum(by.get("outputs", []))
+    meas = by.get("measurement", [])
+    if jobs == 1:
+        return rec["import"] + calib + sum(meas) + outputs + sum(by.get("preload", []))
+    return rec["import"] + max(calib, sum(by.get("preload", []))) + _lpt(meas, jobs) + outputs
+
+
 def _once(tree: Path, argv: list[str], out: Path) -> tuple[float, float]:
     """Wall and CPU seconds (children included) of one command in a fresh interpreter."""
     env = {**os.environ, "PYTHONPATH": str(tree), "MPLBACKEND": "Agg"}
@@ -68,7 +139,11 @@ def main() -> None:
     ap.add_argument("--campaign", default=str(CAMPAIGN), type=lambda p: str(Path(p).resolve()))
     ap.add_argument("--tree", action="append", default=[], help="another source tree to compare")
     ap.add_argument("--dask", action="store_true", help="also run through a 2-process LocalCluster")
+    ap.add_argument("--cpu-path", action="store_true", help="critical path from CPU times instead")
     args = ap.parse_args()
+    if args.cpu_path:
+        _main_cpu_path(args)
+        return
 
     trees = [("this", ROOT)] + [(Path(t).name, Path(t).resolve()) for t in args.tree]
     configs: list[tuple[str, Path, list[str]]] = []
@@ -100,6 +175,24 @@ def main() -> None:
     if args.dask:
         ratios = [a / b for a, b in zip(wall["this --jobs 1"], wall["this dask 2 procs"], strict=True)]
         print(f"this: --jobs 1 / dask 2 processes per round: {_fmt(ratios)}")
+
+
+def _main_cpu_path(args: argparse.Namespace) -> None:
+    trees = [("this", ROOT)] + [(Path(t).name, Path(t).resolve()) for t in args.tree]
+    print(f"campaign {args.campaign}: critical path from CPU times, {args.pairs} rounds, load average "
+          f"before {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    est: dict[tuple[str, int], list[float]] = {(n, j): [] for n, _ in trees for j in (1, 2)}
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in range(args.pairs):
+            for name, tree in trees if r % 2 == 0 else trees[::-1]:
+                for jobs in (1, 2) if r % 2 == 0 else (2, 1):
+                    out = Path(tmp) / f"{name}_{jobs}_{r}"
+                    est[name, jobs].append(_cpu_path(tree, args.campaign, jobs, out))
+    print(f"load average after {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    for name, _ in trees:
+        ratios = [a / b for a, b in zip(est[name, 1], est[name, 2], strict=True)]
+        print(f"{name:<10} --jobs 1 {_fmt(est[name, 1])} s  --jobs 2 {_fmt(est[name, 2])} s  "
+              f"ratio per round {_fmt(ratios)}  (goal >= 1.7)")
 
 
 if __name__ == "__main__":
