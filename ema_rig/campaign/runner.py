@@ -318,7 +318,9 @@ def run(
         end. The folder is locked for the run: a second run on it raises. Without it, nothing is
         written and nothing can be reused.
     jobs : int, optional
-        Number of worker processes when no ``executor`` is given (1 = in this process).
+        Number of worker processes when no ``executor`` is given (1 = in this process). With
+        ``jobs > 1`` and the report, one more child process starts at once, imports the plotting
+        stack while this process calibrates, and writes the table, figures and report at the end.
     executor : concurrent.futures.Executor, optional
         Any executor, e.g. ``dask.distributed.Client(...).get_executor()``; overrides ``jobs``.
     force : bool, optional
