@@ -2,7 +2,7 @@
 
 Each sub-command lives in ``ema_rig.commands.<name>`` with ``add_arguments(parser)`` and
 ``run(args) -> int``; this module only builds the parser and turns errors into one line on
-stderr and a non-zero exit code (DESIGN §3.2).
+stderr and a non-zero exit code.
 
 Exit codes
 ----------

@@ -1,6 +1,6 @@
 """Rig and campaign configuration files (TOML) into validated, frozen dataclasses.
 
-The rig file's keys are a contract (DESIGN §3.1)::
+The rig file's keys are a stable interface (README, "The rig file")::
 
     [model]                # all seven keys required, SI units
     m_H, m_S, m_F, k_MS, k_AS, k_S, k_B
@@ -14,7 +14,9 @@ Optional tables (extensions, all keys optional):
 
 - ``[uncertainty]``: relative standard uncertainty (fraction, 0.01 = 1 %) of any of the seven
   model parameters, used by the k_TB uncertainty budget.
-- ``[identification]``: ``band = [lo, hi]`` (Hz), ``max_order`` (int), ``k_MS_band = [lo, hi]``.
+- ``[identification]``: ``band = [lo, hi]`` (Hz), ``max_order`` (int, the cap of the adaptive order),
+  ``k_MS_band = [lo, hi]``, ``refine`` (bool: maximum-likelihood refinement after PolyMAX),
+  ``n_averages`` (number of averages behind the FRFs and coherence, >= 1).
 - ``[units]``: ``prefer = "code" | "label"``: which wins when a UFF unit label contradicts the
   ordinate data-type code (default: a conflict is an error).
 - ``[rig]``: ``name``, ``description`` (free text).
@@ -341,13 +343,17 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         uncertainty[k] = x
 
     id_t = toml_table(doc, "identification", fname, required=False)
-    check_keys(id_t, ("band", "max_order", "k_MS_band"), "identification", fname)
+    check_keys(id_t, ("band", "max_order", "k_MS_band", "refine", "n_averages"), "identification", fname)
     ident: dict[str, Any] = {}
     for k in ("band", "k_MS_band"):
         if k in id_t:
             ident[k] = toml_band(id_t[k], f"identification.{k}", fname)
     if "max_order" in id_t:
         ident["max_order"] = toml_int(id_t["max_order"], "identification.max_order", fname, lo=2)
+    if "refine" in id_t:
+        ident["refine"] = toml_bool(id_t["refine"], "identification.refine", fname)
+    if "n_averages" in id_t:
+        ident["n_averages"] = toml_number(id_t["n_averages"], "identification.n_averages", fname, lo=1.0)
 
     units_t = toml_table(doc, "units", fname, required=False)
     check_keys(units_t, ("prefer",), "units", fname)
@@ -439,7 +445,7 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
     Parameters
     ----------
     path : str or path-like
-        TOML file with the tables of DESIGN §3.1.
+        TOML file with the tables above (README, "The rig file").
 
     Returns
     -------
@@ -453,7 +459,73 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
     return parse_rig(read_toml(path), file=path)
 
 
+#: Geometry keys of a ``[bearings.NAME]`` table (SI units), see :func:`parse_bearing_geometry`.
+BEARING_GEOMETRY_KEYS: tuple[str, ...] = (
+    "n_balls", "ball_diameter", "pitch_diameter", "clearance", "inner_conformity", "outer_conformity",
+    "youngs_modulus", "poisson_ratio", "ball_youngs_modulus", "ball_poisson_ratio",
+)
+_GEOMETRY_REQUIRED = ("n_balls", "ball_diameter", "pitch_diameter")
+#: Upper bounds [m] that catch a length typed in millimetres (the largest bearings stay below them).
+_GEOMETRY_LIMITS_M = {"ball_diameter": 0.5, "pitch_diameter": 10.0, "clearance": 1e-3}
+
+
+def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -> Any:
+    """The deep-groove ball-bearing geometry of a bearing table, or None when it gives none.
+
+    Keys (SI units): ``n_balls``, ``ball_diameter`` [m], ``pitch_diameter`` [m] (all three
+    required once any geometry key is given), ``clearance`` (diametral radial clearance [m],
+    default 0), ``inner_conformity`` / ``outer_conformity`` (groove radius / ball diameter,
+    default 0.52), ``youngs_modulus`` [Pa] and ``poisson_ratio`` of the rings (default steel,
+    208 GPa, 0.3), ``ball_youngs_modulus`` / ``ball_poisson_ratio`` when the balls differ.
+    The 6302 of the paper::
+
+        [bearings.6302]
+        n_balls = 7
+        ball_diameter = 7.938e-3
+        pitch_diameter = 28.5e-3
+
+    Returns
+    -------
+    BallBearingGeometry or None
+
+    Raises
+    ------
+    ConfigError
+        Naming the key: a missing required key, a wrong type, a value out of range, or a
+        geometry that cannot exist (balls larger than the pitch circle, too many balls).
+    """
+    from .rig.hertz import BallBearingGeometry
+
+    given = [k for k in BEARING_GEOMETRY_KEYS if k in t]
+    if not given:
+        return None
+    for k in _GEOMETRY_REQUIRED:
+        if k not in t:
+            raise ConfigError(f"missing required key (the bearing geometry also gives {', '.join(given)})",
+                              file=file, key=f"{where}.{k}")
+    kw: dict[str, Any] = {"n_balls": toml_int(t["n_balls"], f"{where}.n_balls", file, lo=3)}
+    for k in given:
+        if k == "n_balls":
+            continue
+        v = toml_number(t[k], f"{where}.{k}", file, lo=0.0, lo_open=k != "clearance" and "poisson" not in k)
+        if k.endswith("conformity") and not v > 0.5:
+            raise ConfigError(f"must exceed 0.5 (groove radius / ball diameter), got {v:g}", file=file,
+                              key=f"{where}.{k}")
+        if "poisson" in k and not v < 0.5:
+            raise ConfigError(f"must lie in [0, 0.5), got {v:g}", file=file, key=f"{where}.{k}")
+        limit = _GEOMETRY_LIMITS_M.get(k)
+        if limit is not None and v > limit:
+            raise ConfigError(f"is in metres: {v:g} m exceeds {limit:g} m (7.938 mm is 7.938e-3)",
+                              file=file, key=f"{where}.{k}")
+        kw[k] = v
+    try:
+        return BallBearingGeometry(**kw)
+    except ValueError as exc:
+        raise ConfigError(str(exc), file=file, key=where) from None
+
+
 __all__ = [
+    "BEARING_GEOMETRY_KEYS",
     "MAX_TOML_BYTES",
     "MODEL_KEYS",
     "ModelParams",
@@ -463,6 +535,7 @@ __all__ = [
     "Sensor",
     "check_keys",
     "load_rig",
+    "parse_bearing_geometry",
     "parse_rig",
     "read_regular_file",
     "read_toml",

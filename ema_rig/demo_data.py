@@ -13,7 +13,7 @@ Contents:
   inside the FE bounds 31.14e6 ... 34.12e6 N/m, rising slightly with load (paper Sect. 5);
 - ``b6302_<F>N_<rpm>rpm[_r<k>].uff``: the 6302 at 4 radial loads (1200 rpm), 4 speeds at
   1000 N (one repeated), following a Hertzian trend ``k = 7.16e7 (F / 1 kN)^(1/3)`` N/m
-  (DESIGN §4, scaled so 1 kN gives the paper's 626 Hz);
+  (scaled so 1 kN gives the paper's 626 Hz);
 - ``b6302_1000N_static_<deg>deg.uff``: non-rotating at 3 shaft positions, on average
   1 / (1 - 0.088) stiffer than rotating (the paper's 8.8 % decrease), varying with the ball
   positions as the discrete Hertz load distribution does;
@@ -188,8 +188,21 @@ def campaign_toml(rows: list[Plan]) -> str:
         'label = "dummy bearing (FE bounds)"',
         "",
         "[bearings.6302]",
-        "hertz = true",
         'label = "deep groove ball bearing 6302"',
+        "# geometry of the Hertz estimate (SI units); the estimate is drawn only for bearings that give one",
+        "hertz = true",
+        "n_balls = 7",
+        "ball_diameter = 7.938e-3          # m",
+        "pitch_diameter = 28.5e-3          # m",
+        "clearance = 0.0                   # diametral radial clearance [m]",
+        "inner_conformity = 0.52           # groove radius / ball diameter",
+        "outer_conformity = 0.52",
+        "youngs_modulus = 208e9            # Pa (steel rings and balls)",
+        "poisson_ratio = 0.3",
+        "",
+        "[output]",
+        'stiffness_unit = "N/m"            # of campaign.csv: N/m, MN/m or N/µm',
+        'damping_unit = "-"                # fraction of critical, or "%"',
     ]
     for fid, file, bearing, load, speed, pos, rep, tags, *_ in rows:
         out += ["", "[[measurement]]", f'id = "{fid}"', f'file = "{file}"', f'bearing = "{bearing}"',

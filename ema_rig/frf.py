@@ -52,6 +52,22 @@ def _freeze(meta: Mapping[str, Any] | None) -> Mapping[str, Any]:
     return MappingProxyType(dict(meta or {}))
 
 
+def _check_coherence(coherence: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """A read-only float64 copy of a coherence array, checked against the FRF shape and 0..1."""
+    coh = np.array(coherence, copy=True)
+    if np.iscomplexobj(coh):
+        raise ValueError("coherence must be real (it is |gamma|^2, unit-less)")
+    coh = coh.astype(np.float64)
+    if coh.shape != shape:
+        raise ValueError(f"coherence must have the FRF shape {shape}, got {coh.shape}")
+    if not np.all(np.isfinite(coh)):
+        raise ValueError("coherence contains NaN or inf values")
+    if coh.size and not (coh.min() >= 0.0 and coh.max() <= 1.0):
+        raise ValueError(f"coherence values must lie in 0..1, got {coh.min():g}..{coh.max():g}")
+    coh.setflags(write=False)
+    return coh
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class FRFData:
     """A matrix of frequency response functions on a common frequency axis.
@@ -73,12 +89,18 @@ class FRFData:
     axes : sequence of str or None, length n_out, optional
         Sensor axis of each output (``'radial'``, ``'lateral'``, ``'axial'``).
     meta : mapping, optional
-        Provenance (source file, unit decisions, UFF header ids). Read-only.
+        Provenance (source file, unit decisions, UFF header ids, ``warnings``). Read-only.
+    coherence : array_like, shape (n_out, n_in, n_freq), optional
+        Ordinary coherence ``gamma^2`` of each FRF (unit-less, float64, finite, 0 <= value <= 1),
+        e.g. from UFF58 function type 6 datasets. None when not known for every FRF.
+    n_averages : int, optional
+        Number of averages behind the FRFs and the coherence (>= 1), None when unknown.
 
     Notes
     -----
     Instances are immutable: every method returns a new object and the arrays are made
     read-only. ``unit_str`` is derived from ``frf_form``; data are always stored in SI.
+    ``coherence`` follows every selection (``band``, ``sel``, ``to_form``).
 
     Examples
     --------
@@ -99,6 +121,8 @@ class FRFData:
     roles: tuple[str | None, ...] = ()
     axes: tuple[str | None, ...] = ()
     meta: Mapping[str, Any] = field(default_factory=dict)
+    coherence: NDArray[np.float64] | None = None
+    n_averages: int | None = None
 
     def __post_init__(self) -> None:
         freq = np.array(self.freq, dtype=np.float64, copy=True)
@@ -133,8 +157,16 @@ class FRFData:
         axes = tuple(self.axes) if self.axes else (None,) * len(out_dofs)
         if len(roles) != len(out_dofs) or len(axes) != len(out_dofs):
             raise ValueError("roles and axes must have one entry per output DOF")
+        coherence = None if self.coherence is None else _check_coherence(self.coherence, frf.shape)
+        if self.n_averages is not None and (
+            isinstance(self.n_averages, bool) or not isinstance(self.n_averages, (int, np.integer))
+            or self.n_averages < 1
+        ):
+            raise ValueError(f"n_averages must be an integer >= 1 or None, got {self.n_averages!r}")
         freq.setflags(write=False)
         frf.setflags(write=False)
+        object.__setattr__(self, "coherence", coherence)
+        object.__setattr__(self, "n_averages", None if self.n_averages is None else int(self.n_averages))
         object.__setattr__(self, "freq", freq)
         object.__setattr__(self, "frf", frf)
         object.__setattr__(self, "out_dofs", out_dofs)
@@ -206,13 +238,18 @@ class FRFData:
                 f"band {lo:g}..{hi:g} Hz holds no line of the data "
                 f"({self.freq[0]:g}..{self.freq[-1]:g} Hz)"
             )
-        return replace(self, freq=self.freq[keep], frf=self.frf[:, :, keep])
+        return replace(self, freq=self.freq[keep], frf=self.frf[:, :, keep], coherence=self._coh(..., keep))
+
+    def _coh(self, *index: Any) -> NDArray[np.float64] | None:
+        """The coherence indexed like the FRF (None stays None)."""
+        return None if self.coherence is None else self.coherence[index]
 
     def _select_outputs(self, idx: Sequence[int]) -> FRFData:
         idx = list(idx)
         return replace(
             self,
             frf=self.frf[idx],
+            coherence=self._coh(idx),
             out_dofs=tuple(self.out_dofs[i] for i in idx),
             roles=tuple(self.roles[i] for i in idx),
             axes=tuple(self.axes[i] for i in idx),
@@ -275,7 +312,8 @@ class FRFData:
                 if d not in data.in_dofs:
                     raise KeyError(f"input DOF {d} not in data ({[str(x) for x in data.in_dofs]})")
                 jdx.append(data.in_dofs.index(d))
-            data = replace(data, frf=data.frf[:, jdx], in_dofs=tuple(data.in_dofs[j] for j in jdx))
+            data = replace(data, frf=data.frf[:, jdx], coherence=data._coh(slice(None), jdx),
+                           in_dofs=tuple(data.in_dofs[j] for j in jdx))
         return data
 
     # ------------------------------------------------------------ conversion
@@ -306,7 +344,8 @@ class FRFData:
             if at_zero == "drop":
                 if data.n_freq == 1:
                     raise ValueError("cannot drop the only (0 Hz) line")
-                data = replace(data, freq=data.freq[1:], frf=data.frf[:, :, 1:])
+                data = replace(data, freq=data.freq[1:], frf=data.frf[:, :, 1:],
+                               coherence=data._coh(..., slice(1, None)))
             elif at_zero != "nan":
                 raise ValueError(f"at_zero must be 'nan' or 'drop', got {at_zero!r}")
         jw = 1j * data.freq_rad

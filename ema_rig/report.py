@@ -6,11 +6,19 @@ render_report
     The report as an HTML string.
 write_report
     Write it atomically.
+write_report_if_changed
+    Write it only when its content (all but the time stamp) changed.
+
+Each measurement's row in the results table links to its own section: the stabilization chart, the
+measured FRFs against the 3DOF model, the measured against the synthesised FRFs, every candidate
+mode with its verdict, and the warnings. Figures are embedded (base64 PNG), so the report is one
+file with no external reference.
 """
 
 from __future__ import annotations
 
 import base64
+import hashlib
 import html
 import json
 import math
@@ -36,13 +44,18 @@ tr.err td{background:#fff0f0}.muted{color:#777}figure{margin:1em 0;text-align:ce
 figure img{max-width:100%;border:1px solid #eee}figcaption{font-size:.9em;color:#555}
 pre{background:#f7f7f7;padding:1em;overflow-x:auto;font-size:.8em}.kpi{display:inline-block;margin:.3em 1.5em .3em 0}
 .kpi b{font-size:1.3em}
+section.meas{border-top:2px solid #ddd;margin-top:2em}section.meas h3{margin-bottom:.2em}
+ul.warn li{color:#8a4b00}.cand td.reason{text-align:left;font-size:.95em;max-width:40em}
+tr.chosen td{background:#eef8ee}a.top{font-size:.8em;float:right}
 """
 
 _CAPTIONS = {
     "validation": "Estimated stiffness of the reference bearing against its FE bounds (cf. paper Fig. 9).",
     "k_vs_load": "Bearing stiffness versus radial load, with the Hertzian estimate and a F^(1/3) fit.",
     "rotating_vs_static": "Rotating against non-rotating stiffness (paper Sect. 6 reports -8.8 %).",
-    "speed": "Effect of the shaft speed on the stiffness (paper Table 3).",
+    "speed": "Effect of the shaft speed on the stiffness (paper Table 3). Error bars: the identification "
+             "(measured) uncertainty of each estimate only; the rig-model tolerances shift every speed "
+             "alike and are left out so that a speed effect stays visible.",
     "repeatability": "Deviation of repeated measurements from their condition mean.",
 }
 
@@ -66,14 +79,35 @@ def _caption(name: str) -> str:
     return name
 
 
-def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[str]]) -> str:
+#: By measurement id: its figures (kind -> PNG path), the warnings of drawing them, and the
+#: identification's candidates with their verdicts (dicts: natural_freq, damping_ratio, verdict, reason).
+MeasurementFigurePaths = Mapping[str, tuple[Mapping[str, "str | PathLike[str]"], list[str], list[Any]]]
+
+
+def anchor(index: int) -> str:
+    """HTML id of the section of the ``index``-th measurement (0-based; ids may hold any character)."""
+    return f"meas-{index + 1}"
+
+
+def _img(path: str | PathLike[str], alt: str) -> str:
+    data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
+    return f"<img alt='{html.escape(alt)}' src='data:image/png;base64,{data}'>"
+
+
+def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[str]], *,
+                  measurements: MeasurementFigurePaths | None = None, generated: str | None = None) -> str:
     """Render the campaign report.
 
     Parameters
     ----------
     result : CampaignResult
     figures : mapping of str to path
-        PNG files to embed (base64), by name.
+        Campaign PNG files to embed (base64), by name.
+    measurements : mapping, optional
+        Per measurement id: (figure kind -> PNG path, warnings of drawing them); every
+        measurement gets a section either way (conditions, result, candidates, warnings).
+    generated : str, optional
+        Time stamp shown in the header (default: now, UTC).
 
     Returns
     -------
@@ -90,7 +124,8 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         f"<title>{html.escape(cfg.title)} — ema_rig report</title><style>{_CSS}</style></head><body>",
         f"<h1>{html.escape(cfg.title)}</h1>",
         f"<p class='muted'>ema_rig {html.escape(__version__)} · Python {platform.python_version()} · "
-        f"{datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')} · campaign file "
+        f"{html.escape(generated if generated is not None else datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC'))}"
+        " · campaign file "
         f"<code>{html.escape(str(cfg.path))}</code></p>",
         "<h2>Summary</h2><p>",
         f"<span class='kpi'><b>{n_ok}</b> / {len(rows)} measurements analysed</span>",
@@ -106,21 +141,20 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
                      "k_MS taken from the rig file.</p>")
     parts.append("<h2>Figures</h2>")
     for name, path in figures.items():
-        data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
-        parts.append(f"<figure><img alt='{html.escape(name)}' src='data:image/png;base64,{data}'>"
-                     f"<figcaption>{html.escape(_caption(name))}</figcaption></figure>")
-    parts.append("<h2>Results</h2><p class='muted'>Stiffness in MN/m (= N/µm); ± is one standard "
-                 "uncertainty; frequencies are undamped natural frequencies |λ|/2π.</p>")
+        parts.append(f"<figure>{_img(path, name)}<figcaption>{html.escape(_caption(name))}</figcaption></figure>")
+    parts.append("<h2 id='results'>Results</h2><p class='muted'>Stiffness in MN/m (= N/µm); ± is one standard "
+                 "uncertainty; frequencies are undamped natural frequencies |λ|/2π. Each id links to the "
+                 "measurement's own section (figures, candidate modes, warnings).</p>")
     head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB", "± k_TB",
             "k_TB+MS", "f_H [Hz]", "± f_H", "ζ_H [%]", "f_spindle [Hz]", "status"]
     parts.append("<table><tr>" + "".join(
         f"<th class='{'l' if i in (0, 1, 13) else ''}'>{html.escape(h)}</th>" for i, h in enumerate(head)) + "</tr>")
-    for r in rows:
+    for i, r in enumerate(rows):
         cls = "" if r["status"] == "ok" else " class='err'"
         status = "ok" if r["status"] == "ok" else f"error: {r['error']}"
         damp = r["housing_damping"] * 100 if isinstance(r["housing_damping"], float) else r["housing_damping"]
         cells = [
-            ("l", _fmt(r["id"])), ("l", _fmt(r["bearing"])), ("", _fmt(r["radial_load"])), ("", _fmt(r["speed"])),
+            ("l", f"<a href='#{anchor(i)}'>{_fmt(r['id'])}</a>"), ("l", _fmt(r["bearing"])), ("", _fmt(r["radial_load"])), ("", _fmt(r["speed"])),
             ("", _fmt(r["shaft_position"])), ("", _fmt(r["repeat"])), ("", _fmt(r["k_TB"], "N/m")),
             ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
             ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
@@ -128,6 +162,9 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         ]
         parts.append(f"<tr{cls}>" + "".join(f"<td class='{c}'>{v}</td>" for c, v in cells) + "</tr>")
     parts.append("</table>")
+    parts.append("<h2>Measurements</h2>")
+    for i, r in enumerate(rows):
+        parts.append(_measurement_section(i, r, (measurements or {}).get(str(r["id"]))))
     settings = {**cfg.settings(), "k_MS_used": result.k_MS, "k_MS_std_used": result.k_MS_std}
     parts.append("<h2>Settings</h2><pre>" + html.escape(json.dumps(settings, indent=2, default=str)) + "</pre>")
     parts.append("<p class='muted'>Method: PolyMAX (pLSCF) identification, LSFD mode shapes, housing mode matched "
@@ -136,12 +173,90 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     return "\n".join(parts)
 
 
+def _measurement_section(i: int, r: Mapping[str, Any],
+                         figs: tuple[Mapping[str, str | PathLike[str]], list[str], list[Any]] | None) -> str:
+    """The section of one measurement: conditions, result, warnings, figures, candidate modes."""
+    from .campaign.drilldown import KINDS
+
+    ok = r["status"] == "ok"
+    head = (f"<section class='meas' id='{anchor(i)}'><a class='top' href='#results'>back to the table</a>"
+            f"<h3>{html.escape(str(r['id']))}</h3><p class='muted'>{html.escape(str(r.get('file', '')))} · "
+            f"bearing {_fmt(r['bearing'])} · {_fmt(r['radial_load'])} N · {_fmt(r['speed'])} rpm</p>")
+    parts = [head]
+    if ok:
+        parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m · "
+                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz</p>")
+    else:
+        parts.append(f"<p><b>error:</b> {html.escape(str(r.get('error')))}</p>")
+    warns = [str(w) for w in (r.get("warnings") or [])] + (list(figs[1]) if figs else [])
+    if warns:
+        parts.append("<p>Warnings:</p><ul class='warn'>" + "".join(f"<li>{html.escape(w)}</li>" for w in warns)
+                     + "</ul>")
+    else:
+        parts.append("<p class='muted'>No warnings.</p>")
+    for kind, path in (figs[0].items() if figs else ()):
+        alt = f"{r['id']} {kind}"
+        parts.append(f"<figure>{_img(path, alt)}"
+                     f"<figcaption>{html.escape(KINDS.get(kind, kind))}</figcaption></figure>")
+    if figs is None or not figs[0]:
+        parts.append("<p class='muted'>No figures for this measurement (its file could not be read or "
+                     "identified again).</p>")
+    detail = r.get("detail")
+    cands = detail.get("candidates") if isinstance(detail, Mapping) else None
+    if isinstance(cands, list) and cands:
+        parts.append(_candidate_table(cands, "Modes matched to the 3DOF model (the housing mode is the one kept):"))
+    if figs and figs[2]:
+        parts.append(_candidate_table(figs[2], "Identification: every cluster of stable poles and its verdict:"))
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def _candidate_table(cands: list[Any], title: str) -> str:
+    """Candidate modes with their verdict and the reason."""
+    verdict_key = "verdict" if any(isinstance(c, Mapping) and "verdict" in c for c in cands) else "status"
+    rows = ["<table class='cand'><tr><th>f [Hz]</th><th>± f [Hz]</th><th>ζ [%]</th><th class='l'>verdict</th>"
+            "<th class='l'>reason</th></tr>"]
+    for c in cands:
+        if not isinstance(c, Mapping):
+            continue
+        z = c.get("damping_ratio")
+        verdict = str(c.get(verdict_key, ""))
+        cls = " class='chosen'" if verdict in ("housing", "chosen", "selected") else ""
+        rows.append(f"<tr{cls}><td>{_fmt(c.get('natural_freq'), '.2f')}</td><td>{_fmt(c.get('natural_freq_std'), '.3f')}"
+                    f"</td><td>{_fmt(z * 100 if isinstance(z, float) else z, '.2f')}</td>"
+                    f"<td class='l'>{html.escape(verdict)}</td>"
+                    f"<td class='reason'>{html.escape(str(c.get('reason', '')))}</td></tr>")
+    rows.append("</table>")
+    return f"<p>{html.escape(title)}</p>" + "".join(rows)
+
+
 def write_report(result: CampaignResult, path: str | PathLike[str],
-                 figures: Mapping[str, str | PathLike[str]]) -> Path:
+                 figures: Mapping[str, str | PathLike[str]], *,
+                 measurements: MeasurementFigurePaths | None = None) -> Path:
     """Write :func:`render_report` atomically to ``path`` and return it."""
     p = Path(path)
-    _atomic.write_text(p, render_report(result, figures))
+    _atomic.write_text(p, render_report(result, figures, measurements=measurements))
     return p
 
 
-__all__ = ["render_report", "write_report"]
+def write_report_if_changed(result: CampaignResult, path: str | PathLike[str],
+                            figures: Mapping[str, str | PathLike[str]], *,
+                            measurements: MeasurementFigurePaths | None = None,
+                            previous_hash: str | None = None) -> str:
+    """Write the report unless its content, all but the time stamp, hashes to ``previous_hash``.
+
+    Returns
+    -------
+    str
+        The content hash (SHA-256 of the report rendered without a time stamp), to pass as
+        ``previous_hash`` next time.
+    """
+    p = Path(path)
+    digest = hashlib.sha256(render_report(result, figures, measurements=measurements,
+                                          generated="").encode("utf-8")).hexdigest()
+    if digest != previous_hash or not p.is_file():
+        _atomic.write_text(p, render_report(result, figures, measurements=measurements))
+    return digest
+
+
+__all__ = ["anchor", "render_report", "write_report", "write_report_if_changed"]

@@ -1,4 +1,4 @@
-"""Synthetic rig measurements with a known truth (DESIGN §4, issue 4).
+"""Synthetic rig measurements with a known truth.
 
 The simulated FRFs are what the rig's accelerometers (roles and axes from the rig file) would
 record for a force from the radial shaker (and optionally the axial one):
@@ -200,7 +200,7 @@ def _sensor_index(sensors: Sequence[Sensor], dof: DOF) -> int | None:
 def _driving_point(modes: list[dict[str, Any]], j_dp: int) -> None:
     """Large effective masses at the radial driving point for the modes the model lacks.
 
-    Flexible modes 60-200 kg (DESIGN §4: many times the housing mode's 2.64 kg; their summed
+    Flexible modes 60-200 kg (many times the housing mode's 2.64 kg; their summed
     static compliance then stays a few per cent of the bearing's); tilt modes 500 kg
     and the spindle's first mode ~600 kg (the shaker acts near the housing's centre line, so the
     tilt modes are weakly excited and their mass lines leave the driving-point FRF above 150 Hz
@@ -225,6 +225,7 @@ def simulate_measurement(
     noise: float = 0.01,
     seed: int = 0,
     speed_hz: float | None = None,
+    speed_rpm: float | None = None,
     extra_modes: bool = True,
     references: Sequence[str] | None = None,
     damping: Mapping[str, float] | None = None,
@@ -248,6 +249,9 @@ def simulate_measurement(
         Seed of the noise and of the harmonic lines' amplitudes and phases.
     speed_hz : float, optional
         Shaft speed [Hz] (rpm / 60); adds lines at ``k * speed_hz``, k = 1..n_harmonics.
+    speed_rpm : float, optional
+        The shaft speed in rpm, as the campaign file and the CLI take it (give one of the two;
+        0 = not rotating).
     extra_modes : bool, optional
         Add the modes the 3DOF model lacks (default True).
     references : sequence of {'radial', 'axial'}, optional
@@ -278,6 +282,12 @@ def simulate_measurement(
         raise ValueError(f"noise must be a finite relative level >= 0, got {noise!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    if speed_rpm is not None:
+        if speed_hz is not None:
+            raise ValueError("give the shaft speed once: speed_rpm or speed_hz, not both")
+        if not (math.isfinite(speed_rpm) and speed_rpm >= 0):
+            raise ValueError(f"speed_rpm must be a finite shaft speed >= 0 [rpm], got {speed_rpm!r}")
+        speed_hz = speed_rpm / 60.0 if speed_rpm > 0 else None
     if speed_hz is not None and not (math.isfinite(speed_hz) and speed_hz > 0):
         raise ValueError(f"speed_hz must be a positive shaft speed [Hz], got {speed_hz!r}")
     damp = dict(DEFAULT_DAMPING)

@@ -24,7 +24,9 @@ def campaign_dir(tmp_path_factory: pytest.TempPathFactory, rig_toml_text: str) -
     d = tmp_path_factory.mktemp("campaign")
     (d / "rig.toml").write_text(rig_toml_text, encoding="utf-8")
     rig = load_rig(d / "rig.toml")
-    lines = ['rig = "rig.toml"', 'title = "test campaign"', "[bearings.6302]", "hertz = true"]
+    # the per-measurement report figures are tested in test_report_drilldown.py (they cost ~1 s each)
+    lines = ['rig = "rig.toml"', 'title = "test campaign"', "[output]", "measurement_figures = false",
+             "[bearings.6302]", "hertz = true"]
     for i, (mid, k) in enumerate(K_TRUE.items()):
         sim = simulate_measurement(rig, k_tb=k, noise=0.005, seed=10 + i, speed_hz=10.0)
         write_measurement(sim, d / f"{mid}.uff", binary=bool(i % 2), rig=rig)
@@ -61,7 +63,8 @@ def test_rows_truth_and_partial_failure(first_run) -> None:
     assert result.n_failed == 1 and not result.ok
     # the outputs: table with every row, per-measurement JSON, figures, a self-contained report
     csv_lines = (out / "campaign.csv").read_text().splitlines()
-    assert csv_lines[0].split(",") == list(COLUMNS) and len(csv_lines) == 5
+    assert [h.split(" [")[0] for h in csv_lines[0].split(",")] == list(COLUMNS) and len(csv_lines) == 5
+    assert "k_TB [N/m]" in csv_lines[0] and "speed [rpm]" in csv_lines[0] and "housing_damping [-]" in csv_lines[0]
     assert {p.stem for p in (out / "results").glob("*.json")} == {"m200", "m500", "m1000", "broken"}
     html = (out / "report.html").read_text()
     assert "data:image/png;base64," in html and "broken.uff" in html and "src='http" not in html
@@ -126,7 +129,7 @@ def test_parallel_jobs_match_serial(campaign_dir: Path, first_run, tmp_path: Pat
     assert all(p.parent == tmp_path and p.stat().st_size > 0 for p in par.files.values())
     def table(folder: Path) -> list[list[str]]:  # the CSV without the run time column
         lines = [line.split(",") for line in (folder / "campaign.csv").read_text().splitlines()]
-        col = lines[0].index("elapsed_s")
+        col = next(i for i, h in enumerate(lines[0]) if h.startswith("elapsed_s"))
         return [cells[:col] + cells[col + 1:] for cells in lines]
 
     assert table(tmp_path) == table(ref_out)

@@ -27,7 +27,7 @@ from ema_rig.errors import ConfigError, EmaRigError
 
 FREQ = np.arange(150.0, 1200.0, 2.0)  # Hz: the housing modes (~500-900 Hz) and the steel disk's 897 Hz
 K_TB = {"m1": 5.0e7, "m2": 6.0e7, "m3": 7.0e7, "m4": 8.0e7}  # N/m
-HEAD = 'rig = "rig.toml"\ncalibration = "disk.uff"\n[defaults]\nmax_order = 16\n'
+HEAD = 'rig = "rig.toml"\ncalibration = "disk.uff"\n[output]\nmeasurement_figures = false\n[defaults]\nmax_order = 16\n'
 
 
 def _measurement(mid: str, load: float, *, bearing: str = "6302", file: str | None = None) -> str:

@@ -23,8 +23,8 @@ def test_demo_regenerates_data_when_installed_without_source_tree(tmp_path: Path
     assert [r["id"] for r in rows] == ["dummy_200N_r1", "dummy_200N_r2"]
     for r in rows:
         # the dummy's true stiffness at 200 N is 32.09e6 N/m (ema_rig.demo_data.K_DUMMY)
-        assert float(r["k_TB"]) == pytest.approx(demo_data.K_DUMMY[200.0], rel=0.01)
-        assert demo_data.K_DUMMY[200.0] > 31.14e6 and float(r["k_TB"]) < 34.12e6  # inside the FE bounds
+        assert float(r["k_TB [N/m]"]) == pytest.approx(demo_data.K_DUMMY[200.0], rel=0.01)
+        assert demo_data.K_DUMMY[200.0] > 31.14e6 and float(r["k_TB [N/m]"]) < 34.12e6  # inside the FE bounds
     assert (out / "report.html").stat().st_size > 10_000 and (out / "data" / "disk.uff").is_file()
 
 

@@ -93,8 +93,24 @@ def test_cli_errors(uff_file, tmp_path, capsys):
     assert main(["stabilization", str(uff_file), "-o", str(tmp_path / "chart.gif")]) == 1
     assert "-o must end in .png, .svg, .pdf" in capsys.readouterr().err
     assert not (tmp_path / "chart.gif").exists()
-    assert main(["modes", str(uff_file), "--max-order", "2000"]) == 1
-    assert "too few lines for max_order=2000" in capsys.readouterr().err
+    # a cap above what the lines allow is reduced with a note, not refused
+    assert main(["modes", str(uff_file), "--max-order", "2000"]) == 0
+    assert "max_order reduced from 2000 to 1000" in capsys.readouterr().out
+    # issue 8: --max-order 1 is a clear one-line error, not an IndexError: the CLI refuses it
+    # as an argument, the library with the reason
+    one_ref = tmp_path / "one_ref.uff"
+    from ema_rig.errors import IdentificationError
+    from ema_rig.identification import identify
+    from ema_rig.io.uff import read_uff58, write_uff58
+
+    d = read_uff58(uff_file)
+    write_uff58(one_ref, d.sel(inp=d.in_dofs[0]))
+    for cmd in (["modes"], ["stabilization", "-o", str(tmp_path / "c.png")]):
+        assert main([*cmd[:1], str(one_ref), "--max-order", "1", *cmd[1:]]) == 2
+        err = capsys.readouterr().err
+        assert "--max-order: must be an integer >= 2" in err and "Traceback" not in err
+    with pytest.raises(IdentificationError, match="max_order=1 is below the smallest useful order 2"):
+        identify(read_uff58(one_ref), max_order=1)
     bad = tmp_path / "sel.json"
     bad.write_text("{}")
     assert main(["modes", str(uff_file), "--selection", str(bad)]) == 1
@@ -106,3 +122,28 @@ def test_modes_synthesis_plot(uff_file, tmp_path, mplcleanup):
     assert main(["modes", str(uff_file), "--band", "50", "950", "--plot", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
     assert not list(tmp_path.glob(".syn.png*"))  # written atomically, no temporary left behind
+
+
+def test_modes_refine_shapes_and_uff55(uff_file, tmp_path, system):
+    """--refine gives Fisher-information +/- that cover the state-space truth; shapes reach the JSON
+    and dataset 55 is read back by pyuff (an independent reader) with the same frequencies."""
+    pyuff = pytest.importorskip("pyuff")
+    out, u55 = tmp_path / "modes.json", tmp_path / "modes.unv"
+    rc = main(["modes", str(uff_file), "--band", "0", "1000", "--refine", "--json", str(out),
+               "--uff55", str(u55)])
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    assert doc["refinement"]["converged"] and doc["refinement"]["noise_source"] == "estimated"
+    truth = np.sort(system.natural_freq)
+    for m in doc["modes"]:
+        k = np.argmin(abs(truth - m["natural_freq"]))
+        # 1 % complex noise: the refined 2-sigma interval holds the truth (4 sigma as a test margin
+        # over six modes), and it is not huge: sigma below 0.1 % of the frequency
+        assert abs(m["natural_freq"] - truth[k]) < 4 * m["natural_freq_std"], (m["natural_freq"], truth[k])
+        assert m["natural_freq_std"] < 1e-3 * truth[k]
+        shape = m["mode_shape"]["shape"]
+        assert len(shape) == len(doc["out_dofs"]) and {"dof", "re", "im"} <= set(shape[0])
+    sets = [s for s in pyuff.UFF(str(u55)).read_sets() if s["type"] == 55]
+    assert len(sets) == len(doc["modes"])
+    f55 = sorted(abs(complex(s["eig"])) / (2 * np.pi) for s in sets)
+    np.testing.assert_allclose(f55, sorted(m["natural_freq"] for m in doc["modes"]), rtol=1e-5)

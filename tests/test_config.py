@@ -127,3 +127,25 @@ def test_special_and_huge_files_refused(tmp_path: Path) -> None:
     big.write_bytes(b"# " + b"x" * 100 + b"\n")
     with pytest.raises(ValueError, match="larger than the 50 bytes"):
         read_regular_file(big, max_bytes=50)
+
+
+@pytest.mark.parametrize(
+    ("line", "ok", "words"),
+    [
+        ("refine = true\nn_averages = 10", True, ""),
+        ('refine = "true"', False, "identification.refine"),
+        ("refine = 1", False, "identification.refine"),
+        ("n_averages = 0.5", False, "identification.n_averages"),
+        ("n_averages = true", False, "identification.n_averages"),
+    ],
+)
+def test_identification_refine_keys(tmp_path: Path, rig_toml_text: str, line: str, ok: bool, words: str) -> None:
+    """The refinement switch is a real bool and the number of averages at least 1 (strict TOML types)."""
+    p = tmp_path / "rig.toml"
+    p.write_text(rig_toml_text + f"\n[identification]\n{line}\n", encoding="utf-8")
+    if ok:
+        ident = load_rig(p).identification
+        assert ident["refine"] is True and ident["n_averages"] == 10.0
+    else:
+        with pytest.raises(ConfigError, match=words.replace(".", r"\.")):
+            load_rig(p)

@@ -86,3 +86,52 @@ def test_sum_and_cmif(data: FRFData) -> None:
     # the largest singular value is the 2-norm of each 2x2 matrix
     k = 100
     assert_allclose(cm[0, k], np.linalg.norm(data.frf[:, :, k], 2), rtol=1e-12)
+
+
+# ------------------------------------------------------------------------------ coherence
+def _with_coherence(data: FRFData) -> FRFData:
+    coh = np.empty(data.shape)
+    for i in range(data.n_out):
+        for j in range(data.n_in):
+            coh[i, j] = 0.1 * (1 + 2 * i + j) + 0.001 * np.arange(data.n_freq) / data.n_freq
+    return data.replace(coherence=coh, n_averages=20)
+
+
+def test_coherence_follows_band_sel_and_form(data: FRFData) -> None:
+    d = _with_coherence(data)
+    assert d.coherence.dtype == np.float64 and not d.coherence.flags.writeable and d.n_averages == 20
+    b = d.band(50.0, 100.0)
+    keep = (data.freq >= 50.0) & (data.freq <= 100.0)
+    np.testing.assert_array_equal(b.coherence, d.coherence[:, :, keep])
+    s = d.sel(out="2+Y", inp=["2+Y", "1+Y"])
+    np.testing.assert_array_equal(s.coherence[0], d.coherence[1, ::-1])
+    r = d.sel(role="spindle")
+    np.testing.assert_array_equal(r.coherence, d.coherence[1:2])
+    m = d.to_form("accelerance").to_form("mobility", at_zero="drop")  # dividing by jw: 0 Hz goes, with its coherence
+    np.testing.assert_array_equal(m.coherence, d.coherence[:, :, 1:])
+    assert data.coherence is None and data.band(50.0, 100.0).coherence is None and data.n_averages is None
+
+
+@pytest.mark.parametrize(
+    ("coh", "match"),
+    [
+        (np.full((2, 2, 401), 1.01), "0..1"),
+        (np.full((2, 2, 401), -0.01), "0..1"),
+        (np.full((2, 2, 401), np.inf), "NaN or inf"),
+        (np.full((2, 1, 401), 0.5), "FRF shape"),
+        (np.full((2, 2, 401), 0.5 + 0.1j), "real"),
+    ],
+)
+def test_coherence_validated(data: FRFData, coh: np.ndarray, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        data.replace(coherence=coh)
+
+
+def test_coherence_nan_rejected_and_n_averages_checked(data: FRFData) -> None:
+    coh = np.full(data.shape, 0.5)
+    coh[1, 0, 3] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        data.replace(coherence=coh)
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="n_averages"):
+            data.replace(n_averages=bad)

@@ -18,10 +18,9 @@ from ema_rig.rig.inversion import (
     housing_freq_from_k_tb_ms,
     k_tb_from_housing_freq,
     k_tb_ms_from_housing_freq,
-    sensitivities,
-    stiffness_uncertainty,
 )
 from ema_rig.rig.model import RigModel, series_stiffness
+from ema_rig.rig.uncertainty import sensitivities, stiffness_uncertainty, undamped_freq
 
 TABLE1 = ModelParams(m_H=2.566, m_S=2.8, m_F=205.0, k_MS=114e6, k_AS=650e3, k_S=348e6, k_B=180e3)
 
@@ -144,13 +143,23 @@ def test_k_ms_calibration_from_disk():
     assert_allclose(cal.k_MS, 114e6, rtol=1e-9)  # exact inversion
     # std from the slope: d ln k / d ln f at ~897 Hz, numerically from the closed form
     slope = (k_tb_ms_from_housing_freq(f_disk + 0.01, TABLE1) - k_tb_ms_from_housing_freq(f_disk - 0.01, TABLE1)) / 0.02
-    assert_allclose(cal.k_MS_std, slope * 1.0, rtol=1e-5)
+    assert_allclose(cal.k_MS_std_measured, slope * 1.0, rtol=1e-5)
+    # disk assumed rigid: the model-form term (1/10)/sqrt(3) of k_MS joins the measured one
+    assert_allclose(cal.disk_std, 114e6 * 0.1 / math.sqrt(3), rtol=1e-9)
+    assert_allclose(cal.k_MS_std, math.hypot(slope, 114e6 * 0.1 / math.sqrt(3)), rtol=1e-5)
     # a disk of finite stiffness (10 x k_MS) in series: measured frequency is lower, k_MS the same
     k_disk = 1.14e9
     f2 = RigModel(TABLE1, series_stiffness(k_disk, TABLE1.k_MS)).housing_freq
     assert f2 < f_disk
-    assert_allclose(calibrate_k_ms(f2, TABLE1, k_disk=k_disk).k_MS, 114e6, rtol=1e-9)
-    assert_allclose(calibrate_k_ms(f2, TABLE1).k_MS, series_stiffness(k_disk, 114e6), rtol=1e-9)
+    known = calibrate_k_ms(f2, TABLE1, k_disk=k_disk, k_disk_std=0.1 * k_disk)
+    assert_allclose(known.k_MS, 114e6, rtol=1e-9)
+    # d k_MS / d k_disk = -(k_MS / k_disk)^2 = -0.01: 10 % of k_disk -> 0.1 % of k_MS
+    assert_allclose(known.disk_std, 0.01 * 0.1 * k_disk, rtol=1e-9)
+    # the paper's rigid-disk assumption with a disk only 10x stiffer: -9.1 % but within 2 sigma
+    rigid = calibrate_k_ms(f2, TABLE1)
+    assert_allclose(rigid.k_MS, series_stiffness(k_disk, 114e6), rtol=1e-9)
+    z = (114e6 - rigid.k_MS) / rigid.k_MS_std
+    assert 1.5 < z < 2.0  # sqrt(3) * 1/1.1 ... the edge of the assumed range, not beyond 2 sigma
     with pytest.raises(InversionError):
         calibrate_k_ms(1400.0, TABLE1)
 
@@ -191,3 +200,46 @@ def test_fit_rig_on_simulated_rig_with_extra_modes(rig_file):
     assert abs(fit.k_TB_MS / sim.truth["k_TB_MS"] - 1) < 0.02
     assert_allclose(fit.natural_freq[1:], [sim.truth["f_H"], sim.truth["f_spindle"]], rtol=2e-3)
     assert fit.success and fit.residual_rms < 0.3
+
+
+@pytest.mark.parametrize("zeta", [0.0, 0.02, 0.1, 0.3])
+def test_undamped_freq_against_complex_eigenvalues(zeta):
+    # oracle: the poles of a single DOF solved directly, m s^2 + k (1 + j eta) = 0 (hysteretic)
+    # and m s^2 + c s + k = 0 (viscous); the identified quantities are |s| / 2 pi and -Re s / |s|
+    m, k = 2.566, 4.0e7
+    f0 = math.sqrt(k / m) / (2 * math.pi)
+    eta = math.tan(2 * math.asin(zeta))
+    s_h = 1j * math.sqrt(k / m) * np.sqrt(1 + 1j * eta)
+    s_h = complex(s_h if s_h.imag > 0 else -s_h)
+    f_abs, z_id = abs(s_h) / (2 * math.pi), -s_h.real / abs(s_h)
+    assert z_id == pytest.approx(zeta, abs=1e-12)
+    f_hyst, u = undamped_freq(f_abs, z_id, "hysteretic")
+    assert f_hyst == pytest.approx(f0, rel=1e-12)
+    # the viscous reading of the same pole is off by exactly the term's half-width delta
+    f_visc, _ = undamped_freq(f_abs, z_id, "viscous")
+    assert f_visc / f0 - 1 == pytest.approx(1 / math.sqrt(1 - 2 * zeta**2) - 1, rel=1e-9)
+    assert u * math.sqrt(3) == pytest.approx(1 - math.sqrt(1 - 2 * zeta**2), rel=1e-12)
+    c = 2 * zeta * math.sqrt(k * m)
+    s_v = np.roots([m, c, k])
+    s_v = complex(s_v[np.argmax(s_v.imag)])
+    assert undamped_freq(abs(s_v) / (2 * math.pi), -s_v.real / abs(s_v))[0] == pytest.approx(f0, rel=1e-12)
+    with pytest.raises(ValueError):
+        undamped_freq(f_abs, z_id, "coulomb")
+
+
+def test_budget_kinds_and_model_form_terms():
+    # every parameter from the rig file except k_B (default 10 %), plus a 0.5 % model-form term
+    rel = {k: 0.0 for k in ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S")}
+    u = stiffness_uncertainty(626.0, 0.626, TABLE1, rel, model_form={"neighbour": 0.005})
+    kinds = {t.name: t.kind for t in u.terms}
+    assert kinds["f_H"] == "measured" and kinds["m_H"] == "assumed (rig file)"
+    assert kinds["k_B"] == "assumed (default)" and kinds["neighbour"] == "model form"
+    assert u.defaults_used == ("k_B",)
+    # measured: S_f * 0.1 % = 0.384 %; model form: S_f * 0.5 % (same sensitivity as f_H)
+    s_f = sensitivities(626.0, TABLE1)["f_H"]
+    assert u.k_TB_std_measured / u.k_TB == pytest.approx(s_f * 1e-3, rel=1e-9)
+    assert u.term("neighbour").std / u.k_TB == pytest.approx(s_f * 5e-3, rel=1e-9)
+    assert u.k_TB_std == pytest.approx(math.sqrt(sum(t.std**2 for t in u.terms)), rel=1e-12)
+    assert u.std_of("model form") == pytest.approx(u.term("neighbour").std, rel=1e-12)
+    with pytest.raises(ValueError, match="clashes"):
+        stiffness_uncertainty(626.0, 0.6, TABLE1, model_form={"m_H": 0.01})

@@ -53,12 +53,14 @@ def test_picks_housing_and_spindle_modes(rig, f_h):
     np.testing.assert_allclose(res.spindle_mode["natural_freq"], info.spindle_freq * 1.003, rtol=1e-12)
     # every mode is listed with a reason
     assert len(res.candidates) == mm.n_modes
-    by_f = {round(c["natural_freq"], 1): c for c in res.candidates}
-    assert "tilt" in by_f[120.0]["reason"]
-    assert "spindle" in by_f[287.0]["reason"]
-    assert "axial" in by_f[300.0]["reason"]
-    assert "lateral" in by_f[410.0]["reason"]
-    assert "modal mass" in by_f[round(f_h + 37.0, 1)]["reason"]
+    by_f = {round(c.natural_freq, 1): c for c in res.candidates}
+    assert "tilt" in by_f[120.0].reason
+    assert "spindle" in by_f[287.0].reason
+    assert "axial" in by_f[300.0].reason
+    assert "lateral" in by_f[410.0].reason
+    assert "modal mass" in by_f[round(f_h + 37.0, 1)].reason
+    # typed, frozen records; the JSON form carries the same fields
+    assert by_f[120.0].failures and by_f[120.0].to_dict()["reason"] == by_f[120.0].reason
     # the measured effective mass equals the model's (shapes built from it): rtol 1e-9
     np.testing.assert_allclose(res.housing_mode["modal_mass"], info.modal_mass, rtol=1e-9)
 
@@ -70,8 +72,8 @@ def test_tilt_one_percent_away_rejected_by_shape(rig):
     mm = _modal([(626.0 * 1.01, 0.02, tilt), (626.0, 0.02, h)])
     res = match_modes(mm, rig)
     np.testing.assert_allclose(res.housing_mode["natural_freq"], 626.0, rtol=1e-12)
-    c = [c for c in res.candidates if abs(c["natural_freq"] - 632.26) < 0.1][0]
-    assert c["status"] == "rejected" and "tilt" in c["reason"]
+    c = [c for c in res.candidates if abs(c.natural_freq - 632.26) < 0.1][0]
+    assert c.status == "rejected" and "tilt" in c.reason
     # and the tilt mode alone is not accepted: MatchingError listing it with the reason
     with pytest.raises(MatchingError) as ei:
         match_modes(_modal([(626.0 * 1.01, 0.02, tilt)]), rig)
@@ -100,8 +102,8 @@ def test_harmonic_line_rejected_when_rotating(rig):
     # rotating: it is recognised as the 24th harmonic and rejected
     res = match_modes(mm, rig, speed_hz=speed)
     np.testing.assert_allclose(res.housing_mode["natural_freq"], 626.0, rtol=1e-12)
-    c = [c for c in res.candidates if c["natural_freq"] < 610][0]
-    assert c["harmonic"] == 24 and "harmonic" in c["reason"]
+    c = [c for c in res.candidates if c.natural_freq < 610][0]
+    assert c.harmonic == 24 and "harmonic" in c.reason
     with pytest.raises(MatchingError, match="harmonic"):
         match_modes(only_line, rig, speed_hz=speed)
     # a well-damped mode at a harmonic frequency is NOT a harmonic line (damping evidence)
@@ -124,3 +126,68 @@ def test_spindle_mode_absent_is_none(rig):
     assert res.spindle_mode is None and res.spindle_index is None
     d = res.to_dict()
     assert d["spindle_mode"] is None and d["housing_mode"]["natural_freq"] == pytest.approx(626.0, rel=1e-12)
+
+
+def _only_housing(rig, f_h=626.0):
+    """The realistic mode set without its housing mode (the test adds its own)."""
+    return [m for m in _rig_modes(rig.model, f_h) if abs(m[0] - f_h) > 1e-9]
+
+
+def test_reversed_sensor_refusal_names_it(rig):
+    h = _housing_shape(rig.model, 626.0)
+    h[1] = -h[1]  # 12+Y wired the wrong way round
+    mm = _modal(_only_housing(rig) + [(626.0, 0.02, h)])
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    msg = ei.value.message
+    assert "12+Y" in msg and "polarity" in msg and len(msg) <= 300
+    (c,) = [c for c in ei.value.candidates if abs(c["natural_freq"] - 626.0) < 1e-6]
+    assert c["polarity_suspect"] == "12+Y"
+
+
+def test_tilt_is_not_a_polarity_suspect(rig):
+    # a tilt: one sensor on the axis hardly moves, the other two opposite: no single sign flip fixes it
+    tilt = np.array([0.05, 0.3, -0.3, 0.02, 0.01, 0.01, 0.01, 0.0])
+    mm = _modal([(626.0, 0.02, tilt)])
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    assert "polarity" not in ei.value.message
+    assert ei.value.candidates[0]["polarity_suspect"] is None
+
+
+def test_g_file_refusal_names_units(rig):
+    # accelerations in g read as m/s^2: every FRF 9.81x too small, the effective mass 9.81x too large
+    h = _housing_shape(rig.model, 626.0, mass_factor=9.80665)
+    mm = _modal(_only_housing(rig) + [(626.0, 0.02, h)])
+    with pytest.raises(MatchingError) as ei:
+        match_modes(mm, rig)
+    assert "units" in ei.value.message and "ratio 9.8" in ei.value.message
+
+
+def test_without_driving_point_mass_from_transfer(rig):
+    # outputs without 11+Y: the rigid housing's transfer residues give the same effective mass
+    keep = [1, 2, 3, 4, 5, 6, 7]
+    modes = [(f, z, phi) for f, z, phi in _rig_modes(rig.model, 626.0)]
+    full = _modal(modes)
+    mm = type(full)(
+        poles=full.poles, residues=full.residues[:, keep], lower_residual=full.lower_residual[keep],
+        upper_residual=full.upper_residual[keep], out_dofs=tuple(full.out_dofs[i] for i in keep),
+        in_dofs=full.in_dofs, roles=tuple(full.roles[i] for i in keep), axes=tuple(full.axes[i] for i in keep),
+    )
+    m = match_modes(mm, rig)
+    assert not m.driving_point and any("no radial driving-point FRF" in w for w in m.warnings)
+    assert m.housing_mode["natural_freq"] == pytest.approx(626.0, rel=1e-12)
+    # exact shapes: the transfer estimate equals the model's mass (to rounding)
+    assert m.housing_mode["modal_mass"] == pytest.approx(model_mode_at(rig.model, 626.0).modal_mass, rel=1e-9)
+    assert m.housing_mode["modal_mass_source"] == "radial housing transfer FRFs"
+
+
+def test_close_neighbour_with_radial_housing_motion(rig):
+    h = _housing_shape(rig.model, 626.0)
+    modes = _rig_modes(rig.model, 626.0) + [(632.0, 0.02, h / np.sqrt(4.0))]  # 6 Hz away, 4x the mass
+    mm = _modal(modes)
+    m = match_modes(mm, rig)
+    (j,) = [i for i in range(mm.n_modes) if abs(mm.natural_freq[i] - 632.0) < 1e-6]
+    assert j in m.neighbours
+    # participation = 1 / m_eff for a rigid housing: the neighbour carries a quarter of the housing's
+    assert m.participation[j] / m.participation[m.housing_index] == pytest.approx(0.25, rel=1e-9)

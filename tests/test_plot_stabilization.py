@@ -118,3 +118,36 @@ def test_picker_builds_a_replayable_selection(case, mplcleanup, tmp_path):
     picker.disconnect()
     _pick(chart, "s", near_640)
     assert picker.picks == []
+
+
+def test_mode_labels_never_overlap_and_rejected_are_distinct(case, mplcleanup):
+    # two modes 0.005 Hz apart (what a 9-reference roving hammer gave before) and a third
+    # close by: every label must stay readable and rejected candidates look different
+    from dataclasses import replace
+
+    from ema_rig.plot.stabilization import plot_stabilization
+
+    data, ident = case
+    m0 = ident.selection.modes[0]
+    crowd = (m0, replace(m0, natural_freq=m0.natural_freq + 0.005), replace(m0, natural_freq=m0.natural_freq + 3.0))
+    sel = replace(ident.selection, modes=crowd + ident.selection.modes[1:])
+    rejected = [c for c in ident.candidates if not c.accepted and c.mode.n_poles >= 4]
+    chart = plot_stabilization(ident.stabilization, data, selection=sel, candidates=ident.candidates,
+                               converged=ident.converged)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(chart.figure)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in chart.mode_labels]
+    assert len(boxes) == len(sel.modes)
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            assert not boxes[i].overlaps(boxes[j]), (chart.mode_labels[i].get_text(), chart.mode_labels[j].get_text())
+    # every label inside the axes (none pushed out of sight)
+    ax_box = chart.axes.get_window_extent(renderer)
+    assert all(ax_box.contains(b.x0, b.y0) and ax_box.contains(b.x1, b.y1) for b in boxes)
+    assert len(chart.rejected_lines) == len(rejected)
+    for ln in chart.rejected_lines:
+        assert ln.get_linestyle() == ":" and ln.get_color() != chart.mode_lines[0].get_color()
+    assert "converged" in chart.axes.get_title()

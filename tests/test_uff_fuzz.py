@@ -1,8 +1,11 @@
-"""Bounded fuzzing of the UFF reader: mutated and truncated valid files, random bytes.
+"""Bounded fuzzing of the UFF reader: mutated and truncated valid files, random bytes, and the
+mutation classes of ``_uff_mutants`` (unit labels, dataset-164 factors and exponents, header
+integers, value counts, delimiters, truncation).
 
 Any exception other than ema_rig's own error types is a bug, and so is any warning other than
 UnitWarning (an ignored channel).
-The budget is fixed (a few hundred examples, no deadline per example), well under 15 s.
+The budget is fixed (a few hundred examples each, no deadline per example), a few seconds in all.
+The long run (>= 10 000 mutants over the corpus and data/) is ``benchmarks/fuzz_uff.py``.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _uff_mutants import MUTATORS, exercise
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -107,3 +111,36 @@ def test_random_bytes(tmp_path: Path, head: bytes, body: bytes, tail: bytes) -> 
 def test_uff_like_text(tmp_path: Path, lines: list[str]) -> None:
     text = "    -1\n    58\n" + "\n".join(lines) + "\n    -1\n"
     _exercise(tmp_path / "t.uff", text.encode())
+
+
+def _seed_164(tmp: Path) -> bytes:
+    """A file whose units come from dataset 164 and the header exponents (no unit labels)."""
+    d = FRFData(np.arange(6) * 2.0, np.ones((1, 1, 6)) * (0.5 + 0.25j), ["3+Z"], ["1+Z"])
+    p = tmp / "s164.uff"
+    write_uff58(p, d)
+    buf = p.read_bytes().replace(b"m/s^2               ", b"NONE                ")
+    u164 = b"    -1\n   164\n         2  mm (milli newton)  0\n  1.0E+03  1.0E+00  1.0E+00\n  2.7315E+02\n    -1\n"
+    return u164 + buf.replace(b"N                   ", b"NONE                ")
+
+
+@pytest.fixture(scope="module")
+def seed_164(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+    return _seed_164(tmp_path_factory.mktemp("s164"))
+
+
+@pytest.mark.parametrize(("kind", "n"), [("unit_label", 150), ("exp164", 150), ("header_int", 150),
+                                         ("num_pts", 60), ("delimiter", 40), ("truncate_tail", 40)])
+def test_mutation_classes(tmp_path: Path, seeds: list[bytes], seed_164: bytes, kind: str, n: int) -> None:
+    # seeded numpy draws (no hypothesis shrinking needed: a failure prints the seed and mutant)
+    pool = [*seeds, seed_164]
+    outcomes: dict[str, int] = {}
+    for k in range(n):
+        rng = np.random.default_rng([8, k, len(kind)])
+        buf = pool[k % len(pool)]
+        for _ in range(int(rng.integers(1, 3))):
+            buf = MUTATORS[kind](buf, rng)
+        outcome, detail = exercise(tmp_path / "m.uff", buf)
+        assert outcome != "foreign", f"{kind} mutant {k}: {detail}\n{buf[:2000]!r}"
+        outcomes[outcome] = outcomes.get(outcome, 0) + 1
+    # the class must reach the reader's refusals, not only valid files (else it tests nothing)
+    assert outcomes.get("refused", 0) > 0, outcomes

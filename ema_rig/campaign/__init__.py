@@ -15,8 +15,13 @@ A campaign file (TOML) names the rig file, an optional steel-disk calibration fi
     [bearings.dummy]                  # optional, per bearing name
     k_lower = 31.14e6                 # FE bounds [N/m], drawn as a band
     k_upper = 34.12e6
-    [bearings.6302]
-    hertz = true                      # draw the Hertzian estimate (ema_rig.rig.hertz)
+    [bearings.6205]                   # the Hertzian estimate (ema_rig.rig.hertz) of this geometry
+    n_balls = 9
+    ball_diameter = 7.938e-3          # m
+    pitch_diameter = 38.5e-3          # m
+    [output]                          # optional: CSV units, per-measurement report figures
+    stiffness_unit = "MN/m"           # N/m (default), MN/m, N/µm
+    damping_unit = "%"                # - (default) or %
 
     [[measurement]]
     file = "m001.uff"
@@ -43,7 +48,8 @@ runner
 result
     :class:`CampaignResult` and the table (:data:`COLUMNS`).
 outputs
-    CSV, settings, figures and report (:func:`write_outputs`); the only part that plots.
+    CSV, settings, figures and report (:func:`write_outputs`); with drilldown (each
+    measurement's figures) the only parts that plot.
 """
 
 from __future__ import annotations

@@ -1,12 +1,25 @@
 """The outputs of a campaign run: table (CSV), resolved settings (JSON), figures, HTML report.
 
-Every file is written atomically. Figures of a previous run that this run does not produce again
-(a bearing renamed, a condition removed) are removed, so the folder holds one campaign's outputs.
+Every file is written atomically, and only when what it shows changed: a cached re-run that
+changed nothing rewrites nothing. The folder's manifest (``.ema-rig-figures.json``) records, for
+every figure, a hash of its inputs (the rows and bearing information for the campaign figures, the
+row's cache key for a measurement's figures) and the hash of the report's content; a figure whose
+inputs hash is unchanged and whose file exists is reused, the others are drawn again. Figures of a
+previous run that this run does not produce (a bearing renamed, a measurement removed) are
+removed, so the folder holds one campaign's outputs.
+
+Layout::
+
+    campaign.csv (units in the headers; [output] of the campaign file), settings.json, report.html
+    <campaign figure>.png                  (validation_dummy.png, k_vs_load_6302.png ...)
+    measurements/<id>.<kind>.png           (stabilization, model, synthesis; ids are safe names)
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import logging
 from collections.abc import Mapping
 from os import PathLike
 from pathlib import Path
@@ -14,10 +27,15 @@ from typing import Any
 
 from .. import _atomic
 from ..config import read_regular_file
-from .result import CampaignResult
+from .result import COLUMNS, CampaignResult
 
-#: The figures written by the last run of a folder (to remove those no longer produced).
+logger = logging.getLogger(__name__)
+
+#: The figures written by the last run of a folder with the hash of their inputs.
 _MANIFEST = ".ema-rig-figures.json"
+_MANIFEST_VERSION = 2
+#: Folder of the per-measurement figures.
+MEASUREMENT_DIR = "measurements"
 
 
 def write_outputs(result: CampaignResult, out_dir: str | PathLike[str]) -> dict[str, Path]:
@@ -32,51 +50,169 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str]) -> dict[
     Returns
     -------
     dict
-        Output kind (``"table"``, ``"settings"``, figure names, ``"report"``) -> path.
+        Output kind (``"table"``, ``"settings"``, figure names, ``"report"``) -> path; a
+        measurement's figures as ``"<id>/<kind>"``.
 
     Raises
     ------
     OSError
         When a file cannot be written (disk full, permission), naming that file.
     """
-    from ..plot.campaign import campaign_figures
-    from ..report import write_report
+    from ..report import write_report_if_changed
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
     files["table"] = out / "campaign.csv"
-    _atomic.write_text(files["table"], result.to_csv())
+    write_if_changed(files["table"], result.to_csv())
     files["settings"] = out / "settings.json"
-    _atomic.write_json(files["settings"], {**result.config.settings(), "k_MS_used": result.k_MS,
-                                           "k_MS_std_used": result.k_MS_std,
-                                           "calibration": _strip(result.calibration)})
-    previous = _previous_figures(out)
+    settings = {**result.config.settings(), "k_MS_used": result.k_MS, "k_MS_std_used": result.k_MS_std,
+                "calibration": _strip(result.calibration)}
+    write_if_changed(files["settings"], json.dumps(_atomic._clean(settings), indent=2, allow_nan=False) + "\n")
+
+    previous = _read_manifest(out)
+    manifest: dict[str, Any] = {"version": _MANIFEST_VERSION, "figures": {}, "measurements": {}}
+    figures = _campaign_figures(result, out, previous, manifest)
+    per_meas = _measurement_figures(result, out, previous, manifest)
+    kept = set(manifest["figures"])
+    for stale in set(previous.get("figures", {})) - kept:
+        if _safe_rel(stale):
+            (out / stale).unlink(missing_ok=True)
+    files.update(figures)
+    for mid, (paths, _, _) in per_meas.items():
+        files.update({f"{mid}/{k}": p for k, p in paths.items()})
+    files["report"] = out / "report.html"
+    manifest["report"] = write_report_if_changed(result, files["report"], figures, measurements=per_meas,
+                                                 previous_hash=previous.get("report"))
+    write_if_changed(out / _MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    return files
+
+
+def write_if_changed(path: Path, text: str) -> bool:
+    """Write ``text`` atomically unless ``path`` already holds exactly it; True when written."""
+    data = text.encode("utf-8")
+    try:
+        if path.is_file() and path.stat().st_size == len(data) and path.read_bytes() == data:
+            return False
+    except OSError:
+        pass
+    _atomic.write_bytes(path, data)
+    return True
+
+
+def _hash(obj: Any) -> str:
+    return hashlib.sha256(json.dumps(_atomic._clean(obj), sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
+                      manifest: dict[str, Any]) -> dict[str, Path]:
+    """The campaign figures: drawn again only when the rows or the bearing information changed."""
+    from .. import __version__
+
+    shown = [{c: r.get(c) for c in COLUMNS if c != "elapsed_s"} for r in result.rows]
+    bearings = {k: repr(v) for k, v in result.config.bearings.items()}
+    key = _hash({"rows": shown, "bearings": bearings, "version": __version__})
+    old = previous.get("figures", {})
+    names = previous.get("campaign_figures")
+    if (isinstance(names, list) and names and all(isinstance(n, str) and _safe_rel(n) for n in names)
+            and all(old.get(n) == key and (out / n).is_file() for n in names)):
+        manifest["campaign_figures"] = names
+        manifest["figures"].update({n: key for n in names})
+        return {Path(n).stem: out / n for n in names}
+    from ..plot.campaign import campaign_figures
+
     figures: dict[str, Path] = {}
     for name, fig in campaign_figures(result).items():  # pyplot-free Figures: nothing to close
         path = out / f"{name}.png"
         with _atomic.atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=120)
         figures[name] = path
-    for stale in previous - {p.name for p in figures.values()}:
-        (out / stale).unlink(missing_ok=True)
-    _atomic.write_json(out / _MANIFEST, sorted(p.name for p in figures.values()))
-    files.update(figures)
-    files["report"] = out / "report.html"
-    write_report(result, files["report"], figures)
-    return files
+    manifest["campaign_figures"] = [p.name for p in figures.values()]
+    manifest["figures"].update({p.name: key for p in figures.values()})
+    return figures
 
 
-def _previous_figures(out: Path) -> set[str]:
-    """Names of the PNG files the previous run wrote into ``out`` (only plain ``*.png`` names)."""
+def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
+                         manifest: dict[str, Any]) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
+    """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
+    from .drilldown import KINDS, figure_key, measurement_figures
+
+    folder = out / MEASUREMENT_DIR
+    if folder.is_dir():
+        _atomic.remove_temporaries(folder)
+    old_figs = previous.get("figures", {})
+    old_meas = previous.get("measurements", {})
+    done: dict[str, tuple[dict[str, Path], list[str], list[Any]]] = {}
+    if not result.config.measurement_figures:
+        return done
+    for m, row in zip(result.config.measurements, result.rows, strict=True):
+        key = figure_key({"cache_key": row.get("cache_key") or _stored_key(out, m.id)})
+        if key is None:
+            continue
+        rels = {k: f"{MEASUREMENT_DIR}/{m.id}.{k}.png" for k in KINDS}
+        info = old_meas.get(m.id)
+        if (isinstance(info, dict) and info.get("key") == key and isinstance(info.get("kinds"), list)
+                and isinstance(info.get("warnings"), list) and isinstance(info.get("candidates"), list)
+                and all(k in rels and old_figs.get(rels[k]) == key and (out / rels[k]).is_file()
+                        for k in info["kinds"])):
+            kinds = [k for k in KINDS if k in info["kinds"]]
+            warns = [str(w) for w in info["warnings"]]
+            cands = [c for c in info["candidates"] if isinstance(c, dict)]
+        else:
+            drawn = measurement_figures(m, row, result.config, k_ms=result.k_MS, k_ms_std=result.k_MS_std)
+            folder.mkdir(exist_ok=True)
+            for k, png in drawn.png.items():
+                path = out / rels[k]
+                if path.parent != folder:  # ids are validated in the schema; never write elsewhere
+                    raise OSError(f"{path}: measurement id is not a plain file name")
+                _atomic.write_bytes(path, png)
+            kinds, warns, cands = list(drawn.png), list(drawn.warnings), list(drawn.candidates)
+            for w in warns:
+                logger.warning("%s: %s", m.id, w)
+        manifest["measurements"][m.id] = {"key": key, "kinds": kinds, "warnings": warns, "candidates": cands}
+        manifest["figures"].update({rels[k]: key for k in kinds})
+        done[m.id] = ({k: out / rels[k] for k in kinds}, warns, cands)
+    return done
+
+
+def _stored_key(out: Path, mid: str) -> str | None:
+    """The cache key of the row the runner stored in ``results/<id>.json`` (None: none, not cacheable)."""
     try:
-        names = json.loads(read_regular_file(out / _MANIFEST, max_bytes=1 << 20).decode("utf-8"))
+        doc = json.loads(read_regular_file(out / "results" / f"{mid}.json", max_bytes=64 << 20).decode("utf-8"))
     except (OSError, ValueError, RecursionError):
-        return set()
-    if not isinstance(names, list):
-        return set()
-    return {n for n in names if isinstance(n, str) and n.endswith(".png") and Path(n).name == n
-            and not n.startswith(".")}
+        return None
+    key = doc.get("cache_key") if isinstance(doc, dict) else None
+    return key if isinstance(key, str) else None
+
+
+def _safe_rel(name: str) -> bool:
+    """A manifest entry that may be removed: ``x.png`` or ``measurements/x.png``, no other path."""
+    parts = name.split("/")
+    if len(parts) == 2 and parts[0] == MEASUREMENT_DIR:
+        parts = parts[1:]
+    n = parts[0]
+    return (len(parts) == 1 and n.endswith(".png") and not n.startswith(".") and "\\" not in n
+            and Path(n).name == n)
+
+
+def _read_manifest(out: Path) -> dict[str, Any]:
+    """The previous run's manifest (an older list of names counts as figures without hashes)."""
+    try:
+        doc = json.loads(read_regular_file(out / _MANIFEST, max_bytes=1 << 24).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return {}
+    if isinstance(doc, list):
+        return {"figures": {n: None for n in doc if isinstance(n, str) and _safe_rel(n)}}
+    if not isinstance(doc, dict) or doc.get("version") != _MANIFEST_VERSION:
+        return {}
+    figs = doc.get("figures")
+    meas = doc.get("measurements")
+    return {
+        "figures": {n: h for n, h in figs.items() if _safe_rel(n)} if isinstance(figs, dict) else {},
+        "measurements": meas if isinstance(meas, dict) else {},
+        "campaign_figures": doc.get("campaign_figures"),
+        "report": doc.get("report") if isinstance(doc.get("report"), str) else None,
+    }
 
 
 def _strip(d: Mapping[str, Any] | None) -> dict[str, Any] | None:
@@ -85,4 +221,4 @@ def _strip(d: Mapping[str, Any] | None) -> dict[str, Any] | None:
     return {k: v for k, v in d.items() if k not in ("candidates",)}
 
 
-__all__ = ["write_outputs"]
+__all__ = ["MEASUREMENT_DIR", "write_if_changed", "write_outputs"]

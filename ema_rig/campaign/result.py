@@ -18,6 +18,26 @@ COLUMNS: tuple[str, ...] = (
     "spindle_freq", "spindle_damping", "error", "elapsed_s",
 )
 
+#: Stiffness units of the CSV: name -> factor from N/m.
+STIFFNESS_UNITS: dict[str, float] = {"N/m": 1.0, "MN/m": 1e-6, "N/µm": 1e-6, "N/um": 1e-6}
+#: Damping units of the CSV: ``-`` (a fraction of critical) or ``%``.
+DAMPING_UNITS: dict[str, float] = {"-": 1.0, "%": 100.0}
+_STIFFNESS_COLUMNS = ("k_TB", "k_TB_std", "k_TB_MS", "k_MS")
+_DAMPING_COLUMNS = ("housing_damping", "spindle_damping")
+#: Units of the other numeric columns (in the CSV header).
+_UNITS = {"radial_load": "N", "speed": "rpm", "shaft_position": "deg", "housing_freq": "Hz",
+          "housing_freq_std": "Hz", "spindle_freq": "Hz", "elapsed_s": "s"}
+
+
+def csv_header(column: str, *, stiffness_unit: str = "N/m", damping_unit: str = "-") -> str:
+    """The CSV header of a column: its name and its unit, e.g. ``k_TB [MN/m]``, ``speed [rpm]``."""
+    if column in _STIFFNESS_COLUMNS:
+        return f"{column} [{stiffness_unit}]"
+    if column in _DAMPING_COLUMNS:
+        return f"{column} [{damping_unit}]"
+    unit = _UNITS.get(column)
+    return column if unit is None else f"{column} [{unit}]"
+
 
 @dataclass(frozen=True, slots=True)
 class CampaignResult:
@@ -51,6 +71,26 @@ class CampaignResult:
     reused: int = 0
     files: Mapping[str, Path] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        cal = "" if self.calibration is None else f", calibration {self.calibration.get('status')}"
+        return (f"CampaignResult({self.config.title!r}: {len(self.rows)} measurements, {self.n_failed} failed, "
+                f"k_MS {self.k_MS / 1e6:.2f} MN/m{cal}, computed {self.computed}, reused {self.reused}, "
+                f"out_dir={str(self.out_dir) if self.out_dir else None!r})")
+
+    def _repr_html_(self) -> str:
+        """The summary table in Jupyter (id, conditions, k_TB ± std in MN/m, housing mode, status)."""
+        import html
+
+        head = "".join(f"<th>{html.escape(h)}</th>" for h in
+                       ("id", "bearing", "load [N]", "speed [rpm]", "k_TB [MN/m]", "± [MN/m]", "f_H [Hz]", "status"))
+        body = []
+        for r in self.rows:
+            cells = (r["id"], r["bearing"], f"{r['radial_load']:g}", f"{r['speed']:g}", f"{r['k_TB'] / 1e6:.2f}",
+                     f"{r['k_TB_std'] / 1e6:.2f}", f"{r['housing_freq']:.1f}",
+                     "ok" if r["status"] == "ok" else f"error: {r['error']}")
+            body.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in cells) + "</tr>")
+        return f"<p>{html.escape(repr(self))}</p><table><tr>{head}</tr>{''.join(body)}</table>"
+
     @property
     def n_failed(self) -> int:
         """Number of measurements that ended in an error."""
@@ -73,24 +113,46 @@ class CampaignResult:
         pd = import_optional("pandas", extra="pandas")
         return pd.DataFrame(self.to_records(), columns=list(COLUMNS))
 
-    def to_csv(self) -> str:
-        """The table as CSV text."""
+    def to_csv(self, *, stiffness_unit: str | None = None, damping_unit: str | None = None) -> str:
+        """The table as CSV text, every header with its unit (``k_TB [N/m]``, ``speed [rpm]`` ...).
+
+        Parameters
+        ----------
+        stiffness_unit : {'N/m', 'MN/m', 'N/µm'}, optional
+            Unit of the stiffness columns; default the campaign file's ``[output] stiffness_unit``,
+            else N/m (SI).
+        damping_unit : {'-', '%'}, optional
+            Damping ratios as a fraction of critical (``-``) or in percent; default the campaign
+            file's ``[output] damping_unit``, else ``-``.
+
+        Raises
+        ------
+        ValueError
+            For an unknown unit.
+        """
         import csv
         import io
 
+        su = stiffness_unit if stiffness_unit is not None else self.config.stiffness_unit
+        du = damping_unit if damping_unit is not None else self.config.damping_unit
+        if su not in STIFFNESS_UNITS:
+            raise ValueError(f"stiffness unit must be one of {', '.join(STIFFNESS_UNITS)}, got {su!r}")
+        if du not in DAMPING_UNITS:
+            raise ValueError(f"damping unit must be one of {', '.join(DAMPING_UNITS)}, got {du!r}")
+        scale = {**{c: STIFFNESS_UNITS[su] for c in _STIFFNESS_COLUMNS}, **{c: DAMPING_UNITS[du] for c in _DAMPING_COLUMNS}}
         buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=list(COLUMNS), extrasaction="ignore", lineterminator="\n")
-        w.writeheader()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow([csv_header(c, stiffness_unit=su, damping_unit=du) for c in COLUMNS])
         for r in self.rows:
-            w.writerow({k: _csv_value(r.get(k)) for k in COLUMNS})
+            w.writerow([_csv_value(r.get(c), scale.get(c, 1.0)) for c in COLUMNS])
         return buf.getvalue()
 
 
-def _csv_value(v: Any) -> Any:
+def _csv_value(v: Any, scale: float = 1.0) -> Any:
     if v is None:
         return ""
     if isinstance(v, float):
-        return "" if not math.isfinite(v) else repr(v)
+        return "" if not math.isfinite(v) else repr(v * scale if scale != 1.0 else v)
     return v
 
 
@@ -109,4 +171,4 @@ def summary_rows(result: CampaignResult) -> Iterable[dict[str, Any]]:
         }
 
 
-__all__ = ["COLUMNS", "CampaignResult", "summary_rows"]
+__all__ = ["COLUMNS", "DAMPING_UNITS", "STIFFNESS_UNITS", "CampaignResult", "csv_header", "summary_rows"]

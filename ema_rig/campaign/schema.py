@@ -20,9 +20,11 @@ from pathlib import Path
 from typing import Any
 
 from ..config import (
+    BEARING_GEOMETRY_KEYS,
     RigConfig,
     check_keys,
     load_rig,
+    parse_bearing_geometry,
     read_toml,
     short_repr,
     toml_band,
@@ -34,10 +36,11 @@ from ..config import (
 )
 from ..errors import ConfigError
 
-_TOP_KEYS = ("rig", "calibration", "k_disk", "title", "defaults", "bearings", "measurement")
+_TOP_KEYS = ("rig", "calibration", "k_disk", "title", "defaults", "bearings", "measurement", "output")
 _MEAS_KEYS = ("file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags", "id")
 _DEFAULT_KEYS = ("band", "max_order")
-_BEARING_KEYS = ("k_lower", "k_upper", "hertz", "label")
+_BEARING_KEYS = ("k_lower", "k_upper", "hertz", "label", *BEARING_GEOMETRY_KEYS)
+_OUTPUT_KEYS = ("stiffness_unit", "damping_unit", "measurement_figures")
 
 #: Characters refused in a measurement id: path separators and what some file systems reserve.
 _ID_FORBIDDEN = '/\\:*?"<>|'
@@ -98,12 +101,25 @@ class Measurement:
 
 @dataclass(frozen=True, slots=True)
 class BearingInfo:
-    """Reference information drawn beside a bearing's results (FE bounds, Hertz curve)."""
+    """Reference information drawn beside a bearing's results (FE bounds, Hertz curve).
+
+    Attributes
+    ----------
+    k_lower, k_upper : float or None
+        FE bounds of the stiffness [N/m], drawn as a band.
+    hertz : bool
+        Draw the Hertzian estimate (needs ``geometry``; true by default when a geometry is given).
+    label : str
+    geometry : BallBearingGeometry or None
+        Deep-groove ball-bearing geometry (``[bearings.NAME]`` keys ``n_balls``, ``ball_diameter``
+        ...); a bearing named ``6302`` with ``hertz = true`` and no geometry gets the paper's.
+    """
 
     k_lower: float | None = None
     k_upper: float | None = None
     hertz: bool = False
     label: str = ""
+    geometry: Any = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,6 +142,13 @@ class CampaignConfig:
     bearings : mapping of str to BearingInfo
     measurements : tuple of Measurement
     title : str
+    stiffness_unit : str
+        Stiffness unit of the CSV (``[output] stiffness_unit``: N/m, MN/m or N/µm).
+    damping_unit : str
+        Damping unit of the CSV (``[output] damping_unit``: ``-`` for a fraction, or ``%``).
+    measurement_figures : bool
+        Draw each measurement's figures for the report (``[output] measurement_figures``, default
+        true; about a second per measurement on the first run, reused afterwards).
     """
 
     rig_file: Path
@@ -138,6 +161,9 @@ class CampaignConfig:
     bearings: Mapping[str, BearingInfo] = field(default_factory=dict)
     title: str = "ema_rig campaign"
     path: Path | None = None
+    stiffness_unit: str = "N/m"
+    damping_unit: str = "-"
+    measurement_figures: bool = True
 
     def settings(self) -> dict[str, Any]:
         """The resolved settings, as written to ``settings.json`` and the report."""
@@ -272,9 +298,31 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
         k_hi = toml_number(t["k_upper"], f"{where}.k_upper", fname, lo=0.0, lo_open=True) if "k_upper" in t else None
         if k_lo is not None and k_hi is not None and k_hi < k_lo:
             raise ConfigError("k_upper must be >= k_lower", file=fname, key=where)
-        hertz = toml_bool(t["hertz"], f"{where}.hertz", fname) if "hertz" in t else False
+        geometry = parse_bearing_geometry(t, where, fname)
+        hertz = toml_bool(t["hertz"], f"{where}.hertz", fname) if "hertz" in t else geometry is not None
+        if hertz and geometry is None:
+            if str(name) != "6302":
+                raise ConfigError("hertz = true needs the bearing geometry (n_balls, ball_diameter, "
+                                  "pitch_diameter [m]); only 6302 has a built-in one", file=fname,
+                                  key=f"{where}.hertz")
+            from ..rig.hertz import BEARING_6302
+
+            geometry = BEARING_6302
         label = toml_str(t["label"], f"{where}.label", fname) if "label" in t else ""
-        bearings[str(name)] = BearingInfo(k_lo, k_hi, hertz, label)
+        bearings[str(name)] = BearingInfo(k_lo, k_hi, hertz, label, geometry)
+
+    output = toml_table(doc, "output", fname, required=False)
+    check_keys(output, _OUTPUT_KEYS, "output", fname)
+    units: dict[str, Any] = {}
+    if "measurement_figures" in output:
+        units["measurement_figures"] = toml_bool(output["measurement_figures"], "output.measurement_figures", fname)
+    for k, allowed in (("stiffness_unit", ("N/m", "MN/m", "N/µm", "N/um")), ("damping_unit", ("-", "%"))):
+        if k in output:
+            v = toml_str(output[k], f"output.{k}", fname)
+            if v not in allowed:
+                raise ConfigError(f"must be one of {', '.join(repr(a) for a in allowed)}, got {short_repr(v)}",
+                                  file=fname, key=f"output.{k}")
+            units[k] = v
 
     raw = doc.get("measurement")
     if not isinstance(raw, list) or not raw:
@@ -325,7 +373,7 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
         )
     return CampaignConfig(
         rig_file=rig_file, rig=rig, measurements=tuple(meas), calibration=calibration, k_disk=k_disk,
-        band=band, max_order=max_order, bearings=bearings, title=title, path=p,
+        band=band, max_order=max_order, bearings=bearings, title=title, path=p, **units,
     )
 
 

@@ -17,17 +17,32 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar=("LO", "HI"),
                         help="identification band [Hz] (default: the rig file's, else the whole file)")
     parser.add_argument("--max-order", type=_args.model_order, default=None, metavar="N",
-                        help="highest PolyMAX model order (default: the rig file's, else 64 for one "
-                             "reference, 40 for two)")
+                        help="cap on the PolyMAX model order, which grows until the mode set converges "
+                             "(default: the rig file's, else 256 for one reference, 160 for two)")
     parser.add_argument("--selection", default=None, metavar="JSON",
                         help="replay a saved mode selection instead of the automatic one")
+    parser.add_argument("--refine", action="store_true", default=None,
+                        help="maximum-likelihood refinement after PolyMAX: every mode's +/- from the "
+                             "Fisher information (noise only, not model error; slower). Default: the rig "
+                             "file's [identification] refine, else off")
+    parser.add_argument("--averages", type=_args.positive_float, default=None, metavar="N",
+                        help="number of averages behind the FRFs and coherence (used by --refine; "
+                             "default: the rig file's [identification] n_averages)")
 
 
 def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
-    """Read the file (with the rig, if given) and run :func:`ema_rig.identification.identify`."""
+    """Read the file (with the rig, if given) and run :func:`ema_rig.identification.identify`.
+
+    Returns ``(data, ident)``; ``ident`` carries the identification's warnings plus the data
+    findings of :func:`~ema_rig.identification.diagnose.diagnose_file`. A refusal
+    (:class:`~ema_rig.errors.IdentificationError`) is re-raised with those findings appended.
+    """
+    from dataclasses import replace
+
     from ..config import load_rig
-    from ..errors import EmaRigError
+    from ..errors import EmaRigError, IdentificationError
     from ..identification import Selection, identify
+    from ..identification.diagnose import diagnose_file
     from ..io.uff import read_uff58
 
     if args.max_order is not None and args.max_order < 1:
@@ -41,6 +56,32 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
         ident_cfg = rig.identification
         band = band if band is not None else ident_cfg.get("band")
         max_order = max_order if max_order is not None else ident_cfg.get("max_order")
+    refine = getattr(args, "refine", None)
+    n_averages = getattr(args, "averages", None)
+    if rig is not None:
+        refine = refine if refine is not None else rig.identification.get("refine")
+        n_averages = n_averages if n_averages is not None else rig.identification.get("n_averages")
+    if n_averages is not None:
+        data = data.with_meta(n_averages=float(n_averages))
     selection = Selection.from_json(args.selection) if args.selection else None
-    ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True)
+    try:
+        ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True,
+                         refine=bool(refine))
+    except IdentificationError as exc:
+        findings = [f for f in diagnose_file(args.file, data) if f not in exc.message]
+        if not findings:
+            raise
+        head = "; " if "the measurement itself is suspect" in exc.message else "; the measurement itself is suspect: "
+        raise IdentificationError(exc.message + head + "; ".join(findings), file=exc.file) from None
+    findings = diagnose_file(args.file, data.band(*ident.band))
+    if findings:
+        ident = replace(ident, warnings=ident.warnings + tuple(f"data: {f}" for f in findings))
     return data, ident
+
+
+def print_warnings(ident: Any) -> None:
+    """One ``warning:`` line per warning of the identification, on stderr."""
+    import sys
+
+    for w in ident.warnings:
+        print(f"warning: {w}", file=sys.stderr)

@@ -10,9 +10,13 @@ from . import _args
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig calibrate``."""
     parser.add_argument("file", metavar="DISK_FILE", help="UFF58 measurement with the steel disk mounted")
-    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
+    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
     parser.add_argument("--k-disk", type=_args.positive_float, default=None, metavar="V",
                         help="finite disk stiffness [N/m] in series (default: rigid, as the paper)")
+    parser.add_argument("--k-disk-std", type=_args.nonneg_float, default=None, metavar="V",
+                        help="standard uncertainty of --k-disk [N/m]")
+    parser.add_argument("--damping-model", choices=("viscous", "hysteretic"), default="viscous",
+                        help="which undamped frequency the identified pole stands for (default viscous)")
     parser.add_argument("--band", type=_args.finite_float, nargs=2, action=_args.BandAction, default=None,
                         metavar=("LO", "HI"),
                         help="identification band [Hz] (default: rig file k_MS_band / band, else 150 1000)")
@@ -25,9 +29,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig calibrate``."""
     from ..config import load_rig
-    from ..errors import EmaRigError
+    from ..errors import EmaRigError, MatchingError
     from ..io.uff import read_uff58
     from ..rig.stiffness import calibrate
+    from .stiffness import print_caveats, write_refusal
 
     if args.k_disk is not None and not args.k_disk > 0:
         raise EmaRigError(f"--k-disk must be a positive stiffness [N/m], got {args.k_disk:g}", file=args.file)
@@ -35,16 +40,27 @@ def run(args: argparse.Namespace) -> int:
         raise EmaRigError(f"--max-order must be >= 2, got {args.max_order}", file=args.file)
     rig = load_rig(args.rig)
     data = read_uff58(args.file, rig=rig).with_meta(file=str(args.file))
-    res = calibrate(data, rig, k_disk=args.k_disk,
-                    band=None if args.band is None else tuple(args.band), max_order=args.max_order)
+    if args.k_disk_std is not None and args.k_disk is None:
+        raise EmaRigError("--k-disk-std needs --k-disk", file=args.file)
+    try:
+        res = calibrate(data, rig, k_disk=args.k_disk, k_disk_std=args.k_disk_std,
+                        band=None if args.band is None else tuple(args.band), max_order=args.max_order,
+                        damping_model=args.damping_model)
+    except MatchingError as exc:
+        if args.json:
+            write_refusal(args.json, args.file, exc)
+        raise
     hm = res.housing_mode
     sd = hm.get("natural_freq_std")
     print(f"file          {res.file or '-'}")
     print(f"housing mode  {hm['natural_freq']:.2f} Hz" + (f" +/- {sd:.3f}" if sd is not None else "")
           + f", damping {100 * hm['damping_ratio']:.2f} % (steel disk)")
-    print(f"k_MS          {res.k_MS / 1e6:.3f} +/- {res.k_MS_std / 1e6:.3f} MN/m (1 sigma, frequency spread)"
-          + ("" if res.k_disk is None else f", disk {res.k_disk / 1e6:.0f} MN/m in series"))
-    print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; use --k-ms {res.k_MS:.6g} with 'ema-rig stiffness'")
+    print(f"k_MS          {res.k_MS / 1e6:.3f} +/- {res.k_MS_std_measured / 1e6:.3f} (measured) "
+          f"+/- {res.k_MS_std / 1e6:.3f} (total) MN/m (1 sigma)"
+          + (", disk assumed rigid" if res.k_disk is None else f", disk {res.k_disk / 1e6:.0f} MN/m in series"))
+    print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; use --k-ms {res.k_MS:.6g} --k-ms-std "
+          f"{res.k_MS_std:.3g} with 'ema-rig stiffness'")
+    print_caveats(res)
     if args.json:
         from .._atomic import write_json
 

@@ -69,8 +69,12 @@ def run_campaign(campaign: str, out: str | None, jobs: int, force: bool) -> int:
     print_table(result)
     print(f"\n{len(result.rows) - result.n_failed}/{len(result.rows)} measurements ok "
           f"({result.computed} computed, {result.reused} reused); k_MS = {result.k_MS / 1e6:.2f} MN/m")
+    per_measurement = [k for k in result.files if "/" in k]  # "<id>/<kind>": one line for them all
     for kind, path in result.files.items():
-        print(f"  {kind:<24} {path}")
+        if "/" not in kind:
+            print(f"  {kind:<24} {path}")
+    if per_measurement:
+        print(f"  {'measurement figures':<24} {len(per_measurement)} in {out_dir / 'measurements'}")
     if result.calibration is not None and result.calibration.get("status") != "ok":
         print(f"error: {campaign}: calibration failed: {result.calibration.get('error')}", file=sys.stderr)
         return EXIT_PARTIAL

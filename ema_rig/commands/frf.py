@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     date = date_id()
     coh = b"".join(
         coherence_bytes(data.freq, est.coherence[i, j], response=o, reference=q,
-                        ids=(f"{o} / {q} coherence", "ema_rig", date, "NONE", "NONE"))
+                        ids=(f"{o} / {q} coherence", "ema_rig", date, f"averages: {est.n_averages}", "NONE"))
         for i, o in enumerate(data.out_dofs) for j, q in enumerate(data.in_dofs)
     )
     with atomic_path(args.output) as tmp:

@@ -2,19 +2,23 @@
 
 Each dataset is shown as ``read`` (exactly the header's num_pts values) or ``refused`` with the
 reason. With ``--rig`` the FRF datasets are also assembled with the rig file (roles, signs,
-units) and the result is summarised; with ``--json`` the DESIGN §3.2 JSON is written atomically.
+units) and the result is summarised; with ``--json`` the dataset list is written atomically as JSON.
 """
 
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..frf import FRFData
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig inspect``."""
     parser.add_argument("file", metavar="FILE", help="UFF file (dataset 58 / 58b)")
     parser.add_argument("--rig", metavar="R", help="rig file (TOML): also assemble the FRFs with it")
-    parser.add_argument("--json", metavar="OUT", help="write the dataset list as JSON (DESIGN §3.2)")
+    parser.add_argument("--json", metavar="OUT", help="write the dataset list as JSON")
 
 
 def _cell(v: object) -> str:
@@ -49,6 +53,31 @@ def format_table(report: dict) -> str:
     n_ref = sum(d["status"] != "read" for d in report["datasets"])
     lines.append(f"{len(rows)} dataset(s), {len(rows) - n_ref} read, {n_ref} refused")
     return "\n".join(lines)
+
+
+def _coherence_summary(data: FRFData) -> dict[str, Any]:
+    """JSON summary of the coherence attached to the FRFs (``attached`` False when none)."""
+    coh = data.coherence
+    if coh is None:
+        return {"attached": False, "datasets": [], "pairs": 0, "of_pairs": data.n_out * data.n_in,
+                "min": None, "max": None}
+    return {
+        "attached": True,
+        "datasets": list(data.meta.get("coherence_datasets", ())),
+        "pairs": data.n_out * data.n_in,
+        "of_pairs": data.n_out * data.n_in,
+        "min": float(coh.min()),
+        "max": float(coh.max()),
+    }
+
+
+def _coherence_line(c: dict[str, Any], n_avg: int | None) -> str:
+    avg = f"; {n_avg} averages" if n_avg is not None else "; number of averages not in the file"
+    if not c["attached"]:
+        return "coherence: none attached"
+    ds = ", ".join(str(i) for i in c["datasets"])
+    return (f"coherence: attached for {c['pairs']} of {c['of_pairs']} FRFs (dataset(s) {ds}), "
+            f"{c['min']:.4g}..{c['max']:.4g} after clipping{avg}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -93,6 +122,9 @@ def run(args: argparse.Namespace) -> int:
                 "unit_decisions": list(data.meta["unit_decisions"]),
                 "sign_flips": list(data.meta["sign_flips"]),
                 "ignored_channels": list(data.meta["ignored_channels"]),
+                "coherence": _coherence_summary(data),
+                "n_averages": data.n_averages,
+                "warnings": list(data.meta.get("warnings", ())),
             }
             text += f"\nFRFs{' with rig ' + str(args.rig) if rig else ''}: {data!r}\n  outputs: " + ", ".join(
                 str(d) + (f" ({r}, {a})" if r else "")
@@ -101,6 +133,9 @@ def run(args: argparse.Namespace) -> int:
             text += "\n  inputs: " + ", ".join(str(d) for d in data.in_dofs)
             text += "".join(f"\n  units: {u}" for u in data.meta["unit_decisions"])
             text += "".join(f"\n  sign: {s}" for s in data.meta["sign_flips"])
+            text += "\n  " + _coherence_line(report["frf"]["coherence"], data.n_averages)
+            text += "".join(f"\n  note: {n}" for n in data.meta.get("notes", ()) if "coherence" in n)
+            text += "".join(f"\n  warning: {w}" for w in data.meta.get("warnings", ()))
     print(text)
     if args.json:
         write_json(args.json, report)

@@ -15,26 +15,67 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="write the selection (replayable with --selection)")
     parser.add_argument("--plot", default=None, metavar="PNG",
                         help="draw measured vs synthesised FRFs (png, svg or pdf)")
+    parser.add_argument("--crosscheck", action="store_true",
+                        help="also run sdypy-EMA's LSCF on the same band and print a per-mode agreement table")
+    parser.add_argument("--uff55", default=None, metavar="OUT",
+                        help="write the modes as UFF dataset 55 (complex mode shapes) for other modal tools")
+    parser.add_argument("--geometry", default=None, metavar="UFF",
+                        help="test geometry (UFF datasets 15/2411 nodes, 82 trace lines) for --shapes")
+    parser.add_argument("--shapes", default=None, metavar="PREFIX",
+                        help="draw each mode shape to PREFIX_<n>.png (3D on --geometry, else bars per DOF)")
+    parser.add_argument("--automac", default=None, metavar="PNG", help="draw the AutoMAC matrix of the modes")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig modes``."""
-    from ._ident_args import load_and_identify
+    import numpy as np
+
+    from ..mode_shapes import mode_shapes_records
+    from ._ident_args import load_and_identify, print_warnings
 
     data, ident = load_and_identify(args)
+    geometry = None
+    if args.geometry:
+        from ..io.geometry import read_geometry
+
+        geometry = read_geometry(args.geometry)
     records = ident.to_records()
+    for rec, shp in zip(records, mode_shapes_records(ident.modes), strict=True):
+        rec["mode_shape"] = {k: shp[k] for k in ("reference", "normalisation", "unit", "shape")}
     drive = [str(d) for d in ident.modes.in_dofs if d in ident.modes.out_dofs]
+    fit = ident.fit_error
     print(f"file   {args.file}")
     print(f"data   {data.n_out} outputs x {data.n_in} reference(s), band {ident.band[0]:g}-{ident.band[1]:g} Hz, "
-          f"orders {min(ident.poles.orders)}-{max(ident.poles.orders)}")
-    head = f"{'f_n [Hz]':>10} {'+/- [Hz]':>9} {'zeta [%]':>9} {'+/- [%]':>8} {'MPC':>6} {'poles':>5}"
+          f"orders {min(ident.poles.orders)}-{max(ident.poles.orders)} "
+          f"({'converged' if ident.converged else 'NOT converged'}), "
+          f"synthesis error median {100 * float(np.median(fit)):.1f} %, max {100 * float(np.max(fit)):.1f} %")
+    for note in ident.notes:
+        print(f"note   {note}")
+    ref = ident.refinement
+    if ref is not None:
+        state = "converged" if ref.converged else f"fell back to PolyMAX ({ref.reason})"
+        print(f"note   ML refinement {state}; noise from {ref.noise_source}; +/- from the Fisher information "
+              "(noise only, not model error)")
+    head = (f"{'f_n [Hz]':>10} {'+/- [Hz]':>9} {'zeta [%]':>9} {'+/- [%]':>8} {'MPC':>6} {'poles':>5} "
+            f"{'orders':>9}")
     head += "".join(f" {'m_eff ' + d + ' [kg]':>17}" for d in drive)
     print(head)
     for r in records:
+        span = f"{r['order_min']}-{r['order_max']}" if r["order_min"] else "-"
         line = (f"{r['natural_freq']:>10.2f} {r['natural_freq_std']:>9.3f} {100 * r['damping_ratio']:>9.3f} "
-                f"{100 * r['damping_ratio_std']:>8.3f} {r['mpc']:>6.3f} {r['n_poles'] or 0:>5d}")
+                f"{100 * r['damping_ratio_std']:>8.3f} {r['mpc']:>6.3f} {r['n_poles'] or 0:>5d} {span:>9}")
         line += "".join(f" {r['modal_mass'][d]:>17.4g}" for d in drive)
         print(line)
+    rejected = [c for c in ident.candidates if not c.accepted and c.mode.n_poles >= 4]
+    if rejected:
+        print(f"rejected candidates ({len(rejected)} stable at 4 or more orders):")
+        for c in rejected:
+            print(f"  {c.natural_freq:>10.2f} Hz  zeta {100 * c.damping_ratio:.2f} %  {c.reason}")
+    print_warnings(ident)
+    if args.crosscheck:
+        from ..identification.crosscheck import crosscheck
+
+        print(crosscheck(data, ident).table())
     if args.json:
         from .._atomic import write_json
 
@@ -42,10 +83,20 @@ def run(args: argparse.Namespace) -> int:
             "file": str(args.file),
             "band": list(ident.band),
             "max_order": int(max(ident.poles.orders)),
+            "converged": bool(ident.converged),
+            "transposed": bool(ident.transposed),
             "in_dofs": [str(d) for d in ident.modes.in_dofs],
             "out_dofs": [str(d) for d in ident.modes.out_dofs],
             "modes": records,
-            "fit_error": ident.modes.fit_error.tolist() if ident.modes.fit_error is not None else None,
+            "candidates": [c.to_dict() for c in ident.candidates],
+            "fit_error": fit.tolist(),
+            "fit_error_median": float(np.median(fit)),
+            "warnings": list(ident.warnings),
+            "notes": list(ident.notes),
+            "refinement": None if ref is None else {
+                "converged": bool(ref.converged), "reason": ref.reason, "noise_source": ref.noise_source,
+                "chi2_red": float(ref.chi2_red), "n_iter": int(ref.n_iter),
+            },
             "selection": ident.selection.to_dict(),
         }
         write_json(args.json, doc)
@@ -58,6 +109,29 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(args.plot) as tmp:
             chart.figure.savefig(tmp, dpi=110)
         print(f"wrote {args.plot}")
+    if args.uff55:
+        from ..io.uff55 import write_uff55
+
+        write_uff55(args.uff55, ident.modes, name=f"ema_rig modes of {args.file}")
+        print(f"wrote {args.uff55}")
+    if args.automac:
+        from .._atomic import atomic_path
+        from ..plot.shapes import plot_automac
+
+        am = plot_automac(ident.modes)
+        with atomic_path(args.automac) as tmp:
+            am.figure.savefig(tmp, dpi=110)
+        print(f"wrote {args.automac}")
+    if args.shapes:
+        from .._atomic import atomic_path
+        from ..plot.shapes import plot_mode_shape
+
+        for k in range(ident.modes.n_modes):
+            out = f"{args.shapes}_{k + 1}.png"
+            sp = plot_mode_shape(ident.modes, k, geometry=geometry)
+            with atomic_path(out) as tmp:
+                sp.figure.savefig(tmp, dpi=110)
+            print(f"wrote {out}")
     if args.save_selection:
         ident.selection.to_json(args.save_selection)
         print(f"wrote {args.save_selection}")

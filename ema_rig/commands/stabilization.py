@@ -36,16 +36,20 @@ def run(args: argparse.Namespace) -> int:
 
     from .._atomic import atomic_path
     from ..plot.stabilization import plot_stabilization
-    from ._ident_args import load_and_identify
+    from ._ident_args import load_and_identify, print_warnings
 
     data, ident = load_and_identify(args)
+    print_warnings(ident)
     lo, hi = ident.band
     margin = 0.05 * (hi - lo)
     shown = data.band(max(lo - margin, data.freq[0]), min(hi + margin, data.freq[-1]))
     chart = plot_stabilization(
         ident.stabilization, shown, selection=ident.selection, indicator="cmif" if args.cmif else "sum",
-        show_unstable=args.show_unstable, color_scheme=args.colors,
-        title=f"{Path(args.file).name}: PolyMAX {lo:g}-{hi:g} Hz, {data.n_out} x {data.n_in}",
+        show_unstable=args.show_unstable, color_scheme=args.colors, candidates=ident.candidates,
+        title=f"{Path(args.file).name}: PolyMAX {lo:g}-{hi:g} Hz, {data.n_out} x {data.n_in}"
+              + (" (transposed)" if ident.transposed else "")
+              + f", orders to {max(ident.poles.orders)}: mode set "
+              + ("converged" if ident.converged else "NOT converged"),
     )
     try:
         with atomic_path(args.output) as tmp:

@@ -11,7 +11,7 @@ from . import _args
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stiffness``."""
     parser.add_argument("file", metavar="FILE", help="UFF58 measurement (FRFs of the eight sensors)")
-    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML, DESIGN §3.1)")
+    parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
     parser.add_argument("--k-ms", type=_args.positive_float, default=None, metavar="V",
                         help="mounting stiffness k_MS [N/m] from 'ema-rig calibrate' (default: the rig file's)")
     parser.add_argument("--k-ms-std", type=_args.nonneg_float, default=None, metavar="V",
@@ -26,7 +26,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="skip the identification of the spindle bending mode (faster)")
     parser.add_argument("--fit", action="store_true",
                         help="also fit k_TB+MS, k_S, m_S, m_F to the FRFs in 150-700 Hz (paper Fig. 7)")
-    parser.add_argument("--json", default=None, metavar="OUT", help="write the result as JSON")
+    parser.add_argument("--damping-model", choices=("viscous", "hysteretic"), default="viscous",
+                        help="which undamped frequency the identified pole stands for (default viscous: "
+                             "|lambda|); the difference enters the budget as a model-form term")
+    parser.add_argument("--json", default=None, metavar="OUT",
+                        help="write the result as JSON (on a refused match: the error and every candidate)")
     parser.add_argument("--plot", default=None, metavar="PNG",
                         help="measured FRFs against the 3DOF model, 150-700 Hz (paper Fig. 7)")
 
@@ -46,11 +50,11 @@ def summary(res: Any) -> str:
                             f"{sm['natural_freq']:.1f} Hz, damping {100 * sm['damping_ratio']:.2f} %"),
         f"k_MS          {res.k_MS / 1e6:.2f} MN/m",
         f"k_TB+MS       {res.k_TB_MS / 1e6:.3f} MN/m",
-        f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std / 1e6:.3f} MN/m (1 sigma, "
+        f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std_measured / 1e6:.3f} (measured) "
+        f"+/- {res.k_TB_std / 1e6:.3f} (total) MN/m (1 sigma, {100 * res.k_TB_std_measured / res.k_TB:.2f} % / "
         f"{100 * res.k_TB_std / res.k_TB:.2f} %)",
         "budget        " + ", ".join(
-            f"{k} {100 * v:.0f} %" for k, v in sorted(res.uncertainty_budget.items(), key=lambda kv: -kv[1])
-            if v >= 0.005),
+            f"{t.name} {100 * t.share:.0f} % [{t.kind}]" for t in res.uncertainty.terms if t.share >= 0.005),
         f"candidates    {len(res.candidates)} modes considered:",
     ]
     if res.fit is not None:
@@ -63,10 +67,28 @@ def summary(res: Any) -> str:
     return "\n".join(lines)
 
 
+def print_caveats(res: Any) -> None:
+    """One stderr line per warning (``warning: ...``) and per note (``note: ...``)."""
+    import sys
+
+    for w in res.warnings:
+        print(f"warning: {res.file or '-'}: {w}", file=sys.stderr)
+    for n in res.notes:
+        print(f"note: {res.file or '-'}: {n}", file=sys.stderr)
+
+
+def write_refusal(path: str, file: str, exc: Any) -> None:
+    """JSON of a refused match: the one-line error, every candidate, empty warnings."""
+    from .._atomic import write_json
+
+    write_json(path, {"file": str(file), "error": exc.message, "warnings": [],
+                      "candidates": [dict(c) for c in exc.candidates]})
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stiffness``."""
     from ..config import load_rig
-    from ..errors import EmaRigError
+    from ..errors import EmaRigError, MatchingError
     from ..io.uff import read_uff58
     from ..rig.stiffness import estimate_stiffness
 
@@ -78,12 +100,18 @@ def run(args: argparse.Namespace) -> int:
     data = read_uff58(args.file, rig=rig)
     data = data.with_meta(file=str(args.file))
     speed_hz = None if not args.speed else args.speed / 60.0
-    res = estimate_stiffness(
-        data, rig, k_ms=args.k_ms, k_ms_std=args.k_ms_std, speed_hz=speed_hz,
-        band=None if args.band is None else tuple(args.band), max_order=args.max_order,
-        spindle=not args.no_spindle, fit=args.fit, progress=True,
-    )
+    try:
+        res = estimate_stiffness(
+            data, rig, k_ms=args.k_ms, k_ms_std=args.k_ms_std, speed_hz=speed_hz,
+            band=None if args.band is None else tuple(args.band), max_order=args.max_order,
+            spindle=not args.no_spindle, fit=args.fit, progress=True, damping_model=args.damping_model,
+        )
+    except MatchingError as exc:
+        if args.json:
+            write_refusal(args.json, args.file, exc)
+        raise
     print(summary(res))
+    print_caveats(res)
     if args.json:
         from .._atomic import write_json
 

@@ -3,7 +3,14 @@
 Functions
 ---------
 identify
-    The whole chain for one measurement (pLSCF -> stabilize -> select -> LSFD).
+    The whole chain for one measurement (pLSCF with a growing order -> stabilize -> judge the
+    clusters -> LSFD), with warnings and notes.
+judge_clusters
+    Every cluster of stable poles with a verdict and its reason (:class:`Candidate`).
+diagnose_file, diagnose_frf
+    Why a measurement may not be trusted (coherence, impact position, phase).
+crosscheck
+    sdypy-EMA's LSCF on the same band, mode by mode (:class:`CrossCheck`).
 plscf
     Poles and participation factors for a range of model orders (:class:`PoleSet`).
 stabilize
@@ -17,16 +24,20 @@ mac, mpc
 
 Classes
 -------
-PoleSet, StabilizationData, Selection, SelectedMode, ModalModel, Identification
+PoleSet, PlscfEngine, StabilizationData, Selection, SelectedMode, Candidate, ModalModel,
+Identification, CrossCheck
 """
 
 from __future__ import annotations
 
-from .identification import Identification, identify
+from .crosscheck import CrossCheck, crosscheck
+from .diagnose import diagnose_file, diagnose_frf
+from .identification import Identification, default_order_cap, identify, transpose_layout
+from .judge import Candidate, judge_clusters
 from .lsfd import lsfd
 from .mac import mac, mpc
 from .modal import ModalModel
-from .plscf import PoleSet, default_max_order, plscf
+from .plscf import PlscfEngine, PoleSet, default_max_order, plscf
 from .stabilization import (
     SelectedMode,
     Selection,
@@ -39,14 +50,22 @@ from .stabilization import (
 )
 
 __all__ = [
+    "Candidate",
+    "CrossCheck",
     "Identification",
     "ModalModel",
+    "PlscfEngine",
     "PoleSet",
     "SelectedMode",
     "Selection",
     "StabilizationData",
+    "crosscheck",
     "default_max_order",
+    "default_order_cap",
+    "diagnose_file",
+    "diagnose_frf",
     "identify",
+    "judge_clusters",
     "lsfd",
     "mac",
     "mpc",
@@ -56,4 +75,5 @@ __all__ = [
     "select_near",
     "select_poles",
     "stabilize",
+    "transpose_layout",
 ]

@@ -1,19 +1,26 @@
-"""The whole identification of one measurement: pLSCF -> stabilization -> selection -> LSFD.
+"""The whole identification of one measurement: pLSCF -> stabilization -> judgement -> LSFD.
 
 Functions
 ---------
 identify
-    What the stiffness pipeline and the campaign call for every measurement.
+    What the stiffness pipeline and the campaign call for every measurement: the model order
+    grows (reusing the leading blocks of one pLSCF estimate) until the judged mode set converges.
+default_order_cap
+    Default cap on the model order.
+transpose_layout
+    The same FRFs with references and responses exchanged (reciprocity).
 
 Classes
 -------
 Identification
-    Frozen result: pole set, stabilization data, selection, modal model and per-mode spread.
+    Frozen result: pole set, stabilization data, selection, modal model, per-mode spread,
+    every candidate with its verdict, convergence, warnings and notes.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -21,18 +28,24 @@ from numpy.typing import NDArray
 
 from ..errors import IdentificationError
 from ..frf import FRFData
+from .judge import Candidate, judge_clusters, shape_mpc
 from .lsfd import lsfd
-from .mac import mpc
 from .modal import ModalModel
-from .plscf import PoleSet, check_data, default_max_order, plscf, source_of
+from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
+from .refine import Refinement
 from .stabilization import (
     SelectedMode,
     Selection,
     StabilizationData,
+    cluster_poles,
     resolve_selection,
-    select_modes,
     stabilize,
 )
+
+#: Median synthesis error above which an identification is flagged as a poor fit.
+POOR_FIT = 0.20
+#: Default time budget [s] for growing the model order.
+TIME_BUDGET = 20.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -54,6 +67,22 @@ class Identification:
         aligned with ``modes``.
     band : tuple of float
         Band [Hz] of the identification.
+    candidates : tuple of Candidate
+        Every cluster of stable poles with its verdict and reason (accepted ones are the
+        automatic selection; empty for a replayed selection).
+    converged : bool
+        True when the selected mode set was the same over the last span of model orders.
+    warnings : tuple of str
+        One line per reason to distrust the result (poor fit, no convergence, mode at the
+        band edge, ...).
+    notes : tuple of str
+        What was done besides the plain chain (band clipped, order capped, transposed layout).
+    transposed : bool
+        True when the poles were estimated on the transposed layout (reciprocity: the
+        references as outputs), because the data had more references than outputs.
+    refinement : Refinement or None
+        The maximum-likelihood refinement when ``identify(..., refine=True)``; when it converged,
+        ``modes`` is its model and the standard deviations are its Fisher-information ones.
     """
 
     poles: PoleSet
@@ -63,6 +92,18 @@ class Identification:
     natural_freq_std: NDArray[np.float64]
     damping_ratio_std: NDArray[np.float64]
     band: tuple[float, float]
+    candidates: tuple[Candidate, ...] = ()
+    converged: bool = True
+    warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    transposed: bool = False
+    refinement: Refinement | None = None
+
+    @property
+    def fit_error(self) -> NDArray[np.float64]:
+        """Relative synthesis error per channel ``||H - H_syn|| / ||H||``, shape (n_out, n_in)."""
+        fe = self.modes.fit_error
+        return np.zeros((len(self.modes.out_dofs), len(self.modes.in_dofs))) if fe is None else fe
 
     @property
     def natural_freq(self) -> NDArray[np.float64]:
@@ -99,17 +140,20 @@ class Identification:
 
         ``modal_mass`` holds the effective modal mass [kg] at every driving point (reference
         DOF that is also a response DOF), keyed by DOF string. ``mpc`` is computed on each
-        mode's shape from the reference that excites it best (smallest effective modal mass, or
-        largest residue column without a driving point).
+        mode's residues along the longer axis of the measurement (the outputs of the strongest
+        reference, or the references of the strongest output for a roving-hammer layout).
+        ``order_min`` .. ``order_max`` are the model orders over which the mode is stable.
         """
         mm = self.modes
-        mpcs = mpc(self.best_shapes())
+        mpcs = shape_mpc(mm.residues)
         drive = [d for d in mm.in_dofs if d in mm.out_dofs]
         masses = {str(d): mm.modal_mass(d) for d in drive}
         modes_by_pole = {m.pole: m for m in self.selection.modes}
+        # a refined model keeps the PolyMAX pole of each mode in meta (same order)
+        start = [complex(*p) for p in mm.meta.get("polymax_poles", [])] or [complex(p) for p in mm.poles]
         out = []
         for k in range(mm.n_modes):
-            sel: SelectedMode | None = modes_by_pole.get(complex(mm.poles[k]))
+            sel: SelectedMode | None = modes_by_pole.get(start[k])
             out.append(
                 {
                     "natural_freq": float(mm.natural_freq[k]),
@@ -122,9 +166,67 @@ class Identification:
                     "provenance": sel.provenance if sel else None,
                     "modal_mass": {d: float(v[k]) for d, v in masses.items()},
                     "participation": [[float(c.real), float(c.imag)] for c in sel.participation] if sel else [],
+                    "order_min": int(sel.order_min) if sel else None,
+                    "order_max": int(sel.order_max) if sel else None,
                 }
             )
         return out
+
+
+def default_order_cap(n_in: int) -> int:
+    """Default cap on the model order for ``n_in`` references: four times :func:`default_max_order`."""
+    return 4 * default_max_order(n_in)
+
+
+def _clip_band(data: FRFData, band: tuple[float, float] | None) -> tuple[tuple[float, float] | None, list[str]]:
+    """Clip a band that exceeds the data by less than one frequency step (with a note)."""
+    if band is None:
+        return None, []
+    try:
+        lo, hi = float(band[0]), float(band[1])
+    except (TypeError, ValueError, IndexError):
+        return band, []  # check_data explains
+    f0, f1 = float(data.freq[0]), float(data.freq[-1])
+    step = float(np.median(np.diff(data.freq))) if data.n_freq > 1 else 0.0
+    notes = []
+    if f0 - step <= lo < f0:
+        notes.append(f"band start {lo:g} Hz clipped to the first line {f0:g} Hz")
+        lo = f0
+    if f1 < hi <= f1 + step:
+        notes.append(f"band end {hi:g} Hz clipped to the last line {f1:g} Hz")
+        hi = f1
+    return (lo, hi), notes
+
+
+def transpose_layout(data: FRFData) -> FRFData:
+    """The same FRFs with references and responses exchanged (reciprocity ``H_pq = H_qp``).
+
+    Roles and axes, which describe the outputs, are dropped.
+    """
+    return FRFData(data.freq, np.swapaxes(data.frf, 0, 1), data.in_dofs, data.out_dofs,
+                   frf_form=data.frf_form, meta=data.meta)
+
+
+def _same_modes(a: Sequence[SelectedMode], b: Sequence[SelectedMode]) -> bool:
+    """Same number of modes, each frequency of ``a`` matched in ``b`` within the spread."""
+    if len(a) != len(b):
+        return False
+    for ma, mb in zip(a, b, strict=True):
+        tol = max(3.0 * max(ma.natural_freq_std, mb.natural_freq_std), 1e-3 * ma.natural_freq)
+        if abs(ma.natural_freq - mb.natural_freq) > tol:
+            return False
+    return True
+
+
+def _edge_warnings(modes: Sequence[SelectedMode], band: tuple[float, float]) -> list[str]:
+    lo, hi = band
+    out = []
+    for m in modes:
+        margin = max(2.0 * m.damping_ratio * m.natural_freq, 0.01 * (hi - lo))
+        if m.natural_freq - lo < margin or hi - m.natural_freq < margin:
+            out.append(f"mode at {m.natural_freq:.6g} Hz sits at the band edge ({lo:g}..{hi:g} Hz): "
+                       "its estimate may be biased; widen the band")
+    return out
 
 
 def identify(
@@ -139,32 +241,54 @@ def identify(
     near_tol: float = 0.03,
     residuals: bool = True,
     progress: bool = False,
+    time_budget: float = TIME_BUDGET,
+    transpose: bool | None = None,
+    refine: bool = False,
 ) -> Identification:
     """Identify the physical modes of a measurement in a band.
+
+    The model order grows from :func:`~ema_rig.identification.plscf.default_max_order` in
+    steps of a quarter of it until the automatically selected mode set is the same (same
+    number of modes, frequencies within three standard deviations of their cluster, at least
+    0.1 %) at two orders one step apart, up to the cap ``max_order`` or the ``time_budget``.
+    Every cluster of stable poles is judged (:func:`~ema_rig.identification.judge.judge_clusters`);
+    the accepted ones are fitted by LSFD on the data as measured.
 
     Parameters
     ----------
     data : FRFData
         FRFs, shape (n_out, n_in, n_freq).
     band : (float, float), optional
-        ``(freq_lower, freq_upper)`` [Hz]; default the whole data.
+        ``(freq_lower, freq_upper)`` [Hz]; default the whole data. A band that exceeds the
+        data by less than one frequency step is clipped to the data (with a note).
     max_order : int, optional
-        Highest model order (default :func:`~ema_rig.identification.plscf.default_max_order`:
-        64 for one reference, 40 for two, i.e. companion matrices up to 64 / 80 rows).
+        Cap on the model order (default :func:`default_order_cap`: 256 for one reference,
+        160 for two). Reduced, with a note, to the largest order the band's lines allow.
     freq_tol, damping_tol, mac_tol : float, optional
         Stabilization tolerances (defaults 1 %, 5 %, 2 %), see
         :func:`~ema_rig.identification.stabilization.stabilize`.
     selection : Selection, optional
         A saved selection to replay (:func:`~ema_rig.identification.stabilization.resolve_selection`:
         exact on the same data, nearest mode within ``near_tol`` on other data); its band and
-        maximum order are used unless ``band`` / ``max_order`` are given. Default: automatic
-        selection (:func:`~ema_rig.identification.stabilization.select_modes`).
+        maximum order are used unless ``band`` / ``max_order`` are given (no order growth).
     near_tol : float, optional
         Relative frequency window for replaying a selection on other data (default 0.03).
     residuals : bool, optional
         LSFD with lower and upper residuals (default True).
     progress : bool, optional
         Progress bar over the model orders.
+    time_budget : float, optional
+        Seconds after which the order stops growing (default 20); the result then says it
+        did not converge.
+    transpose : bool, optional
+        Estimate the poles on the transposed layout (reciprocity). Default: when the data have
+        more references than outputs (roving hammer), which gives the estimator more outputs.
+    refine : bool, optional
+        Refine the modal model by maximum likelihood
+        (:func:`~ema_rig.identification.refine.refine`, using ``data.coherence`` when present) and
+        report its Fisher-information standard deviations (default False). When it does not
+        converge, the PolyMAX model and cluster spreads are kept with an
+        :class:`~ema_rig.errors.IdentificationWarning` giving the reason.
 
     Returns
     -------
@@ -173,8 +297,8 @@ def identify(
     Raises
     ------
     IdentificationError
-        Band outside the data, too few lines for the order, an all-zero FRF, NaN/inf values,
-        no stable pole in the band, no physical mode, or a replayed mode not found.
+        Band outside the data, an all-zero FRF, NaN/inf values, a cap below the smallest
+        order, no stable pole in the band, no physical mode, or a replayed mode not found.
 
     Examples
     --------
@@ -188,39 +312,110 @@ def identify(
     >>> ident.natural_freq.round(6), ident.damping_ratio.round(6)
     (array([150.]), array([0.01]))
     """
+    import time
+
     if selection is not None and not isinstance(selection, Selection):
         raise TypeError(f"selection must be a Selection, got {type(selection).__name__}")
     if selection is not None:
         # replay: the selection's band and order unless given explicitly
         band = selection.band if band is None else band
         max_order = selection.max_order if max_order is None and selection.max_order >= 1 else max_order
-    data = check_data(data, band)
     src = source_of(data)
-    if max_order is None:
-        max_order = default_max_order(data.n_in)
-    poles = plscf(data, max_order=max_order, progress=progress)
-    stab = stabilize(poles, freq_tol=freq_tol, damping_tol=damping_tol, mac_tol=mac_tol)
-    fband = stab.band
-    n_stable = int(np.sum(np.isin(stab.status, ["s", "d", "v", "f"])))
-    if n_stable == 0:
+    band, notes = _clip_band(data, band)
+    data = check_data(data, band)
+    # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result
+    warnings: list[str] = [f"data: {w}" for w in data.meta.get("warnings", ()) if isinstance(w, str)]
+    transposed = (data.n_in > data.n_out) if transpose is None else bool(transpose)
+    if selection is not None and selection.in_dofs:
+        # a replayed selection fixes the layout its participation vectors belong to
+        transposed = tuple(str(d) for d in data.out_dofs) == selection.in_dofs and data.n_in != data.n_out
+    work = transpose_layout(data) if transposed else data
+    if transposed:
+        notes.append(f"poles estimated on the transposed layout ({work.n_out} outputs x {work.n_in} reference(s), "
+                     "reciprocity) because the data have more references than outputs")
+    n_in = work.n_in
+    min_order = 2 if n_in == 1 else 1
+    explicit = max_order is not None
+    cap = int(max_order) if explicit else default_order_cap(n_in)  # type: ignore[arg-type]
+    if cap < min_order:
         raise IdentificationError(
-            f"no stable pole in the band {fband[0]:g}..{fband[1]:g} Hz up to order {max_order} "
-            f"({len(poles)} poles, {int(np.sum(stab.unstable))} of them unstable)",
-            file=src,
-        )
-    if selection is None:
-        sel = select_modes(stab, source=src)
-        if len(sel) == 0:
-            raise IdentificationError(
-                f"no physical mode in the band {fband[0]:g}..{fband[1]:g} Hz: {n_stable} stable poles "
-                f"but no cluster of them persists over the orders up to {max_order}",
-                file=src,
-            )
-    else:
+            f"max_order={cap} is below the smallest useful order {min_order} for {n_in} reference(s) "
+            "(order 1 of a single reference has no complex pole pair)", file=src)
+    line_cap = (work.n_freq - 1) // 2
+    if cap > line_cap:
+        if explicit or line_cap < default_max_order(n_in):
+            notes.append(f"max_order reduced from {cap} to {line_cap}: the band holds {work.n_freq} lines "
+                         f"(the order must stay below half the number of lines)")
+        cap = line_cap
+    if cap < min_order:
+        raise IdentificationError(f"only {work.n_freq} lines in the band: too few for any model order", file=src)
+    step = 2 if n_in == 1 else 1
+    engine = PlscfEngine(work, cap)
+
+    def orders_to(n: int) -> list[int]:
+        return list(range(step, n + 1, step)) or [n]
+
+    def stabilized(n: int) -> StabilizationData:
+        return stabilize(engine.poles(orders_to(n), progress=progress),
+                         freq_tol=freq_tol, damping_tol=damping_tol, mac_tol=mac_tol)
+
+    candidates: tuple[Candidate, ...] = ()
+    converged = True
+    if selection is not None:
+        stab = stabilized(cap)
+        _require_stable(stab, cap, src, data)
         try:
             sel = resolve_selection(stab, selection, tol=near_tol, source=src)
         except IdentificationError as exc:
             raise IdentificationError(exc.message, file=src) from None
+    else:
+        # grow the order until the accepted mode set holds over one span of orders
+        start = min(default_max_order(n_in), cap)
+        span = max(2 * step, (start // 4) // step * step)
+        t0 = time.perf_counter()
+        prev_n = max(start - span, min_order)
+        n = start
+        prev: list[SelectedMode] | None = None
+        history = []
+        prev_order = prev_n
+        while True:
+            stab = stabilized(n)
+            clusters = cluster_poles(stab)
+            candidates = judge_clusters(stab, data, clusters=clusters)
+            cur = [c.mode for c in candidates if c.accepted]
+            history.append(f"{n}: {len(cur)}")
+            if prev is None:
+                # the orders up to prev_n are a leading part of the same estimate (same status
+                # letters, and the first rows of the pole set). When exactly the modes accepted
+                # now already pass the stability rules there (the same clusters cut to those
+                # orders), the LSFD verdicts, which judge the same modes, are taken over.
+                early = _up_to(stab, prev_n)
+                k = len(early)
+                cut = [r[r < k] for r in clusters if np.any(r < k)]
+                prev = [c.mode for c in judge_clusters(early, data, fit=False, clusters=cut) if c.accepted]
+                if not _same_modes(prev, cur):
+                    prev = [c.mode for c in judge_clusters(early, data) if c.accepted]
+            converged = bool(cur) and _same_modes(prev, cur)
+            if converged or n >= cap or time.perf_counter() - t0 > time_budget:
+                break
+            prev, prev_order, n = cur, n, min(n + span, cap)
+        _require_stable(stab, n, src, data)
+        notes.append(f"model order grown to {n} (modes per order: {', '.join(history)}); "
+                     + ("the mode set converged" if converged else "the mode set did NOT converge"))
+        if not converged:
+            why = "the order cap" if n >= cap else f"the time budget ({time_budget:g} s)"
+            warnings.append(f"the mode set did not converge up to order {n} (stopped by {why}): "
+                            f"{len(prev or [])} modes at order {prev_order}, {len(cur)} at order {n}")
+        sel = Selection(modes=tuple(cur), band=stab.band, max_order=n,
+                        tolerances=dict(stab.tolerances),
+                        in_dofs=tuple(str(d) for d in work.in_dofs), source=src)
+        if len(sel) == 0:
+            rejected = "; ".join(f"{c.natural_freq:.5g} Hz: {c.reason}" for c in candidates[:6])
+            raise IdentificationError(
+                f"no physical mode in the band {stab.band[0]:g}..{stab.band[1]:g} Hz up to order {n}"
+                + (f" (candidates rejected: {rejected})" if rejected else "") + _why(data),
+                file=src,
+            )
     # one LSFD pole per mode; sorted by |pole| so the spreads align with the modal model
     modes = sorted(sel.modes, key=lambda m: abs(m.pole))
     unique: dict[complex, SelectedMode] = {}
@@ -229,19 +424,94 @@ def identify(
     modes = list(unique.values())
     model = lsfd(data, [m.pole for m in modes], residuals=residuals)
     meta = dict(model.meta)
-    meta.update({"max_order": int(max_order), "selection": sel.to_dict()})
-    from dataclasses import replace
-
+    meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed})
     model = replace(model, meta=meta)
-    return Identification(
-        poles=poles,
+    fit = model.fit_error if model.fit_error is not None else np.zeros((1, 1))
+    med = float(np.median(fit))
+    if med > POOR_FIT:
+        warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
+                        f"(above {100 * POOR_FIT:.0f} %); modes may be missing or the data noisy")
+    warnings += _edge_warnings(modes, stab.band)
+    ident = Identification(
+        poles=stab.poles,
         stabilization=stab,
         selection=sel,
         modes=model,
         natural_freq_std=np.array([m.natural_freq_std for m in modes]),
         damping_ratio_std=np.array([m.damping_ratio_std for m in modes]),
-        band=fband,
+        band=stab.band,
+        candidates=candidates,
+        converged=converged,
+        warnings=tuple(warnings),
+        notes=tuple(notes),
+        transposed=transposed,
+    )
+    # ---- optional maximum-likelihood refinement (issue 10) ----
+    if refine:
+        ident = _refined(ident, data)
+    return ident
+
+
+def _refined(ident: Identification, data: FRFData) -> Identification:
+    """``ident`` with the ML-refined modes and their standard deviations, or unchanged with a warning."""
+    import warnings
+
+    from ..errors import IdentificationWarning
+    from .refine import refine as refine_model
+
+    ref = refine_model(data, ident.modes)
+    if not ref.converged:
+        warnings.warn(
+            f"{source_of(data) or 'data'}: ML refinement fell back to PolyMAX ({ref.reason}); "
+            "the standard deviations are the pole-cluster spreads",
+            IdentificationWarning,
+            stacklevel=3,
+        )
+        return replace(ident, refinement=ref, warnings=ident.warnings + (
+            f"ML refinement fell back to PolyMAX ({ref.reason})",))
+    carried = []
+    for w in ref.warnings:
+        if "kept at its PolyMAX pole" in w:
+            w += " (its standard deviations are the pole-cluster spread)"
+        warnings.warn(f"{source_of(data) or 'data'}: {w}", IdentificationWarning, stacklevel=3)
+        carried.append(w)
+    # modes kept at their PolyMAX pole keep their cluster spread
+    return replace(
+        ident,
+        modes=ref.model,
+        natural_freq_std=np.where(np.isnan(ref.natural_freq_std), ident.natural_freq_std, ref.natural_freq_std),
+        damping_ratio_std=np.where(np.isnan(ref.damping_ratio_std), ident.damping_ratio_std, ref.damping_ratio_std),
+        refinement=ref,
+        warnings=ident.warnings + tuple(carried),
     )
 
 
-__all__ = ["Identification", "identify"]
+def _up_to(stab: StabilizationData, n: int) -> StabilizationData:
+    """The rows of ``stab`` of the orders up to ``n`` (their status letters do not depend on later orders)."""
+    ps = stab.poles
+    keep = ps.order <= n  # a prefix: the pole set is stored order by order, ascending
+    sub = PoleSet(order=ps.order[keep], pole=ps.pole[keep], participation=ps.participation[keep], band=ps.band,
+                  in_dofs=ps.in_dofs, orders=tuple(o for o in ps.orders if o <= n), meta=ps.meta)
+    return StabilizationData(sub, stab.status[keep], stab.tolerances)
+
+
+def _why(data: FRFData) -> str:
+    """What in the FRFs makes them untrustworthy (phase, coherence), as a clause for a refusal."""
+    from .diagnose import diagnose_frf
+
+    findings = diagnose_frf(data)
+    return ("; the measurement itself is suspect: " + "; ".join(findings)) if findings else ""
+
+
+def _require_stable(stab: StabilizationData, n: int, src: str | None, data: FRFData) -> None:
+    n_stable = int(np.sum(np.isin(stab.status, ["s", "d", "v", "f"])))
+    if n_stable == 0:
+        fband = stab.band
+        raise IdentificationError(
+            f"no stable pole in the band {fband[0]:g}..{fband[1]:g} Hz up to order {n} "
+            f"({len(stab)} poles, {int(np.sum(stab.unstable))} of them unstable)" + _why(data),
+            file=src,
+        )
+
+
+__all__ = ["Identification", "default_order_cap", "identify", "transpose_layout"]

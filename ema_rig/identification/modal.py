@@ -191,13 +191,18 @@ class ModalModel:
         h = np.einsum("rij,rk->ijk", self.residues, basis) + np.einsum(
             "rij,rk->ijk", self.residues.conj(), basis_c
         )
-        if residuals:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                inv_jw2 = np.where(jw != 0, 1.0 / np.where(jw != 0, jw, 1.0) ** 2, np.nan)
-            h = h + self.lower_residual[:, :, None] * inv_jw2 + self.upper_residual[:, :, None]
         p = _FORM_POWER[form]
-        if p:
-            h = h * jw**p
+        fac = np.ones_like(jw)
+        for _ in range(p):
+            fac = fac * jw
+        h = h * fac
+        if residuals:
+            # LR (j w)^(p-2): finite at 0 Hz for accelerance (p = 2), a true pole there otherwise
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lr = np.ones_like(jw) if p == 2 else fac / (jw * jw)
+            lr_term = self.lower_residual[:, :, None] * lr
+            lr_term = np.where(self.lower_residual[:, :, None] == 0, 0.0, lr_term)
+            h = h + lr_term + self.upper_residual[:, :, None] * fac
         return FRFData(f, h, self.out_dofs, self.in_dofs, frf_form=form, roles=self.roles, axes=self.axes)
 
     def to_records(self) -> list[dict[str, Any]]:

@@ -147,6 +147,8 @@ class PoleSet:
     in_dofs: tuple[DOF, ...] = ()
     orders: tuple[int, ...] = ()
     meta: Mapping[str, Any] = field(default_factory=dict)
+    _fn: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _zeta: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         order = np.asarray(self.order, dtype=np.int64).reshape(-1).copy()
@@ -167,6 +169,14 @@ class PoleSet:
         orders = self.orders or tuple(int(o) for o in np.unique(order))
         object.__setattr__(self, "orders", tuple(int(o) for o in orders))
         object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+        # derived columns, computed once (the selection reads them per cluster)
+        fn = np.abs(pole) / (2 * np.pi)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            zeta = -pole.real / np.abs(pole)
+        fn.setflags(write=False)
+        zeta.setflags(write=False)
+        object.__setattr__(self, "_fn", fn)
+        object.__setattr__(self, "_zeta", zeta)
 
     def __len__(self) -> int:
         return int(self.pole.size)
@@ -178,14 +188,13 @@ class PoleSet:
 
     @property
     def natural_freq(self) -> NDArray[np.float64]:
-        """``|lambda| / 2 pi`` [Hz], shape (n_poles,)."""
-        return np.abs(self.pole) / (2 * np.pi)
+        """``|lambda| / 2 pi`` [Hz], shape (n_poles,) (read-only)."""
+        return self._fn
 
     @property
     def damping_ratio(self) -> NDArray[np.float64]:
-        """``-Re(lambda) / |lambda|`` [-], shape (n_poles,)."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return -self.pole.real / np.abs(self.pole)
+        """``-Re(lambda) / |lambda|`` [-], shape (n_poles,) (read-only)."""
+        return self._zeta
 
     def at_order(self, order: int) -> NDArray[np.intp]:
         """Row indices of the poles of one model order, by increasing frequency."""
@@ -465,20 +474,10 @@ def _poles_of_order(
     return s + 2j * np.pi * f_lo, part
 
 
-class _Done:
-    """A finished result with the ``Future.result()`` interface."""
-
-    def __init__(self, value: tuple[NDArray, NDArray]) -> None:
-        self._value = value
-
-    def result(self) -> tuple[NDArray, NDArray]:
-        return self._value
-
-
 def _normalise_orders(orders: Iterable[int] | None, max_order: int, n_in: int) -> list[int]:
     if orders is None:
         step = 2 if n_in == 1 else 1
-        return list(range(step, max_order + 1, step))
+        return list(range(step, max_order + 1, step)) or [max_order]
     out = sorted({int(o) for o in orders})
     if not out or out[0] < 1 or out[-1] > max_order:
         raise ValueError(f"orders must lie in 1..max_order={max_order}, got {orders!r}")
@@ -557,98 +556,187 @@ def plscf(
     if max_order < 1:
         raise ValueError(f"max_order must be >= 1, got {max_order}")
     data = check_data(data, band)
-    src = source_of(data)
-    n_in = data.n_in
-    if data.n_freq <= 2 * max_order:
-        raise IdentificationError(
-            f"too few lines for max_order={max_order}: {data.n_freq} lines in "
-            f"{data.freq[0]:g}..{data.freq[-1]:g} Hz, need more than {2 * max_order}",
-            file=src,
-        )
-    order_list = _normalise_orders(orders, max_order, n_in)
-    p = order_list[-1]
-    f_lo, f_hi = float(data.freq[0]), float(data.freq[-1])
+    order_list = _normalise_orders(orders, max_order, data.n_in)
+    engine = PlscfEngine(data, order_list[-1], root_finder=root_finder, threads=threads)
+    return engine.poles(order_list, progress=progress)
 
-    if root_finder not in ("aberth", "eig"):
-        raise ValueError(f"root_finder must be 'aberth' or 'eig', got {root_finder!r}")
-    nthreads = threads if threads is not None else min(2, os.cpu_count() or 1)
 
-    def work(n: int, low: NDArray, high: NDArray) -> tuple[NDArray, NDArray]:
+class PlscfEngine:
+    """pLSCF on one band, evaluated order by order up to a cap (the incremental form of :func:`plscf`).
+
+    The lag sums, the Cholesky factor of ``R`` and ``Q = L^-1 S`` are formed once for the cap
+    ``max_order``; the reduced matrix of every lower order is a leading block of the cap's
+    (see the module notes), so asking for more orders later (:meth:`poles` with higher
+    orders) only costs the new orders' solves and roots.
+
+    Parameters
+    ----------
+    data : FRFData
+        Checked data already cut to the band (:func:`check_data`).
+    max_order : int
+        Cap on the model order; ``data.n_freq`` must exceed ``2 * max_order``.
+    root_finder : {'aberth', 'eig'}, optional
+    threads : int, optional
+        See :func:`plscf`.
+
+    Raises
+    ------
+    IdentificationError
+        Too few lines for ``max_order``.
+    """
+
+    def __init__(self, data: FRFData, max_order: int, *, root_finder: str = "aberth",
+                 threads: int | None = None) -> None:
+        if root_finder not in ("aberth", "eig"):
+            raise ValueError(f"root_finder must be 'aberth' or 'eig', got {root_finder!r}")
+        max_order = int(max_order)
+        if max_order < 1:
+            raise ValueError(f"max_order must be >= 1, got {max_order}")
+        src = source_of(data)
+        if data.n_freq <= 2 * max_order:
+            raise IdentificationError(
+                f"too few lines for max_order={max_order}: {data.n_freq} lines in "
+                f"{data.freq[0]:g}..{data.freq[-1]:g} Hz, need more than {2 * max_order}",
+                file=src,
+            )
+        self.data = data
+        self.max_order = max_order
+        self.root_finder = root_finder
+        self.threads = threads if threads is not None else min(2, os.cpu_count() or 1)
+        self.n_in = data.n_in
+        self.f_lo, self.f_hi = float(data.freq[0]), float(data.freq[-1])
         with single_threaded():
-            return _poles_of_order(low, high, dt, f_lo)
+            self._r, self._s, self._t, _, self.dt = _lag_sums(data, max_order)
+        self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
+        self._done = 0  # rows of Q already accumulated into P
+        self._last = 0  # highest order computed so far
+        self._prev: NDArray | None = None
+        self._rows: dict[int, tuple[NDArray, NDArray]] = {}
+        self.n_aberth = 0
+        self.fallbacks = 0
 
-    use_pool = root_finder == "eig" and nthreads > 1 and len(order_list) > 4
-    pool = ThreadPoolExecutor(max_workers=nthreads) if use_pool else None
-    futures: list[Any] = []
-    fallbacks = 0
-    n_aberth = 0
-    bar = None
-    if progress:
-        from tqdm import tqdm
+    def _blocks(self, n: int) -> None:
+        """Build (or enlarge) the reduced blocks so that orders up to ``n`` can be formed.
 
-        bar = tqdm(total=len(order_list), disable=None, desc="pLSCF orders")
-    try:
+        The blocks of order ``p`` are built from the lag sums of the cap; the leading rows of
+        ``Q`` and the leading blocks of ``T`` do not depend on ``p``, so enlarging only
+        re-accumulates ``P`` from the rows already used. The size at least doubles each time.
+        """
+        if n <= self._alloc:
+            return
+        p = min(self.max_order, max(n, 2 * self._alloc))
+        cap = self.max_order
+        lags = np.arange(cap - p, cap + p + 1)  # lags -p..p inside the cap's -cap..cap
+        self._T, self._Q = _reduced_blocks(self._r[: p + 1], self._s[:, :, lags], self._t[:, :, lags], p)
+        ncol = (p + 1) * self.n_in
+        self._P = np.zeros((ncol, ncol))
+        if self._done:
+            rows = self._Q[: self._done].reshape(-1, ncol)
+            self._P += rows.T @ rows
+        self._alloc = p
+
+    def _compute(self, order_list: list[int], bar: Any) -> None:
+        """Solve and root every order of ``order_list`` (ascending, above those already done)."""
+        n_in, dt, f_lo = self.n_in, self.dt, self.f_lo
         with single_threaded():
-            r, s, t, _, dt = _lag_sums(data, p)
-            T, Q = _reduced_blocks(r, s, t, p)
-            # accumulate M_n = T_n - sum_o Q_o[:n+1]^T Q_o[:n+1] order by order
-            ncol = (p + 1) * n_in
-            P = np.zeros((ncol, ncol))
-            done = 0
-            prev: NDArray | None = None
-            for n in order_list:
-                rows = Q[done : n + 1].reshape(-1, ncol)
-                if rows.size:
-                    P += rows.T @ rows
-                    done = n + 1
-                c = (n + 1) * n_in
-                low, high = _solve_order(T[:c, :c] - P[:c, :c], n, n_in)
-                if pool is not None:
-                    futures.append(pool.submit(work, n, low, high))
-                    continue
-                z = None
-                if root_finder == "aberth" and prev is not None and n * n_in >= _ABERTH_MIN_DEGREE:
-                    coef = det_coefficients(low)
-                    z = aberth(coef, warm_start(prev, coef.size - 1))
-                    n_aberth += z is not None
-                if z is None:
-                    fallbacks += prev is not None and root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
-                    z = _roots_eig(low)
-                prev = z
-                futures.append(_Done(_poles_of_order(low, high, dt, f_lo, z)))
+            self._blocks(order_list[-1])
+        ncol = self._P.shape[0]
+        pool = None
+        futures: list[tuple[int, Any]] = []
+        if self.root_finder == "eig" and self.threads > 1 and len(order_list) > 4:
+            pool = ThreadPoolExecutor(max_workers=self.threads)
+
+        def work(low: NDArray, high: NDArray) -> tuple[NDArray, NDArray]:
+            with single_threaded():
+                return _poles_of_order(low, high, dt, f_lo)
+
+        try:
+            with single_threaded():
+                for n in order_list:
+                    rows = self._Q[self._done : n + 1].reshape(-1, ncol)
+                    if rows.size:
+                        self._P += rows.T @ rows
+                        self._done = n + 1
+                    c = (n + 1) * n_in
+                    low, high = _solve_order(self._T[:c, :c] - self._P[:c, :c], n, n_in)
+                    self._last = n
+                    if pool is not None:
+                        futures.append((n, pool.submit(work, low, high)))
+                        continue
+                    z = None
+                    big = self.root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
+                    if big and self._prev is not None:
+                        coef = det_coefficients(low)
+                        z = aberth(coef, warm_start(self._prev, coef.size - 1))
+                        self.n_aberth += z is not None
+                        self.fallbacks += z is None
+                    if z is None:
+                        z = _roots_eig(low)
+                    self._prev = z
+                    self._rows[n] = _poles_of_order(low, high, dt, f_lo, z)
+                    if bar is not None:
+                        bar.update()
+            for n, fut in futures:
+                self._rows[n] = fut.result()
                 if bar is not None:
                     bar.update()
-        results = []
-        for f in futures:
-            results.append(f.result())
-            if bar is not None and pool is not None:
-                bar.update()
-    finally:
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
-        if bar is not None:
-            bar.close()
-    if fallbacks:
-        logger.debug("pLSCF: %d orders fell back to companion eigenvalues", fallbacks)
+        finally:
+            if pool is not None:
+                pool.shutdown(wait=True, cancel_futures=True)
 
-    o_rows, p_rows, l_rows = [], [], []
-    for n, (poles, part) in zip(order_list, results, strict=True):
-        fn = np.abs(poles) / (2 * np.pi)
-        keep = (fn >= f_lo) & (fn <= f_hi)
-        o_rows.append(np.full(int(keep.sum()), n))
-        p_rows.append(poles[keep])
-        l_rows.append(part[keep])
-    logger.debug("pLSCF: %d orders up to %d on %d lines", len(order_list), p, data.n_freq)
-    return PoleSet(
-        order=np.concatenate(o_rows) if o_rows else np.zeros(0, int),
-        pole=np.concatenate(p_rows) if p_rows else np.zeros(0, complex),
-        participation=np.concatenate(l_rows) if l_rows else np.zeros((0, n_in), complex),
-        band=(f_lo, f_hi),
-        in_dofs=data.in_dofs,
-        orders=tuple(order_list),
-        meta={"dt": dt, "n_freq": data.n_freq, "constraint": "alpha_0 = I (roots), polished on alpha_n = I", "root_finder": root_finder,
-              "aberth_orders": int(n_aberth), "fallbacks": int(fallbacks), "freq_shift": f_lo},
-    )
+    def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
+        """Poles of the given orders (computing those not yet computed).
+
+        Parameters
+        ----------
+        orders : iterable of int
+            Orders in ``1..max_order``; new ones must lie above every order computed so far.
+        progress : bool, optional
+            tqdm progress bar over the new orders.
+
+        Returns
+        -------
+        PoleSet
+        """
+        order_list = _normalise_orders(orders, self.max_order, self.n_in)
+        todo = [n for n in order_list if n not in self._rows]
+        if todo and todo[0] <= self._last:
+            raise ValueError(f"orders below {self._last + 1} can no longer be added, got {todo[0]}")
+        bar = None
+        if progress and todo:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(todo), disable=None, desc="pLSCF orders")
+        try:
+            if todo:
+                self._compute(todo, bar)
+        finally:
+            if bar is not None:
+                bar.close()
+        if self.fallbacks:
+            logger.debug("pLSCF: %d orders fell back to companion eigenvalues", self.fallbacks)
+        f_lo, f_hi, n_in = self.f_lo, self.f_hi, self.n_in
+        o_rows, p_rows, l_rows = [], [], []
+        for n in order_list:
+            poles, part = self._rows[n]
+            fn = np.abs(poles) / (2 * np.pi)
+            keep = (fn >= f_lo) & (fn <= f_hi)
+            o_rows.append(np.full(int(keep.sum()), n))
+            p_rows.append(poles[keep])
+            l_rows.append(part[keep])
+        logger.debug("pLSCF: %d orders up to %d on %d lines", len(order_list), order_list[-1], self.data.n_freq)
+        return PoleSet(
+            order=np.concatenate(o_rows) if o_rows else np.zeros(0, int),
+            pole=np.concatenate(p_rows) if p_rows else np.zeros(0, complex),
+            participation=np.concatenate(l_rows) if l_rows else np.zeros((0, n_in), complex),
+            band=(f_lo, f_hi),
+            in_dofs=self.data.in_dofs,
+            orders=tuple(order_list),
+            meta={"dt": self.dt, "n_freq": self.data.n_freq,
+                  "constraint": "alpha_0 = I (roots), polished on alpha_n = I",
+                  "root_finder": self.root_finder, "aberth_orders": int(self.n_aberth),
+                  "fallbacks": int(self.fallbacks), "freq_shift": f_lo},
+        )
 
 
-__all__ = ["PoleSet", "check_data", "default_max_order", "plscf"]
+__all__ = ["PlscfEngine", "PoleSet", "check_data", "default_max_order", "plscf"]

@@ -244,6 +244,9 @@ class SelectedMode:
         How the mode was chosen.
     participation : tuple of complex
         Participation vector of the representative pole.
+    order_min, order_max : int
+        Lowest and highest model order at which the mode's cluster has a pole (the orders
+        over which it is stable; 0 when unknown).
     """
 
     order: int
@@ -256,6 +259,8 @@ class SelectedMode:
     n_poles: int
     provenance: str = "auto"
     participation: tuple[complex, ...] = ()
+    order_min: int = 0
+    order_max: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (pole and participation as [re, im] pairs)."""
@@ -270,6 +275,8 @@ class SelectedMode:
             "n_poles": int(self.n_poles),
             "provenance": self.provenance,
             "participation": [[float(c.real), float(c.imag)] for c in self.participation],
+            "order_min": int(self.order_min),
+            "order_max": int(self.order_max),
         }
 
     @classmethod
@@ -290,6 +297,8 @@ class SelectedMode:
             n_poles=int(d.get("n_poles", 1)),
             provenance=prov,
             participation=tuple(complex(float(a), float(b)) for a, b in d.get("participation", [])),
+            order_min=int(d.get("order_min", 0)),
+            order_max=int(d.get("order_max", 0)),
         )
 
 
@@ -428,7 +437,17 @@ def _cluster_members(stab: StabilizationData, rows: NDArray[np.intp]) -> NDArray
     return rows[first]
 
 
-def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance: str) -> SelectedMode:
+def order_ranks(stab: StabilizationData) -> NDArray[np.intp]:
+    """For every row, its position among its order's poles sorted by frequency (all rows at once)."""
+    key = np.lexsort((stab.natural_freq, stab.order))
+    ranks = np.empty(len(stab), np.intp)
+    first = np.searchsorted(stab.order[key], stab.order[key], side="left")
+    ranks[key] = np.arange(key.size) - first
+    return ranks
+
+
+def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance: str,
+                    ranks: NDArray[np.intp] | None = None) -> SelectedMode:
     fn = stab.natural_freq[rows]
     zeta = stab.damping_ratio[rows]
     mf, mz = np.median(fn), np.median(zeta)
@@ -437,7 +456,7 @@ def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance:
     ddof = 1 if rows.size > 1 else 0
     return SelectedMode(
         order=int(stab.order[rep]),
-        index=stab.index_in_order(rep),
+        index=stab.index_in_order(rep) if ranks is None else int(ranks[rep]),
         pole=complex(stab.pole[rep]),
         natural_freq=float(fn.mean()),
         damping_ratio=float(zeta.mean()),
@@ -446,7 +465,81 @@ def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance:
         n_poles=int(rows.size),
         provenance=provenance,
         participation=tuple(complex(c) for c in stab.participation[rep]),
+        order_min=int(stab.order[rows].min()),
+        order_max=int(stab.order[rows].max()),
     )
+
+
+def _linkage_labels(
+    stab: StabilizationData, cand: NDArray[np.intp], freq_tol: float, damping_tol: float, mac_tol: float
+) -> NDArray[np.intp]:
+    """Average-linkage cluster labels of the candidate rows, cut at distance 1.
+
+    Candidates are sorted by frequency and cut wherever two neighbours are more than
+    ``freq_tol`` apart: every pair across such a gap is farther than 1, so average linkage
+    never joins them and each chunk is clustered on its own (linear in the number of chunks
+    instead of quadratic in the number of poles).
+    """
+    from scipy.cluster.hierarchy import fcluster, linkage
+
+    zeta = stab.damping_ratio
+    labels = np.zeros(cand.size, np.intp)
+    if cand.size == 0:
+        return labels
+    order = np.argsort(stab.natural_freq[cand], kind="stable")
+    fs = stab.natural_freq[cand[order]]
+    gap = np.diff(fs) / (0.5 * (fs[1:] + fs[:-1])) > freq_tol
+    starts = np.concatenate([[0], np.flatnonzero(gap) + 1, [cand.size]])
+    next_label = 1
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
+        idx = order[a:b]
+        if idx.size == 1:
+            labels[idx] = next_label
+            next_label += 1
+            continue
+        rows = cand[idx]
+        fn = stab.natural_freq[rows]
+        zc = zeta[rows]
+        df = np.abs(fn[:, None] - fn[None, :]) / (0.5 * (fn[:, None] + fn[None, :])) / freq_tol
+        dz = np.abs(zc[:, None] - zc[None, :]) / (0.5 * (zc[:, None] + zc[None, :])) / damping_tol
+        dist = np.maximum(df, dz)
+        if stab.poles.n_in > 1:
+            dist = np.maximum(dist, (1.0 - mac(stab.participation[rows])) / mac_tol)
+        if dist.max() <= 1.0:  # every pair within the tolerances: one cluster, as linkage would give
+            labels[idx] = next_label
+            next_label += 1
+            continue
+        iu = np.triu_indices(idx.size, 1)
+        lab = fcluster(linkage(dist[iu], method="average"), t=1.0, criterion="distance")
+        labels[idx] = lab + next_label - 1
+        next_label += int(lab.max())
+    return labels
+
+
+def cluster_poles(
+    stab: StabilizationData,
+    *,
+    statuses: Iterable[str] = ("s",),
+    freq_tol: float = 0.005,
+    damping_tol: float = 0.5,
+    mac_tol: float = 0.1,
+    max_damping: float = 0.2,
+) -> list[NDArray[np.intp]]:
+    """Every cluster of candidate poles (rows of ``stab``), one pole per order, by frequency.
+
+    Candidates are the poles with a status in ``statuses`` and damping in ``(0, max_damping]``;
+    clustering as in :func:`select_modes`, without any size threshold.
+    """
+    wanted = set(statuses)
+    if not wanted <= set(STATUS_LETTERS):
+        raise ValueError(f"statuses must be among {STATUS_LETTERS}, got {sorted(wanted)}")
+    zeta = stab.damping_ratio
+    cand = np.flatnonzero(
+        np.isin(stab.status, list(wanted)) & (zeta > 0) & (zeta <= max_damping) & ~stab.unstable
+    )
+    labels = _linkage_labels(stab, cand, freq_tol, damping_tol, mac_tol)
+    out = [_cluster_members(stab, cand[labels == lab]) for lab in np.unique(labels)]
+    return sorted(out, key=lambda r: float(np.median(stab.natural_freq[r])))
 
 
 def select_modes(
@@ -500,11 +593,6 @@ def select_modes(
     mean and standard deviation over those poles and, as its representative pole, the member
     closest to the cluster median.
     """
-    from scipy.cluster.hierarchy import fcluster, linkage
-
-    wanted = set(statuses)
-    if not wanted <= set(STATUS_LETTERS):
-        raise ValueError(f"statuses must be among {STATUS_LETTERS}, got {sorted(wanted)}")
     tol = {
         **dict(stab.tolerances),
         "cluster_freq_tol": freq_tol,
@@ -514,10 +602,8 @@ def select_modes(
         "min_poles": min_poles,
         "max_damping": max_damping,
     }
-    zeta = stab.damping_ratio
-    cand = np.flatnonzero(
-        np.isin(stab.status, list(wanted)) & (zeta > 0) & (zeta <= max_damping) & ~stab.unstable
-    )
+    clusters = cluster_poles(stab, statuses=statuses, freq_tol=freq_tol, damping_tol=damping_tol,
+                             mac_tol=mac_tol, max_damping=max_damping)
     sel_kw: dict[str, Any] = {
         "band": stab.band,
         "max_order": max(stab.orders) if stab.orders else 0,
@@ -525,26 +611,9 @@ def select_modes(
         "in_dofs": tuple(str(d) for d in stab.poles.in_dofs),
         "source": source,
     }
-    if cand.size == 0:
-        return Selection(modes=(), **sel_kw)
     need = max(min_poles, int(np.ceil(min_fraction * len(stab.orders))))
-    if cand.size == 1:
-        labels = np.array([1])
-    else:
-        fn = stab.natural_freq[cand]
-        zc = zeta[cand]
-        df = np.abs(fn[:, None] - fn[None, :]) / (0.5 * (fn[:, None] + fn[None, :])) / freq_tol
-        dz = np.abs(zc[:, None] - zc[None, :]) / (0.5 * (zc[:, None] + zc[None, :])) / damping_tol
-        dist = np.maximum(df, dz)
-        if stab.poles.n_in > 1:
-            dm = (1.0 - mac(stab.participation[cand])) / mac_tol
-            dist = np.maximum(dist, dm)
-        iu = np.triu_indices(cand.size, 1)
-        z = linkage(dist[iu], method="average")
-        labels = fcluster(z, t=1.0, criterion="distance")
     modes = []
-    for lab in np.unique(labels):
-        rows = _cluster_members(stab, cand[labels == lab])
+    for rows in clusters:
         if rows.size < need:
             continue
         m = _mode_from_rows(stab, rows, "auto")
@@ -744,6 +813,7 @@ __all__ = [
     "SelectedMode",
     "Selection",
     "StabilizationData",
+    "cluster_poles",
     "resolve_selection",
     "select_modes",
     "select_near",

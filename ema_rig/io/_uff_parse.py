@@ -38,6 +38,23 @@ _DELIM_AT = re.compile(rb"[ \t]*-1[ \t]*(?=\r|\n|\Z)")
 _DEXP = bytes.maketrans(b"dD", b"eE")
 _TYPE_LINE = re.compile(rb"^\s*(\d+)\s*([bB]?)")
 _ENTITY_DOF = re.compile(r"^\.?(\d+)\.?(RX|RY|RZ|X|Y|Z)([+-]?)$", re.I)
+# a byte that cannot be part of an ASCII data section (numbers incl. NaN/inf, blanks, line ends)
+_NOT_DATA = re.compile(rb"[^0-9eEdD+\-. \t\r\n\x0b\x0cnNaAiIfFtTyY]")
+# a closing -1 that follows a binary payload exactly (at most one line end before it)
+_CLOSE_EXACT = re.compile(rb"(?:\r\n|\r|\n)?[ \t]*-1[ \t]*(?:\r\n|\r|\n|\Z)")
+# what may follow a closing -1: blank lines, then the end of the file (after blanks, NULs or a
+# DOS end-of-file mark) or the next dataset's -1
+_AFTER_CLOSE = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*(?:[ \t\x00\x1a]*\Z|[ \t]*-1[ \t]*(?:\r|\n|\Z))")
+
+MAX_HEADER_LINE = 4096
+"""Longest header line accepted, in bytes (a UFF record is 80 columns)."""
+MAX_INT_CHARS = 11
+"""Longest integer field accepted in a header, in characters (sign and 10 digits)."""
+MAX_ASCII_HEADER_LINES = 1000
+"""Most header lines a 58b type line may announce (the format has 11)."""
+MAX_TEXT_KEPT = 16 << 20
+"""Datasets that are not parsed keep their text lines up to this many bytes."""
+_CHUNK = 1 << 20  # ASCII values are parsed in chunks of about this many bytes
 
 #: values per point: (is_complex, is_double) from the ordinate data type code
 ORD_TYPES: dict[int, tuple[bool, bool]] = {2: (False, False), 4: (False, True), 5: (True, False), 6: (True, True)}
@@ -95,14 +112,24 @@ def _next_line(buf: bytes, pos: int) -> tuple[bytes, int]:
     return buf[pos : m.start()], m.end()
 
 
+def _int(tok: str | bytes, what: str) -> int:
+    """One integer header field; too long (> MAX_INT_CHARS) or not an integer: refuse."""
+    t = tok.strip()
+    if len(t) > MAX_INT_CHARS:
+        head = t[:12].decode("latin-1") if isinstance(t, bytes) else t[:12]
+        raise _Refuse(f"{what}: integer field {head!r}... has {len(t)} characters (at most {MAX_INT_CHARS})")
+    try:
+        return int(t)
+    except ValueError:
+        shown = t[:40].decode("latin-1") if isinstance(t, bytes) else t[:40]
+        raise _Refuse(f"{what}: expected an integer, found {shown!r}") from None
+
+
 def _ints(text: str, n: int, what: str) -> list[int]:
     toks = text.split()
     if len(toks) < n:
-        raise _Refuse(f"{what}: expected {n} integers, found {text.strip()!r}")
-    try:
-        return [int(t) for t in toks[:n]]
-    except ValueError:
-        raise _Refuse(f"{what}: expected {n} integers, found {text.strip()!r}") from None
+        raise _Refuse(f"{what}: expected {n} integers, found {text.strip()[:80]!r}")
+    return [_int(t, what) for t in toks[:n]]
 
 
 def _parse_record6(line: str) -> dict[str, Any]:
@@ -115,12 +142,10 @@ def _parse_record6(line: str) -> dict[str, Any]:
         toks = line.split()
         if len(toks) != 10:
             raise _Refuse(
-                f"record 6 (function type, response/reference node and direction) unreadable: {line.strip()!r}"
+                "record 6 (function type, response/reference node and direction) unreadable: "
+                f"{line.strip()[:80]!r}"
             ) from None
-        try:
-            vals = [int(toks[i]) for i in (0, 1, 2, 3, 5, 6, 8, 9)]
-        except ValueError:
-            raise _Refuse(f"record 6 unreadable: {line.strip()!r}") from None
+        vals = [_int(toks[i], "record 6") for i in (0, 1, 2, 3, 5, 6, 8, 9)]
         ents = (toks[4], toks[7])
     keys = ("func_type", "func_id", "ver_num", "load_case_id", "rsp_node", "rsp_dir", "ref_node", "ref_dir")
     out: dict[str, Any] = dict(zip(keys, vals, strict=True))
@@ -132,11 +157,8 @@ def _parse_record7(line: bytes) -> dict[str, Any]:
     """Record 7: ordinate data type, num_pts, spacing, abscissa min/increment, z value."""
     toks = _NUM.findall(line.translate(_DEXP))
     if len(toks) < 5:
-        raise _Refuse(f"record 7 (data type, num_pts, spacing, abscissa) unreadable: {line.strip()!r}")
-    try:
-        ints = [int(t) for t in toks[:3]]
-    except ValueError:
-        raise _Refuse(f"record 7: data type, num_pts and spacing must be integers: {line.strip()!r}") from None
+        raise _Refuse(f"record 7 (data type, num_pts, spacing, abscissa) unreadable: {line.strip()[:80]!r}")
+    ints = [_int(t, "record 7 (data type, num_pts, spacing)") for t in toks[:3]]
     floats = [float(t) for t in toks[3:6]] + [0.0] * (6 - len(toks[:6]))
     return {
         "ord_data_type": ints[0],
@@ -208,26 +230,65 @@ def _parse_header(lines: list[bytes]) -> tuple[dict[str, Any], list[str], tuple[
     return h, notes, tuple(text)
 
 
-def _values_ascii(data: bytes, expected: int, last_line: bytes) -> tuple[NDArray[np.float64], list[str]]:
-    """Parse the ASCII values of a data section; exactly ``expected`` values or refuse."""
+def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDArray[np.float64], list[str]]:
+    """Parse the ASCII values in ``buf[start:end]``; exactly ``expected`` values or refuse.
+
+    The section is parsed in chunks of about 1 MB cut at blanks, so the memory used is the
+    float64 result plus one chunk's tokens, whatever the section holds; a section with more
+    values than announced is refused as soon as that is clear.
+    """
     notes: list[str] = []
-    data = data.translate(_DEXP)
-    toks = data.split()
-    try:
-        vals = np.array(toks, dtype=np.float64) if toks else np.empty(0)
-    except ValueError:
-        toks = _NUM.findall(data)
-        rest = _NUM.sub(b"", data).strip()
-        if rest:
-            bad = rest[:20].decode("latin-1")
-            raise _Refuse(f"data section holds text that is not a number: {bad!r}") from None
-        vals = np.array(toks, dtype=np.float64)
+    parts: list[NDArray[np.float64]] = []
+    count = 0
+    run_together = False
+    pos = start
+    while pos < end:
+        stop = min(end, pos + _CHUNK)
+        if stop < end:  # cut after the last blank of the window
+            for blank in (b"\n", b" ", b"\r", b"\t"):
+                cut = buf.rfind(blank, pos, stop)
+                if cut > pos:
+                    break
+            if cut <= pos:
+                bad = _NOT_DATA.search(buf, pos, stop)
+                if bad is not None:
+                    shown = buf[bad.start() : bad.start() + 20].decode("latin-1")
+                    raise _Refuse(f"data section holds text that is not a number: {shown!r}")
+                raise _Refuse(f"data section holds a run of over {_CHUNK} characters without a blank")
+            stop = cut + 1
+        chunk = buf[pos:stop]
+        pos = stop
+        if b"_" in chunk:  # float() would read "1_000" as 1000
+            raise _Refuse("data section holds text that is not a number: '_'")
+        if b"d" in chunk or b"D" in chunk:
+            chunk = chunk.translate(_DEXP)
+        toks = chunk.split()
+        if not toks:
+            continue
+        try:
+            arr = np.array(toks, dtype=np.float64)
+        except ValueError:
+            toks = _NUM.findall(chunk)
+            bad = _NOT_DATA.search(chunk)
+            rest = _NUM.sub(b"", chunk).strip() if bad is None else chunk[bad.start() : bad.start() + 20]
+            if rest:
+                raise _Refuse(f"data section holds text that is not a number: {rest[:20].decode('latin-1')!r}") from None
+            arr = np.array(toks, dtype=np.float64)
+            run_together = True
+        count += arr.size
+        if count > expected + 4096:
+            raise _Refuse(f"more than {count} values present but the header announces {expected}")
+        parts.append(arr)
+    if run_together:
         notes.append("numbers run together without blanks; split by number syntax")
+    vals = np.concatenate(parts) if parts else np.empty(0)
     n = vals.size
     if n < expected:
         raise _Refuse(f"only {n} of {expected} values present (truncated data)")
     if n > expected:
         extra = n - expected
+        tail = buf[max(start, end - 65536) : end].rstrip()
+        last_line = tail[max(tail.rfind(b"\n"), tail.rfind(b"\r")) + 1 :]
         n_last = len(_NUM.findall(last_line.translate(_DEXP)))
         if extra <= n_last and not np.any(vals[expected:]):
             notes.append(f"last line zero-padded: {extra} trailing zero(s) past num_pts ignored")
@@ -360,19 +421,25 @@ def scan(buf: bytes) -> list[RawDataset]:
             break
         start = start_or_none
         _, p = _next_line(buf, start)
-        type_line, p_hdr = _next_line(buf, p)
         if p >= n:
             break
+        try:
+            type_line, p_hdr = _line_limited(buf, p, n)
+        except _Refuse as exc:
+            ds, pos = _refuse_until_delim(buf, p, len(out), start, None, False, f"dataset type line: {exc}")
+            out.append(ds)
+            continue
         tm = _TYPE_LINE.match(type_line)
         if type_line.strip() == b"-1":
             # two delimiters in a row (an end followed by a start): start again at the second
             pos = p
             continue
         index = len(out)
-        if tm is None:
+        if tm is None or len(tm.group(1)) > 6:
+            what = "is not a number" if tm is None else f"holds a {len(tm.group(1))}-digit number"
             ds, pos = _refuse_until_delim(
                 buf, p_hdr, index, start, None, False,
-                f"dataset type line {type_line[:20].decode('latin-1').strip()!r} is not a number",
+                f"dataset type line {type_line[:20].decode('latin-1').strip()!r} {what}",
             )
             out.append(ds)
             continue
@@ -384,6 +451,16 @@ def scan(buf: bytes) -> list[RawDataset]:
             ds, pos = _read_ascii(buf, dtype, binary, p_hdr, index, start)
         out.append(ds)
     return out
+
+
+def _line_limited(buf: bytes, pos: int, end: int) -> tuple[bytes, int]:
+    """Like :func:`_next_line` within ``buf[:end]``, refusing a line over MAX_HEADER_LINE bytes."""
+    m = _EOL.search(buf, pos, min(end, pos + MAX_HEADER_LINE + 2))
+    if m is None:
+        if end - pos > MAX_HEADER_LINE:
+            raise _Refuse(f"header line longer than {MAX_HEADER_LINE} bytes (not a UFF header)")
+        return buf[pos:end], end
+    return buf[pos : m.start()], m.end()
 
 
 def _refuse_until_delim(
@@ -405,40 +482,52 @@ def _read_ascii(buf: bytes, dtype: int, binary: bool, p: int, index: int, start:
     """An ASCII dataset: lines up to the closing delimiter."""
     d = _find_delim(buf, p)
     notes: list[str] = []
+    no_close = "no closing -1 delimiter before the end of the file (truncated file?)"
     if d is None:
-        body_end, pos = len(buf), len(buf)
-        notes.append("no closing -1 delimiter (end of file)")
+        # the end of the file may cut the last value (19.6 for 19.625): nothing can vouch for it;
+        # a dataset 58 is still parsed to say what else is wrong (a short value count ...)
+        body_end = pos = len(buf)
     else:
         body_end = d
         _, pos = _next_line(buf, d)
         # a missing closing -1: the delimiter found is the next dataset's opening one
-        nxt, _ = _next_line(buf, pos)
-        if pos < len(buf) and _looks_like_new_dataset(nxt):
+        nxt, _ = _next_line(buf, pos) if pos < len(buf) else (b"", pos)
+        if pos < len(buf) and _looks_like_new_dataset(nxt[:80]):
             notes.append("closing -1 delimiter missing; the next dataset starts right after the data")
             pos = d
+    if d is None and (binary or dtype != 58):
+        return RawDataset(index, dtype, binary, start, "refused", no_close), pos
     if binary:
         return RawDataset(index, dtype, binary, start, "refused", f"binary dataset {dtype}b not supported"), pos
     if dtype == 58:
         h: dict[str, Any] = {}
         lines: list[bytes] = []
         q = p
-        while len(lines) < 11 and q < body_end:
-            ln, q = _next_line(buf, q)
-            lines.append(ln)
         try:
+            while len(lines) < 11 and q < body_end:
+                ln, q = _line_limited(buf, q, body_end)
+                lines.append(ln)
             h, hn, text = _parse_header(lines)
             notes.extend(hn)
             _check_header_values(h)
             is_complex, _ = ORD_TYPES[h["ord_data_type"]]
             per = (2 if is_complex else 1) + (0 if h["abscissa_spacing"] == 1 else 1)
-            data = buf[q:body_end].rstrip()
-            last = data[max(data.rfind(b"\n"), data.rfind(b"\r")) + 1 :]
-            vals, vn = _values_ascii(data, h["num_pts"] * per, last)
+            vals, vn = _values_ascii(buf, q, body_end, h["num_pts"] * per)
             notes.extend(vn)
             x, y = _finish58(h, vals, None)
         except _Refuse as exc:
-            return RawDataset(index, 58, False, start, "refused", str(exc), h, notes=tuple(notes)), pos
+            reason = str(exc) if d is not None else f"{exc}; {no_close}"
+            return RawDataset(index, 58, False, start, "refused", reason, h, notes=tuple(notes)), pos
+        if d is None:
+            return RawDataset(index, 58, False, start, "refused", f"{no_close}: the last value may be cut", h,
+                              notes=tuple(notes)), pos
         return RawDataset(index, 58, False, start, "read", None, h, x, y, tuple(notes), text), pos
+    if body_end - p > MAX_TEXT_KEPT:
+        if dtype == 164:
+            reason = f"dataset 164 holds {body_end - p} bytes (3 short records expected)"
+            return RawDataset(index, 164, False, start, "refused", reason), pos
+        notes.append(f"{body_end - p} bytes of text not kept (more than {MAX_TEXT_KEPT})")
+        return RawDataset(index, dtype, False, start, "read", None, {}, notes=tuple(notes)), pos
     lines = _EOL.split(buf[p:body_end])
     if lines and lines[-1] == b"":
         lines.pop()
@@ -454,7 +543,7 @@ def _read_ascii(buf: bytes, dtype: int, binary: bool, p: int, index: int, start:
 
 def _looks_like_new_dataset(line: bytes) -> bool:
     """A type line of a known dataset (a bare integer, optionally with 'b', and nothing else numeric)."""
-    m = re.fullmatch(rb"\s*(\d+)([bB]?)\s*", line) or re.fullmatch(rb"\s*(58)([bB])\s.*", line)
+    m = re.fullmatch(rb"\s*(\d{1,6})([bB]?)\s*", line) or re.fullmatch(rb"\s*(58)([bB])\s.*", line)
     return m is not None and int(m.group(1)) in (15, 18, 55, 58, 82, 151, 164, 1858, 2400, 2411, 2412, 2414, 2420)
 
 
@@ -463,32 +552,35 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
     n = len(buf)
     toks = type_line.split()
     notes: list[str] = []
-    try:
-        bo, fp, n_ascii, n_bytes = (int(t) for t in toks[1:5])
-    except ValueError:
-        return _refuse_until_delim(
-            buf, p, index, start, 58, True,
-            f"58b header line unreadable (byte order, format, ascii lines, bytes): {type_line.strip()[:60]!r}",
-        )
     if len(toks) < 5:
         return _refuse_until_delim(buf, p, index, start, 58, True, "58b header line has fewer than 5 fields")
+    try:
+        bo, fp, n_ascii, n_bytes = (_int(t, "58b header line") for t in toks[1:5])
+    except _Refuse as exc:
+        return _refuse_until_delim(
+            buf, p, index, start, 58, True,
+            f"58b header line unreadable (byte order, format, ascii lines, bytes): {exc}",
+        )
     if bo not in (1, 2):
         return _refuse_until_delim(buf, p, index, start, 58, True, f"58b byte order code {bo} (must be 1 or 2)")
     if fp != 2:
         return _refuse_until_delim(
             buf, p, index, start, 58, True, f"58b floating-point format {fp} is not IEEE 754 (2)"
         )
-    if n_ascii < 11:
-        return _refuse_until_delim(buf, p, index, start, 58, True, f"58b announces {n_ascii} header lines (< 11)")
+    if not 11 <= n_ascii <= MAX_ASCII_HEADER_LINES:
+        return _refuse_until_delim(
+            buf, p, index, start, 58, True,
+            f"58b announces {n_ascii} header lines (11 expected, at most {MAX_ASCII_HEADER_LINES} accepted)",
+        )
     lines: list[bytes] = []
     q = p
-    for _ in range(n_ascii):
-        if q >= n:
-            break
-        ln, q = _next_line(buf, q)
-        lines.append(ln)
     h: dict[str, Any] = {"byte_ordering": bo, "fp_format": fp, "n_ascii_lines": n_ascii, "n_bytes": n_bytes}
     try:
+        for _ in range(n_ascii):
+            if q >= n:
+                break
+            ln, q = _line_limited(buf, q, n)
+            lines.append(ln)
         hh, hn, text = _parse_header(lines)
         h.update(hh)
         notes.extend(hn)
@@ -498,9 +590,12 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
     layouts = _binary_layouts(h)
     chosen = next((lay for lay in layouts if lay[1] == n_bytes), None)
     if chosen is None:
-        # header byte count wrong (e.g. pyuff's writer): accept a layout framed exactly by -1
+        # header byte count wrong (e.g. pyuff's writer): accept a layout only if the closing -1
+        # follows its payload exactly (at most one line end) and the next dataset or the end of
+        # the file follows that -1; a num_pts one too many would otherwise swallow the closing
+        # -1 as a value and take the next dataset's opening -1 for the close
         for lay in layouts:
-            if _delim_after(buf, q + lay[1]) is not None:
+            if q + lay[1] <= n and _close_exactly(buf, q + lay[1]) is not None:
                 chosen = lay
                 notes.append(f"header byte count {n_bytes} is wrong; num_pts and data type give {lay[1]}")
                 break
@@ -509,7 +604,8 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
         return _refuse_until_delim(
             buf, q, index, start, 58, True,
             f"header byte count {n_bytes} does not match num_pts={h['num_pts']} and data type "
-            f"{h['ord_data_type']} ({need} bytes); try pyuff.fix_58b if the file was rewritten in text mode",
+            f"{h['ord_data_type']} ({need} bytes) and no closing -1 follows such a payload exactly; "
+            "try pyuff.fix_58b if the file was rewritten in text mode",
             h,
         )
     xs, nb = chosen
@@ -526,6 +622,18 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
             "try pyuff.fix_58b)",
             h,
         )
+    if _AFTER_CLOSE.match(buf, end[1]) is None:
+        # the -1 taken for the close is followed by a dataset body: it was the next dataset's
+        # opening -1 and the payload swallowed the real close; resume the scan at that -1 line
+        resume = end[0]
+        while resume > 0 and buf[resume - 1] in (32, 9):
+            resume -= 1
+        return RawDataset(
+            index, 58, True, start, "refused",
+            f"the -1 after {nb} bytes of binary data is followed by more data, not by the next dataset "
+            "or the end of the file (num_pts or byte count too large?)",
+            h,
+        ), resume
     gap = buf[q + nb : end[0]]
     if gap:
         notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
@@ -534,6 +642,15 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
     vals, x_vals = _values_binary(h, buf[q : q + nb], xs, "<" if bo == 1 else ">")
     x, y = _finish58(h, vals, x_vals)
     return RawDataset(index, 58, True, start, "read", None, h, x, y, tuple(notes), text), end[1]
+
+
+def _close_exactly(buf: bytes, p: int) -> tuple[int, int] | None:
+    """(start, end) of a closing -1 line right at ``p`` (after at most one line end) that is
+    followed by the end of the file or the next dataset's opening -1, else None."""
+    m = _CLOSE_EXACT.match(buf, p)
+    if m is None or _AFTER_CLOSE.match(buf, m.end()) is None:
+        return None
+    return m.start(), m.end()
 
 
 def _delim_after(buf: bytes, p: int) -> tuple[int, int] | None:

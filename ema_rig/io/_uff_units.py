@@ -46,6 +46,13 @@ _CODE_NAMES = {
     15: "pressure", 16: "mass", 17: "time", 18: "frequency", 19: "rpm", 20: "order",
 }
 _NO_LABEL = {"", "none", "nounits", "-", "n/a", "unknown"}
+MAX_UNIT_POWER = 12
+"""Largest exponent magnitude accepted in a unit label or a header unit exponent (real units
+use 1..3); beyond it a label such as ``mm^120*m^-119`` would give a factor of 0 or overflow."""
+
+
+class UnitRangeError(ValueError):
+    """A unit label or unit exponent is out of range (the factor would be 0, inf or overflow)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,12 +70,18 @@ def parse_unit(label: str) -> Unit | None:
     ----------
     label : str
         E.g. ``"m/s^2"``, ``"g"``, ``"(m/s)/N"``, ``"mm/s2"``, ``"(1/N)*(m/s²)"``.
+
+    Raises
+    ------
+    UnitRangeError
+        A label that is understood but whose exponents exceed ``MAX_UNIT_POWER`` (``mm^-999/N``).
     """
     s = label.strip().lower()
     if s in _NO_LABEL:
         return None
     s = s.replace("²", "^2").replace("³", "^3").replace("µ", "u").replace("μ", "u").replace("**", "^")
     s = s.replace(" ", "")
+    shown = label.strip()
     toks: list[tuple[str, str | None]] = []
     pos = 0
     while pos < len(s):
@@ -86,6 +99,8 @@ def parse_unit(label: str) -> Unit | None:
         pos = m.end()
     try:
         unit, rest = _expr(toks, 0)
+    except UnitRangeError as exc:
+        raise UnitRangeError(f"unit label {shown!r}: {exc}") from None
     except (KeyError, IndexError, ValueError):
         return None
     if rest != len(toks):
@@ -93,13 +108,30 @@ def parse_unit(label: str) -> Unit | None:
     return unit
 
 
+def _checked(dims: tuple[int, ...], factor: float, what: str) -> Unit:
+    """A Unit whose exponents and factor are in range (UnitRangeError otherwise)."""
+    if any(abs(x) > MAX_UNIT_POWER for x in dims):
+        raise UnitRangeError(f"{what} gives a unit exponent beyond {MAX_UNIT_POWER}")
+    if not (math.isfinite(factor) and factor > 0.0):
+        raise UnitRangeError(f"{what} gives a conversion factor {factor:g}")
+    return Unit(dims, factor)  # type: ignore[arg-type]
+
+
 def _mul(a: Unit, b: Unit, sign: int) -> Unit:
     d = tuple(x + sign * y for x, y in zip(a.dims, b.dims, strict=True))
-    return Unit(d, a.factor * b.factor**sign)  # type: ignore[arg-type]
+    return _checked(d, a.factor * (b.factor if sign > 0 else 1.0 / b.factor), "a product of units")
 
 
 def _pow(u: Unit, p: int) -> Unit:
-    return Unit(tuple(x * p for x in u.dims), u.factor**p)  # type: ignore[arg-type]
+    if abs(p) > MAX_UNIT_POWER:
+        raise UnitRangeError(f"exponent {p} out of range (at most {MAX_UNIT_POWER} in magnitude)")
+    dims = tuple(x * p for x in u.dims)
+    _checked(dims, 1.0, f"exponent {p}")  # exponents first: then the power below cannot overflow...
+    try:
+        factor = u.factor**p
+    except OverflowError:  # ...unless the factor itself is extreme (a product of many prefixes)
+        factor = math.inf
+    return _checked(dims, factor, f"exponent {p}")
 
 
 def _term(toks: list[tuple[str, str | None]], i: int) -> tuple[Unit, int]:
@@ -109,12 +141,18 @@ def _term(toks: list[tuple[str, str | None]], i: int) -> tuple[Unit, int]:
         if toks[j][0] != ")":
             raise ValueError("unbalanced")
         p = toks[j][1]
-        return (_pow(u, int(p)) if p else u), j + 1
+        return (_pow(u, _power(p)) if p else u), j + 1
     if name == "1":
         return Unit((0, 0, 0), 1.0), i + 1
     dims, fac = _ATOMS[name]
     u = Unit(dims, fac)
-    return (_pow(u, int(power)) if power else u), i + 1
+    return (_pow(u, _power(power)) if power else u), i + 1
+
+
+def _power(text: str) -> int:
+    if len(text.lstrip("-")) > 3:
+        raise UnitRangeError(f"exponent {text[:12]}... out of range (at most {MAX_UNIT_POWER} in magnitude)")
+    return int(text)
 
 
 def _expr(toks: list[tuple[str, str | None]], i: int) -> tuple[Unit, int]:
@@ -154,6 +192,8 @@ def decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str |
     decide anything, but the disagreement is added to the decision text.
     """
     dec = _decide(h, units164, preference)
+    if not (math.isfinite(dec.factor) and dec.factor > 0.0):
+        raise UnitRangeError(f"unit conversion factor {dec.factor:g} is not finite and positive ({dec.text})")
     lab = h.get("ordinate_axis_lab", "")
     named = next((f for w, f in _AXIS_WORDS.items() if w in lab.lower()), None)
     if named is not None and named != dec.frf_form:
@@ -264,10 +304,23 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
     n_force = h["ordinate_force_unit_exp"]
     d_len = h["orddenom_len_unit_exp"]
     d_force = h["orddenom_force_unit_exp"] or 1
+    for name, e in (("ordinate length", n_len), ("ordinate force", n_force),
+                    ("denominator length", d_len), ("denominator force", d_force)):
+        if abs(e) > MAX_UNIT_POWER:
+            raise UnitRangeError(
+                f"{name} unit exponent {e} out of range (at most {MAX_UNIT_POWER} in magnitude) for the "
+                "dataset 164 conversion"
+            )
     lf, ff = units164["length_factor"], units164["force_factor"]
-    fac = 1.0 / (lf ** (n_len - d_len) * ff ** (n_force - d_force))
+    try:
+        fac = 1.0 / (lf ** (n_len - d_len) * ff ** (n_force - d_force))
+    except (OverflowError, ZeroDivisionError):
+        fac = math.nan
     if not math.isfinite(fac) or fac <= 0:
-        raise ValueError("dataset 164 unit factors give a non-finite conversion")
+        raise UnitRangeError(
+            f"dataset 164 unit factors (length {lf:g}, force {ff:g}) with exponents length {n_len - d_len}, "
+            f"force {n_force - d_force} give no finite non-zero conversion"
+        )
     text += (
         f"; units of dataset 164 ({units164['unit_description']}: length factor {lf:.10g}, force factor "
         f"{ff:.10g}) with exponents length {n_len - d_len}, force {n_force - d_force}: x {fac:.10g} to SI"

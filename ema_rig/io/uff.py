@@ -20,19 +20,25 @@ UFFRecord, UFFFile
 
 Notes
 -----
-Only function type 4 (frequency response function) is assembled into ``FRFData``. Type 3
-(cross spectrum) is a spectrum, not a ratio to force, and its scaling depends on the analyser's
-averaging; it is listed by :func:`read_uff` like time data, coherence and PSDs.
+Only function type 4 (frequency response function) is assembled into ``FRFData``; coherence
+datasets (type 6) of the same pairs are attached to it as ``FRFData.coherence``. Type 3 (cross
+spectrum) is a spectrum, not a ratio to force, and its scaling depends on the analyser's
+averaging; it is listed by :func:`read_uff` like time data and PSDs.
 
 Every dataset is checked against its header: exactly ``num_pts`` values (a zero-padded last line
 is trimmed, anything else refused), the 58b byte count, the dataset framing (a 58b payload is
 framed by its byte count, so a ``-1`` byte pattern inside it cannot cut it). Why the framing and
 parsing are done here rather than by pyuff is listed in ``ema_rig/io/_uff_parse.py``; pyuff is
 the independent cross-check in the tests and the benchmark. Units: see :func:`read_uff58`.
+The reader refuses what it cannot vouch for (see :func:`read_uff`): one error type,
+:class:`~ema_rig.errors.UFFError`, naming the file and the dataset.
 """
 
 from __future__ import annotations
 
+import os
+import re
+import stat
 import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -49,7 +55,7 @@ from ..config import RigConfig
 from ..dof import DOF
 from ..errors import UFFError, UnitWarning
 from ..frf import FRFData
-from . import _uff_parse, _uff_units, _uff_write
+from . import _uff_coherence, _uff_parse, _uff_units, _uff_write
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -192,19 +198,73 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
     )
 
 
+MAX_FILE_BYTES = 1 << 34
+"""Largest UFF file read (16 GiB); larger files are refused before reading."""
+_HEAD_BYTES = 1 << 16
+_HEAD_OK = re.compile(rb"(?:\xef\xbb\xbf)?(?:[ \t]*(?:\r\n|\r|\n))*[ \t]*-1[ \t]*(?:\r|\n|\Z)")
+
+
 def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
+    """Read a regular file that starts like a UFF file, refusing everything else early.
+
+    FIFOs, devices, sockets and directories are refused from ``os.stat`` before any open (a
+    FIFO would block, ``/dev/zero`` never ends); the file is then opened non-blocking and checked
+    again on the open descriptor. Its first 64 KiB must start with a ``-1`` delimiter line
+    (blank lines before it are allowed) before the rest is read, so a large file of zeros or
+    text is refused after reading 64 KiB.
+    """
     p = Path(path)
-    if not p.exists():
-        raise UFFError("file not found", file=p)
-    if p.is_dir():
-        raise UFFError("is a directory, expected a UFF file", file=p)
     try:
-        buf = p.read_bytes()
+        st = os.stat(p)
+    except FileNotFoundError:
+        raise UFFError("file not found", file=p) from None
     except OSError as exc:
-        raise UFFError(f"cannot read: {exc.strerror}", file=p) from None
-    if not buf.strip():
+        raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise UFFError("is a directory, expected a UFF file", file=p)
+    if not stat.S_ISREG(st.st_mode):
+        raise UFFError(f"is a {_file_kind(st.st_mode)}, not a regular file; only regular files are read", file=p)
+    if st.st_size == 0:
         raise UFFError("empty file (no UFF dataset)", file=p)
+    if st.st_size > MAX_FILE_BYTES:
+        raise UFFError(f"file of {st.st_size} bytes is larger than the limit of {MAX_FILE_BYTES} bytes", file=p)
+    try:
+        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except OSError as exc:
+        raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+    with os.fdopen(fd, "rb", buffering=0) as fh:
+        try:
+            st = os.fstat(fh.fileno())
+            if not stat.S_ISREG(st.st_mode):  # replaced between stat and open
+                raise UFFError(f"is a {_file_kind(st.st_mode)}, not a regular file", file=p)
+            head = fh.read(_HEAD_BYTES)
+            if not _HEAD_OK.match(head):
+                if not head.strip():
+                    raise UFFError("empty file (no UFF dataset)", file=p)
+                raise UFFError(
+                    "not a UFF file: the first line that is not blank is not the dataset delimiter '    -1'",
+                    file=p,
+                )
+            if len(head) < _HEAD_BYTES:
+                buf = head
+            else:
+                fh.seek(0)
+                buf = fh.read()  # one bytes object of the file's size, no intermediate copies
+        except MemoryError:
+            raise UFFError(f"not enough memory to read {st.st_size} bytes", file=p) from None
+        except OSError as exc:
+            raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+    if len(buf) > MAX_FILE_BYTES:
+        raise UFFError(f"file grew past the limit of {MAX_FILE_BYTES} bytes while being read", file=p)
     return p, buf
+
+
+def _file_kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "FIFO (named pipe)"), (stat.S_ISCHR, "character device"),
+                       (stat.S_ISBLK, "block device"), (stat.S_ISSOCK, "socket")):
+        if test(mode):
+            return name
+    return "special file"
 
 
 def read_uff(path: str | PathLike[str]) -> UFFFile:
@@ -227,7 +287,21 @@ def read_uff(path: str | PathLike[str]) -> UFFFile:
     Raises
     ------
     UFFError
-        If the file is missing, empty or holds no UFF dataset at all.
+        If the file is missing, not a regular file (FIFO, device, directory: refused from
+        ``os.stat`` before opening, so nothing blocks), empty, larger than ``MAX_FILE_BYTES``,
+        or its first line that is not blank is not a ``-1`` delimiter (checked on the first
+        64 KiB before the rest is read).
+
+    Notes
+    -----
+    What a dataset is refused for, besides a wrong value count: an ASCII dataset without its
+    closing ``-1`` before the end of the file (the last value may be cut); a 58b dataset whose
+    byte count disagrees with num_pts and data type, unless the closing ``-1`` follows the
+    payload exactly and is itself followed by the next dataset or the end of the file; a 58b
+    closing ``-1`` that is followed by more data (num_pts too large swallowed the real one);
+    integer header fields longer than 11 characters; header lines over 4096 bytes; data
+    sections holding other bytes than numbers and blanks. ASCII values are parsed in 1 MB
+    chunks, so memory stays about the file size plus the float64 values.
     """
     p, buf = _load_bytes(path)
     raws = _uff_parse.scan(buf)
@@ -310,8 +384,12 @@ def read_uff58(
     -------
     FRFData
         ``frf`` shape (n_out, n_in, n_freq) in SI (m/s^2/N, m/s/N or m/N), ``freq`` in Hz.
-        ``meta``: ``source`` (path), ``datasets`` (indices used), ``unit_decisions`` (one str per
-        dataset used), ``sign_flips``, ``ignored_channels``, ``ignored_datasets``, ``notes``,
+        ``coherence`` (n_out, n_in, n_freq), 0..1, from the file's coherence datasets, or None
+        (see Notes);
+        ``n_averages`` when an id line states it (UFF58 has no field for it), else None.
+        ``meta``: ``source`` (path), ``datasets`` (indices used), ``coherence_datasets``,
+        ``unit_decisions`` (one str per dataset used), ``sign_flips``, ``ignored_channels``,
+        ``ignored_datasets``, ``notes``, ``warnings`` (one-line strings: coherence clipped ...),
         ``ids`` (id lines per dataset index), ``rig`` (rig file path or None).
 
     Raises
@@ -336,6 +414,14 @@ def read_uff58(
     ``13-Y`` is flipped whether the file writes 13-Y or 13+Y (a disagreement is noted in
     ``meta["sign_flips"]``); the same holds for the references ``rig.radial`` / ``rig.axial``.
     File responses with no rig sensor are ignored with a :class:`~ema_rig.errors.UnitWarning`.
+
+    Coherence. Datasets of function type 6 are attached to the FRF of the same (response,
+    reference) pair (mapped like the FRFs, sign-free) when they lie on the same frequency lines;
+    values above 1 (which real analysers write) or below 0 are clipped into 0..1 and listed in
+    ``meta["warnings"]`` (a result caveat, not a Python warning: reading a real file is routine). A coherence
+    whose pair has no FRF, whose lines differ, or that is refused is ignored with a note. The
+    coherence is attached only when every FRF has one (else ``coherence`` is None, with a note
+    naming the FRFs without).
     """
     uf = read_uff(path)
     src = uf.path
@@ -343,12 +429,21 @@ def read_uff58(
     current164: Mapping[str, Any] | None = None
     used: list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]] = []
     ignored_datasets: list[str] = []
+    coh_recs: list[UFFRecord] = []
     for r in uf.records:
         if r.type == 164 and r.status == "read":
             current164 = r.header
             continue
+        if r.status != "read" and r.type in (None, 164):
+            # an unreadable type line may hide an FRF; a refused 164 would change the units of
+            # the FRFs after it: neither can be skipped silently
+            what = "dataset of unknown type" if r.type is None else "units dataset 164"
+            raise UFFError(f"{what} refused: {r.reason}", file=src, dataset=r.index)
         if r.type != 58:
             ignored_datasets.append(f"dataset {r.index}: type {r.type} (not 58)")
+            continue
+        if r.function_type == 6:
+            coh_recs.append(r)
             continue
         if r.function_type not in (4, None):
             name = FUNCTION_TYPES.get(r.function_type, "other")  # type: ignore[arg-type]
@@ -490,29 +585,58 @@ def read_uff58(
             idx, sign, r = pairs[(o, q)]
             dec = dec_by_index[idx]
             assert r.y is not None
-            frf[i, j] = r.y * (sign * dec.factor)
+            with np.errstate(over="ignore", under="ignore"):
+                frf[i, j] = r.y * (sign * dec.factor)
+            _check_scaled(r.y, frf[i, j], dec.factor, src, idx)
             decisions.append(f"dataset {idx}: {dec.text}")
             used_idx.append(idx)
             ids[idx] = r.ids
     notes = [f"dataset {r.index}: {n}" for r, _, _ in used for n in r.notes]
+
+    def coh_key(rd: DOF, fd: DOF) -> tuple[DOF, DOF] | None:
+        if rig is None:
+            return rd.positive(), fd.positive()
+        sensor, rref = rig.sensor_for(rd), _match_ref(rig, fd)
+        return None if sensor is None or rref is None else (sensor.dof.positive(), rref.positive())
+
+    coh = _uff_coherence.attach(coh_recs, freq, tol, out_order, in_order, coh_key)
+    attached = set(coh.datasets)
+    ignored_datasets += [f"dataset {r.index}: function type 6 (coherence), not attached" for r in coh_recs
+                         if r.index not in attached]
+    n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
+    notes += list(coh.notes) + ([avg_note] if avg_note else [])
     meta = {
         "source": src,
         "datasets": sorted(used_idx),
+        "coherence_datasets": list(coh.datasets),
         "unit_decisions": decisions,
         "sign_flips": sign_flips,
         "ignored_channels": ignored_channels,
         "ignored_datasets": ignored_datasets,
         "notes": notes,
+        "warnings": list(coh.warnings),
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
     try:
         return FRFData(
             freq, frf, tuple(out_order), tuple(in_order), dec0.frf_form, roles=tuple(roles), axes=tuple(axes),
-            meta=meta,
+            meta=meta, coherence=coh.values, n_averages=n_avg,
         )
     except ValueError as exc:  # pragma: no cover - all checked above
         raise UFFError(str(exc), file=src) from None
+
+
+def _check_scaled(y: NDArray[Any], scaled: NDArray[Any], factor: float, src: str, idx: int) -> None:
+    """Refuse values that overflow or vanish when the unit factor is applied."""
+    if not np.all(np.isfinite(scaled)):
+        raise UFFError(f"values overflow when the unit factor {factor:g} is applied", file=src, dataset=idx)
+    lost = (scaled == 0) & (y != 0)
+    if lost.any():
+        raise UFFError(
+            f"{int(lost.sum())} non-zero value(s) become 0 when the unit factor {factor:g} is applied (underflow)",
+            file=src, dataset=idx,
+        )
 
 
 # -------------------------------------------------------------------------- write_uff58

@@ -79,7 +79,8 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
     bearing : str
         Bearing name to plot.
     info : BearingInfo, optional
-        With ``hertz=True`` the analytical Hertzian estimate is drawn.
+        With ``hertz=True`` and a ``geometry`` the analytical Hertzian estimate of that geometry is
+        drawn, labelled as an estimate.
 
     Returns
     -------
@@ -108,11 +109,11 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
             coef = float(np.sum(kr * fr ** (1 / 3)) / np.sum(fr ** (2 / 3)))  # least squares k = c F^(1/3)
             ax.plot(fl, coef * fl ** (1 / 3) / _MN, "--", color="0.35",
                     label=f"fit k = c·F^(1/3), c = {coef:.3g} N/m/N^(1/3)")
-        if info is not None and info.hertz:
+        if info is not None and info.hertz and info.geometry is not None:
             from ..rig.hertz import ball_bearing_radial_stiffness
 
-            ax.plot(fl, np.asarray(ball_bearing_radial_stiffness(fl)) / _MN, ":", color="C2", lw=2,
-                    label="Hertz estimate, bearing alone (Harris & Kotzalas)")
+            ax.plot(fl, np.asarray(ball_bearing_radial_stiffness(fl, info.geometry)) / _MN, ":", color="C2", lw=2,
+                    label=f"Hertz estimate (bearing alone; {info.geometry.describe()})")
     ax.set_xlabel("radial load F_r [N]")
     ax.set_ylabel("bearing stiffness k_TB [MN/m]")
     ax.set_title(f"Bearing {plain(bearing)}: stiffness versus radial load")
@@ -179,11 +180,32 @@ def _key(x: Any) -> float:
     return x if _finite(x) else -1.0
 
 
+def measured_std(row: Row) -> float:
+    """The part of ``k_TB_std`` [N/m] that comes from the measurement (the identified housing frequency).
+
+    The rig-model tolerances (masses, stiffnesses) and k_MS are the same for every measurement of
+    a campaign: they shift all estimates together and cannot hide or create a difference between
+    conditions, so a comparison of conditions needs only this part. NaN when the row has no budget.
+    """
+    detail = row.get("detail")
+    if isinstance(detail, dict):
+        for t in detail.get("uncertainty_terms") or ():
+            if isinstance(t, dict) and t.get("name") == "f_H" and _finite(t.get("std")):
+                return float(t["std"])
+        share: Any = (detail.get("uncertainty_budget") or {}).get("f_H")
+        std: Any = row.get("k_TB_std")
+        if _finite(share) and _finite(std):
+            return float(std) * math.sqrt(max(float(share), 0.0))
+    return math.nan
+
+
 def plot_speed_effect(rows: Sequence[Row], bearing: str) -> Figure:
     """k_TB versus shaft speed, one series per radial load measured at several speeds.
 
-    The spread (sample standard deviation over mean) of each series is written beside it: the
-    paper (Table 3) finds it no larger than the spread of repeats at one speed.
+    The error bars are the measured (identification) uncertainty of each estimate,
+    :func:`measured_std`: the rig-model tolerances are fully correlated between speeds and would
+    hide any speed effect. The spread (sample standard deviation over mean) of each series is
+    written beside it: the paper (Table 3) finds it no larger than the spread of repeats at one speed.
     """
     sel = [r for r in _ok(rows) if r["bearing"] == bearing and r["speed"] > 0]
     fig = _figure()
@@ -196,7 +218,7 @@ def plot_speed_effect(rows: Sequence[Row], bearing: str) -> Figure:
     for i, (load, rs) in enumerate(sorted(by_load.items(), key=lambda kv: _key(kv[0]))):
         rs = sorted(rs, key=lambda r: r["speed"])
         ax.errorbar([r["speed"] for r in rs], [r["k_TB"] / _MN for r in rs],
-                    yerr=[r["k_TB_std"] / _MN for r in rs], fmt="o", color=f"C{i}", capsize=3,
+                    yerr=[measured_std(r) / _MN for r in rs], fmt="o", color=f"C{i}", capsize=3,
                     label=f"{load:g} N" if _finite(load) else "load n/a")
         speeds = sorted({r["speed"] for r in rs})  # repeats at one speed: the line joins their mean
         means = [np.mean([r["k_TB"] for r in rs if r["speed"] == v]) / _MN for v in speeds]
@@ -207,7 +229,8 @@ def plot_speed_effect(rows: Sequence[Row], bearing: str) -> Figure:
                         textcoords="offset points", xytext=(6, 0), fontsize=8, va="center")
     ax.set_xlabel("shaft speed [rpm]")
     ax.set_ylabel("bearing stiffness k_TB [MN/m]")
-    ax.set_title(f"Bearing {plain(bearing)}: effect of speed")
+    ax.set_title(f"Bearing {plain(bearing)}: effect of speed (±1σ measured; model tolerances common to all)",
+                 fontsize=10)
     ax.grid(True, alpha=0.3)
     if by_load:
         ax.legend(title="radial load", fontsize=8)
@@ -268,7 +291,8 @@ def plot_repeatability(rows: Sequence[Row]) -> Figure | None:
     fig = _figure()
     ax = fig.add_subplot()
     labels = []
-    for i, (k, rs) in enumerate(sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0]))):
+    # numeric order of loads, speeds and positions (200 N before 1000 N), bearings by name
+    for i, (k, rs) in enumerate(sorted(groups.items(), key=lambda kv: (str(kv[0][0]), *map(_key, kv[0][1:])))):
         vals = np.array([r["k_TB"] for r in rs])
         dev = 100 * (vals / vals.mean() - 1)
         ax.plot(np.full(dev.size, i), dev, "o", color="C0")
@@ -323,6 +347,7 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
 
 __all__ = [
     "campaign_figures",
+    "measured_std",
     "figure_stem",
     "plot_k_vs_load",
     "plot_repeatability",

@@ -21,7 +21,7 @@ interactive picking create the axes with pyplot yourself and pass ``ax=``, then 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -103,6 +103,8 @@ class StabilizationPlot:
     band_patch : Patch or None
     mode_lines, mode_labels : list
         Vertical lines and text labels of the selected modes.
+    rejected_lines : list
+        Grey dotted lines of the rejected candidates.
     """
 
     figure: Figure
@@ -116,31 +118,60 @@ class StabilizationPlot:
     mode_lines: list[Any] = field(default_factory=list)
     mode_labels: list[Any] = field(default_factory=list)
     colors: Mapping[str, str] = field(default_factory=dict)
+    rejected_lines: list[Any] = field(default_factory=list)
 
-    def mark_modes(self, selection: Selection | None) -> None:
-        """Replace the selected-mode markers (vertical line + frequency label)."""
-        for a in self.mode_lines + self.mode_labels:
+    def mark_modes(self, selection: Selection | None, rejected: Sequence[Any] = ()) -> None:
+        """Replace the mode markers: selected modes (dashed line + frequency label) and rejected
+        candidates (grey dotted line over the orders where they were stable, no label).
+
+        Labels never hide each other: each goes to the lowest of up to four label rows above the
+        poles where it does not overlap its left neighbour (the chart grows upwards to make room).
+        """
+        for a in self.mode_lines + self.mode_labels + self.rejected_lines:
             a.remove()
         self.mode_lines.clear()
         self.mode_labels.clear()
-        if selection is None:
-            return
+        self.rejected_lines.clear()
         ax = self.axes
-        top = ax.get_ylim()[1]
-        for m in selection.modes:
-            ln = ax.axvline(m.natural_freq, color=self.colors.get("mode", "g"), lw=1.0, ls="--", alpha=0.8, zorder=1)
+        orders = self.stab.orders
+        n_max = max(orders) if orders else 1
+        for c in rejected:
+            # grey dotted over the whole height, a cross at the top of the orders where it was stable
+            (ln,) = ax.plot([c.natural_freq] * 2, [0, n_max], color=self.colors.get("rejected", "#666666"),
+                            lw=1.0, ls=":", alpha=0.9, zorder=1, marker="x", markevery=[1], ms=7, mew=1.5)
+            self.rejected_lines.append(ln)
+        if selection is None or not selection.modes:
+            return
+        x0, x1 = ax.get_xlim()
+        width = 0.02 * (x1 - x0)  # a rotated 8-pt label is about 2 % of the axis wide
+        freqs = [m.natural_freq for m in selection.modes]
+        levels: list[float] = []  # right edge of the last label in each row
+        rows = []
+        for f in freqs:
+            for k, right in enumerate(levels):
+                if f - width >= right:
+                    levels[k] = f
+                    rows.append(k)
+                    break
+            else:
+                if len(levels) < 4:
+                    levels.append(f)
+                    rows.append(len(levels) - 1)
+                else:  # more than four labels crowd one spot: the least recently used row
+                    k = int(np.argmin(levels))
+                    levels[k] = f
+                    rows.append(k)
+        n_rows = max(rows) + 1
+        row_h = 0.13  # fraction of the axis height per label row
+        top = 1.03 * n_max / (1.0 - row_h * n_rows)
+        ax.set_ylim(0, top)
+        for f, k in zip(freqs, rows, strict=True):
+            ln = ax.axvline(f, color=self.colors.get("mode", "g"), lw=1.0, ls="--", alpha=0.8, zorder=1)
+            y = top * (1.0 - row_h * k) - 0.01 * top
             txt = ax.text(
-                m.natural_freq,
-                top,
-                f" {m.natural_freq:.1f} Hz",
-                rotation=90,
-                va="top",
-                ha="right",
-                fontsize=8,
-                color=self.colors.get("mode", "g"),
-                clip_on=True,
-                zorder=5,
-                bbox={"boxstyle": "square,pad=0.05", "fc": "white", "ec": "none", "alpha": 0.6},
+                f, y, f"{f:.1f} Hz", rotation=90, va="top", ha="center", fontsize=8,
+                color=self.colors.get("mode", "g"), clip_on=True, zorder=5,
+                bbox={"boxstyle": "square,pad=0.05", "fc": "white", "ec": "none", "alpha": 0.8},
             )
             self.mode_lines.append(ln)
             self.mode_labels.append(txt)
@@ -159,6 +190,8 @@ def plot_stabilization(
     title: str | None = None,
     figsize: tuple[float, float] = (10.0, 6.0),
     markersize: float = 5.0,
+    candidates: Sequence[Any] = (),
+    converged: bool | None = None,
 ) -> StabilizationPlot:
     """Draw a stabilization chart.
 
@@ -183,6 +216,11 @@ def plot_stabilization(
     figsize : (float, float), optional
         Size of a new figure [in].
     markersize : float, optional
+    candidates : sequence of Candidate, optional
+        Judged clusters (:attr:`ema_rig.identification.Identification.candidates`); the
+        rejected ones stable at four or more orders are drawn as grey dotted lines.
+    converged : bool, optional
+        Whether the mode set converged over the orders; said in the default title.
 
     Returns
     -------
@@ -278,8 +316,15 @@ def plot_stabilization(
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("model order")
     ax.grid(True, which="major", alpha=0.25)
-    plot.mark_modes(selection)
+    rejected = [c for c in candidates if not c.accepted and c.mode.n_poles >= 4]
+    plot.mark_modes(selection, rejected)
     handles = [plot.poles[k] for k in plot.poles]
+    if plot.mode_lines:
+        plot.mode_lines[0].set_label(f"selected mode ({len(plot.mode_lines)})")
+        handles.append(plot.mode_lines[0])
+    if plot.rejected_lines:
+        plot.rejected_lines[0].set_label(f"rejected candidate ({len(plot.rejected_lines)})")
+        handles.append(plot.rejected_lines[0])
     if plot.frf_lines:
         handles.append(plot.frf_lines[0])
     if plot.band_patch is not None:
@@ -293,7 +338,8 @@ def plot_stabilization(
         title
         if title is not None
         else f"Stabilization {lo:g}-{hi:g} Hz, orders {min(orders) if orders else 0}-{max(orders) if orders else 0}"
-        f"  ({counts['s']} stable, {counts['unstable']} unstable of {len(stab)})",
+        f"  ({counts['s']} stable, {counts['unstable']} unstable of {len(stab)})"
+        + ("" if converged is None else ("; mode set converged" if converged else "; mode set NOT converged")),
         fontsize=10,
     )
     return plot

@@ -134,9 +134,10 @@ def plot_synthesis(
     for ax in axs[-1]:
         ax.set_xlabel("frequency [Hz]")
     axs[0][0].legend(fontsize=8, loc="lower right")
-    src = modes.meta.get("file") or data.meta.get("source") or ""
-    fig.suptitle(title or f"{src}  measured vs synthesised FRFs, {len(modes.poles)} modes in {lo:g}–{hi:g} Hz "
-                 "(dotted: natural frequencies)", fontsize=10)
+    src = str(modes.meta.get("file") or data.meta.get("file") or data.meta.get("source") or "")
+    name = src.replace("\\", "/").rsplit("/", 1)[-1]
+    fig.suptitle(title or f"{name + ': ' if name else ''}measured vs synthesised FRFs, {len(modes.poles)} modes in "
+                 f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies)", fontsize=10)
     return out
 
 

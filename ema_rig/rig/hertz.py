@@ -1,6 +1,6 @@
 """Analytical radial stiffness of a deep-groove ball bearing (Hertz point contact) — an estimate.
 
-Used only for comparison with the measured ``k_TB`` (DESIGN §4). For a 6302 (7 balls of
+Used only for comparison with the measured ``k_TB``. For a 6302 (7 balls of
 7.938 mm on a 28.5 mm pitch diameter, zero clearance, groove conformity 0.52, steel) it gives
 ``k_r ≈ 9.14e6 F_r^(1/3)`` N/m: 7.3e7 at 500 N, 9.1e7 at 1 kN, 1.05e8 at 1.5 kN. The geometry is
 inferred from catalogue ratings, so the result is an **estimate**, not a datum.
@@ -51,9 +51,14 @@ class BallBearingGeometry:
     inner_conformity, outer_conformity : float
         Groove radius / ball diameter (f_i, f_o), > 0.5; 0.52 is typical.
     youngs_modulus : float
-        E of balls and rings [Pa] (bearing steel 208 GPa).
+        E of the rings [Pa] (bearing steel 208 GPa); of the balls too unless ``ball_youngs_modulus``.
     poisson_ratio : float
-        Poisson ratio (0.3).
+        Poisson ratio of the rings (0.3); of the balls too unless ``ball_poisson_ratio``.
+    clearance : float
+        Diametral radial clearance P_d [m] (0: the Stribeck closed form ``k ~ F^(1/3)``; > 0:
+        fewer balls carry the load and the stiffness is lower at small loads).
+    ball_youngs_modulus, ball_poisson_ratio : float or None
+        Ball material when it differs from the rings' (e.g. silicon nitride: 310 GPa, 0.26).
     """
 
     n_balls: int = 7
@@ -63,14 +68,43 @@ class BallBearingGeometry:
     outer_conformity: float = 0.52
     youngs_modulus: float = 208e9
     poisson_ratio: float = 0.3
+    clearance: float = 0.0
+    ball_youngs_modulus: float | None = None
+    ball_poisson_ratio: float | None = None
 
     def __post_init__(self) -> None:
-        if self.n_balls < 3:
-            raise ValueError(f"n_balls must be >= 3, got {self.n_balls}")
+        if isinstance(self.n_balls, bool) or not isinstance(self.n_balls, int) or self.n_balls < 3:
+            raise ValueError(f"n_balls must be an integer >= 3, got {self.n_balls!r}")
         if not 0 < self.ball_diameter < self.pitch_diameter:
             raise ValueError("need 0 < ball_diameter < pitch_diameter")
+        if self.n_balls * self.ball_diameter >= math.pi * self.pitch_diameter:
+            raise ValueError(f"{self.n_balls} balls of {self.ball_diameter * 1e3:g} mm do not fit on a "
+                             f"{self.pitch_diameter * 1e3:g} mm pitch circle")
         if not (self.inner_conformity > 0.5 and self.outer_conformity > 0.5):
             raise ValueError("groove conformities must exceed 0.5")
+        if not (math.isfinite(self.clearance) and self.clearance >= 0):
+            raise ValueError(f"clearance must be finite and >= 0 m, got {self.clearance!r}")
+        for name in ("youngs_modulus", "ball_youngs_modulus"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a finite positive modulus [Pa], got {v!r}")
+        for name in ("poisson_ratio", "ball_poisson_ratio"):
+            v = getattr(self, name)
+            if v is not None and not (0 <= v < 0.5):
+                raise ValueError(f"{name} must lie in [0, 0.5), got {v!r}")
+
+    @property
+    def effective_modulus(self) -> float:
+        """``E' = 2 / ((1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2)`` [Pa] of the ball-ring contact."""
+        e_b = self.youngs_modulus if self.ball_youngs_modulus is None else self.ball_youngs_modulus
+        nu_b = self.poisson_ratio if self.ball_poisson_ratio is None else self.ball_poisson_ratio
+        return 2.0 / ((1 - self.poisson_ratio**2) / self.youngs_modulus + (1 - nu_b**2) / e_b)
+
+    def describe(self) -> str:
+        """One line for legends: balls, diameters, clearance."""
+        c = f", clearance {self.clearance * 1e6:g} µm" if self.clearance > 0 else ""
+        return (f"{self.n_balls} balls Ø{self.ball_diameter * 1e3:g} mm on Ø{self.pitch_diameter * 1e3:g} mm"
+                f"{c}")
 
 
 BEARING_6302 = BallBearingGeometry()
@@ -116,7 +150,9 @@ def ball_bearing_radial_stiffness(
     Zero clearance: ``F_r = K_n delta_r^1.5 S`` with ``S = Z J`` (Stribeck, continuous load
     distribution, default) or ``S = sum_j cos^2.5 psi_j`` over loaded balls for a given
     ball position; hence ``k_r = 1.5 K_n^(2/3) S^(2/3) F_r^(1/3)``. ``K_n`` combines the inner
-    and outer contacts in series.
+    and outer contacts in series. With a diametral clearance ``P_d`` the ball at ``psi`` is
+    compressed by ``delta_r cos psi - P_d / 2`` (when positive); ``F_r(delta_r)`` is solved for
+    ``delta_r`` and ``k_r = dF_r / d delta_r`` is evaluated there.
 
     Parameters
     ----------
@@ -142,10 +178,13 @@ def ball_bearing_radial_stiffness(
     if np.any(f < 0) or not np.all(np.isfinite(f)):
         raise ValueError("radial_load must be finite and >= 0 N")
     d, gamma = g.ball_diameter, g.ball_diameter / g.pitch_diameter
-    e_eff = g.youngs_modulus / (1.0 - g.poisson_ratio**2)
+    e_eff = g.effective_modulus
     k_i = hertz_contact_constant(d / 2 * (1 - gamma), g.inner_conformity * d / (2 * g.inner_conformity - 1), e_eff)
     k_o = hertz_contact_constant(d / 2 * (1 + gamma), g.outer_conformity * d / (2 * g.outer_conformity - 1), e_eff)
     k_n = (k_i ** (-2.0 / 3.0) + k_o ** (-2.0 / 3.0)) ** -1.5
+    if g.clearance > 0:
+        k = np.array([_stiffness_with_clearance(float(x), k_n, g, ball_angle) for x in f.ravel()]).reshape(f.shape)
+        return float(k) if k.ndim == 0 else k
     if ball_angle is None:
         s = g.n_balls * _stribeck_integral()
     else:
@@ -154,6 +193,42 @@ def ball_bearing_radial_stiffness(
         s = float(np.sum(np.where(c > 0, c, 0.0) ** 2.5))
     k = 1.5 * k_n ** (2.0 / 3.0) * s ** (2.0 / 3.0) * np.cbrt(f)
     return float(k) if k.ndim == 0 else k
+
+
+def _stiffness_with_clearance(load: float, k_n: float, g: BallBearingGeometry, ball_angle: float | None) -> float:
+    """``dF_r/d delta_r`` [N/m] at ``F_r = load`` with a diametral clearance (see the caller)."""
+    from scipy.integrate import quad
+    from scipy.optimize import brentq
+
+    c = g.clearance / 2.0
+    if load == 0.0:
+        return 0.0
+    if ball_angle is None:  # continuous (Stribeck) distribution over the loaded arc |psi| < acos(c/delta)
+        def force(delta: float) -> float:
+            lim = math.acos(min(1.0, c / delta))
+            val = quad(lambda p: (delta * math.cos(p) - c) ** 1.5 * math.cos(p), 0.0, lim)[0]
+            return g.n_balls * k_n * val / math.pi  # 2 x half arc / (2 pi)
+
+        def stiff(delta: float) -> float:
+            lim = math.acos(min(1.0, c / delta))
+            val = quad(lambda p: 1.5 * (delta * math.cos(p) - c) ** 0.5 * math.cos(p) ** 2, 0.0, lim)[0]
+            return g.n_balls * k_n * val / math.pi
+    else:
+        cos = np.cos(ball_angle + 2.0 * np.pi * np.arange(g.n_balls) / g.n_balls)
+
+        def force(delta: float) -> float:
+            x = np.maximum(delta * cos - c, 0.0)
+            return float(k_n * np.sum(x**1.5 * cos))
+
+        def stiff(delta: float) -> float:
+            x = np.maximum(delta * cos - c, 0.0)
+            return float(k_n * np.sum(1.5 * x**0.5 * cos**2))
+
+    lo, hi = c, c + 1e-6
+    while force(hi) < load:
+        hi = c + 2.0 * (hi - c)
+    delta = brentq(lambda d: force(d) - load, lo, hi, xtol=1e-15, rtol=1e-12)
+    return stiff(delta)
 
 
 def radial_stiffness(

@@ -48,18 +48,19 @@ mass-normalised at the radial driving point, sign-corrected DOFs):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..config import ModelParams, RigConfig
-from ..dof import DOF
 from ..errors import MatchingError
 from ..identification.modal import ModalModel
+from .candidates import Candidate, find_dof, measure_candidates
 
 __all__ = [
+    "Candidate",
     "MatchCriteria",
     "MatchResult",
     "ModelModeInfo",
@@ -143,15 +144,14 @@ def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | N
     k = k_tb_ms_from_housing_freq(natural_freq, params)
     model = RigModel(params, k)
     ph, ps = model.mode_shapes[:, HOUSING_MODE], model.mode_shapes[:, SPINDLE_MODE]
-    h, sp = HOUSING, SPINDLE
     return ModelModeInfo(
         natural_freq=float(natural_freq),
         k_tb_ms=float(k),
-        modal_mass=float(1.0 / ph[h] ** 2),
-        spindle_ratio=float(ph[sp] / ph[h]),
+        modal_mass=model.effective_mass(HOUSING_MODE, HOUSING),
+        spindle_ratio=float(ph[SPINDLE] / ph[HOUSING]),
         spindle_freq=model.spindle_freq,
-        spindle_mode_ratio=float(ps[sp] / ps[h]),
-        spindle_modal_mass=float(1.0 / ps[h] ** 2),
+        spindle_mode_ratio=float(ps[SPINDLE] / ps[HOUSING]),
+        spindle_modal_mass=model.effective_mass(SPINDLE_MODE, HOUSING),
     )
 
 
@@ -185,6 +185,12 @@ class MatchCriteria:
     min_spindle_ratio : float
         A spindle bending mode moves the spindle radial sensors at least this many times more
         than the housing, in anti-phase.
+    neighbour_bandwidths : float
+        A mode closer to the housing mode than this many (mean) half-power bandwidths
+        ``(zeta_1 f_1 + zeta_2 f_2)`` is a close neighbour (coupled, or able to bias it).
+    neighbour_participation : float
+        ... when its radial housing participation is at least this fraction of the housing
+        mode's.
     """
 
     min_phase_cos: float = 0.2
@@ -196,6 +202,8 @@ class MatchCriteria:
     harmonic_max_damping: float = 5e-3
     spindle_freq_tol: float = 0.2
     min_spindle_ratio: float = 1.0
+    neighbour_bandwidths: float = 3.0
+    neighbour_participation: float = 0.1
 
 
 # --------------------------------------------------------------------------- result
@@ -216,11 +224,27 @@ class MatchResult:
         ``natural_freq``, ``damping_ratio`` of the spindle bending mode, or None when absent.
     spindle_source : str or None
         ``'modes'`` or ``'spindle_modes'``: which ModalModel holds the spindle mode.
-    candidates : list of dict
-        Every mode considered: ``index``, ``source``, ``natural_freq``, ``damping_ratio``, the
-        metrics, ``status`` (``'housing'``, ``'spindle'``, ``'rejected'``) and ``reason``.
+    candidates : tuple of Candidate
+        Every mode considered (sorted by frequency): metrics, ``status`` (``'housing'``,
+        ``'spindle'``, ``'rejected'``) and ``reason``.
     valid_range : (float, float)
         The housing-frequency range searched [Hz].
+    driving_point : bool
+        True when the radial driving-point FRF was identified (effective modal masses from it);
+        False: masses estimated from the radial housing transfer FRFs (rigid housing assumed).
+    alternatives : tuple of int
+        Indices of the other modes that pass every housing criterion.
+    neighbours : tuple of int
+        Indices of the modes within :attr:`MatchCriteria.neighbour_bandwidths` half-power
+        bandwidths of the housing mode that move the radial housing sensors (housing
+        participation at least :attr:`MatchCriteria.neighbour_participation` of its own).
+    participation : tuple of float
+        Radial housing participation of every mode, ``mean_p |phi_p phi_q|`` over the radial
+        housing sensors ``p`` (``q`` the radial reference) [1/kg]: ``1 / m_eff`` for a rigid
+        housing.
+    warnings : tuple of str
+        One-line caveats found while matching (missing driving point, several modes passing,
+        a sensor whose polarity looks reversed).
     """
 
     housing_index: int
@@ -228,47 +252,39 @@ class MatchResult:
     spindle_index: int | None
     spindle_mode: dict[str, Any] | None
     spindle_source: str | None
-    candidates: list[dict[str, Any]] = field(default_factory=list)
+    candidates: tuple[Candidate, ...] = ()
     valid_range: tuple[float, float] = (0.0, math.inf)
+    driving_point: bool = True
+    alternatives: tuple[int, ...] = ()
+    neighbours: tuple[int, ...] = ()
+    participation: tuple[float, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict: ``housing_mode``, ``spindle_mode``, ``candidates``, ``valid_range``."""
         return {
             "housing_mode": dict(self.housing_mode),
             "spindle_mode": None if self.spindle_mode is None else dict(self.spindle_mode),
-            "candidates": [dict(c) for c in self.candidates],
+            "candidates": [c.to_dict() for c in self.candidates],
             "valid_range": list(self.valid_range),
+            "driving_point": self.driving_point,
+            "warnings": list(self.warnings),
         }
 
 
 # --------------------------------------------------------------------------- helpers
-def _find(dofs: tuple[DOF, ...], target: DOF) -> int | None:
-    for i, d in enumerate(dofs):
-        if d.node == target.node and abs(d.direction) == abs(target.direction):
-            return i
-    return None
-
-
-def _sensor_groups(modes: ModalModel, rig: RigConfig) -> dict[tuple[str, str], list[int]]:
-    """Output indices per (role, axis), from the model's roles/axes or the rig's sensor list."""
-    groups: dict[tuple[str, str], list[int]] = {}
-    for i, d in enumerate(modes.out_dofs):
-        role, axis = modes.roles[i], modes.axes[i]
-        if role is None or axis is None:
-            s = rig.sensor_for(d)
-            if s is None:
-                continue
-            role, axis = s.role, s.axis
-        groups.setdefault((role, axis), []).append(i)
-    return groups
-
-
 def _fmt(x: float | None, spec: str = ".3g") -> str:
     return "n/a" if x is None or not np.isfinite(x) else format(x, spec)
 
 
 def _clean(x: float | None) -> float | None:
     return None if x is None or not np.isfinite(x) else float(x)
+
+
+def _score(c: Candidate) -> float:
+    """Closeness to the model's housing mode: effective mass, in-phase and similar radial motion."""
+    s = 0.0 if c.mass_ratio is None else abs(math.log(c.mass_ratio))
+    return s + (1.0 - (c.radial_phase_cos or 1.0)) + (1.0 - (c.radial_amplitude_ratio or 1.0))
 
 
 # --------------------------------------------------------------------------- main
@@ -289,12 +305,13 @@ def match_modes(
     ----------
     modes : ModalModel
         Identified modes of a measurement in the housing band; needs the radial shaker's
-        reference and its driving-point response (for mass-normalised shapes).
+        reference, and preferably its driving-point response (mass-normalised shapes; without
+        it the effective mass comes from the radial housing transfer FRFs, with a warning).
     rig : RigConfig
         Sensor roles and axes, the radial reference, the 3DOF model parameters.
     natural_freq_std : ndarray, shape (n_modes,), optional
-        Spread of each identified natural frequency [Hz] (reported, and widens the harmonic
-        tolerance).
+        Standard uncertainty of each identified natural frequency [Hz] (reported, and widens
+        the harmonic tolerance).
     speed_hz : float, optional
         Shaft speed [Hz] of a rotating bearing; enables the rejection of harmonic lines.
     expected : (float, float), optional
@@ -315,8 +332,8 @@ def match_modes(
     Raises
     ------
     MatchingError
-        When no mode passes the housing-mode criteria; ``candidates`` lists every mode with its
-        metrics and the reasons it was rejected.
+        When no mode passes the housing-mode criteria: one short line naming the likely cause;
+        ``candidates`` lists every mode with its metrics and reasons.
     """
     crit = criteria or MatchCriteria()
     params = rig.model
@@ -332,285 +349,248 @@ def match_modes(
                 f"natural_freq_std must have shape ({modes.n_modes},), got {natural_freq_std.shape}"
             )
 
-    cands = _candidates(modes, rig, "modes", natural_freq_std, speed_hz, crit)
-    for c in cands:
-        _judge_housing(c, params, lo, hi, crit)
+    def measure(mm: ModalModel, source: str, nf_std: NDArray[np.float64] | None) -> list[Candidate]:
+        return measure_candidates(mm, rig, source, nf_std, speed_hz, harmonic_freq_tol=crit.harmonic_freq_tol,
+                                  harmonic_max_damping=crit.harmonic_max_damping,
+                                  min_amplitude_ratio=crit.min_amplitude_ratio)
 
-    passing = [c for c in cands if not c["_fail"]]
+    cands = [_judge_housing(c, params, lo, hi, crit) for c in measure(modes, "modes", natural_freq_std)]
+    passing = [c for c in cands if not c.failures]
     if not passing:
-        out = _public(cands)
-        lines = "; ".join(f"{c['natural_freq']:.1f} Hz: {c['reason']}" for c in out) or "no mode identified"
-        raise MatchingError(
-            f"no identified mode matches the radial housing mode (searched {lo:.1f}-{hi:.1f} Hz); "
-            f"candidates: {lines}",
-            candidates=out,
-            file=file,
-        )
-    # best: the closest effective modal mass and the most in-phase, similar radial motion
-    def score(c: dict[str, Any]) -> float:
-        s = 0.0
-        if c.get("mass_ratio") is not None:
-            s += abs(math.log(c["mass_ratio"]))
-        s += (1.0 - (c.get("radial_phase_cos") or 1.0)) + (1.0 - (c.get("radial_amplitude_ratio") or 1.0))
-        return s
-
-    best = min(passing, key=score)
-    best["status"] = "housing"
-    best["reason"] = "radial housing mode: " + best["_evidence"]
+        raise MatchingError(_refusal(cands, lo, hi, rig), candidates=[c.to_dict() for c in cands], file=file)
+    best = min(passing, key=_score)
+    hi_idx = best.index
+    info = model_mode_at(params, best.natural_freq)
+    assert info is not None  # a passing candidate lies inside the model's range
+    cands[hi_idx] = replace(best, status="housing", reason="radial housing mode: " + best.reason)
     for c in passing:
         if c is not best:
-            c["status"] = "rejected"
-            c["reason"] = (
-                f"passes the housing criteria but {best['natural_freq']:.1f} Hz matches better "
-                f"(score {score(c):.3f} vs {score(best):.3f})"
-            )
-    info: ModelModeInfo = best["_model"]
-    hi_idx = best["index"]
+            cands[c.index] = replace(c, reason=(
+                f"passes the housing criteria but {best.natural_freq:.1f} Hz matches better "
+                f"(score {_score(c):.3f} vs {_score(best):.3f})"))
     housing = {
         "natural_freq": float(modes.natural_freq[hi_idx]),
         "damping_ratio": float(modes.damping_ratio[hi_idx]),
-        "natural_freq_std": None if natural_freq_std is None else _clean(natural_freq_std[hi_idx]),
-        "modal_mass": best.get("modal_mass"),
+        "natural_freq_std": best.natural_freq_std,
+        "modal_mass": best.modal_mass,
+        "modal_mass_source": best.mass_source,
         "model_modal_mass": info.modal_mass,
-        "spindle_ratio": best.get("spindle_ratio"),
+        "spindle_ratio": best.spindle_ratio,
         "model_spindle_ratio": info.spindle_ratio,
     }
+    warns: list[str] = []
+    has_dp = find_dof(modes.out_dofs, rig.radial.positive()) is not None
+    if not has_dp:
+        warns.append(
+            f"no radial driving-point FRF ({rig.radial}): effective modal mass estimated from the "
+            "radial housing transfer FRFs (rigid housing assumed); the housing mode rests on shape"
+        )
+    alts = tuple(c.index for c in passing if c is not best)
+    if alts:
+        fs = ", ".join(f"{modes.natural_freq[i]:.1f}" for i in alts)
+        warns.append(
+            f"{len(alts) + 1} modes pass the housing criteria: chose {best.natural_freq:.1f} Hz "
+            f"(closest effective modal mass) over {fs} Hz"
+        )
+    for c in cands:
+        if c.index != hi_idx and c.polarity_suspect and c.model_modal_mass is not None:
+            warns.append(
+                f"{c.natural_freq:.1f} Hz would be a clean radial translation with {c.polarity_suspect} "
+                f"reversed: check the polarity of {c.polarity_suspect}"
+            )
+    part = tuple(float(c.participation or 0.0) for c in cands)
+    f_h, z_h = best.natural_freq, best.damping_ratio
+    neigh = tuple(
+        c.index for c in cands
+        if c.index != hi_idx and c.harmonic is None and part[hi_idx] > 0
+        and part[c.index] >= crit.neighbour_participation * part[hi_idx]
+        and abs(c.natural_freq - f_h) <= crit.neighbour_bandwidths * max(c.damping_ratio * c.natural_freq
+                                                                         + z_h * f_h, 1e-9)
+    )
 
     # ---- spindle bending mode, predicted by the model tuned to the housing mode
-    src_name: str | None = None
+    extra: list[Candidate] = []
     if spindle_modes is None:
-        s_cands = [c for c in cands if c is not best]
+        pool = [c for c in cands if c.index != hi_idx]
     else:
-        s_cands = _candidates(spindle_modes, rig, "spindle_modes", None, speed_hz, crit)
-        cands.extend(s_cands)
-    sp_pass = []
-    for c in s_cands:
-        ok, why = _judge_spindle(c, info, crit)
+        extra = measure(spindle_modes, "spindle_modes", None)
+        pool = list(extra)
+    verdict = {id(c): _judge_spindle(c, info, crit) for c in pool}
+    sp_pass = [c for c in pool if verdict[id(c)][0]]
+    sbest = min(sp_pass, key=lambda c: abs(c.natural_freq / info.spindle_freq - 1.0)) if sp_pass else None
+
+    def spindle_verdict(c: Candidate) -> Candidate:
+        ok, why = verdict[id(c)]
+        if c is sbest:
+            return replace(c, status="spindle", reason=(
+                f"spindle bending mode: spindle/housing {_fmt(c.spindle_ratio, '.2f')} "
+                f"(model {info.spindle_mode_ratio:.2f}), {c.natural_freq:.1f} Hz near the "
+                f"model's {info.spindle_freq:.1f} Hz"))
         if ok:
-            sp_pass.append(c)
-        elif c["source"] == "spindle_modes":
-            c["status"] = "rejected"
-            c["reason"] = "not the spindle mode: " + why
-        elif abs(c["natural_freq"] / info.spindle_freq - 1.0) <= crit.spindle_freq_tol:
+            assert sbest is not None
+            return replace(c, status="rejected",
+                           reason=f"spindle-like but {sbest.natural_freq:.1f} Hz is closer to the model")
+        if c.source == "spindle_modes":
+            return replace(c, status="rejected", reason="not the spindle mode: " + why)
+        if abs(c.natural_freq / info.spindle_freq - 1.0) <= crit.spindle_freq_tol:
             # a housing-rejected mode near the spindle prediction: say why it is not that either
-            c["reason"] = c["reason"] + "; not the spindle mode: " + why
+            return replace(c, reason=c.reason + "; not the spindle mode: " + why)
+        return c
+
+    if spindle_modes is None:
+        cands = [spindle_verdict(c) if c.index != hi_idx else c for c in cands]
+    else:
+        extra = [spindle_verdict(c) for c in extra]
     spindle = None
-    sp_index = None
-    if sp_pass:
-        sbest = min(sp_pass, key=lambda c: abs(c["natural_freq"] / info.spindle_freq - 1.0))
-        sbest["status"] = "spindle"
-        sbest["reason"] = (
-            f"spindle bending mode: spindle/housing {sbest['spindle_ratio']:.2f} "
-            f"(model {info.spindle_mode_ratio:.2f}), {sbest['natural_freq']:.1f} Hz near the "
-            f"model's {info.spindle_freq:.1f} Hz"
-        )
-        for c in sp_pass:
-            if c is not sbest:
-                c["status"] = "rejected"
-                c["reason"] = f"spindle-like but {sbest['natural_freq']:.1f} Hz is closer to the model"
-        src = modes if sbest["source"] == "modes" else spindle_modes
+    if sbest is not None:
+        src = modes if sbest.source == "modes" else spindle_modes
         assert src is not None
-        sp_index = sbest["index"]
         spindle = {
-            "natural_freq": float(src.natural_freq[sp_index]),
-            "damping_ratio": float(src.damping_ratio[sp_index]),
+            "natural_freq": float(src.natural_freq[sbest.index]),
+            "damping_ratio": float(src.damping_ratio[sbest.index]),
             "model_natural_freq": info.spindle_freq,
         }
-        src_name = sbest["source"]
-
     return MatchResult(
         housing_index=int(hi_idx),
         housing_mode=housing,
-        spindle_index=sp_index,
+        spindle_index=None if sbest is None else sbest.index,
         spindle_mode=spindle,
-        spindle_source=src_name,
-        candidates=_public(cands),
+        spindle_source=None if sbest is None else sbest.source,
+        candidates=tuple(sorted(cands + extra, key=lambda c: c.natural_freq)),
         valid_range=(lo, hi),
+        driving_point=has_dp,
+        alternatives=alts,
+        neighbours=neigh,
+        participation=part,
+        warnings=tuple(warns),
     )
 
 
-def _public(cands: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    out = []
-    for c in sorted(cands, key=lambda c: c["natural_freq"]):
-        out.append({k: v for k, v in c.items() if not k.startswith("_")})
-    return out
+MAX_MESSAGE = 300
+"""Longest refusal line [characters]; the full candidate list goes to the JSON."""
 
 
-def _candidates(
-    modes: ModalModel,
-    rig: RigConfig,
-    source: str,
-    natural_freq_std: NDArray[np.float64] | None,
-    speed_hz: float | None,
-    crit: MatchCriteria,
-) -> list[dict[str, Any]]:
-    """Shape metrics of every mode (no decision yet)."""
-    ref = rig.radial.positive()
-    q = _find(modes.in_dofs, ref)
-    p = _find(modes.out_dofs, ref)
-    if q is None:
-        raise MatchingError(
-            f"the identified modes have no radial reference {rig.radial} "
-            f"(references: {[str(d) for d in modes.in_dofs]})"
-        )
-    groups = _sensor_groups(modes, rig)
-    h_rad = groups.get(("housing", "radial"), [])
-    h_lat = groups.get(("housing", "lateral"), [])
-    h_ax = groups.get(("housing", "axial"), [])
-    s_rad = groups.get(("spindle", "radial"), [])
-    s_ax = groups.get(("spindle", "axial"), [])
+def _short(msg: str) -> str:
+    return msg if len(msg) <= MAX_MESSAGE else msg[: MAX_MESSAGE - 3] + "..."
 
-    if p is not None:
-        shapes = modes.mode_shapes(modes.in_dofs[q])
-        mass = modes.modal_mass(modes.in_dofs[q]) if modes.out_dofs[p] == modes.in_dofs[q] else None
-        if mass is None:
-            # driving point written with opposite sign conventions: |R_pp| is sign-free
-            with np.errstate(divide="ignore"):
-                mass = 1.0 / (2.0 * modes.poles.imag * np.abs(modes.residues[:, p, q]))
+
+def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig) -> str:
+    """One short line: why no mode is the housing mode, naming the most likely cause."""
+    inside = [c for c in cands if lo < c.natural_freq < hi]
+    head = f"no identified mode matches the radial housing mode ({lo:.0f}-{hi:.0f} Hz, {len(cands)} candidates)"
+    if not inside:
+        return head + "; none in range"
+
+    def closeness(c: Candidate) -> float:
+        return (0.0 if c.mass_ratio is None else abs(math.log(c.mass_ratio))) + 0.5 * len(c.failures)
+
+    nearest = min(inside, key=closeness)
+    if all(c.mass_source != "driving point" for c in inside):
+        return _short(f"{head}; no radial driving point ({rig.radial}): without it the shapes do not single "
+                      f"out the housing mode; nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}")
+    sus = [c for c in inside if c.polarity_suspect]
+    units = [c for c in inside if any("units" in f for f in c.failures)]
+    if sus:
+        c = sus[0]
+        cause = (f"{c.natural_freq:.1f} Hz is a clean translation with {c.polarity_suspect} reversed: "
+                 "check its polarity")
+    elif units:
+        c = units[0]
+        cause = f"{c.natural_freq:.1f} Hz: " + next(f for f in c.failures if "units" in f)
     else:
-        shapes = modes.mode_shapes(modes.in_dofs[q])
-        mass = None
-    # reference point for phases: the driving point, else the largest radial housing sensor
-    out = []
-    fn_all, z_all = modes.natural_freq, modes.damping_ratio
-    for r in range(modes.n_modes):
-        phi = shapes[r]
-        fn, z = float(fn_all[r]), float(z_all[r])
-        c: dict[str, Any] = {
-            "index": r,
-            "source": source,
-            "natural_freq": fn,
-            "damping_ratio": z,
-            "natural_freq_std": None if natural_freq_std is None else _clean(natural_freq_std[r]),
-            "status": "rejected",
-            "reason": "",
-        }
-        if h_rad:
-            _shape_metrics(c, phi, p, h_rad, h_lat, h_ax, s_rad, s_ax)
-        c["modal_mass"] = None if mass is None else _clean(float(mass[r]))
-        # harmonic of the shaft speed?
-        c["harmonic"] = None
-        if speed_hz is not None and fn >= 0.5 * speed_hz:
-            k = max(1, round(fn / speed_hz))
-            dev = abs(fn - k * speed_hz)
-            tol = crit.harmonic_freq_tol * fn
-            sd = c["natural_freq_std"]
-            if sd is not None:
-                tol = max(tol, 3.0 * sd)
-            if dev <= tol and z < crit.harmonic_max_damping:
-                c["harmonic"] = int(k)
-        c["_fail"] = []
-        out.append(c)
-    return out
+        cause = f"nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}"
+    return _short(f"{head}; {cause}")
 
 
-def _shape_metrics(c: dict[str, Any], phi: NDArray[np.complex128], p: int | None, h_rad: list[int],
-                   h_lat: list[int], h_ax: list[int], s_rad: list[int], s_ax: list[int]) -> None:
-    """Phase, amplitude, cross-axis and spindle metrics of one shape (into ``c``)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = phi[h_rad]
-        pref = p if p is not None and p in h_rad else h_rad[int(np.argmax(np.abs(a)))]
-        ph_ref = phi[pref]
-        aref = abs(ph_ref)
-        amp_h = float(np.mean(np.abs(a)))
-        cos = np.real(a * np.conj(ph_ref)) / (np.abs(a) * aref)
-        c["radial_phase_cos"] = _clean(float(np.min(cos)))
-        c["radial_amplitude_ratio"] = _clean(float(np.min(np.abs(a)) / np.max(np.abs(a))))
-        c["lateral_ratio"] = _clean(float(np.max(np.abs(phi[h_lat])) / amp_h)) if h_lat else None
-        c["axial_ratio"] = _clean(float(np.max(np.abs(phi[h_ax])) / amp_h)) if h_ax else None
-        if s_rad:
-            # signed: projection on the housing reference's phase
-            proj = np.real(phi[s_rad] * np.conj(ph_ref)) / aref
-            c["spindle_ratio"] = _clean(float(np.mean(proj)) / amp_h)
-            c["spindle_axial_ratio"] = (
-                _clean(float(np.max(np.abs(phi[s_ax])) / np.mean(np.abs(phi[s_rad]))))
-                if s_ax else None
-            )
-        else:
-            c["spindle_ratio"] = None
-            c["spindle_axial_ratio"] = None
-
-
-def _judge_housing(c: dict[str, Any], params: ModelParams, lo: float, hi: float,
-                   crit: MatchCriteria) -> None:
-    """Fill ``_fail`` (reasons) and the model comparison metrics of one candidate."""
-    fails: list[str] = c["_fail"]
-    fn = c["natural_freq"]
+def _judge_housing(c: Candidate, params: ModelParams, lo: float, hi: float, crit: MatchCriteria) -> Candidate:
+    """The candidate with its housing-criteria failures, model comparison and reason."""
+    fails: list[str] = []
+    fn = c.natural_freq
     info = model_mode_at(params, fn) if lo < fn < hi else None
-    c["_model"] = info
-    c["model_modal_mass"] = None if info is None else info.modal_mass
-    c["model_spindle_ratio"] = None if info is None else info.spindle_ratio
-    c["mass_ratio"] = None
     if info is None:
         fails.append(f"outside the housing-mode range {lo:.1f}-{hi:.1f} Hz of the 3DOF model")
-    if c["harmonic"] is not None:
-        fails.append(
-            f"harmonic line {c['harmonic']} x shaft speed (damping {c['damping_ratio']:.2e})"
-        )
-    if c.get("radial_phase_cos") is None:
-        if "radial_phase_cos" in c:
-            fails.append("no radial housing motion")
-        else:
-            fails.append("no radial housing sensor in the data")
+    if c.harmonic is not None:
+        fails.append(f"harmonic line {c.harmonic} x shaft speed (damping {c.damping_ratio:.2e})")
+    if not c.radial_sensors:
+        fails.append("no radial housing sensor in the data")
+    elif c.radial_phase_cos is None:
+        fails.append("no radial housing motion")
     else:
-        sr = c.get("spindle_ratio")
+        sr = c.spindle_ratio
         if info is not None and sr is not None:
             tol = crit.spindle_ratio_tol + 0.5 * abs(info.spindle_ratio)
             if abs(sr - info.spindle_ratio) > tol:
                 kind = "spindle mode: " if abs(sr) > 1.0 else ""
-                fails.append(
-                    f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} "
-                    f"(+/- {tol:.2f})"
-                )
-        lat, ax = c.get("lateral_ratio"), c.get("axial_ratio")
+                fails.append(f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} (+/- {tol:.2f})")
+        lat, ax = c.lateral_ratio, c.axial_ratio
         if lat is not None and lat > crit.max_cross_axis_ratio and lat >= (ax or 0.0):
             fails.append(f"lateral mode (lateral/radial housing motion {lat:.2f})")
         elif ax is not None and ax > crit.max_cross_axis_ratio:
             fails.append(f"axial mode (axial/radial motion {ax:.2f})")
-        if c["radial_phase_cos"] < crit.min_phase_cos:
+        if c.radial_phase_cos < crit.min_phase_cos:
+            fails.append(f"tilt: radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f})")
+        if (c.radial_amplitude_ratio or 0.0) < crit.min_amplitude_ratio:
             fails.append(
-                f"tilt: radial housing sensors out of phase (min cos {c['radial_phase_cos']:.2f})"
-            )
-        if (c["radial_amplitude_ratio"] or 0.0) < crit.min_amplitude_ratio:
-            fails.append(
-                f"radial housing amplitudes differ (min/max {_fmt(c['radial_amplitude_ratio'], '.2f')}):"
+                f"radial housing amplitudes differ (min/max {_fmt(c.radial_amplitude_ratio, '.2f')}):"
                 " not a rigid radial translation"
             )
-    if info is not None and c.get("modal_mass") is not None:
-        ratio = c["modal_mass"] / info.modal_mass
-        c["mass_ratio"] = ratio
+    ratio = None
+    if info is not None and c.modal_mass is not None:
+        ratio = c.modal_mass / info.modal_mass
         lo_m, hi_m = crit.mass_ratio_range
         if not lo_m <= ratio <= hi_m:
+            hint = ""
+            g = 9.80665
+            # a units hint only for a driving-point mass of a mode that is the housing mode's in
+            # every other way
+            dp = c.mass_source == "driving point"
+            if dp and not fails and abs(math.log(ratio / g)) < 0.25:
+                hint = ": accelerations in g read as m/s^2? check the file's units"
+            elif dp and not fails and abs(math.log(ratio * g)) < 0.25:
+                hint = ": off by a factor g? check the file's units"
             fails.append(
-                f"effective modal mass {c['modal_mass']:.3g} kg at the radial driving point, "
-                f"model {info.modal_mass:.3g} kg (ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g})"
+                f"effective modal mass {c.modal_mass:.3g} kg, model {info.modal_mass:.3g} kg "
+                f"(ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g}){hint}"
             )
-    if fails:
-        c["status"] = "rejected"
-        c["reason"] = "; ".join(fails)
+    sus = c.polarity_suspect
+    if sus and len(fails) == 1 and fails[0].startswith("tilt"):
+        # out of phase is the only objection, and one sign flip makes a clean translation
+        fails[0] = (
+            f"radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f}) but a clean "
+            f"translation with {sus} reversed: check the polarity (sign) of {sus}"
+        )
     else:
-        ev = [f"radial housing sensors in phase (min cos {c['radial_phase_cos']:.2f})",
-              f"amplitude ratio {c['radial_amplitude_ratio']:.2f}"]
-        if c.get("spindle_ratio") is not None and info is not None:
-            ev.append(f"spindle/housing {c['spindle_ratio']:.3f} (model {info.spindle_ratio:.3f})")
-        if c.get("mass_ratio") is not None and info is not None:
-            ev.append(f"modal mass {c['modal_mass']:.3g} kg (model {info.modal_mass:.3g} kg)")
-        c["_evidence"] = ", ".join(ev)
-        c["reason"] = "passes the housing criteria"
+        sus = None
+    if fails:
+        reason = "; ".join(fails)
+    else:
+        assert info is not None and c.radial_phase_cos is not None
+        ev = [f"radial housing sensors in phase (min cos {c.radial_phase_cos:.2f})",
+              f"amplitude ratio {_fmt(c.radial_amplitude_ratio, '.2f')}"]
+        if c.spindle_ratio is not None:
+            ev.append(f"spindle/housing {c.spindle_ratio:.3f} (model {info.spindle_ratio:.3f})")
+        if ratio is not None:
+            ev.append(f"modal mass {c.modal_mass:.3g} kg (model {info.modal_mass:.3g} kg)")
+        reason = ", ".join(ev)
+    return replace(
+        c, status="rejected", reason=reason, failures=tuple(fails), polarity_suspect=sus,
+        model_modal_mass=None if info is None else info.modal_mass,
+        model_spindle_ratio=None if info is None else info.spindle_ratio, mass_ratio=ratio,
+    )
 
 
-def _judge_spindle(c: dict[str, Any], info: ModelModeInfo, crit: MatchCriteria) -> tuple[bool, str]:
+def _judge_spindle(c: Candidate, info: ModelModeInfo, crit: MatchCriteria) -> tuple[bool, str]:
     """Is candidate ``c`` the spindle bending mode predicted by ``info``?"""
     fails = []
-    fn = c["natural_freq"]
+    fn = c.natural_freq
     rel = fn / info.spindle_freq - 1.0
     if abs(rel) > crit.spindle_freq_tol:
         fails.append(
             f"{fn:.1f} Hz is {100 * rel:+.0f} % from the model's spindle mode {info.spindle_freq:.1f} Hz"
         )
-    if c["harmonic"] is not None:
-        fails.append(f"harmonic line {c['harmonic']} x shaft speed")
-    sr = c.get("spindle_ratio")
+    if c.harmonic is not None:
+        fails.append(f"harmonic line {c.harmonic} x shaft speed")
+    sr = c.spindle_ratio
     if sr is None:
         fails.append("no spindle radial sensor")
     elif not sr <= -crit.min_spindle_ratio:
@@ -618,7 +598,7 @@ def _judge_spindle(c: dict[str, Any], info: ModelModeInfo, crit: MatchCriteria) 
             f"spindle/housing ratio {sr:.2f}: the spindle bending mode moves the spindle "
             f"in anti-phase and more than the housing (model {info.spindle_mode_ratio:.2f})"
         )
-    sa = c.get("spindle_axial_ratio")
+    sa = c.spindle_axial_ratio
     if sa is not None and sa > 1.0:
         fails.append(f"axial spindle motion dominates (axial/radial {sa:.2f})")
     return (not fails), "; ".join(fails)

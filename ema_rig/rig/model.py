@@ -1,4 +1,4 @@
-"""The 3DOF radial model of the bearing test rig (paper Sect. 4, Fig. 6, Table 1; DESIGN §4).
+"""The 3DOF radial model of the bearing test rig (paper Sect. 4, Fig. 6, Table 1).
 
 Topology (one vertical displacement per mass, DOF order ``[x_H, x_S, x_F]``)::
 

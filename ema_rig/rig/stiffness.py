@@ -22,12 +22,37 @@ Steps of :func:`estimate_stiffness`:
 2. :func:`ema_rig.rig.matching.match_modes` picks the radial housing mode by shape and scale;
 3. when the data reach it, a second identification in a band around the spindle bending mode
    the model predicts (±20 %), matched by shape (reported, not used for ``k_TB``);
-4. :func:`ema_rig.rig.inversion.stiffness_uncertainty` inverts the housing frequency for
-   ``k_TB`` and propagates the identified frequency spread, the rig parameter tolerances
-   (``[uncertainty]`` of the rig file, defaults otherwise) and the ``k_MS`` std.
+4. :func:`ema_rig.rig.uncertainty.assess_housing_mode` decides which frequency to invert and which model-form terms
+   and warnings the result carries (the rule below);
+5. :func:`ema_rig.rig.uncertainty.stiffness_uncertainty` inverts it for ``k_TB`` and propagates
+   the identified frequency std (``'measured'``: the mode's ``natural_freq_std`` from the
+   identification), the rig parameter tolerances (``'assumed (rig file)'``, or
+   ``'assumed (default)'`` with a note when the rig file has no ``[uncertainty]`` entry), the
+   ``k_MS`` std, and the model-form terms.
 
 The uncertainty is a standard uncertainty (1 sigma); ``k_TB +- 2 k_TB_std`` is the ~95 %
-interval under a normal assumption.
+interval under a normal assumption. ``k_TB_std_measured`` is the identification term alone.
+
+The rule
+--------
+**A k_TB reported without a warning lies within 2 k_TB_std of the truth.** Ambiguity is never
+resolved silently; it is either covered by a stated model-form term *and* a warning, or refused:
+
+* no radial driving-point FRF: the effective modal mass comes from the radial housing transfer
+  FRFs (rigid housing); warning; refused with that reason when no mode qualifies;
+* several modes pass the housing criteria: warning and a term covering them; refused when they
+  lie more than :data:`MAX_ALTERNATIVE_SPREAD` apart;
+* a mode with radial housing motion within a few half-power bandwidths: warning and a coupling
+  term; when the housing mode lacks participation that in-phase, housing-like partners carry
+  (a split housing mass: an appendage, a load arm), the uncoupled frequency is recovered from
+  the group's driving-point compliance and the result placed between both readings;
+* effective modal mass off the model's by more than 10 %: warning and a term ``|ln r| / 4``;
+* damping: the declared model (viscous default) gives the undamped frequency; the
+  viscous/hysteretic difference is always in the budget (no warning);
+* calibration with the disk assumed rigid: a model-form term of 5.8 % in ``k_MS_std`` (note).
+
+Refusals are one line (at most 300 characters) naming the likely cause (polarity of a named
+sensor, units, missing driving point); every candidate with its metrics is in the JSON.
 """
 
 from __future__ import annotations
@@ -40,9 +65,17 @@ from typing import Any
 from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
+from .candidates import find_dof
 from .matching import MatchResult, match_modes, model_mode_at
+from .uncertainty import assess_housing_mode, defaults_note, measured_freq_std
 
-__all__ = ["CalibrationResult", "StiffnessResult", "calibrate", "estimate_stiffness", "default_band"]
+__all__ = [
+    "CalibrationResult",
+    "StiffnessResult",
+    "calibrate",
+    "default_band",
+    "estimate_stiffness",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -86,10 +119,15 @@ def _file_of(data: FRFData) -> str | None:
     return None
 
 
-def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool) -> Any:
+def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool,
+              rig: RigConfig) -> Any:
+    """PolyMAX (and, when the rig file's ``[identification] refine`` is true, the ML refinement)."""
     from ..identification import identify
 
-    return identify(data, band=band, max_order=max_order, progress=progress)
+    cfg = rig.identification
+    if cfg.get("n_averages") is not None:
+        data = data.with_meta(n_averages=float(cfg["n_averages"]))
+    return identify(data, band=band, max_order=max_order, progress=progress, refine=bool(cfg.get("refine", False)))
 
 
 def _max_order(rig: RigConfig, max_order: int | None) -> int | None:
@@ -110,7 +148,7 @@ def _identify_and_match(
     b = default_band(data, rig, band)
     mo = _max_order(rig, max_order)
     try:
-        ident = _identify(data, b, mo, progress)
+        ident = _identify(data, b, mo, progress, rig)
     except EmaRigError as exc:
         if exc.file is None and file is not None:
             exc.file = file
@@ -125,7 +163,7 @@ def _identify_and_match(
             if hi > info.spindle_freq * 1.02 and lo > b[1] * 0.5:
                 s_band = (lo, hi)
                 try:
-                    s_ident = _identify(data, s_band, mo, progress)
+                    s_ident = _identify(data, s_band, mo, progress, rig)
                 except EmaRigError as exc:
                     logger.info("spindle band %.0f-%.0f Hz not identified: %s", lo, hi, exc)
                     s_ident = None
@@ -173,6 +211,19 @@ class StiffnessResult:
     fit : RigFit or None
         The 3DOF model fitted to the measured FRFs in 150–700 Hz (``fit=True``); reported
         beside, not used for, ``k_TB``.
+    k_TB_std_measured : float
+        The part of ``k_TB_std`` from the identified housing frequency alone [N/m] (kind
+        ``'measured'``); ``k_TB_std`` adds the rig-file tolerances and model-form terms.
+    inverted_freq : float
+        The frequency inverted [Hz]: the undamped frequency for ``damping_model`` (and, with
+        coupled neighbours, the recovered uncoupled one); ``housing_mode['natural_freq']`` stays
+        the identified ``|lambda| / 2 pi``.
+    damping_model : str
+        Declared damping model (``'viscous'`` or ``'hysteretic'``).
+    warnings : tuple of str
+        One-line caveats; without any, ``k_TB`` lies within 2 ``k_TB_std`` of the truth.
+    notes : tuple of str
+        One-line information that is not a caveat (default tolerances applied).
     """
 
     k_TB: float
@@ -193,11 +244,16 @@ class StiffnessResult:
     speed_hz: float | None = None
     file: str | None = None
     fit: Any = field(default=None, repr=False)
+    k_TB_std_measured: float = 0.0
+    inverted_freq: float = math.nan
+    damping_model: str = "viscous"
+    warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def candidates(self) -> list[dict[str, Any]]:
         """Every mode considered by the matching, with metrics and reason."""
-        return self.match.candidates
+        return [c.to_dict() for c in self.match.candidates]
 
     def interval(self, coverage: float = 0.95) -> tuple[float, float]:
         """Two-sided interval ``k_TB +- z sigma`` [N/m] for a normal ``coverage`` (0.95 -> z = 1.96)."""
@@ -212,10 +268,16 @@ class StiffnessResult:
             "file": self.file,
             "k_TB": self.k_TB,
             "k_TB_std": self.k_TB_std,
+            "k_TB_std_measured": self.k_TB_std_measured,
+            "k_TB_std_by_kind": self.uncertainty.to_dict()["k_TB_std_by_kind"],
             "k_TB_MS": self.k_TB_MS,
             "k_TB_MS_std": self.k_TB_MS_std,
             "k_MS": self.k_MS,
             "k_MS_std": self.k_MS_std,
+            "inverted_freq": self.inverted_freq,
+            "damping_model": self.damping_model,
+            "warnings": list(self.warnings),
+            "notes": list(self.notes),
             "housing_mode": dict(self.housing_mode),
             "spindle_mode": None if self.spindle_mode is None else dict(self.spindle_mode),
             "uncertainty_budget": dict(self.uncertainty_budget),
@@ -223,7 +285,7 @@ class StiffnessResult:
             "band": None if self.band is None else list(self.band),
             "spindle_band": None if self.spindle_band is None else list(self.spindle_band),
             "speed_hz": self.speed_hz,
-            "candidates": [dict(c) for c in self.match.candidates],
+            "candidates": [c.to_dict() for c in self.match.candidates],
             "fit": None if self.fit is None else self.fit.to_dict(),
         }
 
@@ -247,6 +309,12 @@ class CalibrationResult:
     identification : Identification
     band : tuple of float
     file : str or None
+    k_MS_std_measured : float
+        The part of ``k_MS_std`` from the identified frequency alone [N/m].
+    warnings : tuple of str
+        One-line caveats (as for :class:`StiffnessResult`).
+    notes : tuple of str
+        Information (the rigid-disk model-form term when no disk stiffness is given).
     """
 
     k_MS: float
@@ -259,11 +327,14 @@ class CalibrationResult:
     identification: Any = field(default=None, repr=False)
     band: tuple[float, float] | None = None
     file: str | None = None
+    k_MS_std_measured: float = 0.0
+    warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def candidates(self) -> list[dict[str, Any]]:
         """Every mode considered by the matching."""
-        return self.match.candidates
+        return [c.to_dict() for c in self.match.candidates]
 
     def to_dict(self) -> dict[str, Any]:
         """JSON of ``ema-rig calibrate`` (DESIGN §3.2: ``k_MS``, ``k_MS_std``, ``housing_mode``)."""
@@ -271,146 +342,20 @@ class CalibrationResult:
             "file": self.file,
             "k_MS": self.k_MS,
             "k_MS_std": self.k_MS_std,
+            "k_MS_std_measured": self.k_MS_std_measured,
+            "calibration": self.calibration.to_dict(),
+            "warnings": list(self.warnings),
+            "notes": list(self.notes),
             "k_TB_MS": self.k_TB_MS,
             "k_disk": self.k_disk,
             "housing_mode": dict(self.housing_mode),
             "spindle_mode": None if self.match.spindle_mode is None else dict(self.match.spindle_mode),
             "band": None if self.band is None else list(self.band),
-            "candidates": [dict(c) for c in self.match.candidates],
+            "candidates": [c.to_dict() for c in self.match.candidates],
         }
 
 
 # --------------------------------------------------------------------------- pipeline
-def _combine_freq_std(data: FRFData, ident: Any, m: MatchResult, rig: RigConfig) -> tuple[float, MatchResult]:
-    """Standard uncertainty of the housing frequency [Hz] and the match with it recorded.
-
-    ``sqrt(s_cluster^2 + s_noise^2)``: the spread of the housing mode's stable poles across model
-    orders (from the identification) and the statistical std from the FRF noise
-    (:func:`local_freq_std`). On simulated data with 1-2 % noise the cluster spread dominates and
-    is conservative (it exceeds the actual scatter of the estimate several times).
-    """
-    s = m.housing_mode.get("natural_freq_std")
-    s_cluster = 0.0 if s is None or not math.isfinite(s) else float(s)
-    try:
-        s_noise = local_freq_std(data, ident.modes, m.housing_index, rig)
-    except (ValueError, IndexError, KeyError, ArithmeticError) as exc:  # pragma: no cover - defensive
-        logger.info("local frequency std not computed: %s", exc)
-        s_noise = 0.0
-    from dataclasses import replace
-
-    total = math.hypot(s_cluster, s_noise)
-    hm = dict(m.housing_mode, natural_freq_std=total, natural_freq_std_cluster=s_cluster,
-              natural_freq_std_noise=s_noise)
-    return total, replace(m, housing_mode=hm)
-
-
-def local_freq_std(data: FRFData, modes: Any, index: int, rig: RigConfig, *, width: float = 3.0) -> float:
-    """Statistical standard uncertainty [Hz] of one mode's natural frequency from the FRF noise.
-
-    A local Gauss-Newton linearisation around the identified mode: the other modes of ``modes``
-    are subtracted from the data; in ``f_n (1 +- width * 2 zeta)`` the radial housing and spindle
-    channels of the radial reference are modelled by the mode (pole and one residue per channel)
-    plus a constant per channel. With relative noise (weights ``1/|H|``) estimated per channel
-    from the residual, the covariance ``s^2 (J^T J)^-1`` gives the std of ``|lambda| / 2 pi``.
-
-    Parameters
-    ----------
-    data : FRFData
-        The measurement.
-    modes : ModalModel
-        Identified modes (from the same data).
-    index : int
-        The mode of interest.
-    rig : RigConfig
-        Sensor roles/axes and the radial reference.
-    width : float, optional
-        Half-width of the local band in half-power bandwidths (default 3).
-
-    Returns
-    -------
-    float
-        Standard uncertainty [Hz]; 0.0 when it cannot be computed (too few lines, no channel).
-    """
-    import numpy as np
-
-    lam = complex(modes.poles[index])
-    fn = abs(lam) / (2 * np.pi)
-    z = max(-lam.real / abs(lam), 1e-4)
-    half = max(width * 2 * z * fn, 2.5 * (data.freq[1] - data.freq[0]) if data.n_freq > 1 else 0.0)
-    sel = (data.freq >= fn - half) & (data.freq <= fn + half) & (data.freq > 0)
-    ref = rig.radial.positive()
-    q = next((j for j, d in enumerate(data.in_dofs) if d.positive() == ref), None)
-    rows = [i for i in range(data.n_out) if data.axes[i] == "radial" and data.roles[i] in ("housing", "spindle")]
-    if q is None or not rows or sel.sum() < 6:
-        return 0.0
-    f = data.freq[sel]
-    jw = 1j * 2 * np.pi * f
-    power = {"receptance": 0, "mobility": 1, "accelerance": 2}[data.frf_form]
-    others = [r for r in range(modes.n_modes) if r != index]
-    # data minus the other modes (receptance form of the identified model, then back to the form)
-    h_meas = data.frf[rows][:, q][:, sel]
-    if others:
-        lo_ = modes.poles[others]
-        res_o = modes.residues[others][:, :, :]
-        p_idx = [modes.out_dofs.index(data.out_dofs[i]) if data.out_dofs[i] in modes.out_dofs else -1 for i in rows]
-        q_m = next((j for j, d in enumerate(modes.in_dofs) if d.positive() == ref), None)
-        if q_m is None or min(p_idx) < 0:
-            return 0.0
-        ro = res_o[:, p_idx, q_m]  # (n_others, n_rows)
-        h_o = (ro.T[:, :, None] / (jw[None, None, :] - lo_[None, :, None])
-               + ro.conj().T[:, :, None] / (jw[None, None, :] - lo_.conj()[None, :, None])).sum(axis=1)
-        h_meas = h_meas - h_o * jw**power
-    a = 1.0 / (jw - lam)
-    b = 1.0 / (jw - np.conj(lam))
-    g = jw**power
-    n_r, n_f = len(rows), f.size
-    # linear least squares for residue (complex) and constant (complex) per channel at the pole
-    jac_cols = []
-    resid = []
-    for k in range(n_r):
-        h = h_meas[k]
-        # real unknowns: Re R, Im R, Re c, Im c;  model = g (R a + R* b) + c
-        cols = [g * (a + b), 1j * g * (a - b), np.ones(n_f), 1j * np.ones(n_f)]
-        A = np.stack(cols, axis=1)
-        Ar = np.vstack([A.real, A.imag])
-        x, *_ = np.linalg.lstsq(Ar, np.concatenate([h.real, h.imag]), rcond=None)
-        r_c = x[0] + 1j * x[1]
-        model = A @ x
-        w = 1.0 / np.maximum(np.abs(model), 1e-300)
-        resid.append((h - model) * w)
-        # derivatives with respect to sigma = Re(lam) and wd = Im(lam)
-        da = a**2  # d a / d lam
-        db = b**2  # d b / d conj(lam)
-        d_sigma = g * (r_c * da + np.conj(r_c) * db)
-        d_wd = g * (1j * r_c * da - 1j * np.conj(r_c) * db)
-        jac_cols.append((A, d_sigma, d_wd, w))
-    # assemble the full real Jacobian: [sigma, wd, (4 per channel)]
-    n_p = 2 + 4 * n_r
-    J = np.zeros((2 * n_r * n_f, n_p))
-    sig2 = []
-    for k, (A, ds, dw, w) in enumerate(jac_cols):
-        r0, r1 = 2 * k * n_f, 2 * (k + 1) * n_f
-        blk = np.zeros((n_f, n_p), dtype=complex)
-        blk[:, 0] = ds * w
-        blk[:, 1] = dw * w
-        blk[:, 2 + 4 * k: 6 + 4 * k] = A * w[:, None]
-        J[r0:r1] = np.vstack([blk.real, blk.imag])
-        rk = resid[k]
-        dof = max(2 * n_f - 4 - 2.0 / n_r, 1.0)
-        sig2.append(float(np.sum(rk.real**2 + rk.imag**2)) / dof)
-    # weight each channel by its own noise level
-    for k in range(n_r):
-        J[2 * k * n_f: 2 * (k + 1) * n_f] /= math.sqrt(max(sig2[k], 1e-300))
-    try:
-        cov = np.linalg.pinv(J.T @ J)
-    except np.linalg.LinAlgError:
-        return 0.0
-    grad = np.zeros(n_p)
-    grad[0], grad[1] = lam.real / abs(lam), lam.imag / abs(lam)
-    var = float(grad @ cov[:, :] @ grad)
-    return math.sqrt(max(var, 0.0)) / (2 * math.pi)
-
-
 def estimate_stiffness(
     data: FRFData,
     rig: RigConfig,
@@ -423,6 +368,7 @@ def estimate_stiffness(
     spindle: bool = True,
     fit: bool = False,
     progress: bool = False,
+    damping_model: str = "viscous",
 ) -> StiffnessResult:
     """Bearing stiffness ``k_TB`` of one measurement, with its uncertainty.
 
@@ -451,6 +397,9 @@ def estimate_stiffness(
         driving-point and spindle FRFs in 150–700 Hz (paper Sect. 4, Fig. 7; default False).
     progress : bool, optional
         Progress bar of the identification.
+    damping_model : {'viscous', 'hysteretic'}, optional
+        Declared damping model: which undamped frequency the identified pole stands for
+        (:func:`ema_rig.rig.uncertainty.undamped_freq`; the difference enters the budget).
 
     Returns
     -------
@@ -468,7 +417,7 @@ def estimate_stiffness(
     """
     from dataclasses import replace
 
-    from .inversion import stiffness_uncertainty
+    from .uncertainty import stiffness_uncertainty
 
     file = _file_of(data)
     kms = rig.model.k_MS if k_ms is None else float(k_ms)
@@ -480,11 +429,13 @@ def estimate_stiffness(
         data, rig, band=band, max_order=max_order, speed_hz=speed_hz, spindle=spindle,
         progress=progress, file=file,
     )
-    f_h = float(m.housing_mode["natural_freq"])
-    f_std, m = _combine_freq_std(data, ident, m, rig)
+    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    f_h = asm.inverted_freq
+    f_std = measured_freq_std(m)
     params = replace(rig.model, k_MS=kms)
     try:
-        unc = stiffness_uncertainty(f_h, f_std, params, dict(rig.uncertainty), k_MS_std=k_ms_std)
+        unc = stiffness_uncertainty(f_h, f_std, params, dict(rig.uncertainty), k_MS_std=k_ms_std,
+                                    model_form=asm.model_form)
     except InversionError as exc:
         exc.file = exc.file or file
         raise
@@ -512,6 +463,11 @@ def estimate_stiffness(
         speed_hz=speed_hz,
         file=file,
         fit=rig_fit,
+        k_TB_std_measured=float(unc.k_TB_std_measured),
+        inverted_freq=float(f_h),
+        damping_model=damping_model,
+        warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
+        notes=tuple(defaults_note(unc)),
     )
 
 
@@ -519,9 +475,8 @@ def _fit(data: FRFData, rig: RigConfig, params: Any, m: MatchResult) -> Any:
     """Fit the 3DOF model to the radial driving-point and mean spindle FRFs (150–700 Hz)."""
     from .inversion import fit_rig
 
-    ref = rig.radial.positive()
-    q = next((j for j, d in enumerate(data.in_dofs) if d.positive() == ref), None)
-    p = next((i for i, d in enumerate(data.out_dofs) if d.positive() == ref), None)
+    q = find_dof(data.in_dofs, rig.radial)
+    p = find_dof(data.out_dofs, rig.radial)
     if q is None or p is None:
         return None
     s_idx = [i for i in range(data.n_out) if data.roles[i] == "spindle" and data.axes[i] == "radial"]
@@ -549,6 +504,8 @@ def calibrate(
     band: tuple[float, float] | None = None,
     max_order: int | None = None,
     progress: bool = False,
+    k_disk_std: float | None = None,
+    damping_model: str = "viscous",
 ) -> CalibrationResult:
     """Mounting stiffness ``k_MS`` from a steel-disk measurement (paper Sect. 4).
 
@@ -562,7 +519,12 @@ def calibrate(
     rig : RigConfig
         Rig parameters (their ``k_MS`` is not used).
     k_disk : float, optional
-        Finite disk stiffness [N/m], in series.
+        Finite disk stiffness [N/m], in series (e.g. from FE); default: assumed rigid, with a
+        model-form term (:func:`ema_rig.rig.inversion.calibrate_k_ms`).
+    k_disk_std : float, optional
+        Standard uncertainty of ``k_disk`` [N/m].
+    damping_model : {'viscous', 'hysteretic'}, optional
+        Declared damping model (see :func:`estimate_stiffness`).
     band : (float, float), optional
         Identification band [Hz]; default the rig file's ``k_MS_band``, else its ``band``, else
         150–1000 Hz.
@@ -588,13 +550,22 @@ def calibrate(
         data, rig, band=band, max_order=max_order, speed_hz=None, spindle=False,
         progress=progress, file=file,
     )
-    f_d = float(m.housing_mode["natural_freq"])
-    f_std, m = _combine_freq_std(data, ident, m, rig)
+    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    f_d = asm.inverted_freq
+    # measured and model-form frequency terms act on k_TB+MS through the same slope
+    u_f = math.hypot(measured_freq_std(m) / f_d, *asm.model_form.values())
     try:
-        cal = calibrate_k_ms(f_d, rig.model, f_disk_std=f_std, k_disk=k_disk)
+        cal = calibrate_k_ms(f_d, rig.model, f_disk_std=u_f * f_d, k_disk=k_disk, k_disk_std=k_disk_std)
+        meas = calibrate_k_ms(f_d, rig.model, f_disk_std=measured_freq_std(m), k_disk=k_disk).k_MS_std_measured
     except InversionError as exc:
         exc.file = exc.file or file
         raise
+    notes = []
+    if k_disk is None:
+        notes.append(
+            f"steel disk assumed rigid (paper: at least 10x k_MS): k_MS may be up to 10 % low; "
+            f"model-form term {100 * cal.disk_std / cal.k_MS:.1f} % in k_MS_std (give the disk stiffness)"
+        )
     return CalibrationResult(
         k_MS=float(cal.k_MS),
         k_MS_std=float(cal.k_MS_std),
@@ -606,4 +577,7 @@ def calibrate(
         identification=ident,
         band=b,
         file=file,
+        k_MS_std_measured=float(meas),
+        warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
+        notes=tuple(notes),
     )

@@ -1,0 +1,160 @@
+"""Why a measurement may not be trusted: coherence, excitation in the record, phase behaviour.
+
+Functions
+---------
+diagnose_frf
+    Checks that need only the FRFs (phase behaviour; coherence when the data carry it).
+diagnose_file
+    The same plus what the UFF file holds besides the FRFs: coherence datasets (function
+    type 6) and the force and response time records (function type 1).
+
+Notes
+-----
+Each finding is one line in plain words. The thresholds are deliberately coarse (they flag
+measurements an engineer would repeat, not borderline ones):
+
+- phase: on a well-resolved FRF the phase turns by at most 180 degrees across a resonance,
+  spread over several lines; jumps above 90 degrees between neighbouring lines at more than
+  10 % of the lines mean noise dominates;
+- coherence below 0.5 at the largest peak; a coherence record that exceeds 1 is reported as
+  invalid and not used;
+- the force peak (impact) in the last half of its record: the response after the impact is
+  cut off (leakage, delay); a force record whose peak is less than 3 times its RMS has no
+  clear impulse.
+"""
+
+from __future__ import annotations
+
+from os import PathLike
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..frf import FRFData
+
+PHASE_JUMP_FRACTION = 0.10
+LOW_COHERENCE = 0.5
+
+
+def _jump_fraction(h: NDArray) -> float:
+    """Fraction of neighbouring-line pairs whose phase differs by more than 90 degrees."""
+    if h.size < 8:
+        return 0.0
+    return float(np.mean(np.abs(np.angle(h[1:] * np.conj(h[:-1]))) > np.pi / 2))
+
+
+def _phase_summary(fracs: list[tuple[str, float]]) -> list[str]:
+    bad = [(label, f) for label, f in fracs if f > PHASE_JUMP_FRACTION]
+    if not bad:
+        return []
+    worst = max(bad, key=lambda t: t[1])
+    which = f"FRF {worst[0]}" if len(bad) == 1 else f"{len(bad)} of {len(fracs)} FRFs (worst {worst[0]})"
+    return [f"{which}: the phase jumps by more than 90 degrees between neighbouring lines at "
+            f"{100 * worst[1]:.0f} % of the lines (noise dominates)"]
+
+
+def _phase_findings(data: FRFData) -> list[str]:
+    return _phase_summary([(f"{data.out_dofs[o]}/{data.in_dofs[i]}", _jump_fraction(data.frf[o, i]))
+                           for o in range(data.n_out) for i in range(data.n_in)])
+
+
+def _coherence_findings(freq: NDArray, coh: NDArray, h: NDArray, label: str) -> list[str]:
+    coh = np.real(np.asarray(coh))
+    if coh.size != h.size:
+        return []
+    over = int(np.sum(coh > 1.0 + 1e-6))
+    if over:
+        return [f"coherence {label} exceeds 1 at {over} lines: not a valid coherence, not used"]
+    k = int(np.argmax(np.abs(h)))
+    lo, hi = max(k - 3, 0), min(k + 4, coh.size)
+    peak = coh[lo:hi]
+    if float(np.min(peak)) < LOW_COHERENCE:
+        return [f"coherence {label} at the largest peak ({freq[k]:.5g} Hz) is only "
+                f"{float(np.min(peak)):.2f}-{float(np.max(peak)):.2f} (median {float(np.median(coh)):.2f} "
+                "in the band): the response there is not explained by the measured force"]
+    return []
+
+
+def diagnose_frf(data: FRFData) -> list[str]:
+    """Findings that make the FRFs of ``data`` untrustworthy (empty list when none).
+
+    Uses ``data.coherence`` (shape (n_out, n_in, n_freq)) when the data carry one.
+    """
+    out = _phase_findings(data)
+    coh = getattr(data, "coherence", None)
+    if coh is not None:
+        coh = np.asarray(coh)
+        if coh.shape == data.frf.shape:
+            for o in range(data.n_out):
+                for i in range(data.n_in):
+                    out += _coherence_findings(data.freq, coh[o, i], data.frf[o, i],
+                                               f"{data.out_dofs[o]}/{data.in_dofs[i]}")
+    return out
+
+
+def diagnose_file(path: str | PathLike[str], data: FRFData | None = None) -> list[str]:
+    """Findings from a UFF file's FRFs, coherence datasets and time records.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The UFF file.
+    data : FRFData, optional
+        The FRFs as identified (band-limited); default all FRF datasets of the file.
+
+    Returns
+    -------
+    list of str
+        One line per finding. A file that cannot be read gives no finding (the reader's own
+        error is reported elsewhere).
+    """
+    from ..errors import EmaRigError
+    from ..io.uff import read_uff
+
+    try:
+        uff = read_uff(path)
+    except (EmaRigError, OSError):
+        return []
+    recs = [r for r in uff.records if r.status == "read" and r.type == 58 and r.y is not None and r.x is not None]
+    frfs = [r for r in recs if r.function_type == 4]
+    out: list[str] = []
+    band = (float(data.freq[0]), float(data.freq[-1])) if data is not None else None
+    data_coh = data is not None and getattr(data, "coherence", None) is not None
+    if data is not None:
+        out += diagnose_frf(data)
+    fracs: list[tuple[str, float]] = []
+    for r in frfs:
+        x, y = np.asarray(r.x), np.asarray(r.y)
+        keep = np.ones(x.size, bool) if band is None else (x >= band[0]) & (x <= band[1])
+        if keep.sum() < 8:
+            continue
+        label = f"{r.response}/{r.reference}"
+        if data is None:
+            fracs.append((label, _jump_fraction(y[keep])))
+        if data_coh:
+            continue
+        for c in recs:
+            if (c.function_type == 6 and c.response == r.response and c.reference == r.reference
+                    and c.y is not None and c.y.size == y.size):
+                out += _coherence_findings(x[keep], np.asarray(c.y)[keep], y[keep], label)
+    out += _phase_summary(fracs)
+    refs = {str(r.reference) for r in frfs}
+    for r in recs:
+        if r.function_type != 1 or str(r.response) not in refs or str(r.response) != str(r.reference):
+            continue
+        f = np.abs(np.asarray(r.y, dtype=np.complex128))
+        n = f.size
+        if n < 16:
+            continue
+        k = int(np.argmax(f))
+        rms = float(np.sqrt(np.mean(f**2)))
+        if k > n // 2:
+            out.append(f"force record {r.response}: the impact (force peak) sits at sample {k} of {n} "
+                       f"({100 * k / n:.0f} % into the record), so the response to it is cut off "
+                       "(leakage and delay corrupt the FRF)")
+        if rms > 0 and f[k] / rms < 3.0:
+            out.append(f"force record {r.response}: no clear impulse (peak only {f[k] / rms:.1f} times the RMS)")
+    return out
+
+
+__all__ = ["diagnose_file", "diagnose_frf"]

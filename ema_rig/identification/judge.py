@@ -1,0 +1,365 @@
+"""Physical-mode judgement: every cluster of stable poles gets a verdict and a reason.
+
+Functions
+---------
+judge_clusters
+    Candidates of a stabilization (clusters of stable poles) judged on stability over the
+    orders, damping, duplicates, shape phase (MPC) and their support in the measured FRFs.
+
+Classes
+-------
+Candidate
+    One cluster with its verdict (``accepted``) and the reason.
+
+Notes
+-----
+A candidate is rejected, in this order, when
+
+1. it is stable at fewer than ``min_poles`` orders, or present at less than
+   ``min_persistence`` of the computed orders from its first appearance up (it flickers);
+2. its mean damping ratio lies outside ``(0, max_damping]``, or its standard deviation over
+   the cluster exceeds ``max_damping_spread`` (half) of the mean;
+3. it duplicates a longer-lived cluster (frequencies within three standard deviations and
+   participation MAC above 0.9, or shapes MAC above 0.95 and less than a tenth of a half-power
+   bandwidth apart);
+4. it lies inside the half-power bandwidth ``2 zeta f`` of a stronger candidate while its shape
+   is far less monophase (MPC below ``split_mpc`` and at least 0.3 below the neighbour's): a
+   pole that splits a mode -- unless it is well founded on its own (stable at 80 % of its
+   orders, damping stable to 20 %, F at least a tenth of the neighbour's);
+5. removing it from the LSFD fit does not worsen the fit: the F statistic of its two real
+   parameters per channel, ``dRSS / (2 n_chan) / sigma^2``, is below ``min_support`` (a pole
+   that only fits noise gives about 1; a mode of the data tens to thousands). ``sigma^2`` is
+   the residual per real number over the lines within two half-power bandwidths (at least
+   five lines) of the candidate: the noise where the candidate acts;
+6. its own term of the fit is less than ``min_peak_share`` (5 %) of the measured FRFs within
+   its half-power bandwidth (``peak_share``): it makes no peak;
+7. with three or more response (or reference) DOFs, its shape has no common phase (MPC below
+   ``min_mpc``, 0.25: the noise columns of a measurement; unless well founded as in rule 4 with
+   F at least ``10 min_support``), or it is far from monophase (MPC
+   below ``split_mpc``) and its evidence is weak (F below ``4 min_support`` or peak share below
+   30 %) and it is not well founded otherwise (as in rule 4, F at least ``10 min_support``). Physical modes of a lightly damped structure are nearly monophase; the dam's
+   most complex accepted shapes have MPC 0.34-0.45.
+
+The MPC is computed on the residues along the longer axis of the measurement (outputs for a
+classical test, references for a roving hammer), from the row or column that carries the
+mode most strongly; for a single-channel measurement it is 1 by construction and rule 4 cannot
+apply.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._blas import single_threaded
+from ..frf import _FORM_POWER, FRFData
+from .mac import mac, mpc
+from .stabilization import (
+    SelectedMode,
+    StabilizationData,
+    _mode_from_rows,
+    cluster_poles,
+    order_ranks,
+)
+
+
+@dataclass(frozen=True, slots=True)
+class Candidate:
+    """One cluster of stable poles and its verdict.
+
+    Parameters
+    ----------
+    mode : SelectedMode
+        The cluster as a mode (mean frequency and damping, spread, representative pole,
+        ``order_min`` .. ``order_max``).
+    accepted : bool
+        True when judged a physical mode.
+    reason : str
+        Why (one line).
+    mpc : float
+        MPC of the candidate's shape (NaN when not fitted).
+    support : float
+        F statistic of the candidate in the LSFD fit (NaN when not fitted).
+    persistence : float
+        Fraction of the computed orders from ``order_min`` up at which the cluster has a pole.
+    peak_share : float
+        ``||H_k|| / ||H||`` near the candidate's frequency (its own term of the fit against
+        the measured FRFs; NaN when not fitted).
+    """
+
+    mode: SelectedMode
+    accepted: bool
+    reason: str
+    mpc: float = float("nan")
+    support: float = float("nan")
+    persistence: float = float("nan")
+    peak_share: float = float("nan")
+
+    @property
+    def natural_freq(self) -> float:
+        """Mean natural frequency of the cluster [Hz]."""
+        return self.mode.natural_freq
+
+    @property
+    def damping_ratio(self) -> float:
+        """Mean damping ratio of the cluster."""
+        return self.mode.damping_ratio
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: the mode's fields plus ``verdict``, ``reason``, ``mpc``, ``support``."""
+        d = self.mode.to_dict()
+
+        def num(x: float) -> float | None:
+            return float(x) if np.isfinite(x) else None
+
+        d.update({"verdict": "accepted" if self.accepted else "rejected", "reason": self.reason,
+                  "mpc": num(self.mpc), "support": num(self.support), "persistence": num(self.persistence),
+                  "peak_share": num(self.peak_share)})
+        return d
+
+
+def _basis(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, int]:
+    """Real LSFD design matrix (2 n_freq, 2 n_modes + 2) with residual terms, data (2 n_freq, n_chan)."""
+    p = _FORM_POWER[data.frf_form]
+    f, h = data.freq, data.frf
+    if p < 2 and f[0] == 0.0:
+        f, h = f[1:], h[:, :, 1:]
+    w = 2 * np.pi * f
+    jw = 1j * w
+    fac = np.ones_like(jw)
+    for _ in range(p):
+        fac = fac * jw
+    pos = 1.0 / (jw[:, None] - poles[None, :])
+    neg = 1.0 / (jw[:, None] - poles.conj()[None, :])
+    # LR / (j w)^2 in the data's form (0 Hz was dropped above unless the form is accelerance)
+    lr = np.ones_like(jw) if p == 2 else fac / (jw * jw)
+    cols = [fac[:, None] * (pos + neg), fac[:, None] * (1j * (pos - neg)), lr[:, None], fac[:, None]]
+    a = np.concatenate(cols, axis=1)
+    y = h.reshape(-1, f.size).T
+    return np.concatenate([a.real, a.imag]), np.concatenate([y.real, y.imag]), f.size
+
+
+def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
+    """Residues (n_modes, n_out, n_in), the F statistic and the peak share of every mode (n_modes,).
+
+    The peak share is ``||H_k|| / ||H||`` over the lines within one half-power bandwidth (at
+    least two lines each side) of mode ``k``, ``H_k`` its own term of the fit: about 1 for a
+    mode that makes its peak, small for a pole in a trough or under a stronger mode.
+
+    The increase of the residual sum of squares when mode ``k``'s two real parameters are
+    dropped is ``x_K^T (C_KK)^-1 x_K`` per channel, ``C = (A^T A)^-1`` (no refit needed).
+    """
+    from scipy.linalg import solve_triangular
+
+    n = poles.size
+    a, b, n_f = _basis(data, poles)
+    scale = np.linalg.norm(a, axis=0)
+    a = a / np.where(scale > 0, scale, 1.0)
+    q, r = np.linalg.qr(a)
+    c = q.T @ b  # (n_unk, n_chan)
+    x = solve_triangular(r, c, check_finite=False)
+    # noise level near each mode: residual per real number over the lines within two
+    # half-power bandwidths (at least 5 lines each side), so junk far away cannot mask it
+    e = b - a @ x
+    line = np.sum(e[:n_f] ** 2 + e[n_f:] ** 2, axis=1)  # (n_f,)
+    n_chan = b.shape[1]
+    f = data.freq[-n_f:]
+    df = float(np.median(np.diff(f))) if n_f > 1 else 1.0
+    floor = 1e-14 * float(np.sum(b**2)) / max(b.size, 1)
+    sigma2 = np.empty(n)
+    share = np.empty(n)
+    y2 = np.sum(b[:n_f] ** 2 + b[n_f:] ** 2, axis=1)  # |H|^2 per line, summed over channels
+    for k, lam in enumerate(poles):
+        fk = abs(lam) / (2 * np.pi)
+        bw = -lam.real / (2 * np.pi)  # half of the half-power bandwidth [Hz]
+        win = np.abs(f - fk) <= max(2.0 * bw, 5 * df)
+        sigma2[k] = max(float(line[win].mean() if win.any() else line.mean()) / (2 * n_chan), floor)
+        near = np.abs(f - fk) <= max(bw, 2 * df)
+        if not near.any():
+            near = np.abs(f - fk) <= np.min(np.abs(f - fk))
+        term = a[:, [k, n + k]] @ x[[k, n + k]]  # (2 n_f, n_chan)
+        t2 = np.sum(term[:n_f] ** 2 + term[n_f:] ** 2, axis=1)
+        share[k] = float(np.sqrt(t2[near].sum() / max(y2[near].sum(), floor)))
+    rinv = solve_triangular(r, np.eye(r.shape[0]), check_finite=False)
+    cov = rinv @ rinv.T
+    ks = np.arange(n)
+    blk = np.empty((n, 2, 2))
+    blk[:, 0, 0], blk[:, 0, 1] = cov[ks, ks], cov[ks, n + ks]
+    blk[:, 1, 0], blk[:, 1, 1] = cov[n + ks, ks], cov[n + ks, n + ks]
+    xk = np.stack([x[:n], x[n : 2 * n]], axis=1)  # (n, 2, n_chan)
+    d_rss = np.einsum("kic,kic->k", xk, np.linalg.solve(blk, xk))
+    support = np.maximum(d_rss, 0.0) / (2 * n_chan) / sigma2
+    x = x / np.where(scale > 0, scale, 1.0)[:, None]
+    res = (x[:n] + 1j * x[n : 2 * n]).T.reshape(data.n_out, data.n_in, n)
+    return np.moveaxis(res, 2, 0), support, share
+
+
+def shape_mpc(residues: NDArray[np.complex128]) -> NDArray[np.float64]:
+    """MPC of each mode along the longer axis of the residues (n_modes, n_out, n_in) -> (n_modes,).
+
+    The shape is the residue column (outputs) of the strongest reference, or, when there are
+    more references than outputs, the residue row (references) of the strongest output.
+    """
+    res = np.asarray(residues)
+    if res.shape[2] > res.shape[1]:
+        res = np.swapaxes(res, 1, 2)
+    strongest = np.argmax(np.linalg.norm(res, axis=1), axis=1)  # (n_modes,)
+    shapes = res[np.arange(res.shape[0]), :, strongest]
+    return mpc(shapes)
+
+
+def judge_clusters(
+    stab: StabilizationData,
+    data: FRFData,
+    *,
+    min_poles: int = 4,
+    min_persistence: float = 0.5,
+    max_damping: float = 0.2,
+    min_support: float = 5.0,
+    split_mpc: float = 0.5,
+    min_peak_share: float = 0.05,
+    min_mpc: float = 0.25,
+    max_damping_spread: float = 0.5,
+    fit: bool = True,
+    clusters: list[NDArray[np.intp]] | None = None,
+) -> tuple[Candidate, ...]:
+    """Judge every cluster of stable poles of ``stab`` against the data ``data``.
+
+    Parameters
+    ----------
+    stab : StabilizationData
+        Stabilization of the pLSCF estimate (its participation vectors belong to the layout
+        the poles were estimated on, which may be the transposed one).
+    data : FRFData
+        The measured FRFs in the band (original layout), used for the LSFD-based rules.
+    min_poles, min_persistence, max_damping, min_support, split_mpc, min_peak_share, min_mpc, \
+    max_damping_spread : optional
+        Thresholds of the rules in the module notes.
+    fit : bool, optional
+        Apply the LSFD-based rules 4-7 (default True); False judges on stability,
+        damping and participation duplicates only (rules 1-3).
+    clusters : list of ndarray, optional
+        Rows of ``stab`` per cluster (default :func:`~ema_rig.identification.stabilization.cluster_poles`).
+
+    Returns
+    -------
+    tuple of Candidate
+        Sorted by frequency; ``accepted`` ones are the physical modes.
+    """
+    orders = np.asarray(stab.orders)
+    if clusters is None:
+        clusters = cluster_poles(stab, max_damping=max_damping)
+    ranks = order_ranks(stab)
+    modes = [_mode_from_rows(stab, rows, "auto", ranks) for rows in clusters]
+    verdict: list[str | None] = [None] * len(modes)
+    persistence = np.full(len(modes), np.nan)
+    lo, hi = stab.band
+    for i, m in enumerate(modes):
+        span = int(np.sum(orders >= m.order_min))
+        persistence[i] = m.n_poles / max(span, 1)
+        if m.n_poles < min_poles:
+            verdict[i] = f"stable at only {m.n_poles} orders (need {min_poles})"
+        elif persistence[i] < min_persistence:
+            verdict[i] = (f"intermittent: present at {m.n_poles} of the {span} orders from "
+                          f"{m.order_min} up")
+        elif not 0 < m.damping_ratio <= max_damping:
+            verdict[i] = f"implausible damping ratio {m.damping_ratio:.3g}"
+        elif m.damping_ratio_std > max_damping_spread * m.damping_ratio:
+            verdict[i] = (f"damping not stable over the orders ({100 * m.damping_ratio:.2g} +/- "
+                          f"{100 * m.damping_ratio_std:.2g} %)")
+        elif not lo <= m.natural_freq <= hi:
+            verdict[i] = "outside the band"
+    # duplicates by participation: same frequency within the spread, same participation
+    alive = [i for i in range(len(modes)) if verdict[i] is None]
+    for a_i, i in enumerate(alive):
+        for j in alive[a_i + 1 :]:
+            if verdict[i] is not None or verdict[j] is not None:
+                continue
+            mi, mj = modes[i], modes[j]
+            close = abs(mi.natural_freq - mj.natural_freq) <= 3 * (mi.natural_freq_std + mj.natural_freq_std)
+            if close and float(mac(np.array(mi.participation), np.array(mj.participation))[0, 0]) > 0.9:
+                weak, strong = (j, i) if mi.n_poles >= mj.n_poles else (i, j)
+                verdict[weak] = f"duplicate of {modes[strong].natural_freq:.6g} Hz"
+    mpcs = np.full(len(modes), np.nan)
+    support = np.full(len(modes), np.nan)
+    peak = np.full(len(modes), np.nan)
+    for _ in range(4 if fit else 0):
+        alive = [i for i in range(len(modes)) if verdict[i] is None]
+        if not alive:
+            break
+        poles = np.array([modes[i].pole for i in alive])
+        with single_threaded():
+            res, sup, shr = _fit(data, poles)
+        mp = shape_mpc(res)
+        mpcs[alive] = mp
+        support[alive] = sup
+        peak[alive] = shr
+        new = False
+        # duplicates by shape, splits by shape phase, then support
+        shapes = _shapes(res)
+        for a_i, i in enumerate(alive):
+            for b_i, j in enumerate(alive):
+                if i == j or verdict[i] is not None or verdict[j] is not None:
+                    continue
+                fi, fj = modes[i].natural_freq, modes[j].natural_freq
+                bw = 2 * max(modes[j].damping_ratio, 1e-4) * fj
+                stronger = sup[b_i] > sup[a_i]
+                if not stronger or abs(fi - fj) > bw:
+                    continue
+                if abs(fi - fj) < 0.1 * bw and float(mac(shapes[a_i], shapes[b_i])[0, 0]) > 0.95:
+                    verdict[i] = f"duplicate of {fj:.6g} Hz (shape MAC > 0.95)"
+                    new = True
+                elif (mp[a_i] < split_mpc and mp[a_i] < mp[b_i] - 0.3
+                      and not _well_founded(modes[i], persistence[i], sup[a_i], 0.1 * sup[b_i])):
+                    verdict[i] = f"splits the {fj:.6g} Hz mode (MPC {mp[a_i]:.2f} against {mp[b_i]:.2f})"
+                    new = True
+        n_dof = max(data.n_out, data.n_in)
+        for a_i, i in enumerate(alive):
+            if verdict[i] is not None:
+                continue
+            if sup[a_i] < min_support:
+                verdict[i] = f"negligible contribution to the fit (F = {sup[a_i]:.3g} < {min_support:g})"
+                new = True
+            elif shr[a_i] < min_peak_share:
+                verdict[i] = (f"no peak of its own: {100 * shr[a_i]:.0f} % of the FRF near {modes[i].natural_freq:.5g} Hz "
+                              f"(< {100 * min_peak_share:g} %)")
+                new = True
+            elif n_dof >= 3 and mp[a_i] < min_mpc and not _well_founded(
+                    modes[i], persistence[i], sup[a_i], 10 * min_support):
+                verdict[i] = f"shape without a common phase (MPC {mp[a_i]:.2f} < {min_mpc:g})"
+                new = True
+            elif (n_dof >= 3 and mp[a_i] < split_mpc and (sup[a_i] < 4 * min_support or shr[a_i] < 0.3)
+                  and not _well_founded(modes[i], persistence[i], sup[a_i], 10 * min_support)):
+                verdict[i] = (f"weak (F = {sup[a_i]:.3g}, {100 * shr[a_i]:.0f} % of the FRF near it) with a shape "
+                              f"far from monophase (MPC {mp[a_i]:.2f} < {split_mpc:g})")
+                new = True
+        if not new:
+            break
+    out = []
+    for i, m in enumerate(modes):
+        v = verdict[i]
+        out.append(Candidate(mode=m, accepted=v is None, reason=v or "physical", mpc=float(mpcs[i]),
+                             support=float(support[i]), persistence=float(persistence[i]),
+                             peak_share=float(peak[i])))
+    return tuple(out)
+
+
+def _well_founded(m: SelectedMode, persistence: float, support: float, need: float) -> bool:
+    """A candidate whose other evidence outweighs a poor shape phase.
+
+    Stable at 80 % of the orders from its first appearance up (a split or noise pole flickers),
+    with damping stable to 20 % and an F statistic of at least ``need``: closely spaced,
+    heavily overlapping modes can have residues whose phase LSFD cannot separate cleanly.
+    """
+    return (persistence >= 0.8 and m.damping_ratio_std <= 0.2 * m.damping_ratio and support >= need)
+
+
+def _shapes(res: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """All residues of each mode flattened to one vector, (n_modes, n_out * n_in)."""
+    return res.reshape(res.shape[0], -1)
+
+
+__all__ = ["Candidate", "judge_clusters", "shape_mpc"]

@@ -1,0 +1,604 @@
+"""The k_TB uncertainty budget and the model-form terms of a matched housing mode.
+
+Reads after :mod:`ema_rig.rig.inversion` (which it linearises) and before
+:mod:`ema_rig.rig.stiffness` (which runs it per measurement).
+
+Functions
+---------
+undamped_freq
+    The undamped frequency an identified pole stands for, and the damping model-form term.
+sensitivities
+    Relative sensitivities ``d ln k_TB / d ln x`` of the inversion.
+stiffness_uncertainty
+    ``k_TB`` with its GUM budget: measured, assumed (rig file / default) and model-form terms.
+assess_housing_mode
+    Which frequency to invert, which model-form terms and warnings a matched housing mode needs
+    (the rule: a k_TB without a warning lies within 2 sigma of the truth).
+
+Classes
+-------
+UncertaintyTerm, StiffnessUncertainty, Assessment
+    Frozen results.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from ..config import MODEL_KEYS, ModelParams, RigConfig
+from ..errors import MatchingError
+from .inversion import (
+    KIND_DEFAULT,
+    KIND_MEASURED,
+    KIND_MODEL,
+    KIND_RIG,
+    KINDS,
+    _closed_form,
+    k_tb_from_housing_freq,
+)
+from .matching import MatchResult, model_mode_at
+
+__all__ = [
+    "DAMPING_MODELS",
+    "DEFAULT_REL_UNCERTAINTY",
+    "MASS_WARN_RATIO",
+    "MAX_ALTERNATIVE_SPREAD",
+    "Assessment",
+    "StiffnessUncertainty",
+    "UncertaintyTerm",
+    "assess_housing_mode",
+    "defaults_note",
+    "measured_freq_std",
+    "sensitivities",
+    "stiffness_uncertainty",
+    "undamped_freq",
+]
+
+DEFAULT_REL_UNCERTAINTY: Mapping[str, float] = {
+    "m_H": 0.005,  # housing mass from CAD / a scale: 0.5 %
+    "m_S": 0.02,  # equivalent spindle mass (fitted): 2 %
+    "m_F": 0.05,  # equivalent frame mass (fitted): 5 %
+    "k_MS": 0.02,  # mounting stiffness when no calibration std is given: 2 %
+    "k_AS": 0.10,  # air springs (manufacturer data): 10 %
+    "k_S": 0.02,  # spindle bending stiffness (fitted to the 1908 Hz mode): 2 %
+    "k_B": 0.10,  # bushings (manufacturer data): 10 %
+}
+"""Relative standard uncertainties used when the rig file has no ``[uncertainty]`` entry.
+
+m_H 0.5 % (CAD mass), m_S 2 %, m_F 5 %, k_S 2 % (fitted model parameters), k_MS 2 % (replaced
+by the calibration's own std when given), k_AS and k_B 10 % (manufacturer data; their effect on
+the housing mode is tiny)."""
+
+
+DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
+"""Declared damping models for :func:`undamped_freq`."""
+
+
+# --------------------------------------------------------------------------- damping
+def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: str = "viscous") -> tuple[float, float]:
+    """Undamped natural frequency of the (real-stiffness) model from an identified pole.
+
+    The identification gives ``|lambda| / 2 pi`` and ``zeta = -Re(lambda) / |lambda|``; the 3DOF
+    model is undamped. What ``|lambda|`` means depends on the damping model:
+
+    * viscous, proportional: ``lambda = -zeta w0 + j w0 sqrt(1 - zeta^2)``, so ``w0 = |lambda|``;
+    * hysteretic (structural), ``K (1 + j eta)``: ``lambda^2 = -w0^2 (1 + j eta)``, so
+      ``|lambda| = w0 (1 + eta^2)^(1/4)`` and ``zeta = sin(atan(eta) / 2)``; eliminating ``eta``
+      (``cos(atan eta) = 1 - 2 zeta^2``) gives ``w0 = |lambda| sqrt(1 - 2 zeta^2)``
+      (``-zeta^2`` relative to first order: -1.0 % in frequency, -3.9 % in k_TB at 10 %).
+
+    The difference ``delta = 1 - sqrt(1 - 2 zeta^2)`` (~ ``zeta^2``) between the two readings is
+    the size of the damping model-form term: whichever model is declared, the truth may lie
+    anywhere between the two (and a non-proportional dashpot, e.g. in the bearing, shifts the
+    pole by a similar ``O(zeta^2)``), so the relative standard uncertainty of the undamped
+    frequency is ``delta / sqrt(3)`` (a rectangular distribution of half-width ``delta``).
+
+    Parameters
+    ----------
+    abs_freq : float
+        ``|lambda| / 2 pi`` of the identified mode [Hz].
+    damping_ratio : float
+        Identified damping ratio ``-Re(lambda) / |lambda|``, in [0, 1/sqrt(2)).
+    damping_model : {'viscous', 'hysteretic'}
+        The declared damping model.
+
+    Returns
+    -------
+    f0 : float
+        Undamped natural frequency [Hz] to invert.
+    rel_std : float
+        Relative standard uncertainty of ``f0`` from the damping model (fraction).
+
+    Examples
+    --------
+    >>> f0, u = undamped_freq(700.0, 0.10, "hysteretic")
+    >>> round(f0, 3), round(100 * u, 3)
+    (692.965, 0.58)
+    """
+    if damping_model not in DAMPING_MODELS:
+        raise ValueError(f"damping_model must be one of {DAMPING_MODELS}, got {damping_model!r}")
+    z = float(damping_ratio)
+    if not (math.isfinite(z) and 0.0 <= z < math.sqrt(0.5)):
+        z = min(max(z, 0.0), 0.7) if math.isfinite(z) else 0.0
+    root = math.sqrt(1.0 - 2.0 * z * z)
+    delta = 1.0 - root
+    f0 = float(abs_freq) * (root if damping_model == "hysteretic" else 1.0)
+    return f0, delta / math.sqrt(3.0)
+
+
+# --------------------------------------------------------------------------- uncertainty
+@dataclass(frozen=True, slots=True)
+class UncertaintyTerm:
+    """One input of the k_TB uncertainty budget.
+
+    Attributes
+    ----------
+    name : str
+        ``'f_H'`` (frequency spread) or a model parameter name.
+    rel_input : float
+        Relative standard uncertainty of the input (fraction).
+    sensitivity : float
+        Relative sensitivity ``d ln k_TB / d ln x``.
+    std : float
+        Contribution to the standard uncertainty of k_TB [N/m] (``|sens| rel_input k_TB``).
+    share : float
+        Fraction of the total variance (shares sum to 1).
+    kind : str
+        Where the input uncertainty comes from: ``'measured'`` (identified from the data),
+        ``'assumed (rig file)'`` (the rig file's ``[uncertainty]`` or a calibration),
+        ``'assumed (default)'`` (:data:`DEFAULT_REL_UNCERTAINTY`, the rig file has no entry) or
+        ``'model form'`` (a stated allowance for what the 3DOF model does not describe: damping
+        model, rigid disk, a neighbouring mode, an effective modal mass off the model's).
+    """
+
+    name: str
+    rel_input: float
+    sensitivity: float
+    std: float
+    share: float
+    kind: str = KIND_RIG
+
+
+@dataclass(frozen=True, slots=True)
+class StiffnessUncertainty:
+    """Bearing stiffness with a linearised (GUM) uncertainty budget.
+
+    Attributes
+    ----------
+    k_TB, k_TB_std : float
+        Bearing stiffness and its combined (total) standard uncertainty [N/m].
+    k_TB_MS, k_TB_MS_std : float
+        Combined stiffness and the std of the terms acting on it (all but k_MS) [N/m].
+    k_MS : float
+        Mounting stiffness used [N/m].
+    f_H, f_H_std : float
+        Undamped housing-mode frequency inverted (see :func:`undamped_freq`) and its measured
+        std [Hz].
+    terms : tuple of UncertaintyTerm
+        The budget, largest share first.
+    k_TB_std_measured : float
+        The part of ``k_TB_std`` from the terms of kind ``'measured'`` [N/m].
+    defaults_used : tuple of str
+        Parameters whose tolerance came from :data:`DEFAULT_REL_UNCERTAINTY` (the rig file has
+        no entry for them).
+    """
+
+    k_TB: float
+    k_TB_std: float
+    k_TB_MS: float
+    k_TB_MS_std: float
+    k_MS: float
+    f_H: float
+    f_H_std: float
+    terms: tuple[UncertaintyTerm, ...] = field(default_factory=tuple)
+    k_TB_std_measured: float = 0.0
+    defaults_used: tuple[str, ...] = ()
+
+    @property
+    def shares(self) -> dict[str, float]:
+        """Variance share per input name."""
+        return {t.name: t.share for t in self.terms}
+
+    @property
+    def sensitivities(self) -> dict[str, float]:
+        """Relative sensitivity ``d ln k_TB / d ln x`` per input name."""
+        return {t.name: t.sensitivity for t in self.terms}
+
+    def term(self, name: str) -> UncertaintyTerm:
+        """The budget term called ``name`` (KeyError if absent)."""
+        for t in self.terms:
+            if t.name == name:
+                return t
+        raise KeyError(name)
+
+    def std_of(self, kind: str) -> float:
+        """Root-sum-square of the terms of one ``kind`` [N/m]."""
+        return math.sqrt(sum(t.std**2 for t in self.terms if t.kind == kind))
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """One row per budget term."""
+        return [
+            {"name": t.name, "kind": t.kind, "rel_input": t.rel_input, "sensitivity": t.sensitivity,
+             "std": t.std, "share": t.share}
+            for t in self.terms
+        ]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-dict form for JSON."""
+        return {
+            "k_TB": self.k_TB,
+            "k_TB_std": self.k_TB_std,
+            "k_TB_std_measured": self.k_TB_std_measured,
+            "k_TB_std_by_kind": {k: self.std_of(k) for k in KINDS},
+            "k_TB_MS": self.k_TB_MS,
+            "k_TB_MS_std": self.k_TB_MS_std,
+            "k_MS": self.k_MS,
+            "f_H": self.f_H,
+            "f_H_std": self.f_H_std,
+            "defaults_used": list(self.defaults_used),
+            "budget": self.to_records(),
+        }
+
+
+def _k_tb_raw(f_H: float, p: ModelParams) -> float:
+    k = _closed_form(f_H, p)
+    return 1.0 / (1.0 / k - 1.0 / p.k_MS)
+
+
+def sensitivities(f_H: float, params: ModelParams) -> dict[str, float]:
+    """Relative sensitivities ``d ln k_TB / d ln x`` at ``f_H`` for x = f_H and every parameter.
+
+    Central differences with a relative step of 1e-5 (the functions are smooth; truncation error
+    ~1e-10). With Table 1 at 626 Hz: f_H 3.84, m_H 1.88, k_MS -0.62, k_S -0.26.
+
+    Returns
+    -------
+    dict
+        Keys ``'f_H'`` and the names of :data:`ema_rig.config.MODEL_KEYS`.
+    """
+    k_tb_from_housing_freq(f_H, params)  # raises on an invalid frequency
+    h = 1e-5
+    out = {}
+    kp, km = _k_tb_raw(f_H * (1 + h), params), _k_tb_raw(f_H * (1 - h), params)
+    out["f_H"] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+    for name in MODEL_KEYS:
+        v = getattr(params, name)
+        kp = _k_tb_raw(f_H, replace(params, **{name: v * (1 + h)}))
+        km = _k_tb_raw(f_H, replace(params, **{name: v * (1 - h)}))
+        out[name] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+    return out
+
+
+def stiffness_uncertainty(
+    f_H: float,
+    f_H_std: float,
+    params: ModelParams,
+    rel_unc: Mapping[str, float] | None = None,
+    k_MS_std: float | None = None,
+    *,
+    k_MS: float | None = None,
+    model_form: Mapping[str, float] | None = None,
+) -> StiffnessUncertainty:
+    """Bearing stiffness and its standard uncertainty by linearised error propagation.
+
+    ``(u_k / k)^2 = (S_f u_f / f)^2 + sum_x (S_x u_x / x)^2 + sum_m (S_f u_m)^2`` with relative
+    sensitivities ``S = d ln k_TB / d ln x`` (:func:`sensitivities`), inputs assumed
+    uncorrelated. Terms are labelled (:attr:`UncertaintyTerm.kind`): the identified frequency
+    std is ``'measured'``; parameter tolerances are ``'assumed (rig file)'`` or, for parameters
+    the rig file does not list, ``'assumed (default)'``; ``model_form`` entries are relative
+    standard uncertainties of the housing frequency that the 3DOF model cannot remove (damping
+    model, a neighbouring mode, an effective modal mass off the model's).
+
+    Parameters
+    ----------
+    f_H : float
+        Undamped housing-mode natural frequency [Hz].
+    f_H_std : float
+        Its measured standard uncertainty [Hz], >= 0.
+    params : ModelParams
+        Rig parameters.
+    rel_unc : mapping, optional
+        Relative standard uncertainty per parameter name (``RigConfig.uncertainty``); missing
+        names take :data:`DEFAULT_REL_UNCERTAINTY` (and are listed in ``defaults_used``). A value
+        of 0 removes the term.
+    k_MS_std : float, optional
+        Absolute std of ``k_MS`` [N/m] (from :func:`calibrate_k_ms`); overrides ``rel_unc['k_MS']``.
+    k_MS : float, optional
+        Calibrated mounting stiffness [N/m]; default ``params.k_MS``.
+    model_form : mapping, optional
+        Name -> relative standard uncertainty (fraction) of the housing frequency.
+
+    Returns
+    -------
+    StiffnessUncertainty
+
+    Raises
+    ------
+    InversionError
+        If ``f_H`` is outside the valid range.
+    """
+    if k_MS is not None:
+        params = replace(params, k_MS=float(k_MS))
+    f_std = float(f_H_std)
+    if not (math.isfinite(f_std) and f_std >= 0):
+        raise ValueError(f"f_H_std must be a finite non-negative frequency [Hz], got {f_H_std!r}")
+    k_tb = k_tb_from_housing_freq(f_H, params)
+    k_c = _closed_form(float(f_H), params)
+    sens = sensitivities(f_H, params)
+    rel = dict(DEFAULT_REL_UNCERTAINTY)
+    kinds = {n: KIND_DEFAULT for n in rel}
+    for name, v in (rel_unc or {}).items():
+        if name not in rel:
+            raise ValueError(f"unknown parameter {name!r} in rel_unc; allowed: {', '.join(MODEL_KEYS)}")
+        rel[name] = float(v)
+        kinds[name] = KIND_RIG
+    if k_MS_std is not None:
+        rel["k_MS"] = float(k_MS_std) / params.k_MS
+        kinds["k_MS"] = KIND_RIG
+    inputs: dict[str, tuple[float, float, str]] = {"f_H": (f_std / float(f_H), sens["f_H"], KIND_MEASURED)}
+    for n, u in rel.items():
+        inputs[n] = (u, sens[n], kinds[n])
+    for n, u in (model_form or {}).items():
+        u = float(u)
+        if not (math.isfinite(u) and u >= 0):
+            raise ValueError(f"model_form[{n!r}] must be a finite relative std >= 0, got {u!r}")
+        if n in inputs:
+            raise ValueError(f"model_form term {n!r} clashes with an input name")
+        inputs[n] = (u, sens["f_H"], KIND_MODEL)
+    stds = {n: abs(s_) * u * k_tb for n, (u, s_, _) in inputs.items()}
+    var = sum(s**2 for s in stds.values())
+    total = math.sqrt(var)
+    terms = tuple(
+        sorted(
+            (
+                UncertaintyTerm(n, u, s_, stds[n], (stds[n] ** 2 / var) if var > 0 else 0.0, kind)
+                for n, (u, s_, kind) in inputs.items()
+            ),
+            key=lambda t: -t.share,
+        )
+    )
+    # k_TB+MS does not depend on k_MS; chain rule d ln k_TB / d ln k_c = k_MS / (k_MS - k_c)
+    g = params.k_MS / (params.k_MS - k_c)
+    var_c = sum((stds[n] / k_tb / g * k_c) ** 2 for n in inputs if n != "k_MS")
+    defaults = tuple(n for n in MODEL_KEYS if kinds.get(n) == KIND_DEFAULT and rel[n] > 0)
+    return StiffnessUncertainty(
+        k_TB=k_tb,
+        k_TB_std=total,
+        k_TB_MS=k_c,
+        k_TB_MS_std=math.sqrt(var_c),
+        k_MS=params.k_MS,
+        f_H=float(f_H),
+        f_H_std=f_std,
+        terms=terms,
+        k_TB_std_measured=stds["f_H"],
+        defaults_used=defaults,
+    )
+
+
+# --------------------------------------------------------------------------- model-form assessment
+MASS_WARN_RATIO = 1.1
+"""Effective modal mass off the model's by more than this factor: warning + model-form term."""
+
+MAX_ALTERNATIVE_SPREAD = 0.10
+"""Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
+
+
+@dataclass(frozen=True, slots=True)
+class Assessment:
+    """What the inversion uses, and why it may be wrong (see :func:`assess_housing_mode`).
+
+    Attributes
+    ----------
+    abs_freq : float
+        ``|lambda| / 2 pi`` of the matched housing mode [Hz].
+    undamped_freq : float
+        Undamped frequency for the declared damping model [Hz].
+    inverted_freq : float
+        Frequency inverted for ``k_TB`` [Hz]: ``undamped_freq``, or the uncoupled frequency
+        recovered from coupled neighbours.
+    model_form : dict
+        Name -> relative standard uncertainty of the housing frequency (fraction).
+    warnings : tuple of str
+        One line each.
+    mass_ratio : float or None
+        Identified / model effective modal mass at the driving point.
+    """
+
+    abs_freq: float
+    undamped_freq: float
+    inverted_freq: float
+    model_form: dict[str, float]
+    warnings: tuple[str, ...]
+    mass_ratio: float | None
+
+
+def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> float | None:
+    """Uncoupled housing frequency [Hz] from a group of modes sharing its radial motion.
+
+    The driving-point compliance ``sum_r |phi_p,r|^2 / w_r^2`` does not depend on how the
+    housing's mass is split among rigidly or flexibly attached parts (it is ``(K^-1)_pp``); the
+    3DOF model puts all of the group's compliance in one housing mode with effective mass
+    ``m_model(f)``. Solve ``1 / (m_model(f) f^2) = sum_r P_r / f_r^2`` for ``f`` (fixed point;
+    ``m_model`` varies slowly with ``f``).
+    """
+    s = sum(p_ / f_**2 for f_, p_ in zip(freqs, parts, strict=True))
+    if not s > 0:
+        return None
+    f = freqs[0]
+    for _ in range(30):
+        info = model_mode_at(params, f)
+        if info is None:
+            return None
+        f_new = math.sqrt(1.0 / (info.modal_mass * s))
+        if abs(f_new - f) < 1e-9 * f:
+            return f_new
+        f = f_new
+    return f
+
+
+def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: str = "viscous",
+                        file: str | None = None) -> Assessment:
+    """Frequency to invert and the model-form terms and warnings of one matched housing mode.
+
+    The rule: a ``k_TB`` reported without a warning lies within 2 sigma of the truth, so every
+    ambiguity either widens the budget by a stated model-form term and warns, or is refused:
+
+    * **damping model** (always, no warning): :func:`undamped_freq`;
+    * **several modes pass** the housing criteria: warning; term = half the largest relative
+      spread of their frequencies (the alternatives sit at 2 sigma); refused above
+      :data:`MAX_ALTERNATIVE_SPREAD`;
+    * **split housing mass**: the housing mode's effective mass is >10 % above the model's and
+      modes within +-25 % that look like the housing mode in every respect but the mass carry
+      the missing participation (an appendage, a load arm): the uncoupled frequency ``fu`` is
+      recovered from the group's driving-point compliance (:func:`_uncoupled_freq`) when the
+      group's participation matches the model's within 10 %. Modal data cannot tell this from
+      independent close modes whose identified participations leak into each other (reading
+      ``f0``), so ``sqrt(fu f0)`` is inverted with a term ``|ln(fu / f0)| / 2``: each reading
+      1 sigma away; warning;
+    * **close neighbours** moving the radial housing sensors (within
+      ``MatchCriteria.neighbour_bandwidths`` half-power bandwidths, participation >= 10 % of
+      the housing mode's): warning; a weak coupling ``c`` shifts the housing mode by
+      ``c^2 / df`` while leaking ``eps^2 = (c / df)^2 <= P_n / P_h`` of its participation, so
+      the term is ``(P_n / P_h) |ln(f_n / f_h)|``;
+    * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
+      identified mass scatters by a few % under 10 % noise and the model's by the m_H
+      tolerance): warning; term ``|ln r| / 4``: if all of the housing's compliance sits in this
+      mode (the mass difference being participation missing from the identified mode), the
+      uncoupled frequency is ``f sqrt(r)``; that alternative sits at 2 sigma.
+
+    Parameters
+    ----------
+    m : MatchResult
+    modes : ModalModel
+        The identified modes ``m`` indexes.
+    rig : RigConfig
+    damping_model : {'viscous', 'hysteretic'}
+    file : str, optional
+        For error messages.
+
+    Returns
+    -------
+    Assessment
+
+    Raises
+    ------
+    MatchingError
+        When passing modes are too far apart to cover by a term.
+    """
+    hm = m.housing_mode
+    f_abs = float(hm["natural_freq"])
+    zeta = float(hm["damping_ratio"])
+    f0, u_damp = undamped_freq(f_abs, zeta, damping_model)
+    terms: dict[str, float] = {"damping model": u_damp}
+    warns = list(m.warnings)
+    f_inv = f0
+    params = rig.model
+    # several passing modes
+    if m.alternatives:
+        spread = max(abs(math.log(float(modes.natural_freq[i]) / f_abs)) for i in m.alternatives)
+        if spread > MAX_ALTERNATIVE_SPREAD:
+            fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in (m.housing_index, *m.alternatives))
+            raise MatchingError(
+                f"ambiguous housing mode: {fs} Hz all pass the housing criteria and lie "
+                f"{100 * spread:.0f} % apart; narrow --band or add the radial driving point",
+                candidates=[c.to_dict() for c in m.candidates], file=file,
+            )
+        terms["alternative modes"] = spread / 2.0
+    # close neighbours
+    by_index = {c.index: c for c in m.candidates if c.source == "modes"}
+    parts = m.participation
+    ratio = None
+    if hm.get("modal_mass") is not None and hm.get("model_modal_mass"):
+        ratio = float(hm["modal_mass"]) / float(hm["model_modal_mass"])
+    # partners that may carry the housing participation missing from its mode: in-phase radial
+    # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
+    # bandwidths), participation at least a tenth of the housing mode's
+    # and a housing-mode shape in every respect but the mass (in phase, similar amplitudes, the
+    # model's spindle/housing ratio): a part of the housing, not another mode
+    partners = [
+        i for i, c in by_index.items()
+        if i != m.housing_index and c.passes_but_mass
+        and abs(math.log(float(modes.natural_freq[i]) / f_abs)) < 0.25
+        and parts and parts[i] >= 0.1 * parts[m.housing_index]
+    ]
+    used: list[int] = []
+    if partners and ratio is not None and ratio > MASS_WARN_RATIO:
+        # the housing mode lacks part of its participation and in-phase neighbours carry it:
+        # the housing mass is split between them (an appendage, a flexible part) -> recover the
+        # uncoupled frequency from the group's compliance, with the subset of partners that
+        # completes the housing's participation best
+        best: tuple[float, list[int], float] | None = None
+        for n_sub in range(1, min(3, len(partners)) + 1):
+            for combo in itertools.combinations(partners, n_sub):
+                group = [m.housing_index, *combo]
+                f_try = _uncoupled_freq(params, [float(modes.natural_freq[i]) for i in group],
+                                        [parts[i] for i in group])
+                info = None if f_try is None else model_mode_at(params, f_try * f0 / f_abs)
+                if f_try is None or info is None:
+                    continue
+                g_ratio = 1.0 / (sum(parts[i] for i in group) * info.modal_mass)
+                if best is None or abs(math.log(g_ratio)) < abs(math.log(best[2])):
+                    best = (f_try, list(combo), g_ratio)
+        # only when the group together carries the model's participation (the mass is split, not
+        # missing): otherwise the neighbours are other modes and the mass term below applies
+        if best is not None and abs(math.log(best[2])) <= math.log(MASS_WARN_RATIO):
+            fu, sub, g_ratio = best
+            fs = ", ".join(f"{float(modes.natural_freq[i]):.1f}" for i in sub)
+            fu = fu * f0 / f_abs  # same damping-model reading
+            # two readings the modal data cannot tell apart: the housing mass split between the
+            # modes (an appendage: fu) or independent close modes whose identified participations
+            # leak into each other (f0). Invert the geometric mean; each reading lies 1 sigma away.
+            d = abs(math.log(fu / f0))
+            terms["neighbour coupling"] = d / 2.0
+            ratio = g_ratio
+            f_inv = math.sqrt(fu * f0)
+            warns.append(
+                f"mode(s) at {fs} Hz share the radial housing motion (housing mode {hm['modal_mass']:.3g} kg, "
+                f"model {hm['model_modal_mass']:.3g} kg): split-mass frequency {fu:.1f} Hz, identified "
+                f"{f_abs:.1f} Hz; inverted {f_inv:.1f} Hz +/- {100 * d / 2:.1f} %"
+            )
+            used = sub
+    for i in m.neighbours:
+        if i in used:
+            continue  # used by the correction (its own term)
+        fn = float(modes.natural_freq[i])
+        # weak coupling c moves a mode by ~c^2 / (f_n - f_h) while leaking eps^2 = (c / df)^2 of its
+        # participation into the neighbour: shift ~ eps^2 |df| with eps^2 <= P_n / P_h
+        eps2 = min(1.0, parts[i] / parts[m.housing_index]) if parts and parts[m.housing_index] > 0 else 1.0
+        terms[f"neighbour {fn:.0f} Hz"] = eps2 * abs(math.log(fn / f_abs))
+        warns.append(
+            f"mode at {fn:.1f} Hz moves the radial housing sensors within a few half-power bandwidths "
+            f"of the housing mode: possible coupling (term {100 * eps2 * abs(math.log(fn / f_abs)):.2f} % "
+            "of the frequency)"
+        )
+    if ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
+        terms["effective mass"] = abs(math.log(ratio)) / 4.0
+        warns.append(
+            f"effective modal mass {hm['modal_mass']:.3g} kg is {ratio:.2f}x the model's "
+            f"{hm['model_modal_mass']:.3g} kg: an unidentified part of the housing motion or an "
+            "off m_H; wider (model-form) uncertainty"
+        )
+    return Assessment(
+        abs_freq=f_abs, undamped_freq=f0, inverted_freq=f_inv, model_form=terms,
+        warnings=tuple(warns), mass_ratio=ratio,
+    )
+
+
+def measured_freq_std(m: MatchResult) -> float:
+    """Measured standard uncertainty of the housing frequency [Hz]: the identified mode's
+    ``natural_freq_std`` (:attr:`Identification.natural_freq_std`); 0 when not available."""
+    s = m.housing_mode.get("natural_freq_std")
+    return 0.0 if s is None or not math.isfinite(s) else float(s)
+
+
+def defaults_note(unc: StiffnessUncertainty) -> list[str]:
+    """The note listing the default tolerances applied (empty when the rig file gave them all)."""
+    if not unc.defaults_used:
+        return []
+    vals = ", ".join(f"{n} {100 * DEFAULT_REL_UNCERTAINTY[n]:g} %" for n in unc.defaults_used)
+    return [f"rig file has no [uncertainty] entry for {', '.join(unc.defaults_used)}: default tolerances "
+            f"applied ({vals})"]
