@@ -14,14 +14,13 @@ unexpected exception) are reported in the row but never reused: the next run com
 Pool workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and a
 watchdog thread on the parent's process id everywhere but Windows).
 
-Where the time goes with ``jobs > 1`` (on the bundled campaign, 2 cores): the calibration runs
-first in this process, and its first call pays the imports of the numerical stack (scipy, the
-identification); the pool is started after it, so its forked workers inherit those modules
-instead of importing them again. While the calibration runs, the other core is idle: an output
-process is started at once and imports the plotting stack (matplotlib, the report), and the
-table, figures and report are written there at the end. The measurements are submitted longest
-first (by their time in the previous run, else by file size), so that no worker is left with
-one long measurement at the end.
+Where the time goes with ``jobs > 1``: the calibration runs first in this process, and its first
+call pays the imports of the numerical stack (scipy, the identification); the pool is started
+after it, so its forked workers inherit those modules instead of importing them again. The
+measurements are submitted longest first (by their time in the previous run, else by file size),
+so that no worker is left alone with one long measurement at the end. The same pool then draws
+the report's per-measurement figures (an identification each, the largest part of a run with
+the report) while this process draws the campaign figures.
 """
 
 from __future__ import annotations
@@ -318,9 +317,8 @@ def run(
         end. The folder is locked for the run: a second run on it raises. Without it, nothing is
         written and nothing can be reused.
     jobs : int, optional
-        Number of worker processes when no ``executor`` is given (1 = in this process). With
-        ``jobs > 1`` and the report, one more child process starts at once, imports the plotting
-        stack while this process calibrates, and writes the table, figures and report at the end.
+        Number of worker processes when no ``executor`` is given (1 = in this process); they
+        also draw the report's per-measurement figures.
     executor : concurrent.futures.Executor, optional
         Any executor, e.g. ``dask.distributed.Client(...).get_executor()``; overrides ``jobs``.
     force : bool, optional
@@ -362,25 +360,6 @@ def run(
 
 def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
          progress: bool | Callable[[int, int], None], report: bool) -> CampaignResult:
-    out_proc = None
-    if out is not None and report and executor is None and jobs > 1 and cfg.measurements:
-        # the plotting stack is imported on the idle core while this process calibrates
-        out_proc = _OutputProcess()
-    try:
-        return _run_tasks(cfg, out, jobs, executor, force, progress, report, out_proc)
-    except BaseException:
-        if out_proc is not None:
-            out_proc.kill()  # it must not write into the folder after its lock is released
-            out_proc = None
-        raise
-    finally:
-        if out_proc is not None:
-            out_proc.close()
-
-
-def _run_tasks(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
-               progress: bool | Callable[[int, int], None], report: bool,
-               out_proc: _OutputProcess | None) -> CampaignResult:
     res_dir = None if out is None else out / "results"
     rig = cfg.rig
 
@@ -455,9 +434,12 @@ def _run_tasks(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Execu
 
     for m, outcome in failed_input:
         finish(m, None, outcome)
+    drill_down = out is not None and report and cfg.measurement_figures
     own_pool: ProcessPoolExecutor | None = None
-    if executor is None and jobs > 1 and len(todo) > 1:
-        own_pool = executor = make_pool(min(jobs, len(todo)))  # no idle processes
+    if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
+        # forked after the calibration: the workers inherit its imports; they also draw the
+        # measurements' figures of the report (an identification each) at the end
+        own_pool = executor = make_pool(min(jobs, len(cfg.measurements)))
     try:
         if executor is None:
             for m, t, key in todo:
@@ -475,27 +457,30 @@ def _run_tasks(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Execu
                                "error": f"worker failed ({type(exc).__name__}: {exc or 'no message'}); "
                                         "not cached, computed again on the next run"}
                 finish(m, key, outcome)
+        bar(None)
+
+        ordered = tuple(
+            {c: rows[m.id].get(c, math.nan if c not in ("error", "status") else "") for c in COLUMNS}
+            | {"detail": rows[m.id].get("detail"), "warnings": list(rows[m.id].get("warnings") or [])}
+            for m in cfg.measurements
+        )
+        result = CampaignResult(
+            config=cfg, rows=ordered, calibration=calib, k_MS=k_ms, k_MS_std=k_ms_std,
+            out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
+        )
+        if out is not None and report:
+            from .outputs import write_outputs
+
+            result = dataclasses.replace(result, files=write_outputs(result, out, executor=own_pool))
     except BaseException:
+        bar(None)
         if own_pool is not None:
             own_pool.shutdown(wait=False, cancel_futures=True)
             own_pool = None
         raise
     finally:
-        bar(None)
         if own_pool is not None:
             own_pool.shutdown()
-
-    ordered = tuple(
-        {c: rows[m.id].get(c, math.nan if c not in ("error", "status") else "") for c in COLUMNS}
-        | {"detail": rows[m.id].get("detail"), "warnings": list(rows[m.id].get("warnings") or [])}
-        for m in cfg.measurements
-    )
-    result = CampaignResult(
-        config=cfg, rows=ordered, calibration=calib, k_MS=k_ms, k_MS_std=k_ms_std,
-        out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
-    )
-    if out is not None and report:
-        result = dataclasses.replace(result, files=_write_outputs(result, out, out_proc))
     return result
 
 
@@ -518,104 +503,6 @@ def _expected_cost(file: Path, previous: Path | None) -> tuple[float, float]:
     except OSError:
         size = 0.0
     return seconds, size
-
-
-def _preload_outputs() -> None:
-    """Import and exercise the plotting stack once (in the output process, while the parent calibrates).
-
-    A first figure saved to memory loads the font cache and the PNG writer too.
-    """
-    import io
-
-    from matplotlib.figure import Figure
-
-    from ..plot import campaign as _campaign_plots  # noqa: F401
-    from . import outputs as _outputs  # noqa: F401
-
-    fig = Figure(figsize=(1.0, 1.0))
-    fig.add_subplot().plot([0.0, 1.0], [0.0, 1.0], label="k")
-    fig.savefig(io.BytesIO(), format="png", dpi=20)
-
-
-def _output_main(conn: Any, parent: int) -> None:  # pragma: no cover - runs in the output process
-    """The output process: preload, then write the outputs of the one result it is sent."""
-    from .outputs import write_outputs
-
-    _worker_init(parent)
-    try:
-        _preload_outputs()
-    except Exception:  # only a head start: write_outputs below meets the same problem and reports it
-        logger.debug("preloading the plotting stack failed", exc_info=True)
-    try:
-        job = conn.recv()
-    except EOFError:  # the parent closed the pipe: nothing to write
-        return
-    if job is None:
-        return
-    try:
-        reply: tuple[bool, Any] = (True, write_outputs(*job))
-    except Exception as exc:
-        reply = (False, exc)
-    try:
-        conn.send(reply)
-    except Exception:  # an exception that does not pickle: its type and text
-        conn.send((False, RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}")))
-
-
-class _OutputProcess:
-    """One child process that writes the table, figures and report (``jobs > 1``).
-
-    Started before the calibration, it imports matplotlib while this process calibrates. A plain
-    process and a pipe, not an executor: an executor's threads in this process would make the
-    later fork of the measurement pool unsafe.
-    """
-
-    def __init__(self) -> None:
-        import multiprocessing
-
-        self._conn, child = multiprocessing.Pipe()
-        self._proc = multiprocessing.Process(target=_output_main, args=(child, os.getpid()),
-                                             name="ema-rig-outputs", daemon=True)
-        self._proc.start()
-        child.close()
-
-    def write(self, result: CampaignResult, out: Path) -> dict[str, Path]:
-        """Write the outputs there; raises what ``write_outputs`` raised, EOFError if the process died."""
-        self._conn.send((result, out))
-        ok, value = self._conn.recv()
-        if ok:
-            return dict(value)
-        raise value
-
-    def close(self) -> None:
-        """Let the process end (it does after one job or on a closed pipe) and reap it."""
-        try:
-            self._conn.send(None)
-        except OSError:  # it has ended already
-            pass
-        self._conn.close()
-        self._proc.join(timeout=10.0)
-        if self._proc.is_alive():  # pragma: no cover - a hung child
-            self.kill()
-
-    def kill(self) -> None:
-        """End the process now (an interruption or an error of the run)."""
-        self._conn.close()
-        self._proc.terminate()
-        self._proc.join(timeout=5.0)
-
-
-def _write_outputs(result: CampaignResult, out: Path, out_proc: _OutputProcess | None) -> dict[str, Path]:
-    """The table, figures and report: in the output process when there is one, else here."""
-    from .outputs import write_outputs
-
-    if out_proc is not None:
-        try:
-            return out_proc.write(result, out)
-        except (EOFError, ConnectionError) as exc:  # the output process died: write them here
-            logger.warning("the output process ended (%s); writing the outputs in this process",
-                           type(exc).__name__)
-    return write_outputs(result, out)
 
 
 def _progress(progress: bool | Callable[[int, int], None], total: int, initial: int) -> Callable[[int | None], None]:
