@@ -23,7 +23,9 @@ sessions, so on a busy machine a second worker process of one session gains litt
 each phase's CPU time is measured (import, calibration, every measurement, the outputs; with
 ``--jobs 2`` also the output process's preload beside the calibration) and the critical path is
 ``import + max(calibration, preload) + LPT schedule of the measurements on 2 workers + outputs``,
-against the sum of all of them for ``--jobs 1``.
+where the outputs phase, when the pool draws the per-measurement figures, is the larger of their
+LPT schedule and (this process's outputs + the figures) / 2; against the sum of all of them for
+``--jobs 1``.
 """
 
 from __future__ import annotations
@@ -66,13 +68,25 @@ def pm(t, _orig=R.process_measurement):
         fh.write(json.dumps([t.kind, C() - c]) + "\\n")
     return r
 
-def wo(result, out, _orig=O.write_outputs):
-    c = C(); files = _orig(result, out)
+def wo(result, out, _orig=O.write_outputs, **kw):
+    c = C(); files = _orig(result, out, **kw)
     with open(log, "a") as fh:
         fh.write(json.dumps(["outputs", C() - c]) + "\\n")
     return files
 
 R.process_measurement, O.write_outputs = pm, wo
+try:
+    import ema_rig.campaign.drilldown as D
+
+    def mf(*a, _orig=D.measurement_figures, **kw):
+        c = C(); r = _orig(*a, **kw)
+        with open(log, "a") as fh:
+            fh.write(json.dumps(["drill", C() - c]) + "\\n")
+        return r
+
+    D.measurement_figures = mf
+except ImportError:  # a tree without the per-measurement figures
+    pass
 if hasattr(R, "_preload_outputs"):
     def pl(_orig=R._preload_outputs):
         c = C(); _orig()
@@ -108,10 +122,19 @@ def _cpu_path(tree: Path, campaign: str, jobs: int, out: Path) -> float:
     for kind, seconds in rec["tasks"]:
         by.setdefault(kind, []).append(seconds)
     calib, outputs = sum(by.get("calibration", [])), sum(by.get("outputs", []))
-    meas = by.get("measurement", [])
-    if jobs == 1:
+    meas, drill = by.get("measurement", []), by.get("drill", [])
+    if jobs == 1:  # everything in one process (the outputs include the per-measurement figures)
         return rec["import"] + calib + sum(meas) + outputs + sum(by.get("preload", []))
-    return rec["import"] + max(calib, sum(by.get("preload", []))) + _lpt(meas, jobs) + outputs
+    if _drawn_in_parent(outputs, drill):
+        out_phase = outputs
+    else:  # the pool draws the per-measurement figures while this process draws the rest
+        out_phase = max(_lpt(drill, jobs), (outputs + sum(drill)) / jobs, outputs)
+    return rec["import"] + max(calib, sum(by.get("preload", []))) + _lpt(meas, jobs) + out_phase
+
+
+def _drawn_in_parent(outputs: float, drill: list[float]) -> bool:
+    """Whether the per-measurement figures' CPU time is inside the parent's outputs time (older trees)."""
+    return bool(drill) and outputs >= 0.9 * sum(drill)
 
 
 def _once(tree: Path, argv: list[str], out: Path) -> tuple[float, float]:
@@ -162,7 +185,8 @@ def main() -> None:
         for r in range(args.pairs):
             order = configs if r % 2 == 0 else configs[::-1]
             for label, tree, argv in order:
-                w, c = _once(tree, argv, Path(tmp) / label.replace(" ", "_"))
+                # a fresh folder each time: a folder from a previous round would reuse its figures
+                w, c = _once(tree, argv, Path(tmp) / f"{label.replace(' ', '_')}_{r}")
                 wall[label].append(w)
                 cpu[label].append(c)
     print(f"load average after {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
