@@ -23,14 +23,15 @@ estimate_stiffness, calibrate
 load_campaign, run_campaign
     Campaign files and runs (``ema_rig.campaign``).
 
-The names after FRFData/DOF/RigConfig (and ``__version__``) are resolved on first use, so
-``import ema_rig`` stays light.
+The errors, DOF, RigConfig and load_rig are plain Python and imported with the package; every
+other name (FRFData and ``__version__`` included) is resolved on first use, so ``import ema_rig``
+imports neither numpy nor scipy, and ``ema-rig --help`` or a usage error stays fast.
 """
 
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .config import RigConfig, load_rig
 from .dof import DOF
@@ -44,11 +45,19 @@ from .errors import (
     UFFError,
     UnitWarning,
 )
-from .frf import FRFData
+
+if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
+    from .campaign import load_campaign
+    from .campaign import run as run_campaign
+    from .frf import FRFData
+    from .identification import identify
+    from .io.uff import read_uff58, write_uff58
+    from .rig.stiffness import calibrate, estimate_stiffness
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 _LAZY = {
+    "FRFData": ("ema_rig.frf", "FRFData"),
     "read_uff58": ("ema_rig.io.uff", "read_uff58"),
     "write_uff58": ("ema_rig.io.uff", "write_uff58"),
     "identify": ("ema_rig.identification", "identify"),
@@ -77,7 +86,8 @@ def __getattr__(name: str) -> Any:
         import importlib
 
         mod, attr = _LAZY[name]
-        return getattr(importlib.import_module(mod), attr)
+        globals()[name] = value = getattr(importlib.import_module(mod), attr)  # once
+        return value
     raise AttributeError(f"module 'ema_rig' has no attribute {name!r}")
 
 

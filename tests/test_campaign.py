@@ -114,13 +114,26 @@ def test_changed_file_is_recomputed(campaign_dir: Path, tmp_path: Path) -> None:
     assert (res.computed, res.reused) == (1, 3)
 
 
-def test_parallel_jobs_match_serial(campaign_dir: Path, first_run) -> None:
-    reference, _ = first_run
-    par = run(campaign_dir / "campaign.toml", jobs=2, report=False)
+def test_parallel_jobs_match_serial(campaign_dir: Path, first_run, tmp_path: Path) -> None:
+    reference, ref_out = first_run
+    # --jobs 2 with the outputs: measurements in the pool (longest first), table, figures and
+    # report written by the output process
+    par = run(campaign_dir / "campaign.toml", out_dir=tmp_path, jobs=2)
+    numeric = ("k_TB", "k_TB_std", "k_TB_MS", "k_MS", "housing_freq", "housing_freq_std", "housing_damping")
     for a, b in zip(par.rows, reference.rows, strict=True):
-        assert a["id"] == b["id"] and a["status"] == b["status"]
+        assert a["id"] == b["id"] and a["status"] == b["status"] and a["error"] == b["error"]
         if a["status"] == "ok":
-            assert a["k_TB"] == pytest.approx(b["k_TB"], rel=1e-9)
+            # the same computation on one BLAS thread in another process: the same bits
+            assert [a[k] for k in numeric] == [b[k] for k in numeric], a["id"]
+    assert sorted(par.files) == sorted(reference.files)
+    assert all(p.parent == tmp_path and p.stat().st_size > 0 for p in par.files.values())
+    def table(folder: Path) -> list[list[str]]:  # the CSV without the run time column
+        lines = [line.split(",") for line in (folder / "campaign.csv").read_text().splitlines()]
+        col = next(i for i, h in enumerate(lines[0]) if h.startswith("elapsed_s"))
+        return [cells[:col] + cells[col + 1:] for cells in lines]
+
+    assert table(tmp_path) == table(ref_out)
+    assert "data:image/png;base64," in (tmp_path / "report.html").read_text()
 
 
 def test_dask_distributed_executor(campaign_dir: Path, first_run) -> None:
@@ -168,3 +181,35 @@ def test_results_json_is_strict(first_run) -> None:
     _, out = first_run
     doc = json.loads((out / "results" / "broken.json").read_text())
     assert doc["status"] == "error" and doc["k_TB"] is None  # NaN written as null, valid JSON
+
+
+def test_pool_gets_the_longest_measurement_first(campaign_dir: Path, first_run, tmp_path: Path) -> None:
+    import shutil
+    from concurrent.futures import ThreadPoolExecutor
+
+    _, ref_out = first_run
+    out = tmp_path / "out"
+    shutil.copytree(ref_out / "results", out / "results")
+    slow = out / "results" / "m500.json"
+    doc = json.loads(slow.read_text())
+    slow.write_text(json.dumps({**doc, "elapsed_s": 100.0}))  # took longest last time
+
+    submitted: list[str] = []
+
+    class Recording(ThreadPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):  # type: ignore[no-untyped-def, override]
+            submitted.append(Path(args[0].file).stem)
+            return super().submit(fn, *args, **kwargs)
+
+    with Recording(max_workers=1) as ex:
+        res = run(campaign_dir / "campaign.toml", out_dir=out, executor=ex, force=True, report=False)
+    assert res.computed == 4 and submitted[0] == "m500"
+    # the others by their previous time: the broken file failed at once, so it comes last
+    assert submitted[-1] == "broken"
+
+
+def test_parallel_output_error_reaches_the_caller(campaign_dir: Path, tmp_path: Path) -> None:
+    (tmp_path / "report.html").mkdir()  # the report cannot replace a folder
+    with pytest.raises(OSError) as info:  # after the pool drew the measurements' figures
+        run(campaign_dir / "campaign.toml", out_dir=tmp_path, jobs=2)
+    assert "report.html" in str(info.value)

@@ -21,6 +21,7 @@ import hashlib
 import json
 import logging
 from collections.abc import Mapping
+from concurrent.futures import Executor, Future
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,8 @@ _MANIFEST_VERSION = 2
 MEASUREMENT_DIR = "measurements"
 
 
-def write_outputs(result: CampaignResult, out_dir: str | PathLike[str]) -> dict[str, Path]:
+def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
+                  executor: Executor | None = None) -> dict[str, Path]:
     """Write the table (CSV), the resolved settings (JSON), the figures and the HTML report.
 
     Parameters
@@ -46,6 +48,9 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str]) -> dict[
     result : CampaignResult
     out_dir : path
         The output folder (the caller holds its lock during :func:`~ema_rig.campaign.run`).
+    executor : concurrent.futures.Executor, optional
+        Draws the measurements' figures (an identification each) in parallel while this process
+        draws the campaign figures; the files are written here, in the same order.
 
     Returns
     -------
@@ -72,8 +77,10 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str]) -> dict[
 
     previous = _read_manifest(out)
     manifest: dict[str, Any] = {"version": _MANIFEST_VERSION, "figures": {}, "measurements": {}}
+    # the measurements' figures that must be drawn again start first, in the executor
+    ahead = {} if executor is None else _draw_ahead(result, out, previous, executor)
     figures = _campaign_figures(result, out, previous, manifest)
-    per_meas = _measurement_figures(result, out, previous, manifest)
+    per_meas = _measurement_figures(result, out, previous, manifest, ahead)
     kept = set(manifest["figures"])
     for stale in set(previous.get("figures", {})) - kept:
         if _safe_rel(stale):
@@ -132,34 +139,62 @@ def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, 
     return figures
 
 
-def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
-                         manifest: dict[str, Any]) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
-    """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
-    from .drilldown import KINDS, figure_key, measurement_figures
+def _plan(result: CampaignResult, out: Path, previous: Mapping[str, Any]) -> list[tuple[Any, Any, str, dict[str, str], bool]]:
+    """Per measurement with a figure key: (measurement, row, key, relative paths, reusable)."""
+    from .drilldown import KINDS, figure_key
 
-    folder = out / MEASUREMENT_DIR
-    if folder.is_dir():
-        _atomic.remove_temporaries(folder)
     old_figs = previous.get("figures", {})
     old_meas = previous.get("measurements", {})
-    done: dict[str, tuple[dict[str, Path], list[str], list[Any]]] = {}
-    if not result.config.measurement_figures:
-        return done
+    plan = []
     for m, row in zip(result.config.measurements, result.rows, strict=True):
         key = figure_key({"cache_key": row.get("cache_key") or _stored_key(out, m.id)})
         if key is None:
             continue
         rels = {k: f"{MEASUREMENT_DIR}/{m.id}.{k}.png" for k in KINDS}
         info = old_meas.get(m.id)
-        if (isinstance(info, dict) and info.get("key") == key and isinstance(info.get("kinds"), list)
-                and isinstance(info.get("warnings"), list) and isinstance(info.get("candidates"), list)
-                and all(k in rels and old_figs.get(rels[k]) == key and (out / rels[k]).is_file()
-                        for k in info["kinds"])):
+        reuse = bool(isinstance(info, dict) and info.get("key") == key and isinstance(info.get("kinds"), list)
+                     and isinstance(info.get("warnings"), list) and isinstance(info.get("candidates"), list)
+                     and all(k in rels and old_figs.get(rels[k]) == key and (out / rels[k]).is_file()
+                             for k in info["kinds"]))
+        plan.append((m, row, key, rels, reuse))
+    return plan
+
+
+def _draw_ahead(result: CampaignResult, out: Path, previous: Mapping[str, Any],
+                executor: Executor) -> dict[str, Future[Any]]:
+    """Submit the measurements' figures that cannot be reused to ``executor``."""
+    from .drilldown import measurement_figures
+
+    if not result.config.measurement_figures:
+        return {}
+    return {m.id: executor.submit(measurement_figures, m, row, result.config, k_ms=result.k_MS,
+                                  k_ms_std=result.k_MS_std)
+            for m, row, _, _, reuse in _plan(result, out, previous) if not reuse}
+
+
+def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
+                         manifest: dict[str, Any], ahead: Mapping[str, Future[Any]] | None = None,
+                         ) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
+    """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
+    from .drilldown import KINDS, measurement_figures
+
+    folder = out / MEASUREMENT_DIR
+    if folder.is_dir():
+        _atomic.remove_temporaries(folder)
+    old_meas = previous.get("measurements", {})
+    done: dict[str, tuple[dict[str, Path], list[str], list[Any]]] = {}
+    if not result.config.measurement_figures:
+        return done
+    ahead = ahead or {}
+    for m, row, key, rels, reuse in _plan(result, out, previous):
+        if reuse:
+            info = old_meas[m.id]
             kinds = [k for k in KINDS if k in info["kinds"]]
             warns = [str(w) for w in info["warnings"]]
             cands = [c for c in info["candidates"] if isinstance(c, dict)]
         else:
-            drawn = measurement_figures(m, row, result.config, k_ms=result.k_MS, k_ms_std=result.k_MS_std)
+            drawn = ahead[m.id].result() if m.id in ahead else measurement_figures(
+                m, row, result.config, k_ms=result.k_MS, k_ms_std=result.k_MS_std)
             folder.mkdir(exist_ok=True)
             for k, png in drawn.png.items():
                 path = out / rels[k]

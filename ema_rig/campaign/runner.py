@@ -13,6 +13,14 @@ unexpected exception) are reported in the row but never reused: the next run com
 
 Pool workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and a
 watchdog thread on the parent's process id everywhere but Windows).
+
+Where the time goes with ``jobs > 1``: the calibration runs first in this process, and its first
+call pays the imports of the numerical stack (scipy, the identification); the pool is started
+after it, so its forked workers inherit those modules instead of importing them again. The
+measurements are submitted longest first (by their time in the previous run, else by file size),
+so that no worker is left alone with one long measurement at the end. The same pool then draws
+the report's per-measurement figures (an identification each, the largest part of a run with
+the report) while this process draws the campaign figures.
 """
 
 from __future__ import annotations
@@ -309,7 +317,8 @@ def run(
         end. The folder is locked for the run: a second run on it raises. Without it, nothing is
         written and nothing can be reused.
     jobs : int, optional
-        Number of worker processes when no ``executor`` is given (1 = in this process).
+        Number of worker processes when no ``executor`` is given (1 = in this process); they
+        also draw the report's per-measurement figures.
     executor : concurrent.futures.Executor, optional
         Any executor, e.g. ``dask.distributed.Client(...).get_executor()``; overrides ``jobs``.
     force : bool, optional
@@ -407,6 +416,9 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
             rows[m.id] = {**cached, **m.conditions()}
         else:
             todo.append((m, t, key))
+    if executor is not None or jobs > 1:
+        # longest first: a long measurement started last would keep one worker busy alone at the end
+        todo.sort(key=lambda mtk: _expected_cost(mtk[0].file, result_path(mtk[0].id)), reverse=True)
     reused = len(rows)
     bar = _progress(progress, len(cfg.measurements), reused)
 
@@ -422,9 +434,12 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
 
     for m, outcome in failed_input:
         finish(m, None, outcome)
+    drill_down = out is not None and report and cfg.measurement_figures
     own_pool: ProcessPoolExecutor | None = None
-    if executor is None and jobs > 1 and len(todo) > 1:
-        own_pool = executor = make_pool(min(jobs, len(todo)))  # no idle processes
+    if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
+        # forked after the calibration: the workers inherit its imports; they also draw the
+        # measurements' figures of the report (an identification each) at the end
+        own_pool = executor = make_pool(min(jobs, len(cfg.measurements)))
     try:
         if executor is None:
             for m, t, key in todo:
@@ -442,30 +457,52 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
                                "error": f"worker failed ({type(exc).__name__}: {exc or 'no message'}); "
                                         "not cached, computed again on the next run"}
                 finish(m, key, outcome)
+        bar(None)
+
+        ordered = tuple(
+            {c: rows[m.id].get(c, math.nan if c not in ("error", "status") else "") for c in COLUMNS}
+            | {"detail": rows[m.id].get("detail"), "warnings": list(rows[m.id].get("warnings") or [])}
+            for m in cfg.measurements
+        )
+        result = CampaignResult(
+            config=cfg, rows=ordered, calibration=calib, k_MS=k_ms, k_MS_std=k_ms_std,
+            out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
+        )
+        if out is not None and report:
+            from .outputs import write_outputs
+
+            result = dataclasses.replace(result, files=write_outputs(result, out, executor=own_pool))
     except BaseException:
+        bar(None)
         if own_pool is not None:
             own_pool.shutdown(wait=False, cancel_futures=True)
             own_pool = None
         raise
     finally:
-        bar(None)
         if own_pool is not None:
             own_pool.shutdown()
-
-    ordered = tuple(
-        {c: rows[m.id].get(c, math.nan if c not in ("error", "status") else "") for c in COLUMNS}
-        | {"detail": rows[m.id].get("detail"), "warnings": list(rows[m.id].get("warnings") or [])}
-        for m in cfg.measurements
-    )
-    result = CampaignResult(
-        config=cfg, rows=ordered, calibration=calib, k_MS=k_ms, k_MS_std=k_ms_std,
-        out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
-    )
-    if out is not None and report:
-        from .outputs import write_outputs
-
-        result = dataclasses.replace(result, files=write_outputs(result, out))
     return result
+
+
+def _expected_cost(file: Path, previous: Path | None) -> tuple[float, float]:
+    """Sort key of a measurement's expected run time: its time in the previous run, then its size.
+
+    Only an ordering hint; any unreadable value counts as unknown (0).
+    """
+    seconds = 0.0
+    if previous is not None:
+        try:
+            doc = json.loads(read_regular_file(previous, max_bytes=_MAX_RESULT_BYTES).decode("utf-8"))
+            value = doc.get("elapsed_s") if isinstance(doc, dict) else None
+            if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+                seconds = float(value)
+        except (OSError, ValueError, RecursionError):
+            pass
+    try:
+        size = float(os.stat(file).st_size)
+    except OSError:
+        size = 0.0
+    return seconds, size
 
 
 def _progress(progress: bool | Callable[[int, int], None], total: int, initial: int) -> Callable[[int | None], None]:
