@@ -52,12 +52,31 @@ def _freeze(meta: Mapping[str, Any] | None) -> Mapping[str, Any]:
     return MappingProxyType(dict(meta or {}))
 
 
+def _frozen(x: Any, dtype: type) -> bool:
+    """True when ``x`` is an ndarray of ``dtype`` that nobody can write to.
+
+    It and every array it is a view of are read-only, and the memory at the end of that chain
+    is the array's own or an immutable ``bytes``: such an array can be kept without a copy
+    (a slice of an FRFData, or an array a reader built and froze).
+    """
+    if not (isinstance(x, np.ndarray) and x.dtype == dtype):
+        return False
+    while isinstance(x, np.ndarray):
+        if x.flags.writeable:
+            return False
+        x = x.base
+    return x is None or isinstance(x, bytes)
+
+
 def _check_coherence(coherence: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    """A read-only float64 copy of a coherence array, checked against the FRF shape and 0..1."""
-    coh = np.array(coherence, copy=True)
-    if np.iscomplexobj(coh):
-        raise ValueError("coherence must be real (it is |gamma|^2, unit-less)")
-    coh = coh.astype(np.float64)
+    """A read-only float64 coherence array (a copy unless already frozen), checked against the FRF shape and 0..1."""
+    if _frozen(coherence, np.float64):
+        coh = coherence
+    else:
+        coh = np.array(coherence, copy=True)
+        if np.iscomplexobj(coh):
+            raise ValueError("coherence must be real (it is |gamma|^2, unit-less)")
+        coh = coh.astype(np.float64, copy=False)
     if coh.shape != shape:
         raise ValueError(f"coherence must have the FRF shape {shape}, got {coh.shape}")
     if not np.all(np.isfinite(coh)):
@@ -99,7 +118,8 @@ class FRFData:
     Notes
     -----
     Instances are immutable: every method returns a new object and the arrays are made
-    read-only. ``unit_str`` is derived from ``frf_form``; data are always stored in SI.
+    read-only. Arrays are copied unless already frozen (read-only down to their memory),
+    so ``band`` returns views of the same lines without a copy. ``unit_str`` is derived from ``frf_form``; data are always stored in SI.
     ``coherence`` follows every selection (``band``, ``sel``, ``to_form``).
 
     Examples
@@ -134,7 +154,8 @@ class FRFData:
             raise ValueError(f"freq must be >= 0 Hz, got {freq[0]}")
         if freq.size > 1 and not np.all(np.diff(freq) > 0):
             raise ValueError("freq must be strictly increasing")
-        frf = np.array(self.frf, dtype=np.complex128, copy=True)
+        # kept as is when already frozen (a slice of an FRFData, a reader's array), else copied
+        frf = self.frf if _frozen(self.frf, np.complex128) else np.array(self.frf, dtype=np.complex128, copy=True)
         if frf.ndim != 3:
             raise ValueError(f"frf must have shape (n_out, n_in, n_freq), got {frf.shape}")
         if frf.shape[2] != freq.size:
@@ -232,8 +253,9 @@ class FRFData:
         lo, hi = float(freq_lower), float(freq_upper)
         if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
             raise ValueError(f"band must satisfy freq_lower < freq_upper, got {lo:g}..{hi:g} Hz")
-        keep = (self.freq >= lo) & (self.freq <= hi)
-        if not keep.any():
+        # the lines are strictly increasing: the band is one slice, a view of the (frozen) data
+        keep = slice(int(np.searchsorted(self.freq, lo, side="left")), int(np.searchsorted(self.freq, hi, side="right")))
+        if keep.stop <= keep.start:
             raise ValueError(
                 f"band {lo:g}..{hi:g} Hz holds no line of the data "
                 f"({self.freq[0]:g}..{self.freq[-1]:g} Hz)"

@@ -161,11 +161,152 @@ def test_peak_memory_near_data_size(big):
     # Budget: the kernels hold one chunk of weighted FRFs (or its zero-padded FFT) of at most
     # 8 MB here, plus arrays of n_in^2 x lines (g) and the outputs; the former implementation
     # (a weighted copy of every channel and a full-length FFT of all of them at once) peaked at
-    # ~3-4x the data. LSFD: check_data's validation temporaries (|H|^2, about 1x the data) plus
-    # one chunk of fits; the former implementation stacked Re/Im of all channels (1x), copied
-    # them for lstsq (1x) and built the full fit and its difference (2 x 1x).
+    # ~3-4x the data. LSFD: check_data and one fit, each on chunks of outputs (0.77x measured);
+    # the former implementation stacked Re/Im of all channels (1x), copied them for lstsq (1x)
+    # and built the full fit and its difference (2 x 1x), after a full-size |H|^2 (0.5x).
     for p in (4, 120):
         peak = _peak(lambda p=p: plscf_mod._lag_sums(big, p))
         assert peak <= 1.0 * data_bytes, f"_lag_sums p={p}: peak {peak / data_bytes:.2f}x the data"
     peak = _peak(lambda: lsfd(big, _poles()))
-    assert peak <= 2.0 * data_bytes, f"lsfd: peak {peak / data_bytes:.2f}x the data"
+    assert peak <= 1.0 * data_bytes, f"lsfd: peak {peak / data_bytes:.2f}x the data"
+
+
+# ------------------------------------------------------------------ judge._fit (LSFD verdicts)
+judge_mod = importlib.import_module("ema_rig.identification.judge")
+
+
+def _acc_basis(freq, lam):
+    """Complex accelerance basis (lines, 2 n_modes + 2): Re R, Im R columns, LR, UR (written here)."""
+    jw = 2j * np.pi * freq
+    pos = 1 / (jw[:, None] - lam[None, :])
+    neg = 1 / (jw[:, None] - lam.conj()[None, :])
+    fac = jw**2
+    return np.concatenate(
+        [fac[:, None] * (pos + neg), fac[:, None] * 1j * (pos - neg), np.ones((freq.size, 1)), fac[:, None]], axis=1
+    )
+
+
+def _oracle_fit(freq, h, lam):
+    """Residues, support and peak share by brute force: lstsq fits, and a refit without each mode."""
+    basis = _acc_basis(freq, lam)
+    a = np.concatenate([basis.real, basis.imag])
+    n_out, n_in, n_f = h.shape
+    n_chan, n = n_out * n_in, lam.size
+    y = h.reshape(-1, n_f).T
+    b = np.concatenate([y.real, y.imag])
+    x = np.linalg.lstsq(a, b, rcond=None)[0]
+    rss = np.sum((b - a @ x) ** 2)
+    line = np.sum(np.abs(y - basis @ x) ** 2, axis=1)
+    y2 = np.sum(np.abs(y) ** 2, axis=1)
+    df = np.median(np.diff(freq))
+    support, share = np.empty(n), np.empty(n)
+    for k, lk in enumerate(lam):
+        fk, bw = abs(lk) / (2 * np.pi), -lk.real / (2 * np.pi)
+        cols = [c for c in range(a.shape[1]) if c not in (k, n + k)]
+        xk = np.linalg.lstsq(a[:, cols], b, rcond=None)[0]
+        d_rss = np.sum((b - a[:, cols] @ xk) ** 2) - rss  # refit without mode k
+        sigma2 = line[np.abs(freq - fk) <= max(2 * bw, 5 * df)].mean() / (2 * n_chan)
+        support[k] = d_rss / (2 * n_chan) / sigma2
+        near = np.abs(freq - fk) <= max(bw, 2 * df)
+        term = basis[:, [k, n + k]] @ x[[k, n + k]]
+        share[k] = np.sqrt(np.sum(np.abs(term[near]) ** 2) / y2[near].sum())
+    res = np.moveaxis((x[:n] + 1j * x[n : 2 * n]).T.reshape(n_out, n_in, n), 2, 0)
+    return res, support, share
+
+
+def test_judge_fit_in_chunks_matches_brute_force(big):
+    # the true poles plus a spurious one at 850 Hz, in a trough between two modes
+    wx = 2 * np.pi * 850.0
+    lam = np.append(_poles(), -0.01 * wx + 1j * wx)
+    res, support, share = judge_mod._fit(big, lam)
+    res0, support0, share0 = _oracle_fit(big.freq, big.frf, lam)
+    # two solvers of a well-conditioned (scaled) problem agree to ~1e-12; 1e-10 with margin
+    np.testing.assert_allclose(res, res0, rtol=0, atol=1e-10 * np.abs(res0).max())
+    # support: a formula (x_K^T C_KK^-1 x_K) against the RSS difference of two refits, which
+    # cancels to the noise level: agreement to ~1e-9 relative; 1e-7 keeps margin
+    np.testing.assert_allclose(support, support0, rtol=1e-7)
+    np.testing.assert_allclose(share, share0, rtol=1e-10)
+    # the spurious pole makes no peak of its own (share 0.13 against >= 0.45 for the true
+    # modes) and its support is a small fraction of the weakest true mode's (200 against 2.6e4)
+    assert share[-1] < 0.3 < 0.4 < share[:-1].min()
+    assert support[-1] < 0.05 * support[:-1].min()
+
+
+def test_judge_fit_peak_memory(big):
+    # Budget: one chunk of outputs (8 MB here, a third of the 24.6 MB data) for the fit and
+    # its residual, plus the small basis. The former implementation stacked Re/Im of all
+    # channels, built a @ x, the residual, b**2 and a full-size term per mode (4-5x the data).
+    peak = _peak(lambda: judge_mod._fit(big, _poles()))
+    assert peak <= 0.6 * big.frf.nbytes, f"_fit: peak {peak / big.frf.nbytes:.2f}x the data"
+
+
+def test_check_data_peak_memory(big):
+    # chunks of outputs of ~8 MB: the former |H|^2 of every line cost half the data, isfinite 1/16
+    peak = _peak(lambda: plscf_mod.check_data(big, None))
+    assert peak <= 0.4 * big.frf.nbytes, f"check_data: peak {peak / big.frf.nbytes:.2f}x the data"
+
+
+# ------------------------------------------------------------------ FRFData views, reader
+def test_band_is_a_view_and_frozen_arrays_are_kept():
+    rng = np.random.default_rng(1)
+    f = np.linspace(0.0, 100.0, 101)
+    h = rng.standard_normal((2, 1, 101)) + 1j * rng.standard_normal((2, 1, 101))
+    coh = rng.uniform(0.0, 1.0, (2, 1, 101))
+    d = FRFData(f, h, ["1+Y", "2+Y"], ["1+Y"], coherence=coh)
+    h[0, 0, 0] = 99.0  # a writeable input is copied: the data do not follow it
+    assert d.frf[0, 0, 0] != 99.0
+    b = d.band(20.0, 30.0)
+    np.testing.assert_array_equal(b.freq, f[20:31])
+    assert np.shares_memory(b.frf, d.frf) and np.shares_memory(b.coherence, d.coherence)
+    np.testing.assert_array_equal(b.frf, d.frf[:, :, 20:31])
+    np.testing.assert_array_equal(b.coherence, d.coherence[:, :, 20:31])
+    assert not b.frf.flags.writeable and not b.coherence.flags.writeable
+    with pytest.raises(ValueError, match="holds no line"):
+        d.band(20.2, 20.8)
+
+
+def test_binary_reader_peak_near_file_plus_data(tmp_path):
+    from ema_rig.io.uff import read_uff58, write_uff58
+
+    rng = np.random.default_rng(3)
+    f = np.linspace(50.0, 2000.0, 4001)
+    h = rng.standard_normal((32, 2, 4001)) + 1j * rng.standard_normal((32, 2, 4001))
+    outs = [f"{o + 1}+Y" for o in range(32)]
+    src = FRFData(f, h, outs, outs[:2])
+    path = tmp_path / "big.uff"
+    write_uff58(path, src, binary=True)
+    d = read_uff58(path)
+    np.testing.assert_array_equal(d.frf, src.frf)  # float64 58b: bit-exact
+    # Budget: the file's bytes (1.0x, the values are read as views of them) plus the assembled
+    # array (1.0x) plus headers; the former reader also held a float64 copy of every dataset
+    # and copied the assembled array into FRFData (3.5x).
+    peak = _peak(lambda: read_uff58(path))
+    assert peak <= 2.3 * src.frf.nbytes, f"read_uff58: peak {peak / src.frf.nbytes:.2f}x the data"
+
+
+def test_reduced_blocks_in_chunks_match_one_solve():
+    from scipy.linalg import cholesky, solve_triangular
+
+    # 150 outputs x 2 references at p = 60: S is 150 * 61 * 122 * 8 B = 8.9 MB, five chunks
+    rng = np.random.default_rng(7)
+    n_out, n_in, p = 150, 2, 60
+    lags = np.arange(-p, p + 1)
+    r = np.exp(-0.05 * np.arange(p + 1))  # lags of an SPD Toeplitz matrix (exponential decay)
+    s = rng.standard_normal((n_out, n_in, 2 * p + 1)) + 1j * rng.standard_normal((n_out, n_in, 2 * p + 1))
+    t = rng.standard_normal((n_in, n_in, 2 * p + 1)) + 0j
+    T, Q = plscf_mod._reduced_blocks(r, s, t, p)
+    # oracle: every output's block built by its definition and solved alone
+    L = cholesky(np.exp(-0.05 * np.abs(lags[p:, None] - lags[None, p:])), lower=True)
+    for o in (0, 77, 149):
+        so = np.empty((p + 1, p + 1, n_in))
+        for i in range(p + 1):
+            for j in range(p + 1):
+                so[i, j] = -s[o, :, j - i + p].real
+        qo = solve_triangular(L, so.reshape(p + 1, -1), lower=True)
+        # the same triangular solve on the same columns: round-off only
+        np.testing.assert_allclose(Q[:, o], qo, rtol=0, atol=1e-12 * np.abs(qo).max())
+    assert T.shape == ((p + 1) * n_in, (p + 1) * n_in)
+    peak = _peak(lambda: plscf_mod._reduced_blocks(r, s, t, p))
+    # Q itself (8.9 MB) plus a chunk of S (<= 2 MB), its transposed copy and the solve's
+    # output and work copy (<= 4 x 2 MB); the former code held S three times besides Q (~4x Q)
+    assert peak <= Q.nbytes + (8 << 20), f"_reduced_blocks: peak {peak / Q.nbytes:.2f}x Q"

@@ -108,9 +108,15 @@ def diagnose_file(path: str | PathLike[str], data: FRFData | None = None) -> lis
         One line per finding. A file that cannot be read gives no finding (the reader's own
         error is reported elsewhere).
     """
+    from pathlib import Path
+
     from ..errors import EmaRigError
     from ..io.uff import read_uff
 
+    if data is not None and data.meta.get("source") == str(Path(path)) and not data.meta.get("ignored_datasets", True):
+        # the reader used every dataset of this file (FRFs and attached coherence; no time
+        # record, no loose coherence): the file holds nothing beyond `data`, no second read
+        return diagnose_frf(data)
     try:
         uff = read_uff(path)
     except (EmaRigError, OSError):

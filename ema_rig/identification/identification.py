@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from ..errors import IdentificationError
 from ..frf import FRFData
 from .judge import Candidate, judge_clusters, shape_mpc
-from .lsfd import lsfd
+from .lsfd import _lsfd_checked
 from .modal import ModalModel
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
@@ -449,7 +449,7 @@ def identify(
     for m in modes:
         unique.setdefault(m.pole, m)
     modes = list(unique.values())
-    model = lsfd(data, [m.pole for m in modes], residuals=residuals)
+    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked above
     meta = dict(model.meta)
     meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed})
     model = replace(model, meta=meta)

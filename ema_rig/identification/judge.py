@@ -56,6 +56,7 @@ from numpy.typing import NDArray
 
 from .._blas import single_threaded
 from ..frf import _FORM_POWER, FRFData
+from .lsfd import _design, _output_chunks, _projector
 from .mac import mac, mpc
 from .stabilization import (
     SelectedMode,
@@ -121,27 +122,6 @@ class Candidate:
         return d
 
 
-def _basis(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, int]:
-    """Real LSFD design matrix (2 n_freq, 2 n_modes + 2) with residual terms, data (2 n_freq, n_chan)."""
-    p = _FORM_POWER[data.frf_form]
-    f, h = data.freq, data.frf
-    if p < 2 and f[0] == 0.0:
-        f, h = f[1:], h[:, :, 1:]
-    w = 2 * np.pi * f
-    jw = 1j * w
-    fac = np.ones_like(jw)
-    for _ in range(p):
-        fac = fac * jw
-    pos = 1.0 / (jw[:, None] - poles[None, :])
-    neg = 1.0 / (jw[:, None] - poles.conj()[None, :])
-    # LR / (j w)^2 in the data's form (0 Hz was dropped above unless the form is accelerance)
-    lr = np.ones_like(jw) if p == 2 else fac / (jw * jw)
-    cols = [fac[:, None] * (pos + neg), fac[:, None] * (1j * (pos - neg)), lr[:, None], fac[:, None]]
-    a = np.concatenate(cols, axis=1)
-    y = h.reshape(-1, f.size).T
-    return np.concatenate([a.real, a.imag]), np.concatenate([y.real, y.imag]), f.size
-
-
 def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
     """Residues (n_modes, n_out, n_in), the F statistic and the peak share of every mode (n_modes,).
 
@@ -151,49 +131,74 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray
 
     The increase of the residual sum of squares when mode ``k``'s two real parameters are
     dropped is ``x_K^T (C_KK)^-1 x_K`` per channel, ``C = (A^T A)^-1`` (no refit needed).
-    """
-    from scipy.linalg import solve_triangular
 
+    The fit is :func:`~ema_rig.identification.lsfd.lsfd`'s (same basis with residual terms,
+    same minimum-norm solve), run over chunks of outputs; only per-line sums (residual and
+    ``|H|^2``, summed over channels) and each mode's term energy near its peak are kept, so
+    the work arrays stay a fraction of the data. Call it on one BLAS thread.
+    """
     n = poles.size
-    a, b, n_f = _basis(data, poles)
-    scale = np.linalg.norm(a, axis=0)
-    a = a / np.where(scale > 0, scale, 1.0)
-    q, r = np.linalg.qr(a)
-    c = q.T @ b  # (n_unk, n_chan)
-    x = solve_triangular(r, c, check_finite=False)
-    # noise level near each mode: residual per real number over the lines within two
-    # half-power bandwidths (at least 5 lines each side), so junk far away cannot mask it
-    e = b - a @ x
-    line = np.sum(e[:n_f] ** 2 + e[n_f:] ** 2, axis=1)  # (n_f,)
-    n_chan = b.shape[1]
-    f = data.freq[-n_f:]
+    p = _FORM_POWER[data.frf_form]
+    f, h = data.freq, data.frf
+    if p < 2 and f[0] == 0.0:
+        f, h = f[1:], h[:, :, 1:]
+    n_f = f.size
+    n_out, n_in = h.shape[:2]
+    n_chan = n_out * n_in
+    a, scale = _design(f, poles, p, True)
+    n_unk = a.shape[1]
     df = float(np.median(np.diff(f))) if n_f > 1 else 1.0
-    floor = 1e-14 * float(np.sum(b**2)) / max(b.size, 1)
-    sigma2 = np.empty(n)
-    share = np.empty(n)
-    y2 = np.sum(b[:n_f] ** 2 + b[n_f:] ** 2, axis=1)  # |H|^2 per line, summed over channels
-    for k, lam in enumerate(poles):
+    # rows of `a` (Re, Im interleaved) on the lines within one half-power bandwidth of each mode
+    near_rows = []
+    for lam in poles:
         fk = abs(lam) / (2 * np.pi)
-        bw = -lam.real / (2 * np.pi)  # half of the half-power bandwidth [Hz]
-        win = np.abs(f - fk) <= max(2.0 * bw, 5 * df)
-        sigma2[k] = max(float(line[win].mean() if win.any() else line.mean()) / (2 * n_chan), floor)
-        near = np.abs(f - fk) <= max(bw, 2 * df)
+        near = np.abs(f - fk) <= max(-lam.real / (2 * np.pi), 2 * df)
         if not near.any():
             near = np.abs(f - fk) <= np.min(np.abs(f - fk))
-        term = a[:, [k, n + k]] @ x[[k, n + k]]  # (2 n_f, n_chan)
-        t2 = np.sum(term[:n_f] ** 2 + term[n_f:] ** 2, axis=1)
-        share[k] = float(np.sqrt(t2[near].sum() / max(y2[near].sum(), floor)))
-    rinv = solve_triangular(r, np.eye(r.shape[0]), check_finite=False)
-    cov = rinv @ rinv.T
+        idx = np.flatnonzero(near)
+        near_rows.append(np.stack([2 * idx, 2 * idx + 1], axis=1).ravel())
+    x = np.empty((n_out, n_in, n_unk))
+    line = np.zeros(n_f)  # residual |e|^2 per line, summed over channels
+    y2 = np.zeros(n_f)  # |H|^2 per line, summed over channels
+    t2 = np.zeros(n)  # energy of each mode's own term on its near lines, all channels
+    uk, proj = _projector(a)
+    for o0, o1, yv in _output_chunks(h):
+        xs = (yv @ uk) @ proj.T  # scaled unknowns (chunk, n_in, n_unk)
+        x[o0:o1] = xs
+        e = xs @ a.T
+        np.subtract(yv, e, out=e)
+        e2 = e.reshape(-1, n_f, 2)
+        line += np.einsum("cfk,cfk->f", e2, e2)
+        del e, e2
+        y = yv.reshape(-1, n_f, 2)
+        y2 += np.einsum("cfk,cfk->f", y, y)
+        for k, rows in enumerate(near_rows):
+            kk = np.array([k, n + k])
+            term = xs[:, :, kk] @ a[rows][:, kk].T  # (chunk, n_in, rows)
+            t2[k] += float(np.einsum("oir,oir->", term, term))
+        del xs, yv, y
+    floor = 1e-14 * float(y2.sum()) / max(2 * n_f * n_chan, 1)
+    sigma2 = np.empty(n)
+    share = np.empty(n)
+    for k, lam in enumerate(poles):
+        # noise level near each mode: residual per real number over the lines within two
+        # half-power bandwidths (at least 5 lines each side), so junk far away cannot mask it
+        fk = abs(lam) / (2 * np.pi)
+        win = np.abs(f - fk) <= max(-2.0 * lam.real / (2 * np.pi), 5 * df)
+        sigma2[k] = max(float(line[win].mean() if win.any() else line.mean()) / (2 * n_chan), floor)
+        rows = near_rows[k][0::2] // 2
+        share[k] = float(np.sqrt(t2[k] / max(float(y2[rows].sum()), floor)))
+    cov = proj @ proj.T  # (A^T A)^-1 of the scaled basis
     ks = np.arange(n)
     blk = np.empty((n, 2, 2))
     blk[:, 0, 0], blk[:, 0, 1] = cov[ks, ks], cov[ks, n + ks]
     blk[:, 1, 0], blk[:, 1, 1] = cov[n + ks, ks], cov[n + ks, n + ks]
-    xk = np.stack([x[:n], x[n : 2 * n]], axis=1)  # (n, 2, n_chan)
+    xc = x.reshape(n_chan, n_unk).T  # (n_unk, n_chan)
+    xk = np.stack([xc[:n], xc[n : 2 * n]], axis=1)  # (n, 2, n_chan)
     d_rss = np.einsum("kic,kic->k", xk, np.linalg.solve(blk, xk))
     support = np.maximum(d_rss, 0.0) / (2 * n_chan) / sigma2
-    x = x / np.where(scale > 0, scale, 1.0)[:, None]
-    res = (x[:n] + 1j * x[n : 2 * n]).T.reshape(data.n_out, data.n_in, n)
+    x /= scale
+    res = x[:, :, :n] + 1j * x[:, :, n : 2 * n]
     return np.moveaxis(res, 2, 0), support, share
 
 

@@ -25,6 +25,7 @@ Lines at 0 Hz are skipped when the basis is singular there.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -82,7 +83,15 @@ def lsfd(
     >>> bool(np.isclose(m.residues[0, 0, 0], res))
     True
     """
-    data = check_data(data, band)
+    return _lsfd_checked(check_data(data, band), poles, residuals=residuals)
+
+
+def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) -> ModalModel:
+    """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
+
+    For callers that checked the data once for several steps (``identify``); same parameters,
+    result and pole errors as :func:`lsfd`, without the band and the second data check.
+    """
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
@@ -95,55 +104,28 @@ def lsfd(
     h = data.frf
     if residuals and p < 2 and f[0] == 0.0:
         f, h = f[1:], h[:, :, 1:]
-    jw = 2j * np.pi * f
     n_modes = lam.size
-    with np.errstate(divide="ignore", invalid="ignore"):
-        fac = jw**p
-        pos = 1.0 / (jw[:, None] - lam[None, :])
-        neg = 1.0 / (jw[:, None] - lam.conj()[None, :])
-        cols: list[NDArray[Any]] = [fac[:, None] * (pos + neg), fac[:, None] * (1j * pos - 1j * neg)]
-        if residuals:
-            lr = jw ** (p - 2) if p >= 2 else 1.0 / jw ** (2 - p)
-            cols += [lr[:, None], fac[:, None]]
-    basis = np.concatenate(cols, axis=1)  # (n_freq, n_unknown) complex
-    del pos, neg, cols
-    n_unk = basis.shape[1]
+    n_unk = 2 * n_modes + (2 if residuals else 0)
     n_f = f.size
     if 2 * n_f < n_unk:
         raise IdentificationError(
             f"LSFD: {n_f} lines cannot determine {n_unk} real unknowns ({n_modes} modes)", file=src
         )
-    # real rows interleaved (Re, Im) per line: the same order as a complex FRF row viewed as float64
-    a = basis.view(np.float64).reshape(n_f, n_unk, 2).transpose(0, 2, 1).reshape(2 * n_f, n_unk)
-    scale = np.sqrt(np.einsum("kj,kj->j", a, a))
-    scale = np.where(scale > 0, scale, 1.0)
-    a = a / scale
+    a, scale = _design(f, lam, p, residuals)
     n_out, n_in, _ = h.shape
     x = np.empty((n_out, n_in, n_unk))
     num = np.empty((n_out, n_in))
     den = np.empty((n_out, n_in))
-    # channels in chunks of outputs, each chunk's work arrays (the fit) within `budget` bytes
-    budget = int(min(max(h.nbytes // 8, 8 << 20), 64 << 20))
-    step = max(1, budget // (n_in * n_f * 16))
     with single_threaded():
-        # minimum-norm least squares through the SVD of the small shared basis, as lstsq does
-        u, sv, vt = np.linalg.svd(a, full_matrices=False)
-        keep = sv > np.finfo(float).eps * max(a.shape) * sv[0]
-        proj = vt[keep].T / sv[keep]  # (n_unk, rank): x = proj @ u[:, keep].T @ b
-        uk = np.ascontiguousarray(u[:, keep])
-        for o0 in range(0, n_out, step):
-            o1 = min(o0 + step, n_out)
-            blk = h[o0:o1]
-            if blk.strides[-1] != blk.itemsize:
-                blk = np.ascontiguousarray(blk)
-            yv = blk.view(np.float64)  # (chunk, n_in, 2 n_freq): Re, Im interleaved, no copy
+        uk, proj = _projector(a)
+        for o0, o1, yv in _output_chunks(h):
             xs = (yv @ uk) @ proj.T  # scaled unknowns (chunk, n_in, n_unk)
             x[o0:o1] = xs / scale
             res = xs @ a.T
             np.subtract(yv, res, out=res)
             num[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", res, res))
             den[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", yv, yv))
-            del res, xs, yv, blk
+            del res, xs, yv
     residues = np.moveaxis(x[:, :, :n_modes] + 1j * x[:, :, n_modes : 2 * n_modes], 2, 0)
     if residuals:
         lower = x[:, :, 2 * n_modes].astype(np.complex128)
@@ -166,6 +148,77 @@ def lsfd(
         fit_error=fit_error,
         meta={"method": "lsfd", "residuals": bool(residuals)},
     )
+
+
+def _design(
+    f: NDArray[np.float64], lam: NDArray[np.complex128], p: int, residuals: bool
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Real LSFD basis with unit-norm columns and the column norms.
+
+    Parameters
+    ----------
+    f : ndarray, shape (n_freq,)
+        Lines [Hz] (0 Hz already dropped when the basis is singular there).
+    lam : ndarray, shape (n_modes,), complex
+        Poles [rad/s], ``Im > 0``, in the column order wanted.
+    p : int
+        Form power of the data (0 receptance, 1 mobility, 2 accelerance).
+    residuals : bool
+        Append the lower and upper residual columns.
+
+    Returns
+    -------
+    a : ndarray, shape (2 n_freq, n_unknown)
+        Rows (Re, Im) interleaved per line, as a complex FRF row viewed as float64; columns
+        ``Re R_r`` (n_modes), ``Im R_r`` (n_modes), then ``LR``, ``UR``; each of unit norm.
+    scale : ndarray, shape (n_unknown,)
+        Column norms (1 for an all-zero column): unknowns of ``a`` divided by ``scale`` are
+        the physical ones.
+    """
+    jw = 2j * np.pi * f
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fac = jw**p
+        pos = 1.0 / (jw[:, None] - lam[None, :])
+        neg = 1.0 / (jw[:, None] - lam.conj()[None, :])
+        cols: list[NDArray[Any]] = [fac[:, None] * (pos + neg), fac[:, None] * (1j * pos - 1j * neg)]
+        if residuals:
+            lr = jw ** (p - 2) if p >= 2 else 1.0 / jw ** (2 - p)
+            cols += [lr[:, None], fac[:, None]]
+    basis = np.concatenate(cols, axis=1)  # (n_freq, n_unknown) complex
+    n_f, n_unk = basis.shape
+    a = basis.view(np.float64).reshape(n_f, n_unk, 2).transpose(0, 2, 1).reshape(2 * n_f, n_unk)
+    scale = np.sqrt(np.einsum("kj,kj->j", a, a))
+    scale = np.where(scale > 0, scale, 1.0)
+    return a / scale, scale
+
+
+def _projector(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Minimum-norm least-squares solve through the SVD of the small basis, as ``lstsq`` does.
+
+    Returns ``uk`` (2 n_freq, rank) and ``proj`` (n_unknown, rank): the unknowns of data rows
+    ``y`` (..., 2 n_freq) are ``(y @ uk) @ proj.T``, and ``proj @ proj.T`` is the
+    (pseudo-)inverse of ``a.T @ a`` (the unscaled covariance of the unknowns).
+    """
+    u, sv, vt = np.linalg.svd(a, full_matrices=False)
+    keep = sv > np.finfo(float).eps * max(a.shape) * sv[0]
+    return np.ascontiguousarray(u[:, keep]), vt[keep].T / sv[keep]
+
+
+def _output_chunks(h: NDArray[np.complex128]) -> Iterator[tuple[int, int, NDArray[np.float64]]]:
+    """FRFs (n_out, n_in, n_freq) in chunks of outputs as real views (chunk, n_in, 2 n_freq).
+
+    Re and Im are interleaved per line (no copy unless the lines are strided); a chunk's
+    work arrays of one fit stay within a fraction of the data (at most 64 MB).
+    """
+    n_out, n_in, n_f = h.shape
+    budget = int(min(max(h.nbytes // 8, 8 << 20), 64 << 20))
+    step = max(1, budget // max(n_in * n_f * 16, 1))
+    for o0 in range(0, n_out, step):
+        o1 = min(o0 + step, n_out)
+        blk = h[o0:o1]
+        if blk.strides[-1] != blk.itemsize:
+            blk = np.ascontiguousarray(blk)
+        yield o0, o1, blk.view(np.float64)
 
 
 __all__ = ["lsfd"]

@@ -256,15 +256,20 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
     if data.n_freq < 8:
         raise IdentificationError(f"only {data.n_freq} frequency lines in the band; need at least 8", file=src)
     frf = data.frf
-    if not np.all(np.isfinite(frf)):
-        bad = np.argwhere(~np.isfinite(frf))
-        o, i, k = bad[0]
-        raise IdentificationError(
-            f"FRF contains {len(bad)} NaN/inf values (first: output {data.out_dofs[o]}, "
-            f"input {data.in_dofs[i]}, {data.freq[k]:g} Hz)",
-            file=src,
-        )
-    power = np.sum(np.abs(frf) ** 2, axis=2)
+    # in chunks of outputs (about 8 MB each): no temporary of the data's size
+    power = np.empty(frf.shape[:2])
+    step = max(1, (8 << 20) // max(frf[0].nbytes, 1))
+    for o0 in range(0, frf.shape[0], step):
+        blk = frf[o0 : o0 + step]
+        if not np.all(np.isfinite(blk)):
+            bad = np.argwhere(~np.isfinite(frf))
+            o, i, k = bad[0]
+            raise IdentificationError(
+                f"FRF contains {len(bad)} NaN/inf values (first: output {data.out_dofs[o]}, "
+                f"input {data.in_dofs[i]}, {data.freq[k]:g} Hz)",
+                file=src,
+            )
+        power[o0 : o0 + step] = np.sum(blk.real**2 + blk.imag**2, axis=2)
     if np.all(power == 0):
         raise IdentificationError("the FRF is zero everywhere in the band", file=src)
     zero_in = np.flatnonzero(np.all(power == 0, axis=0))
@@ -376,10 +381,17 @@ def _reduced_blocks(r: NDArray, s: NDArray, t: NDArray, p: int) -> tuple[NDArray
     lag = i[None, :] - i[:, None] + p  # (i, j) -> (j - i) + p
     R = r[np.abs(lag - p)]
     L = cholesky(R, lower=True, check_finite=False)
-    # S_o[i, (j, b)] = -Re s_ob(j - i)
-    S = -s.real[:, :, lag]  # (n_out, n_in, i, j)
-    S = S.transpose(2, 0, 3, 1).reshape(p + 1, n_out * (p + 1) * n_in)
-    Q = solve_triangular(L, S, lower=True, check_finite=False).reshape(p + 1, n_out, (p + 1) * n_in)
+    # S_o[i, (j, b)] = -Re s_ob(j - i), solved in chunks of outputs (~2 MB of S each) straight
+    # into Q: no full-size S and no transposed copy of it
+    Q = np.empty((p + 1, n_out, (p + 1) * n_in))
+    step = max(1, (2 << 20) // ((p + 1) ** 2 * n_in * 8))
+    for o0 in range(0, n_out, step):
+        o1 = min(o0 + step, n_out)
+        S = s.real[o0:o1, :, lag]  # (chunk, n_in, i, j), a fresh array
+        np.negative(S, out=S)
+        S = S.transpose(2, 0, 3, 1).reshape(p + 1, (o1 - o0) * (p + 1) * n_in)
+        Q[:, o0:o1] = solve_triangular(L, S, lower=True, check_finite=False).reshape(p + 1, o1 - o0, -1)
+        del S
     # T[(i, a), (j, b)] = Re t_ab(j - i)
     T = t.real[:, :, lag].transpose(2, 0, 3, 1).reshape((p + 1) * n_in, (p + 1) * n_in)
     return T, Q

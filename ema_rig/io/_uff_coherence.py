@@ -95,7 +95,7 @@ def attach(
     warns: list[str] = []
     out_ix = {d: i for i, d in enumerate(out_order)}
     in_ix = {d: j for j, d in enumerate(in_order)}
-    coh = np.zeros((len(out_order), len(in_order), freq.size))
+    coh: NDArray[np.float64] | None = None  # allocated at the first usable record
     filled: dict[tuple[int, int], int] = {}
     for r in records:
         why = _unusable(r, freq, tol)
@@ -126,9 +126,11 @@ def attach(
                 f"dataset {r.index}: coherence {key[0]} / {key[1]} below 0 at {int(lo.sum())} lines "
                 f"(min {float(y.min()):.6g}); clipped to 0"
             )
+        if coh is None:
+            coh = np.zeros((len(out_order), len(in_order), freq.size))
         coh[i, j] = np.clip(y, 0.0, 1.0)
         filled[(i, j)] = r.index
-    if not filled:
+    if not filled or coh is None:
         return Coherence(None, (), tuple(notes), tuple(warns))
     missing = [f"{out_order[i]} / {in_order[j]}" for i in range(len(out_order)) for j in range(len(in_order))
                if (i, j) not in filled]
@@ -139,6 +141,7 @@ def attach(
             f"(none for {', '.join(missing[:6])}{', ...' if len(missing) > 6 else ''})"
         )
         return Coherence(None, (), tuple(notes), tuple(warns))
+    coh.setflags(write=False)  # frozen: FRFData keeps it without a copy
     return Coherence(coh, tuple(sorted(filled.values())), tuple(notes), tuple(warns))
 
 

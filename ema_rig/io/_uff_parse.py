@@ -21,7 +21,7 @@ Every dataset becomes a record whose status is ``"read"`` (exactly ``num_pts`` v
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -316,7 +316,9 @@ def _split_values(
         v = vals.reshape(n, k + 1)
         x = np.ascontiguousarray(v[:, 0])
         yv = v[:, 1:].ravel()
-    if is_complex:
+    if is_complex and yv.dtype == np.float64 and yv.size == 2 * n and yv.flags.c_contiguous:
+        y = yv.view(np.complex128)  # (Re, Im) pairs already in place: no copy
+    elif is_complex:
         y = np.empty(n, dtype=np.complex128)
         y.real = yv[0::2]
         y.imag = yv[1::2]
@@ -350,7 +352,7 @@ def _binary_layouts(h: dict[str, Any]) -> list[tuple[int, int]]:
 
 
 def _values_binary(
-    h: dict[str, Any], payload: bytes, xs: int, byte_order: str
+    h: dict[str, Any], payload: bytes | memoryview, xs: int, byte_order: str
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     is_complex, is_double = ORD_TYPES[h["ord_data_type"]]
     s = 8 if is_double else 4
@@ -361,10 +363,12 @@ def _values_binary(
 
 
 def _values_binary_cast(
-    payload: bytes, ft: str, xs: int, k: int, byte_order: str
+    payload: bytes | memoryview, ft: str, xs: int, k: int, byte_order: str
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     if xs == 0:
-        return np.frombuffer(payload, dtype=ft).astype(np.float64), None
+        vals = np.frombuffer(payload, dtype=ft)
+        # native float64 stays a read-only view of the file's bytes (no copy)
+        return (vals if vals.dtype == np.float64 else vals.astype(np.float64)), None
     dt = np.dtype([("x", f"{byte_order}f{xs}"), ("y", ft, (k,))])
     rec = np.frombuffer(payload, dtype=dt)
     return rec["y"].astype(np.float64).ravel(), rec["x"].astype(np.float64)
@@ -413,6 +417,7 @@ def scan(buf: bytes) -> list[RawDataset]:
         In file order. Empty when the file holds no delimiter line.
     """
     out: list[RawDataset] = []
+    seen_x: list[NDArray[np.float64]] = []  # the last distinct abscissas, shared between datasets
     pos = 0
     n = len(buf)
     while pos < n:
@@ -449,8 +454,20 @@ def scan(buf: bytes) -> list[RawDataset]:
             ds, pos = _read_58b(buf, type_line, p_hdr, index, start)
         else:
             ds, pos = _read_ascii(buf, dtype, binary, p_hdr, index, start)
-        out.append(ds)
+        out.append(_share_abscissa(ds, seen_x))
     return out
+
+
+def _share_abscissa(ds: RawDataset, seen: list[NDArray[np.float64]]) -> RawDataset:
+    """The dataset with its abscissa replaced by an equal one already read (one array, not one per dataset)."""
+    if ds.x is None:
+        return ds
+    for x in seen:
+        if x.shape == ds.x.shape and np.array_equal(x, ds.x):
+            return replace(ds, x=x)
+    seen.insert(0, ds.x)
+    del seen[4:]
+    return ds
 
 
 def _line_limited(buf: bytes, pos: int, end: int) -> tuple[bytes, int]:
@@ -639,7 +656,7 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
         notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
     if xs == 4 and ORD_TYPES[h["ord_data_type"]][1]:
         notes.append("uneven abscissa stored as float32 (ordinate float64)")
-    vals, x_vals = _values_binary(h, buf[q : q + nb], xs, "<" if bo == 1 else ">")
+    vals, x_vals = _values_binary(h, memoryview(buf)[q : q + nb], xs, "<" if bo == 1 else ">")
     x, y = _finish58(h, vals, x_vals)
     return RawDataset(index, 58, True, start, "read", None, h, x, y, tuple(notes), text), end[1]
 

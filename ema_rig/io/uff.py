@@ -618,6 +618,7 @@ def read_uff58(
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
+    frf.setflags(write=False)  # built here and frozen: FRFData keeps it without a copy
     try:
         return FRFData(
             freq, frf, tuple(out_order), tuple(in_order), dec0.frf_form, roles=tuple(roles), axes=tuple(axes),
