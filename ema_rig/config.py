@@ -20,6 +20,9 @@ Optional tables (extensions, all keys optional):
 - ``[units]``: ``prefer = "code" | "label"``: which wins when a UFF unit label contradicts the
   ordinate data-type code (default: a conflict is an error).
 - ``[rig]``: ``name``, ``description`` (free text).
+- ``[calibration]``: ``k_disk`` (the steel disk's own stiffness [N/m], e.g. from FE; it acts in
+  series with ``k_MS`` during the calibration) and ``k_disk_std`` (its standard uncertainty [N/m];
+  needs ``k_disk``). Without ``k_disk`` the disk is assumed rigid, with a model-form term.
 
 Functions
 ---------
@@ -43,7 +46,7 @@ from .errors import ConfigError
 MODEL_KEYS: tuple[str, ...] = ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B")
 SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")
 SENSOR_AXES: tuple[str, ...] = ("radial", "lateral", "axial")
-_TOP_KEYS = ("model", "excitation", "sensor", "uncertainty", "identification", "units", "rig")
+_TOP_KEYS = ("model", "excitation", "sensor", "uncertainty", "identification", "units", "rig", "calibration")
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,6 +101,10 @@ class RigConfig:
         Optional defaults: ``band`` (lo, hi) Hz, ``max_order``, ``k_MS_band``.
     unit_preference : str or None
         ``'code'`` or ``'label'``: which wins in a UFF unit conflict.
+    k_disk : float or None
+        Calibration disk stiffness [N/m] (``[calibration]``); None = assumed rigid.
+    k_disk_std : float or None
+        Its standard uncertainty [N/m].
     name : str
     path : str or None
         File it was read from (for messages; excluded from cache keys: the content counts).
@@ -110,6 +117,8 @@ class RigConfig:
     uncertainty: Mapping[str, float] = field(default_factory=dict)
     identification: Mapping[str, Any] = field(default_factory=dict)
     unit_preference: str | None = None
+    k_disk: float | None = None
+    k_disk_std: float | None = None
     name: str = ""
     # where it was read from: named in messages, but not part of what a result depends on
     path: str | None = field(default=None, metadata={"cache_key": False})
@@ -245,6 +254,23 @@ def toml_band(v: Any, key: str, file: str | None) -> tuple[float, float]:
     return lo, hi
 
 
+def parse_disk(t: Mapping[str, Any], prefix: str, file: str | None) -> tuple[float | None, float | None]:
+    """``k_disk`` (> 0) and ``k_disk_std`` (>= 0, needs ``k_disk``) [N/m] of a table, each optional.
+
+    ``prefix`` is the key path of the table (``"calibration."`` in the rig file, ``""`` at the top
+    of a campaign file), for the error messages.
+    """
+    k_disk = toml_number(t["k_disk"], f"{prefix}k_disk", file, lo=0.0, lo_open=True) if "k_disk" in t else None
+    std = None
+    if "k_disk_std" in t:
+        std = toml_number(t["k_disk_std"], f"{prefix}k_disk_std", file, lo=0.0)
+        if k_disk is None:
+            raise ConfigError(
+                f"needs {prefix}k_disk (the stiffness it is the uncertainty of)", file=file, key=f"{prefix}k_disk_std"
+            )
+    return k_disk, std
+
+
 def _dof(v: Any, key: str, file: str | None) -> DOF:
     if not isinstance(v, str):
         raise ConfigError(f"must be a DOF string such as '11+Y', got {short_repr(v)}", file=file, key=key)
@@ -366,6 +392,10 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
     if "description" in rig_t:
         toml_str(rig_t["description"], "rig.description", fname)
 
+    cal_t = toml_table(doc, "calibration", fname, required=False)
+    check_keys(cal_t, ("k_disk", "k_disk_std"), "calibration", fname)
+    k_disk, k_disk_std = parse_disk(cal_t, "calibration.", fname)
+
     return RigConfig(
         model=model,
         radial=radial,
@@ -374,6 +404,8 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         uncertainty=uncertainty,
         identification=ident,
         unit_preference=pref,
+        k_disk=k_disk,
+        k_disk_std=k_disk_std,
         name=toml_str(rig_t.get("name", ""), "rig.name", fname),
         path=fname,
     )
@@ -540,6 +572,7 @@ __all__ = [
     "read_regular_file",
     "read_toml",
     "short_repr",
+    "parse_disk",
     "toml_band",
     "toml_bool",
     "toml_int",

@@ -3,9 +3,16 @@
 The simulated FRFs are what the rig's accelerometers (roles and axes from the rig file) would
 record for a force from the radial shaker (and optionally the axial one):
 
-- the three modes of the 3DOF model (:mod:`ema_rig.rig.model`): radial housing sensors see
+- the three modes of the 3DOF model (:mod:`ema_rig.rig.model`): radial housing sensors measure
   ``x_H``, radial spindle sensors ``x_S``, the radial reference drives ``m_H``. With
-  ``extra_modes=False`` and ``noise=0`` the radial FRFs are exactly the 3DOF model's;
+  ``extra_modes=False``, ``misalignment_deg=0`` and ``noise=0`` the radial FRFs are exactly the
+  3DOF model's;
+- optionally (``appendage``) a small flexible part of the housing (a load arm, a cover) on its own
+  spring: the radial dynamics become 4DOF and the housing mode couples to the appendage's;
+- every sensor is mounted slightly askew (seeded, a few degrees by default): it measures
+  ``cos(a)`` of the motion along its axis plus ``sin`` of the two transverse components (the
+  housing's or spindle's motion along the other axes, taken as the mean over that group's
+  sensors), so a radial housing sensor sees the lateral, axial and tilt modes too;
 - the modes the model lacks, as additional modal contributions (they do not move the 3DOF poles):
   rig rigid-body modes 5.9-16.4 Hz, housing tilt modes below 150 Hz (radial housing sensors out
   of phase), the spindle's first mode at 287 Hz, the housing axial mode near 300 Hz, a lateral
@@ -40,6 +47,7 @@ from types import MappingProxyType
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .config import RigConfig, Sensor
@@ -60,6 +68,7 @@ DEFAULT_DAMPING: Mapping[str, float] = MappingProxyType(
         "flexible": 0.015,
         "spindle_axial": 0.01,
         "harmonic": 2e-4,
+        "appendage": 0.015,
     }
 )
 """Modal damping ratio per mode kind (plausible for a bolted steel rig, 0.5-3 %)."""
@@ -69,6 +78,9 @@ _CROSS_AXIS = 0.02  # cross-axis sensitivity: lateral/axial sensors see 2 % of t
 _RIGID_FREQS = (5.9, 7.7, 9.8, 12.9, 16.4)  # Hz (the sixth rigid-body mode is the 3DOF frame mode)
 _TILT_FREQS = (112.0, 138.0)
 _FLEX_FREQS = (663.0, 695.0, 742.0, 801.0, 846.0, 958.0, 1063.0, 1188.0, 1342.0, 1495.0, 1640.0, 1785.0)
+_MOUNT_SEED = 19700101  # fixed: each sensor's misalignment does not change with the noise seed
+DEFAULT_MISALIGNMENT_DEG = 3.0
+"""Standard deviation [deg] of each sensor's seeded tilt towards each of its two transverse axes."""
 _LATERAL_RATIO = 0.88  # lateral housing mode: unloaded direction, a bit softer than radial
 
 
@@ -84,7 +96,9 @@ class Simulation:
     truth : mapping
         ``k_TB`` (inf for a rigid disk: null in the JSON, with ``rigid_disk`` true), ``k_MS``,
         ``k_TB_MS`` [N/m], ``f_H`` and ``f_spindle`` (3DOF housing and
-        spindle-bending natural frequencies, Hz), ``housing_damping``, ``housing_effective_mass``
+        spindle-bending natural frequencies, Hz, without the appendage), ``misalignment_deg``
+        (per sensor: the two tilt angles [deg]), ``appendage`` (null or ``mass`` [kg], ``freq``
+        [Hz] uncoupled), ``housing_damping``, ``housing_effective_mass``
         [kg], ``speed_hz``, ``noise``, ``seed``, ``extra_modes`` and ``modes``: one dict per
         contribution with ``kind``, ``natural_freq`` [Hz], ``damping_ratio`` and
         ``effective_mass_dp`` [kg] (at the radial driving point).
@@ -216,6 +230,76 @@ def _driving_point(modes: list[dict[str, Any]], j_dp: int) -> None:
             m["shape"][j_dp] = 1.0 / math.sqrt(600.0)
 
 
+def _misalignment(points: Sequence[Sensor], std_deg: float) -> NDArray[np.float64]:
+    """Per point: the two seeded tilt angles [rad] towards its transverse axes, shape (n, 2)."""
+    rng = np.random.default_rng(_MOUNT_SEED)
+    return np.deg2rad(std_deg) * rng.normal(size=(len(points), 2))
+
+
+def _askew(points: Sequence[Sensor], psi: NDArray[np.float64], tilt: NDArray[np.float64]) -> NDArray[np.float64]:
+    """What misaligned sensors measure: ``cos`` of their own axis plus ``sin`` of the other two.
+
+    The motion of a role (housing or spindle) along an axis is the mean of the mode shape over
+    that role's sensors along that axis (none: no motion seen), shape (n_pts, n_modes).
+    """
+    axes = ("radial", "lateral", "axial")
+    means: dict[tuple[str, str], NDArray[np.float64]] = {}
+    for role in {p.role for p in points}:
+        for ax in axes:
+            rows = [j for j, p in enumerate(points) if (p.role, p.axis) == (role, ax)]
+            means[(role, ax)] = psi[rows].mean(axis=0) if rows else np.zeros(psi.shape[1])
+    out = np.empty_like(psi)
+    for j, p in enumerate(points):
+        a, b = tilt[j]
+        others = [ax for ax in axes if ax != p.axis]
+        out[j] = (
+            math.cos(math.hypot(a, b)) * psi[j]
+            + math.sin(a) * means[(p.role, others[0])]
+            + math.sin(b) * means[(p.role, others[1])]
+        )
+    return out
+
+
+def _radial_modes(
+    model: RigModel, appendage: tuple[float, float] | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], list[str]]:
+    """Radial modes: natural frequencies [Hz], mass-normalised shapes over (x_H, x_S) and kinds.
+
+    Without an appendage these are the 3DOF model's three modes. With one (mass ``m_a`` [kg] on a
+    spring tuned to ``f_a`` [Hz] alone, attached to ``m_H``), the 4DOF problem is solved; the
+    spindle mode is the one with the largest spindle kinetic energy, and of the two others above
+    the frame mode the one with more housing energy is labelled the housing mode.
+    """
+    if appendage is None:
+        phi = model.mode_shapes
+        return np.asarray(model.natural_freq, dtype=np.float64), phi[[HOUSING, SPINDLE]], [
+            "frame",
+            "housing_radial",
+            "spindle_bending",
+        ]
+    m_a, f_a = appendage
+    k_a = m_a * (2.0 * math.pi * f_a) ** 2
+    m3, k3 = model.mass_matrix(), model.stiffness_matrix()
+    mm = np.zeros((4, 4))
+    kk = np.zeros((4, 4))
+    mm[:3, :3], kk[:3, :3] = m3, k3
+    mm[3, 3] = m_a
+    kk[HOUSING, HOUSING] += k_a
+    kk[HOUSING, 3] = kk[3, HOUSING] = -k_a
+    kk[3, 3] = k_a
+    lam, vec = scipy.linalg.eigh(kk, mm)  # mass-normalised eigenvectors
+    fn = np.sqrt(np.maximum(lam, 0.0)) / (2.0 * math.pi)
+    kinds = ["frame", "", "", ""]
+    rest = [1, 2, 3]
+    e_s = [mm[SPINDLE, SPINDLE] * vec[SPINDLE, r] ** 2 for r in rest]
+    i_s = rest.pop(int(np.argmax(e_s)))
+    kinds[i_s] = "spindle_bending"
+    e_h = [mm[HOUSING, HOUSING] * vec[HOUSING, r] ** 2 for r in rest]
+    kinds[rest[int(np.argmax(e_h))]] = "housing_radial"
+    kinds[rest[int(np.argmin(e_h))]] = "appendage"
+    return fn, vec[[HOUSING, SPINDLE]], kinds
+
+
 # ----------------------------------------------------------------------------- main
 def simulate_measurement(
     rig: RigConfig,
@@ -231,6 +315,8 @@ def simulate_measurement(
     damping: Mapping[str, float] | None = None,
     n_harmonics: int = 12,
     harmonic_level: float = 0.5,
+    misalignment_deg: float = DEFAULT_MISALIGNMENT_DEG,
+    appendage: tuple[float, float] | None = None,
 ) -> Simulation:
     """Synthetic FRFs of the rig with a bearing of stiffness ``k_tb``.
 
@@ -264,6 +350,14 @@ def simulate_measurement(
         Number of shaft-speed harmonics (those above the last line are dropped).
     harmonic_level : float, optional
         Peak of the first harmonic line relative to the local FRF magnitude (decays as 1/sqrt(k)).
+    misalignment_deg : float, optional
+        Standard deviation [deg] of each sensor's seeded mounting tilt towards each transverse
+        axis (default :data:`DEFAULT_MISALIGNMENT_DEG`; 0 = every sensor exactly along its axis).
+        The shaker forces stay along their axes.
+    appendage : (float, float), optional
+        A small flexible part of the housing: its mass [kg] and its uncoupled natural frequency
+        [Hz] (on a spring to ``m_H``). The housing mode then couples to it; the truth's ``k_TB``
+        and ``f_H`` stay those of the bearing and the 3DOF model.
 
     Returns
     -------
@@ -295,6 +389,13 @@ def simulate_measurement(
         if k not in damp:
             raise ValueError(f"unknown mode kind {k!r} in damping; allowed: {', '.join(damp)}")
         damp[k] = float(v)
+    if not (math.isfinite(misalignment_deg) and 0.0 <= misalignment_deg <= 20.0):
+        raise ValueError(f"misalignment_deg must be within 0..20 degrees, got {misalignment_deg!r}")
+    if appendage is not None:
+        m_a, f_a = (float(x) for x in appendage)
+        if not (m_a > 0 and math.isfinite(m_a) and f_a > 0 and math.isfinite(f_a)):
+            raise ValueError(f"appendage must be (mass [kg] > 0, frequency [Hz] > 0), got {appendage!r}")
+        appendage = (m_a, f_a)
     f = np.arange(0.0, 2000.0 + 0.25, 0.5) if freq is None else np.asarray(freq, dtype=np.float64)
 
     if references is None:
@@ -326,17 +427,17 @@ def simulate_measurement(
         ref_idx.append(j)
     n_pts = len(points)
 
-    # --- 3DOF modes at every point
-    phi = model.mode_shapes
-    shapes3 = np.zeros((n_pts, 3))
+    # --- radial modes (3DOF, or 4DOF with the appendage) at every point
+    fn_r, phi, kinds = _radial_modes(model, appendage)
+    shapes3 = np.zeros((n_pts, len(kinds)))
     for j, s in enumerate(points):
-        row = phi[HOUSING] if s.role == "housing" else phi[SPINDLE]
+        row = phi[0] if s.role == "housing" else phi[1]
         shapes3[j] = row if s.axis == "radial" else _CROSS_AXIS * row
-    z3 = np.array([damp["frame"], damp["housing_radial"], damp["spindle_bending"]])
-    fn_all = [*model.natural_freq]
+    z3 = np.array([damp[k] for k in kinds])
+    fn_all = [*fn_r]
     z_all = [*z3]
-    shapes_all = [shapes3[:, r] for r in range(3)]
-    kinds = ["frame", "housing_radial", "spindle_bending"]
+    shapes_all = [shapes3[:, r] for r in range(len(kinds))]
+    kinds = list(kinds)
     if extra_modes:
         extras = _extra_modes(points, model.housing_freq, damp)
         _driving_point(extras, ref_idx[0])
@@ -349,7 +450,9 @@ def simulate_measurement(
     zz = np.array(z_all)
     psi = np.array(shapes_all).T  # (n_pts, n_modes)
     out_idx = list(range(len(sensors)))
-    h = modal_frf(f, fn, psi[out_idx], psi[ref_idx], zz, frf_form="accelerance")
+    tilt = _misalignment(points, misalignment_deg)
+    psi_out = _askew(points, psi, tilt)[out_idx]  # what the (askew) sensors measure
+    h = modal_frf(f, fn, psi_out, psi[ref_idx], zz, frf_form="accelerance")
 
     rng = np.random.default_rng(seed)
     harmonics: list[dict[str, Any]] = []
@@ -362,7 +465,7 @@ def simulate_measurement(
                 break
             wk = 2.0 * np.pi * fk
             line = 2j * zh * wk * w / (wk**2 - w**2 + 2j * zh * wk * w)  # peak 1 at fk
-            local = np.abs(modal_frf([fk], fn, psi[out_idx], psi[ref_idx], zz, frf_form="accelerance")[:, :, 0])
+            local = np.abs(modal_frf([fk], fn, psi_out, psi[ref_idx], zz, frf_form="accelerance")[:, :, 0])
             amp = harmonic_level / math.sqrt(order) * rng.uniform(0.3, 1.0, local.shape)
             phase = np.exp(2j * np.pi * rng.uniform(size=local.shape))
             h = h + (amp * local * phase)[:, :, None] * line[None, None, :]
@@ -409,13 +512,15 @@ def simulate_measurement(
         "k_TB_MS": k_c,
         "f_H": model.housing_freq,
         "f_spindle": model.spindle_freq,
-        "housing_damping": float(z3[1]),
+        "housing_damping": float(damp["housing_radial"]),
         "housing_effective_mass": model.effective_mass(),
         "natural_freq_3dof": [float(x) for x in model.natural_freq],
         "speed_hz": speed_hz,
         "noise": float(noise),
         "seed": int(seed),
         "extra_modes": bool(extra_modes),
+        "misalignment_deg": [[round(float(x), 6) for x in np.rad2deg(t)] for t in tilt[: len(sensors)]],
+        "appendage": None if appendage is None else {"mass": appendage[0], "freq": appendage[1]},
         "references": [str(d) for d in refs],
         "model": params.as_dict(),
         "modes": mode_list,
@@ -427,6 +532,43 @@ def truth_path(path: str | PathLike[str]) -> Path:
     """The truth file of a measurement: ``<file>.truth.json`` beside it (``m.uff.truth.json``)."""
     p = Path(path)
     return p.with_name(p.name + ".truth.json")
+
+
+def planted_k_tb(path: str | PathLike[str]) -> float | None:
+    """The bearing stiffness [N/m] planted in a simulated measurement, from its truth file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A measurement file; its truth is ``<file>.truth.json`` beside it (:func:`truth_path`).
+
+    Returns
+    -------
+    float or None
+        ``k_TB`` of the truth (inf for the rigid disk); None when there is no truth file (a real
+        measurement).
+
+    Raises
+    ------
+    ValueError
+        When a truth file exists but is not a JSON object with a numeric ``k_TB`` (or null for the
+        disk), naming the file.
+    """
+    import json
+
+    tp = truth_path(path)
+    if not tp.is_file():
+        return None
+    try:
+        doc = json.loads(tp.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{tp}: unreadable truth file ({exc})") from exc
+    k = doc.get("k_TB", "missing") if isinstance(doc, dict) else "missing"
+    if k is None:
+        return math.inf
+    if isinstance(k, bool) or not isinstance(k, (int, float)):
+        raise ValueError(f"{tp}: truth file without a numeric k_TB")
+    return float(k)
 
 
 def write_measurement(
@@ -475,4 +617,4 @@ def write_measurement(
     return p
 
 
-__all__ = ["DEFAULT_DAMPING", "Simulation", "simulate_measurement", "truth_path", "write_measurement"]
+__all__ = ["DEFAULT_DAMPING", "DEFAULT_MISALIGNMENT_DEG", "Simulation", "planted_k_tb", "simulate_measurement", "truth_path", "write_measurement"]

@@ -5,7 +5,9 @@ A campaign file (TOML) names the rig file, an optional steel-disk calibration fi
 
     rig = "rig.toml"                  # relative to the campaign file
     calibration = "disk.uff"          # optional: k_MS from a steel-disk run
-    k_disk = 2.0e9                    # optional: finite stiffness of the disk [N/m]
+    k_disk = 2.0e9                    # optional: finite stiffness of the disk [N/m] (wins over
+                                      # the rig file's [calibration] k_disk)
+    k_disk_std = 2.0e8                # optional: its standard uncertainty [N/m] (needs k_disk)
     title = "6302 campaign"           # optional
 
     [defaults]                        # optional identification settings

@@ -9,6 +9,7 @@ normalisation (Unicode NFC and case folding, as on a case-insensitive file syste
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import stat
@@ -25,6 +26,7 @@ from ..config import (
     check_keys,
     load_rig,
     parse_bearing_geometry,
+    parse_disk,
     read_toml,
     short_repr,
     toml_band,
@@ -36,7 +38,7 @@ from ..config import (
 )
 from ..errors import ConfigError
 
-_TOP_KEYS = ("rig", "calibration", "k_disk", "title", "defaults", "bearings", "measurement", "output")
+_TOP_KEYS = ("rig", "calibration", "k_disk", "k_disk_std", "title", "defaults", "bearings", "measurement", "output")
 _MEAS_KEYS = ("file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags", "id")
 _DEFAULT_KEYS = ("band", "max_order")
 _BEARING_KEYS = ("k_lower", "k_upper", "hertz", "label", *BEARING_GEOMETRY_KEYS)
@@ -135,7 +137,10 @@ class CampaignConfig:
     calibration : Path or None
         Steel-disk measurement giving k_MS.
     k_disk : float or None
-        Stiffness of the steel disk [N/m] (None: infinitely stiff).
+        Stiffness of the steel disk [N/m] (None: infinitely stiff): the campaign's ``k_disk``,
+        else the rig file's ``[calibration] k_disk``.
+    k_disk_std : float or None
+        Its standard uncertainty [N/m] (from the same file as ``k_disk``).
     band : tuple of float or None
         Identification band [Hz] (None: the rig file's, else the pipeline's default).
     max_order : int or None
@@ -156,6 +161,7 @@ class CampaignConfig:
     measurements: tuple[Measurement, ...]
     calibration: Path | None = None
     k_disk: float | None = None
+    k_disk_std: float | None = None
     band: tuple[float, float] | None = None
     max_order: int | None = None
     bearings: Mapping[str, BearingInfo] = field(default_factory=dict)
@@ -180,6 +186,7 @@ class CampaignConfig:
             "unit_preference": self.rig.unit_preference,
             "calibration": None if self.calibration is None else str(self.calibration),
             "k_disk": self.k_disk,
+            "k_disk_std": self.k_disk_std,
             "band": None if self.band is None else list(self.band),
             "max_order": self.max_order,
         }
@@ -279,7 +286,10 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
     rig_file = _existing_file(doc["rig"], "rig", fname, base)
     rig = load_rig(rig_file)
     calibration = _existing_file(doc["calibration"], "calibration", fname, base) if "calibration" in doc else None
-    k_disk = toml_number(doc["k_disk"], "k_disk", fname, lo=0.0, lo_open=True) if "k_disk" in doc else None
+    k_disk, k_disk_std = parse_disk(doc, "", fname)
+    if k_disk is not None:  # the campaign's disk wins over the rig file's [calibration]
+        rig = dataclasses.replace(rig, k_disk=k_disk, k_disk_std=k_disk_std)
+    k_disk, k_disk_std = rig.k_disk, rig.k_disk_std
     title = toml_str(doc["title"], "title", fname) if "title" in doc else p.stem
 
     defaults = toml_table(doc, "defaults", fname, required=False)
@@ -373,7 +383,7 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
         )
     return CampaignConfig(
         rig_file=rig_file, rig=rig, measurements=tuple(meas), calibration=calibration, k_disk=k_disk,
-        band=band, max_order=max_order, bearings=bearings, title=title, path=p, **units,
+        k_disk_std=k_disk_std, band=band, max_order=max_order, bearings=bearings, title=title, path=p, **units,
     )
 
 

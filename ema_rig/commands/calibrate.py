@@ -12,7 +12,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", metavar="DISK_FILE", help="UFF58 measurement with the steel disk mounted")
     parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
     parser.add_argument("--k-disk", type=_args.positive_float, default=None, metavar="V",
-                        help="finite disk stiffness [N/m] in series (default: rigid, as the paper)")
+                        help="finite disk stiffness [N/m] in series (default: the rig file's [calibration] "
+                             "k_disk, else rigid, as the paper)")
     parser.add_argument("--k-disk-std", type=_args.nonneg_float, default=None, metavar="V",
                         help="standard uncertainty of --k-disk [N/m]")
     parser.add_argument("--damping-model", choices=("viscous", "hysteretic"), default="viscous",

@@ -533,10 +533,12 @@ def calibrate(
     rig : RigConfig
         Rig parameters (their ``k_MS`` is not used).
     k_disk : float, optional
-        Finite disk stiffness [N/m], in series (e.g. from FE); default: assumed rigid, with a
-        model-form term (:func:`ema_rig.rig.inversion.calibrate_k_ms`).
+        Finite disk stiffness [N/m], in series (e.g. from FE); default: the rig file's
+        ``[calibration] k_disk``, else assumed rigid, with a model-form term
+        (:func:`ema_rig.rig.inversion.calibrate_k_ms`).
     k_disk_std : float, optional
-        Standard uncertainty of ``k_disk`` [N/m].
+        Standard uncertainty of ``k_disk`` [N/m]; default: the rig file's ``k_disk_std`` when
+        ``k_disk`` is the rig file's (or not given), else 0.
     damping_model : {'viscous', 'hysteretic'}, optional
         Declared damping model (see :func:`estimate_stiffness`).
     band : (float, float), optional
@@ -560,6 +562,10 @@ def calibrate(
     file = _file_of(data)
     if band is None:
         band = rig.identification.get("k_MS_band")
+    if k_disk is None:
+        k_disk = rig.k_disk
+    if k_disk_std is None and k_disk is not None and k_disk == rig.k_disk:
+        k_disk_std = rig.k_disk_std
     ident, _, m, b, _ = _identify_and_match(
         data, rig, band=band, max_order=max_order, speed_hz=None, spindle=False,
         progress=progress, file=file,
