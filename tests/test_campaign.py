@@ -58,6 +58,9 @@ def test_rows_truth_and_partial_failure(first_run) -> None:
         # the simulator's radial dynamics are the 3DOF model's: k_TB within 1 % of the truth
         assert abs(ok[mid]["k_TB"] / k - 1) < 0.01, (mid, ok[mid]["k_TB"], k)
         assert ok[mid]["k_TB_std"] > 0
+        # the measured part (identification) is part of the total, never more
+        assert 0 < ok[mid]["k_TB_std_measured"] <= ok[mid]["k_TB_std"]
+        assert isinstance(ok[mid]["warnings"], list)
     bad = result.rows[3]
     assert bad["status"] == "error" and "broken.uff" in bad["error"] and math.isnan(bad["k_TB"])
     assert result.n_failed == 1 and not result.ok
@@ -65,6 +68,7 @@ def test_rows_truth_and_partial_failure(first_run) -> None:
     csv_lines = (out / "campaign.csv").read_text().splitlines()
     assert [h.split(" [")[0] for h in csv_lines[0].split(",")] == list(COLUMNS) and len(csv_lines) == 5
     assert "k_TB [N/m]" in csv_lines[0] and "speed [rpm]" in csv_lines[0] and "housing_damping [-]" in csv_lines[0]
+    assert "k_TB_std_measured [N/m]" in csv_lines[0] and csv_lines[0].endswith(",warnings")
     assert {p.stem for p in (out / "results").glob("*.json")} == {"m200", "m500", "m1000", "broken"}
     html = (out / "report.html").read_text()
     assert "data:image/png;base64," in html and "broken.uff" in html and "src='http" not in html

@@ -13,16 +13,16 @@ from .schema import CampaignConfig
 #: Column order of the campaign table.
 COLUMNS: tuple[str, ...] = (
     "id", "file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags",
-    "status", "k_TB", "k_TB_std", "k_TB_MS", "k_MS",
+    "status", "k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS",
     "housing_freq", "housing_freq_std", "housing_damping",
-    "spindle_freq", "spindle_damping", "error", "elapsed_s",
+    "spindle_freq", "spindle_damping", "error", "elapsed_s", "warnings",
 )
 
 #: Stiffness units of the CSV: name -> factor from N/m.
 STIFFNESS_UNITS: dict[str, float] = {"N/m": 1.0, "MN/m": 1e-6, "N/µm": 1e-6, "N/um": 1e-6}
 #: Damping units of the CSV: ``-`` (a fraction of critical) or ``%``.
 DAMPING_UNITS: dict[str, float] = {"-": 1.0, "%": 100.0}
-_STIFFNESS_COLUMNS = ("k_TB", "k_TB_std", "k_TB_MS", "k_MS")
+_STIFFNESS_COLUMNS = ("k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS")
 _DAMPING_COLUMNS = ("housing_damping", "spindle_damping")
 #: Units of the other numeric columns (in the CSV header).
 _UNITS = {"radial_load": "N", "speed": "rpm", "shaft_position": "deg", "housing_freq": "Hz",
@@ -151,6 +151,8 @@ class CampaignResult:
 def _csv_value(v: Any, scale: float = 1.0) -> Any:
     if v is None:
         return ""
+    if isinstance(v, (list, tuple)):  # warnings: one cell, caveats separated by " | "
+        return " | ".join(str(x) for x in v)
     if isinstance(v, float):
         return "" if not math.isfinite(v) else repr(v * scale if scale != 1.0 else v)
     return v
@@ -166,6 +168,8 @@ def summary_rows(result: CampaignResult) -> Iterable[dict[str, Any]]:
             "speed [rpm]": r["speed"],
             "k_TB [N/m]": r["k_TB"],
             "± [N/m]": r["k_TB_std"],
+            "± measured [N/m]": r.get("k_TB_std_measured", math.nan),
+            "warnings": len(r.get("warnings") or ()),
             "f_H [Hz]": r["housing_freq"],
             "status": r["status"] if r["status"] == "ok" else f"error: {r['error']}",
         }

@@ -52,9 +52,9 @@ logger = logging.getLogger(__name__)
 #: Name of the calibration's result in ``results/`` (ids may not start with ``_``).
 CALIBRATION_NAME = "_calibration"
 #: Bump when the meaning of a cached result changes without a version change.
-_KEY_SCHEMA = 2
+_KEY_SCHEMA = 3
 _MAX_RESULT_BYTES = 64 * 1024 * 1024
-_NUMERIC = ("radial_load", "speed", "shaft_position", "k_TB", "k_TB_std", "k_TB_MS", "k_MS", "housing_freq",
+_NUMERIC = ("radial_load", "speed", "shaft_position", "k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS", "housing_freq",
             "housing_freq_std", "housing_damping", "spindle_freq", "spindle_damping", "elapsed_s")
 
 
@@ -208,7 +208,8 @@ def _compute(task: MeasurementTask) -> dict[str, Any]:
     sm = d.get("spindle_mode") or {}
     return {
         "status": "ok", "error": "", "error_kind": "",
-        "k_TB": _nan(d.get("k_TB")), "k_TB_std": _nan(d.get("k_TB_std")), "k_TB_MS": _nan(d.get("k_TB_MS")),
+        "k_TB": _nan(d.get("k_TB")), "k_TB_std": _nan(d.get("k_TB_std")),
+        "k_TB_std_measured": _nan(d.get("k_TB_std_measured")), "k_TB_MS": _nan(d.get("k_TB_MS")),
         "k_MS": _nan(d.get("k_MS")),
         "housing_freq": _nan(hm.get("natural_freq")), "housing_freq_std": _nan(hm.get("natural_freq_std")),
         "housing_damping": _nan(hm.get("damping_ratio")),

@@ -27,6 +27,8 @@ def _cell(v: Any, kind: str) -> str:
         return f"{v:.1f}"
     if kind == "g":
         return f"{v:g}"
+    if kind == "n":
+        return str(len(v)) if isinstance(v, (list, tuple)) else "-"
     return str(v)
 
 
@@ -34,19 +36,26 @@ def print_table(result: Any) -> None:
     """Print the campaign table (k_TB in MN/m) to stdout."""
     cols = [("id", "id", "s"), ("bearing", "bearing", "s"), ("load N", "radial_load", "g"),
             ("rpm", "speed", "g"), ("pos", "shaft_position", "g"), ("rep", "repeat", "g"),
-            ("k_TB MN/m", "k_TB", "MN"), ("±", "k_TB_std", "MN"), ("f_H Hz", "housing_freq", "f"),
-            ("status", "status", "s")]
+            ("k_TB MN/m", "k_TB", "MN"), ("± meas.", "k_TB_std_measured", "MN"), ("± total", "k_TB_std", "MN"),
+            ("f_H Hz", "housing_freq", "f"), ("warn", "warnings", "n"), ("status", "status", "s")]
     table = [[h for h, _, _ in cols]]
     errors = []
+    warned = []
     for r in result.rows:
-        table.append([_cell(r[k], kind) for _, k, kind in cols])
+        table.append([_cell(r.get(k), kind) for _, k, kind in cols])
         if r["status"] != "ok":
             errors.append(f"  {r['id']}: {r['error']}")
+        warned += [f"  {r['id']}: {w}" for w in (r.get("warnings") or ())]
     widths = [max(len(row[i]) for row in table) for i in range(len(cols))]
     for j, row in enumerate(table):
         print("  ".join(c.rjust(w) if cols[i][2] != "s" else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))))
         if j == 0:
             print("  ".join("-" * w for w in widths))
+    print("± meas.: from the identified housing frequency; ± total: with the rig-file tolerances and "
+          "model-form terms (one standard uncertainty)")
+    if warned:
+        print("warnings:")
+        print("\n".join(warned))
     if errors:
         print("failed measurements:")
         print("\n".join(errors))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 
 from . import _args
 
@@ -13,7 +14,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder (default: ./ema-rig-demo)")
     parser.add_argument("--data", default=None, metavar="DIR",
                         help="folder holding campaign.toml (default: ./data, else the source tree's data/)")
-    parser.add_argument("--jobs", "-j", type=_args.positive_int, default=1, metavar="N", help="parallel worker processes")
+    parser.add_argument("--jobs", "-j", type=_args.positive_int, default=min(4, os.cpu_count() or 1), metavar="N",
+                        help="parallel worker processes (default: the machine's cores, at most 4)")
     parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
 
 
