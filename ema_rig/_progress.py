@@ -24,7 +24,11 @@ def progress_bar(*, total: int, desc: str, unit: str = "it", initial: int = 0) -
     """A tqdm bar: the notebook widget in Jupyter, a terminal bar on a TTY, nothing otherwise."""
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, initial=initial, desc=desc, unit=unit, disable=False if in_notebook() else None)
+    class _Bar(tqdm):  # type: ignore[misc, valid-type]
+        # no monitor thread: a campaign forks its worker pool while the bar is open
+        monitor_interval = 0
+
+    return _Bar(total=total, initial=initial, desc=desc, unit=unit, disable=False if in_notebook() else None)
 
 
 __all__ = ["in_notebook", "progress_bar"]

@@ -143,12 +143,13 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     for name, path in figures.items():
         parts.append(f"<figure>{_img(path, name)}<figcaption>{html.escape(_caption(name))}</figcaption></figure>")
     parts.append("<h2 id='results'>Results</h2><p class='muted'>Stiffness in MN/m (= N/µm); ± is one standard "
-                 "uncertainty; frequencies are undamped natural frequencies |λ|/2π. Each id links to the "
+                 "uncertainty (measured: from the identified housing frequency; total: with the rig-file tolerances "
+                 "and model-form terms); frequencies are undamped natural frequencies |λ|/2π. Each id links to the "
                  "measurement's own section (figures, candidate modes, warnings).</p>")
-    head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB", "± k_TB",
-            "k_TB+MS", "f_H [Hz]", "± f_H", "ζ_H [%]", "f_spindle [Hz]", "status"]
+    head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB", "± measured",
+            "± total", "k_TB+MS", "f_H [Hz]", "± f_H", "ζ_H [%]", "f_spindle [Hz]", "warnings", "status"]
     parts.append("<table><tr>" + "".join(
-        f"<th class='{'l' if i in (0, 1, 13) else ''}'>{html.escape(h)}</th>" for i, h in enumerate(head)) + "</tr>")
+        f"<th class='{'l' if i in (0, 1, 15) else ''}'>{html.escape(h)}</th>" for i, h in enumerate(head)) + "</tr>")
     for i, r in enumerate(rows):
         cls = "" if r["status"] == "ok" else " class='err'"
         status = "ok" if r["status"] == "ok" else f"error: {r['error']}"
@@ -156,8 +157,10 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         cells = [
             ("l", f"<a href='#{anchor(i)}'>{_fmt(r['id'])}</a>"), ("l", _fmt(r["bearing"])), ("", _fmt(r["radial_load"])), ("", _fmt(r["speed"])),
             ("", _fmt(r["shaft_position"])), ("", _fmt(r["repeat"])), ("", _fmt(r["k_TB"], "N/m")),
+            ("", _fmt(r.get("k_TB_std_measured", math.nan), "N/m")),
             ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
             ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
+            ("", str(len(r.get("warnings") or ()))),
             ("l", html.escape(status)),
         ]
         parts.append(f"<tr{cls}>" + "".join(f"<td class='{c}'>{v}</td>" for c, v in cells) + "</tr>")

@@ -518,9 +518,9 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
 
         return step
     if progress:
-        from tqdm.auto import tqdm
+        from .._progress import progress_bar
 
-        pbar = tqdm(total=total, initial=initial, desc="measurements", unit="meas", disable=None)
+        pbar = progress_bar(total=total, initial=initial, desc="measurements", unit="meas")
 
         def step(n: int | None) -> None:
             if n is None:
