@@ -202,9 +202,9 @@ def test_cli_modes_json_warnings_and_candidates(tmp_path, capsys):
     err = capsys.readouterr().err
     doc = json.loads(out.read_text())
     assert doc["warnings"] and all(isinstance(w, str) and "\n" not in w for w in doc["warnings"])
-    # one stderr line per warning
+    # one stderr line per warning, naming the file
     lines = [ln for ln in err.splitlines() if ln.startswith("warning: ")]
-    assert [ln[len("warning: "):] for ln in lines] == doc["warnings"]
+    assert [ln[len(f"warning: {p}: "):] for ln in lines] == doc["warnings"]
     assert doc["converged"] is True
     verdicts = {c["verdict"] for c in doc["candidates"]}
     assert "accepted" in verdicts and all(c["reason"] for c in doc["candidates"])

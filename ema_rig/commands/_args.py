@@ -109,3 +109,10 @@ class BandAction(argparse.Action):
 
 __all__ = ["BandAction", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
            "positive_float", "positive_int", "positive_stiffness"]
+
+
+def pm(std: float | None, scale: float = 1.0) -> str:
+    """`` +/- <std>`` with two significant digits (never a rounded 0.000), or nothing without a std."""
+    if std is None or not (std == std):
+        return ""
+    return f" +/- {scale * std:.2g}"

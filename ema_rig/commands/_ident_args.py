@@ -69,7 +69,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
                          refine=bool(refine))
     except IdentificationError as exc:
         findings = [f for f in diagnose_file(args.file, data) if f not in exc.message]
-        if not findings:
+        if not findings or "outside the data" in exc.message:  # a wrong band is not the data's fault
             raise
         head = "; " if "the measurement itself is suspect" in exc.message else "; the measurement itself is suspect: "
         raise IdentificationError(exc.message + head + "; ".join(findings), file=exc.file) from None
@@ -79,9 +79,13 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
     return data, ident
 
 
-def print_warnings(ident: Any) -> None:
-    """One ``warning:`` line per warning of the identification, on stderr."""
+def print_warnings(ident: Any, file: Any = None) -> None:
+    """One ``warning: <file>: …`` line per warning of the identification, on stderr."""
     import sys
 
+    prefix = f"{file}: " if file else ""
     for w in ident.warnings:
-        print(f"warning: {w}", file=sys.stderr)
+        text = str(w)
+        if prefix and text.startswith(prefix):
+            text = text[len(prefix):]
+        print(f"warning: {prefix}{text}", file=sys.stderr)

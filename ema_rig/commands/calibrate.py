@@ -54,8 +54,8 @@ def run(args: argparse.Namespace) -> int:
     hm = res.housing_mode
     sd = hm.get("natural_freq_std")
     print(f"file          {res.file or '-'}")
-    print(f"housing mode  {hm['natural_freq']:.2f} Hz" + (f" +/- {sd:.3f}" if sd is not None else "")
-          + f", damping {100 * hm['damping_ratio']:.2f} % (steel disk)")
+    print(f"housing mode  {hm['natural_freq']:.2f}{_args.pm(sd)} Hz, damping "
+          f"{100 * hm['damping_ratio']:.2f}{_args.pm(hm.get('damping_ratio_std'), 100)} % (steel disk)")
     print(f"k_MS          {res.k_MS / 1e6:.3f} +/- {res.k_MS_std_measured / 1e6:.3f} (measured) "
           f"+/- {res.k_MS_std / 1e6:.3f} (total) MN/m (1 sigma)"
           + (", disk assumed rigid" if res.k_disk is None else f", disk {res.k_disk / 1e6:.0f} MN/m in series"))

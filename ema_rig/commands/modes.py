@@ -52,18 +52,19 @@ def run(args: argparse.Namespace) -> int:
     for note in ident.notes:
         print(f"note   {note}")
     ref = ident.refinement
-    if ref is not None:
-        state = "converged" if ref.converged else f"fell back to PolyMAX ({ref.reason})"
-        print(f"note   ML refinement {state}; noise from {ref.noise_source}; +/- from the Fisher information "
-              "(noise only, not model error)")
+    if ref is not None and ref.converged:
+        print(f"note   ML refinement converged; noise from {ref.noise_source}; +/- from the Fisher information "
+              "(noise only, not model error); modes it could not refine keep their pole-cluster spread")
+    elif ref is not None:
+        print(f"note   ML refinement fell back to PolyMAX ({ref.reason}); +/- are the pole-cluster spreads")
     head = (f"{'f_n [Hz]':>10} {'+/- [Hz]':>9} {'zeta [%]':>9} {'+/- [%]':>8} {'MPC':>6} {'poles':>5} "
             f"{'orders':>9}")
     head += "".join(f" {'m_eff ' + d + ' [kg]':>17}" for d in drive)
     print(head)
     for r in records:
         span = f"{r['order_min']}-{r['order_max']}" if r["order_min"] else "-"
-        line = (f"{r['natural_freq']:>10.2f} {r['natural_freq_std']:>9.3f} {100 * r['damping_ratio']:>9.3f} "
-                f"{100 * r['damping_ratio_std']:>8.3f} {r['mpc']:>6.3f} {r['n_poles'] or 0:>5d} {span:>9}")
+        line = (f"{r['natural_freq']:>10.3f} {r['natural_freq_std']:>9.2g} {100 * r['damping_ratio']:>9.3f} "
+                f"{100 * r['damping_ratio_std']:>8.2g} {r['mpc']:>6.3f} {r['n_poles'] or 0:>5d} {span:>9}")
         line += "".join(f" {r['modal_mass'][d]:>17.4g}" for d in drive)
         print(line)
     rejected = [c for c in ident.candidates if not c.accepted and c.mode.n_poles >= 4]
@@ -71,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"rejected candidates ({len(rejected)} stable at 4 or more orders):")
         for c in rejected:
             print(f"  {c.natural_freq:>10.2f} Hz  zeta {100 * c.damping_ratio:.2f} %  {c.reason}")
-    print_warnings(ident)
+    print_warnings(ident, args.file)
     if args.crosscheck:
         from ..identification.crosscheck import crosscheck
 

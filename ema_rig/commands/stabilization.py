@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from ._ident_args import load_and_identify, print_warnings
 
     data, ident = load_and_identify(args)
-    print_warnings(ident)
+    print_warnings(ident, args.file)
     lo, hi = ident.band
     margin = 0.05 * (hi - lo)
     shown = data.band(max(lo - margin, data.freq[0]), min(hi + margin, data.freq[-1]))

@@ -41,13 +41,13 @@ def summary(res: Any) -> str:
     sd = hm.get("natural_freq_std")
     lines = [
         f"file          {res.file or '-'}",
-        f"housing mode  {hm['natural_freq']:.2f} Hz"
-        + (f" +/- {sd:.3f}" if sd is not None else "")
-        + f", damping {100 * hm['damping_ratio']:.2f} %"
+        f"housing mode  {hm['natural_freq']:.2f}{_args.pm(sd)} Hz"
+        + f", damping {100 * hm['damping_ratio']:.2f}{_args.pm(hm.get('damping_ratio_std'), 100)} %"
         + (f", modal mass {hm['modal_mass']:.2f} kg (model {hm['model_modal_mass']:.2f})"
            if hm.get("modal_mass") is not None else ""),
         "spindle mode  " + ("not found" if sm is None else
-                            f"{sm['natural_freq']:.1f} Hz, damping {100 * sm['damping_ratio']:.2f} %"),
+                            f"{sm['natural_freq']:.1f}{_args.pm(sm.get('natural_freq_std'))} Hz, damping "
+                            f"{100 * sm['damping_ratio']:.2f}{_args.pm(sm.get('damping_ratio_std'), 100)} %"),
         f"k_MS          {res.k_MS / 1e6:.2f} MN/m",
         f"k_TB+MS       {res.k_TB_MS / 1e6:.3f} MN/m",
         f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std_measured / 1e6:.3f} (measured) "

@@ -481,26 +481,18 @@ def identify(
 
 def _refined(ident: Identification, data: FRFData) -> Identification:
     """``ident`` with the ML-refined modes and their standard deviations, or unchanged with a warning."""
-    import warnings
-
-    from ..errors import IdentificationWarning
     from .refine import refine as refine_model
 
     ref = refine_model(data, ident.modes)
+    # the caveats travel in Identification.warnings (the CLI prints each once), not as Python warnings
     if not ref.converged:
-        warnings.warn(
-            f"{source_of(data) or 'data'}: ML refinement fell back to PolyMAX ({ref.reason}); "
-            "the standard deviations are the pole-cluster spreads",
-            IdentificationWarning,
-            stacklevel=3,
-        )
         return replace(ident, refinement=ref, warnings=ident.warnings + (
-            f"ML refinement fell back to PolyMAX ({ref.reason})",))
+            f"ML refinement fell back to PolyMAX ({ref.reason}); the standard deviations are the "
+            "pole-cluster spreads",))
     carried = []
     for w in ref.warnings:
         if "kept at its PolyMAX pole" in w:
             w += " (its standard deviations are the pole-cluster spread)"
-        warnings.warn(f"{source_of(data) or 'data'}: {w}", IdentificationWarning, stacklevel=3)
         carried.append(w)
     # modes kept at their PolyMAX pole keep their cluster spread
     return replace(

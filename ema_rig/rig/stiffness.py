@@ -134,6 +134,16 @@ def _max_order(rig: RigConfig, max_order: int | None) -> int | None:
     return max_order if max_order is not None else rig.identification.get("max_order")
 
 
+def _mode_with_std(mode: dict[str, Any], ident: Any, index: int | None) -> dict[str, Any]:
+    """The matched mode's dict with the identification's ``natural_freq_std`` and ``damping_ratio_std``."""
+    out = dict(mode)
+    for key in ("natural_freq_std", "damping_ratio_std"):
+        arr = getattr(ident, key, None)
+        if out.get(key) is None and arr is not None and index is not None and 0 <= index < len(arr):
+            out[key] = float(arr[index])
+    return out
+
+
 def _identify_and_match(
     data: FRFData,
     rig: RigConfig,
@@ -465,8 +475,9 @@ def estimate_stiffness(
         k_TB_MS_std=float(unc.k_TB_MS_std),
         k_MS=kms,
         k_MS_std=None if k_ms_std is None else float(k_ms_std),
-        housing_mode=dict(m.housing_mode),
-        spindle_mode=None if m.spindle_mode is None else dict(m.spindle_mode),
+        housing_mode=_mode_with_std(m.housing_mode, ident, m.housing_index),
+        spindle_mode=None if m.spindle_mode is None else _mode_with_std(
+            m.spindle_mode, ident if m.spindle_source == "modes" else s_ident, m.spindle_index),
         uncertainty_budget=budget,
         uncertainty=unc,
         match=m,
@@ -591,7 +602,7 @@ def calibrate(
         k_MS_std=float(cal.k_MS_std),
         k_TB_MS=float(cal.k_TB_MS),
         k_disk=None if k_disk is None else float(k_disk),
-        housing_mode=dict(m.housing_mode),
+        housing_mode=_mode_with_std(m.housing_mode, ident, m.housing_index),
         calibration=cal,
         match=m,
         identification=ident,
