@@ -43,6 +43,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
+from _timing import paired  # benchmarks/_timing.py, beside this script
 
 MODES_HZ = np.array([4.7, 290.0, 455.0, 626.0, 810.0, 1100.0, 1450.0, 1908.0])
 DAMPING = np.array([0.03, 0.012, 0.008, 0.010, 0.005, 0.015, 0.020, 0.025])
@@ -142,17 +143,6 @@ def default_threads() -> str:
 
     return ",".join(sorted({str(i["num_threads"]) for i in threadpool_info() if i["user_api"] == "blas"}))
 
-
-def paired(fa: Callable[[], Any], fb: Callable[[], Any], repeat: int) -> tuple[list[float], list[float]]:
-    """Times of ``fa`` and ``fb`` in alternating pairs (A B, B A, ...), ``repeat`` pairs."""
-    ta: list[float] = []
-    tb: list[float] = []
-    for i in range(repeat):
-        for which in ((0, 1) if i % 2 == 0 else (1, 0)):
-            t0 = time.perf_counter()
-            (fa if which == 0 else fb)()
-            (ta if which == 0 else tb).append(time.perf_counter() - t0)
-    return ta, tb
 
 
 def repeated(f: Callable[[], Any], repeat: int) -> list[float]:

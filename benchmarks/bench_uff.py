@@ -32,6 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from _timing import paired  # benchmarks/_timing.py, beside this script
 
 N_OUT, N_IN, N_FREQ = 8, 2, 8193
 
@@ -76,17 +77,6 @@ def read_pyuff(path: Path) -> None:
 
 READERS: dict[str, Callable[[Path], None]] = {"ema_rig": read_ours, "pyuff": read_pyuff}
 
-
-def paired(fa: Callable[[], None], fb: Callable[[], None], repeat: int) -> tuple[list[float], list[float]]:
-    """Times of ``fa`` and ``fb`` in alternating pairs (A B, B A, ...)."""
-    ta: list[float] = []
-    tb: list[float] = []
-    for i in range(repeat):
-        for which in ((0, 1) if i % 2 == 0 else (1, 0)):
-            t0 = time.perf_counter()
-            (fa if which == 0 else fb)()
-            (ta if which == 0 else tb).append(time.perf_counter() - t0)
-    return ta, tb
 
 
 def spread(ts: list[float]) -> str:
