@@ -7,13 +7,12 @@ written with pyuff.
 
 from __future__ import annotations
 
-import contextlib
-import io
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _pyuff_files import write_with_pyuff
 
 from ema_rig.cli import main
 from ema_rig.config import load_rig
@@ -44,12 +43,7 @@ def _set(node: int, direction: int, ref: int, ref_dir: int, data: np.ndarray, *,
         return pyuff.prepare_58(**args)
 
 
-def _write(path: Path, sets: list[dict]) -> Path:
-    import pyuff
-
-    with contextlib.redirect_stdout(io.StringIO()):
-        pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
-    return path
+_write = write_with_pyuff
 
 
 def _frf(seed: int) -> np.ndarray:

@@ -6,15 +6,14 @@ not depend on ema_rig's writer.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import io
 import struct
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _pyuff_files import write_with_pyuff
 
 from ema_rig.config import load_rig
 from ema_rig.errors import UFFError, UnitWarning
@@ -41,12 +40,7 @@ def _set(node: int, direction: int, ref: int, ref_dir: int, data: np.ndarray, **
         return pyuff.prepare_58(**args)
 
 
-def _write(path: Path, sets: list[dict]) -> Path:
-    import pyuff
-
-    with contextlib.redirect_stdout(io.StringIO()):
-        pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
-    return path
+_write = write_with_pyuff
 
 
 def _truth(n_out: int, n_in: int, seed: int = 3) -> np.ndarray:
