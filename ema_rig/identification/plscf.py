@@ -99,18 +99,23 @@ logger = logging.getLogger(__name__)
 #: Below this polynomial degree the companion QR is cheaper than the warm-started iteration.
 _ABERTH_MIN_DEGREE = 64
 
-#: Default maximum model order per number of references (denominator degree).
-DEFAULT_MAX_ORDER = {1: 64, 2: 40}
+#: Default maximum model order for one reference / for several (denominator degree).
+DEFAULT_MAX_ORDER = {1: 64}
+DEFAULT_MAX_ORDER_MIMO = 40
 
 
 def default_max_order(n_in: int) -> int:
     """Default maximum model order for ``n_in`` references.
 
-    The largest companion matrix then has about 64 (one reference) to 80 (two references)
-    rows: enough for the ~10 modes of a 150-1000 Hz band with ample overmodelling, and well
-    under a second for the whole stabilization computation.
+    64 for one reference, 40 for several: enough for the ~10 modes of a 150-1000 Hz band with
+    ample overmodelling, and well under a second for the whole stabilization computation. The
+    order is not lowered further for three or more references although the companion matrix
+    grows as ``order * n_in``: on a wide band (50-2000 Hz, three or four references) orders
+    20-26 hold the lowest mode on a plateau biased by 0.1-0.2 % (a dozen times its spread over
+    the orders), which a convergence test between two neighbouring orders cannot see; from
+    order ~34 on the estimate stays within 2e-4 (``benchmarks/bench_scale.py`` data).
     """
-    return DEFAULT_MAX_ORDER.get(n_in, max(8, 80 // max(n_in, 1)))
+    return DEFAULT_MAX_ORDER.get(n_in, DEFAULT_MAX_ORDER_MIMO)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -575,7 +580,7 @@ def plscf(
     max_order : int, optional
         Highest denominator order ``n`` (each order gives ``n * n_in`` poles before the
         half-plane selection). Default :func:`default_max_order` (64 for one reference,
-        40 for two).
+        40 for several).
     band : (float, float), optional
         ``(freq_lower, freq_upper)`` in Hz; default the whole data.
     orders : iterable of int, optional
