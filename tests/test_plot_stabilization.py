@@ -120,6 +120,24 @@ def test_picker_builds_a_replayable_selection(case, mplcleanup, tmp_path):
     assert picker.picks == []
 
 
+def test_picker_never_picks_an_unstable_pole(case, mplcleanup):
+    # unstable poles (Re lambda >= 0) carry no participation vector (NaN): they cannot be a
+    # mode, so the picker ignores them even when told to accept new/unstable letters
+    from ema_rig.plot.picker import PolePicker
+    from ema_rig.plot.stabilization import plot_stabilization
+
+    data, ident = case
+    stab = ident.stabilization
+    chart = plot_stabilization(stab, data, show_unstable=True)
+    picker = PolePicker(chart, statuses="fdvsou")
+    assert chart.rows["u"].size > 0
+    _pick(chart, "u", 0)
+    assert picker.picks == []
+    with pytest.raises(ValueError, match="unstable pole"):
+        picker.toggle_row(int(chart.rows["u"][0]))
+    assert np.all(np.isnan(stab.participation[stab.unstable]))
+
+
 def test_mode_labels_never_overlap_and_rejected_are_distinct(case, mplcleanup):
     # two modes 0.005 Hz apart (what a 9-reference roving hammer gave before) and a third
     # close by: every label must stay readable and rejected candidates look different

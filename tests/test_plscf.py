@@ -177,7 +177,11 @@ def test_poleset_is_tidy_and_frozen(system):
     n = len(ps)
     assert ps.order.shape == ps.pole.shape == ps.natural_freq.shape == (n,)
     assert ps.participation.shape == (n, 2)
-    np.testing.assert_allclose(np.linalg.norm(ps.participation, axis=1), 1.0, rtol=1e-12)
+    # unit vectors where a pole can be physical; unstable poles (Re > 0) get none (NaN)
+    phys = ps.pole.real < 0
+    assert phys.any() and (~phys).any()
+    np.testing.assert_allclose(np.linalg.norm(ps.participation[phys], axis=1), 1.0, rtol=1e-12)
+    assert np.all(np.isnan(ps.participation[~phys]))
     assert np.all(ps.pole.imag > 0)
     with pytest.raises(ValueError):
         ps.pole[0] = 0

@@ -145,6 +145,10 @@ def test_manual_and_near_selection(mimo):
     np.testing.assert_allclose(near.modes[0].natural_freq, 230.0, rtol=1e-3)
     with pytest.raises(IndexError):
         stab.row_of(order, 999)
+    # an unstable pole is refused by name (its participation is not computed)
+    bad = int(np.flatnonzero(stab.unstable)[0])
+    with pytest.raises(IdentificationError, match=f"order {int(stab.order[bad])} .* is unstable"):
+        select_poles(stab, [(int(stab.order[bad]), stab.index_in_order(bad))])
 
 
 def test_select_modes_drops_sparse_clusters():

@@ -129,7 +129,8 @@ class PoleSet:
     pole : ndarray, shape (n_poles,), complex
         Physical pole ``lambda`` [rad/s], ``Im > 0``.
     participation : ndarray, shape (n_poles, n_in), complex
-        Unit-norm participation vector (phase such that the largest entry is real > 0).
+        Unit-norm participation vector (phase such that the largest entry is real > 0); NaN
+        for an unstable pole (``Re lambda >= 0``, never a physical mode: not computed).
     band : tuple of float
         ``(freq_lower, freq_upper)`` [Hz] of the data the poles were estimated on.
     in_dofs : tuple of DOF
@@ -547,7 +548,11 @@ def _poles_of_order(
         z[stable] = _refine(high, z[stable])
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.log(z) / dt
-    part = _participation(high, z)
+    # participation only where a mode can be physical (|z| < 1, i.e. Re s < 0): NaN otherwise
+    part = np.full((z.size, high.shape[1]), np.nan, dtype=np.complex128)
+    phys = np.abs(z) < 1.0
+    if phys.any():
+        part[phys] = _participation(high, z[phys])
     return s + 2j * np.pi * f_lo, part
 
 

@@ -682,12 +682,21 @@ def select_poles(
     -------
     Selection
         The representative pole of each mode is the picked pole itself.
+
+    Raises
+    ------
+    IdentificationError
+        A picked pole is unstable (``Re lambda >= 0``; its participation is not computed).
     """
     if provenance not in PROVENANCES:
         raise ValueError(f"provenance must be one of {PROVENANCES}, got {provenance!r}")
     modes = []
     for order, index in picks:
         row = stab.row_of(order, index)
+        if stab.unstable[row]:
+            raise IdentificationError(
+                f"pole {index} of order {order} ({stab.natural_freq[row]:.6g} Hz) is unstable (Re lambda >= 0): "
+                "never a physical mode; pick a stable pole", file=source)
         rows = _neighbours(stab, row, freq_tol)
         m = _mode_from_rows(stab, rows, provenance)
         modes.append(
@@ -812,7 +821,7 @@ def resolve_selection(
             row = stab.row_of(m.order, m.index)
         except IndexError:
             row = -1
-        if row >= 0 and abs(stab.pole[row] - m.pole) <= 1e-9 * abs(m.pole):
+        if row >= 0 and not stab.unstable[row] and abs(stab.pole[row] - m.pole) <= 1e-9 * abs(m.pole):
             exact.append(m)
         else:
             todo.append(m.natural_freq)

@@ -48,8 +48,8 @@ class PolePicker:
     plot : StabilizationPlot
         The chart (its pole artists were drawn pickable).
     statuses : str, optional
-        Status letters whose poles may be picked (default ``"fdvs"``; new and unstable poles
-        are ignored).
+        Status letters whose poles may be picked (default ``"fdvs"``; new poles are ignored).
+        Unstable poles (``Re lambda >= 0``) are never picked, whatever the letters.
     on_change : callable, optional
         Called with the current :class:`Selection` after every change.
     freq_tol : float, optional
@@ -93,6 +93,9 @@ class PolePicker:
         if ind.size == 0:
             return
         rows = self.plot.rows[letter][ind]
+        rows = rows[~self.plot.stab.unstable[rows]]  # an unstable pole is never a mode
+        if rows.size == 0:
+            return
         me = getattr(event, "mouseevent", None)
         row = int(rows[0])
         if me is not None and me.xdata is not None and me.ydata is not None and rows.size > 1:
@@ -104,8 +107,16 @@ class PolePicker:
         self.toggle_row(row)
 
     def toggle_row(self, row: int) -> None:
-        """Pick the pole in PoleSet row ``row``, or unpick it (or its mode) if already picked."""
+        """Pick the pole in PoleSet row ``row``, or unpick it (or its mode) if already picked.
+
+        Raises
+        ------
+        ValueError
+            The pole is unstable (``Re lambda >= 0``): never a physical mode.
+        """
         stab = self.plot.stab
+        if stab.unstable[row]:
+            raise ValueError(f"row {row} is an unstable pole ({stab.natural_freq[row]:.6g} Hz): not a mode")
         key = (int(stab.order[row]), stab.index_in_order(row))
         if key in self.picks:
             self.picks.remove(key)
