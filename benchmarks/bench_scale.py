@@ -73,6 +73,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _timing import measure_call, rss_bytes  # benchmarks/_timing.py, beside this script
 
 MODES_HZ = np.array([150.0, 290.0, 455.0, 626.0, 1100.0, 1600.0])
 DAMPING = np.array([0.012, 0.008, 0.010, 0.006, 0.015, 0.012])
@@ -140,53 +141,6 @@ def synthetic_frf(n_out: int, n_in: int, n_lines: int, *, seed: int = 0, block: 
 def data_bytes(n_out: int, n_in: int, n_lines: int) -> int:
     """Bytes of the complex128 FRF array."""
     return n_out * n_in * n_lines * 16
-
-
-# ------------------------------------------------------------------------------- memory
-def _status_kb(key: str) -> int:
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith(key + ":"):
-                return int(line.split()[1])
-    raise RuntimeError(f"/proc/self/status has no {key}")
-
-
-def rss_bytes() -> int:
-    """Current resident set of this process [bytes] (Linux)."""
-    return _status_kb("VmRSS") * 1024
-
-
-def hwm_bytes() -> int:
-    """Peak resident set of this process since start or the last :func:`reset_peak` [bytes]."""
-    return _status_kb("VmHWM") * 1024
-
-
-def reset_peak() -> None:
-    """Reset the kernel's peak-RSS mark of this process to the current RSS (Linux >= 4.0)."""
-    with open("/proc/self/clear_refs", "w") as fh:
-        fh.write("5")
-
-
-def _malloc_trim() -> None:
-    """Give freed heap memory back to the system (glibc; a no-op elsewhere)."""
-    try:
-        import ctypes
-
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
-
-
-def measure_call(fn: Callable[[], Any]) -> tuple[float, int, Any]:
-    """Run ``fn`` once: (seconds, peak RSS above the RSS before the call [bytes], result)."""
-    gc.collect()
-    _malloc_trim()
-    reset_peak()
-    before = rss_bytes()
-    t0 = time.perf_counter()
-    out = fn()
-    dt = time.perf_counter() - t0
-    return dt, hwm_bytes() - before, out
 
 
 # ------------------------------------------------------------------------------- child
