@@ -35,7 +35,8 @@ How the numbers are taken
   same process on the same data: the machine's default and one thread (threadpoolctl, numpy's
   and scipy's BLAS) unless told otherwise; one line per setting. (``plscf`` pins its own small
   LAPACK kernels to one thread by design; that is part of what is measured.)
-* Modes found: how many of the six true natural frequencies ``identify`` returned within 0.1 %.
+* Modes found: how many of the six true natural frequencies ``identify`` returned within 0.1 %,
+  and the model order the adaptive identification reached (``P`` is its cap).
 * Allocator: the children run with ``MALLOC_MMAP_THRESHOLD_=65536`` and call ``malloc_trim(0)``
   before each call, so that memory freed by an earlier call goes back to the system instead of
   staying resident and hiding part of the next call's peak (glibc's adaptive threshold would
@@ -208,6 +209,8 @@ def run_child(spec: dict[str, Any]) -> dict[str, Any]:
             fn = np.asarray(out.natural_freq)
             found = int(sum(np.any(np.abs(fn - f) <= FREQ_TOL * f) for f in MODES_HZ))
             res["n_identified"] = int(fn.size)
+            sel = getattr(out, "selection", None)  # the order the adaptive identification reached
+            res["order_reached"] = int(sel.max_order) if sel is not None else None
             res["natural_freq"] = fn.tolist()
         del out
     ok = [n for n in STEPS if res["steps"][n]["first"] is not None]
@@ -297,6 +300,8 @@ def _row_lines(row: Row, m: dict[str, Any], settings: list[int]) -> list[str]:
             peak = f"{st['peak'] / row.size:5.2f}{star}" if k == 0 else f"{'':>6}"
             cells.append(f"{first} {_fmt_warm(st['warm'][str(b)]):<21} {peak}")
         found = (f"{m['found']}/{MODES_HZ.size}" if m.get("found") is not None else "-") if k == 0 else ""
+        if k == 0 and m.get("order_reached") is not None:
+            found += f" (order {m['order_reached']})"
         blas = "default" if b == 0 else f"{b} thr"
         lines.append(f"{head} {blas:>7} | " + " | ".join(cells) + f" | {found}")
     return lines

@@ -98,6 +98,31 @@ def test_close_pair_two_references_with_noise():
     np.testing.assert_allclose(pair, sys5.natural_freq[2:4], rtol=1e-4)
 
 
+@pytest.mark.parametrize("n_in", [3, 4])
+def test_several_references_on_a_wide_band_not_stopped_on_a_biased_plateau(n_in):
+    # 50-2000 Hz, lowest mode 100 Hz above the band start: from three references on, orders
+    # ~20-26 hold that mode on a plateau biased by 0.1-0.2 % that looks converged between two
+    # neighbouring orders (start order 26 for three references gave +0.14 %, 2-7 sigma).
+    # Truth: state-space eigenvalues of the lumped system; every mode within 3e-4 and within
+    # 2.5 of its reported spread (the order-to-order drift of a converged estimate).
+    fn = [150.0, 290.0, 455.0, 626.0, 1100.0, 1600.0]
+    zeta = [0.012, 0.008, 0.010, 0.006, 0.015, 0.012]
+    q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((8, 8)))
+    sys8 = LumpedSystem.from_modal(fn + [2600.0, 3400.0], zeta + [0.02, 0.02], 0.3 * q,
+                                   [f"{i + 1}+Z" for i in range(8)])
+    freq = np.arange(50.0, 2000.25, 0.5)
+    worst = 0.0
+    for seed in range(2):
+        data = sys8.frf(freq, inputs=list(range(n_in)), noise=0.01, rng=np.random.default_rng(seed))
+        ident = identify(data, band=(50.0, 2000.0))
+        idx = _match_once(ident.natural_freq, sys8.natural_freq[:6], rtol=0.01)
+        err = np.abs(ident.natural_freq[idx] / sys8.natural_freq[:6] - 1)
+        z = np.abs(ident.natural_freq[idx] - sys8.natural_freq[:6]) / ident.natural_freq_std[idx]
+        assert np.all(err <= 3e-4), (seed, err)
+        worst = max(worst, float(z.max()))
+    assert worst <= 2.5, worst
+
+
 def test_mode_at_band_edge_found_once_and_flagged():
     sys5 = five_mode_system(close_pair=True)
     d = sys5.frf(FREQ, inputs=[0, 1], noise=0.01, rng=np.random.default_rng(3))
