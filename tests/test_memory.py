@@ -303,10 +303,32 @@ def test_reduced_blocks_in_chunks_match_one_solve():
             for j in range(p + 1):
                 so[i, j] = -s[o, :, j - i + p].real
         qo = solve_triangular(L, so.reshape(p + 1, -1), lower=True)
-        # the same triangular solve on the same columns: round-off only
+        # the explicit inverse factor against a triangular solve: R is well conditioned here
+        # (cond ~ 3), so round-off only
         np.testing.assert_allclose(Q[:, o], qo, rtol=0, atol=1e-12 * np.abs(qo).max())
     assert T.shape == ((p + 1) * n_in, (p + 1) * n_in)
-    peak = _peak(lambda: plscf_mod._reduced_blocks(r, s, t, p))
-    # Q itself (8.9 MB) plus a chunk of S (<= 2 MB), its transposed copy and the solve's
-    # output and work copy (<= 4 x 2 MB); the former code held S three times besides Q (~4x Q)
-    assert peak <= Q.nbytes + (8 << 20), f"_reduced_blocks: peak {peak / Q.nbytes:.2f}x Q"
+    # rows a..b alone are the same rows
+    np.testing.assert_array_equal(plscf_mod._q_rows(s, np.linalg.inv(L), p, 20, 33).shape, (14, n_out, 122))
+    _, linv = plscf_mod._reduced_factor(r, t, p)
+    np.testing.assert_allclose(plscf_mod._q_rows(s, linv, p, 20, 33), Q[20:34], rtol=0, atol=1e-13 * np.abs(Q).max())
+
+
+def test_engine_streams_q_in_row_blocks(big, monkeypatch):
+    # Q = L^-1 S of 64 outputs x 3 references at order 60 is 61 * 64 * 183 * 8 B = 5.7 MB. With
+    # 0.5 MB budgets for a block of Q rows and a chunk of S the engine never holds it whole:
+    # the poles must be those of the one-block run (the same products, rows added to P in the
+    # same order), and the orders' peak (after the lag sums) far below Q: P and T (0.27 MB
+    # each), the lag sums of the order (0.37 MB), a block of rows and a chunk of S
+    p = 60
+    data = big.band(100.0, 1900.0)
+    one = plscf_mod.PlscfEngine(data, p).poles(range(1, p + 1))
+    q_bytes = (p + 1) * data.n_out * (p + 1) * data.n_in * 8
+    monkeypatch.setattr(plscf_mod, "_Q_BLOCK_BYTES", 1 << 19)
+    monkeypatch.setattr(plscf_mod, "_S_CHUNK_BYTES", 1 << 19)
+    eng = plscf_mod.PlscfEngine(data, p)
+    peak = _peak(lambda: eng.poles(range(1, p + 1)))
+    streamed = eng.poles(range(1, p + 1))
+    np.testing.assert_array_equal(streamed.order, one.order)
+    np.testing.assert_allclose(streamed.pole, one.pole, rtol=1e-10)
+    # the former engine held Q whole (5.7 MB, 1.0x) besides P and T; this one about 0.5x
+    assert peak <= 0.6 * q_bytes, f"orders 1..{p}: peak {peak / q_bytes:.2f}x Q"  # measured 0.50x

@@ -30,10 +30,12 @@ conjugate pair only the root with ``Im s' > 0`` maps into the band and is kept.
 
 **Reduced normal equations.** ``R``, ``S_o`` and ``T = sum_o T_o`` are (block) Toeplitz in the
 lag ``j - i``; their lag sums come from one FFT per channel (or a vectorised sum on an uneven
-grid). ``R = L L^T`` is factored once and ``Q_o = L^-1 S_o`` formed once at the maximum
-order. Because ``L`` is lower triangular, the leading rows of ``Q_o`` are the same matrices for
-every lower order, so ``M_n = T_n - sum_o Q_o[:n+1, :]^T Q_o[:n+1, :]`` is accumulated order by
-order from row blocks of ``Q`` — exactly the reduced matrix of order ``n``, without rebuilding.
+grid). ``R = L L^T`` is factored once at the maximum order. Because ``L`` is lower triangular,
+the leading rows of ``Q_o = L^-1 S_o`` are the same matrices for every lower order, so
+``M_n = T_n - sum_o Q_o[:n+1, :]^T Q_o[:n+1, :]`` is accumulated order by order, one row of
+``Q`` (all outputs) at a time — exactly the reduced matrix of order ``n``, without rebuilding.
+The rows are made from the lag sums in blocks as they are needed and dropped once added, so
+``Q`` (``n_out n_in (n+1)^2`` numbers) is never held whole.
 Each output is weighted by the inverse of its RMS over the band.
 
 **Constraint (which coefficient is fixed).** With ``z = exp(+j w dt)``, fixing the LOWEST
@@ -79,7 +81,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -375,32 +377,61 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray, NDArray, NDArray, NDArray
     return r, s, t, w, dt
 
 
-def _reduced_blocks(r: NDArray, s: NDArray, t: NDArray, p: int) -> tuple[NDArray, NDArray]:
-    """Factor R once; return T (full, max order) and Q = L^-1 S stacked over outputs.
+#: Work budget [bytes] of one block of ``Q`` rows (all outputs) and of one chunk of ``S``.
+_Q_BLOCK_BYTES = 64 << 20
+_S_CHUNK_BYTES = 2 << 20
 
-    Returns ``T`` shape ((p+1) n_in, (p+1) n_in) and ``Q`` shape (p+1, n_out, (p+1) n_in).
+
+def _reduced_factor(r: NDArray, t: NDArray, p: int) -> tuple[NDArray, NDArray]:
+    """``T`` of the max order and ``L^-1``, the inverse Cholesky factor of ``R``.
+
+    Returns ``T`` shape ((p+1) n_in, (p+1) n_in) and ``Linv`` shape (p+1, p+1), lower
+    triangular. ``R`` is almost ``n_freq`` times the identity on the normalised band
+    (cond(R) ~ 1.03-1.06, module notes), so its explicit inverse factor loses nothing.
     """
     from scipy.linalg import cholesky, solve_triangular
 
-    n_out, n_in, _ = s.shape
+    n_in = t.shape[0]
     i = np.arange(p + 1)
     lag = i[None, :] - i[:, None] + p  # (i, j) -> (j - i) + p
-    R = r[np.abs(lag - p)]
-    L = cholesky(R, lower=True, check_finite=False)
-    # S_o[i, (j, b)] = -Re s_ob(j - i), solved in chunks of outputs (~2 MB of S each) straight
-    # into Q: no full-size S and no transposed copy of it
-    Q = np.empty((p + 1, n_out, (p + 1) * n_in))
-    step = max(1, (2 << 20) // ((p + 1) ** 2 * n_in * 8))
-    for o0 in range(0, n_out, step):
-        o1 = min(o0 + step, n_out)
-        S = s.real[o0:o1, :, lag]  # (chunk, n_in, i, j), a fresh array
-        np.negative(S, out=S)
-        S = S.transpose(2, 0, 3, 1).reshape(p + 1, (o1 - o0) * (p + 1) * n_in)
-        Q[:, o0:o1] = solve_triangular(L, S, lower=True, check_finite=False).reshape(p + 1, o1 - o0, -1)
-        del S
+    L = cholesky(r[np.abs(lag - p)], lower=True, check_finite=False)
+    linv = solve_triangular(L, np.eye(p + 1), lower=True, check_finite=False)
     # T[(i, a), (j, b)] = Re t_ab(j - i)
     T = t.real[:, :, lag].transpose(2, 0, 3, 1).reshape((p + 1) * n_in, (p + 1) * n_in)
-    return T, Q
+    return T, linv
+
+
+def _q_rows(s: NDArray, linv: NDArray, p: int, a: int, b: int) -> NDArray:
+    """Rows ``a..b`` of ``Q_o = L^-1 S_o`` for every output, shape (b-a+1, n_out, (p+1) n_in).
+
+    ``S_o[i, (j, c)] = -Re s_oc(j - i)`` is rebuilt from the lag sums ``s`` (n_out, n_in, 2p+1)
+    one chunk of outputs at a time (~2 MB), and only its rows ``0..b`` (row ``i`` of ``Q``
+    depends on rows ``0..i`` of ``S``): ``Q`` is never held whole, which would take
+    ``n_out n_in (p+1)^2 x 8`` bytes (5x a 4 001-line data set at order 200).
+    """
+    n_out, n_in, _ = s.shape
+    ncol = (p + 1) * n_in
+    i = np.arange(b + 1)
+    lag = np.arange(p + 1)[None, :] - i[:, None] + p  # rows 0..b, columns 0..p
+    out = np.empty((b - a + 1, n_out, ncol))
+    w = linv[a : b + 1, : b + 1]
+    sr = s.real
+    c = np.arange(n_in)[None, None, None, :]
+    step = max(1, _S_CHUNK_BYTES // ((b + 1) * ncol * 8))
+    for o0 in range(0, n_out, step):
+        o1 = min(o0 + step, n_out)
+        # gathered straight into the (i, o, j, c) layout: one array, no transposed copy
+        S = sr[np.arange(o0, o1)[None, :, None, None], c, lag[:, None, :, None]]
+        np.negative(S, out=S)
+        out[:, o0:o1] = (w @ S.reshape(b + 1, (o1 - o0) * ncol)).reshape(b - a + 1, o1 - o0, ncol)
+        del S
+    return out
+
+
+def _reduced_blocks(r: NDArray, s: NDArray, t: NDArray, p: int) -> tuple[NDArray, NDArray]:
+    """``T`` and the whole ``Q`` (p+1, n_out, (p+1) n_in) at once (small problems, tests)."""
+    T, linv = _reduced_factor(r, t, p)
+    return T, _q_rows(s, linv, p, 0, p)
 
 
 def _solve_order(m: NDArray, n: int, n_in: int) -> tuple[NDArray, NDArray]:
@@ -646,10 +677,11 @@ def plscf(
 class PlscfEngine:
     """pLSCF on one band, evaluated order by order up to a cap (the incremental form of :func:`plscf`).
 
-    The lag sums, the Cholesky factor of ``R`` and ``Q = L^-1 S`` are formed once for the cap
-    ``max_order``; the reduced matrix of every lower order is a leading block of the cap's
-    (see the module notes), so asking for more orders later (:meth:`poles` with higher
-    orders) only costs the new orders' solves and roots.
+    The lag sums and the Cholesky factor of ``R`` are formed once for the cap ``max_order``;
+    the reduced matrix of every lower order is a leading block of the cap's (see the module
+    notes), so asking for more orders later (:meth:`poles` with higher orders) only costs the
+    new orders' rows of ``Q = L^-1 S``, solves and roots. ``Q`` is streamed in blocks of rows
+    (at most ~64 MB) and never held whole.
 
     Parameters
     ----------
@@ -702,27 +734,36 @@ class PlscfEngine:
 
         The blocks of order ``p`` are built from the lag sums of the cap; the leading rows of
         ``Q`` and the leading blocks of ``T`` do not depend on ``p``, so enlarging only
-        re-accumulates ``P`` from the rows already used. The size at least doubles each time.
+        re-accumulates ``P`` (now wider) from the rows already used, made again from the lag
+        sums. The size at least doubles each time.
         """
         if n <= self._alloc:
             return
         p = min(self.max_order, max(n, 2 * self._alloc))
         cap = self.max_order
         lags = np.arange(cap - p, cap + p + 1)  # lags -p..p inside the cap's -cap..cap
-        self._T, self._Q = _reduced_blocks(self._r[: p + 1], self._s[:, :, lags], self._t[:, :, lags], p)
+        self._T, self._linv = _reduced_factor(self._r[: p + 1], self._t[:, :, lags], p)
+        self._sp = self._s[:, :, lags]  # lag sums -p..p, (n_out, n_in, 2p+1)
+        self._alloc = p
         ncol = (p + 1) * self.n_in
         self._P = np.zeros((ncol, ncol))
-        if self._done:
-            rows = self._Q[: self._done].reshape(-1, ncol)
-            self._P += rows.T @ rows
-        self._alloc = p
+        for _, rows in self._row_blocks(0, self._done - 1):
+            q = rows.reshape(-1, ncol)
+            self._P += q.T @ q
+
+    def _row_blocks(self, a: int, b: int) -> Iterator[tuple[int, NDArray]]:
+        """Rows ``a..b`` of ``Q`` in blocks of at most :data:`_Q_BLOCK_BYTES`: (first row, rows)."""
+        p = self._alloc
+        n_out = self._sp.shape[0]
+        per = max(1, _Q_BLOCK_BYTES // (n_out * (p + 1) * self.n_in * 8))
+        for i0 in range(a, b + 1, per):
+            yield i0, _q_rows(self._sp, self._linv, p, i0, min(i0 + per - 1, b))
 
     def _compute(self, order_list: list[int], bar: Any) -> None:
         """Solve and root every order of ``order_list`` (ascending, above those already done)."""
         n_in, dt, f_lo = self.n_in, self.dt, self.f_lo
         with single_threaded():
             self._blocks(order_list[-1])
-        ncol = self._P.shape[0]
         pool = None
         futures: list[tuple[int, Any]] = []
         if self.root_finder == "eig" and self.threads > 1 and len(order_list) > 4:
@@ -732,13 +773,21 @@ class PlscfEngine:
             with single_threaded():
                 return _poles_of_order(low, high, dt, f_lo)
 
+        wanted = set(order_list)
+
+        def solvable() -> Iterator[int]:
+            # add the rows of Q one block at a time; an order is solved once its rows are in P
+            for i0, rows in self._row_blocks(self._done, order_list[-1]):
+                for k in range(rows.shape[0]):
+                    q = rows[k]
+                    self._P += q.T @ q
+                    self._done = i0 + k + 1
+                    if i0 + k in wanted:
+                        yield i0 + k
+
         try:
             with single_threaded():
-                for n in order_list:
-                    rows = self._Q[self._done : n + 1].reshape(-1, ncol)
-                    if rows.size:
-                        self._P += rows.T @ rows
-                        self._done = n + 1
+                for n in solvable():
                     c = (n + 1) * n_in
                     low, high = _solve_order(self._T[:c, :c] - self._P[:c, :c], n, n_in)
                     self._last = n
