@@ -31,6 +31,11 @@ How the times are taken
   apart), median of ``--cold`` fresh processes per tool, alternating; with the peak resident
   memory that call added above the process after the import.
 * Accuracy: the 626 Hz mode against the truth at order 100 and at the max order.
+* Root step and its floor (ema_rig, one reference): the time spent finding the roots of every
+  order's denominator (warm-started Aberth iteration, companion eigenvalues below degree 64)
+  against what no root finder that certifies its roots can go below: ONE evaluation of the
+  polynomial and its derivative at the final roots of every order (the pass that confirms
+  them), timed with ema_rig's own evaluation kernel on the same coefficients.
 
 Run: ``python benchmarks/bench_plscf.py [--repeat N] [--cold N] [--quick]``.
 """
@@ -122,6 +127,48 @@ def err_ema(ps: Any, order: int, lam_true: complex) -> tuple[float, float]:
     idx = idx[ps.pole[idx].real < 0]
     k = idx[np.argmin(np.abs(ps.natural_freq[idx] - fn0))]
     return ps.natural_freq[k] / fn0 - 1, ps.damping_ratio[k] / z0 - 1
+
+
+def root_step_and_floor(data: Any, max_order: int) -> tuple[float, float, int]:
+    """(seconds in the root step, seconds of one evaluation pass at the final roots, orders)."""
+    import importlib
+
+    from ema_rig.identification._roots import _ratio, det_coefficients
+
+    mod = importlib.import_module("ema_rig.identification.plscf")
+    spent: list[float] = []
+    coefs: list[tuple[np.ndarray, np.ndarray]] = []
+    aberth0, eig0 = mod.aberth, mod._roots_eig
+
+    def timed_aberth(c: np.ndarray, z0: np.ndarray) -> Any:
+        t0 = time.perf_counter()
+        z = aberth0(c, z0)
+        spent.append(time.perf_counter() - t0)
+        if z is not None:
+            coefs.append((c, z))
+        return z
+
+    def timed_eig(low: np.ndarray) -> Any:
+        t0 = time.perf_counter()
+        z = eig0(low)
+        spent.append(time.perf_counter() - t0)
+        coefs.append((det_coefficients(low), z))
+        return z
+
+    mod.aberth, mod._roots_eig = timed_aberth, timed_eig
+    try:
+        call_ema(data, max_order)
+    finally:
+        mod.aberth, mod._roots_eig = aberth0, eig0
+    floor = 0.0
+    for c, z in coefs:
+        j = np.arange(1, c.size)
+        dc, cr = c[1:] * j, c[::-1].copy()
+        dcr = cr[1:] * j
+        t0 = time.perf_counter()
+        _ratio(c, dc, cr, dcr, z)
+        floor += time.perf_counter() - t0
+    return sum(spent), floor, len(coefs)
 
 
 def mb(nbytes: int) -> str:
@@ -261,6 +308,18 @@ def main() -> int:
         for order in sorted({min(100, mo), mo}):
             de, ds = err_ema(ps, order, lam[TARGET]), err_sdypy(model, order, lam[TARGET])
             print(f"{mo:>9} {order:>5} | {de[0]:>+12.2e} {de[1]:>+9.2e} | {ds[0]:>+10.2e} {ds[1]:>+9.2e}")
+
+    print("\nRoot step against its floor (ema_rig, one reference, BLAS 1 thread, median of 3): seconds finding")
+    print("the roots of every order vs one evaluation of p and p' at the final roots of every order")
+    head = f"{'max order':>9} | {'root step [s]':>13} {'floor [s]':>10} {'step/floor':>10} | {'share of plscf':>14}"
+    print(head)
+    print("-" * len(head))
+    for mo in orders:
+        with blas_threads(1):
+            runs = [root_step_and_floor(data1, mo) for _ in range(3)]
+            total = statistics.median(paired(lambda mo=mo: call_ema(data1, mo), lambda: None, 3)[0])
+        step, floor = statistics.median(r[0] for r in runs), statistics.median(r[1] for r in runs)
+        print(f"{mo:>9} | {step:>13.4f} {floor:>10.4f} {step / floor:>10.1f} | {step / total:>13.0%}")
 
     print(f"\nCold: first call in a fresh interpreter, default BLAS threads, median of {n_cold} per tool "
           "(alternating); import apart; peak = RSS the call added")

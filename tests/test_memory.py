@@ -324,6 +324,7 @@ def test_engine_streams_q_in_row_blocks(big, monkeypatch):
     one = plscf_mod.PlscfEngine(data, p).poles(range(1, p + 1))
     q_bytes = (p + 1) * data.n_out * (p + 1) * data.n_in * 8
     monkeypatch.setattr(plscf_mod, "_Q_BLOCK_BYTES", 1 << 19)
+    monkeypatch.setattr(plscf_mod, "_Q_BLOCK_MIN_BYTES", 1 << 19)
     monkeypatch.setattr(plscf_mod, "_S_CHUNK_BYTES", 1 << 19)
     eng = plscf_mod.PlscfEngine(data, p)
     peak = _peak(lambda: eng.poles(range(1, p + 1)))

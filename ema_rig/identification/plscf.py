@@ -377,8 +377,11 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray, NDArray, NDArray, NDArray
     return r, s, t, w, dt
 
 
-#: Work budget [bytes] of one block of ``Q`` rows (all outputs) and of one chunk of ``S``.
+#: Work budget [bytes] of one block of ``Q`` rows (all outputs): half the FRF data, clipped to
+#: 8..64 MB (fewer blocks would hold more; more blocks rebuild rows of ``S`` more often); and of
+#: one chunk of ``S``.
 _Q_BLOCK_BYTES = 64 << 20
+_Q_BLOCK_MIN_BYTES = 8 << 20
 _S_CHUNK_BYTES = 2 << 20
 
 
@@ -681,7 +684,7 @@ class PlscfEngine:
     the reduced matrix of every lower order is a leading block of the cap's (see the module
     notes), so asking for more orders later (:meth:`poles` with higher orders) only costs the
     new orders' rows of ``Q = L^-1 S``, solves and roots. ``Q`` is streamed in blocks of rows
-    (at most ~64 MB) and never held whole.
+    (half the FRF data, 8..64 MB) and never held whole when it is larger.
 
     Parameters
     ----------
@@ -755,7 +758,8 @@ class PlscfEngine:
         """Rows ``a..b`` of ``Q`` in blocks of at most :data:`_Q_BLOCK_BYTES`: (first row, rows)."""
         p = self._alloc
         n_out = self._sp.shape[0]
-        per = max(1, _Q_BLOCK_BYTES // (n_out * (p + 1) * self.n_in * 8))
+        budget = min(_Q_BLOCK_BYTES, max(_Q_BLOCK_MIN_BYTES, self.data.frf.nbytes // 2))
+        per = max(1, budget // (n_out * (p + 1) * self.n_in * 8))
         for i0 in range(a, b + 1, per):
             yield i0, _q_rows(self._sp, self._linv, p, i0, min(i0 + per - 1, b))
 
