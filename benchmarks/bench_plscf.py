@@ -360,8 +360,8 @@ def main() -> int:
             print(f"{mo:>9} {threads or 'default':>8} | {spread(ta):>22} {mb(pa)} {de[0]:>+9.2e} {de[1]:>+9.2e} | "
                   f"{spread(tb):>22} {mb(pb)} {ds[0]:>+9.2e} {ds[1]:>+9.2e} | {ratio_spread(ta, tb):>18}")
     print("\nema_rig = plscf(data, max_order=N); sdypy = Model.get_poles('lscf') with pol_order_high = N/2;")
-    print("both compute every even denominator order 2..N on the same 4000 lines. No 'floor' is claimed:")
-    print("the root step has no lower bound measured here.")
+    print("both compute every even denominator order 2..N on the same 4000 lines. The root step's floor is")
+    print("one evaluation pass at the final roots, not a faster root finder: step/floor says how far from it.")
     return 0
 
 

@@ -7,7 +7,10 @@ identification reached, when the run recorded it).
 
 Run from the repository root::
 
-    python benchmarks/scale_table.py benchmarks/results/scale_before.json benchmarks/results/scale_after.json
+    python benchmarks/scale_table.py BEFORE.json AFTER.json [AFTER_RERUN.json ...]
+
+Several ``after`` files are merged row by row, a later file's row replacing an earlier one's
+(a re-run of some rows with ``bench_scale.py --only``).
 """
 
 from __future__ import annotations
@@ -69,9 +72,12 @@ def table(before: list[dict[str, Any]], after: list[dict[str, Any]]) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("before", type=Path)
-    ap.add_argument("after", type=Path)
+    ap.add_argument("after", type=Path, nargs="+")
     args = ap.parse_args(argv)
-    print(table(json.loads(args.before.read_text()), json.loads(args.after.read_text())))
+    merged: dict[tuple[int, int, int, int], dict[str, Any]] = {}
+    for path in args.after:
+        merged.update({_key(r): r for r in json.loads(path.read_text())})
+    print(table(json.loads(args.before.read_text()), list(merged.values())))
     return 0
 
 

@@ -235,14 +235,13 @@ class SelectedMode:
     ----------
     order, index : int
         Model order and position (by frequency) among that order's poles of the
-        representative pole (the member of the upper half of the cluster's orders closest to
-        their median).
+        representative pole (the cluster member closest to the cluster median).
     pole : complex
         Representative pole [rad/s], ``Im > 0``.
     natural_freq, damping_ratio : float
-        Mean over the poles of the upper half of the cluster's orders [Hz], [-].
+        Mean over the cluster [Hz], [-].
     natural_freq_std, damping_ratio_std : float
-        Standard deviation over the whole cluster (0 for a single pole).
+        Standard deviation over the cluster (0 for a single pole).
     n_poles : int
         Cluster size (one pole per order at most).
     provenance : {'auto', 'near', 'manual'}
@@ -455,22 +454,16 @@ def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance:
                     ranks: NDArray[np.intp] | None = None) -> SelectedMode:
     fn = stab.natural_freq[rows]
     zeta = stab.damping_ratio[rows]
-    # The estimate converges as the order grows; low orders can sit on a biased plateau (a
-    # wide band, several references). The representative and the mean come from the upper
-    # half of the cluster's orders; the spread stays that of every member (it includes the drift).
-    orders = stab.order[rows]
-    upper = orders >= np.median(orders)
-    fu, zu = fn[upper], zeta[upper]
-    mf, mz = np.median(fu), np.median(zu)
-    score = np.abs(fu - mf) / mf + 0.05 * np.abs(zu - mz) / max(abs(mz), 1e-12)
-    rep = int(rows[upper][np.argmin(score)])
+    mf, mz = np.median(fn), np.median(zeta)
+    score = np.abs(fn - mf) / mf + 0.05 * np.abs(zeta - mz) / max(abs(mz), 1e-12)
+    rep = int(rows[np.argmin(score)])
     ddof = 1 if rows.size > 1 else 0
     return SelectedMode(
         order=int(stab.order[rep]),
         index=stab.index_in_order(rep) if ranks is None else int(ranks[rep]),
         pole=complex(stab.pole[rep]),
-        natural_freq=float(fu.mean()),
-        damping_ratio=float(zu.mean()),
+        natural_freq=float(fn.mean()),
+        damping_ratio=float(zeta.mean()),
         natural_freq_std=float(fn.std(ddof=ddof)),
         damping_ratio_std=float(zeta.std(ddof=ddof)),
         n_poles=int(rows.size),
@@ -600,10 +593,9 @@ def select_modes(
     The distance between two candidate poles is the largest of ``|df| / f / freq_tol``,
     ``|dzeta| / zeta / damping_tol`` and ``(1 - MAC) / mac_tol``; clusters are formed by
     average linkage cut at 1 (``scipy.cluster.hierarchy``). Each cluster keeps at most one
-    pole per order (the one closest to the cluster's median frequency). The mode reports the
-    mean over the poles of the upper half of the cluster's orders (low orders can sit on a
-    biased plateau), the standard deviation over all its poles, and, as its representative
-    pole, the upper-half member closest to the upper-half median.
+    pole per order (the one closest to the cluster's median frequency); the mode reports the
+    mean and standard deviation over those poles and, as its representative pole, the member
+    closest to the cluster median.
     """
     tol = {
         **dict(stab.tolerances),
