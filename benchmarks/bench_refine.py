@@ -8,10 +8,11 @@ Data:
   modal sum of 8 modes in 100-900 Hz (1-2 % damping), 1 reference, 0.5 Hz lines in 0-1000 Hz,
   1 % proportional complex noise (seeded).
 
-For each it prints the best of ``--repeat`` wall-clock times (after one warm-up call, single
-BLAS thread as in the library) of ``identify(data, band=...)`` and of
-``identify(data, band=..., refine=True)``, their ratio, and what the refinement changed
-(the sigma of the housing mode on the rig file).
+For each, after one untimed call of each (imports, caches), ``identify(data, band=...)`` and
+``identify(data, band=..., refine=True)`` run in ``--repeat`` alternating pairs (A B, B A, ...;
+single BLAS thread inside, as the library does): median (min-max) wall times and the median
+(min-max) of the per-pair ratios; then what the refinement changed (the sigma of the housing
+mode on the rig file).
 
 Run: ``python benchmarks/bench_refine.py [--repeat N]``.
 """
@@ -19,24 +20,19 @@ Run: ``python benchmarks/bench_refine.py [--repeat N]``.
 from __future__ import annotations
 
 import argparse
+import statistics
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
 import numpy as np
+from _timing import paired  # benchmarks/_timing.py, beside this script
 
 REPO = Path(__file__).resolve().parent.parent
 
 
-def _best(fn, repeat: int) -> tuple[float, object]:
-    out = fn()  # warm-up (imports, caches)
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+def _spread(x: list[float], fmt: str = ".3f") -> str:
+    return f"{statistics.median(x):{fmt}} ({min(x):{fmt}}-{max(x):{fmt}})"
 
 
 def synthetic_256(path: Path) -> None:
@@ -76,15 +72,18 @@ def main() -> None:
         p = Path(tmp) / "synthetic_256.uff"
         synthetic_256(p)
         cases.append(("synthetic 256 outputs (1801 lines)", read_uff58(p), (100.0, 1000.0), max(1, args.repeat // 2)))
-    print(f"{'data':48s} {'identify':>10s} {'+refine':>10s} {'ratio':>6s}  refinement")
+    print(f"{'data':48s} {'identify [s]':>22s} {'+refine [s]':>22s} {'ratio':>18s}  refinement")
     for name, data, band, rep in cases:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            t_plain, plain = _best(lambda data=data, band=band: identify(data, band=band), rep)
-            t_ref, ref = _best(lambda data=data, band=band: identify(data, band=band, refine=True), rep)
+            plain = identify(data, band=band)
+            ref = identify(data, band=band, refine=True)
+            ta, tb = paired(lambda data=data, band=band: identify(data, band=band),
+                            lambda data=data, band=band: identify(data, band=band, refine=True), rep)
         r = ref.refinement  # type: ignore[attr-defined]
         info = f"converged={r.converged}, {r.noise_source}, {r.n_iter} evaluations, {ref.modes.n_modes} modes"  # type: ignore[attr-defined]
-        print(f"{name:48s} {t_plain:9.3f}s {t_ref:9.3f}s {t_ref / t_plain:6.2f}  {info}")
+        ratio = [b / a for a, b in zip(ta, tb, strict=True)]
+        print(f"{name:48s} {_spread(ta):>22s} {_spread(tb):>22s} {_spread(ratio, '.2f'):>18s}  {info}")
         if name.startswith("rig"):
             k = int(np.argmin(np.abs(plain.natural_freq - 626.16)))  # type: ignore[attr-defined]
             print(f"    housing mode: PolyMAX {plain.natural_freq[k]:.3f} +- {plain.natural_freq_std[k]:.3f} Hz "  # type: ignore[attr-defined]
