@@ -123,6 +123,33 @@ def test_several_references_on_a_wide_band_not_stopped_on_a_biased_plateau(n_in)
     assert worst <= 2.5, worst
 
 
+def test_lines_with_a_gap_limit_the_order_with_a_note():
+    # lines in 50-400 Hz and 1500-2000 Hz (two separate bands in one file): the basis matrix R
+    # of the pLSCF normal equations becomes singular above some order. identify lowers its cap
+    # to the order the lines support, says so, and still finds the modes in the lines; plscf
+    # asked for more refuses with the reason instead of a LinAlgError from the Cholesky.
+    fn = [150.0, 290.0, 455.0, 626.0, 1100.0, 1600.0]
+    zeta = [0.012, 0.008, 0.010, 0.006, 0.015, 0.012]
+    q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((8, 8)))
+    sys8 = LumpedSystem.from_modal(fn + [2600.0, 3400.0], zeta + [0.02, 0.02], 0.3 * q,
+                                   [f"{i + 1}+Z" for i in range(8)])
+    freq = np.concatenate([np.arange(50.0, 400.25, 0.5), np.arange(1500.0, 2000.25, 0.5)])
+    data = sys8.frf(freq, inputs=[0, 1, 2], noise=0.01, rng=np.random.default_rng(0))
+    ident = identify(data)
+    assert any("R singular above it" in n for n in ident.notes)
+    idx = _match_once(ident.natural_freq, np.array([150.0, 290.0, 1600.0]), rtol=0.01)
+    truth = sys8.natural_freq[[0, 1, 5]]
+    np.testing.assert_allclose(ident.natural_freq[idx], truth, rtol=5e-4)
+    limit = PlscfEngine(check_data(data, None), 160).order_limit
+    assert 3 <= limit < 160
+    with pytest.raises(IdentificationError, match="beyond what the lines .* support"):
+        plscf(data, max_order=limit + 1)
+    # an engine built for a higher cap grows its blocks (doubling) only up to the limit
+    eng = PlscfEngine(check_data(data, None), 160)
+    eng.poles(range(1, 20))  # blocks for order 19; growing them doubles to 38, past the limit
+    assert len(eng.poles(range(20, limit + 1)).orders) == limit - 19
+
+
 def test_mode_at_band_edge_found_once_and_flagged():
     sys5 = five_mode_system(close_pair=True)
     d = sys5.frf(FREQ, inputs=[0, 1], noise=0.01, rng=np.random.default_rng(3))

@@ -18,7 +18,7 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
                         help="identification band [Hz] (default: the rig file's, else the whole file)")
     parser.add_argument("--max-order", type=_args.model_order, default=None, metavar="N",
                         help="cap on the PolyMAX model order, which grows until the mode set converges "
-                             "(default: the rig file's, else 256 for one reference, 160 for two)")
+                             "(default: the rig file's, else 256 for one reference, 160 for several)")
     parser.add_argument("--selection", default=None, metavar="JSON",
                         help="replay a saved mode selection instead of the automatic one")
     parser.add_argument("--refine", action="store_true", default=None,

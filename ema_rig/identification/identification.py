@@ -287,7 +287,8 @@ def identify(
         data by less than one frequency step is clipped to the data (with a note).
     max_order : int, optional
         Cap on the model order (default :func:`default_order_cap`: 256 for one reference,
-        160 for two). Reduced, with a note, to the largest order the band's lines allow.
+        160 for several). Reduced, with a note, to the largest order the band's lines allow
+        (fewer than half the lines; ``R`` positive definite, which a gap in the lines limits).
     freq_tol, damping_tol, mac_tol : float, optional
         Stabilization tolerances (defaults 1 %, 5 %, 2 %), see
         :func:`~ema_rig.identification.stabilization.stabilize`.
@@ -375,6 +376,15 @@ def identify(
         raise IdentificationError(f"only {work.n_freq} lines in the band: too few for any model order", file=src)
     step = 2 if n_in == 1 else 1
     engine = PlscfEngine(work, cap)
+    if engine.order_limit < cap:
+        if engine.order_limit < min_order:
+            raise IdentificationError(
+                f"the lines of {work.freq[0]:g}..{work.freq[-1]:g} Hz support no model order (the basis matrix "
+                "R is singular: a gap or very uneven spacing in the frequency lines?); choose a band without gaps",
+                file=src)
+        notes.append(f"max_order reduced from {cap} to {engine.order_limit}: the band's lines leave the basis "
+                     "matrix R singular above it (a gap or very uneven spacing in the frequency lines)")
+        cap = engine.order_limit
 
     def orders_to(n: int) -> list[int]:
         return list(range(step, n + 1, step)) or [n]

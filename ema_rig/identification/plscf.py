@@ -385,12 +385,43 @@ _Q_BLOCK_MIN_BYTES = 8 << 20
 _S_CHUNK_BYTES = 2 << 20
 
 
+#: Smallest relative Cholesky pivot ``L_kk^2 / r_0`` of ``R`` an order may need (see _order_limit).
+_R_PIVOT_TOL = 1e-6
+
+
+def _order_limit(r: NDArray) -> int:
+    """Highest order ``p`` whose ``R_p`` (lags ``r[:p+1]``, Toeplitz) is safely positive definite.
+
+    On evenly spaced lines ``R`` is almost ``n_freq`` times the identity and every order up to
+    the cap passes; a gap in the lines (two separate bands) makes it singular from some order
+    on: the squared Cholesky pivots ``L_kk^2`` (how much of ``z^k`` on the lines is not a
+    combination of the lower powers) then fall geometrically, about halving per order for a
+    band split in two, until round-off. An order is allowed while every pivot up to it stays
+    above :data:`_R_PIVOT_TOL` times ``r_0``: on such a grid the pivots beyond ~1e-7 already
+    differ with the rounding of the lag sums (and the factorisation breaks down a few orders
+    later), so the limit sits where it does not depend on rounding. Evenly spaced,
+    log-spaced and jittered lines keep every pivot near 1 (no limit).
+    """
+    from scipy.linalg.lapack import dpotrf
+
+    i = np.arange(r.size)
+    c, info = dpotrf(r[np.abs(i[None, :] - i[:, None])], lower=1, clean=0)
+    # info = k > 0: the leading minor of size k is not positive definite, rows < k - 1 factored
+    n_ok = r.size if info == 0 else max(int(info) - 1, 0)
+    piv = np.diag(c)[:n_ok] ** 2 / r[0]
+    bad = np.flatnonzero(~(piv >= _R_PIVOT_TOL))
+    n_good = n_ok if bad.size == 0 else int(bad[0])
+    return n_good - 1
+
+
 def _reduced_factor(r: NDArray, t: NDArray, p: int) -> tuple[NDArray, NDArray]:
     """``T`` of the max order and ``L^-1``, the inverse Cholesky factor of ``R``.
 
     Returns ``T`` shape ((p+1) n_in, (p+1) n_in) and ``Linv`` shape (p+1, p+1), lower
-    triangular. ``R`` is almost ``n_freq`` times the identity on the normalised band
-    (cond(R) ~ 1.03-1.06, module notes), so its explicit inverse factor loses nothing.
+    triangular. On evenly spaced lines ``R`` is almost ``n_freq`` times the identity
+    (cond(R) ~ 1.03-1.06, module notes) and the explicit inverse factor agrees with a
+    triangular solve to round-off; on lines with a gap (cond(R) up to ~1e8 below the order
+    limit) the two differ by ~1e-11 relative, far below the noise of any measured FRF.
     """
     from scipy.linalg import cholesky, solve_triangular
 
@@ -582,9 +613,10 @@ def _poles_of_order(
         z[stable] = _refine(high, z[stable])
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.log(z) / dt
-    # participation only where a mode can be physical (|z| < 1, i.e. Re s < 0): NaN otherwise
+    # participation only where a mode can be physical (Re s < 0, the same test as
+    # StabilizationData.unstable): NaN otherwise
     part = np.full((z.size, high.shape[1]), np.nan, dtype=np.complex128)
-    phys = np.abs(z) < 1.0
+    phys = s.real < 0
     if phys.any():
         part[phys] = _participation(high, z[phys])
     return s + 2j * np.pi * f_lo, part
@@ -682,9 +714,12 @@ class PlscfEngine:
 
     The lag sums and the Cholesky factor of ``R`` are formed once for the cap ``max_order``;
     the reduced matrix of every lower order is a leading block of the cap's (see the module
-    notes), so asking for more orders later (:meth:`poles` with higher orders) only costs the
-    new orders' rows of ``Q = L^-1 S``, solves and roots. ``Q`` is streamed in blocks of rows
-    (half the FRF data, 8..64 MB) and never held whole when it is larger.
+    notes), so asking for more orders later (:meth:`poles` with higher orders) costs the new
+    orders' rows of ``Q = L^-1 S``, solves and roots (and, when the blocks must grow beyond the
+    order they were built for, which doubles each time, the earlier rows once more). ``Q`` is
+    streamed in blocks of rows (half the FRF data, 8..64 MB) and never held whole when it is
+    larger. :attr:`order_limit` is the highest order the lines support (``R`` positive
+    definite); asking for more raises :class:`~ema_rig.errors.IdentificationError`.
 
     Parameters
     ----------
@@ -724,6 +759,7 @@ class PlscfEngine:
         self.f_lo, self.f_hi = float(data.freq[0]), float(data.freq[-1])
         with single_threaded():
             self._r, self._s, self._t, _, self.dt = _lag_sums(data, max_order)
+        self.order_limit = _order_limit(self._r)
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
@@ -742,7 +778,7 @@ class PlscfEngine:
         """
         if n <= self._alloc:
             return
-        p = min(self.max_order, max(n, 2 * self._alloc))
+        p = min(self.max_order, self.order_limit, max(n, 2 * self._alloc))
         cap = self.max_order
         lags = np.arange(cap - p, cap + p + 1)  # lags -p..p inside the cap's -cap..cap
         self._T, self._linv = _reduced_factor(self._r[: p + 1], self._t[:, :, lags], p)
@@ -766,6 +802,12 @@ class PlscfEngine:
     def _compute(self, order_list: list[int], bar: Any) -> None:
         """Solve and root every order of ``order_list`` (ascending, above those already done)."""
         n_in, dt, f_lo = self.n_in, self.dt, self.f_lo
+        if order_list[-1] > self.order_limit:
+            raise IdentificationError(
+                f"order {order_list[-1]} is beyond what the lines of {self.f_lo:g}..{self.f_hi:g} Hz support "
+                f"(order {self.order_limit} at most: the lines leave the basis matrix R singular above it, "
+                "e.g. a gap or very uneven spacing in the frequency lines); lower max_order or choose a band "
+                "without gaps", file=source_of(self.data))
         with single_threaded():
             self._blocks(order_list[-1])
         pool = None

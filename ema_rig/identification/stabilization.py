@@ -388,7 +388,7 @@ class Selection:
 
     def to_json(self, path: str | PathLike[str] | None = None) -> str:
         """Serialise to JSON; also write it (atomically) to ``path`` when given."""
-        text = json.dumps(self.to_dict(), indent=2) + "\n"
+        text = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
         if path is not None:
             from .._atomic import write_text
 
