@@ -37,10 +37,13 @@ How the numbers are taken
   LAPACK kernels to one thread by design; that is part of what is measured.)
 * Modes found: how many of the six true natural frequencies ``identify`` returned within 0.1 %,
   and the model order the adaptive identification reached (``P`` is its cap).
-* Allocator: the children run with ``MALLOC_MMAP_THRESHOLD_=65536`` and call ``malloc_trim(0)``
-  before each call, so that memory freed by an earlier call goes back to the system instead of
-  staying resident and hiding part of the next call's peak (glibc's adaptive threshold would
-  otherwise serve arrays up to 32 MB from a heap that is not returned).
+* Two children per row. Memory is measured in one that runs with ``MALLOC_MMAP_THRESHOLD_=65536``
+  and calls ``malloc_trim(0)`` before each call, so that memory freed by an earlier call goes
+  back to the system instead of staying resident and hiding part of the next call's peak
+  (glibc's adaptive threshold would otherwise serve arrays up to 32 MB from a heap that is not
+  returned); one warm round there. Time is measured in a second child with the default
+  allocator: the small mmap threshold makes every large temporary a fresh mapping with its page
+  faults, which slowed ``plscf`` at 64 x 3 x 4001, P = 200 from 3.4 s to 8.2 s.
 * Limits: rows run smallest first. A row whose ``identify`` first call is projected above
   ``--max-row-s`` (60 s), or whose projected memory (data + peak) exceeds ``--max-mem-gb`` (8 GB),
   or that does not fit in the remaining ``--budget-s`` (840 s), is skipped and listed with the
@@ -235,6 +238,19 @@ def run_child(spec: dict[str, Any]) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------ parent
+def _run_child(spec: dict[str, Any], env: dict[str, str], timeout: float) -> tuple[dict[str, Any] | None, str | None]:
+    """One child process for one row: (its result, None) or (None, why it gave none)."""
+    cmd = [sys.executable, __file__, "--child", json.dumps(spec)]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None, f"killed after {timeout:.0f} s (timeout)"
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or ["?"])[-1]
+        return None, f"child failed: {last}"
+    return json.loads(proc.stdout.strip().splitlines()[-1]), None
+
+
 def grid(quick: bool) -> list[Row]:
     if quick:
         rows = [Row(8, n_in, 4001, 50) for n_in in (1, 3)]
@@ -337,7 +353,7 @@ def main(argv: list[str] | None = None) -> int:
     env = dict(os.environ)
     root = str(Path(__file__).resolve().parents[1])
     env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    env["MALLOC_MMAP_THRESHOLD_"] = "65536"
+    env_mem = {**env, "MALLOC_MMAP_THRESHOLD_": "65536"}
     settings = [int(x) for x in args.blas.split(",")]
     blas = ", ".join("default" if b == 0 else f"{b}" for b in settings)
     print(f"bench_scale {time.strftime('%Y-%m-%d %H:%M %Z')}  python {platform.python_version()}  "
@@ -376,21 +392,20 @@ def main(argv: list[str] | None = None) -> int:
             continue
         spec = {**asdict(row), "repeat": repeat, "warm_s": min(args.warm_s, max(remaining, 0.0)),
                 "blas": settings}
-        cmd = [sys.executable, __file__, "--child", json.dumps(spec)]
-        try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=3 * args.max_row_s + 60)
-        except subprocess.TimeoutExpired:
-            print(f"{row.label():<26} {row.size / 1e6:8.1f} | killed after {3 * args.max_row_s + 60:.0f} s")
-            record["skipped"] = "killed (timeout)"
+        # the time child (default allocator), then the memory child (small mmap threshold)
+        m, why = _run_child(spec, env, 3 * args.max_row_s + 60)
+        mem, why_mem = (None, None) if m is None else _run_child(
+            {**spec, "repeat": 1, "blas": settings[:1]}, env_mem, 3 * args.max_row_s + 60)
+        if m is None or mem is None:
+            print(f"{row.label():<26} {row.size / 1e6:8.1f} | {why or why_mem}")
+            record["skipped"] = why or why_mem
             out_rows.append(record)
             continue
-        if proc.returncode != 0:
-            last = (proc.stderr.strip().splitlines() or ["?"])[-1]
-            print(f"{row.label():<26} {row.size / 1e6:8.1f} | child failed: {last}")
-            record["skipped"] = f"child failed: {last}"
-            out_rows.append(record)
-            continue
-        m = json.loads(proc.stdout.strip().splitlines()[-1])
+        for name, st in m["steps"].items():
+            ms = mem["steps"].get(name) or {}
+            for key in ("peak_first", "peak", "peak_warm", "peak_source"):
+                st[key] = ms.get(key)
+        m["rss_base_memory_child"] = mem["rss_base"]
         done[row] = m
         record.update(m)
         out_rows.append(record)
