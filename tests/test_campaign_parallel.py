@@ -5,25 +5,16 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from _campaigns import simulated_6302_campaign
 
 from ema_rig.campaign import run
-from ema_rig.config import load_rig
 
 
 @pytest.fixture(scope="module")
 def campaign_dir(tmp_path_factory: pytest.TempPathFactory, rig_toml_text: str) -> Path:
     """Two simulated 6302 measurements with the per-measurement figures on (the default)."""
-    from ema_rig.simulate import simulate_measurement, write_measurement
-
-    d = tmp_path_factory.mktemp("par")
-    (d / "rig.toml").write_text(rig_toml_text, encoding="utf-8")
-    rig = load_rig(d / "rig.toml")
-    lines = ['rig = "rig.toml"', "[defaults]", "max_order = 24"]
-    for i, (mid, k) in enumerate({"p400": 6.1e7, "p800": 6.8e7}.items()):
-        write_measurement(simulate_measurement(rig, k_tb=k, noise=0.005, seed=50 + i), d / f"{mid}.uff", rig=rig)
-        lines += ["[[measurement]]", f'file = "{mid}.uff"', 'bearing = "6302"', f"radial_load = {mid[1:]}.0"]
-    (d / "campaign.toml").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return d
+    return simulated_6302_campaign(tmp_path_factory.mktemp("par"), rig_toml_text, {"p400": 6.1e7, "p800": 6.8e7},
+                                   seed=50)
 
 
 def test_jobs_2_outputs_match_jobs_1(campaign_dir: Path, tmp_path: Path) -> None:

@@ -8,6 +8,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from _campaigns import simulated_6302_campaign
 
 from ema_rig.campaign import load_campaign, run
 from ema_rig.config import load_rig
@@ -19,20 +20,7 @@ K_TRUE = {"m300": 5.9e7, "m900": 7.0e7}  # N/m
 @pytest.fixture(scope="module")
 def campaign_dir(tmp_path_factory: pytest.TempPathFactory, rig_toml_text: str) -> Path:
     """Two simulated 6302 measurements and a corrupt file, per-measurement figures on (the default)."""
-    from ema_rig.simulate import simulate_measurement, write_measurement
-
-    d = tmp_path_factory.mktemp("drill")
-    (d / "rig.toml").write_text(rig_toml_text, encoding="utf-8")
-    rig = load_rig(d / "rig.toml")
-    lines = ['rig = "rig.toml"', "[defaults]", "max_order = 24"]
-    for i, (mid, k) in enumerate(K_TRUE.items()):
-        sim = simulate_measurement(rig, k_tb=k, noise=0.005, seed=30 + i)
-        write_measurement(sim, d / f"{mid}.uff", rig=rig)
-        lines += ["[[measurement]]", f'file = "{mid}.uff"', 'bearing = "6302"', f"radial_load = {mid[1:]}.0"]
-    (d / "broken.uff").write_text("not a UFF file\n", encoding="utf-8")
-    lines += ["[[measurement]]", 'file = "broken.uff"', 'bearing = "6302"', "radial_load = 1500.0"]
-    (d / "campaign.toml").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return d
+    return simulated_6302_campaign(tmp_path_factory.mktemp("drill"), rig_toml_text, K_TRUE, seed=30, broken=True)
 
 
 @pytest.fixture(scope="module")
