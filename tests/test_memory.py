@@ -313,6 +313,28 @@ def test_reduced_blocks_in_chunks_match_one_solve():
     np.testing.assert_allclose(plscf_mod._q_rows(s, linv, p, 20, 33), Q[20:34], rtol=0, atol=1e-13 * np.abs(Q).max())
 
 
+def _assert_same_pole_sets(got, want) -> None:
+    """Every order holds the same poles, compared as sets (issue 20: a root finder may return the
+    same roots in another order on another CPU/BLAS kernel).
+
+    Tolerance 1e-8 relative to |pole|: the row blocks only change the summation order of P (rounding
+    ~1e-16 x the condition of the reduced equations); the poles of two block sizes differ by at most
+    6.5e-11 here (measured), so 1e-8 leaves room for other BLAS kernels while a wrong block (a row
+    added twice or dropped) moves poles by > 1e-4.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    assert sorted(set(got.order.tolist())) == sorted(set(want.order.tolist()))
+    for p in sorted(set(want.order.tolist())):
+        a = got.pole[got.order == p]
+        b = want.pole[want.order == p]
+        assert a.size == b.size, f"order {p}: {a.size} poles vs {b.size}"
+        cost = np.abs(a[:, None] - b[None, :]) / np.maximum(np.abs(b)[None, :], 1e-300)
+        rows, cols = linear_sum_assignment(cost)
+        worst = cost[rows, cols].max(initial=0.0)
+        assert worst < 1e-8, f"order {p}: poles differ by {worst:.1e} (relative)"
+
+
 def test_engine_streams_q_in_row_blocks(big, monkeypatch):
     # Q = L^-1 S of 64 outputs x 3 references at order 60 is 61 * 64 * 183 * 8 B = 5.7 MB. With
     # 0.5 MB budgets for a block of Q rows and a chunk of S the engine never holds it whole:
@@ -329,7 +351,6 @@ def test_engine_streams_q_in_row_blocks(big, monkeypatch):
     eng = plscf_mod.PlscfEngine(data, p)
     peak = _peak(lambda: eng.poles(range(1, p + 1)))
     streamed = eng.poles(range(1, p + 1))
-    np.testing.assert_array_equal(streamed.order, one.order)
-    np.testing.assert_allclose(streamed.pole, one.pole, rtol=1e-10)
+    _assert_same_pole_sets(streamed, one)
     # the former engine held Q whole (5.7 MB, 1.0x) besides P and T; this one about 0.5x
     assert peak <= 0.6 * q_bytes, f"orders 1..{p}: peak {peak / q_bytes:.2f}x Q"  # measured 0.50x
