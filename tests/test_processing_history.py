@@ -227,6 +227,7 @@ def test_modes_remove_the_window_damping_and_stay_in_the_usable_band(windowed, t
     j = tmp_path / "modes.json"
     assert main(["modes", str(exp), "--json", str(j)]) == 0
     doc = json.loads(j.read_text())
+    assert doc["processing"]["window"] == "exponential" and doc["processing"]["n_averages"] == 4
     zs = sorted((m["natural_freq"], m["damping_ratio"]) for m in doc["modes"])
     np.testing.assert_allclose([z for _, z in zs], z_true[:2], rtol=1e-3)
 
