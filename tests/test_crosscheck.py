@@ -108,3 +108,23 @@ def test_dam0_mode_at_11_76_hz_is_flagged(real_frf_dir: Path):
     assert "zeta" in row.flags
     line = next(ln for ln in cc.table().splitlines() if ln.strip().startswith(f"{row.natural_freq:.4f}"))
     assert line.rstrip().endswith(",".join(row.flags))
+
+
+def test_a_mode_ema_rig_misses_is_listed():
+    """Drop the 90 Hz mode from ema_rig's result: the cross-check lists it as found by sdypy-EMA only."""
+    pytest.importorskip("sdypy.EMA")
+    f = np.linspace(0.0, 150.0, 1201)
+    h = _two_modes(f)
+    data = FRFData(f, np.stack([h, 0.5 * h])[:, None, :], ["2+Z", "3+Z"], ["1+Z"], frf_form="receptance")
+    ident = identify(data)
+    assert crosscheck(data, ident).peer_only == ()
+    mm = ident.modes
+    one = replace(ident, modes=replace(mm, poles=mm.poles[:1], residues=mm.residues[:1]),
+                  natural_freq_std=ident.natural_freq_std[:1], damping_ratio_std=ident.damping_ratio_std[:1])
+    cc = crosscheck(data, one)
+    assert len(cc.peer_only) == 1
+    # the missed mode is the 90 Hz pole -3 + 2j pi 90 (noise-free: 1e-6 in f, 1e-4 in zeta)
+    lam = -3.0 + 2j * np.pi * 90.0
+    np.testing.assert_allclose(cc.peer_only[0].natural_freq, abs(lam) / (2 * np.pi), rtol=1e-6)
+    np.testing.assert_allclose(cc.peer_only[0].damping_ratio, 3.0 / abs(lam), rtol=1e-4)
+    assert cc.peer_only[0].n_orders >= 4 and cc.table().rstrip().endswith("missed")

@@ -8,9 +8,9 @@ crosscheck
 
 Classes
 -------
-CrossCheck, CrossCheckRow
+CrossCheck, CrossCheckRow, PeerMode
     The per-mode agreement table, with a flag where the tools differ by more than their
-    combined standard deviation.
+    combined standard deviation, and the modes only sdypy-EMA finds.
 
 Notes
 -----
@@ -54,6 +54,9 @@ COMBINED_SIGMAS = 1.0
 item 6 ("flags every mode where the two tools differ by more than their combined sigma"); with
 Gaussian errors about a third of consistent estimates exceed 1 sigma, so a flag asks for a look
 at the mode, it does not say which tool is wrong."""
+PEER_MIN_ORDERS = 4
+"""Orders a cluster of sdypy-EMA's stable poles must span to be listed as a mode ema_rig missed:
+the minimum ema_rig's own judgement asks of a cluster (``judge_clusters(min_poles=4)``)."""
 STABLE_FREQ_TOL = 0.01
 """Relative frequency change between consecutive orders of a stable pole (sdypy-EMA default)."""
 STABLE_DAMPING_TOL = 0.05
@@ -125,6 +128,21 @@ class CrossCheckRow:
 
 
 @dataclass(frozen=True, slots=True)
+class PeerMode:
+    """A cluster of sdypy-EMA's stable poles with no ema_rig mode within the tolerance.
+
+    Frequencies in Hz, damping ratios as fractions: the median over the orders and the standard
+    deviation over them (ddof 1); ``n_orders`` the number of orders it is stable at.
+    """
+
+    natural_freq: float
+    damping_ratio: float
+    n_orders: int
+    natural_freq_std: float
+    damping_ratio_std: float
+
+
+@dataclass(frozen=True, slots=True)
 class CrossCheck:
     """Result of :func:`crosscheck`.
 
@@ -138,12 +156,16 @@ class CrossCheck:
         Highest polynomial order given to sdypy-EMA.
     seconds : float
         Wall time of sdypy-EMA's pole estimate.
+    peer_only : tuple of PeerMode
+        Modes sdypy-EMA finds (stable at ``PEER_MIN_ORDERS`` orders or more) where ema_rig
+        reports none within the tolerance, by frequency.
     """
 
     rows: tuple[CrossCheckRow, ...]
     band: tuple[float, float]
     order: int
     seconds: float
+    peer_only: tuple[PeerMode, ...] = ()
 
     @property
     def n_flagged(self) -> int:
@@ -173,6 +195,12 @@ class CrossCheck:
             else:
                 lines.append(f"{r.natural_freq:>14.4f} {100 * r.damping_ratio:>9.3f} {'no stable pole':>13}"
                              f"{'':>58}missing")
+        if self.peer_only:
+            lines.append(f"found by sdypy-EMA only (stable at {PEER_MIN_ORDERS} or more orders, no ema_rig mode "
+                         f"within the tolerance): {len(self.peer_only)}")
+            for m in self.peer_only:
+                lines.append(f"{'-':>14} {'':>9} {m.natural_freq:>13.4f} {100 * m.damping_ratio:>9.3f} {'':>8} "
+                             f"{m.n_orders:>6d}{'':>40}  missed")
         return "\n".join(lines)
 
 
@@ -252,13 +280,13 @@ def crosscheck(data: FRFData, ident: Identification, *, order: int | None = None
         warnings.simplefilter("ignore")
         m = EMA.Model(frf=frf, freq=d.freq, lower=lower, upper=hi, pol_order_high=half, frf_form=d.frf_form)
         m.get_poles(method="lscf", show_progress=False)
-        fn, xi, _ = _stable_poles(list(m.pole_freq), list(m.pole_xi))
+        fn, xi, ks = _stable_poles(list(m.pole_freq), list(m.pole_xi))
     seconds = time.perf_counter() - t0
     hist = processing_history(data)
     if hist is not None and hist.exp_decay > 0 and fn.size:
         fn, xi = _shift(fn, xi, hist.exp_decay)
     inside = (fn >= lo) & (fn <= hi)
-    f_st, z_st = fn[inside], xi[inside]
+    f_st, z_st, k_st = fn[inside], xi[inside], ks[inside]
     f_std = np.asarray(ident.natural_freq_std, dtype=float)
     z_std = np.asarray(ident.damping_ratio_std, dtype=float)
     rows = []
@@ -274,7 +302,27 @@ def crosscheck(data: FRFData, ident: Identification, *, order: int | None = None
                 damping_ratio_std_peer=float(np.std(z_st[near], ddof=1)) if n > 1 else float("nan"), **own))
         else:
             rows.append(CrossCheckRow(float(f0), float(z0), float("nan"), float("nan"), 0, **own))
-    return CrossCheck(rows=tuple(rows), band=(lo, hi), order=2 * half, seconds=seconds)
+    peer_only = _peer_only(f_st, z_st, k_st, np.asarray(natural_freq, float), tol)
+    return CrossCheck(rows=tuple(rows), band=(lo, hi), order=2 * half, seconds=seconds, peer_only=peer_only)
 
 
-__all__ = ["COMBINED_SIGMAS", "STABLE_DAMPING_TOL", "STABLE_FREQ_TOL", "CrossCheck", "CrossCheckRow", "crosscheck"]
+def _peer_only(f: np.ndarray, z: np.ndarray, k: np.ndarray, ours: np.ndarray, tol: float) -> tuple[PeerMode, ...]:
+    """Clusters of stable poles (neighbours within ``tol`` relative) at >= PEER_MIN_ORDERS orders, no mode of ours near."""
+    if f.size == 0:
+        return ()
+    o = np.argsort(f)
+    f, z, k = f[o], z[o], k[o]
+    cuts = np.flatnonzero(np.diff(f) > tol * f[:-1]) + 1
+    out = []
+    for idx in np.split(np.arange(f.size), cuts):
+        n = int(np.unique(k[idx]).size)
+        fm = float(np.median(f[idx]))
+        if n < PEER_MIN_ORDERS or np.any(np.abs(ours - fm) <= tol * fm):
+            continue
+        out.append(PeerMode(fm, float(np.median(z[idx])), n, float(np.std(f[idx], ddof=1)),
+                            float(np.std(z[idx], ddof=1))))
+    return tuple(out)
+
+
+__all__ = ["COMBINED_SIGMAS", "PEER_MIN_ORDERS", "STABLE_DAMPING_TOL", "STABLE_FREQ_TOL", "CrossCheck", "CrossCheckRow",
+           "PeerMode", "crosscheck"]
