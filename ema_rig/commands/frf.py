@@ -111,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
     for w in est.warnings:
         warnings.warn(f"{args.file}: {w}", IdentificationWarning, stacklevel=1)
     print(f"band   usable up to {history.band[1]:g} Hz ({ANTI_ALIAS_FRACTION:g} x fs/2, the anti-alias limit), "
-          "written with the window and averaging as dataset 1858")
+          "written with the window and averaging as dataset 1858 (ema-rig modes stays in that band and removes "
+          "an exponential window's damping)")
     print(f"wrote {args.output}")
     return 0
 
