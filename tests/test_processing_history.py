@@ -111,11 +111,12 @@ def _frf_data() -> FRFData:
     return FRFData(f, np.concatenate([h, 2 * h]), ["2+Z", "3+Z"], ["1+Z"], frf_form="receptance")
 
 
-def test_1858_round_trip_and_pyuff_reads_it(tmp_path: Path):
+@pytest.mark.parametrize("binary", [False, True])
+def test_1858_round_trip_and_pyuff_reads_it(tmp_path: Path, binary: bool):
     pyuff = pytest.importorskip("pyuff")
     out = tmp_path / "frf.uff"
     hist = _history()
-    write_uff58(out, _frf_data(), history=hist)
+    write_uff58(out, _frf_data(), history=hist, binary=binary)
     assert [r.type for r in read_uff(out).records] == [1858, 58, 1858, 58]
     back = read_uff58(out)
     got = back.meta["processing"]

@@ -48,6 +48,7 @@ from ..errors import IdentificationError
 from ..frf import FRFData
 from ..processing import processing_history
 from .identification import Identification
+from .window_damping import remove_decay
 
 COMBINED_SIGMAS = 1.0
 """Difference, in combined standard deviations, above which a mode is flagged. Source: issue 18
@@ -228,15 +229,6 @@ def _stable_poles(pole_freq: list[Any], pole_xi: list[Any]) -> tuple[np.ndarray,
     return np.concatenate(fs), np.concatenate(zs), np.concatenate(ks)
 
 
-def _shift(f: np.ndarray, z: np.ndarray, a: float) -> tuple[np.ndarray, np.ndarray]:
-    """Poles (f [Hz], zeta) with their decay rate reduced by ``a`` [1/s] (exponential window removed)."""
-    w = 2 * np.pi * f
-    re = -z * w + a
-    im = w * np.sqrt(np.clip(1 - z * z, 0.0, None))
-    w2 = np.hypot(re, im)
-    return w2 / (2 * np.pi), -re / w2
-
-
 def crosscheck(data: FRFData, ident: Identification, *, order: int | None = None, tol: float = 0.01) -> CrossCheck:
     """sdypy-EMA's LSCF on the band of ``ident``, matched to its modes and flagged.
 
@@ -284,7 +276,7 @@ def crosscheck(data: FRFData, ident: Identification, *, order: int | None = None
     seconds = time.perf_counter() - t0
     hist = processing_history(data)
     if hist is not None and hist.exp_decay > 0 and fn.size:
-        fn, xi = _shift(fn, xi, hist.exp_decay)
+        fn, xi = remove_decay(fn, xi, hist.exp_decay)
     inside = (fn >= lo) & (fn <= hi)
     f_st, z_st, k_st = fn[inside], xi[inside], ks[inside]
     f_std = np.asarray(ident.natural_freq_std, dtype=float)

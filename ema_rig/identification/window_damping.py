@@ -5,6 +5,8 @@ Functions
 processing_band
     Clip an identification band to where the FRFs are valid (the analyser band from dataset
     1858, else ``ANTI_ALIAS_FRACTION * fs / 2``).
+remove_decay
+    Natural frequencies and damping ratios with a decay rate removed (the pole shift alone).
 remove_window_damping
     Remove an exponential window's damping from every identified pole (exact), with the
     standard deviations carried through; modes whose damping the window alone explains are
@@ -32,6 +34,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..frf import FRFData
 from ..processing import ANTI_ALIAS_FRACTION, processing_history, usable_band
@@ -74,6 +77,33 @@ def processing_band(data: FRFData, band: tuple[float, float] | None
     return (lo, new_hi), [f"band end {hi:g} Hz clipped to {new_hi:g} Hz: the FRFs are valid up to {top:g} Hz ({what})"]
 
 
+def remove_decay(natural_freq: ArrayLike, damping_ratio: ArrayLike, decay: float
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Poles with ``decay`` removed from their decay rate (the real part moved by ``+decay``).
+
+    Parameters
+    ----------
+    natural_freq : array_like, shape (n,)
+        Undamped natural frequencies ``|lambda| / 2 pi`` [Hz] of the windowed FRF's poles.
+    damping_ratio : array_like, shape (n,)
+        Their damping ratios ``-Re lambda / |lambda|``.
+    decay : float
+        The exponential window's decay rate ``a`` [1/s].
+
+    Returns
+    -------
+    natural_freq, damping_ratio : ndarray, shape (n,)
+        Of ``lambda + a`` (the damped frequency ``Im lambda`` unchanged).
+    """
+    f = np.asarray(natural_freq, dtype=np.float64)
+    z = np.asarray(damping_ratio, dtype=np.float64)
+    w = 2 * np.pi * f
+    re = -z * w + float(decay)
+    im = w * np.sqrt(np.clip(1.0 - z * z, 0.0, None))
+    w2 = np.hypot(re, im)
+    return w2 / (2 * np.pi), -re / w2
+
+
 def _propagate(f: float, z: float, sf: float, sz: float, a: float) -> tuple[float, float, float, float]:
     """(f', zeta', std f', std zeta') of the pole (f, zeta) with its real part shifted by +a [rad/s]."""
     w = 2 * np.pi * f
@@ -85,7 +115,8 @@ def _propagate(f: float, z: float, sf: float, sz: float, a: float) -> tuple[floa
     w2 = float(np.hypot(re2, im))
     j2 = np.array([[re2 / (2 * np.pi * w2), im / (2 * np.pi * w2)], [-im * im / w2**3, re2 * im / w2**3]])
     c2 = j2 @ cov @ j2.T
-    return w2 / (2 * np.pi), -re2 / w2, float(np.sqrt(max(c2[0, 0], 0.0))), float(np.sqrt(max(c2[1, 1], 0.0)))
+    fn, zn = remove_decay([f], [z], a)
+    return float(fn[0]), float(zn[0]), float(np.sqrt(max(c2[0, 0], 0.0))), float(np.sqrt(max(c2[1, 1], 0.0)))
 
 
 def remove_window_damping(ident: Any, data: FRFData) -> Any:
@@ -159,4 +190,4 @@ def remove_window_damping(ident: Any, data: FRFData) -> Any:
                    damping_ratio_std=np.asarray(sz2, dtype=np.float64), warnings=tuple(warnings), notes=notes)
 
 
-__all__ = ["DROP_SIGMAS", "processing_band", "remove_window_damping"]
+__all__ = ["DROP_SIGMAS", "processing_band", "remove_decay", "remove_window_damping"]
