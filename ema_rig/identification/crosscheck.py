@@ -19,8 +19,9 @@ output/reference channel is handed to it as one "location". Only its public API 
 (``Model.get_poles``, then ``Model.all_poles`` / ``pole_freq`` / ``pole_xi``, one array per
 order): its stability test exists only as the private ``stabilization._stabilization`` or inside
 ``select_closest_poles``, whose fixed 2 Hz search window mixes modes closer than that. The same
-test is applied here: a pole is stable when the previous order has one within 1 % in frequency
-and 5 % in damping (sdypy-EMA's defaults) and its damping is positive. For each mode of ema_rig
+test is applied here, as sdypy-EMA applies it: a pole is stable when the previous order has a
+pole within 1 % in frequency and a pole within 5 % in damping (sdypy-EMA's defaults; not
+necessarily the same pole) and its damping is positive. For each mode of ema_rig
 the stable poles within ``tol`` (relative) are collected over all orders: their median frequency
 and damping are sdypy-EMA's estimate and their standard deviation over the orders (ddof 1) its
 sigma (the only spread sdypy-EMA offers; it is an order spread, not a noise-based uncertainty).
@@ -219,7 +220,8 @@ def _stable_poles(pole_freq: list[Any], pole_xi: list[Any]) -> tuple[np.ndarray,
             with np.errstate(divide="ignore", invalid="ignore"):
                 df = np.abs(f[:, None] - prev_f[None, :]) / prev_f[None, :]
                 dz = np.abs(z[:, None] - prev_z[None, :]) / prev_z[None, :]
-            st = np.any((df < STABLE_FREQ_TOL) & (dz < STABLE_DAMPING_TOL), axis=1)
+            # as sdypy-EMA tests them: frequency and damping each against any pole of the previous order
+            st = np.any(df < STABLE_FREQ_TOL, axis=1) & np.any(dz < STABLE_DAMPING_TOL, axis=1)
             fs.append(f[st])
             zs.append(z[st])
             ks.append(np.full(int(st.sum()), k))
