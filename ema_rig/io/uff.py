@@ -391,7 +391,10 @@ def read_uff58(
         ``meta``: ``source`` (path), ``datasets`` (indices used), ``coherence_datasets``,
         ``unit_decisions`` (one str per dataset used), ``sign_flips``, ``ignored_channels``,
         ``ignored_datasets``, ``notes``, ``warnings`` (one-line strings: coherence clipped ...),
-        ``ids`` (id lines per dataset index), ``rig`` (rig file path or None).
+        ``ids`` (id lines per dataset index), ``rig`` (rig file path or None), and
+        ``processing`` (:class:`~ema_rig.processing.ProcessingHistory` from the datasets 1858
+        before the FRFs, present only when every FRF has the same one; its ``n_averages`` fills
+        ``n_averages`` when no id line gives it).
 
     Raises
     ------
