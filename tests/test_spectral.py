@@ -265,12 +265,14 @@ def test_cli_frf_writes_frf_and_coherence(tmp_path: Path, capsys):
     np.testing.assert_allclose(data.frf[0, 0], want, **tol)
     np.testing.assert_allclose(data.frf[1, 0], 2.0 * want, **tol)  # 3-Z flipped into 3+Z
     records = read_uff(out).records
-    assert [r.function_type for r in records] == [4, 4, 6, 6]
+    # every dataset 58 follows its dataset 1858 (processing history, issue 18)
+    assert [r.type for r in records] == [1858, 58] * 4
+    assert [r.function_type for r in records if r.type == 58] == [4, 4, 6, 6]
     # coherence of four noise-free blows: 1 (to rounding), read back by pyuff as well
     import pyuff
 
     sets = pyuff.UFF(str(out)).read_sets()
-    cohs = [s for s in sets if s["func_type"] == 6]
+    cohs = [s for s in sets if s["type"] == 58 and s["func_type"] == 6]
     assert len(cohs) == 2
     np.testing.assert_allclose(cohs[0]["data"], 1.0, atol=1e-9)
     np.testing.assert_allclose(cohs[0]["x"], data.freq, rtol=1e-9)

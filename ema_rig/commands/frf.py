@@ -10,6 +10,10 @@ FRF dataset (function type 4) per (response, force) pair followed by one coheren
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
+from typing import Any
+
+from ..processing import ANTI_ALIAS_FRACTION
 
 _IMPULSIVE_CREST = 8.0
 
@@ -47,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
 
     from .._atomic import atomic_path
     from ..errors import IdentificationWarning, UFFError, UnitWarning
+    from ..io import _uff_1858
     from ..io._uff58_coherence import coherence_bytes
     from ..io._uff_write import date_id
     from ..io.time_data import read_time_uff
@@ -77,13 +82,17 @@ def run(args: argparse.Namespace) -> int:
         raise UFFError(str(exc), file=args.file) from None
     data = est.frf
     date = date_id()
+    # issue 18: the processing history travels with the FRFs as dataset 1858 (one before each 58)
+    history = _history(est, td.fs)
+    n_frf = data.n_out * data.n_in
     coh = b"".join(
-        coherence_bytes(data.freq, est.coherence[i, j], response=o, reference=q,
-                        ids=(f"{o} / {q} coherence", "ema_rig", date, f"averages: {est.n_averages}", "NONE"))
+        _uff_1858.dataset_bytes(history, record=n_frf + 1 + i * data.n_in + j)
+        + coherence_bytes(data.freq, est.coherence[i, j], response=o, reference=q,
+                          ids=(f"{o} / {q} coherence", "ema_rig", date, f"averages: {est.n_averages}", "NONE"))
         for i, o in enumerate(data.out_dofs) for j, q in enumerate(data.in_dofs)
     )
     with atomic_path(args.output) as tmp:
-        write_uff58(tmp, data, binary=args.binary, rig=rig)
+        write_uff58(tmp, data, binary=args.binary, rig=rig, history=history)
         with open(tmp, "ab") as fh:
             fh.write(coh)
     print(f"file   {args.file}: {td!r}")
@@ -101,5 +110,22 @@ def run(args: argparse.Namespace) -> int:
                       f"as SI ({data.unit_str} written)", UnitWarning, stacklevel=1)
     for w in est.warnings:
         warnings.warn(f"{args.file}: {w}", IdentificationWarning, stacklevel=1)
+    print(f"band   usable up to {history.band[1]:g} Hz ({ANTI_ALIAS_FRACTION:g} x fs/2, the anti-alias limit), "
+          "written with the window and averaging as dataset 1858 (ema-rig modes stays in that band and removes "
+          "an exponential window's damping)")
     print(f"wrote {args.output}")
     return 0
+
+
+def _history(est: Any, fs: float) -> Any:
+    """The :class:`~ema_rig.processing.ProcessingHistory` of an estimate (band: up to the anti-alias limit)."""
+    from ..processing import ProcessingHistory, usable_band, window_code
+
+    h = ProcessingHistory(
+        window=est.window, window_code=window_code(est.window), exp_decay=float(est.added_damping),
+        n_samples=int(est.segment), n_averages=int(est.n_averages), overlap=float(est.overlap),
+        estimator=est.estimator, fs=float(fs), source="ema_rig frf",
+    )
+    hi = usable_band(h)
+    assert hi is not None  # fs is known
+    return replace(h, band=(float(est.frf.freq[0]), min(hi, float(est.frf.freq[-1]))))

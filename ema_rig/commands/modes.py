@@ -99,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
                 "chi2_red": float(ref.chi2_red), "n_iter": int(ref.n_iter),
             },
             "selection": ident.selection.to_dict(),
+            "processing": _processing(data),  # issue 18: window, averages, usable band (dataset 1858)
         }
         write_json(args.json, doc)
         print(f"wrote {args.json}")
@@ -137,3 +138,11 @@ def run(args: argparse.Namespace) -> int:
         ident.selection.to_json(args.save_selection)
         print(f"wrote {args.save_selection}")
     return 0
+
+
+def _processing(data: object) -> dict[str, object] | None:
+    """The data's processing history as JSON (None when the file records none)."""
+    from ..processing import processing_history
+
+    hist = processing_history(data)
+    return None if hist is None else hist.to_dict()

@@ -41,6 +41,7 @@ from .stabilization import (
     resolve_selection,
     stabilize,
 )
+from .window_damping import processing_band, remove_window_damping
 
 #: Median synthesis error above which an identification is flagged as a poor fit.
 POOR_FIT = 0.20
@@ -346,7 +347,9 @@ def identify(
         band = selection.band if band is None else band
         max_order = selection.max_order if max_order is None and selection.max_order >= 1 else max_order
     src = source_of(data)
+    band, hist_notes = processing_band(data, band)  # issue 18: the usable (anti-alias) band
     band, notes = _clip_band(data, band)
+    notes = hist_notes + notes
     data = check_data(data, band)
     # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result
     warnings: list[str] = [f"data: {w}" for w in data.meta.get("warnings", ()) if isinstance(w, str)]
@@ -486,7 +489,7 @@ def identify(
     # ---- optional maximum-likelihood refinement (issue 10) ----
     if refine:
         ident = _refined(ident, data)
-    return ident
+    return remove_window_damping(ident, data)  # issue 18: an exponential window's damping
 
 
 def _refined(ident: Identification, data: FRFData) -> Identification:

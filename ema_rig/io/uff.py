@@ -55,7 +55,8 @@ from ..config import RigConfig
 from ..dof import DOF
 from ..errors import UFFError, UnitWarning
 from ..frf import FRFData
-from . import _uff_coherence, _uff_parse, _uff_units, _uff_write
+from ..processing import ProcessingHistory
+from . import _uff_1858, _uff_coherence, _uff_parse, _uff_units, _uff_write
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -390,7 +391,10 @@ def read_uff58(
         ``meta``: ``source`` (path), ``datasets`` (indices used), ``coherence_datasets``,
         ``unit_decisions`` (one str per dataset used), ``sign_flips``, ``ignored_channels``,
         ``ignored_datasets``, ``notes``, ``warnings`` (one-line strings: coherence clipped ...),
-        ``ids`` (id lines per dataset index), ``rig`` (rig file path or None).
+        ``ids`` (id lines per dataset index), ``rig`` (rig file path or None), and
+        ``processing`` (:class:`~ema_rig.processing.ProcessingHistory` from the datasets 1858
+        before the FRFs, present only when every FRF has the same one; its ``n_averages`` fills
+        ``n_averages`` when no id line gives it).
 
     Raises
     ------
@@ -605,7 +609,16 @@ def read_uff58(
                          if r.index not in attached]
     n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
     notes += list(coh.notes) + ([avg_note] if avg_note else [])
-    meta = {
+    # ---- processing history from datasets 1858 (issue 18; see _uff_1858) ----
+    q_pairs, q_notes = _uff_1858.qualify(uf.records)
+    history, h_notes, h_warnings = _uff_1858.combine(q_pairs, sorted(used_idx))
+    q_used = {q for q, _ in q_pairs.values()}
+    ignored_datasets = [s for s in ignored_datasets if not any(s.startswith(f"dataset {q}:") for q in q_used)]
+    notes += q_notes + h_notes
+    if history is not None and n_avg is None:
+        n_avg = history.n_averages
+    # ---- end processing history ----
+    meta: dict[str, Any] = {
         "source": src,
         "datasets": sorted(used_idx),
         "coherence_datasets": list(coh.datasets),
@@ -614,10 +627,12 @@ def read_uff58(
         "ignored_channels": ignored_channels,
         "ignored_datasets": ignored_datasets,
         "notes": notes,
-        "warnings": list(coh.warnings),
+        "warnings": list(coh.warnings) + h_warnings,
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
+    if history is not None:
+        meta["processing"] = history  # issue 18: window, averaging, band (dataset 1858)
     frf.setflags(write=False)  # built here and frozen: FRFData keeps it without a copy
     try:
         return FRFData(
@@ -650,6 +665,7 @@ def write_uff58(
     accel_unit: str = "m/s^2",
     rig: RigConfig | None = None,
     abscissa: str = "auto",
+    history: ProcessingHistory | None = None,
 ) -> None:
     """Write FRFs as UFF dataset 58 (ASCII) or 58b (binary), one dataset per (output, input).
 
@@ -675,6 +691,9 @@ def write_uff58(
         are equally spaced and, in binary, the header's 13-column fields reproduce the axis to
         1e-12 (else the explicit float64 abscissa is stored); in ASCII an even axis is always
         written even (the uneven ASCII abscissa, E13.5, has fewer digits than the header).
+    history : ProcessingHistory, optional
+        How the FRFs were estimated (window, exponential decay, averaging, band): written as a
+        dataset 1858 before every dataset 58 and read back into ``meta["processing"]``.
 
     Raises
     ------
@@ -731,6 +750,8 @@ def write_uff58(
             if scale != 1.0:
                 y = y * scale
             ids = (f"{o_w} / {q_w} {data.frf_form}", "ema_rig", date, "NONE", "NONE")
+            if history is not None:  # issue 18: dataset 1858 qualifies the dataset 58 after it
+                chunks.append(_uff_1858.dataset_bytes(history, record=len(chunks) // 2 + 1))
             chunks.append(
                 _uff_write.dataset_bytes(
                     x=freq, y=y, even=even, binary=binary, double=double, response=o_w, reference=q_w,
