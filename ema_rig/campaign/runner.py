@@ -353,10 +353,48 @@ def run(
     if out_dir is None:
         return _run(cfg, None, jobs, executor, force, progress, report)
     out = Path(out_dir)
+    check_out_folder(cfg, out)
     with _atomic.folder_lock(out):
         for folder in (out, out / "results"):
             _atomic.remove_temporaries(folder)
         return _run(cfg, out, jobs, executor, force, progress, report)
+
+
+def check_out_folder(cfg: CampaignConfig, out: Path) -> None:
+    """Refuse an output folder where the run would write over one of the campaign's inputs.
+
+    The inputs (campaign file, rig file, calibration, every measurement file) are compared with
+    every file the run writes (same inode or same resolved path), and none may be a figure
+    (``*.png``) directly in the folder or lie in its ``results/`` or ``measurements/`` folders
+    (files there are replaced or removed as stale).
+
+    Raises
+    ------
+    OutputIsInputError
+        Naming the output and the input it would overwrite.
+    """
+    from .drilldown import KINDS
+    from .outputs import _MANIFEST, MEASUREMENT_DIR
+
+    inputs = [("campaign file", cfg.path), ("rig", cfg.rig_file), ("calibration", cfg.calibration)]
+    inputs += [(f"measurement {m.id!r}", m.file) for m in cfg.measurements]
+    outputs: list[tuple[str, Any]] = [(n, out / n) for n in ("campaign.csv", "settings.json", "report.html",
+                                                              _MANIFEST, ".ema-rig.lock")]
+    outputs.append(("calibration result", out / "results" / f"{CALIBRATION_NAME}.json"))
+    for m in cfg.measurements:
+        outputs.append((f"result of {m.id!r}", out / "results" / f"{m.id}.json"))
+        outputs += [(f"figure of {m.id!r}", out / MEASUREMENT_DIR / f"{m.id}.{k}.png") for k in KINDS]
+    _atomic.check_outputs(inputs, outputs)
+    home = Path(os.path.realpath(out))
+    for label, path in inputs:
+        if path is None:
+            continue
+        real = Path(os.path.realpath(path))
+        if (real.parent == home and real.suffix.lower() == ".png") or real.parent in (
+                home / "results", home / MEASUREMENT_DIR):
+            raise _atomic.OutputIsInputError(
+                f"output folder holds the input {label} ({path}) where the campaign writes and removes its "
+                "own files; choose another output folder", file=out)
 
 
 def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
@@ -532,5 +570,5 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
     return lambda n: None
 
 
-__all__ = ["CALIBRATION_NAME", "MeasurementTask", "file_digest", "make_pool", "process_measurement", "run",
+__all__ = ["CALIBRATION_NAME", "MeasurementTask", "check_out_folder", "file_digest", "make_pool", "process_measurement", "run",
            "task_key"]
