@@ -30,6 +30,8 @@ from .errors import EmaRigError
 _TEMP_NAME = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp(\.[^.]*)?$")
 #: Files of this process to remove if it is told to stop (temporaries, held lock files): path -> pid.
 _ACTIVE: dict[str, int] = {}
+#: Descriptors of the folder locks this process holds (a forked worker must close its copies).
+_LOCK_FDS: set[int] = set()
 
 
 def _track(path: Path) -> None:
@@ -170,9 +172,11 @@ def folder_lock(folder: str | PathLike[str], name: str = ".ema-rig.lock") -> Ite
             os.ftruncate(fd, 0)
             os.write(fd, f"{os.getpid()}\n".encode("ascii"))
             _track(lock)
+            _LOCK_FDS.add(fd)
             try:
                 yield lock
             finally:
+                _LOCK_FDS.discard(fd)
                 _untrack(lock)
                 if _same_file(fd, lock):
                     lock.unlink(missing_ok=True)  # still holding the lock: no other run uses this file
@@ -180,6 +184,20 @@ def folder_lock(folder: str | PathLike[str], name: str = ".ema-rig.lock") -> Ite
         finally:
             os.close(fd)  # closing the descriptor releases the lock
     raise FolderBusyError("output folder's lock file keeps changing; is another program removing it?", file=d)
+
+
+def close_inherited_locks() -> None:
+    """In a forked child: close the copies of the parent's lock descriptors.
+
+    ``flock`` belongs to the open file, which a fork shares: a pool worker that kept its copy
+    would hold the output folder locked after its parent was killed, until the worker died too.
+    """
+    for fd in list(_LOCK_FDS):
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+    _LOCK_FDS.clear()
 
 
 def _open_lock(lock: Path) -> int:
