@@ -260,7 +260,8 @@ def parse_disk(t: Mapping[str, Any], prefix: str, file: str | None) -> tuple[flo
     ``prefix`` is the key path of the table (``"calibration."`` in the rig file, ``""`` at the top
     of a campaign file), for the error messages.
     """
-    k_disk = toml_number(t["k_disk"], f"{prefix}k_disk", file, lo=0.0, lo_open=True) if "k_disk" in t else None
+    k_disk = (CONDITION_RANGES["k_disk"].check(toml_number(t["k_disk"], f"{prefix}k_disk", file, lo=0.0, lo_open=True),
+                                               f"{prefix}k_disk", file) if "k_disk" in t else None)
     std = None
     if "k_disk_std" in t:
         std = toml_number(t["k_disk_std"], f"{prefix}k_disk_std", file, lo=0.0)
@@ -315,7 +316,8 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
                 file=fname,
                 key=f"model.{k}",
             )
-    model = ModelParams(**{k: toml_number(m[k], f"model.{k}", fname, lo=0.0, lo_open=True) for k in MODEL_KEYS})
+    model = ModelParams(**{k: MODEL_RANGES[k[0]].check(toml_number(m[k], f"model.{k}", fname, lo=0.0, lo_open=True),
+                                                         f"model.{k}", fname) for k in MODEL_KEYS})
 
     ex = toml_table(doc, "excitation", fname, required=True)
     check_keys(ex, ("radial", "axial"), "excitation", fname)
@@ -521,6 +523,21 @@ class KeyRange:
         raise ConfigError(f"{v:g} is outside the plausible range {rng} ({self.source})", file=file, key=key)
 
 
+#: Plausible ranges of the rig model's masses (``m_*``) and stiffnesses (``k_*``): they refuse
+#: values that overflow or underflow the model's eigenproblems (1e-300 kg, 1e308 N/m).
+MODEL_RANGES: dict[str, KeyRange] = {
+    "m": KeyRange(1e-3, 1e6, "kg", "a gram (a sensor) to 1000 t (a machine foundation); the paper's "
+                  "rig: 2.566 kg housing, 205 kg frame"),
+    "k": KeyRange(1e1, 1e13, "N/m", "from a soft air spring (~1e3 N/m) to 1e13 N/m, 1000 times the stiffest "
+                  "rolling-bearing contacts (~1e10 N/m, Harris & Kotzalas); Table 1: 180e3 to 348e6"),
+}
+#: Plausible ranges of the measurement conditions of a campaign.
+CONDITION_RANGES: dict[str, KeyRange] = {
+    "radial_load": KeyRange(0.0, 1e8, "N", "above the static load ratings of the largest bearings (~1e7 N)"),
+    "speed": KeyRange(0.0, 1e6, "rpm", "above the fastest spindles (~3e5 rpm)"),
+    "k_disk": KeyRange(1e3, 1e15, "N/m", "a steel disk is far stiffer than the bearing it replaces "
+                       "(1e7-1e10 N/m)"),
+}
 #: Plausible ranges of the bearing geometry keys (SI), each with its source. They refuse typing
 #: slips (millimetres for metres, GPa for Pa) and values that would underflow or overflow the
 #: Hertz formulas (a clearance of 5e-324 m, a modulus of 1e308 Pa) when the campaign is loaded.
@@ -625,8 +642,10 @@ def check_hertz_curve(geometry: Any, loads: tuple[float, ...], where: str, file:
 
 __all__ = [
     "BEARING_GEOMETRY_KEYS",
+    "CONDITION_RANGES",
     "GEOMETRY_RANGES",
     "KeyRange",
+    "MODEL_RANGES",
     "MAX_TOML_BYTES",
     "MODEL_KEYS",
     "ModelParams",

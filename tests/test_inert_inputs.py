@@ -161,3 +161,30 @@ def test_k_tb_values_unchanged_by_inert_cells(small: Path) -> None:  # noqa: F81
     rows = list(csv.DictReader(io.StringIO(res.to_csv())))
     for r in rows:
         assert float(r["k_TB [N/m]"]) == pytest.approx(K_TB[r["id"]], rel=0.01)
+
+
+@pytest.mark.parametrize(("old", "new", "key"), [
+    ("m_H = 2.566", "m_H = 1e-300", "model.m_H"),
+    ("k_S = 348e6", "k_S = 1e308", "model.k_S"),
+    ("k_B = 180e3", "k_B = 5e-324", "model.k_B"),
+])
+def test_rig_model_range_checked_at_load(small: Path, tmp_path: Path, old: str, new: str, key: str) -> None:  # noqa: F811
+    from ema_rig.config import load_rig
+
+    d = _copy(small, tmp_path / "c")
+    text = (d / "rig.toml").read_text()
+    assert old in text
+    (d / "rig.toml").write_text(text.replace(old, new))
+    with pytest.raises(ConfigError) as info:
+        load_rig(d / "rig.toml")
+    assert str(info.value).startswith(str(d / "rig.toml")) and key in str(info.value) and "plausible" in str(info.value)
+
+
+@pytest.mark.parametrize(("field", "value"), [("radial_load", "1e308"), ("speed", "1e300")])
+def test_conditions_range_checked_at_load(small: Path, tmp_path: Path, field: str, value: str) -> None:  # noqa: F811
+    d = _copy(small, tmp_path / "c")
+    text = (d / "campaign.toml").read_text()
+    old = "radial_load = 200.0" if field == "radial_load" else "speed = 600.0"
+    (d / "campaign.toml").write_text(text.replace(old, f"{field} = {value}", 1))
+    with pytest.raises(ConfigError, match=rf"measurement\[0\]\.{field}.*plausible"):
+        load_campaign(d / "campaign.toml")

@@ -22,6 +22,7 @@ from typing import Any
 
 from ..config import (
     BEARING_GEOMETRY_KEYS,
+    CONDITION_RANGES,
     RigConfig,
     check_hertz_curve,
     check_keys,
@@ -381,7 +382,10 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
             raise ConfigError("must be a list of strings", file=fname, key=f"{where}.tags")
 
         def num(k: str, default: float, lo: float | None, w: str = where, mm: Mapping[str, Any] = m) -> float:
-            return toml_number(mm[k], f"{w}.{k}", fname, lo=lo) if k in mm else default
+            if k not in mm:
+                return default
+            v = toml_number(mm[k], f"{w}.{k}", fname, lo=lo)
+            return CONDITION_RANGES[k].check(v, f"{w}.{k}", fname) if k in CONDITION_RANGES else v
 
         meas.append(
             Measurement(
