@@ -250,3 +250,18 @@ def test_forked_child_never_removes_the_parents_temporaries(tmp_path: Path) -> N
         assert tmp.exists()
     assert (tmp_path / "x.png").read_bytes() == b"partial"
     time.sleep(0)
+
+
+@pytest.mark.parametrize("sub", ["results", "measurements"])
+def test_planted_subfolder_link_refused(sub: str, tmp_path: Path, rig_toml_text: str, capsys) -> None:
+    (tmp_path / "rig.toml").write_text(rig_toml_text)
+    campaign = tmp_path / "c.toml"
+    campaign.write_text('rig = "rig.toml"\n[[measurement]]\nfile = "m1.uff"\n')
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / sub).symlink_to(elsewhere)
+    assert main(["campaign", str(campaign), "-o", str(out)]) == EXIT_ERROR
+    assert _one_error_line(capsys).startswith(f"error: {out / sub}: is a symbolic link")
+    assert list(elsewhere.iterdir()) == [] and not (out / ".ema-rig.lock").exists()

@@ -364,6 +364,10 @@ def run(
     out = Path(out_dir)
     check_out_folder(cfg, out)
     with _atomic.folder_lock(out):
+        for sub in ("results", "measurements"):  # a planted link would send our writes elsewhere
+            if os.path.islink(out / sub):
+                raise EmaRigError("is a symbolic link; ema-rig writes its results only inside the output "
+                                  "folder: remove it", file=out / sub)
         for folder in (out, out / "results"):
             _atomic.remove_temporaries(folder)
         return _run(cfg, out, jobs, executor, force, progress, report)
