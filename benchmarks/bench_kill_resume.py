@@ -224,16 +224,26 @@ def main() -> int:
     ap.add_argument("--kills", type=int, default=10)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--keep", default=None, help="work in this folder and keep it")
+    ap.add_argument("--reuse-clean", action="store_true",
+                    help="with --keep: reuse the campaign and the clean run already there (their code must "
+                         "compute the same table) and start the killed run afresh")
     a = ap.parse_args()
     work = Path(a.keep) if a.keep else Path(tempfile.mkdtemp(prefix="ema-kill-"))
     work.mkdir(parents=True, exist_ok=True)
     try:
         t0 = time.perf_counter()
-        campaign = make_campaign(work, a.n)
-        print(f"{a.n} measurements written in {time.perf_counter() - t0:.1f} s", flush=True)
-        t0 = time.perf_counter()
-        clean = subprocess.run(_cmd(campaign, work / "clean", a.jobs), env=_env(), capture_output=True, text=True)
-        print(f"clean run: exit {clean.returncode} in {time.perf_counter() - t0:.1f} s", flush=True)
+        if a.reuse_clean and (work / "clean" / "campaign.csv").is_file():
+            campaign = work / "campaign.toml"
+            clean = subprocess.CompletedProcess([], 0)
+            shutil.rmtree(work / "killed", ignore_errors=True)
+            print("campaign and clean run reused", flush=True)
+        else:
+            campaign = make_campaign(work, a.n)
+            print(f"{a.n} measurements written in {time.perf_counter() - t0:.1f} s", flush=True)
+            t0 = time.perf_counter()
+            clean = subprocess.run(_cmd(campaign, work / "clean", a.jobs), env=_env(), capture_output=True,
+                                   text=True)
+            print(f"clean run: exit {clean.returncode} in {time.perf_counter() - t0:.1f} s", flush=True)
         res = killed_run(campaign, work / "killed", a.jobs, a.kills, a.n)
         diffs = compare(work / "clean", work / "killed")
         kills = [e for e in res["log"] if e.get("killed")]
@@ -253,6 +263,8 @@ def main() -> int:
         }
         for d in diffs[:10]:
             print("  diff:", d)
+        for rel in res["figures_rewritten_after_finishing"][:10]:
+            print("  figure written again after it was finished:", rel)
         print(json.dumps(summary, indent=1))
         ok = (len(kills) == a.kills and summary["orphans"] == 0 and summary["half_written_files"] == 0
               and not diffs and summary["final_exit"] == clean.returncode == 0 and not temps_end and not lock_end

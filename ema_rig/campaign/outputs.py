@@ -24,6 +24,7 @@ import json
 import logging
 from collections.abc import Mapping
 from concurrent.futures import Executor, Future, as_completed
+from contextlib import ExitStack
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -220,15 +221,20 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
 
     def write(m: Any, key: str, rels: Mapping[str, str], drawn: Any) -> None:
         folder.mkdir(exist_ok=True)
-        for k, png in drawn.png.items():
-            path = out / rels[k]
-            if path.parent != folder:  # ids are validated in the schema; never write elsewhere
-                raise OSError(f"{path}: measurement id is not a plain file name")
-            _atomic.write_bytes(path, png)
+        paths = {k: out / rels[k] for k in drawn.png}
+        if any(path.parent != folder for path in paths.values()):  # ids are validated in the schema
+            raise OSError(f"{out / rels[next(iter(rels))]}: measurement id is not a plain file name")
+        for k in rels:  # an older figure of this measurement must never pass for the new one
+            (out / rels[k]).unlink(missing_ok=True)
         for w in drawn.warnings:
             logger.warning("%s: %s", m.id, w)
-        keep(m, key, rels, list(drawn.png), list(drawn.warnings), list(drawn.candidates))
-        _record(out, previous, manifest)  # a kill from now on keeps these figures
+        with ExitStack() as renames:  # every figure complete beside its name, recorded, then renamed
+            for k, path in paths.items():
+                renames.enter_context(_atomic.atomic_path(path)).write_bytes(drawn.png[k])
+            keep(m, key, rels, list(drawn.png), list(drawn.warnings), list(drawn.candidates))
+            # recorded before the renames: a kill in between leaves these figures missing (drawn
+            # again), a kill after them keeps every one; none finished is ever drawn twice
+            _record(out, previous, manifest)
 
     by_id = {m.id: (m, key, rels) for m, _, key, rels, reuse in plan if not reuse}
     owner = {f: mid for mid, f in ahead.items() if mid in by_id}
