@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
+from test_campaign_faults import small  # noqa: F401 - the fixture
 
 from ema_rig import _atomic
 from ema_rig.cli import EXIT_ERROR, main
@@ -265,3 +266,15 @@ def test_planted_subfolder_link_refused(sub: str, tmp_path: Path, rig_toml_text:
     assert main(["campaign", str(campaign), "-o", str(out)]) == EXIT_ERROR
     assert _one_error_line(capsys).startswith(f"error: {out / sub}: is a symbolic link")
     assert list(elsewhere.iterdir()) == [] and not (out / ".ema-rig.lock").exists()
+
+
+def test_shapes_onto_an_input_refused(small: Path, tmp_path: Path, capsys) -> None:  # noqa: F811
+    # PREFIX_<n>.png is known once the modes are: checked after the identification, before any write
+    f = tmp_path / "s_1.png"  # a measurement whose name is the first shape's
+    f.write_bytes((small / "m1.uff").read_bytes())
+    before = f.read_bytes()
+    assert main(["modes", str(f), "--max-order", "16", "--shapes", str(tmp_path / "s"),
+                 "--json", str(tmp_path / "modes.json")]) == EXIT_ERROR
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith(f"error: {f}: --shapes would overwrite the input FILE"), line
+    assert f.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["s_1.png"]
