@@ -281,15 +281,17 @@ def removing_temporaries_on_signal() -> Iterator[None]:
 
     SIGTERM and SIGHUP then end the process by the same signal (exit status 128 + signal);
     SIGINT raises :class:`KeyboardInterrupt`. The previous handlers are restored on exit. Does
-    nothing outside the main thread (only it may set signal handlers).
+    nothing outside the main thread (only it may set signal handlers); a signal that is ignored
+    when the block starts (``nohup``) stays ignored.
     """
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = {s: signal.getsignal(s) for s in _SIGNALS}
-    for s in _SIGNALS:
+    # a signal the caller ignores (nohup: SIGHUP; a background job: SIGINT) stays ignored
+    old = {s: h for s in _SIGNALS if (h := signal.getsignal(s)) is not signal.SIG_IGN}
+    for s in old:
         signal.signal(s, _on_signal)
     try:
         yield

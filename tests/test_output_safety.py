@@ -278,3 +278,15 @@ def test_shapes_onto_an_input_refused(small: Path, tmp_path: Path, capsys) -> No
     line = capsys.readouterr().err.strip().splitlines()[-1]
     assert line.startswith(f"error: {f}: --shapes would overwrite the input FILE"), line
     assert f.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["s_1.png"]
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+def test_ignored_signals_stay_ignored() -> None:
+    old = signal.signal(signal.SIGHUP, signal.SIG_IGN)  # as under nohup
+    try:
+        with _atomic.removing_temporaries_on_signal():
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            assert signal.getsignal(signal.SIGTERM) is _atomic._on_signal
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, old)
