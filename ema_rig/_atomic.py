@@ -3,7 +3,10 @@
 A crash or an error half-way never leaves a half-written output file. An OS error (disk full,
 permission denied) names the output file, not the temporary one. Temporary files left by a
 killed process are recognised by their name and removed by :func:`remove_temporaries`;
-:func:`folder_lock` keeps a second run out of an output folder in use.
+:func:`folder_lock` keeps a second run out of an output folder in use. While a command runs
+under :func:`removing_temporaries_on_signal`, SIGTERM, SIGHUP and SIGINT remove the temporary
+files (and the lock file) of this process before it dies. :func:`check_outputs` refuses an
+output that is one of the inputs before anything is written.
 """
 
 from __future__ import annotations
@@ -11,9 +14,11 @@ from __future__ import annotations
 import json
 import os
 import re
+import signal
+import stat
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from os import PathLike
 from pathlib import Path
@@ -23,6 +28,42 @@ from .errors import EmaRigError
 
 #: Name of a temporary file made by :func:`atomic_path`: ``.<target>.<8 random>.tmp<suffix>``.
 _TEMP_NAME = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp(\.[^.]*)?$")
+#: Files of this process to remove if it is told to stop (temporaries, held lock files): path -> pid.
+_ACTIVE: dict[str, int] = {}
+#: Descriptors of the folder locks this process holds (a forked worker must close its copies).
+_LOCK_FDS: set[int] = set()
+
+
+def _track(path: Path) -> None:
+    _ACTIVE[os.fspath(path)] = os.getpid()
+
+
+def _untrack(path: Path) -> None:
+    _ACTIVE.pop(os.fspath(path), None)
+
+
+def make_folder(folder: str | PathLike[str]) -> Path:
+    """Create ``folder`` (and its parents) unless it exists; an error says what is in the way.
+
+    Raises
+    ------
+    OSError
+        Naming the folder: a dangling symbolic link ("a symbolic link to the missing ..."), a file
+        in the way, or the operating system's reason (permission ...).
+    """
+    d = Path(folder)
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError) as exc:
+        bad = next((p for p in (d, *d.parents) if os.path.lexists(p) and not p.is_dir()), d)
+        if bad.is_symlink():
+            why = f"{bad} is a symbolic link to the missing {os.readlink(bad)}: remove it or create its target"
+        else:
+            why = "a file is in the way"
+        raise OSError(exc.errno, f"cannot create the folder {d} ({why})", str(d)) from None
+    except OSError as exc:
+        raise _about(exc, d, f"cannot create the folder {d} ({exc.strerror or exc})") from exc
+    return d
 
 
 @contextmanager
@@ -35,16 +76,16 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
     """
     target = Path(path)
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
+        make_folder(target.parent)
     except OSError as exc:
-        why = "a file is in the way" if isinstance(exc, (FileExistsError, NotADirectoryError)) else exc.strerror
-        raise _about(exc, target, f"cannot create the folder {target.parent} ({why or exc})") from exc
+        raise OSError(exc.errno, exc.strerror, str(target)) from None
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}", dir=target.parent)
     except OSError as exc:
         raise _about(exc, target, exc.strerror or str(exc)) from exc
-    os.close(fd)
     tmp_path = Path(tmp)
+    _track(tmp_path)  # removed by the signal handler if the process is told to stop meanwhile
+    os.close(fd)
     try:
         os.chmod(tmp_path, 0o644)  # mkstemp makes 0600; outputs are ordinary readable files
         yield tmp_path
@@ -57,6 +98,8 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
+    finally:
+        _untrack(tmp_path)
 
 
 def _about(exc: OSError, target: Path, text: str) -> OSError:
@@ -96,39 +139,98 @@ def folder_lock(folder: str | PathLike[str], name: str = ".ema-rig.lock") -> Ite
 
     The lock is an OS file lock on ``folder/name`` (``flock`` on POSIX, ``msvcrt.locking`` on
     Windows): the OS releases it when the process dies, even by ``kill -9``, so a crashed run never
-    leaves the folder locked. The lock file stays (deleting it would race with a waiting run).
+    leaves the folder locked. The lock file is opened without following a symbolic link and
+    without blocking (``O_NOFOLLOW | O_NONBLOCK``) and used only when it is a regular file with one
+    link, so a planted link, FIFO or hard link is refused and its target is never touched. It is
+    removed when the block ends (a run that waited on the removed file sees that and tries again).
 
     Raises
     ------
     FolderBusyError
         When another process (or another run in this process) holds the lock; the message
         names the folder and the holder's process id.
+    EmaRigError
+        When ``folder/name`` exists but is not a regular file of its own (naming it).
     """
-    d = Path(folder)
-    try:
-        d.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise _about(exc, d, exc.strerror or str(exc)) from exc
-    try:
-        fd = os.open(d / name, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise _about(exc, d / name, exc.strerror or str(exc)) from exc
-    try:
+    d = make_folder(folder)
+    lock = d / name
+    for _ in range(100):  # a run that finished removed the file we opened: open the new one
+        fd = _open_lock(lock)
         try:
-            _lock_fd(fd)
+            try:
+                _lock_fd(fd)
+            except OSError:
+                holder = os.pread(fd, 64, 0).decode("ascii", "replace").strip() if hasattr(os, "pread") else ""
+                raise FolderBusyError(
+                    "output folder is in use by another ema-rig run"
+                    + (f" (process {holder})" if holder.isdigit() else "")
+                    + "; wait for it to finish or choose another output folder",
+                    file=d,
+                ) from None
+            if not _same_file(fd, lock):
+                continue  # removed (and maybe made again) by the run that held it
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+            _track(lock)
+            _LOCK_FDS.add(fd)
+            try:
+                yield lock
+            finally:
+                _LOCK_FDS.discard(fd)
+                _untrack(lock)
+                if _same_file(fd, lock):
+                    lock.unlink(missing_ok=True)  # still holding the lock: no other run uses this file
+            return
+        finally:
+            os.close(fd)  # closing the descriptor releases the lock
+    raise FolderBusyError("output folder's lock file keeps changing; is another program removing it?", file=d)
+
+
+def close_inherited_locks() -> None:
+    """In a forked child: close the copies of the parent's lock descriptors.
+
+    ``flock`` belongs to the open file, which a fork shares: a pool worker that kept its copy
+    would hold the output folder locked after its parent was killed, until the worker died too.
+    """
+    for fd in list(_LOCK_FDS):
+        try:
+            os.close(fd)
         except OSError:
-            holder = os.pread(fd, 64, 0).decode("ascii", "replace").strip() if hasattr(os, "pread") else ""
-            raise FolderBusyError(
-                "output folder is in use by another ema-rig run"
-                + (f" (process {holder})" if holder.isdigit() else "")
-                + "; wait for it to finish or choose another output folder",
-                file=d,
-            ) from None
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode("ascii"))
-        yield d / name
-    finally:
-        os.close(fd)  # closing the descriptor releases the lock
+            pass
+    _LOCK_FDS.clear()
+
+
+def _open_lock(lock: Path) -> int:
+    """Open (or create) the lock file; refuse anything but a regular file with one link."""
+    flags = (os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+             | getattr(os, "O_CLOEXEC", 0))
+    planted = "ema-rig's lock must be a regular file it makes itself; remove it"
+    try:
+        fd = os.open(lock, flags, 0o644)
+    except OSError as exc:
+        if os.path.islink(lock):
+            target = os.readlink(lock)
+            missing = "" if os.path.exists(lock) else "missing "
+            raise EmaRigError(f"is a symbolic link (to the {missing}{target}), not ema-rig's lock file; "
+                              f"{planted}", file=lock) from None
+        raise _about(exc, lock, exc.strerror or str(exc)) from exc
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+        os.close(fd)
+        what = ("a hard link to another file" if stat.S_ISREG(st.st_mode)
+                else "a FIFO" if stat.S_ISFIFO(st.st_mode) else "not a regular file")
+        raise EmaRigError(f"is {what}, not ema-rig's lock file; {planted}", file=lock)
+    return fd
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    """True when ``path`` (not followed) is still the file open as ``fd``."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    own = os.fstat(fd)
+    return (st.st_dev, st.st_ino) == (own.st_dev, own.st_ino)
 
 
 def _lock_fd(fd: int) -> None:
@@ -140,6 +242,113 @@ def _lock_fd(fd: int) -> None:
         import fcntl
 
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP", "SIGINT") if hasattr(signal, n))
+
+
+def remove_active_files() -> list[str]:
+    """Remove the temporary files (and lock files) this process is writing or holding now.
+
+    Only the entries made by this very process are removed: a forked worker inherits the
+    parent's list but must never remove the parent's files.
+    """
+    pid = os.getpid()
+    gone = []
+    for path, owner in list(_ACTIVE.items()):
+        if owner == pid:
+            try:
+                os.unlink(path)
+                gone.append(path)
+            except OSError:
+                pass
+            _ACTIVE.pop(path, None)
+    return gone
+
+
+def _on_signal(signum: int, frame: Any) -> None:
+    """Remove this process's temporaries, then die of the signal as if unhandled."""
+    remove_active_files()
+    if signum == getattr(signal, "SIGINT", None):
+        raise KeyboardInterrupt  # the command's own clean-up runs; exit code 130
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)  # the conventional exit status (128 + signum) for the caller
+
+
+@contextmanager
+def removing_temporaries_on_signal() -> Iterator[None]:
+    """Within the block, SIGTERM/SIGHUP/SIGINT first remove this process's temporary files.
+
+    SIGTERM and SIGHUP then end the process by the same signal (exit status 128 + signal);
+    SIGINT raises :class:`KeyboardInterrupt`. The previous handlers are restored on exit. Does
+    nothing outside the main thread (only it may set signal handlers); a signal that is ignored
+    when the block starts (``nohup``) stays ignored.
+    """
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    # a signal the caller ignores (nohup: SIGHUP; a background job: SIGINT) stays ignored
+    old = {s: h for s in _SIGNALS if (h := signal.getsignal(s)) is not signal.SIG_IGN}
+    for s in old:
+        signal.signal(s, _on_signal)
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h if h is not None else signal.SIG_DFL)
+
+
+class OutputIsInputError(EmaRigError):
+    """An output file of a command is one of its inputs, or two outputs are one file."""
+
+
+def _identities(path: str | PathLike[str]) -> set[tuple[Any, ...]]:
+    """The resolved absolute path of a file and, when it exists, its (device, inode)."""
+    ids: set[tuple[Any, ...]] = {("path", os.path.realpath(os.path.abspath(os.fspath(path))))}
+    try:
+        st = os.stat(path)
+        ids.add(("inode", st.st_dev, st.st_ino))
+    except OSError:
+        pass
+    return ids
+
+
+def check_outputs(inputs: Mapping[str, str | PathLike[str] | None] | Iterable[tuple[str, Any]],
+                  outputs: Mapping[str, str | PathLike[str] | None] | Iterable[tuple[str, Any]]) -> None:
+    """Refuse, before anything is written, an output that is an input or another output.
+
+    Two paths are the same file when they name the same inode (hard links, symbolic links,
+    ``./x`` and ``x``) or, for an output not yet made, the same path once resolved.
+
+    Parameters
+    ----------
+    inputs, outputs : mapping or iterable of (label, path)
+        ``label`` names the option in the message (``"FILE"``, ``"--json"``); None paths are skipped.
+
+    Raises
+    ------
+    OutputIsInputError
+        Naming the output file and what it collides with.
+    """
+    ins = [(k, v) for k, v in (inputs.items() if isinstance(inputs, Mapping) else inputs) if v is not None]
+    outs = [(k, v) for k, v in (outputs.items() if isinstance(outputs, Mapping) else outputs) if v is not None]
+    seen: dict[tuple[Any, ...], tuple[str, Any, str]] = {}
+    for label, path in ins:
+        for ident in _identities(path):
+            seen.setdefault(ident, (label, path, "input"))
+    for label, path in outs:
+        idents = _identities(path)
+        hit = next((seen[i] for i in idents if i in seen), None)
+        if hit is not None:
+            other, opath, kind = hit
+            if kind == "input":
+                raise OutputIsInputError(f"{label} would overwrite the input {other} ({opath}); "
+                                         "refusing to write over an input: choose another output file", file=path)
+            raise OutputIsInputError(f"{label} and {other} are the same output file; give each its own",
+                                     file=path)
+        seen.update({i: (label, path, "output") for i in idents})
 
 
 def write_text(path: str | PathLike[str], text: str) -> None:

@@ -19,6 +19,7 @@ import importlib
 import sys
 import warnings
 from collections.abc import Sequence
+from typing import Any
 
 EXIT_OK = 0
 EXIT_ERROR = 1
@@ -66,8 +67,26 @@ def build_parser() -> argparse.ArgumentParser:
         mod = importlib.import_module(f"ema_rig.commands.{name}")
         p = sub.add_parser(name, help=help_text, description=(mod.__doc__ or help_text).strip().splitlines()[0])
         mod.add_arguments(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(_run=mod.run, _io=getattr(mod, "io_paths", None))
     return parser
+
+
+class _InertStream:
+    """A text stream that escapes control and bidirectional characters on their way to the terminal.
+
+    Newlines, tabs and carriage returns (progress bars) pass; everything else is delegated.
+    """
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        from ._text import inert
+
+        return int(self._stream.write(inert(text, keep="\n\t\r")))
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
@@ -96,8 +115,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``ema-rig`` with ``argv`` (default ``sys.argv[1:]``) and return the exit code.
 
     Every error line names a file: the one the error carries, else the command's input
-    (``FILE``, ``CAMPAIGN.toml``, or the output of ``simulate`` / ``demo``).
+    (``FILE``, ``CAMPAIGN.toml``, or the output of ``simulate`` / ``demo``). Everything printed
+    has its control and bidirectional characters escaped (names read from files stay inert on the
+    terminal); an output that is one of the command's inputs is refused before anything is
+    written; SIGTERM, SIGHUP and Ctrl-C remove the temporary files being written.
     """
+    out, err = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = _InertStream(out), _InertStream(err)
+    try:
+        return _main(argv)
+    finally:
+        sys.stdout, sys.stderr = out, err
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    from . import _atomic
     from .errors import EmaRigError
 
     parser = build_parser()
@@ -109,7 +141,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         with warnings.catch_warnings():
             # user-facing warnings as one line each, no source line (restored on exit)
             warnings.showwarning = _show_warning
-            return int(args._run(args))
+            if args._io is not None:
+                _atomic.check_outputs(*args._io(args))
+            with _atomic.removing_temporaries_on_signal():
+                return int(args._run(args))
     except EmaRigError as exc:
         # str(exc) starts with the error's own file when it has one
         print(_error_line(None if exc.file else _subject(args), str(exc)), file=sys.stderr)

@@ -260,7 +260,8 @@ def parse_disk(t: Mapping[str, Any], prefix: str, file: str | None) -> tuple[flo
     ``prefix`` is the key path of the table (``"calibration."`` in the rig file, ``""`` at the top
     of a campaign file), for the error messages.
     """
-    k_disk = toml_number(t["k_disk"], f"{prefix}k_disk", file, lo=0.0, lo_open=True) if "k_disk" in t else None
+    k_disk = (CONDITION_RANGES["k_disk"].check(toml_number(t["k_disk"], f"{prefix}k_disk", file, lo=0.0, lo_open=True),
+                                               f"{prefix}k_disk", file) if "k_disk" in t else None)
     std = None
     if "k_disk_std" in t:
         std = toml_number(t["k_disk_std"], f"{prefix}k_disk_std", file, lo=0.0)
@@ -315,7 +316,8 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
                 file=fname,
                 key=f"model.{k}",
             )
-    model = ModelParams(**{k: toml_number(m[k], f"model.{k}", fname, lo=0.0, lo_open=True) for k in MODEL_KEYS})
+    model = ModelParams(**{k: MODEL_RANGES[k[0]].check(toml_number(m[k], f"model.{k}", fname, lo=0.0, lo_open=True),
+                                                         f"model.{k}", fname) for k in MODEL_KEYS})
 
     ex = toml_table(doc, "excitation", fname, required=True)
     check_keys(ex, ("radial", "axial"), "excitation", fname)
@@ -497,8 +499,67 @@ BEARING_GEOMETRY_KEYS: tuple[str, ...] = (
     "youngs_modulus", "poisson_ratio", "ball_youngs_modulus", "ball_poisson_ratio",
 )
 _GEOMETRY_REQUIRED = ("n_balls", "ball_diameter", "pitch_diameter")
-#: Upper bounds [m] that catch a length typed in millimetres (the largest bearings stay below them).
-_GEOMETRY_LIMITS_M = {"ball_diameter": 0.5, "pitch_diameter": 10.0, "clearance": 1e-3}
+
+
+@dataclass(frozen=True, slots=True)
+class KeyRange:
+    """The physically plausible range of a numeric key, its unit and where the range comes from."""
+
+    lo: float
+    hi: float
+    unit: str
+    source: str
+    lo_open: bool = False
+    zero_ok: bool = False  # 0 is allowed besides [lo, hi] (a clearance of exactly zero)
+
+    def check(self, v: float, key: str, file: str | None) -> float:
+        """``v`` when inside the range, else a :class:`ConfigError` naming ``key`` and the source."""
+        inside = (self.lo < v if self.lo_open else self.lo <= v) and v <= self.hi
+        if inside or (self.zero_ok and v == 0.0):
+            return v
+        rng = f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}] {self.unit}".rstrip()
+        if self.zero_ok:
+            rng = f"0 or {rng}"
+        raise ConfigError(f"{v:g} is outside the plausible range {rng} ({self.source})", file=file, key=key)
+
+
+#: Plausible ranges of the rig model's masses (``m_*``) and stiffnesses (``k_*``): they refuse
+#: values that overflow or underflow the model's eigenproblems (1e-300 kg, 1e308 N/m).
+MODEL_RANGES: dict[str, KeyRange] = {
+    "m": KeyRange(1e-3, 1e6, "kg", "a gram (a sensor) to 1000 t (a machine foundation); the paper's "
+                  "rig: 2.566 kg housing, 205 kg frame"),
+    "k": KeyRange(1e1, 1e13, "N/m", "from a soft air spring (~1e3 N/m) to 1e13 N/m, 1000 times the stiffest "
+                  "rolling-bearing contacts (~1e10 N/m, Harris & Kotzalas); Table 1: 180e3 to 348e6"),
+}
+#: Plausible ranges of the measurement conditions of a campaign.
+CONDITION_RANGES: dict[str, KeyRange] = {
+    "radial_load": KeyRange(0.0, 1e8, "N", "above the static load ratings of the largest bearings (~1e7 N)"),
+    "speed": KeyRange(0.0, 1e6, "rpm", "above the fastest spindles (~3e5 rpm)"),
+    "k_disk": KeyRange(1e3, 1e15, "N/m", "a steel disk is far stiffer than the bearing it replaces "
+                       "(1e7-1e10 N/m)"),
+}
+#: Plausible ranges of the bearing geometry keys (SI), each with its source. They refuse typing
+#: slips (millimetres for metres, GPa for Pa) and values that would underflow or overflow the
+#: Hertz formulas (a clearance of 5e-324 m, a modulus of 1e308 Pa) when the campaign is loaded.
+GEOMETRY_RANGES: dict[str, KeyRange] = {
+    "n_balls": KeyRange(3, 1000, "", "a ball bearing has at least 3 balls; slewing rings stay below 1000"),
+    "ball_diameter": KeyRange(1e-4, 0.5, "m", "ISO 3290-1 balls start at 0.3 mm; above 0.5 m a length in mm "
+                              "was typed as metres (7.938 mm is 7.938e-3)"),
+    "pitch_diameter": KeyRange(5e-4, 10.0, "m", "the smallest miniature bearings (1 mm bore) have a ~2 mm "
+                               "pitch circle; above 10 m a length in mm was typed as metres"),
+    "clearance": KeyRange(1e-9, 1e-3, "m", "ISO 5753-1 radial internal clearances are 0 to a few hundred µm; "
+                          "below 1 nm write 0", zero_ok=True),
+    "inner_conformity": KeyRange(0.5, 1.0, "", "groove radius / ball diameter, 0.515-0.54 in deep-groove "
+                                 "bearings (Harris & Kotzalas); must exceed 0.5", lo_open=True),
+    "outer_conformity": KeyRange(0.5, 1.0, "", "groove radius / ball diameter, 0.515-0.54 in deep-groove "
+                                 "bearings (Harris & Kotzalas); must exceed 0.5", lo_open=True),
+    "youngs_modulus": KeyRange(1e8, 1.2e12, "Pa", "from PTFE (0.4 GPa) to diamond (1.2 TPa), Ashby's "
+                               "modulus chart; bearing steel is 208e9"),
+    "ball_youngs_modulus": KeyRange(1e8, 1.2e12, "Pa", "from PTFE (0.4 GPa) to diamond (1.2 TPa), Ashby's "
+                                    "modulus chart; silicon nitride is 310e9"),
+    "poisson_ratio": KeyRange(0.0, 0.5, "", "isotropic solids: 0 <= nu < 0.5", ),
+    "ball_poisson_ratio": KeyRange(0.0, 0.5, "", "isotropic solids: 0 <= nu < 0.5"),
+}
 
 
 def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -> Any:
@@ -536,28 +597,55 @@ def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -
             raise ConfigError(f"missing required key (the bearing geometry also gives {', '.join(given)})",
                               file=file, key=f"{where}.{k}")
     kw: dict[str, Any] = {"n_balls": toml_int(t["n_balls"], f"{where}.n_balls", file, lo=3)}
+    GEOMETRY_RANGES["n_balls"].check(kw["n_balls"], f"{where}.n_balls", file)
     for k in given:
         if k == "n_balls":
             continue
         v = toml_number(t[k], f"{where}.{k}", file, lo=0.0, lo_open=k != "clearance" and "poisson" not in k)
-        if k.endswith("conformity") and not v > 0.5:
-            raise ConfigError(f"must exceed 0.5 (groove radius / ball diameter), got {v:g}", file=file,
-                              key=f"{where}.{k}")
         if "poisson" in k and not v < 0.5:
             raise ConfigError(f"must lie in [0, 0.5), got {v:g}", file=file, key=f"{where}.{k}")
-        limit = _GEOMETRY_LIMITS_M.get(k)
-        if limit is not None and v > limit:
-            raise ConfigError(f"is in metres: {v:g} m exceeds {limit:g} m (7.938 mm is 7.938e-3)",
-                              file=file, key=f"{where}.{k}")
-        kw[k] = v
+        kw[k] = GEOMETRY_RANGES[k].check(v, f"{where}.{k}", file)
     try:
-        return BallBearingGeometry(**kw)
+        geometry = BallBearingGeometry(**kw)
     except ValueError as exc:
         raise ConfigError(str(exc), file=file, key=where) from None
+    check_hertz_curve(geometry, (1.0, 1e5), where, file)
+    return geometry
+
+
+def check_hertz_curve(geometry: Any, loads: tuple[float, ...], where: str, file: str | None) -> None:
+    """Evaluate the Hertzian stiffness of ``geometry`` at ``loads`` [N]; refuse it if that fails.
+
+    Run when the file is loaded, so that a geometry whose Hertz curve cannot be drawn is refused
+    before any measurement is computed, never after.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``where`` (``bearings.NAME``) when a stiffness is not finite and positive or the
+        computation fails.
+    """
+    import numpy as np
+
+    from .rig.hertz import ball_bearing_radial_stiffness
+
+    try:
+        with np.errstate(all="raise"):
+            k = np.asarray(ball_bearing_radial_stiffness(np.asarray(loads, dtype=float), geometry), dtype=float)
+    except (ArithmeticError, ValueError, FloatingPointError, RuntimeError) as exc:
+        raise ConfigError(f"the Hertz estimate of this geometry cannot be computed ({type(exc).__name__}: "
+                          f"{exc})", file=file, key=where) from None
+    if not (np.all(np.isfinite(k)) and np.all(k[np.asarray(loads) > 0] > 0)):
+        raise ConfigError("the Hertz estimate of this geometry is not a finite positive stiffness "
+                          f"between {min(loads):g} and {max(loads):g} N", file=file, key=where)
 
 
 __all__ = [
     "BEARING_GEOMETRY_KEYS",
+    "CONDITION_RANGES",
+    "GEOMETRY_RANGES",
+    "KeyRange",
+    "MODEL_RANGES",
     "MAX_TOML_BYTES",
     "MODEL_KEYS",
     "ModelParams",
@@ -565,6 +653,7 @@ __all__ = [
     "SENSOR_AXES",
     "SENSOR_ROLES",
     "Sensor",
+    "check_hertz_curve",
     "check_keys",
     "load_rig",
     "parse_bearing_geometry",

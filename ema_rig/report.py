@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import _atomic
+from ._text import inert
 
 if TYPE_CHECKING:
     from .campaign.result import CampaignResult
@@ -60,6 +61,11 @@ _CAPTIONS = {
 }
 
 
+def _h(text: Any) -> str:
+    """Text from files for the HTML: control and bidirectional characters shown escaped, then HTML-escaped."""
+    return html.escape(inert(text))
+
+
 def _fmt(v: Any, unit: str = "") -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return '<span class="muted">–</span>'
@@ -69,7 +75,7 @@ def _fmt(v: Any, unit: str = "") -> str:
         if unit:
             return format(v, unit)
         return f"{v:.4g}"
-    return html.escape(str(v))
+    return _h(str(v))
 
 
 def _caption(name: str) -> str:
@@ -91,7 +97,7 @@ def anchor(index: int) -> str:
 
 def _img(path: str | PathLike[str], alt: str) -> str:
     data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
-    return f"<img alt='{html.escape(alt)}' src='data:image/png;base64,{data}'>"
+    return f"<img alt='{_h(alt)}' src='data:image/png;base64,{data}'>"
 
 
 def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[str]], *,
@@ -121,12 +127,12 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     n_ok = sum(r["status"] == "ok" for r in rows)
     parts = [
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
-        f"<title>{html.escape(cfg.title)} — ema_rig report</title><style>{_CSS}</style></head><body>",
-        f"<h1>{html.escape(cfg.title)}</h1>",
-        f"<p class='muted'>ema_rig {html.escape(__version__)} · Python {platform.python_version()} · "
-        f"{html.escape(generated if generated is not None else datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC'))}"
+        f"<title>{_h(cfg.title)} — ema_rig report</title><style>{_CSS}</style></head><body>",
+        f"<h1>{_h(cfg.title)}</h1>",
+        f"<p class='muted'>ema_rig {_h(__version__)} · Python {platform.python_version()} · "
+        f"{_h(generated if generated is not None else datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC'))}"
         " · campaign file "
-        f"<code>{html.escape(str(cfg.path))}</code></p>",
+        f"<code>{_h(str(cfg.path))}</code></p>",
         "<h2>Summary</h2><p>",
         f"<span class='kpi'><b>{n_ok}</b> / {len(rows)} measurements analysed</span>",
         f"<span class='kpi'><b>{len(rows) - n_ok}</b> failed</span>",
@@ -137,11 +143,11 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         + "</span></p>",
     ]
     if result.calibration is not None and result.calibration.get("status") != "ok":
-        parts.append(f"<p><b>Calibration failed:</b> {html.escape(str(result.calibration.get('error')))} — "
+        parts.append(f"<p><b>Calibration failed:</b> {_h(str(result.calibration.get('error')))} — "
                      "k_MS taken from the rig file.</p>")
     parts.append("<h2>Figures</h2>")
     for name, path in figures.items():
-        parts.append(f"<figure>{_img(path, name)}<figcaption>{html.escape(_caption(name))}</figcaption></figure>")
+        parts.append(f"<figure>{_img(path, name)}<figcaption>{_h(_caption(name))}</figcaption></figure>")
     parts.append("<h2 id='results'>Results</h2><p class='muted'>Stiffness in MN/m (= N/µm); ± is one standard "
                  "uncertainty (measured: from the identified housing frequency; total: with the rig-file tolerances "
                  "and model-form terms); frequencies are undamped natural frequencies |λ|/2π. Each id links to the "
@@ -149,7 +155,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB", "± measured",
             "± total", "k_TB+MS", "f_H [Hz]", "± f_H", "ζ_H [%]", "f_spindle [Hz]", "warnings", "status"]
     parts.append("<table><tr>" + "".join(
-        f"<th class='{'l' if i in (0, 1, 15) else ''}'>{html.escape(h)}</th>" for i, h in enumerate(head)) + "</tr>")
+        f"<th class='{'l' if i in (0, 1, 15) else ''}'>{_h(h)}</th>" for i, h in enumerate(head)) + "</tr>")
     for i, r in enumerate(rows):
         cls = "" if r["status"] == "ok" else " class='err'"
         status = "ok" if r["status"] == "ok" else f"error: {r['error']}"
@@ -161,7 +167,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
             ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
             ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
             ("", str(len(r.get("warnings") or ()))),
-            ("l", html.escape(status)),
+            ("l", _h(status)),
         ]
         parts.append(f"<tr{cls}>" + "".join(f"<td class='{c}'>{v}</td>" for c, v in cells) + "</tr>")
     parts.append("</table>")
@@ -169,7 +175,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     for i, r in enumerate(rows):
         parts.append(_measurement_section(i, r, (measurements or {}).get(str(r["id"]))))
     settings = {**cfg.settings(), "k_MS_used": result.k_MS, "k_MS_std_used": result.k_MS_std}
-    parts.append("<h2>Settings</h2><pre>" + html.escape(json.dumps(settings, indent=2, default=str)) + "</pre>")
+    parts.append("<h2>Settings</h2><pre>" + _h(json.dumps(settings, indent=2, default=str)) + "</pre>")
     parts.append("<p class='muted'>Method: PolyMAX (pLSCF) identification, LSFD mode shapes, housing mode matched "
                  "to the 3DOF rig model by shape and modal mass, inverted for k_TB+MS and k_TB through the series "
                  "relation 1/k_TB+MS = 1/k_TB + 1/k_MS (Jacobs et al., Sect. 4).</p></body></html>")
@@ -183,24 +189,24 @@ def _measurement_section(i: int, r: Mapping[str, Any],
 
     ok = r["status"] == "ok"
     head = (f"<section class='meas' id='{anchor(i)}'><a class='top' href='#results'>back to the table</a>"
-            f"<h3>{html.escape(str(r['id']))}</h3><p class='muted'>{html.escape(str(r.get('file', '')))} · "
+            f"<h3>{_h(str(r['id']))}</h3><p class='muted'>{_h(str(r.get('file', '')))} · "
             f"bearing {_fmt(r['bearing'])} · {_fmt(r['radial_load'])} N · {_fmt(r['speed'])} rpm</p>")
     parts = [head]
     if ok:
         parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m · "
                      f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz</p>")
     else:
-        parts.append(f"<p><b>error:</b> {html.escape(str(r.get('error')))}</p>")
+        parts.append(f"<p><b>error:</b> {_h(str(r.get('error')))}</p>")
     warns = [str(w) for w in (r.get("warnings") or [])] + (list(figs[1]) if figs else [])
     if warns:
-        parts.append("<p>Warnings:</p><ul class='warn'>" + "".join(f"<li>{html.escape(w)}</li>" for w in warns)
+        parts.append("<p>Warnings:</p><ul class='warn'>" + "".join(f"<li>{_h(w)}</li>" for w in warns)
                      + "</ul>")
     else:
         parts.append("<p class='muted'>No warnings.</p>")
     for kind, path in (figs[0].items() if figs else ()):
         alt = f"{r['id']} {kind}"
         parts.append(f"<figure>{_img(path, alt)}"
-                     f"<figcaption>{html.escape(KINDS.get(kind, kind))}</figcaption></figure>")
+                     f"<figcaption>{_h(KINDS.get(kind, kind))}</figcaption></figure>")
     if figs is None or not figs[0]:
         parts.append("<p class='muted'>No figures for this measurement (its file could not be read or "
                      "identified again).</p>")
@@ -227,10 +233,10 @@ def _candidate_table(cands: list[Any], title: str) -> str:
         cls = " class='chosen'" if verdict in ("housing", "chosen", "selected") else ""
         rows.append(f"<tr{cls}><td>{_fmt(c.get('natural_freq'), '.2f')}</td><td>{_fmt(c.get('natural_freq_std'), '.3f')}"
                     f"</td><td>{_fmt(z * 100 if isinstance(z, float) else z, '.2f')}</td>"
-                    f"<td class='l'>{html.escape(verdict)}</td>"
-                    f"<td class='reason'>{html.escape(str(c.get('reason', '')))}</td></tr>")
+                    f"<td class='l'>{_h(verdict)}</td>"
+                    f"<td class='reason'>{_h(str(c.get('reason', '')))}</td></tr>")
     rows.append("</table>")
-    return f"<p>{html.escape(title)}</p>" + "".join(rows)
+    return f"<p>{_h(title)}</p>" + "".join(rows)
 
 
 def write_report(result: CampaignResult, path: str | PathLike[str],

@@ -6,6 +6,7 @@ modes, max order 16: about 0.05 s each) so that the fault tests stay fast.
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import os
@@ -557,3 +558,144 @@ def test_runner_does_not_import_plotting() -> None:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[1]), *sys.path])}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+# ------------------------------------------------------------------------ issue 17: failures become rows
+def _with_figures(small: Path, dst: Path, ids: tuple[str, ...] = tuple(K_TB)) -> Path:
+    """The small campaign with the per-measurement figures on, for the measurements ``ids`` only."""
+    d = _copy(small, dst)
+    text = HEAD.replace("measurement_figures = false", "measurement_figures = true")
+    text += "".join(_measurement(mid, 200.0 * (i + 1)) for i, mid in enumerate(K_TB) if mid in ids)
+    (d / "campaign.toml").write_text(text)
+    return d
+
+
+def test_killed_worker_still_draws_the_report(small: Path, tmp_path: Path, monkeypatch, capsys) -> None:
+    # was: a BrokenProcessPool traceback from the output writer, exit 1, no new report
+    _fork_only()
+    from ema_rig.campaign import runner
+
+    real, parent = runner._compute, os.getpid()
+
+    def oom_killed(task):
+        if task.file.name == "m2.uff" and os.getpid() != parent:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(task)
+
+    monkeypatch.setattr(runner, "_compute", oom_killed)
+    d = _with_figures(small, tmp_path / "c", ("m1", "m2", "m3"))
+    out = tmp_path / "out"
+    assert main(["campaign", str(d / "campaign.toml"), "-o", str(out), "--jobs", "2"]) == 3
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err and captured.err.count("\n") == 1, captured.err
+    rows = {r["id"]: r for r in csv.DictReader((out / "campaign.csv").read_text().splitlines())}
+    failed = sorted(i for i, r in rows.items() if r["status"] != "ok")
+    # one task per worker: only the measurements in flight when the worker died fail (at most --jobs)
+    assert "m2" in failed and len(failed) <= 2, failed
+    for i in failed:
+        assert json.loads((out / "results" / f"{i}.json").read_text())["cache_key"] is None
+    html = (out / "report.html").read_text()
+    assert "worker failed" in html and all(i in html for i in ("m1", "m2", "m3"))
+    assert not (out / ".ema-rig.lock").exists()
+
+
+def test_worker_killed_while_drawing_figures(small: Path, tmp_path: Path, monkeypatch) -> None:
+    _fork_only()
+    from ema_rig.io import uff
+
+    d = _with_figures(small, tmp_path / "c", ("m1", "m2", "m3"))
+    out = tmp_path / "out"
+    run(d / "campaign.toml", out_dir=out, report=False)  # the rows; the figures come next
+    real, parent = uff.read_uff58, os.getpid()
+
+    def killed(path, *a, **k):  # the worker drawing m3's figures is killed
+        if Path(path).name == "m3.uff" and os.getpid() != parent:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(path, *a, **k)
+
+    monkeypatch.setattr(uff, "read_uff58", killed)
+    res = run(d / "campaign.toml", out_dir=out, jobs=2)
+    assert res.ok and res.reused == 3 and (out / "report.html").stat().st_size > 10_000
+    assert "figures not drawn: worker failed" in (out / "report.html").read_text()
+    # m3 starts once m1 or m2 is done: that one's figures are written; the one in flight with m3
+    # (if any) fails with the pool
+    before = {p.name: p.stat().st_ino for p in (out / "measurements").iterdir()}
+    assert not any(n.startswith("m3.") for n in before) and len(before) in (3, 6), sorted(before)
+    monkeypatch.undo()
+    run(d / "campaign.toml", out_dir=out, jobs=1)
+    after = {p.name: p.stat().st_ino for p in (out / "measurements").iterdir()}
+    assert len(after) == 9 and {f"m3.{k}.png" for k in ("model", "stabilization", "synthesis")} <= set(after)
+    assert all(after[n] == i for n, i in before.items())  # the figures drawn before were kept
+
+
+def test_previous_report_not_left_looking_current(small: Path, tmp_path: Path, monkeypatch) -> None:
+    from ema_rig.campaign import runner
+
+    d = _copy(small, tmp_path / "c")
+    out = tmp_path / "out"
+    run(d / "campaign.toml", out_dir=out)
+    assert (out / "report.html").is_file()
+    real = runner._compute
+
+    def interrupted(task):
+        if task.file.name == "m3.uff":
+            raise KeyboardInterrupt
+        return real(task)
+
+    monkeypatch.setattr(runner, "_compute", interrupted)
+    (d / "campaign.toml").write_text((d / "campaign.toml").read_text().replace("max_order = 16", "max_order = 18"))
+    with pytest.raises(KeyboardInterrupt):
+        run(d / "campaign.toml", out_dir=out)
+    assert not (out / "report.html").exists()  # the old report would show the old rows as current
+    assert not (out / ".ema-rig.lock").exists()
+    monkeypatch.undo()
+    assert run(d / "campaign.toml", out_dir=out).ok and (out / "report.html").is_file()
+
+
+# ------------------------------------------------------------------------ issue 17: resume keeps figures
+_KILL_SCRIPT = """
+import sys
+from ema_rig.cli import main
+sys.exit(main(["campaign", sys.argv[1], "-o", sys.argv[2], "--jobs", "2"]))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_parent_killed_in_figure_phase_keeps_finished_figures(small: Path, tmp_path: Path) -> None:
+    _fork_only()
+    from PIL import Image
+
+    ids = ("m1", "m2", "m3")
+    d = _with_figures(small, tmp_path / "c", ids)
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[1]), *sys.path])}
+    kept: dict[str, int] = {}
+    for _ in range(2):  # two kill -9 of the parent, each once a measurement's figures are written
+        proc = subprocess.Popen([sys.executable, "-c", _KILL_SCRIPT, str(d / "campaign.toml"), str(out)],
+                                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            deadline = time.monotonic() + 120
+            while proc.poll() is None and time.monotonic() < deadline:
+                pngs = [p for p in (out / "measurements").glob("*.png") if not _atomic._TEMP_NAME.match(p.name)] \
+                    if (out / "measurements").is_dir() else []
+                if len(pngs) >= len(kept) + 3:
+                    break
+                time.sleep(0.01)
+        finally:
+            proc.kill()
+            proc.wait()
+        for p in (out / "measurements").glob("*.png"):
+            if _atomic._TEMP_NAME.match(p.name):
+                continue  # a figure being written when the parent was killed: removed by the next run
+            with Image.open(p) as img:
+                img.load()  # complete: never a half-written figure
+            kept.setdefault(p.name, p.stat().st_ino)
+    assert 3 <= len(kept) < 3 * len(ids), "the kills should land in the figure phase"
+    res = run(d / "campaign.toml", out_dir=out, jobs=2)
+    assert res.ok and res.computed == 0
+    figs = {p.name: p.stat().st_ino for p in (out / "measurements").glob("*.png")}
+    assert len(figs) == 3 * len(ids)
+    assert all(figs[n] == i for n, i in kept.items())  # not drawn again on resume
+    clean = run(_with_figures(small, tmp_path / "clean", ids) / "campaign.toml", report=False)
+    assert _k(res) == pytest.approx(_k(clean), rel=1e-9)  # same code, same data: the same numbers
+    assert not any(_atomic._TEMP_NAME.match(p.name) for p in out.rglob("*"))

@@ -4,7 +4,9 @@ Every file is written atomically, and only when what it shows changed: a cached 
 changed nothing rewrites nothing. The folder's manifest (``.ema-rig-figures.json``) records, for
 every figure, a hash of its inputs (the rows and bearing information for the campaign figures, the
 row's cache key for a measurement's figures) and the hash of the report's content; a figure whose
-inputs hash is unchanged and whose file exists is reused, the others are drawn again. Figures of a
+inputs hash is unchanged and whose file exists is reused, the others are drawn again. The manifest
+is written again (atomically) as soon as a measurement's figures are written, so a run killed in
+its figure phase keeps every figure it finished: the next run reuses them. Figures of a
 previous run that this run does not produce (a bearing renamed, a measurement removed) are
 removed, so the folder holds one campaign's outputs.
 
@@ -21,7 +23,8 @@ import hashlib
 import json
 import logging
 from collections.abc import Mapping
-from concurrent.futures import Executor, Future
+from concurrent.futures import Executor, Future, as_completed
+from contextlib import ExitStack
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -80,6 +83,7 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     # the measurements' figures that must be drawn again start first, in the executor
     ahead = {} if executor is None else _draw_ahead(result, out, previous, executor)
     figures = _campaign_figures(result, out, previous, manifest)
+    _record(out, previous, manifest)
     per_meas = _measurement_figures(result, out, previous, manifest, ahead)
     kept = set(manifest["figures"])
     for stale in set(previous.get("figures", {})) - kept:
@@ -93,6 +97,26 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
                                                  previous_hash=previous.get("report"))
     write_if_changed(out / _MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return files
+
+
+def _record(out: Path, previous: Mapping[str, Any], manifest: Mapping[str, Any]) -> None:
+    """Write the manifest of a run still drawing: this run's figures so far over the previous ones.
+
+    A run killed after this keeps the figures it recorded; those of the previous run stay listed
+    (their hashes decide whether they are reused, and stale ones are still removed next time). No
+    report hash: the report is written again. Nothing is written while this run has drawn nothing.
+    """
+    old = previous.get("figures", {})
+    if all(old.get(n) == h for n, h in manifest["figures"].items()):
+        return
+    partial = {
+        "version": _MANIFEST_VERSION,
+        "figures": {**previous.get("figures", {}), **manifest["figures"]},
+        "measurements": {**previous.get("measurements", {}), **manifest["measurements"]},
+        "campaign_figures": manifest.get("campaign_figures", previous.get("campaign_figures")),
+        "report": None,
+    }
+    _atomic.write_text(out / _MANIFEST, json.dumps(partial, sort_keys=True, separators=(",", ":")) + "\n")
 
 
 def write_if_changed(path: Path, text: str) -> bool:
@@ -176,7 +200,7 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
                          manifest: dict[str, Any], ahead: Mapping[str, Future[Any]] | None = None,
                          ) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
     """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
-    from .drilldown import KINDS, measurement_figures
+    from .drilldown import KINDS, MeasurementFigures, measurement_figures
 
     folder = out / MEASUREMENT_DIR
     if folder.is_dir():
@@ -186,28 +210,57 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
     if not result.config.measurement_figures:
         return done
     ahead = ahead or {}
-    for m, row, key, rels, reuse in _plan(result, out, previous):
-        if reuse:
-            info = old_meas[m.id]
-            kinds = [k for k in KINDS if k in info["kinds"]]
-            warns = [str(w) for w in info["warnings"]]
-            cands = [c for c in info["candidates"] if isinstance(c, dict)]
-        else:
-            drawn = ahead[m.id].result() if m.id in ahead else measurement_figures(
-                m, row, result.config, k_ms=result.k_MS, k_ms_std=result.k_MS_std)
-            folder.mkdir(exist_ok=True)
-            for k, png in drawn.png.items():
-                path = out / rels[k]
-                if path.parent != folder:  # ids are validated in the schema; never write elsewhere
-                    raise OSError(f"{path}: measurement id is not a plain file name")
-                _atomic.write_bytes(path, png)
-            kinds, warns, cands = list(drawn.png), list(drawn.warnings), list(drawn.candidates)
-            for w in warns:
-                logger.warning("%s: %s", m.id, w)
+    plan = _plan(result, out, previous)
+    drawn_now: dict[str, Any] = {}
+
+    def keep(m: Any, key: str, rels: Mapping[str, str], kinds: list[str], warns: list[str],
+             cands: list[Any]) -> None:
         manifest["measurements"][m.id] = {"key": key, "kinds": kinds, "warnings": warns, "candidates": cands}
         manifest["figures"].update({rels[k]: key for k in kinds})
         done[m.id] = ({k: out / rels[k] for k in kinds}, warns, cands)
-    return done
+
+    def write(m: Any, key: str, rels: Mapping[str, str], drawn: Any) -> None:
+        folder.mkdir(exist_ok=True)
+        paths = {k: out / rels[k] for k in drawn.png}
+        if any(path.parent != folder for path in paths.values()):  # ids are validated in the schema
+            raise OSError(f"{out / rels[next(iter(rels))]}: measurement id is not a plain file name")
+        for k in rels:  # an older figure of this measurement must never pass for the new one
+            (out / rels[k]).unlink(missing_ok=True)
+        for w in drawn.warnings:
+            logger.warning("%s: %s", m.id, w)
+        with ExitStack() as renames:  # every figure complete beside its name, recorded, then renamed
+            for k, path in paths.items():
+                renames.enter_context(_atomic.atomic_path(path)).write_bytes(drawn.png[k])
+            keep(m, key, rels, list(drawn.png), list(drawn.warnings), list(drawn.candidates))
+            # recorded before the renames: a kill in between leaves these figures missing (drawn
+            # again), a kill after them keeps every one; none finished is ever drawn twice
+            _record(out, previous, manifest)
+
+    by_id = {m.id: (m, key, rels) for m, _, key, rels, reuse in plan if not reuse}
+    owner = {f: mid for mid, f in ahead.items() if mid in by_id}
+    # figures drawn by the executor are written as they come in, whatever their order
+    for fut in as_completed(owner):
+        mid = owner[fut]
+        m, key, rels = by_id[mid]
+        try:
+            drawn_now[mid] = fut.result()
+        except Exception as exc:  # a worker died (killed, out of memory): said, drawn next time
+            drawn_now[mid] = MeasurementFigures({}, (f"figures not drawn: worker failed ({type(exc).__name__}"
+                                                     f"{': ' + str(exc) if str(exc) else ''}); drawn on the next run",))
+            done[mid] = ({}, list(drawn_now[mid].warnings), [])
+            logger.warning("%s: %s", mid, drawn_now[mid].warnings[0])
+            continue
+        write(m, key, rels, drawn_now[mid])
+    for m, row, key, rels, reuse in plan:
+        if reuse:
+            info = old_meas[m.id]
+            keep(m, key, rels, [k for k in KINDS if k in info["kinds"]], [str(w) for w in info["warnings"]],
+                 [c for c in info["candidates"] if isinstance(c, dict)])
+        elif m.id not in drawn_now:
+            drawn_now[m.id] = measurement_figures(m, row, result.config, k_ms=result.k_MS,
+                                                  k_ms_std=result.k_MS_std)
+            write(m, key, rels, drawn_now[m.id])
+    return {m.id: done[m.id] for m, *_ in plan if m.id in done}  # in the campaign's order
 
 
 def _stored_key(out: Path, mid: str) -> str | None:

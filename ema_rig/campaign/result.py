@@ -134,6 +134,7 @@ class CampaignResult:
         import io
 
         su = stiffness_unit if stiffness_unit is not None else self.config.stiffness_unit
+        su = su.replace("\u03bc", "\u00b5")  # Greek mu typed for the micro sign: the same unit
         du = damping_unit if damping_unit is not None else self.config.damping_unit
         if su not in STIFFNESS_UNITS:
             raise ValueError(f"stiffness unit must be one of {', '.join(STIFFNESS_UNITS)}, got {su!r}")
@@ -149,13 +150,16 @@ class CampaignResult:
 
 
 def _csv_value(v: Any, scale: float = 1.0) -> Any:
+    """A cell: numbers as numbers, text inert (no control characters, never a spreadsheet formula)."""
+    from .._text import csv_cell
+
     if v is None:
         return ""
     if isinstance(v, (list, tuple)):  # warnings: one cell, caveats separated by " | "
-        return " | ".join(str(x) for x in v)
+        return csv_cell(" | ".join(str(x) for x in v))
     if isinstance(v, float):
         return "" if not math.isfinite(v) else repr(v * scale if scale != 1.0 else v)
-    return v
+    return csv_cell(v)
 
 
 def summary_rows(result: CampaignResult) -> Iterable[dict[str, Any]]:

@@ -34,8 +34,16 @@ import os
 import stat
 import sys
 import time
+from collections import deque
 from collections.abc import Callable, Mapping
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import (
+    FIRST_COMPLETED,
+    BrokenExecutor,
+    Executor,
+    Future,
+    ProcessPoolExecutor,
+    wait,
+)
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -257,6 +265,7 @@ def _worker_init(parent: int) -> None:
     import threading
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles an interrupt and stops the pool
+    _atomic.close_inherited_locks()  # the parent's folder lock must die with the parent
     if sys.platform.startswith("linux"):
         try:
             import ctypes
@@ -353,10 +362,52 @@ def run(
     if out_dir is None:
         return _run(cfg, None, jobs, executor, force, progress, report)
     out = Path(out_dir)
+    check_out_folder(cfg, out)
     with _atomic.folder_lock(out):
+        for sub in ("results", "measurements"):  # a planted link would send our writes elsewhere
+            if os.path.islink(out / sub):
+                raise EmaRigError("is a symbolic link; ema-rig writes its results only inside the output "
+                                  "folder: remove it", file=out / sub)
         for folder in (out, out / "results"):
             _atomic.remove_temporaries(folder)
         return _run(cfg, out, jobs, executor, force, progress, report)
+
+
+def check_out_folder(cfg: CampaignConfig, out: Path) -> None:
+    """Refuse an output folder where the run would write over one of the campaign's inputs.
+
+    The inputs (campaign file, rig file, calibration, every measurement file) are compared with
+    every file the run writes (same inode or same resolved path), and none may be a figure
+    (``*.png``) directly in the folder or lie in its ``results/`` or ``measurements/`` folders
+    (files there are replaced or removed as stale).
+
+    Raises
+    ------
+    OutputIsInputError
+        Naming the output and the input it would overwrite.
+    """
+    from .drilldown import KINDS
+    from .outputs import _MANIFEST, MEASUREMENT_DIR
+
+    inputs = [("campaign file", cfg.path), ("rig", cfg.rig_file), ("calibration", cfg.calibration)]
+    inputs += [(f"measurement {m.id!r}", m.file) for m in cfg.measurements]
+    outputs: list[tuple[str, Any]] = [(n, out / n) for n in ("campaign.csv", "settings.json", "report.html",
+                                                              _MANIFEST, ".ema-rig.lock")]
+    outputs.append(("calibration result", out / "results" / f"{CALIBRATION_NAME}.json"))
+    for m in cfg.measurements:
+        outputs.append((f"result of {m.id!r}", out / "results" / f"{m.id}.json"))
+        outputs += [(f"figure of {m.id!r}", out / MEASUREMENT_DIR / f"{m.id}.{k}.png") for k in KINDS]
+    _atomic.check_outputs(inputs, outputs)
+    home = Path(os.path.realpath(out))
+    for label, path in inputs:
+        if path is None:
+            continue
+        real = Path(os.path.realpath(path))
+        if (real.parent == home and real.suffix.lower() == ".png") or real.parent in (
+                home / "results", home / MEASUREMENT_DIR):
+            raise _atomic.OutputIsInputError(
+                f"output folder holds the input {label} ({path}) where the campaign writes and removes its "
+                "own files; choose another output folder", file=out)
 
 
 def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | None, force: bool,
@@ -435,6 +486,9 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
 
     for m, outcome in failed_input:
         finish(m, None, outcome)
+    if todo and out is not None and report:
+        # the rows change: the previous report must not look current while (or if) this run stops
+        (out / "report.html").unlink(missing_ok=True)
     drill_down = out is not None and report and cfg.measurement_figures
     own_pool: ProcessPoolExecutor | None = None
     if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
@@ -446,18 +500,34 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
             for m, t, key in todo:
                 finish(m, key, process_measurement(t))
         else:
-            futs: dict[Future[dict[str, Any]], tuple[Measurement, str]] = {
-                executor.submit(process_measurement, t): (m, key) for m, t, key in todo
-            }
-            for fut in as_completed(futs):
-                m, key = futs[fut]
-                try:
-                    outcome = fut.result()
-                except Exception as exc:  # the worker died (killed process, lost dask worker)
-                    outcome = {"status": "error", "error_kind": "infrastructure",
-                               "error": f"worker failed ({type(exc).__name__}: {exc or 'no message'}); "
-                                        "not cached, computed again on the next run"}
-                finish(m, key, outcome)
+            # our own pool gets one task per worker at a time, so a worker that dies (killed, out of
+            # memory) takes down only the measurements in flight: they become error rows, and the
+            # rest go on in a fresh pool; another executor gets every task at once
+            pending = deque(todo)
+            window = jobs if own_pool is not None else max(len(todo), 1)
+            futs: dict[Future[dict[str, Any]], tuple[Measurement, str]] = {}
+            while pending or futs:
+                while pending and len(futs) < window:
+                    m, t, key = pending.popleft()
+                    futs[executor.submit(process_measurement, t)] = (m, key)
+                ready, _ = wait(futs, return_when=FIRST_COMPLETED)
+                broken = False
+                while ready:
+                    for fut in ready:
+                        m, key = futs.pop(fut)
+                        try:
+                            outcome = fut.result()
+                        except Exception as exc:  # the worker died (killed process, lost dask worker)
+                            broken = broken or isinstance(exc, BrokenExecutor)
+                            outcome = {"status": "error", "error_kind": "infrastructure",
+                                       "error": f"worker failed ({type(exc).__name__}: {exc or 'no message'}); "
+                                                "not cached, computed again on the next run"}
+                        finish(m, key, outcome)
+                    # a broken pool fails every task it holds: collect them all before replacing it
+                    ready = set(wait(futs)[0]) if broken and futs else set()
+                if broken and own_pool is not None:
+                    own_pool.shutdown(wait=True, cancel_futures=True)
+                    own_pool = executor = make_pool(min(jobs, len(cfg.measurements)))
         bar(None)
 
         ordered = tuple(
@@ -532,5 +602,5 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
     return lambda n: None
 
 
-__all__ = ["CALIBRATION_NAME", "MeasurementTask", "file_digest", "make_pool", "process_measurement", "run",
+__all__ = ["CALIBRATION_NAME", "MeasurementTask", "check_out_folder", "file_digest", "make_pool", "process_measurement", "run",
            "task_key"]

@@ -22,7 +22,9 @@ from typing import Any
 
 from ..config import (
     BEARING_GEOMETRY_KEYS,
+    CONDITION_RANGES,
     RigConfig,
+    check_hertz_curve,
     check_keys,
     load_rig,
     parse_bearing_geometry,
@@ -229,8 +231,9 @@ def check_id(mid: str, key: str, file: str | None, *, derived: bool = False) -> 
         raise bad("starts or ends with blanks")
     if any(ch in _ID_FORBIDDEN for ch in mid):
         raise bad(f"contains one of {_ID_FORBIDDEN} (ids become file names)")
-    if any(unicodedata.category(ch).startswith("C") for ch in mid):
-        raise bad("contains a control character")
+    odd = next((ch for ch in mid if unicodedata.category(ch).startswith("C")), None)
+    if odd is not None:
+        raise bad(_invisible(odd))
     if mid.startswith("."):
         raise bad("starts with '.' (ids become file names)")
     if mid.startswith("_"):
@@ -240,6 +243,16 @@ def check_id(mid: str, key: str, file: str | None, *, derived: bool = False) -> 
     if len(mid.encode("utf-8")) > _ID_MAX_BYTES:
         raise bad(f"is longer than {_ID_MAX_BYTES} bytes")
     return mid
+
+
+def _invisible(ch: str) -> str:
+    """Why an id with this character (Unicode category C*) is refused, naming the character."""
+    cat = unicodedata.category(ch)
+    name = unicodedata.name(ch, "unnamed")
+    what = {"Cc": "a control character", "Cf": "an invisible format character", "Cs": "a lone surrogate",
+            "Co": "a private-use character", "Cn": "an unassigned code point"}.get(cat, "an invisible character")
+    return (f"contains {what}, U+{ord(ch):04X} {name} (ids become file names and table cells; "
+            "use letters, digits, '-', '_' and '.')")
 
 
 def _existing_file(v: Any, key: str, fname: str, base: Path) -> Path:
@@ -329,6 +342,8 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
     for k, allowed in (("stiffness_unit", ("N/m", "MN/m", "N/µm", "N/um")), ("damping_unit", ("-", "%"))):
         if k in output:
             v = toml_str(output[k], f"output.{k}", fname)
+            # U+03BC (Greek mu, what most keyboards type) is the same unit as U+00B5 (micro sign)
+            v = v.replace("\u03bc", "\u00b5") if k == "stiffness_unit" else v
             if v not in allowed:
                 raise ConfigError(f"must be one of {', '.join(repr(a) for a in allowed)}, got {short_repr(v)}",
                                   file=fname, key=f"output.{k}")
@@ -367,7 +382,10 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
             raise ConfigError("must be a list of strings", file=fname, key=f"{where}.tags")
 
         def num(k: str, default: float, lo: float | None, w: str = where, mm: Mapping[str, Any] = m) -> float:
-            return toml_number(mm[k], f"{w}.{k}", fname, lo=lo) if k in mm else default
+            if k not in mm:
+                return default
+            v = toml_number(mm[k], f"{w}.{k}", fname, lo=lo)
+            return CONDITION_RANGES[k].check(v, f"{w}.{k}", fname) if k in CONDITION_RANGES else v
 
         meas.append(
             Measurement(
@@ -381,6 +399,11 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
                 tags=tuple(tags),
             )
         )
+    for name, info in bearings.items():  # the Hertz curve is drawn over these loads after the measurements
+        loads = [m.radial_load for m in meas if m.bearing == name and m.radial_load > 0]
+        if info.hertz and info.geometry is not None and loads:
+            check_hertz_curve(info.geometry, (max(min(loads) * 0.8, 1.0), max(loads) * 1.15),
+                              f"bearings.{name}", fname)
     return CampaignConfig(
         rig_file=rig_file, rig=rig, measurements=tuple(meas), calibration=calibration, k_disk=k_disk,
         k_disk_std=k_disk_std, band=band, max_order=max_order, bearings=bearings, title=title, path=p, **units,

@@ -27,6 +27,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="measured FRFs against the 3DOF model with the disk, 150-1000 Hz")
 
 
+
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
+    """The command's input and output files (checked against each other before it runs)."""
+    return ([("DISK_FILE", args.file), ("--rig", args.rig)],
+            [("--json", args.json), ("--plot", args.plot)])
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig calibrate``."""
     from ..config import load_rig

@@ -39,6 +39,50 @@ def find_data_dir(explicit: str | None = None):
     return None
 
 
+#: File that marks a folder as made by ``ema-rig demo`` (it may write there again).
+MARKER = ".ema-rig-demo"
+
+
+def claim_folder(out):
+    """Make sure ``out`` is a folder ``demo`` may write into: new, empty, or made by demo before.
+
+    A new or empty folder gets the marker file :data:`MARKER`; a folder with anything else in it
+    and no marker is the user's and is refused, so the demo never writes (or regenerates its
+    data) over a user's files.
+
+    Raises
+    ------
+    EmaRigError
+        Naming the folder.
+    """
+    import os
+    import stat
+    from pathlib import Path
+
+    from .._atomic import make_folder, write_text
+    from ..errors import EmaRigError
+
+    out = Path(out)
+    existed = os.path.lexists(out)
+    make_folder(out)
+    marker = out / MARKER
+    try:
+        mode = os.lstat(marker).st_mode
+    except FileNotFoundError:
+        mode = None
+    if mode is not None and stat.S_ISREG(mode):
+        return out
+    if mode is None and existed:
+        with os.scandir(out) as entries:
+            existed = any(True for _ in entries)
+    if mode is not None or existed:
+        raise EmaRigError("folder is not empty and was not made by 'ema-rig demo' (no regular "
+                          f"{MARKER} marker file in it); demo writes only into a new or empty folder "
+                          "or its own: choose another -o", file=out)
+    write_text(marker, "made by 'ema-rig demo': it may write here again\n")
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig demo``."""
     from pathlib import Path
@@ -46,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
     from .campaign import run_campaign
 
     data = find_data_dir(args.data)
+    claim_folder(args.out)
     if data is None:  # installed without the source tree: regenerate the (seeded) bundled data
         from ..demo_data import generate
 

@@ -43,6 +43,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--binary", action="store_true", help="write the FRFs as binary 58b")
 
 
+
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
+    """The command's input and output files (checked against each other before it runs)."""
+    return ([("TIME.uff", args.file), ("--rig", args.rig)],
+            [("-o", args.output)])
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig frf``."""
     import warnings

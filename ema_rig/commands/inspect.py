@@ -80,6 +80,13 @@ def _coherence_line(c: dict[str, Any], n_avg: int | None) -> str:
             f"{c['min']:.4g}..{c['max']:.4g} after clipping{avg}")
 
 
+
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
+    """The command's input and output files (checked against each other before it runs)."""
+    return ([("FILE", args.file), ("--rig", args.rig)],
+            [("--json", args.json)])
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig inspect``.
 

@@ -26,6 +26,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--automac", default=None, metavar="PNG", help="draw the AutoMAC matrix of the modes")
 
 
+
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
+    """The command's input and output files (checked against each other before it runs)."""
+    return ([("FILE", args.file), ("--rig", args.rig), ("--selection", args.selection), ("--geometry", args.geometry)],
+            [("--json", args.json), ("--save-selection", args.save_selection), ("--plot", args.plot), ("--uff55", args.uff55), ("--automac", args.automac)])
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig modes``."""
     import numpy as np
@@ -34,6 +41,11 @@ def run(args: argparse.Namespace) -> int:
     from ._ident_args import load_and_identify, print_warnings
 
     data, ident = load_and_identify(args)
+    if args.shapes:  # PREFIX_<n>.png: known once the modes are; checked before anything is written
+        from .._atomic import check_outputs
+
+        ins, outs = io_paths(args)
+        check_outputs(ins, outs + [("--shapes", f"{args.shapes}_{k + 1}.png") for k in range(ident.modes.n_modes)])
     geometry = None
     if args.geometry:
         from ..io.geometry import read_geometry

@@ -49,6 +49,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--df", type=_args.positive_float, default=0.5, help="frequency resolution [Hz] (default 0.5)")
 
 
+
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
+    """The command's input and output files (checked against each other before it runs)."""
+    return ([("--rig", args.rig)],
+            [("-o", args.output), ("-o (truth)", f"{args.output}.truth.json")])
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig simulate``."""
     import numpy as np

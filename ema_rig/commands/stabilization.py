@@ -20,6 +20,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="colour scheme")
 
 
+
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
+    """The command's input and output files (checked against each other before it runs)."""
+    return ([("FILE", args.file), ("--rig", args.rig), ("--selection", args.selection)],
+            [("-o", args.output)])
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stabilization``."""
     from pathlib import Path

@@ -85,6 +85,13 @@ def write_refusal(path: str, file: str, exc: Any) -> None:
                       "candidates": [dict(c) for c in exc.candidates]})
 
 
+
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
+    """The command's input and output files (checked against each other before it runs)."""
+    return ([("FILE", args.file), ("--rig", args.rig)],
+            [("--json", args.json), ("--plot", args.plot)])
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stiffness``."""
     from ..config import load_rig

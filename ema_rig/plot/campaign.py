@@ -112,8 +112,14 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
         if info is not None and info.hertz and info.geometry is not None:
             from ..rig.hertz import ball_bearing_radial_stiffness
 
-            ax.plot(fl, np.asarray(ball_bearing_radial_stiffness(fl, info.geometry)) / _MN, ":", color="C2", lw=2,
-                    label=f"Hertz estimate (bearing alone; {info.geometry.describe()})")
+            try:  # checked when the campaign was loaded; a failure here must not lose the figure
+                with np.errstate(all="raise"):
+                    k_hertz = np.asarray(ball_bearing_radial_stiffness(fl, info.geometry), dtype=float)
+            except (ArithmeticError, ValueError, RuntimeError):
+                k_hertz = None
+            if k_hertz is not None and np.all(np.isfinite(k_hertz)):
+                ax.plot(fl, k_hertz / _MN, ":", color="C2", lw=2,
+                        label=f"Hertz estimate (bearing alone; {info.geometry.describe()})")
     ax.set_xlabel("radial load F_r [N]")
     ax.set_ylabel("bearing stiffness k_TB [MN/m]")
     ax.set_title(f"Bearing {plain(bearing)}: stiffness versus radial load")

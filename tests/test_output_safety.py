@@ -1,0 +1,292 @@
+"""Files are sacred (issue 17): the folder lock, outputs onto inputs, ``demo``'s folder, signals.
+
+Every reproducer is made in ``tmp_path``. The output-onto-input checks run before any file is
+read, so most inputs here need not be valid UFF or TOML: what matters is that they are left
+byte for byte as they were and that the error line names the output.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+from test_campaign_faults import small  # noqa: F401 - the fixture
+
+from ema_rig import _atomic
+from ema_rig.cli import EXIT_ERROR, main
+from ema_rig.errors import EmaRigError
+
+REPO = Path(__file__).resolve().parents[1]
+VICTIM = b"a user's file that must never be truncated\n"
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    return err.rstrip("\n")
+
+
+# ------------------------------------------------------------------------------- the folder lock
+def test_lock_removed_after_the_run_and_reusable(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    with _atomic.folder_lock(out) as lock:
+        assert lock.is_file() and lock.read_text().strip() == str(os.getpid())
+        with pytest.raises(_atomic.FolderBusyError, match="in use"):  # still exclusive
+            with _atomic.folder_lock(out):
+                pass
+    assert list(out.iterdir()) == []  # nothing left behind
+    with _atomic.folder_lock(out):
+        pass
+    assert list(out.iterdir()) == []
+
+
+@pytest.mark.parametrize("kind", ["symlink", "dangling", "fifo", "hardlink"])
+def test_planted_lock_refused_and_its_target_untouched(kind: str, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    lock = out / ".ema-rig.lock"
+    victim = tmp_path / "victim.txt"
+    if kind == "dangling":
+        lock.symlink_to(victim)  # would have created victim.txt outside the folder
+    elif kind == "fifo":
+        os.mkfifo(lock)  # was "Invalid argument" (or a hang)
+    else:
+        victim.write_bytes(VICTIM)
+        (lock.symlink_to if kind == "symlink" else lock.hardlink_to)(victim)
+    with pytest.raises(EmaRigError) as info:
+        with _atomic.folder_lock(out):
+            pytest.fail("the lock must not be taken")
+    msg = str(info.value)
+    assert msg.startswith(f"{lock}: ") and {"symlink": "symbolic link", "dangling": "missing",
+                                            "fifo": "FIFO", "hardlink": "hard link"}[kind] in msg, msg
+    if kind == "dangling":
+        assert not victim.exists()
+    elif kind != "fifo":
+        assert victim.read_bytes() == VICTIM
+
+
+def test_planted_lock_through_the_cli(tmp_path: Path, rig_toml_text: str, capsys) -> None:
+    (tmp_path / "rig.toml").write_text(rig_toml_text)
+    campaign = tmp_path / "c.toml"
+    campaign.write_text('rig = "rig.toml"\n[[measurement]]\nfile = "m1.uff"\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_bytes(VICTIM)
+    (out / ".ema-rig.lock").symlink_to(victim)
+    assert main(["campaign", str(campaign), "-o", str(out)]) == EXIT_ERROR
+    line = _one_error_line(capsys)
+    assert line.startswith(f"error: {out / '.ema-rig.lock'}: is a symbolic link"), line
+    assert victim.read_bytes() == VICTIM and sorted(p.name for p in out.iterdir()) == [".ema-rig.lock"]
+
+
+def test_dangling_output_folder_link_named(tmp_path: Path, capsys) -> None:
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "gone")
+    target = link / "x.json"
+    with pytest.raises(OSError) as info:
+        _atomic.write_text(target, "{}")
+    assert "symbolic link to the missing" in str(info.value) and "File exists" not in str(info.value)
+    assert not (tmp_path / "gone").exists()
+
+
+# --------------------------------------------------------------------------- outputs onto inputs
+def _cases(tmp: Path) -> list[tuple[list[str], Path]]:
+    f, r, t = tmp / "m.uff", tmp / "rig.toml", tmp / "t.uff"
+    return [
+        (["modes", str(f), "--uff55", str(f)], f),
+        (["modes", str(f), "--json", str(f)], f),
+        (["modes", str(f), "--plot", str(f)], f),
+        (["modes", str(f), "--automac", str(f)], f),
+        (["modes", str(f), "--rig", str(r), "--json", str(r)], r),
+        (["modes", str(f), "--selection", str(r), "--save-selection", str(r)], r),
+        (["stiffness", str(f), "--rig", str(r), "--json", str(f)], f),
+        (["stiffness", str(f), "--rig", str(r), "--plot", str(r)], r),
+        (["calibrate", str(f), "--rig", str(r), "--json", str(f)], f),
+        (["stabilization", str(f), "-o", str(f)], f),
+        (["inspect", str(f), "--json", str(f)], f),
+        (["simulate", "--rig", str(r), "--k-tb", "7e7", "-o", str(r)], r),
+        (["frf", str(t), "-o", str(t)], t),
+    ]
+
+
+@pytest.mark.parametrize("i", range(13))
+def test_output_onto_an_input_refused(i: int, tmp_path: Path, capsys) -> None:
+    argv, victim = _cases(tmp_path)[i]
+    for p in (tmp_path / "m.uff", tmp_path / "rig.toml", tmp_path / "t.uff"):
+        p.write_bytes(VICTIM)
+    assert main(argv) == EXIT_ERROR
+    line = _one_error_line(capsys)
+    assert line.startswith(f"error: {victim}: ") and "would overwrite the input" in line, line
+    assert victim.read_bytes() == VICTIM
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.uff", "rig.toml", "t.uff"]
+
+
+@pytest.mark.parametrize("how", ["hardlink", "symlink", "dotted"])
+def test_output_onto_an_input_under_another_name(how: str, tmp_path: Path, capsys) -> None:
+    f = tmp_path / "m.uff"
+    f.write_bytes(VICTIM)
+    other = tmp_path / "sub" / ".." / "m.uff" if how == "dotted" else tmp_path / "alias.uff"
+    if how == "hardlink":
+        other.hardlink_to(f)
+    elif how == "symlink":
+        other.symlink_to(f)
+    assert main(["modes", str(f), "--uff55", str(other)]) == EXIT_ERROR
+    assert "would overwrite the input FILE" in _one_error_line(capsys)
+    assert f.read_bytes() == VICTIM
+
+
+def test_two_outputs_onto_one_file_refused(tmp_path: Path, capsys) -> None:
+    f = tmp_path / "m.uff"
+    f.write_bytes(VICTIM)
+    assert main(["modes", str(f), "--json", str(tmp_path / "o"), "--plot", str(tmp_path / "o")]) == EXIT_ERROR
+    assert "same output file" in _one_error_line(capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.uff"]
+
+
+def test_campaign_output_folder_holding_inputs_refused(tmp_path: Path, rig_toml_text: str, capsys) -> None:
+    (tmp_path / "rig.toml").write_text(rig_toml_text)
+    out = tmp_path / "out"
+    (out / "results").mkdir(parents=True)
+    m1 = out / "results" / "m1.json"  # its result would be written over it
+    m1.write_bytes(VICTIM)
+    fig = out / "k_vs_load_6302.png"  # a campaign figure name: replaced or removed as stale
+    fig.write_bytes(VICTIM)
+    for name, meas in (("a.toml", m1), ("b.toml", fig)):
+        (tmp_path / name).write_text(f'rig = "rig.toml"\n[[measurement]]\nfile = "{meas}"\nid = "m1"\n')
+        assert main(["campaign", str(tmp_path / name), "-o", str(out)]) == EXIT_ERROR
+        line = _one_error_line(capsys)
+        assert "input" in line and str(meas) in line and "Traceback" not in line, line
+        assert meas.read_bytes() == VICTIM
+    assert not (out / ".ema-rig.lock").exists() and not (out / "campaign.csv").exists()
+
+
+# ------------------------------------------------------------------------------------------ demo
+def test_demo_refuses_a_users_folder(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "mine"
+    (out / "data").mkdir(parents=True)
+    own = out / "data" / "campaign.toml"
+    own.write_bytes(VICTIM)
+    assert main(["demo", "-o", str(out)]) == EXIT_ERROR
+    line = _one_error_line(capsys)
+    assert line.startswith(f"error: {out}: ") and "not made by 'ema-rig demo'" in line, line
+    assert own.read_bytes() == VICTIM and sorted(p.name for p in out.rglob("*")) == ["campaign.toml", "data"]
+
+
+def test_demo_claims_only_new_empty_or_its_own_folders(tmp_path: Path) -> None:
+    from ema_rig.commands.demo import MARKER, claim_folder
+
+    new = claim_folder(tmp_path / "new")
+    assert (new / MARKER).is_file()
+    (new / "data").mkdir()
+    claim_folder(new)  # its own: accepted again
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert (claim_folder(empty) / MARKER).is_file()
+    planted = tmp_path / "planted"
+    planted.mkdir()
+    (planted / MARKER).mkdir()  # a marker must be a regular file
+    with pytest.raises(EmaRigError, match="not made by"):
+        claim_folder(planted)
+
+
+# --------------------------------------------------------------------------------------- signals
+_WRITER = textwrap.dedent("""
+    import os, sys, time
+    from ema_rig import _atomic
+    from ema_rig.cli import main
+
+    real = os.replace
+
+    def stalled(src, dst):  # the output is complete in its temporary file: stop before the rename
+        print("writing", flush=True)
+        time.sleep(60)
+
+    os.replace = stalled
+    sys.exit(main(sys.argv[1:]))
+""")
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, -signal.SIGTERM), (signal.SIGINT, 130)])
+def test_signal_mid_write_leaves_no_temporary(sig: int, code: int, tmp_path: Path, rig_toml_text: str) -> None:
+    (tmp_path / "rig.toml").write_text(rig_toml_text)
+    out = tmp_path / "o" / "m.uff"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), *sys.path])}
+    proc = subprocess.Popen([sys.executable, "-c", _WRITER, "simulate", "--rig", str(tmp_path / "rig.toml"),
+                             "--k-tb", "7e7", "-o", str(out), "--fmax", "50", "--df", "1"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "writing"
+        temps = list(out.parent.iterdir())
+        assert len(temps) == 1 and ".tmp" in temps[0].name  # mid-write: the temporary exists
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == code, err
+    assert "Traceback" not in err
+    assert list(out.parent.iterdir()) == []
+
+
+def test_forked_child_never_removes_the_parents_temporaries(tmp_path: Path) -> None:
+    with _atomic.atomic_path(tmp_path / "x.png") as tmp:
+        tmp.write_bytes(b"partial")
+        pid = os.fork() if hasattr(os, "fork") else None
+        if pid == 0:  # pragma: no cover - the child
+            _atomic.remove_active_files()
+            os._exit(0)
+        if pid is None:
+            pytest.skip("no fork")
+        os.waitpid(pid, 0)
+        assert tmp.exists()
+    assert (tmp_path / "x.png").read_bytes() == b"partial"
+    time.sleep(0)
+
+
+@pytest.mark.parametrize("sub", ["results", "measurements"])
+def test_planted_subfolder_link_refused(sub: str, tmp_path: Path, rig_toml_text: str, capsys) -> None:
+    (tmp_path / "rig.toml").write_text(rig_toml_text)
+    campaign = tmp_path / "c.toml"
+    campaign.write_text('rig = "rig.toml"\n[[measurement]]\nfile = "m1.uff"\n')
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / sub).symlink_to(elsewhere)
+    assert main(["campaign", str(campaign), "-o", str(out)]) == EXIT_ERROR
+    assert _one_error_line(capsys).startswith(f"error: {out / sub}: is a symbolic link")
+    assert list(elsewhere.iterdir()) == [] and not (out / ".ema-rig.lock").exists()
+
+
+def test_shapes_onto_an_input_refused(small: Path, tmp_path: Path, capsys) -> None:  # noqa: F811
+    # PREFIX_<n>.png is known once the modes are: checked after the identification, before any write
+    f = tmp_path / "s_1.png"  # a measurement whose name is the first shape's
+    f.write_bytes((small / "m1.uff").read_bytes())
+    before = f.read_bytes()
+    assert main(["modes", str(f), "--max-order", "16", "--shapes", str(tmp_path / "s"),
+                 "--json", str(tmp_path / "modes.json")]) == EXIT_ERROR
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith(f"error: {f}: --shapes would overwrite the input FILE"), line
+    assert f.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["s_1.png"]
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+def test_ignored_signals_stay_ignored() -> None:
+    old = signal.signal(signal.SIGHUP, signal.SIG_IGN)  # as under nohup
+    try:
+        with _atomic.removing_temporaries_on_signal():
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            assert signal.getsignal(signal.SIGTERM) is _atomic._on_signal
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, old)
