@@ -759,7 +759,7 @@ class PlscfEngine:
         self.f_lo, self.f_hi = float(data.freq[0]), float(data.freq[-1])
         with single_threaded():
             self._r, self._s, self._t, _, self.dt = _lag_sums(data, max_order)
-        self.order_limit = _order_limit(self._r)
+            self.order_limit = _order_limit(self._r)
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
