@@ -44,7 +44,7 @@ __all__ = ["collapse_minor_ticks", "render_png"]
 
 #: Layouts kept per process (structure -> [(key, positions)]), newest last; a few per figure kind.
 _LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
-_MAX_LAYOUTS = 16
+_MAX_LAYOUTS = 8
 #: One Agg canvas per figure size [px] and dpi, reused for every figure of that size.
 _CANVASES: dict[tuple[int, int, float], Any] = {}
 
