@@ -566,6 +566,12 @@ def _participation(alpha: NDArray, z: NDArray) -> NDArray:
     if n_in == 1:
         return np.ones((z.size, 1), dtype=np.complex128)
     a, _ = _eval_poly(alpha, z)
+    return _null_vectors(a)
+
+
+def _null_vectors(a: NDArray) -> NDArray:
+    """Unit-norm left null vectors of each ``a[r]`` (n_z, n_in, n_in), largest entry real > 0."""
+    n_in = a.shape[1]
     at = np.swapaxes(a, 1, 2)
     if n_in == 2:
         # l orthogonal to the row of larger norm: row (u, v) -> l = (-v, u)
@@ -620,6 +626,93 @@ def _poles_of_order(
     if phys.any():
         part[phys] = _participation(high, z[phys])
     return s + 2j * np.pi * f_lo, part
+
+
+def _poles_of_orders(
+    entries: list[tuple[int, NDArray, NDArray]], dt: float, f_lo: float
+) -> list[tuple[NDArray, NDArray]]:
+    """:func:`_poles_of_order` for many orders at once: ``(order, alpha_high, roots z)`` each.
+
+    The Newton polish of the stable roots and their participation vectors are evaluated for
+    the roots of every order together (one array operation per step instead of several per
+    order): the coefficient blocks of each order are padded with zero blocks to the highest
+    order, which changes no polynomial. Same steps, tolerances and acceptance rule as
+    :func:`_refine` and :func:`_participation`.
+    """
+    nyq = np.pi / dt
+    kept = []
+    for _, _, z in entries:
+        im = np.angle(z) / dt  # = Im(log z) / dt
+        kept.append(z[(im > 1e-9 * nyq) & (im < (1 - 1e-9) * nyq) & (z != 0)])
+    n_in = entries[0][1].shape[1] if entries else 1
+    top = max((e[1].shape[0] for e in entries), default=1)
+    high = np.zeros((len(entries), top, n_in, n_in))
+    for k, (_, h, _) in enumerate(entries):
+        high[k, : h.shape[0]] = h
+    owner = np.concatenate([np.full(z.size, k) for k, z in enumerate(kept)]) if kept else np.zeros(0, int)
+    z_all = np.concatenate(kept) if kept else np.zeros(0, complex)
+    stable = np.abs(z_all) < 1.0
+    if stable.any():
+        z_all[stable] = _refine_many(high, owner[stable], z_all[stable])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_all = np.log(z_all) / dt
+    part = np.full((z_all.size, n_in), np.nan, dtype=np.complex128)
+    phys = s_all.real < 0
+    if phys.any():
+        part[phys] = _participation_many(high, owner[phys], z_all[phys])
+    bounds = np.cumsum([0] + [z.size for z in kept])
+    return [(s_all[a:b] + 2j * np.pi * f_lo, part[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def _eval_many(high: NDArray, owner: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
+    """``A(z)`` and ``A'(z)`` of the polynomial ``high[owner[r]]`` at each ``z[r]``: (n_z, n_in, n_in)."""
+    n1 = high.shape[1]
+    j = np.arange(n1)
+    v = np.empty((z.size, n1), dtype=np.complex128)
+    v[:, 0] = 1.0
+    if n1 > 1:
+        v[:, 1:] = z[:, None]
+        np.cumprod(v[:, 1:], axis=1, out=v[:, 1:])
+    dv = np.zeros_like(v)
+    dv[:, 1:] = v[:, :-1] * j[1:]
+    c = high[owner]  # (n_z, n1, n_in, n_in)
+    return np.einsum("rj,rjab->rab", v, c), np.einsum("rj,rjab->rab", dv, c)
+
+
+def _refine_many(high: NDArray, owner: NDArray, z: NDArray, iters: int = 3) -> NDArray:
+    """:func:`_refine` for roots of several polynomials at once (``high[owner[r]]`` for root r)."""
+    z0 = z.copy()
+    zk = z.copy()
+    n_in = high.shape[2]
+    for _ in range(iters):
+        a, da = _eval_many(high, owner, zk)
+        with np.errstate(all="ignore"):
+            if n_in == 1:
+                step = a[:, 0, 0] / da[:, 0, 0]
+            else:
+                ddet = np.zeros(zk.size, dtype=np.complex128)
+                for i in range(n_in):
+                    ai = a.copy()
+                    ai[:, :, i] = da[:, :, i]
+                    ddet += np.linalg.det(ai)
+                step = np.linalg.det(a) / ddet
+        step = np.where(np.isfinite(step), step, 0.0)
+        zk = zk - step
+        if np.all(np.abs(step) <= 1e-12 * np.abs(zk)):
+            break
+    moved = np.abs(zk - z0)
+    bad = ~np.isfinite(zk) | (moved > 0.1 * np.abs(1.0 - np.abs(z0)))
+    zk[bad] = z0[bad]
+    return zk
+
+
+def _participation_many(high: NDArray, owner: NDArray, z: NDArray) -> NDArray:
+    """:func:`_participation` for roots of several polynomials at once."""
+    n_in = high.shape[2]
+    if n_in == 1:
+        return np.ones((z.size, 1), dtype=np.complex128)
+    a, _ = _eval_many(high, owner, z)
+    return _null_vectors(a)
 
 
 def _normalise_orders(orders: Iterable[int] | None, max_order: int, n_in: int) -> list[int]:
@@ -811,13 +904,12 @@ class PlscfEngine:
         with single_threaded():
             self._blocks(order_list[-1])
         pool = None
-        futures: list[tuple[int, Any]] = []
         if self.root_finder == "eig" and self.threads > 1 and len(order_list) > 4:
             pool = ThreadPoolExecutor(max_workers=self.threads)
 
-        def work(low: NDArray, high: NDArray) -> tuple[NDArray, NDArray]:
+        def work(low: NDArray) -> NDArray:
             with single_threaded():
-                return _poles_of_order(low, high, dt, f_lo)
+                return _roots_eig(low)
 
         wanted = set(order_list)
 
@@ -831,6 +923,9 @@ class PlscfEngine:
                     if i0 + k in wanted:
                         yield i0 + k
 
+        # per order: solve and root; the polish of the stable roots and the participation
+        # factors of all these orders follow at once (_poles_of_orders)
+        entries: list[tuple[int, NDArray, Any]] = []
         try:
             with single_threaded():
                 for n in solvable():
@@ -838,7 +933,7 @@ class PlscfEngine:
                     low, high = _solve_order(self._T[:c, :c] - self._P[:c, :c], n, n_in)
                     self._last = n
                     if pool is not None:
-                        futures.append((n, pool.submit(work, low, high)))
+                        entries.append((n, high, pool.submit(work, low)))
                         continue
                     z = None
                     big = self.root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
@@ -850,16 +945,20 @@ class PlscfEngine:
                     if z is None:
                         z = _roots_eig(low)
                     self._prev = z
-                    self._rows[n] = _poles_of_order(low, high, dt, f_lo, z)
+                    entries.append((n, high, z))
                     if bar is not None:
                         bar.update()
-            for n, fut in futures:
-                self._rows[n] = fut.result()
+            if pool is not None:
+                entries = [(n, high, fut.result()) for n, high, fut in entries]
                 if bar is not None:
-                    bar.update()
+                    bar.update(len(entries))
         finally:
             if pool is not None:
                 pool.shutdown(wait=True, cancel_futures=True)
+        with single_threaded():
+            done = _poles_of_orders(entries, dt, f_lo)
+        for (n, _, _), row in zip(entries, done, strict=True):
+            self._rows[n] = row
 
     def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
         """Poles of the given orders (computing those not yet computed).
