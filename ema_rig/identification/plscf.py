@@ -510,63 +510,8 @@ def _companion(beta: NDArray) -> NDArray:
     return c
 
 
-def _eval_poly(alpha: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
-    """``A(z)`` and ``A'(z)`` for coefficients alpha (n+1, n_in, n_in) at points z (n_z,)."""
-    n = alpha.shape[0] - 1
-    j = np.arange(n + 1)
-    with np.errstate(over="ignore", invalid="ignore"):
-        v = z[:, None] ** j[None, :]  # (n_z, n+1)
-    a = np.einsum("pj,jab->pab", v, alpha)
-    dv = np.zeros_like(v)
-    dv[:, 1:] = v[:, :-1] * j[1:]
-    da = np.einsum("pj,jab->pab", dv, alpha)
-    return a, da
-
-
-def _refine(alpha: NDArray, z: NDArray, iters: int = 3) -> NDArray:
-    """Newton steps on ``det A(z) = 0`` from the starting roots ``z``.
-
-    The step is ``det A / (d det A / dz)`` with the derivative from Jacobi's formula (sum of
-    the determinants with one column replaced by the column of ``A'``), which stays finite at
-    a root. A root that moves by more than a tenth of its distance to the unit circle is left
-    where it started.
-    """
-    z0 = z.copy()
-    zk = z.copy()
-    n_in = alpha.shape[1]
-    for _ in range(iters):
-        a, da = _eval_poly(alpha, zk)
-        with np.errstate(all="ignore"):
-            if n_in == 1:
-                step = a[:, 0, 0] / da[:, 0, 0]
-            else:
-                ddet = np.zeros(zk.size, dtype=np.complex128)
-                for i in range(n_in):
-                    ai = a.copy()
-                    ai[:, :, i] = da[:, :, i]
-                    ddet += np.linalg.det(ai)
-                step = np.linalg.det(a) / ddet
-        step = np.where(np.isfinite(step), step, 0.0)
-        zk = zk - step
-        if np.all(np.abs(step) <= 1e-12 * np.abs(zk)):
-            break
-    moved = np.abs(zk - z0)
-    bad = ~np.isfinite(zk) | (moved > 0.1 * np.abs(1.0 - np.abs(z0)))
-    zk[bad] = z0[bad]
-    return zk
-
-
 def _eigvals(c: NDArray) -> NDArray:
     return np.linalg.eigvals(c)
-
-
-def _participation(alpha: NDArray, z: NDArray) -> NDArray:
-    """Unit-norm null vectors ``l`` of ``A(z)^T`` (left null vectors of A), shape (n_z, n_in)."""
-    n_in = alpha.shape[1]
-    if n_in == 1:
-        return np.ones((z.size, 1), dtype=np.complex128)
-    a, _ = _eval_poly(alpha, z)
-    return _null_vectors(a)
 
 
 def _null_vectors(a: NDArray) -> NDArray:
@@ -599,45 +544,20 @@ def _roots_eig(low: NDArray) -> NDArray:
     return 1.0 / w
 
 
-def _poles_of_order(
-    low: NDArray, high: NDArray, dt: float, f_lo: float, z: NDArray | None = None
-) -> tuple[NDArray, NDArray]:
-    """Physical poles (rad/s, Im > 0) and participation vectors of one order.
-
-    ``z`` are the roots of ``det A_low`` when already known (warm-started root finder).
-    """
-    if z is None:
-        z = _roots_eig(low)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.log(z) / dt
-    # one root of each complex pair; real roots (z > 0: no oscillation, z < 0: exactly at the
-    # band's top) are not modes
-    nyq = np.pi / dt
-    z = z[(s.imag > 1e-9 * nyq) & (s.imag < (1 - 1e-9) * nyq)]
-    stable = np.abs(z) < 1.0
-    if stable.any():
-        z[stable] = _refine(high, z[stable])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.log(z) / dt
-    # participation only where a mode can be physical (Re s < 0, the same test as
-    # StabilizationData.unstable): NaN otherwise
-    part = np.full((z.size, high.shape[1]), np.nan, dtype=np.complex128)
-    phys = s.real < 0
-    if phys.any():
-        part[phys] = _participation(high, z[phys])
-    return s + 2j * np.pi * f_lo, part
-
-
 def _poles_of_orders(
     entries: list[tuple[int, NDArray, NDArray]], dt: float, f_lo: float
 ) -> list[tuple[NDArray, NDArray]]:
-    """:func:`_poles_of_order` for many orders at once: ``(order, alpha_high, roots z)`` each.
+    """Physical poles (rad/s, Im > 0) and participation vectors of several orders.
 
-    The Newton polish of the stable roots and their participation vectors are evaluated for
-    the roots of every order together (one array operation per step instead of several per
-    order): the coefficient blocks of each order are padded with zero blocks to the highest
-    order, which changes no polynomial. Same steps, tolerances and acceptance rule as
-    :func:`_refine` and :func:`_participation`.
+    ``entries`` holds ``(order, alpha_high, z)`` per order, ``z`` all roots of ``det A_low``.
+    Of each conjugate pair only the root with ``Im s' > 0`` is kept (real roots, ``z > 0``: no
+    oscillation, ``z < 0``: exactly at the band's top, are not modes); each stable root
+    (``|z| < 1``) is polished on the ``alpha_n = I`` polynomial (:func:`_refine_many`), and the
+    participation vector is computed where a mode can be physical (``Re s < 0``, the test of
+    ``StabilizationData.unstable``; NaN otherwise). The polish and the participation vectors of
+    every order are evaluated together, one array operation per step instead of several per
+    order: the coefficient blocks of each order are padded with zero blocks to the highest
+    order, which changes no polynomial.
     """
     nyq = np.pi / dt
     kept = []
@@ -680,7 +600,13 @@ def _eval_many(high: NDArray, owner: NDArray, z: NDArray) -> tuple[NDArray, NDAr
 
 
 def _refine_many(high: NDArray, owner: NDArray, z: NDArray, iters: int = 3) -> NDArray:
-    """:func:`_refine` for roots of several polynomials at once (``high[owner[r]]`` for root r)."""
+    """Newton steps on ``det A(z) = 0`` from the starting roots ``z``, ``A = high[owner[r]]`` for root r.
+
+    The step is ``det A / (d det A / dz)`` with the derivative from Jacobi's formula (sum of
+    the determinants with one column replaced by the column of ``A'``), which stays finite at
+    a root. A root that moves by more than a tenth of its distance to the unit circle is left
+    where it started.
+    """
     z0 = z.copy()
     zk = z.copy()
     n_in = high.shape[2]
@@ -707,7 +633,7 @@ def _refine_many(high: NDArray, owner: NDArray, z: NDArray, iters: int = 3) -> N
 
 
 def _participation_many(high: NDArray, owner: NDArray, z: NDArray) -> NDArray:
-    """:func:`_participation` for roots of several polynomials at once."""
+    """Unit-norm null vectors ``l`` of ``A(z)^T`` (left null vectors of A), ``A = high[owner[r]]``: (n_z, n_in)."""
     n_in = high.shape[2]
     if n_in == 1:
         return np.ones((z.size, 1), dtype=np.complex128)
