@@ -585,18 +585,29 @@ def _poles_of_orders(
 
 
 def _eval_many(high: NDArray, owner: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
-    """``A(z)`` and ``A'(z)`` of the polynomial ``high[owner[r]]`` at each ``z[r]``: (n_z, n_in, n_in)."""
-    n1 = high.shape[1]
+    """``A(z)`` and ``A'(z)`` of the polynomial ``high[owner[r]]`` at each ``z[r]``: (n_z, n_in, n_in).
+
+    In chunks of roots of about half a megabyte of powers and gathered coefficients: the roots of
+    every order are many, and their powers are never held all at once.
+    """
+    n1, n_in = high.shape[1], high.shape[2]
     j = np.arange(n1)
-    v = np.empty((z.size, n1), dtype=np.complex128)
-    v[:, 0] = 1.0
-    if n1 > 1:
-        v[:, 1:] = z[:, None]
-        np.cumprod(v[:, 1:], axis=1, out=v[:, 1:])
-    dv = np.zeros_like(v)
-    dv[:, 1:] = v[:, :-1] * j[1:]
-    c = high[owner]  # (n_z, n1, n_in, n_in)
-    return np.einsum("rj,rjab->rab", v, c), np.einsum("rj,rjab->rab", dv, c)
+    a = np.empty((z.size, n_in, n_in), dtype=np.complex128)
+    da = np.empty_like(a)
+    step = max(1, (1 << 19) // (n1 * (n_in * n_in + 4) * 8))
+    for r0 in range(0, z.size, step):
+        zc = z[r0 : r0 + step]
+        v = np.empty((zc.size, n1), dtype=np.complex128)
+        v[:, 0] = 1.0
+        if n1 > 1:
+            v[:, 1:] = zc[:, None]
+            np.cumprod(v[:, 1:], axis=1, out=v[:, 1:])
+        dv = np.zeros_like(v)
+        dv[:, 1:] = v[:, :-1] * j[1:]
+        c = high[owner[r0 : r0 + step]]  # (chunk, n1, n_in, n_in)
+        a[r0 : r0 + step] = np.einsum("rj,rjab->rab", v, c)
+        da[r0 : r0 + step] = np.einsum("rj,rjab->rab", dv, c)
+    return a, da
 
 
 def _refine_many(high: NDArray, owner: NDArray, z: NDArray, iters: int = 3) -> NDArray:
