@@ -44,8 +44,6 @@ from .stabilization import (
 
 #: Median synthesis error above which an identification is flagged as a poor fit.
 POOR_FIT = 0.20
-#: Default time budget [s] for growing the model order.
-TIME_BUDGET = 20.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -265,7 +263,7 @@ def identify(
     near_tol: float = 0.03,
     residuals: bool = True,
     progress: bool = False,
-    time_budget: float = TIME_BUDGET,
+    time_budget: float | None = None,
     transpose: bool | None = None,
     refine: bool = False,
 ) -> Identification:
@@ -274,7 +272,9 @@ def identify(
     The model order grows from :func:`~ema_rig.identification.plscf.default_max_order` in
     steps of a quarter of it until the automatically selected mode set is the same (same
     number of modes, frequencies within three standard deviations of their cluster, at least
-    0.1 %) at two orders one step apart, up to the cap ``max_order`` or the ``time_budget``.
+    0.1 %) at two orders one step apart, up to the cap ``max_order``. Only work limits (orders,
+    evaluations) stop a loop, never the clock: the same data give the same result on any
+    machine and load.
     Every cluster of stable poles is judged (:func:`~ema_rig.identification.judge.judge_clusters`);
     the accepted ones are fitted by LSFD on the data as measured.
 
@@ -303,8 +303,8 @@ def identify(
     progress : bool, optional
         Progress bar over the model orders.
     time_budget : float, optional
-        Seconds after which the order stops growing (default 20); the result then says it
-        did not converge.
+        Deprecated and ignored (a wall-clock budget made the result depend on the machine's
+        load); the order cap ``max_order`` is the work limit.
     transpose : bool, optional
         Estimate the poles on the transposed layout (reciprocity). Default: when the data have
         more references than outputs (roving hammer), which gives the estimator more outputs.
@@ -337,8 +337,12 @@ def identify(
     >>> ident.natural_freq.round(6), ident.damping_ratio.round(6)
     (array([150.]), array([0.01]))
     """
-    import time
+    if time_budget is not None:
+        import warnings as _warnings
 
+        _warnings.warn("identify(time_budget=...) is deprecated and ignored: the order growth stops at the "
+                       "order cap (max_order) only, so the result does not depend on the machine's load",
+                       DeprecationWarning, stacklevel=2)
     if selection is not None and not isinstance(selection, Selection):
         raise TypeError(f"selection must be a Selection, got {type(selection).__name__}")
     if selection is not None:
@@ -409,7 +413,6 @@ def identify(
         # grow the order until the accepted mode set holds over one span of orders
         start = min(default_max_order(n_in), cap)
         span = max(2 * step, (start // 4) // step * step)
-        t0 = time.perf_counter()
         prev_n = max(start - span, min_order)
         n = start
         prev: list[SelectedMode] | None = None
@@ -433,15 +436,14 @@ def identify(
                 if not _same_modes(prev, cur):
                     prev = [c.mode for c in judge_clusters(early, data) if c.accepted]
             converged = bool(cur) and _same_modes(prev, cur)
-            if converged or n >= cap or time.perf_counter() - t0 > time_budget:
+            if converged or n >= cap:
                 break
             prev, prev_order, n = cur, n, min(n + span, cap)
         _require_stable(stab, n, src, data)
         notes.append(f"model order grown to {n} (modes per order: {', '.join(history)}); "
                      + ("the mode set converged" if converged else "the mode set did NOT converge"))
         if not converged:
-            why = "the order cap" if n >= cap else f"the time budget ({time_budget:g} s)"
-            warnings.append(f"the mode set did not converge up to order {n} (stopped by {why}): "
+            warnings.append(f"the mode set did not converge up to order {n} (stopped by the order cap): "
                             f"{len(prev or [])} modes at order {prev_order}, {len(cur)} at order {n}")
         sel = Selection(modes=tuple(cur), band=stab.band, max_order=n,
                         tolerances=dict(stab.tolerances),
