@@ -20,16 +20,18 @@ Identification
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .._blas import single_threaded
 from ..errors import IdentificationError
 from ..frf import FRFData
 from .judge import Candidate, judge_clusters, shape_mpc
 from .lsfd import _lsfd_checked
+from .ml import LocalML, local_ml
 from .modal import ModalModel
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
@@ -41,6 +43,9 @@ from .stabilization import (
     resolve_selection,
     stabilize,
 )
+
+#: What every printed ± of a mode is (CLI, JSON, notebook, report say the same).
+STD_LABEL = "measured: one standard uncertainty of the ML estimate (robust covariance)"
 
 #: Median synthesis error above which an identification is flagged as a poor fit.
 POOR_FIT = 0.20
@@ -81,6 +86,13 @@ class Identification:
     refinement : Refinement or None
         The maximum-likelihood refinement when ``identify(..., refine=True)``; when it converged,
         ``modes`` is its model and the standard deviations are its Fisher-information ones.
+    natural_freq_spread, damping_ratio_spread : ndarray, shape (n_modes,)
+        Spread of each mode's pole cluster across the model orders: a diagnostic of the
+        stabilization chart, never an uncertainty (empty when not available).
+    std_kind : tuple of str
+        What each mode's ``natural_freq_std`` / ``damping_ratio_std`` is: ``"ml"`` (measured
+        standard uncertainty of the ML estimate, robust covariance), ``"held"`` (mode kept at its
+        PolyMAX pole; the ML uncertainty at that pole), ``"none"`` (NaN, the warning says why).
     """
 
     poles: PoleSet
@@ -96,6 +108,9 @@ class Identification:
     notes: tuple[str, ...] = ()
     transposed: bool = False
     refinement: Refinement | None = None
+    natural_freq_spread: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    damping_ratio_spread: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    std_kind: tuple[str, ...] = ()
 
     def __repr__(self) -> str:
         """One line per mode, not the arrays (a notebook prints this)."""
@@ -103,6 +118,7 @@ class Identification:
                 f"{'converged' if self.converged else 'NOT converged'}"
                 f"{', ML-refined' if self.refinement is not None and self.refinement.converged else ''}, "
                 f"{len(self.warnings)} warning(s))")
+        head += f"\n  ± = {STD_LABEL}"
         rows = [f"  {f:10.3f} Hz ± {sf:.3g}   zeta {100 * z:6.3f} % ± {100 * sz:.2g}"
                 for f, sf, z, sz in zip(self.natural_freq, self.natural_freq_std, self.damping_ratio,
                                         self.damping_ratio_std, strict=True)]
@@ -117,7 +133,7 @@ class Identification:
                                     self.damping_ratio_std, strict=True))
         warns = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
         return (f"<p><b>Identification</b>: {self.modes.n_modes} modes, band {self.band[0]:g}–{self.band[1]:g} Hz, "
-                f"{'converged' if self.converged else '<b>not converged</b>'}</p>"
+                f"{'converged' if self.converged else '<b>not converged</b>'}; ± = {STD_LABEL}</p>"
                 "<table><tr><th>f_n [Hz]</th><th>± [Hz]</th><th>ζ [%]</th><th>± [%]</th></tr>"
                 f"{rows}</table>" + (f"<ul>{warns}</ul>" if warns else ""))
 
@@ -174,6 +190,8 @@ class Identification:
         # a refined model keeps the PolyMAX pole of each mode in meta (same order)
         start = [complex(*p) for p in mm.meta.get("polymax_poles", [])] or [complex(p) for p in mm.poles]
         out = []
+        spread_f = self.natural_freq_spread if self.natural_freq_spread.size == mm.n_modes else None
+        spread_z = self.damping_ratio_spread if self.damping_ratio_spread.size == mm.n_modes else None
         for k in range(mm.n_modes):
             sel: SelectedMode | None = modes_by_pole.get(start[k])
             out.append(
@@ -190,6 +208,9 @@ class Identification:
                     "participation": [[float(c.real), float(c.imag)] for c in sel.participation] if sel else [],
                     "order_min": int(sel.order_min) if sel else None,
                     "order_max": int(sel.order_max) if sel else None,
+                    "std_kind": self.std_kind[k] if len(self.std_kind) == mm.n_modes else None,
+                    "natural_freq_spread": None if spread_f is None else float(spread_f[k]),
+                    "damping_ratio_spread": None if spread_z is None else float(spread_z[k]),
                 }
             )
         return out
@@ -240,13 +261,13 @@ def _same_modes(a: Sequence[SelectedMode], b: Sequence[SelectedMode]) -> bool:
     return True
 
 
-def _edge_warnings(modes: Sequence[SelectedMode], band: tuple[float, float]) -> list[str]:
+def _edge_warnings(model: ModalModel, band: tuple[float, float]) -> list[str]:
     lo, hi = band
     out = []
-    for m in modes:
-        margin = max(2.0 * m.damping_ratio * m.natural_freq, 0.01 * (hi - lo))
-        if m.natural_freq - lo < margin or hi - m.natural_freq < margin:
-            out.append(f"mode at {m.natural_freq:.6g} Hz sits at the band edge ({lo:g}..{hi:g} Hz): "
+    for fn, zeta in zip(model.natural_freq.tolist(), model.damping_ratio.tolist(), strict=True):
+        margin = max(2.0 * zeta * fn, 0.01 * (hi - lo))
+        if fn - lo < margin or hi - fn < margin:
+            out.append(f"mode at {fn:.6g} Hz sits at the band edge ({lo:g}..{hi:g} Hz): "
                        "its estimate may be biased; widen the band")
     return out
 
@@ -462,22 +483,32 @@ def identify(
         unique.setdefault(m.pole, m)
     modes = list(unique.values())
     model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked above
+    # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
+    ml = _local_ml(data, model)
+    polymax = [[float(p.real), float(p.imag)] for p in model.poles]
+    if np.any(ml.poles != model.poles):
+        model = _lsfd_checked(data, ml.poles, residuals=residuals)
+    warnings += list(ml.warnings)
     meta = dict(model.meta)
-    meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed})
+    meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed,
+                 "polymax_poles": polymax, "method": "ml-local", "std": STD_LABEL})
     model = replace(model, meta=meta)
     fit = model.fit_error if model.fit_error is not None else np.zeros((1, 1))
     med = float(np.median(fit))
     if med > POOR_FIT:
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
                         f"(above {100 * POOR_FIT:.0f} %); modes may be missing or the data noisy")
-    warnings += _edge_warnings(modes, stab.band)
+    warnings += _edge_warnings(model, stab.band)
     ident = Identification(
         poles=stab.poles,
         stabilization=stab,
         selection=sel,
         modes=model,
-        natural_freq_std=np.array([m.natural_freq_std for m in modes]),
-        damping_ratio_std=np.array([m.damping_ratio_std for m in modes]),
+        natural_freq_std=ml.natural_freq_std,
+        damping_ratio_std=ml.damping_ratio_std,
+        natural_freq_spread=np.array([m.natural_freq_std for m in modes]),
+        damping_ratio_spread=np.array([m.damping_ratio_std for m in modes]),
+        std_kind=ml.kind,
         band=stab.band,
         candidates=candidates,
         converged=converged,
@@ -491,6 +522,14 @@ def identify(
     return ident
 
 
+def _local_ml(data: FRFData, model: ModalModel) -> LocalML:
+    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band)."""
+    syn = model.synthesize(data.freq).frf
+    syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz
+    with single_threaded():  # many small products: threads only add hand-off time
+        return local_ml(data, model.poles, syn)
+
+
 def _refined(ident: Identification, data: FRFData) -> Identification:
     """``ident`` with the ML-refined modes and their standard deviations, or unchanged with a warning."""
     from .refine import refine as refine_model
@@ -499,17 +538,20 @@ def _refined(ident: Identification, data: FRFData) -> Identification:
     # the caveats travel in Identification.warnings (the CLI prints each once), not as Python warnings
     if not ref.converged:
         return replace(ident, refinement=ref, warnings=ident.warnings + (
-            f"ML refinement fell back to PolyMAX ({ref.reason}); the standard deviations are the "
-            "pole-cluster spreads",))
+            f"ML refinement fell back to the default estimate ({ref.reason}); the standard deviations are "
+            "the default (local ML) ones",))
     carried = []
     for w in ref.warnings:
         if "kept at its PolyMAX pole" in w:
-            w += " (its standard deviations are the pole-cluster spread)"
+            w += " (its standard deviations are the default ML ones)"
         carried.append(w)
-    # modes kept at their PolyMAX pole keep their cluster spread
+    # modes kept at their PolyMAX pole keep the default (local ML) uncertainty
+    meta = dict(ref.model.meta)
+    if "polymax_poles" in ident.modes.meta:  # the selection's poles, for to_records
+        meta["polymax_poles"] = ident.modes.meta["polymax_poles"]
     return replace(
         ident,
-        modes=ref.model,
+        modes=replace(ref.model, meta=meta),
         natural_freq_std=np.where(np.isnan(ref.natural_freq_std), ident.natural_freq_std, ref.natural_freq_std),
         damping_ratio_std=np.where(np.isnan(ref.damping_ratio_std), ident.damping_ratio_std, ref.damping_ratio_std),
         refinement=ref,
