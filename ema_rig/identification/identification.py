@@ -118,7 +118,7 @@ class Identification:
                 f"{'converged' if self.converged else 'NOT converged'}"
                 f"{', ML-refined' if self.refinement is not None and self.refinement.converged else ''}, "
                 f"{len(self.warnings)} warning(s))")
-        head += f"\n  ± = {STD_LABEL}"
+        head += f"\n  ± = {self.std_label}"
         rows = [f"  {f:10.3f} Hz ± {sf:.3g}   zeta {100 * z:6.3f} % ± {100 * sz:.2g}"
                 for f, sf, z, sz in zip(self.natural_freq, self.natural_freq_std, self.damping_ratio,
                                         self.damping_ratio_std, strict=True)]
@@ -133,9 +133,17 @@ class Identification:
                                     self.damping_ratio_std, strict=True))
         warns = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
         return (f"<p><b>Identification</b>: {self.modes.n_modes} modes, band {self.band[0]:g}–{self.band[1]:g} Hz, "
-                f"{'converged' if self.converged else '<b>not converged</b>'}; ± = {STD_LABEL}</p>"
+                f"{'converged' if self.converged else '<b>not converged</b>'}; ± = {html.escape(self.std_label)}</p>"
                 "<table><tr><th>f_n [Hz]</th><th>± [Hz]</th><th>ζ [%]</th><th>± [%]</th></tr>"
                 f"{rows}</table>" + (f"<ul>{warns}</ul>" if warns else ""))
+
+    @property
+    def std_label(self) -> str:
+        """What ``natural_freq_std`` / ``damping_ratio_std`` are (printed beside every ±)."""
+        if self.refinement is not None and self.refinement.converged:
+            return ("measured: one standard uncertainty, Fisher information of the global ML refinement "
+                    "(noise only); modes it could not refine: " + STD_LABEL.removeprefix("measured: "))
+        return STD_LABEL
 
     @property
     def fit_error(self) -> NDArray[np.float64]:
