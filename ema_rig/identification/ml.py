@@ -96,7 +96,7 @@ class MLCriteria:
     window_hbw: float = 4.0
     min_side_lines: int = 12
     block_lines: int = 4
-    max_iter: int = 50
+    max_iter: int = 400
     move_hbw: float = 1.0
 
     def sources(self) -> dict[str, str]:
@@ -200,7 +200,7 @@ class _Segment:
         return t
 
     def evaluate(self, theta: NDArray[np.float64], scores: bool = False, rho: tuple[float, ...] = (),
-                 profile: NDArray[np.float64] | None = None) -> dict[str, NDArray[np.float64] | float]:
+                 noise_var: NDArray[np.float64] | None = None) -> dict[str, NDArray[np.float64] | float]:
         """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores)."""
         lam = self.poles(theta)
         pos, neg = self._pn(lam, 1)
@@ -245,6 +245,10 @@ class _Segment:
             # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E
             v = np.einsum("kir,kic->krc", us, cs)
             jac = v - np.einsum("rl,klc->krc", q, np.einsum("rl,krc->klc", q, v))
+            # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
+            # 1985): near a peak the residues take up much of each line's error
+            lev = np.minimum(np.sum(q * q, axis=1), 0.9)
+            e = e / np.sqrt(1.0 - lev)[:, None]
             row = np.einsum("krc,rc->kr", jac, e)
             n = self.jw.size
             out["line_scores"] = row[:, :n] + row[:, n:]  # (k, n)
@@ -252,10 +256,10 @@ class _Segment:
             # over the segment's lines: the common part of H1 errors, force noise and leakage of the
             # same modal transients), between lines as the window makes it (lag l: rho[l-1])
             # a variance profile over the lines that the weights do not remove scales rows
-            dof = max(2 * n - self.L, 1)
-            sp = np.ones(2 * n) if profile is None else np.sqrt(np.concatenate([profile, profile]))
-            et = e / sp[:, None]
-            jac = jac * sp[None, :, None]
+            dof = 2 * n  # the residuals are leverage-corrected
+            sp = np.ones((2 * n, 1)) if noise_var is None else np.sqrt(np.concatenate([noise_var, noise_var]))
+            et = e / sp
+            jac = jac * sp[None, :, :]
             if e.shape[1] <= 2 * n:
                 js = np.einsum("krc,cd->krd", jac, (et.T @ et) / dof)
             else:
@@ -464,7 +468,6 @@ def local_ml(
                              "its uncertainty is unknown (NaN)")
             continue
         s_c, v_i = _separable(var[:, i0:i1])
-        prof = v_i / np.mean(v_i)
         if not weighted_lines:
             v_i = np.ones_like(v_i)
         w = 1.0 / np.sqrt(v_i)
@@ -490,7 +493,10 @@ def local_ml(
             theta, free = th0, np.zeros(m, bool)
         held = ~free
         theta = np.where(np.repeat(held, 2), th0, theta)
-        full = seg.evaluate(theta, scores=True, rho=rho, profile=None if weighted_lines else prof)
+        # the noise model of every line and channel in the units of the weighted problem: the
+        # residual covariance between channels is pooled after standardising by it
+        nv = (var[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
+        full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv)
         n_eval += 1
         hess = np.asarray(full["hess"])
         sc = np.asarray(full["line_scores"])  # (2m, n)
@@ -502,8 +508,8 @@ def local_ml(
         n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
         s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
         chi_out[rs_arr] = s2
-        # robust meat; the linear parameters take L of the 2n equations of every channel
-        meat = (blocks @ blocks.T) * (2 * n / max(2 * n - seg.L, 1)) * (g / max(g - 1, 1))
+        # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
+        meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
         hinv = _inv(hess)
         cov_theta: NDArray[np.float64] | None
         if hinv is not None:
