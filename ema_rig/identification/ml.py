@@ -87,6 +87,11 @@ class MLCriteria:
         that are correlated by leakage.
     max_iter : int
         Work limit: Levenberg-Marquardt evaluations per segment (default 50).
+    misfit_p, misfit_ratio : float
+        A segment whose leverage-corrected residual exceeds the noise estimate in a chi-square test
+        at ``p < misfit_p`` (default 0.001, dof = its real equations) and by at least
+        ``misfit_ratio`` (default 2, the rule of :func:`~ema_rig.identification.refine.refine` for a
+        residual above the stated noise) is reported as a local misfit.
     move_hbw : float
         A pole may move by this many PolyMAX half-power half-bandwidths, or two line spacings
         (default 1): further means it left for another feature of the data (the same rule as
@@ -98,6 +103,8 @@ class MLCriteria:
     block_lines: int = 4
     max_iter: int = 400
     move_hbw: float = 1.0
+    misfit_p: float = 1e-3
+    misfit_ratio: float = 2.0
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name."""
@@ -106,6 +113,8 @@ class MLCriteria:
             "min_side_lines": "residues + degree-2 local polynomial need >= 10 lines per side",
             "block_lines": "Hann main lobe width, 4 lines (Harris 1978)",
             "max_iter": "work limit (Levenberg-Marquardt converges in < 10 evaluations from PolyMAX)",
+            "misfit_p": "chi-square test of the residual against the noise estimate, p = 0.001 with its dof",
+            "misfit_ratio": "residual twice the noise: the refinement's bound for a model error (refine.py)",
             "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
         }
 
@@ -272,6 +281,7 @@ class _Segment:
                     g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
                     jcj += rl * (g + g.T)
             out["jcj"] = jcj
+            out["chi2_noise"] = float(np.sum(et * et))  # leverage-corrected residual / noise model
         return out
 
 
@@ -508,6 +518,20 @@ def local_ml(
         n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
         s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
         chi_out[rs_arr] = s2
+        # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
+        chi2 = float(full["chi2_noise"])
+        dof_t = 2 * n * n_chan
+        ratio = chi2 / dof_t
+        if ratio >= criteria.misfit_ratio:
+            from scipy.stats import chi2 as chi2_dist
+
+            p = float(chi2_dist.sf(chi2, dof_t))
+            if p < criteria.misfit_p:
+                warns.append(
+                    f"the model misses the data near {', '.join(f'{fn0[r]:.6g}' for r in rs)} Hz "
+                    f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
+                    f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
+                    "the misfit (robust covariance)")
         # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
         meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
         hinv = _inv(hess)
