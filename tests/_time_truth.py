@@ -6,10 +6,13 @@ overlap, H1, many averages) -> ``identify``. Nothing of ema_rig is used to make 
 
 The structure is a sum of real (mass-normalised) modes; mode ``r`` obeys
 ``q_r'' + 2 zeta_r w_r q_r' + w_r^2 q_r = phi_r^T f(t)``. The forces are held constant over a
-sample (zero-order hold), so ``scipy.signal.cont2discrete(..., method='zoh')`` gives the exact
-sampled response of the continuous system; its poles are exactly ``exp(lambda_r dt)``, so the
-true natural frequency and damping ratio are those of the continuous modes (``|lambda|/2pi`` and
-``-Re lambda / |lambda|``). The outputs are accelerations ``sum_r phi_or q_r''``.
+sample of a rate ``oversample`` times the analyser's (zero-order hold), so
+``scipy.signal.cont2discrete(..., method='zoh')`` gives the exact sampled response of the
+continuous system there; force and response are then decimated to ``fs`` with the same zero-phase
+FIR anti-alias filter (``scipy.signal.decimate``), as an oversampling analyser does, so their
+ratio is the continuous FRF in the band. The true natural frequency and damping ratio are those
+of the continuous modes (``|lambda|/2pi`` and ``-Re lambda / |lambda|``). The outputs are
+accelerations ``sum_r phi_or q_r''``.
 
 Noise: ``floor`` adds white Gaussian sensor noise to every response (a fraction of its RMS);
 ``process`` adds an unmeasured random force at the last coordinate (a fraction of the measured
@@ -47,6 +50,8 @@ class TimeCase:
     segment : int
         FFT length; ``n_avg`` segments of 50 % overlap make the record.
     n_avg : int
+    oversample : int
+        Simulation rate / ``fs`` (decimated with an anti-alias filter).
     """
 
     name: str
@@ -60,6 +65,7 @@ class TimeCase:
     fs: float = 2048.0
     segment: int = 8192
     n_avg: int = 30
+    oversample: int = 4
 
 
 def shapes(case: TimeCase, rng: np.random.Generator) -> np.ndarray:
@@ -75,8 +81,9 @@ def simulate(case: TimeCase, seed: int) -> tuple[np.ndarray, np.ndarray, float]:
     """Force (n_in, n_samples) and acceleration (n_out, n_samples) records, and fs."""
     rng = np.random.default_rng(seed)
     phi = shapes(case, rng)
-    n = case.segment * (case.n_avg + 1) // 2
-    dt = 1.0 / case.fs
+    ovs = case.oversample
+    n = (case.segment * (case.n_avg + 1) // 2 + 64) * ovs
+    dt = 1.0 / (case.fs * ovs)
     force = rng.standard_normal((case.n_in, n))
     extra = case.process * rng.standard_normal(n)
     # forces at outputs 0..n_in-1; the unmeasured one at the last coordinate
@@ -92,6 +99,9 @@ def simulate(case: TimeCase, seed: int) -> tuple[np.ndarray, np.ndarray, float]:
         num, den = scipy.signal.ss2tf(ad, bd, cd, dd)
         qdd[r] = scipy.signal.lfilter(num[0], den, modal_in[r])
     acc = phi[:, : case.n_out].T @ qdd
+    if ovs > 1:
+        acc = scipy.signal.decimate(acc, ovs, ftype="fir", axis=1, zero_phase=True)[:, 32:-32]
+        force = scipy.signal.decimate(force, ovs, ftype="fir", axis=1, zero_phase=True)[:, 32:-32]
     if case.floor > 0:
         rms = np.sqrt(np.mean(acc**2, axis=1, keepdims=True))
         acc = acc + case.floor * rms * rng.standard_normal(acc.shape)

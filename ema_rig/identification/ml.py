@@ -442,8 +442,9 @@ def local_ml(
         ok = np.isfinite(cv) & (cv > 0)
         floor = 1e-12 * (float(np.max(cv[ok])) if np.any(ok) else 1.0)
         var = np.where(ok, np.maximum(cv, floor), 1e30 * floor)
+        var_cov = fit_noise_model(resid2, model2)[2]
     else:
-        var = fit_noise_model(resid2, model2)[2]
+        var = var_cov = fit_noise_model(resid2, model2)[2]
     # line weights only from a measured noise profile (coherence): a profile fitted to the start
     # model's residual carries its misfit at the peaks and would weight the skirts instead
     weighted_lines = coh is not None
@@ -505,7 +506,9 @@ def local_ml(
         theta = np.where(np.repeat(held, 2), th0, theta)
         # the noise model of every line and channel in the units of the weighted problem: the
         # residual covariance between channels is pooled after standardising by it
-        nv = (var[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
+        # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
+        # at the peaks, which is no random error of the lines)
+        nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
         full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv)
         n_eval += 1
         hess = np.asarray(full["hess"])
