@@ -193,8 +193,9 @@ def _measurement_section(i: int, r: Mapping[str, Any],
             f"bearing {_fmt(r['bearing'])} · {_fmt(r['radial_load'])} N · {_fmt(r['speed'])} rpm</p>")
     parts = [head]
     if ok:
-        parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m · "
-                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz</p>")
+        parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m (total) · "
+                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz "
+                     "(measured)</p>")
     else:
         parts.append(f"<p><b>error:</b> {_h(str(r.get('error')))}</p>")
     warns = [str(w) for w in (r.get("warnings") or [])] + (list(figs[1]) if figs else [])
@@ -223,7 +224,7 @@ def _measurement_section(i: int, r: Mapping[str, Any],
 def _candidate_table(cands: list[Any], title: str) -> str:
     """Candidate modes with their verdict and the reason."""
     verdict_key = "verdict" if any(isinstance(c, Mapping) and "verdict" in c for c in cands) else "status"
-    rows = ["<table class='cand'><tr><th>f [Hz]</th><th>± f [Hz]</th><th>ζ [%]</th><th class='l'>verdict</th>"
+    rows = ["<table class='cand'><tr><th>f [Hz]</th><th>order spread f [Hz]</th><th>ζ [%]</th><th class='l'>verdict</th>"
             "<th class='l'>reason</th></tr>"]
     for c in cands:
         if not isinstance(c, Mapping):

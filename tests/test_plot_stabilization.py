@@ -111,7 +111,10 @@ def test_picker_builds_a_replayable_selection(case, mplcleanup, tmp_path):
     # the same data, band and order taken from the selection: the hand-picked pole itself
     # goes into LSFD
     assert again.band == (100.0, 900.0)
-    assert again.modes.poles.tolist() == [stab.pole[row]]
+    assert again.modes.meta["polymax_poles"] == [[stab.pole[row].real, stab.pole[row].imag]]
+    # ... and the default ML estimate starts there and stays within 3 standard uncertainties of it
+    f_pick = abs(stab.pole[row]) / (2 * np.pi)
+    assert abs(again.natural_freq[0] - f_pick) <= 3 * again.natural_freq_std[0]
     # picking it again removes it
     _pick(chart, "s", near_640)
     assert picker.picks == [] and len(chart.mode_lines) == 0

@@ -87,9 +87,10 @@ def coverage_runs():
                 k = int(np.argmin(np.abs(ref.natural_freq - f0)))
                 assert abs(ref.natural_freq[k] - f0) < 0.004 * f0, "a true mode was not identified"
                 row.append((ref.natural_freq[k], ref.damping_ratio[k], ref.natural_freq_std[k],
-                            ref.damping_ratio_std[k], ident.damping_ratio[k]))
+                            ref.damping_ratio_std[k], ident.damping_ratio[k], ident.natural_freq[k],
+                            ident.natural_freq_std[k], ident.damping_ratio_std[k]))
             est.append(row)
-        runs.append((np.array(est), t.natural_freq, t.damping_ratio))  # (seed, mode, 5)
+        runs.append((np.array(est), t.natural_freq, t.damping_ratio))  # (seed, mode, 8)
     return runs
 
 
@@ -118,14 +119,25 @@ def test_reported_sigma_matches_scatter_over_seeds(coverage_runs):
             assert np.all((ratio > 1 / 3) & (ratio < 3.0)), ratio
 
 
-def test_refinement_removes_the_pLSCF_damping_bias(coverage_runs):
+def test_no_pLSCF_damping_bias_in_the_default_or_the_refinement(coverage_runs):
     # at 5 % proportional noise pLSCF underestimates the damping of the close pair's second mode
-    # by ~18 % (benchmarks/coverage_refine.py); the refinement's mean error stays < 3 %
+    # by ~18 % (benchmarks/coverage_refine.py). The default estimate of identify (local ML, issue
+    # 18) and the refinement both keep the mean error below 3 % (12 seeds; measured < 1.5 %).
     est, _, zeta = coverage_runs[0]
-    bias_pl = np.mean(est[:, :, 4], axis=0) / zeta - 1
+    bias_default = np.mean(est[:, :, 4], axis=0) / zeta - 1
     bias_ml = np.mean(est[:, :, 1], axis=0) / zeta - 1
-    assert bias_pl[3] < -0.08
+    assert np.all(np.abs(bias_default) < 0.03), bias_default
     assert np.all(np.abs(bias_ml) < 0.03), bias_ml
+
+
+def test_default_two_sigma_covers_the_state_space_truth(coverage_runs):
+    # identify's default +-2 sigma (local ML, robust covariance) covers the truth for >= 90 %
+    # of the (mode, seed) pairs in f and in zeta, and is not huge: rms z within 1.6x of 1
+    for est, fn, zeta in coverage_runs:
+        zf = (est[:, :, 5] - fn) / est[:, :, 6]
+        zz = (est[:, :, 4] - zeta) / est[:, :, 7]
+        assert np.mean(np.abs(zf) <= 2) >= 0.9 and np.mean(np.abs(zz) <= 2) >= 0.9, (zf, zz)
+        assert 1 / 1.6 < np.sqrt(np.mean(zf**2)) < 1.6 and 1 / 1.6 < np.sqrt(np.mean(zz**2)) < 1.6
 
 
 # ------------------------------------------------------------------ behaviour

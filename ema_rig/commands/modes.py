@@ -66,9 +66,10 @@ def run(args: argparse.Namespace) -> int:
     ref = ident.refinement
     if ref is not None and ref.converged:
         print(f"note   ML refinement converged; noise from {ref.noise_source}; +/- from the Fisher information "
-              "(noise only, not model error); modes it could not refine keep their pole-cluster spread")
+              "(noise only, not model error); modes it could not refine keep the default uncertainty")
     elif ref is not None:
-        print(f"note   ML refinement fell back to PolyMAX ({ref.reason}); +/- are the pole-cluster spreads")
+        print(f"note   ML refinement fell back to the default estimate ({ref.reason})")
+    print(f"note   +/- = {ident.std_label} (the order spread on the chart is no uncertainty)")
     head = (f"{'f_n [Hz]':>10} {'+/- [Hz]':>9} {'zeta [%]':>9} {'+/- [%]':>8} {'MPC':>6} {'poles':>5} "
             f"{'orders':>9}")
     head += "".join(f" {'m_eff ' + d + ' [kg]':>17}" for d in drive)
@@ -101,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
             "in_dofs": [str(d) for d in ident.modes.in_dofs],
             "out_dofs": [str(d) for d in ident.modes.out_dofs],
             "modes": records,
+            "std": ident.std_label,
             "candidates": [c.to_dict() for c in ident.candidates],
             "fit_error": fit.tolist(),
             "fit_error_median": float(np.median(fit)),

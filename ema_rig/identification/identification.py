@@ -20,16 +20,18 @@ Identification
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .._blas import single_threaded
 from ..errors import IdentificationError
 from ..frf import FRFData
 from .judge import Candidate, judge_clusters, shape_mpc
 from .lsfd import _lsfd_checked
+from .ml import LocalML, local_ml
 from .modal import ModalModel
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
@@ -43,10 +45,11 @@ from .stabilization import (
 )
 from .window_damping import processing_band, remove_window_damping
 
+#: What every printed ± of a mode is (CLI, JSON, notebook, report say the same).
+STD_LABEL = "measured: one standard uncertainty of the ML estimate (robust covariance)"
+
 #: Median synthesis error above which an identification is flagged as a poor fit.
 POOR_FIT = 0.20
-#: Default time budget [s] for growing the model order.
-TIME_BUDGET = 20.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -84,6 +87,13 @@ class Identification:
     refinement : Refinement or None
         The maximum-likelihood refinement when ``identify(..., refine=True)``; when it converged,
         ``modes`` is its model and the standard deviations are its Fisher-information ones.
+    natural_freq_spread, damping_ratio_spread : ndarray, shape (n_modes,)
+        Spread of each mode's pole cluster across the model orders: a diagnostic of the
+        stabilization chart, never an uncertainty (empty when not available).
+    std_kind : tuple of str
+        What each mode's ``natural_freq_std`` / ``damping_ratio_std`` is: ``"ml"`` (measured
+        standard uncertainty of the ML estimate, robust covariance), ``"held"`` (mode kept at its
+        PolyMAX pole; the ML uncertainty at that pole), ``"none"`` (NaN, the warning says why).
     """
 
     poles: PoleSet
@@ -99,6 +109,9 @@ class Identification:
     notes: tuple[str, ...] = ()
     transposed: bool = False
     refinement: Refinement | None = None
+    natural_freq_spread: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    damping_ratio_spread: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    std_kind: tuple[str, ...] = ()
 
     def __repr__(self) -> str:
         """One line per mode, not the arrays (a notebook prints this)."""
@@ -106,6 +119,7 @@ class Identification:
                 f"{'converged' if self.converged else 'NOT converged'}"
                 f"{', ML-refined' if self.refinement is not None and self.refinement.converged else ''}, "
                 f"{len(self.warnings)} warning(s))")
+        head += f"\n  ± = {self.std_label}"
         rows = [f"  {f:10.3f} Hz ± {sf:.3g}   zeta {100 * z:6.3f} % ± {100 * sz:.2g}"
                 for f, sf, z, sz in zip(self.natural_freq, self.natural_freq_std, self.damping_ratio,
                                         self.damping_ratio_std, strict=True)]
@@ -120,9 +134,17 @@ class Identification:
                                     self.damping_ratio_std, strict=True))
         warns = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
         return (f"<p><b>Identification</b>: {self.modes.n_modes} modes, band {self.band[0]:g}–{self.band[1]:g} Hz, "
-                f"{'converged' if self.converged else '<b>not converged</b>'}</p>"
+                f"{'converged' if self.converged else '<b>not converged</b>'}; ± = {html.escape(self.std_label)}</p>"
                 "<table><tr><th>f_n [Hz]</th><th>± [Hz]</th><th>ζ [%]</th><th>± [%]</th></tr>"
                 f"{rows}</table>" + (f"<ul>{warns}</ul>" if warns else ""))
+
+    @property
+    def std_label(self) -> str:
+        """What ``natural_freq_std`` / ``damping_ratio_std`` are (printed beside every ±)."""
+        if self.refinement is not None and self.refinement.converged:
+            return ("measured: one standard uncertainty, Fisher information of the global ML refinement "
+                    "(noise only); modes it could not refine: " + STD_LABEL.removeprefix("measured: "))
+        return STD_LABEL
 
     @property
     def fit_error(self) -> NDArray[np.float64]:
@@ -177,6 +199,8 @@ class Identification:
         # a refined model keeps the PolyMAX pole of each mode in meta (same order)
         start = [complex(*p) for p in mm.meta.get("polymax_poles", [])] or [complex(p) for p in mm.poles]
         out = []
+        spread_f = self.natural_freq_spread if self.natural_freq_spread.size == mm.n_modes else None
+        spread_z = self.damping_ratio_spread if self.damping_ratio_spread.size == mm.n_modes else None
         for k in range(mm.n_modes):
             sel: SelectedMode | None = modes_by_pole.get(start[k])
             out.append(
@@ -193,6 +217,9 @@ class Identification:
                     "participation": [[float(c.real), float(c.imag)] for c in sel.participation] if sel else [],
                     "order_min": int(sel.order_min) if sel else None,
                     "order_max": int(sel.order_max) if sel else None,
+                    "std_kind": self.std_kind[k] if len(self.std_kind) == mm.n_modes else None,
+                    "natural_freq_spread": None if spread_f is None else float(spread_f[k]),
+                    "damping_ratio_spread": None if spread_z is None else float(spread_z[k]),
                 }
             )
         return out
@@ -243,13 +270,13 @@ def _same_modes(a: Sequence[SelectedMode], b: Sequence[SelectedMode]) -> bool:
     return True
 
 
-def _edge_warnings(modes: Sequence[SelectedMode], band: tuple[float, float]) -> list[str]:
+def _edge_warnings(model: ModalModel, band: tuple[float, float]) -> list[str]:
     lo, hi = band
     out = []
-    for m in modes:
-        margin = max(2.0 * m.damping_ratio * m.natural_freq, 0.01 * (hi - lo))
-        if m.natural_freq - lo < margin or hi - m.natural_freq < margin:
-            out.append(f"mode at {m.natural_freq:.6g} Hz sits at the band edge ({lo:g}..{hi:g} Hz): "
+    for fn, zeta in zip(model.natural_freq.tolist(), model.damping_ratio.tolist(), strict=True):
+        margin = max(2.0 * zeta * fn, 0.01 * (hi - lo))
+        if fn - lo < margin or hi - fn < margin:
+            out.append(f"mode at {fn:.6g} Hz sits at the band edge ({lo:g}..{hi:g} Hz): "
                        "its estimate may be biased; widen the band")
     return out
 
@@ -266,7 +293,7 @@ def identify(
     near_tol: float = 0.03,
     residuals: bool = True,
     progress: bool = False,
-    time_budget: float = TIME_BUDGET,
+    time_budget: float | None = None,
     transpose: bool | None = None,
     refine: bool = False,
 ) -> Identification:
@@ -275,7 +302,9 @@ def identify(
     The model order grows from :func:`~ema_rig.identification.plscf.default_max_order` in
     steps of a quarter of it until the automatically selected mode set is the same (same
     number of modes, frequencies within three standard deviations of their cluster, at least
-    0.1 %) at two orders one step apart, up to the cap ``max_order`` or the ``time_budget``.
+    0.1 %) at two orders one step apart, up to the cap ``max_order``. Only work limits (orders,
+    evaluations) stop a loop, never the clock: the same data give the same result on any
+    machine and load.
     Every cluster of stable poles is judged (:func:`~ema_rig.identification.judge.judge_clusters`);
     the accepted ones are fitted by LSFD on the data as measured.
 
@@ -304,8 +333,8 @@ def identify(
     progress : bool, optional
         Progress bar over the model orders.
     time_budget : float, optional
-        Seconds after which the order stops growing (default 20); the result then says it
-        did not converge.
+        Deprecated and ignored (a wall-clock budget made the result depend on the machine's
+        load); the order cap ``max_order`` is the work limit.
     transpose : bool, optional
         Estimate the poles on the transposed layout (reciprocity). Default: when the data have
         more references than outputs (roving hammer), which gives the estimator more outputs.
@@ -338,8 +367,12 @@ def identify(
     >>> ident.natural_freq.round(6), ident.damping_ratio.round(6)
     (array([150.]), array([0.01]))
     """
-    import time
+    if time_budget is not None:
+        import warnings as _warnings
 
+        _warnings.warn("identify(time_budget=...) is deprecated and ignored: the order growth stops at the "
+                       "order cap (max_order) only, so the result does not depend on the machine's load",
+                       DeprecationWarning, stacklevel=2)
     if selection is not None and not isinstance(selection, Selection):
         raise TypeError(f"selection must be a Selection, got {type(selection).__name__}")
     if selection is not None:
@@ -412,7 +445,6 @@ def identify(
         # grow the order until the accepted mode set holds over one span of orders
         start = min(default_max_order(n_in), cap)
         span = max(2 * step, (start // 4) // step * step)
-        t0 = time.perf_counter()
         prev_n = max(start - span, min_order)
         n = start
         prev: list[SelectedMode] | None = None
@@ -436,15 +468,14 @@ def identify(
                 if not _same_modes(prev, cur):
                     prev = [c.mode for c in judge_clusters(early, data) if c.accepted]
             converged = bool(cur) and _same_modes(prev, cur)
-            if converged or n >= cap or time.perf_counter() - t0 > time_budget:
+            if converged or n >= cap:
                 break
             prev, prev_order, n = cur, n, min(n + span, cap)
         _require_stable(stab, n, src, data)
         notes.append(f"model order grown to {n} (modes per order: {', '.join(history)}); "
                      + ("the mode set converged" if converged else "the mode set did NOT converge"))
         if not converged:
-            why = "the order cap" if n >= cap else f"the time budget ({time_budget:g} s)"
-            warnings.append(f"the mode set did not converge up to order {n} (stopped by {why}): "
+            warnings.append(f"the mode set did not converge up to order {n} (stopped by the order cap): "
                             f"{len(prev or [])} modes at order {prev_order}, {len(cur)} at order {n}")
         sel = Selection(modes=tuple(cur), band=stab.band, max_order=n,
                         tolerances=dict(stab.tolerances),
@@ -463,22 +494,32 @@ def identify(
         unique.setdefault(m.pole, m)
     modes = list(unique.values())
     model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked above
+    # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
+    ml = _local_ml(data, model)
+    polymax = [[float(p.real), float(p.imag)] for p in model.poles]
+    if np.any(ml.poles != model.poles):
+        model = _lsfd_checked(data, ml.poles, residuals=residuals)
+    warnings += list(ml.warnings)
     meta = dict(model.meta)
-    meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed})
+    meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed,
+                 "polymax_poles": polymax, "method": "ml-local", "std": STD_LABEL})
     model = replace(model, meta=meta)
     fit = model.fit_error if model.fit_error is not None else np.zeros((1, 1))
     med = float(np.median(fit))
     if med > POOR_FIT:
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
                         f"(above {100 * POOR_FIT:.0f} %); modes may be missing or the data noisy")
-    warnings += _edge_warnings(modes, stab.band)
+    warnings += _edge_warnings(model, stab.band)
     ident = Identification(
         poles=stab.poles,
         stabilization=stab,
         selection=sel,
         modes=model,
-        natural_freq_std=np.array([m.natural_freq_std for m in modes]),
-        damping_ratio_std=np.array([m.damping_ratio_std for m in modes]),
+        natural_freq_std=ml.natural_freq_std,
+        damping_ratio_std=ml.damping_ratio_std,
+        natural_freq_spread=np.array([m.natural_freq_std for m in modes]),
+        damping_ratio_spread=np.array([m.damping_ratio_std for m in modes]),
+        std_kind=ml.kind,
         band=stab.band,
         candidates=candidates,
         converged=converged,
@@ -492,6 +533,14 @@ def identify(
     return remove_window_damping(ident, data)  # issue 18: an exponential window's damping
 
 
+def _local_ml(data: FRFData, model: ModalModel) -> LocalML:
+    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band)."""
+    syn = model.synthesize(data.freq).frf
+    syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz
+    with single_threaded():  # many small products: threads only add hand-off time
+        return local_ml(data, model.poles, syn)
+
+
 def _refined(ident: Identification, data: FRFData) -> Identification:
     """``ident`` with the ML-refined modes and their standard deviations, or unchanged with a warning."""
     from .refine import refine as refine_model
@@ -500,17 +549,20 @@ def _refined(ident: Identification, data: FRFData) -> Identification:
     # the caveats travel in Identification.warnings (the CLI prints each once), not as Python warnings
     if not ref.converged:
         return replace(ident, refinement=ref, warnings=ident.warnings + (
-            f"ML refinement fell back to PolyMAX ({ref.reason}); the standard deviations are the "
-            "pole-cluster spreads",))
+            f"ML refinement fell back to the default estimate ({ref.reason}); the standard deviations are "
+            "the default (local ML) ones",))
     carried = []
     for w in ref.warnings:
         if "kept at its PolyMAX pole" in w:
-            w += " (its standard deviations are the pole-cluster spread)"
+            w += " (its standard deviations are the default ML ones)"
         carried.append(w)
-    # modes kept at their PolyMAX pole keep their cluster spread
+    # modes kept at their PolyMAX pole keep the default (local ML) uncertainty
+    meta = dict(ref.model.meta)
+    if "polymax_poles" in ident.modes.meta:  # the selection's poles, for to_records
+        meta["polymax_poles"] = ident.modes.meta["polymax_poles"]
     return replace(
         ident,
-        modes=ref.model,
+        modes=replace(ref.model, meta=meta),
         natural_freq_std=np.where(np.isnan(ref.natural_freq_std), ident.natural_freq_std, ref.natural_freq_std),
         damping_ratio_std=np.where(np.isnan(ref.damping_ratio_std), ident.damping_ratio_std, ref.damping_ratio_std),
         refinement=ref,

@@ -784,7 +784,9 @@ def _coherence_var(
     leverage: NDArray[np.float64] | None,
 ) -> NDArray[np.float64]:
     """Line variances from coherence; without ``n_avg`` the level is the ML scale of the residual."""
-    shape = coherence_variance(model_abs2, coh, n_avg or 1.0)
+    # n_d - 1: the exact mean of the H1 error for random excitation (Bendat & Piersol, table 9.6;
+    # the first-order formula with n_d is low by n_d / (n_d - 1))
+    shape = coherence_variance(model_abs2, coh, max(n_avg - 1.0, 1.0) if n_avg else 1.0)
     finite = np.isfinite(shape) & (shape > 0)
     floor = 1e-12 * (np.max(shape[finite]) if np.any(finite) else 1.0)
     shape = np.where(np.isfinite(shape), np.maximum(shape, floor), 1e30 * floor)

@@ -456,9 +456,12 @@ def estimate_stiffness(
     asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
     f_h = asm.inverted_freq
     f_std = measured_freq_std(m)
+    unknown = [] if math.isfinite(f_std) else [
+        "the housing mode's standard uncertainty is unknown (see the identification warnings), so "
+        "k_TB_std_measured and k_TB_std are NaN"]
     params = replace(rig.model, k_MS=kms)
     try:
-        unc = stiffness_uncertainty(f_h, f_std, params, dict(rig.uncertainty), k_MS_std=k_ms_std,
+        unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, dict(rig.uncertainty), k_MS_std=k_ms_std,
                                     model_form=asm.model_form)
     except InversionError as exc:
         exc.file = exc.file or file
@@ -470,7 +473,7 @@ def estimate_stiffness(
     rig_fit = _fit(data, rig, params, m) if fit else None
     return StiffnessResult(
         k_TB=k_tb,
-        k_TB_std=float(unc.k_TB_std),
+        k_TB_std=float(unc.k_TB_std) if not unknown else math.nan,
         k_TB_MS=float(unc.k_TB_MS),
         k_TB_MS_std=float(unc.k_TB_MS_std),
         k_MS=kms,
@@ -488,10 +491,10 @@ def estimate_stiffness(
         speed_hz=speed_hz,
         file=file,
         fit=rig_fit,
-        k_TB_std_measured=float(unc.k_TB_std_measured),
+        k_TB_std_measured=float(unc.k_TB_std_measured) if not unknown else math.nan,
         inverted_freq=float(f_h),
         damping_model=damping_model,
-        warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
+        warnings=asm.warnings + tuple(unknown) + tuple(f"identification: {w}" for w in ident.warnings),
         notes=tuple(defaults_note(unc)),
     )
 
@@ -584,10 +587,13 @@ def calibrate(
     asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
     f_d = asm.inverted_freq
     # measured and model-form frequency terms act on k_TB+MS through the same slope
-    u_f = math.hypot(measured_freq_std(m) / f_d, *asm.model_form.values())
+    f_meas = measured_freq_std(m)  # NaN when unknown: the k_MS uncertainties are then NaN too
+    u_f = math.hypot(f_meas / f_d, *asm.model_form.values())
     try:
-        cal = calibrate_k_ms(f_d, rig.model, f_disk_std=u_f * f_d, k_disk=k_disk, k_disk_std=k_disk_std)
-        meas = calibrate_k_ms(f_d, rig.model, f_disk_std=measured_freq_std(m), k_disk=k_disk).k_MS_std_measured
+        cal = calibrate_k_ms(f_d, rig.model, f_disk_std=0.0 if math.isnan(u_f) else u_f * f_d, k_disk=k_disk,
+                             k_disk_std=k_disk_std)
+        meas = (math.nan if math.isnan(f_meas) else
+                calibrate_k_ms(f_d, rig.model, f_disk_std=f_meas, k_disk=k_disk).k_MS_std_measured)
     except InversionError as exc:
         exc.file = exc.file or file
         raise
@@ -599,7 +605,7 @@ def calibrate(
         )
     return CalibrationResult(
         k_MS=float(cal.k_MS),
-        k_MS_std=float(cal.k_MS_std),
+        k_MS_std=float(cal.k_MS_std) if not math.isnan(f_meas) else math.nan,
         k_TB_MS=float(cal.k_TB_MS),
         k_disk=None if k_disk is None else float(k_disk),
         housing_mode=_mode_with_std(m.housing_mode, ident, m.housing_index),
@@ -609,6 +615,9 @@ def calibrate(
         band=b,
         file=file,
         k_MS_std_measured=float(meas),
-        warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
+        warnings=asm.warnings + ((
+            "the housing mode's standard uncertainty is unknown (see the identification warnings), so "
+            "k_MS_std_measured and k_MS_std are NaN",) if math.isnan(f_meas) else ())
+        + tuple(f"identification: {w}" for w in ident.warnings),
         notes=tuple(notes),
     )

@@ -590,9 +590,10 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
 
 def measured_freq_std(m: MatchResult) -> float:
     """Measured standard uncertainty of the housing frequency [Hz]: the identified mode's
-    ``natural_freq_std`` (:attr:`Identification.natural_freq_std`); 0 when not available."""
+    ``natural_freq_std`` (:attr:`Identification.natural_freq_std`); NaN when not available (the
+    identification's warnings say why), never replaced by 0."""
     s = m.housing_mode.get("natural_freq_std")
-    return 0.0 if s is None or not math.isfinite(s) else float(s)
+    return math.nan if s is None or not math.isfinite(s) else float(s)
 
 
 def defaults_note(unc: StiffnessUncertainty) -> list[str]:

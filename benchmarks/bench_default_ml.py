@@ -1,0 +1,98 @@
+"""Benchmark: the default ``identify`` of this tree against another tree (issue 18: ML by default).
+
+Two long-lived worker processes, one per tree (``PYTHONPATH`` pointing at each), each load the
+data once and time ``identify(data, band=...)`` at the defaults on request; the parent asks them
+in alternating order (A B, B A, ...) so load drifts of the machine stay out of the ratio. Data:
+
+* the bundled rig file ``data/b6302_1000N_1200rpm.uff`` with ``data/rig.toml``, 150-1000 Hz;
+* the 256-output synthetic file of ``bench_refine.py`` (8 modes, 1 % proportional noise), 100-1000 Hz.
+
+Run: ``python benchmarks/bench_default_ml.py --baseline /tmp/old [--repeat 7]`` where the baseline
+is a checkout of the reference commit (``git worktree add /tmp/old 8d99d0c``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+
+WORKER = r"""
+import sys, time, warnings
+warnings.simplefilter("ignore")
+from ema_rig.config import load_rig
+from ema_rig.identification import identify
+from ema_rig.io.uff import read_uff58
+repo, synth = sys.argv[1], sys.argv[2]
+cases = {"rig": (read_uff58(repo + "/data/b6302_1000N_1200rpm.uff", rig=load_rig(repo + "/data/rig.toml")),
+                 (150.0, 1000.0)),
+         "256": (read_uff58(synth), (100.0, 1000.0))}
+for d, b in cases.values():
+    identify(d, band=b)
+print("ready", flush=True)
+for line in sys.stdin:
+    d, b = cases[line.strip()]
+    t0 = time.perf_counter()
+    identify(d, band=b)
+    print(f"{time.perf_counter() - t0:.6f}", flush=True)
+"""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--baseline", required=True, type=Path)
+    ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--one-thread", action="store_true", help="one BLAS thread in both workers")
+    args = ap.parse_args()
+    sys.path.insert(0, str(REPO / "benchmarks"))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        synth = Path(tmp) / "synthetic_256.uff"
+        env = dict(os.environ, PYTHONPATH=str(REPO))
+        subprocess.run([sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); "
+                        "from bench_refine import synthetic_256; from pathlib import Path; "
+                        "synthetic_256(Path(sys.argv[2]))", str(REPO / "benchmarks"), str(synth)],
+                       env=env, check=True)
+        procs = {}
+        for tag, tree in (("new", REPO), ("old", args.baseline.resolve())):
+            procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(REPO), str(synth)], text=True,
+                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          env=dict(os.environ, PYTHONPATH=str(tree),
+                                                   **({"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+                                                       "MKL_NUM_THREADS": "1"} if args.one_thread else {})))
+        for p in procs.values():
+            assert p.stdout is not None and p.stdout.readline().strip() == "ready"
+
+        def ask(tag: str, case: str) -> float:
+            p = procs[tag]
+            assert p.stdin is not None and p.stdout is not None
+            p.stdin.write(case + "\n")
+            p.stdin.flush()
+            return float(p.stdout.readline())
+
+        print(f"{'data':28s} {'old identify [s]':>22s} {'new identify [s]':>22s} {'new/old':>18s}")
+        for case, name in (("rig", "rig file (8 out, 1701 lines)"), ("256", "256 outputs (1801 lines)")):
+            t = {"old": [], "new": []}
+            for i in range(args.repeat):
+                for tag in (("old", "new") if i % 2 == 0 else ("new", "old")):
+                    t[tag].append(ask(tag, case))
+            ratio = [b / a for a, b in zip(t["old"], t["new"], strict=True)]
+
+            def fmt(x: list[float], f: str = ".3f") -> str:
+                return f"{statistics.median(x):{f}} ({min(x):{f}}-{max(x):{f}})"
+
+            print(f"{name:28s} {fmt(t['old']):>22s} {fmt(t['new']):>22s} {fmt(ratio, '.2f'):>18s}")
+        for p in procs.values():
+            assert p.stdin is not None
+            p.stdin.close()
+            p.wait()
+
+
+if __name__ == "__main__":
+    main()

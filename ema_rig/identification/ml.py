@@ -1,0 +1,629 @@
+"""Default maximum-likelihood estimate of every accepted mode, with a robust standard uncertainty.
+
+Functions
+---------
+local_ml
+    Poles of a modal model re-estimated by weighted nonlinear least squares (Gaussian
+    maximum likelihood with a separable noise model) on the lines near the modes, with a
+    covariance that stays valid when noise model or modal model are not exact.
+
+Classes
+-------
+LocalML
+    Frozen result: poles, covariances, what each mode's uncertainty is, warnings.
+MLCriteria
+    The frozen thresholds of this stage, each with its source.
+
+Notes
+-----
+*Structure.* The band is cut into segments: each mode gets the lines within
+``window_hbw`` half-power half-bandwidths of its natural frequency (at least ``min_side_lines``
+on each side); overlapping windows are merged, so close modes are fitted together. In a
+segment every channel ``c`` is modelled as::
+
+    H_c(w) = (j w)^p sum_r ( R_rc / (j w - l_r) + conj(R_rc) / (j w - conj(l_r)) ) + P_c(w)
+
+with ``P_c`` a complex polynomial (degree up to 2) in ``w`` that stands for the modes outside
+the segment. The poles ``l_r`` are shared by all channels; residues and polynomial enter
+linearly and are eliminated (variable projection, Golub & Pereyra 1973; Kaufman's 1975
+Jacobian). The noise weights are separable (a line profile times a channel scale), so the
+weighted basis and its QR factor are the same for every channel and the whole problem costs a
+few matrix products of the segment's data (BLAS 3), whatever the number of outputs. The
+Gauss-Newton matrix of the poles is the Schur complement of the full Fisher information (the
+residues estimated jointly). Levenberg-Marquardt iterations, started at the PolyMAX poles, stop
+after ``max_iter`` evaluations at most (a work limit: no clock).
+
+*Uncertainty.* Two covariances of the poles are formed and the larger standard deviation of
+natural frequency and damping ratio is reported:
+
+* Fisher information scaled by ``s^2 = chi2 / (N - P)`` (the noise level measured by the fit);
+* the sandwich (robust, Huber 1967 / White 1980) covariance ``H^-1 (sum_b g_b g_b^T) H^-1``
+  with the scores ``g_b`` summed over blocks of ``block_lines`` adjacent lines and all channels,
+  corrected for the degrees of freedom the linear parameters take. It stays valid when the
+  noise is correlated between channels (H1: the force noise is common to all of them) and between
+  neighbouring lines (window leakage), when the noise weights are wrong, and when the model
+  misses something locally (the residuals then carry it into the scores).
+
+A mode that the fit cannot hold (it leaves its half-power band, becomes unstable, passes a
+neighbour, or its Fisher information is singular) is held at its PolyMAX pole; its uncertainty
+is the robust covariance of the full problem at that pole, and it is propagated to the other
+modes of the segment through the coupling block ``dtheta_free / dtheta_held = -H_ff^-1 H_fh``.
+When no covariance can be formed the standard deviation is NaN and a warning says why; it is
+never set to 0.
+
+References: Pintelon & Schoukens, *System Identification: A Frequency Domain Approach*, 2nd ed.
+2012, ch. 9 and 19 (ML and its covariance; the sandwich under model errors); Golub & Pereyra,
+SIAM J. Numer. Anal. 10 (1973); Kaufman, BIT 15 (1975); White, Econometrica 48 (1980);
+Harris, Proc. IEEE 66 (1978) (window main lobes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..frf import _FORM_POWER, FRFData
+from .noise import coherence_variance, fit_noise_model
+
+
+@dataclass(frozen=True, slots=True)
+class MLCriteria:
+    """Thresholds of the default ML stage, each with its source.
+
+    Parameters
+    ----------
+    window_hbw : float
+        Half-width of each mode's line window in half-power half-bandwidths (default 4): the
+        lines within ``+-k`` half-bandwidths carry ``(k/(1+k^2) + atan k) / (pi/2)`` of a single
+        mode's Fisher information on its pole under white noise, 99.4 % for ``k = 4``.
+    min_side_lines : int
+        Lines on each side of a mode at least (default 12), so that a mode lighter than the line
+        spacing keeps enough equations for its residues and the local polynomial.
+    block_lines : int
+        Adjacent lines summed into one score of the sandwich covariance (default 4): the main
+        lobe of the Hann window spans 4 lines (Harris 1978), so errors of lines closer than
+        that are correlated by leakage.
+    max_iter : int
+        Work limit: Levenberg-Marquardt evaluations per segment (default 50).
+    misfit_p, misfit_ratio : float
+        A segment whose leverage-corrected residual exceeds the noise estimate in a chi-square test
+        at ``p < misfit_p`` (default 0.001, dof = its real equations) and by at least
+        ``misfit_ratio`` (default 2, the rule of :func:`~ema_rig.identification.refine.refine` for a
+        residual above the stated noise) is reported as a local misfit.
+    move_hbw : float
+        A pole may move by this many PolyMAX half-power half-bandwidths, or two line spacings
+        (default 1): further means it left for another feature of the data (the same rule as
+        :func:`~ema_rig.identification.refine.refine`).
+    """
+
+    window_hbw: float = 4.0
+    min_side_lines: int = 12
+    block_lines: int = 4
+    max_iter: int = 400
+    move_hbw: float = 1.0
+    misfit_p: float = 1e-3
+    misfit_ratio: float = 2.0
+
+    def sources(self) -> dict[str, str]:
+        """The source of every threshold, by field name."""
+        return {
+            "window_hbw": "99.4 % of a single mode's Fisher information on its pole (Lorentzian integral)",
+            "min_side_lines": "residues + degree-2 local polynomial need >= 10 lines per side",
+            "block_lines": "Hann main lobe width, 4 lines (Harris 1978)",
+            "max_iter": "work limit (Levenberg-Marquardt converges in < 10 evaluations from PolyMAX)",
+            "misfit_p": "chi-square test of the residual against the noise estimate, p = 0.001 with its dof",
+            "misfit_ratio": "residual twice the noise: the refinement's bound for a model error (refine.py)",
+            "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
+        }
+
+
+#: The default criteria of :func:`local_ml`.
+ML_CRITERIA = MLCriteria()
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LocalML:
+    """Result of :func:`local_ml`.
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n_modes,)
+        Estimated poles [rad/s] (a held mode keeps its start pole), same order as the input.
+    pole_cov : ndarray, shape (n_modes, 2, 2)
+        Covariance of (Re, Im) of each pole [rad^2/s^2] (robust or Fisher, the larger), NaN
+        when none could be formed.
+    natural_freq_std, damping_ratio_std : ndarray, shape (n_modes,)
+        Standard uncertainty of natural frequency [Hz] and damping ratio [-]; NaN (never 0)
+        when it could not be formed.
+    kind : tuple of str
+        Per mode: ``"ml"`` (estimated), ``"held"`` (kept at its PolyMAX pole) or ``"none"``.
+    chi2_red : ndarray, shape (n_modes,)
+        ``chi2 / (N - P)`` of the mode's segment with the noise weights (about 1 when the
+        model explains the data to the noise estimate).
+    warnings : tuple of str
+        One line per mode whose estimate or uncertainty needs a caveat.
+    n_eval : int
+        Evaluations summed over the segments.
+    """
+
+    poles: NDArray[np.complex128]
+    pole_cov: NDArray[np.float64]
+    natural_freq_std: NDArray[np.float64]
+    damping_ratio_std: NDArray[np.float64]
+    kind: tuple[str, ...]
+    chi2_red: NDArray[np.float64]
+    warnings: tuple[str, ...]
+    n_eval: int
+    robust_std: NDArray[np.float64] | None = None
+    fisher_std: NDArray[np.float64] | None = None
+
+
+def _stack(z: NDArray[np.complex128]) -> NDArray[np.float64]:
+    return np.concatenate([z.real, z.imag], axis=0)
+
+
+class _Segment:
+    """One segment: lines, weighted data, and the projected problem of its poles."""
+
+    def __init__(self, jw: NDArray[np.complex128], power: int, yw: NDArray[np.float64], w: NDArray[np.float64],
+                 lam0: NDArray[np.complex128], n_poly: int, others: NDArray[np.complex128],
+                 kernel: tuple[NDArray[np.float64], NDArray[np.float64]]) -> None:
+        # quadrature of the spectral window: the model is sum_m K_m H(w - nu_m) (lines x nodes)
+        nu, kw = kernel
+        self.jwn = jw[:, None] - 1j * nu[None, :]  # (n, n_nodes)
+        self.kw = kw
+        self.facn = self.jwn**power
+        self.jw = jw
+        self.yw = yw  # (2n, C) weighted stacked data
+        self.w = w  # (n,) line weights
+        self.lam0 = lam0
+        self.scale = np.abs(lam0)
+        self.m = lam0.size
+        om = jw.imag
+        mid, half = 0.5 * (om[0] + om[-1]), max(0.5 * (om[-1] - om[0]), 1e-30)
+        u = (om - mid) / half
+        poly = []
+        for d in range(n_poly // 2):
+            poly += [u**d + 0j, 1j * u**d]
+        # the band's other modes at their (fixed) poles, residues free: their tails are no polynomial
+        for lam in others.tolist():
+            p1, n1 = self._pn(np.array([lam]), 1)
+            poly += [(p1 + n1)[:, 0], 1j * (p1 - n1)[:, 0]]
+        self.poly = np.stack(poly, axis=1) if poly else np.zeros((om.size, 0), np.complex128)
+        self.L = 2 * self.m + self.poly.shape[1]
+
+    def _pn(self, lam: NDArray[np.complex128], k: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+        """Window-averaged ``(jw)^p / (jw - l)^k`` and ``(jw)^p / (jw - conj l)^k``, shape (n, n_poles)."""
+        pos = np.einsum("in,inr->ir", self.facn * self.kw[None, :], 1.0 / (self.jwn[:, :, None] - lam) ** k)
+        neg = np.einsum("in,inr->ir", self.facn * self.kw[None, :], 1.0 / (self.jwn[:, :, None] - lam.conj()) ** k)
+        return pos, neg
+
+    def poles(self, theta: NDArray[np.float64]) -> NDArray[np.complex128]:
+        return self.scale * (theta[0::2] + 1j * theta[1::2])
+
+    def theta(self, lam: NDArray[np.complex128]) -> NDArray[np.float64]:
+        t = np.empty(2 * self.m)
+        t[0::2], t[1::2] = (lam / self.scale).real, (lam / self.scale).imag
+        return t
+
+    def evaluate(self, theta: NDArray[np.float64], scores: bool = False, rho: tuple[float, ...] = (),
+                 noise_var: NDArray[np.float64] | None = None) -> dict[str, NDArray[np.float64] | float]:
+        """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores)."""
+        lam = self.poles(theta)
+        pos, neg = self._pn(lam, 1)
+        cols = np.empty((self.jw.size, self.L), np.complex128)
+        cols[:, 0 : 2 * self.m : 2] = pos + neg
+        cols[:, 1 : 2 * self.m : 2] = 1j * (pos - neg)
+        cols[:, 2 * self.m :] = self.poly
+        a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]
+        d = np.linalg.norm(a, axis=0)
+        d = np.where(d > 0, d, 1.0)
+        q, r = np.linalg.qr(a / d)
+        qty = q.T @ self.yw  # (L, C)
+        e = self.yw - q @ qty  # residual (2n, C)
+        cost = float(np.sum(e * e))
+        x = np.linalg.solve(r, qty) / d[:, None]  # (L, C) coefficients
+        pos2, neg2 = self._pn(lam, 2)
+        s_fn = pos2 + neg2  # (n, m)
+        d_fn = 1j * (pos2 - neg2)
+        ww = np.concatenate([self.w, self.w])[:, None]
+        su, du = _stack(s_fn) * ww, _stack(d_fn) * ww  # (2n, m)
+        # V_k = sum_i u_ki c_ki^T (rank 2): d/dRe = s(a S + b D), d/dIm = s(a D - b S)
+        k = 2 * self.m
+        us = np.empty((k, 2, su.shape[0]))
+        cs = np.empty((k, 2, x.shape[1]))
+        for j in range(self.m):
+            aa, bb = x[2 * j], x[2 * j + 1]
+            sc = self.scale[j]
+            us[2 * j] = su[:, j], du[:, j]
+            cs[2 * j] = sc * aa, sc * bb
+            us[2 * j + 1] = du[:, j], su[:, j]
+            cs[2 * j + 1] = sc * aa, -sc * bb
+        qu = np.einsum("rl,kir->kil", q, us)  # (k, 2, L): Q^T u
+        uu = np.einsum("kir,mjr->kimj", us, us)
+        cc = np.einsum("kic,mjc->kimj", cs, cs)
+        qq = np.einsum("kil,mjl->kimj", qu, qu)
+        hess = np.einsum("kimj->km", (uu - qq) * cc)
+        ec = np.einsum("rc,kic->kir", e, cs)  # (k, 2, 2n): E c
+        grad = -np.einsum("kir,kir->k", us, ec)  # J^T r with r = model - data
+        out: dict[str, NDArray[np.float64] | float] = {"cost": cost, "hess": 0.5 * (hess + hess.T), "grad": grad,
+                                                          "e": e}
+        if scores:
+            # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E
+            v = np.einsum("kir,kic->krc", us, cs)
+            jac = v - np.einsum("rl,klc->krc", q, np.einsum("rl,krc->klc", q, v))
+            # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
+            # 1985): near a peak the residues take up much of each line's error
+            lev = np.minimum(np.sum(q * q, axis=1), 0.9)
+            e = e / np.sqrt(1.0 - lev)[:, None]
+            row = np.einsum("krc,rc->kr", jac, e)
+            n = self.jw.size
+            out["line_scores"] = row[:, :n] + row[:, n:]  # (k, n)
+            # J^T S J with S the error covariance: between channels as the residuals show it (pooled
+            # over the segment's lines: the common part of H1 errors, force noise and leakage of the
+            # same modal transients), between lines as the window makes it (lag l: rho[l-1])
+            # a variance profile over the lines that the weights do not remove scales rows
+            dof = 2 * n  # the residuals are leverage-corrected
+            sp = np.ones((2 * n, 1)) if noise_var is None else np.sqrt(np.concatenate([noise_var, noise_var]))
+            et = e / sp
+            jac = jac * sp[None, :, :]
+            if e.shape[1] <= 2 * n:
+                js = np.einsum("krc,cd->krd", jac, (et.T @ et) / dof)
+            else:
+                js = np.einsum("krs,sd->krd", np.einsum("krc,sc->krs", jac, et), et) / dof
+            jcj = np.einsum("krc,lrc->kl", js, jac)
+            for lag, rl in enumerate(rho, start=1):
+                if rl == 0.0 or lag >= n:
+                    continue
+                for half in (slice(0, n), slice(n, 2 * n)):
+                    g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
+                    jcj += rl * (g + g.T)
+            out["jcj"] = jcj
+            out["chi2_noise"] = float(np.sum(et * et))  # leverage-corrected residual / noise model
+        return out
+
+
+def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], max_iter: int
+        ) -> tuple[NDArray[np.float64], int]:
+    """Levenberg-Marquardt on the free parameters (Gauss-Newton matrix, Marquardt scaling)."""
+    idx = np.flatnonzero(np.repeat(free, 2))
+    theta = theta0.copy()
+    if idx.size == 0:
+        return theta, 0
+    cur = seg.evaluate(theta)
+    n_eval = 1
+    mu = 1e-4
+    while n_eval < max_iter:
+        h = np.asarray(cur["hess"])[np.ix_(idx, idx)]
+        g = np.asarray(cur["grad"])[idx]
+        dg = np.diag(h).copy()
+        dg = np.where(dg > 0, dg, 1.0)
+        try:
+            step = -np.linalg.solve(h + mu * np.diag(dg), g)
+        except np.linalg.LinAlgError:
+            mu *= 10.0
+            n_eval += 1
+            continue
+        trial = theta.copy()
+        trial[idx] += step
+        new = seg.evaluate(trial)
+        n_eval += 1
+        c0, c1 = float(cur["cost"]), float(new["cost"])
+        if np.isfinite(c1) and c1 <= c0:
+            theta, cur = trial, new
+            mu = max(mu / 5.0, 1e-12)
+            if c0 - c1 <= 1e-12 * c0 or np.max(np.abs(step)) < 1e-12:
+                break
+        else:
+            mu *= 8.0
+            if mu > 1e8:
+                break
+    return theta, n_eval
+
+
+def _inv(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    d = np.sqrt(np.abs(np.diag(h)))
+    if h.size == 0 or not np.all(d > 0) or not np.all(np.isfinite(h)):
+        return None
+    hs = h / np.outer(d, d)
+    try:
+        c = np.linalg.cholesky(hs)
+    except np.linalg.LinAlgError:
+        return None
+    if np.min(np.abs(np.diag(c))) ** 2 < 1e-13:
+        return None
+    ci = np.linalg.inv(c)
+    return (ci.T @ ci) / np.outer(d, d)
+
+
+def _windows(fn: NDArray[np.float64], hb: NDArray[np.float64], freq: NDArray[np.float64], crit: MLCriteria
+             ) -> list[tuple[int, int, list[int]]]:
+    """Line ranges [i0, i1) of the segments and the modes in each (sorted by frequency)."""
+    n = freq.size
+    spans = []
+    for r in np.argsort(fn, kind="stable").tolist():
+        i_lo = int(np.searchsorted(freq, fn[r] - crit.window_hbw * hb[r]))
+        i_hi = int(np.searchsorted(freq, fn[r] + crit.window_hbw * hb[r], side="right"))
+        ic = int(np.searchsorted(freq, fn[r]))
+        i_lo = max(0, min(i_lo, ic - crit.min_side_lines))
+        i_hi = min(n, max(i_hi, ic + crit.min_side_lines))
+        spans.append((i_lo, i_hi, r))
+    segs: list[tuple[int, int, list[int]]] = []
+    for i_lo, i_hi, r in spans:
+        if segs and i_lo < segs[-1][1]:
+            a, b, rs = segs[-1]
+            segs[-1] = (a, max(b, i_hi), [*rs, r])
+        else:
+            segs.append((i_lo, i_hi, [r]))
+    return segs
+
+
+#: Correlation of the errors of H1 lines 1 and 2 apart under a Hann window: the windowed DFT
+#: coefficients of white noise correlate by -2/3 and 1/6 (``X_k = Y_k/2 - (Y_k-1 + Y_k+1)/4``), and
+#: the error of an averaged cross spectrum ``N X*`` by the product of the two, 4/9 and 1/36.
+HANN_LINE_CORRELATION = (4.0 / 9.0, 1.0 / 36.0)
+
+
+def window_kernel(window: object, segment: object, df: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Quadrature of the power spectral window an averaged (Welch) FRF estimate is smoothed with.
+
+    With a flat force spectrum, ``E[H1](w) = integral K(nu) H(w - nu) dnu`` where ``K = |W|^2`` of
+    the time window, normalised (Schmidt 1985; Bendat & Piersol 2010, sect. 8.5). For the Hann
+    window ``W(b) = 0.5 sinc(b) + 0.25 sinc(b - 1) + 0.25 sinc(b + 1)`` in bins ``b`` of the
+    segment; the quadrature spans +-6 bins (sidelobes below -60 dB in power beyond) at 1/8 bin.
+    Other windows (or unknown processing) give the identity: one node at 0.
+
+    Returns
+    -------
+    nu : ndarray
+        Offsets [rad/s].
+    weights : ndarray
+        Quadrature weights (sum 1).
+    """
+    name = str(window).lower() if window is not None else ""
+    if name not in ("hann", "hanning") or not isinstance(segment, (int, np.integer)) or df <= 0:
+        return np.zeros(1), np.ones(1)
+    b = np.arange(-48, 49) / 8.0
+    k = (0.5 * np.sinc(b) + 0.25 * np.sinc(b - 1) + 0.25 * np.sinc(b + 1)) ** 2
+    return 2 * np.pi * df * b, k / np.sum(k)
+
+
+def _separable(var: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Best separable approximation ``var_ci ~ s_c v_i`` in the log domain: (s (C,), v (n,))."""
+    lv = np.log(np.maximum(var, 1e-300))
+    a = np.mean(lv, axis=1)
+    b = np.mean(lv - a[:, None], axis=0)
+    return np.exp(a), np.exp(b)
+
+
+def local_ml(
+    data: FRFData,
+    poles: NDArray[np.complex128],
+    model_frf: NDArray[np.complex128],
+    *,
+    criteria: MLCriteria = ML_CRITERIA,
+) -> LocalML:
+    """Re-estimate the poles of a modal model by ML on the lines near the modes.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs already cut to the band, shape (n_out, n_in, n_freq); ``data.coherence`` (and
+        ``data.n_averages``) set the noise weights when present.
+    poles : ndarray, shape (n_modes,)
+        Start poles [rad/s] (PolyMAX), one of each conjugate pair, ``Im > 0``.
+    model_frf : ndarray, shape (n_out, n_in, n_freq)
+        The start model synthesised on the same lines (LSFD at the start poles), for the noise
+        estimate ``a + b |H|^2`` per channel when there is no coherence.
+    criteria : MLCriteria, optional
+        Window, block and work limits (:data:`ML_CRITERIA`).
+
+    Returns
+    -------
+    LocalML
+    """
+    lam0 = np.asarray(poles, dtype=np.complex128).ravel()
+    nm = lam0.size
+    freq = data.freq
+    n_chan = data.n_out * data.n_in
+    y = data.frf.reshape(n_chan, -1)
+    mod = np.asarray(model_frf).reshape(n_chan, -1)
+    power = _FORM_POWER[data.frf_form]
+    df = float(np.median(np.diff(freq))) if freq.size > 1 else 1.0
+    warns: list[str] = []
+    # ---- noise variance of every line (n_chan, n_freq), then a separable approximation per segment
+    resid2, model2 = np.abs(y - mod) ** 2, np.abs(mod) ** 2
+    coh = data.coherence
+    if coh is not None:
+        n_avg = data.n_averages
+        cv = coherence_variance(model2, coh.reshape(n_chan, -1), float(max(n_avg - 1, 1)) if n_avg else 1.0)
+        ok = np.isfinite(cv) & (cv > 0)
+        floor = 1e-12 * (float(np.max(cv[ok])) if np.any(ok) else 1.0)
+        var = np.where(ok, np.maximum(cv, floor), 1e30 * floor)
+        var_cov = fit_noise_model(resid2, model2)[2]
+    else:
+        var = var_cov = fit_noise_model(resid2, model2)[2]
+    # line weights only from a measured noise profile (coherence): a profile fitted to the start
+    # model's residual carries its misfit at the peaks and would weight the skirts instead
+    weighted_lines = coh is not None
+    kernel = window_kernel(data.meta.get("window"), data.meta.get("segment"), df)
+    rho = HANN_LINE_CORRELATION if kernel[0].size > 1 else ()
+    fn0 = np.abs(lam0) / (2 * np.pi)
+    hb0 = np.maximum(-lam0.real / (2 * np.pi), df)
+    poles_out = lam0.copy()
+    cov_out = np.full((nm, 2, 2), np.nan)
+    kind = ["none"] * nm
+    chi_out = np.full(nm, np.nan)
+    both = np.full((nm, 4), np.nan)  # robust (f, zeta) and Fisher (f, zeta) standard deviations
+    n_eval = 0
+    jw_all = np.asarray(2j * np.pi * freq, dtype=np.complex128)
+    for i0, i1, rs in _windows(fn0, hb0, freq, criteria):
+        rs_arr = np.asarray(rs)
+        m = rs_arr.size
+        n = i1 - i0
+        # the other modes nearest the segment first; drop the farthest, then polynomial terms,
+        # while the lines cannot carry them (2n real equations >= 2 L + 8 per channel)
+        others = np.delete(np.arange(nm), rs_arr)
+        mid = 0.5 * (freq[i0] + freq[i1 - 1])
+        others = others[np.argsort(np.abs(fn0[others] - mid), kind="stable")]
+        n_poly = 6
+        while others.size and 2 * n < 2 * (2 * m + n_poly + 2 * others.size) + 8:
+            others = others[:-1]
+        while n_poly > 0 and 2 * n < 2 * (2 * m + n_poly) + 8:
+            n_poly -= 2
+        if 2 * n < 2 * (2 * m + n_poly) + 8:
+            for r in rs:
+                warns.append(f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML estimate; "
+                             "its uncertainty is unknown (NaN)")
+            continue
+        s_c, v_i = _separable(var[:, i0:i1])
+        if not weighted_lines:
+            v_i = np.ones_like(v_i)
+        w = 1.0 / np.sqrt(v_i)
+        ww = np.concatenate([w, w])[:, None]
+        yw = _stack(y[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :]
+        seg = _Segment(jw_all[i0:i1], power, yw, w, lam0[rs_arr], n_poly, np.asarray(poles_out[np.sort(others)], dtype=np.complex128), kernel)
+        th0 = seg.theta(lam0[rs_arr])
+        free = np.ones(m, bool)
+        why: dict[int, str] = {}
+        theta = th0
+        for _attempt in range(m + 1):
+            theta, k = _lm(seg, th0, free, criteria.max_iter)
+            n_eval += k
+            bad = _check(seg.poles(theta), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
+                         criteria.move_hbw)
+            if not bad:
+                break
+            worst = max(bad, key=lambda j: bad[j][0])
+            why[worst] = bad[worst][1]
+            free[worst] = False
+            theta = th0
+        else:
+            theta, free = th0, np.zeros(m, bool)
+        held = ~free
+        theta = np.where(np.repeat(held, 2), th0, theta)
+        # the noise model of every line and channel in the units of the weighted problem: the
+        # residual covariance between channels is pooled after standardising by it
+        # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
+        # at the peaks, which is no random error of the lines)
+        nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
+        full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv)
+        n_eval += 1
+        hess = np.asarray(full["hess"])
+        sc = np.asarray(full["line_scores"])  # (2m, n)
+        # errors correlate over a mode's half-power half-bandwidth (leakage of its transient) and
+        # over the window's main lobe: a block spans the larger
+        nb = max(1, criteria.block_lines, int(np.ceil(float(np.min(hb0[rs_arr])) / df)))
+        blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
+        g = blocks.shape[1]
+        n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
+        s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
+        chi_out[rs_arr] = s2
+        # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
+        chi2 = float(full["chi2_noise"])
+        dof_t = 2 * n * n_chan
+        ratio = chi2 / dof_t
+        if ratio >= criteria.misfit_ratio:
+            from scipy.stats import chi2 as chi2_dist
+
+            p = float(chi2_dist.sf(chi2, dof_t))
+            if p < criteria.misfit_p:
+                warns.append(
+                    f"the model misses the data near {', '.join(f'{fn0[r]:.6g}' for r in rs)} Hz "
+                    f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
+                    f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
+                    "the misfit (robust covariance)")
+        # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
+        meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
+        hinv = _inv(hess)
+        cov_theta: NDArray[np.float64] | None
+        if hinv is not None:
+            cov_rob = hinv @ meat @ hinv
+            jcj = np.asarray(full["jcj"])
+            cov_fis = hinv @ jcj @ hinv
+            if held.any() and free.any():
+                # free poles: conditional on the held ones, plus the held poles' uncertainty propagated
+                fi, hi = np.flatnonzero(np.repeat(free, 2)), np.flatnonzero(np.repeat(held, 2))
+                hff = _inv(hess[np.ix_(fi, fi)])
+                if hff is not None:
+                    kmat = -hff @ hess[np.ix_(fi, hi)]
+                    for cov in (cov_rob, cov_fis):
+                        mid = meat if cov is cov_rob else jcj
+                        cond = hff @ mid[np.ix_(fi, fi)] @ hff
+                        cov[np.ix_(fi, fi)] = cond + kmat @ cov[np.ix_(hi, hi)] @ kmat.T
+            cov_theta = None
+            lam = seg.poles(theta)
+            for j, r in enumerate(rs):
+                sl = slice(2 * j, 2 * j + 2)
+                sj = seg.scale[j] ** 2
+                c_r, c_f = cov_rob[sl, sl] * sj, cov_fis[sl, sl] * sj
+                poles_out[r] = lam[j]
+                cov_out[r] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
+                both[r] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
+                kind[r] = "held" if held[j] else "ml"
+                if held[j]:
+                    warns.append(f"mode at {fn0[r]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
+                                 "its ± is the ML uncertainty at that pole, propagated to its neighbours")
+        else:
+            cov_theta = None
+            for j, r in enumerate(rs):
+                poles_out[r] = seg.poles(theta)[j]
+                kind[r] = "held" if held[j] else "ml"
+                warns.append(f"mode at {fn0[r]:.6g} Hz: the Fisher information of its segment "
+                             f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz) is singular, so its uncertainty is unknown "
+                             "(NaN): the data do not determine the pole")
+        del cov_theta
+    fstd = np.full(nm, np.nan)
+    zstd = np.full(nm, np.nan)
+    for r in range(nm):
+        if np.all(np.isfinite(both[r])):
+            # the larger of the robust and the (correlation-aware) Fisher uncertainty, per quantity
+            fstd[r], zstd[r] = max(both[r, 0], both[r, 2]), max(both[r, 1], both[r, 3])
+    # the float resolution of the fit is the smallest meaningful uncertainty: never 0
+    fn = np.abs(poles_out) / (2 * np.pi)
+    fstd = np.where(np.isfinite(fstd), np.maximum(fstd, 1e-10 * fn), fstd)
+    zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
+    return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
+                   both[:, :2].copy(), both[:, 2:].copy())
+
+
+def _freq_var(lam: complex, c: NDArray[np.float64]) -> float:
+    return _delta(lam, c)[0] ** 2
+
+
+def _delta(lam: complex, c: NDArray[np.float64]) -> tuple[float, float]:
+    """Standard deviations of natural frequency [Hz] and damping ratio from the (Re, Im) covariance."""
+    sig, wd = lam.real, lam.imag
+    mod = abs(lam)
+    g_f = np.array([sig, wd]) / (2 * np.pi * mod)
+    g_z = np.array([-(wd**2), sig * wd]) / mod**3
+    return float(np.sqrt(max(float(g_f @ c @ g_f), 0.0))), float(np.sqrt(max(float(g_z @ c @ g_z), 0.0)))
+
+
+def _check(lam: NDArray[np.complex128], lam0: NDArray[np.complex128], free: NDArray[np.bool_],
+           band: tuple[float, float], df: float, move_hbw: float) -> dict[int, tuple[float, str]]:
+    """Free modes of a segment that the fit cannot hold: severity and reason."""
+    fn, fn0 = np.abs(lam) / (2 * np.pi), np.abs(lam0) / (2 * np.pi)
+    allowed = np.maximum(move_hbw * (-lam0.real) / (2 * np.pi), 2 * df)
+    bad: dict[int, tuple[float, str]] = {}
+    inf = float("inf")
+    for r in np.flatnonzero(free).tolist():
+        if not np.isfinite(lam[r]):
+            bad[r] = (inf, "the ML pole is not finite")
+        elif lam[r].real >= 0:
+            bad[r] = (inf, "the ML fit made it unstable")
+        elif not band[0] <= fn[r] <= band[1]:
+            bad[r] = (inf, f"the ML fit moved it out of its lines {band[0]:.6g}..{band[1]:.6g} Hz")
+        elif abs(fn[r] - fn0[r]) > allowed[r]:
+            bad[r] = (abs(fn[r] - fn0[r]) / allowed[r],
+                      f"the ML fit moved it to {fn[r]:.6g} Hz, further than its half-power half-bandwidth")
+    if not bad and fn.size > 1 and np.any(np.diff(fn) <= 0):
+        mv = np.abs(fn - fn0) / allowed
+        r = int(np.flatnonzero(free)[np.argmax(mv[free])])
+        bad[r] = (1.0, "the ML fit moved it past a neighbouring mode")
+    return bad
+
+
+__all__ = ["ML_CRITERIA", "LocalML", "MLCriteria", "local_ml"]
