@@ -300,15 +300,16 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
 
 def _split_values(
     h: dict[str, Any], vals: NDArray[np.float64], x_vals: NDArray[np.float64] | None
-) -> tuple[NDArray[np.float64], NDArray[Any]]:
-    """Turn flat values into (x, y) according to spacing and data type."""
+) -> tuple[NDArray[np.float64] | None, NDArray[Any]]:
+    """Turn flat values into (x, y) according to spacing and data type (x None when even)."""
     is_complex, _ = ORD_TYPES[h["ord_data_type"]]
     n = h["num_pts"]
     even = h["abscissa_spacing"] == 1
     k = 2 if is_complex else 1
-    if even:
+    x: NDArray[np.float64] | None
+    if even:  # the abscissa is min + k inc: not stored (UFFRecord.x computes it on access)
         yv = vals
-        x = h["abscissa_min"] + np.arange(n, dtype=np.float64) * h["abscissa_inc"]
+        x = None
     elif x_vals is not None:
         yv = vals
         x = x_vals
@@ -324,7 +325,7 @@ def _split_values(
         y.imag = yv[1::2]
     else:
         y = np.ascontiguousarray(yv, dtype=np.float64)
-    return np.ascontiguousarray(x, dtype=np.float64), y
+    return (None if x is None else np.ascontiguousarray(x, dtype=np.float64)), y
 
 
 def _check_header_values(h: dict[str, Any]) -> None:
@@ -377,7 +378,7 @@ def _values_binary_cast(
 def _finish58(h: dict[str, Any], vals: NDArray[np.float64], x_vals: NDArray[np.float64] | None) -> tuple[Any, Any]:
     with np.errstate(all="ignore"):  # overflow/NaN are reported by the finiteness check
         x, y = _split_values(h, vals, x_vals)
-    if x.size != h["num_pts"] or y.size != h["num_pts"]:  # pragma: no cover - guarded above
+    if (x is not None and x.size != h["num_pts"]) or y.size != h["num_pts"]:  # pragma: no cover - guarded above
         raise _Refuse("internal: value count differs from num_pts")
     return x, y
 

@@ -84,7 +84,8 @@ class UFFRecord:
     num_pts : int or None
         Number of values returned (equals the header's num_pts for a read dataset 58).
     x : ndarray, shape (num_pts,), float64, or None
-        Abscissa in the file's unit (always explicit, also for even spacing).
+        Abscissa in the file's unit (always explicit; for even spacing it is computed from the
+        header's minimum and increment on each access, ``min + k inc``, and not stored).
     y : ndarray, shape (num_pts,), float64 or complex128, or None
         Values as stored, in the file's unit.
     units : mapping
@@ -110,7 +111,7 @@ class UFFRecord:
     response: DOF | None
     reference: DOF | None
     num_pts: int | None
-    x: NDArray[np.float64] | None
+    x_stored: NDArray[np.float64] | None
     y: NDArray[Any] | None
     units: Mapping[str, Any]
     ids: tuple[str, ...]
@@ -121,6 +122,18 @@ class UFFRecord:
     lines: tuple[str, ...] = field(default=(), repr=False)
 
     @property
+    def x(self) -> NDArray[np.float64] | None:
+        """Abscissa in the file's unit, shape (num_pts,) (see the class docstring), or None."""
+        if self.x_stored is not None or self.y is None:
+            return self.x_stored
+        h = self.header
+        if h.get("abscissa_spacing") != 1:
+            return None
+        x = h["abscissa_min"] + np.arange(self.y.size, dtype=np.float64) * h["abscissa_inc"]
+        x.setflags(write=False)
+        return x
+
+    @property
     def num_pts_header(self) -> int | None:
         """The header's num_pts (dataset 58), also for a refused dataset."""
         v = self.header.get("num_pts")
@@ -129,6 +142,9 @@ class UFFRecord:
     @property
     def band(self) -> tuple[float, float] | None:
         """(first, last) abscissa value of a read dataset 58."""
+        if self.x_stored is None and self.y is not None and self.header.get("abscissa_spacing") == 1:
+            h, n = self.header, self.y.size
+            return (float(h["abscissa_min"]), float(h["abscissa_min"] + (n - 1) * h["abscissa_inc"])) if n else None
         if self.x is None or self.x.size == 0:
             return None
         return float(self.x[0]), float(self.x[-1])
@@ -172,12 +188,14 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
             }
     status, reason = raw.status, raw.reason
     if status == "read" and raw.y is not None:
-        bad = ~np.isfinite(raw.y)
-        if raw.x is not None:
-            bad |= ~np.isfinite(raw.x)
-        if bad.any():
-            k = int(np.argmax(bad))
-            status, reason = "refused", f"{int(bad.sum())} NaN or inf value(s), first at point {k}"
+        n_bad, k = _nonfinite(raw.y, raw.x)
+        if raw.x is None and h.get("abscissa_spacing") == 1 and raw.y.size:
+            with np.errstate(over="ignore", invalid="ignore"):
+                last = h["abscissa_min"] + (raw.y.size - 1) * h["abscissa_inc"]
+            if not np.isfinite(last) and n_bad == 0:
+                n_bad, k = 1, raw.y.size - 1
+        if n_bad:
+            status, reason = "refused", f"{n_bad} NaN or inf value(s), first at point {k}"
     return UFFRecord(
         index=raw.index,
         type=raw.type,
@@ -186,7 +204,7 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
         response=h.get("response"),
         reference=h.get("reference"),
         num_pts=None if raw.y is None or raw.status != "read" else int(raw.y.size),
-        x=_readonly(raw.x),
+        x_stored=_readonly(raw.x),
         y=_readonly(raw.y),
         units=MappingProxyType(units),
         ids=tuple(h.get(f"id{i}", "") for i in range(1, 6)) if raw.type == 58 else (),
@@ -196,6 +214,22 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
         notes=raw.notes,
         lines=raw.lines,
     )
+
+
+def _nonfinite(y: NDArray[Any], x: NDArray[np.float64] | None) -> tuple[int, int]:
+    """(count, first index) of the points whose value or abscissa is NaN or inf, in 1 Mi-point
+    blocks (two boolean arrays of the whole dataset would cost a quarter of its size)."""
+    n_bad, first = 0, -1
+    step = 1 << 20
+    for a in range(0, y.size, step):
+        bad = ~np.isfinite(y[a : a + step])
+        if x is not None:
+            bad |= ~np.isfinite(x[a : a + step])
+        c = int(np.count_nonzero(bad))
+        if c and first < 0:
+            first = a + int(np.argmax(bad))
+        n_bad += c
+    return n_bad, first
 
 
 MAX_FILE_BYTES = 1 << 34
