@@ -268,12 +268,7 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
         try:
             arr = np.array(toks, dtype=np.float64)
         except ValueError:
-            toks = _NUM.findall(chunk)
-            bad = _NOT_DATA.search(chunk)
-            rest = _NUM.sub(b"", chunk).strip() if bad is None else chunk[bad.start() : bad.start() + 20]
-            if rest:
-                raise _Refuse(f"data section holds text that is not a number: {rest[:20].decode('latin-1')!r}") from None
-            arr = np.array(toks, dtype=np.float64)
+            arr = _split_run_together(chunk, toks)
             run_together = True
         count += arr.size
         if count > expected + 4096:
@@ -291,11 +286,62 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
         last_line = tail[max(tail.rfind(b"\n"), tail.rfind(b"\r")) + 1 :]
         n_last = len(_NUM.findall(last_line.translate(_DEXP)))
         if extra <= n_last and not np.any(vals[expected:]):
+            _check_padding(buf, start, end, n, extra)
             notes.append(f"last line zero-padded: {extra} trailing zero(s) past num_pts ignored")
             vals = vals[:expected]
         else:
             raise _Refuse(f"{n} values present but the header announces {expected}")
     return vals, notes
+
+
+def _split_run_together(chunk: bytes, toks: list[bytes]) -> NDArray[np.float64]:
+    """Values of blank-separated words some of which hold several numbers run together.
+
+    A word is split only before a sign (``1.0E+00-2.0E+00``, written by fixed-width Fortran
+    formats when a negative value takes the blank column); positive numbers run together
+    (``1.0E+001.0E+00``) have no split point that the text vouches for, so they are refused.
+    """
+    out: list[float] = []
+    for w in toks:
+        try:
+            out.append(float(w))
+            continue
+        except ValueError:
+            pass
+        parts = _NUM.findall(w)
+        if b"".join(parts) != w:
+            bad = _NOT_DATA.search(w)
+            shown = (w if bad is None else w[bad.start() :])[:20].decode("latin-1")
+            raise _Refuse(f"data section holds text that is not a number: {shown!r}")
+        if any(p[:1] not in (b"-", b"+") for p in parts[1:]):
+            raise _Refuse(
+                f"numbers run together without a sign between them ({w[:40].decode('latin-1')!r}): where one "
+                "ends and the next begins is ambiguous"
+            )
+        out.extend(float(p) for p in parts)
+    del chunk
+    return np.array(out, dtype=np.float64)
+
+
+def _check_padding(buf: bytes, start: int, end: int, n: int, extra: int) -> None:
+    """Refuse zero padding that may stand in for a missing value.
+
+    Padding fills the last line up to the values per line of the others; it is trusted only
+    when every line holds that same number of values (the last one after padding). A line
+    with one value fewer means a value is missing and the padding would shift every value
+    after it (real and imaginary parts swapped).
+    """
+    counts: set[int] = set()
+    for line in _EOL.split(buf[start:end]):
+        if line.strip():
+            counts.add(len(_NUM.findall(line.translate(_DEXP))))
+            if len(counts) > 1:
+                break
+    if len(counts) != 1:
+        raise _Refuse(
+            f"{n} values where {n - extra} are announced, the last {extra} zero, but the lines hold different "
+            "numbers of values: the zeros may be padding or a value may be missing (ambiguous)"
+        )
 
 
 def _split_values(
@@ -652,6 +698,14 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
             "or the end of the file (num_pts or byte count too large?)",
             h,
         ), resume
+    vs = 8 if ORD_TYPES[h["ord_data_type"]][1] else 4
+    if buf[q + nb - vs : q + nb].strip(b" \t\r\n") == b"" and _delim_after(buf, q + nb - vs) is not None:
+        return RawDataset(
+            index, 58, True, start, "refused",
+            f"the last {vs} bytes of the binary data are blanks or line ends that, with what follows, form "
+            "the closing -1 line: num_pts one too many would read them as a value (ambiguous framing)",
+            h,
+        ), end[1]
     gap = buf[q + nb : end[0]]
     if gap:
         notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
