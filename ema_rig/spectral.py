@@ -56,6 +56,9 @@ ESTIMATORS: tuple[str, ...] = ("H1", "H2", "Hv")
 LOW_COHERENCE = 0.8
 """Coherence below which a line is counted as poorly measured (a warning is given when more
 than a quarter of the lines are)."""
+MAX_DEFAULT_SEGMENT = 1 << 20
+"""Longest default segment of a tapered window, in samples (a quarter of the record up to this):
+memory is a few times one segment per channel, so a 10^8-sample file stays within about its own size."""
 SEGMENT_BATCH_BYTES = 16 << 20
 """Segments are processed in batches of about this many bytes of samples (memory, not results)."""
 IMPACT_WINDOWS: tuple[str, ...] = ("force", "exponential", "impact")
@@ -224,7 +227,7 @@ def estimate_frf(
         window ``'force'``, ``'exponential'``, ``'impact'`` (see :func:`time_window`).
     segment : int, optional
         Samples per segment (FFT length). Default: the whole record for ``'rect'`` and impact
-        windows, a quarter of it otherwise.
+        windows, a quarter of it otherwise, at most :data:`MAX_DEFAULT_SEGMENT` samples.
     overlap : float, optional
         Fraction in [0, 1) shared by consecutive segments. Default 0.5 for tapered windows,
         0 for ``'rect'`` and impact windows.
@@ -283,7 +286,7 @@ def estimate_frf(
         raise ValueError(f"{estimator} needs exactly one input, got {n_in}; use H1 for several inputs")
     key = window.lower()
     whole = key in IMPACT_WINDOWS or key in ("rect", "boxcar")
-    nseg = int(segment) if segment is not None else (n_samp if whole else n_samp // 4)
+    nseg = int(segment) if segment is not None else (n_samp if whole else min(n_samp // 4, MAX_DEFAULT_SEGMENT))
     if not 2 <= nseg <= n_samp:
         raise ValueError(f"segment must lie in 2..{n_samp} samples (the record length), got {nseg}")
     ov = float(overlap) if overlap is not None else (0.0 if whole else 0.5)
@@ -308,11 +311,13 @@ def estimate_frf(
     # segments are cut, windowed and transformed a batch at a time, so memory is a few batches
     # (about SEGMENT_BATCH_BYTES each) plus the record, whatever the overlap (issue 17)
     batch = max(1, SEGMENT_BATCH_BYTES // (8 * nseg * (n_in + n_out)))
+    windows_x = np.lib.stride_tricks.sliding_window_view(x, nseg, axis=-1)  # views, (n_rec, n_ch, n - nseg + 1, nseg)
+    windows_y = np.lib.stride_tricks.sliding_window_view(y, nseg, axis=-1)
     for r in range(n_rec):
         for b0 in range(0, starts.size, batch):
-            idx = starts[b0 : b0 + batch, None] + np.arange(nseg)[None, :]  # (n_batch, nseg)
-            xs = x[r][:, idx]  # (n_in, n_batch, nseg)
-            ys = y[r][:, idx]
+            sel = slice(starts[b0], starts[min(b0 + batch, starts.size) - 1] + 1, step)
+            xs = np.array(windows_x[r][:, sel])  # (n_in, n_batch, nseg): a copy of this batch only
+            ys = np.array(windows_y[r][:, sel])
             if impact:
                 # the force should be zero after the blow: its mean there is the channel's offset;
                 # the response is used as recorded (an offset would be spread by the exponential window)
@@ -386,4 +391,5 @@ def estimate_frf(
     return FRFEstimate(data, coh, estimator, window, nseg, ov, n_avg, added, tuple(warn))
 
 
-__all__ = ["ESTIMATORS", "IMPACT_WINDOWS", "LOW_COHERENCE", "FRFEstimate", "estimate_frf", "time_window"]
+__all__ = ["ESTIMATORS", "IMPACT_WINDOWS", "LOW_COHERENCE", "MAX_DEFAULT_SEGMENT", "SEGMENT_BATCH_BYTES", "FRFEstimate",
+           "estimate_frf", "time_window"]

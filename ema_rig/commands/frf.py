@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "when the force is a blow (crest factor > 8), else hann")
     parser.add_argument("--segment", type=positive_int, default=None, metavar="N",
                         help="samples per segment (FFT length); default: the whole record for rect "
-                             "and impact windows, a quarter of it otherwise")
+                             "and impact windows, a quarter of it (at most 2^20) otherwise")
     parser.add_argument("--overlap", type=nonneg_float, default=None, metavar="F",
                         help="overlap of consecutive segments, 0 <= F < 1 (default 0.5 for tapered "
                              "windows, 0 for rect and impact windows)")
@@ -47,13 +47,14 @@ def _crest(force: object) -> float:
 
     a = np.asarray(force, dtype=np.float64)
     peak, sq = 0.0, 0.0
-    for ch in a:
-        mean = float(ch.mean())
-        for k in range(0, ch.size, 1 << 20):
-            b = ch[k : k + (1 << 20)] - mean
-            peak = max(peak, float(np.abs(b).max(initial=0.0)))
-            sq += float(b @ b)
-    return peak / max(float(np.sqrt(sq / max(a.size, 1))), np.finfo(float).tiny)
+    with np.errstate(over="ignore", invalid="ignore"):  # values near the float limit: an inf RMS gives 0
+        for ch in a:
+            mean = float(ch.mean())
+            for k in range(0, ch.size, 1 << 20):
+                b = ch[k : k + (1 << 20)] - mean
+                peak = max(peak, float(np.abs(b).max(initial=0.0)))
+                sq += float(b @ b)
+        return peak / max(float(np.sqrt(sq / max(a.size, 1))), np.finfo(float).tiny)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,6 +93,8 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UFFError(str(exc), file=args.file) from None
     data = est.frf
+    td_text, td_notes = repr(td), td.notes
+    del td  # the time records (views of the file's bytes) are not needed for writing: free them
     date = date_id()
     coh = b"".join(
         coherence_bytes(data.freq, est.coherence[i, j], response=o, reference=q,
@@ -102,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         write_uff58(tmp, data, binary=args.binary, rig=rig)
         with open(tmp, "ab") as fh:
             fh.write(coh)
-    print(f"file   {args.file}: {td!r}")
+    print(f"file   {args.file}: {td_text}")
     print(f"frf    {est.estimator}, {est.window} window, {est.n_averages} average(s) of {est.segment} samples "
           f"(overlap {est.overlap:g}), {data.n_freq} lines {data.freq[0]:g}-{data.freq[-1]:g} Hz, "
           f"{data.frf_form}")
@@ -110,9 +113,9 @@ def run(args: argparse.Namespace) -> int:
         for j, q in enumerate(data.in_dofs):
             c = est.coherence[i, j]
             print(f"  {o} / {q}: coherence median {np.median(c):.3f}, min {c.min():.3f}")
-    for note in td.notes:
+    for note in td_notes:
         print(f"note   {note}")
-    if any("no unit label and no dataset 164" in n for n in td.notes):
+    if any("no unit label and no dataset 164" in n for n in td_notes):
         warnings.warn(f"{args.file}: time histories without unit labels or dataset 164: force taken as N and "
                       f"response as SI ({data.unit_str} written)", UnitWarning, stacklevel=1)
     for w in est.warnings:

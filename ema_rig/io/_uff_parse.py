@@ -698,14 +698,9 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
             "or the end of the file (num_pts or byte count too large?)",
             h,
         ), resume
-    vs = 8 if ORD_TYPES[h["ord_data_type"]][1] else 4
-    if buf[q + nb - vs : q + nb].strip(b" \t\r\n") == b"" and _delim_after(buf, q + nb - vs) is not None:
-        return RawDataset(
-            index, 58, True, start, "refused",
-            f"the last {vs} bytes of the binary data are blanks or line ends that, with what follows, form "
-            "the closing -1 line: num_pts one too many would read them as a value (ambiguous framing)",
-            h,
-        ), end[1]
+    ambiguous = _close_ambiguity(buf, q + nb)
+    if ambiguous:
+        return RawDataset(index, 58, True, start, "refused", f"{ambiguous} (ambiguous framing)", h), end[1]
     gap = buf[q + nb : end[0]]
     if gap:
         notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
@@ -714,6 +709,28 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
     vals, x_vals = _values_binary(h, memoryview(buf)[q : q + nb], xs, "<" if bo == 1 else ">")
     x, y = _finish58(h, vals, x_vals)
     return RawDataset(index, 58, True, start, "read", None, h, x, y, tuple(notes), text), end[1]
+
+
+def _close_ambiguity(buf: bytes, p: int) -> str | None:
+    """Why the closing -1 found at the payload end ``p`` does not vouch for where the payload ends.
+
+    Writers put the close right after the payload as ``"    -1"`` (the I6 field: 4 blanks) or on
+    a line of its own after a line end. A close that follows the payload without a line end and
+    with another number of blanks means the payload took some of its blanks (num_pts or the byte
+    count one too many, or a byte lost in the data); a payload whose last byte is a blank or a
+    line end that could equally begin the close line is the same doubt one byte earlier.
+    """
+    m = _DELIM_TAIL.search(buf, p)
+    if m is None:  # pragma: no cover - the caller found a close
+        return None
+    lead = buf[p : m.start()]
+    if b"\n" not in lead and b"\r" not in lead and lead != b"    ":
+        return (f"the closing -1 follows the binary data with {len(lead)} blank(s) and no line end (a close "
+                "written right after the data has 4): the data may have taken some of its blanks")
+    if p > 0 and buf[p - 1] in b" \t\r\n" and _delim_after(buf, p - 1) is not None:
+        return (f"the binary data end with {buf[p - 1 : p]!r}, which with what follows forms the closing -1 "
+                "line: num_pts or the byte count one too many would read it as data")
+    return None
 
 
 def _close_exactly(buf: bytes, p: int) -> tuple[int, int] | None:
