@@ -19,6 +19,13 @@ ordinate type is 13 (excitation force) or 9 (reaction force) is a force channel;
 (acceleration, velocity, displacement) a response channel. A DOF that appears k times is k
 records (e.g. k impacts, each written as its own force and response datasets); record r pairs
 the r-th dataset of every channel.
+
+Units: the time axis label is read by :func:`ema_rig.io.units.parse_unit_label` (``s``, ``ms``,
+``(Sec)``; no label: s); each channel's values by its ordinate label, else by the dataset 164
+in force (length and force factors, the exponents of its data type), else as SI (noted). A
+label that cannot be read, or one that is not of the channel's quantity, is an error. The
+channels of one record must start at the same time (the header's abscissa minimum); ema_rig
+does not shift channels. A record that needs no scaling is kept as a view of the file's values.
 """
 
 from __future__ import annotations
@@ -151,8 +158,9 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
     ------
     UFFError
         Naming file and dataset: no time history, a refused time dataset, an ordinate type that
-        is neither force nor response, unknown units, different sampling or lengths, channels
-        with different numbers of records, no force or no response channel.
+        is neither force nor response, unknown units (ordinate or time axis), different sampling
+        or lengths, channels of one record that start at different times, channels with
+        different numbers of records, no force or no response channel.
     """
     uf = read_uff(path)
     src = uf.path

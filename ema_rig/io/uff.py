@@ -439,9 +439,12 @@ def read_uff58(
     11 velocity -> mobility, 12 acceleration -> accelerance; denominator 13 or 9, force) and from
     the unit labels (``g`` = 9.80665 m/s^2, ``mm``, ``in``, ``lbf``, ``(m/s)/N`` ...). When code and
     label name different quantities, ``rig.unit_preference`` (``"code"`` or ``"label"``) decides,
-    else it is an error. A unit label that is understood sets the scale; without one, the scale
-    comes from the latest preceding dataset 164 (its length/force factors and the header's unit
-    exponents), else SI is assumed. Each decision is recorded in ``meta["unit_decisions"]``.
+    else it is an error. A unit label sets the scale (:func:`ema_rig.io.units.parse_unit_label`:
+    ``mm s^-2``, ``mg``, ``in/s2/lbf`` ...); a label that cannot be read is an error naming the
+    dataset and the label, never taken as SI; without a label, the scale comes from the latest
+    preceding dataset 164 (its length/force factors and the header's unit exponents), else SI is
+    assumed. The abscissa label is read by the same grammar (Hz, kHz, rad/s; a time unit is an
+    error). Each decision is recorded in ``meta["unit_decisions"]``.
 
     Signs. Without a rig, a negative direction in the file (``13-Y``) is flipped into the
     positive axis (values x -1, DOF ``13+Y``). With a rig, the rig's sign decides: a sensor
