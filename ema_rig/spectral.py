@@ -313,34 +313,40 @@ def estimate_frf(
     batch = max(1, SEGMENT_BATCH_BYTES // (8 * nseg * (n_in + n_out)))
     windows_x = np.lib.stride_tricks.sliding_window_view(x, nseg, axis=-1)  # views, (n_rec, n_ch, n - nseg + 1, nseg)
     windows_y = np.lib.stride_tricks.sliding_window_view(y, nseg, axis=-1)
-    for r in range(n_rec):
-        for b0 in range(0, starts.size, batch):
-            sel = slice(starts[b0], starts[min(b0 + batch, starts.size) - 1] + 1, step)
-            xs = np.array(windows_x[r][:, sel])  # (n_in, n_batch, nseg): a copy of this batch only
-            ys = np.array(windows_y[r][:, sel])
-            if impact:
-                # the force should be zero after the blow: its mean there is the channel's offset;
-                # the response is used as recorded (an offset would be spread by the exponential window)
-                tail = xs[..., n_force:] if n_force < nseg else xs
-                xs -= tail.mean(axis=-1, keepdims=True)
-                if key in ("force", "impact") and n_force < nseg:
-                    peak_at = np.argmax(np.abs(xs), axis=-1)  # (n_in, n_batch)
-                    late = peak_at >= n_force
-                    if late.any():
-                        n_late += int(late.sum())
-                        t_late = max(t_late, float(peak_at[late].max()) / fs)
-            else:
-                xs -= xs.mean(axis=-1, keepdims=True)
-                ys -= ys.mean(axis=-1, keepdims=True)
-            xs *= w_x
-            ys *= w_y
-            fx = np.fft.rfft(xs, axis=-1)[..., 1:]  # drop 0 Hz: the mean was removed
-            del xs
-            fy = np.fft.rfft(ys, axis=-1)[..., 1:]
-            del ys
-            s_xx += np.einsum("isf,jsf->ijf", fx.conj(), fx)  # (n_in, n_in, n_freq)
-            s_yx += np.einsum("osf,isf->oif", fy, fx.conj())  # (n_out, n_in, n_freq)
-            s_yy += np.einsum("osf,osf->of", fy, fy.conj()).real  # (n_out, n_freq)
+    with np.errstate(over="ignore", invalid="ignore"):  # values near the float limit: refused below
+        for r in range(n_rec):
+            for b0 in range(0, starts.size, batch):
+                sel = slice(starts[b0], starts[min(b0 + batch, starts.size) - 1] + 1, step)
+                xs = np.array(windows_x[r][:, sel])  # (n_in, n_batch, nseg): a copy of this batch only
+                ys = np.array(windows_y[r][:, sel])
+                if impact:
+                    # the force should be zero after the blow: its mean there is the channel's offset;
+                    # the response is used as recorded (an offset would be spread by the exponential window)
+                    tail = xs[..., n_force:] if n_force < nseg else xs
+                    xs -= tail.mean(axis=-1, keepdims=True)
+                    if key in ("force", "impact") and n_force < nseg:
+                        peak_at = np.argmax(np.abs(xs), axis=-1)  # (n_in, n_batch)
+                        late = peak_at >= n_force
+                        if late.any():
+                            n_late += int(late.sum())
+                            t_late = max(t_late, float(peak_at[late].max()) / fs)
+                else:
+                    xs -= xs.mean(axis=-1, keepdims=True)
+                    ys -= ys.mean(axis=-1, keepdims=True)
+                xs *= w_x
+                ys *= w_y
+                fx = np.fft.rfft(xs, axis=-1)[..., 1:]  # drop 0 Hz: the mean was removed
+                del xs
+                fy = np.fft.rfft(ys, axis=-1)[..., 1:]
+                del ys
+                s_xx += np.einsum("isf,jsf->ijf", fx.conj(), fx)  # (n_in, n_in, n_freq)
+                s_yx += np.einsum("osf,isf->oif", fy, fx.conj())  # (n_out, n_in, n_freq)
+                s_yy += np.einsum("osf,osf->of", fy, fy.conj()).real  # (n_out, n_freq)
+    big = np.sqrt(np.finfo(float).max) / 4  # beyond it |S_yx|^2 in the coherence would overflow
+    if not all(np.all(np.abs(v) < big) for v in (s_xx, s_yx, s_yy)):  # also False for NaN/inf
+        peak = max(abs(float(v)) for v in (x.max(), x.min(), y.max(), y.min()))
+        raise ValueError(f"the spectra overflow float64: force or response values up to {peak:.3g} are too "
+                         "large (check the units)")
     if n_late:
         warn.append(f"the largest force sample of {n_late} segment(s) lies outside the force "
                     f"window (at {t_late:.4g} s > {n_force / fs:.4g} s): the blow is cut off or the force "

@@ -157,3 +157,11 @@ def test_streamed_segments_memory_is_bounded_and_exact() -> None:
     exact = np.polyval(B[::-1], zi) / np.polyval(A[::-1], zi)
     # noise-free H1 with a hann window: leakage of a 2 % resonance at 4096 lines, as test_spectral
     np.testing.assert_allclose(est.frf.frf[0, 0], exact, rtol=0, atol=0.02 * np.abs(exact).max())
+
+
+def test_values_whose_spectra_overflow_are_refused() -> None:
+    # 1e200 N: |X|^2 overflows float64; refused naming the size (the fuzz found a numpy overflow
+    # warning in the coherence instead)
+    x, y = _signals(1024)
+    with pytest.raises(ValueError, match=r"spectra overflow float64: force or response values up to 1e\+200"):
+        estimate_frf(x * 1e200 / np.abs(x).max(), y, FS, in_dofs=["1+Z"], out_dofs=["2+Z"])

@@ -428,3 +428,20 @@ def test_positive_numbers_run_together_are_refused(tmp_path: Path) -> None:
     rec = read_uff(p)[0]
     assert rec.status == "read"
     assert rec.y[0] == 0.25 - 0.1j
+
+
+def test_58b_data_short_by_a_few_bytes_cannot_take_its_close_as_data(tmp_path: Path) -> None:
+    # 6 bytes lost inside the payload and a second -1 line at the end of the file (a trailing
+    # delimiter): framed by the byte count, the payload ends with the close "    -1" and the
+    # trailing -1 looks like the close; every value after the loss would be shifted by 6 bytes
+    # (found by the fuzz, seed 99: 0.0101 read as 1.2e51)
+    p = tmp_path / "short.ufb"
+    write_uff58(p, FRFData(FREQ, TRUTH[:1], ["1+Y"], ["1+Y"]), binary=True)
+    buf = p.read_bytes() + b"    -1\n"  # a trailing delimiter line at the end of the file
+    q = buf.index(b"\n", buf.index(b"NONE                 NONE", buf.index(b"58b"))) + 1
+    assert buf[q + 80 :] == b"    -1\n    -1\n"  # 5 complex float64 values, then the close
+    p.write_bytes(buf)
+    assert read_uff(p)[0].status == "read"  # a trailing -1 alone is fine
+    p.write_bytes(buf[: q + 20] + buf[q + 26 :])  # 6 bytes of the data lost
+    rec = read_uff(p)
+    assert rec[0].status == "refused" and "ambiguous framing" in (rec[0].reason or ""), rec[0].reason

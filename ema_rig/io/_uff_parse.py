@@ -42,6 +42,8 @@ _ENTITY_DOF = re.compile(r"^\.?(\d+)\.?(RX|RY|RZ|X|Y|Z)([+-]?)$", re.I)
 _NOT_DATA = re.compile(rb"[^0-9eEdD+\-. \t\r\n\x0b\x0cnNaAiIfFtTyY]")
 # a closing -1 that follows a binary payload exactly (at most one line end before it)
 _CLOSE_EXACT = re.compile(rb"(?:\r\n|\r|\n)?[ \t]*-1[ \t]*(?:\r\n|\r|\n|\Z)")
+# the end of a binary payload that is itself a delimiter line ("    -1" after 4 blanks or a line end)
+_DATA_ENDS_AS_CLOSE = re.compile(rb"(?:[\r\n]|[ \t]{4})[ \t]*-1[ \t]*(?:\r\n|\r|\n)?\Z")
 # what may follow a closing -1: blank lines, then the end of the file (after blanks, NULs or a
 # DOS end-of-file mark) or the next dataset's -1
 _AFTER_CLOSE = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*(?:[ \t\x00\x1a]*\Z|[ \t]*-1[ \t]*(?:\r|\n|\Z))")
@@ -727,6 +729,10 @@ def _close_ambiguity(buf: bytes, p: int) -> str | None:
     if b"\n" not in lead and b"\r" not in lead and lead != b"    ":
         return (f"the closing -1 follows the binary data with {len(lead)} blank(s) and no line end (a close "
                 "written right after the data has 4): the data may have taken some of its blanks")
+    tail = _DATA_ENDS_AS_CLOSE.search(buf, max(0, p - 90), p)
+    if tail is not None:
+        return (f"the binary data end with the bytes of a closing -1 line ({tail.group()!r}): num_pts or the "
+                "byte count too large would read that close as data and take a later -1 for it")
     if p > 0 and buf[p - 1] in b" \t\r\n" and _delim_after(buf, p - 1) is not None:
         return (f"the binary data end with {buf[p - 1 : p]!r}, which with what follows forms the closing -1 "
                 "line: num_pts or the byte count one too many would read it as data")
