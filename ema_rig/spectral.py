@@ -56,6 +56,11 @@ ESTIMATORS: tuple[str, ...] = ("H1", "H2", "Hv")
 LOW_COHERENCE = 0.8
 """Coherence below which a line is counted as poorly measured (a warning is given when more
 than a quarter of the lines are)."""
+MAX_DEFAULT_SEGMENT = 1 << 20
+"""Longest default segment of a tapered window, in samples (a quarter of the record up to this):
+memory is a few times one segment per channel, so a 10^8-sample file stays within about its own size."""
+SEGMENT_BATCH_BYTES = 16 << 20
+"""Segments are processed in batches of about this many bytes of samples (memory, not results)."""
 IMPACT_WINDOWS: tuple[str, ...] = ("force", "exponential", "impact")
 """Window names for impact tests: ``force`` (force window on the force, none on the
 response), ``exponential`` (the same exponential on both), ``impact`` (force window times the
@@ -150,7 +155,9 @@ def time_window(name: str, n: int, fs: float, *, force_width: float | None = Non
     decay = np.log(1.0 / exp_end) / (n - 1)  # per sample
     expo = np.exp(-decay * np.arange(n))
     width = 0.1 * n / fs if force_width is None else float(force_width)
-    n_force = int(round(width * fs))
+    if not (np.isfinite(width) and width > 0):
+        raise ValueError(f"force_width must be a finite positive time in s, got {force_width}")
+    n_force = int(round(min(width * fs, n + 1.0)))
     if not 1 <= n_force <= n:
         raise ValueError(f"force_width {width:g} s must cover 1 to {n} samples at fs = {fs:g} Hz")
     fwin = np.zeros(n)
@@ -171,8 +178,12 @@ def _as_records(a: ArrayLike, what: str) -> NDArray[np.float64]:
     if arr.ndim != 3:
         raise ValueError(f"{what} must have shape (n_samples,), (n_ch, n_samples) or "
                          f"(n_records, n_ch, n_samples), got {np.shape(a)}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{what} contains NaN or inf values")
+    flat = arr.reshape(-1) if arr.flags.c_contiguous else None
+    blocks = ((flat[a : a + (1 << 20)] for a in range(0, flat.size, 1 << 20)) if flat is not None
+              else (arr[i, j] for i in range(arr.shape[0]) for j in range(arr.shape[1])))
+    for block in blocks:  # in blocks: a boolean copy of the whole record is not needed
+        if not np.all(np.isfinite(block)):
+            raise ValueError(f"{what} contains NaN or inf values")
     return arr
 
 
@@ -216,7 +227,7 @@ def estimate_frf(
         window ``'force'``, ``'exponential'``, ``'impact'`` (see :func:`time_window`).
     segment : int, optional
         Samples per segment (FFT length). Default: the whole record for ``'rect'`` and impact
-        windows, a quarter of it otherwise.
+        windows, a quarter of it otherwise, at most :data:`MAX_DEFAULT_SEGMENT` samples.
     overlap : float, optional
         Fraction in [0, 1) shared by consecutive segments. Default 0.5 for tapered windows,
         0 for ``'rect'`` and impact windows.
@@ -275,7 +286,7 @@ def estimate_frf(
         raise ValueError(f"{estimator} needs exactly one input, got {n_in}; use H1 for several inputs")
     key = window.lower()
     whole = key in IMPACT_WINDOWS or key in ("rect", "boxcar")
-    nseg = int(segment) if segment is not None else (n_samp if whole else n_samp // 4)
+    nseg = int(segment) if segment is not None else (n_samp if whole else min(n_samp // 4, MAX_DEFAULT_SEGMENT))
     if not 2 <= nseg <= n_samp:
         raise ValueError(f"segment must lie in 2..{n_samp} samples (the record length), got {nseg}")
     ov = float(overlap) if overlap is not None else (0.0 if whole else 0.5)
@@ -290,32 +301,56 @@ def estimate_frf(
         raise ValueError(f"H1 with {n_in} inputs needs at least {n_in} averages, got {n_avg} "
                          "(shorter segments, more overlap or more records)")
 
-    idx = starts[:, None] + np.arange(nseg)[None, :]  # (n_seg, nseg)
-    xs = x[:, :, idx]  # (n_rec, n_in, n_seg, nseg)
-    ys = y[:, :, idx]
-    if key in IMPACT_WINDOWS:
-        # the force should be zero after the blow: its mean there is the channel's offset;
-        # the response is used as recorded (an offset would be spread by the exponential window)
-        n_force = int(np.count_nonzero(time_window("force", nseg, fs, force_width=force_width)[0]))
-        tail = xs[..., n_force:] if n_force < nseg else xs
-        xs = xs - tail.mean(axis=-1, keepdims=True)
-        if key in ("force", "impact") and n_force < nseg:
-            peak_at = np.argmax(np.abs(xs), axis=-1)  # (n_rec, n_in, n_seg)
-            late = peak_at >= n_force
-            if late.any():
-                t_late = float(peak_at[late].max()) / fs
-                warn.append(f"the largest force sample of {int(late.sum())} segment(s) lies outside the force "
-                            f"window (at {t_late:.4g} s > {n_force / fs:.4g} s): the blow is cut off or the force "
-                            "holds no blow; check the trigger and --force-width")
-    else:
-        xs = xs - xs.mean(axis=-1, keepdims=True)
-        ys = ys - ys.mean(axis=-1, keepdims=True)
-    fx = np.fft.rfft(xs * w_x, axis=-1)[..., 1:]  # drop 0 Hz: the mean was removed
-    fy = np.fft.rfft(ys * w_y, axis=-1)[..., 1:]
     freq = np.arange(1, nseg // 2 + 1) * fs / nseg
-    s_xx = np.einsum("risf,rjsf->ijf", fx.conj(), fx)  # (n_in, n_in, n_freq)
-    s_yx = np.einsum("rosf,risf->oif", fy, fx.conj())  # (n_out, n_in, n_freq)
-    s_yy = np.einsum("rosf,rosf->of", fy, fy.conj()).real  # (n_out, n_freq)
+    s_xx = np.zeros((n_in, n_in, freq.size), dtype=np.complex128)
+    s_yx = np.zeros((n_out, n_in, freq.size), dtype=np.complex128)
+    s_yy = np.zeros((n_out, freq.size))
+    impact = key in IMPACT_WINDOWS
+    n_force = int(np.count_nonzero(time_window("force", nseg, fs, force_width=force_width)[0])) if impact else 0
+    n_late, t_late = 0, 0.0
+    # segments are cut, windowed and transformed a batch at a time, so memory is a few batches
+    # (about SEGMENT_BATCH_BYTES each) plus the record, whatever the overlap (issue 17)
+    batch = max(1, SEGMENT_BATCH_BYTES // (8 * nseg * (n_in + n_out)))
+    windows_x = np.lib.stride_tricks.sliding_window_view(x, nseg, axis=-1)  # views, (n_rec, n_ch, n - nseg + 1, nseg)
+    windows_y = np.lib.stride_tricks.sliding_window_view(y, nseg, axis=-1)
+    with np.errstate(over="ignore", invalid="ignore"):  # values near the float limit: refused below
+        for r in range(n_rec):
+            for b0 in range(0, starts.size, batch):
+                sel = slice(starts[b0], starts[min(b0 + batch, starts.size) - 1] + 1, step)
+                xs = np.array(windows_x[r][:, sel])  # (n_in, n_batch, nseg): a copy of this batch only
+                ys = np.array(windows_y[r][:, sel])
+                if impact:
+                    # the force should be zero after the blow: its mean there is the channel's offset;
+                    # the response is used as recorded (an offset would be spread by the exponential window)
+                    tail = xs[..., n_force:] if n_force < nseg else xs
+                    xs -= tail.mean(axis=-1, keepdims=True)
+                    if key in ("force", "impact") and n_force < nseg:
+                        peak_at = np.argmax(np.abs(xs), axis=-1)  # (n_in, n_batch)
+                        late = peak_at >= n_force
+                        if late.any():
+                            n_late += int(late.sum())
+                            t_late = max(t_late, float(peak_at[late].max()) / fs)
+                else:
+                    xs -= xs.mean(axis=-1, keepdims=True)
+                    ys -= ys.mean(axis=-1, keepdims=True)
+                xs *= w_x
+                ys *= w_y
+                fx = np.fft.rfft(xs, axis=-1)[..., 1:]  # drop 0 Hz: the mean was removed
+                del xs
+                fy = np.fft.rfft(ys, axis=-1)[..., 1:]
+                del ys
+                s_xx += np.einsum("isf,jsf->ijf", fx.conj(), fx)  # (n_in, n_in, n_freq)
+                s_yx += np.einsum("osf,isf->oif", fy, fx.conj())  # (n_out, n_in, n_freq)
+                s_yy += np.einsum("osf,osf->of", fy, fy.conj()).real  # (n_out, n_freq)
+    big = np.sqrt(np.finfo(float).max) / 4  # beyond it |S_yx|^2 in the coherence would overflow
+    if not all(np.all(np.abs(v) < big) for v in (s_xx, s_yx, s_yy)):  # also False for NaN/inf
+        peak = max(abs(float(v)) for v in (x.max(), x.min(), y.max(), y.min()))
+        raise ValueError(f"the spectra overflow float64: force or response values up to {peak:.3g} are too "
+                         "large (check the units)")
+    if n_late:
+        warn.append(f"the largest force sample of {n_late} segment(s) lies outside the force "
+                    f"window (at {t_late:.4g} s > {n_force / fs:.4g} s): the blow is cut off or the force "
+                    "holds no blow; check the trigger and --force-width")
     s_xx_diag = np.einsum("iif->if", s_xx).real  # (n_in, n_freq)
     floor = np.finfo(float).eps * float(s_xx_diag.max(initial=0.0)) * nseg
     dead = np.any(s_xx_diag <= floor, axis=0)
@@ -356,10 +391,11 @@ def estimate_frf(
     info = dict(meta or {})
     info.update(estimator=estimator, window=window, segment=nseg, overlap=ov, n_averages=n_avg,
                 added_damping=added)
-    data = FRFData(freq, h, tuple(as_dof(d) for d in out_dofs), tuple(as_dof(d) for d in in_dofs), frf_form,
+    data = FRFData(freq, np.asarray(h, dtype=np.complex128), tuple(as_dof(d) for d in out_dofs), tuple(as_dof(d) for d in in_dofs), frf_form,
                    meta=info)
     coh.setflags(write=False)
     return FRFEstimate(data, coh, estimator, window, nseg, ov, n_avg, added, tuple(warn))
 
 
-__all__ = ["ESTIMATORS", "IMPACT_WINDOWS", "LOW_COHERENCE", "FRFEstimate", "estimate_frf", "time_window"]
+__all__ = ["ESTIMATORS", "IMPACT_WINDOWS", "LOW_COHERENCE", "MAX_DEFAULT_SEGMENT", "SEGMENT_BATCH_BYTES", "FRFEstimate",
+           "estimate_frf", "time_window"]

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ema_rig.errors import EmaRigError, UnitWarning
+from ema_rig.errors import EmaRigError, IdentificationWarning, UnitWarning
 from ema_rig.io.uff import inspect_uff, read_uff, read_uff58
 
 Mutator = Callable[[bytes, np.random.Generator], bytes]
@@ -247,3 +247,199 @@ def exercise(path: Path, buf: bytes) -> tuple[str, str | None]:
         except Exception:  # noqa: BLE001 - the point of the fuzzer: anything else is a bug
             return "foreign", traceback.format_exc(limit=6)
     return outcome, None
+
+
+# ------------------------------------------------------------------- misread oracle (issue 17)
+def edit_region(orig: bytes, mut: bytes) -> tuple[int, int, int]:
+    """(start, end in the original, end in the mutant) of the one byte range that differs.
+
+    The common prefix and suffix of the two files bound every edit, so one range covers all the
+    mutations applied (a conservative "touched" region).
+    """
+    n = min(len(orig), len(mut))
+    a = np.frombuffer(orig[:n], np.uint8)
+    b = np.frombuffer(mut[:n], np.uint8)
+    diff = np.flatnonzero(a != b)
+    p = int(diff[0]) if diff.size else n
+    ra = np.frombuffer(orig[len(orig) - n + p :], np.uint8)[::-1] if n > p else np.zeros(0, np.uint8)
+    rb = np.frombuffer(mut[len(mut) - n + p :], np.uint8)[::-1] if n > p else np.zeros(0, np.uint8)
+    rdiff = np.flatnonzero(ra != rb)
+    s = int(rdiff[0]) if rdiff.size else ra.size
+    return p, len(orig) - s, len(mut) - s
+
+
+def _records(buf: bytes) -> list[tuple[int, int, object]]:
+    """(start, end, UFFRecord) of every dataset, as read_uff returns them (with their byte spans)."""
+    from ema_rig.io import _uff_parse
+    from ema_rig.io.uff import _to_record
+
+    raws = _uff_parse.scan(buf)
+    offs = [r.offset for r in raws] + [len(buf)]
+    return [(offs[i], offs[i + 1], _to_record(r)) for i, r in enumerate(raws)]
+
+
+def _flat(rec: object) -> np.ndarray:
+    """The values of a dataset-58 record in file order (x interleaved when uneven), as float64."""
+    y = np.asarray(rec.y)  # type: ignore[attr-defined]
+    yv = y.view(np.float64).reshape(y.size, -1) if np.iscomplexobj(y) else y.reshape(-1, 1)
+    if rec.header.get("abscissa_spacing") == 1:  # type: ignore[attr-defined]
+        return yv.ravel()
+    return np.column_stack([np.asarray(rec.x), yv]).ravel()  # type: ignore[attr-defined]
+
+
+_NUMTOK = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?|nan|inf", re.I)
+
+
+def _value_spans(buf: bytes, start: int, end: int, rec: object) -> list[tuple[int, int]] | None:
+    """Byte span of each stored value of ``rec`` (a dataset starting at ``start``) in ``buf``."""
+    h = rec.header  # type: ignore[attr-defined]
+    pos = start
+    for _ in range(2 + (h.get("n_ascii_lines", 11) if rec.binary else 11)):  # type: ignore[attr-defined]
+        m = re.compile(rb"\r\n|\r|\n").search(buf, pos)
+        if m is None:
+            return None
+        pos = m.end()
+    from ema_rig.io._uff_parse import ORD_TYPES
+
+    is_complex, is_double = ORD_TYPES[h["ord_data_type"]]
+    if rec.binary:  # type: ignore[attr-defined]
+        s = 8 if is_double else 4
+        k = 2 if is_complex else 1
+        n = h["num_pts"]
+        f32_x = any("float32" in note for note in rec.notes)  # type: ignore[attr-defined]
+        xs = 0 if h["abscissa_spacing"] == 1 else (4 if f32_x or not is_double else s)
+        sizes = ([xs] if xs else []) + [s] * k
+        spans = []
+        for _ in range(n):
+            for sz in sizes:
+                spans.append((pos, pos + sz))
+                pos += sz
+        return spans
+    from ema_rig.io._uff_parse import _find_delim
+
+    close = _find_delim(buf, pos)
+    return [m.span() for m in _NUMTOK.finditer(buf, pos, min(end, len(buf) if close is None else close))]
+
+
+def misreads(orig: bytes, mut: bytes) -> list[str]:
+    """Silent misreads of a mutant: datasets read with values the original file does not hold.
+
+    For every dataset 58 the mutant reads: when its bytes lie outside the edited range it must
+    be the same dataset as in the original (same start, same values, same DOFs); when the edit
+    touches it and the original dataset at the same start was read with the same num_pts, data
+    type and spacing, only the values whose text (ASCII) or bytes (58b) the edit touched may
+    differ. A value that moved (a shift from a missing value, padding taken for data, a split
+    run-together number, a byte count that ate a delimiter) shows up as a difference outside
+    the touched values.
+    """
+    p, e_orig, e_mut = edit_region(orig, mut)
+    delta = e_mut - e_orig
+    try:
+        o_recs = {a: (a, b, r) for a, b, r in _records(orig)}
+        m_recs = _records(mut)
+    except Exception as exc:  # noqa: BLE001 - reported by exercise() as foreign anyway
+        return [f"scan failed: {exc!r}"]
+    out: list[str] = []
+    for a, b, r in m_recs:
+        if r.type != 58 or r.status != "read":  # type: ignore[attr-defined]
+            continue
+        if b <= p or a >= e_mut:  # untouched: the same bytes as in the original
+            a0 = a if b <= p else a - delta
+            # the delimiter line itself may have been edited (blanks, line ends): the same dataset
+            # then starts a few bytes away; take the nearest original start within 16 bytes
+            near = [o for o in o_recs if abs(o - a0) <= 16]
+            hit = o_recs[min(near, key=lambda o: abs(o - a0))] if near else None
+            if hit is None or hit[2].status != "read":  # type: ignore[attr-defined]
+                out.append(f"untouched dataset at byte {a} read, but the original has no read dataset there")
+                continue
+            ro = hit[2]
+            same = (np.array_equal(_flat(ro), _flat(r)) and ro.response == r.response  # type: ignore[attr-defined]
+                    and ro.reference == r.reference and ro.header.get("num_pts") == r.header.get("num_pts"))  # type: ignore[attr-defined]
+            if not same:
+                out.append(f"untouched dataset at byte {a} read with other values than the original")
+            continue
+        if a >= p:  # a dataset that starts inside the edit: its content is the edit's
+            continue
+        hit = o_recs.get(a)
+        if hit is None or hit[2].status != "read":  # type: ignore[attr-defined]
+            continue
+        ro = hit[2]
+        keys = ("num_pts", "ord_data_type", "abscissa_spacing")
+        if any(ro.header.get(k) != r.header.get(k) for k in keys) or ro.binary != r.binary:  # type: ignore[attr-defined]
+            continue  # the header says something else now: nothing to compare value by value
+        fo, fm = _flat(ro), _flat(r)
+        spans = _value_spans(orig, hit[0], hit[1], ro)
+        if spans is None or len(spans) != fo.size or fo.size != fm.size:
+            continue
+        touched = np.array([s < e_orig and e > p for s, e in spans])
+        differ = ~((fo == fm) | (np.isnan(fo) & np.isnan(fm)))
+        bad = differ & ~touched
+        if bad.any():
+            k = int(np.argmax(bad))
+            out.append(f"dataset at byte {a}: value {k} is {fm[k]!r}, the original holds {fo[k]!r}, and the edit "
+                       f"(bytes {p}..{e_orig}) did not touch it")
+    return out
+
+
+def exercise_frf(path: Path, buf: bytes, out: Path) -> tuple[str, str | None]:
+    """Write ``buf`` to ``path`` and run ``ema-rig frf`` on it (the command's own code, no subprocess).
+
+    Returns ``("read", None)`` when FRFs were written, ``("refused", None)`` for ema_rig's own
+    error, ``("foreign", traceback)`` for anything else (a ValueError escaping the command is a
+    bug: the command turns the estimator's into UFFError).
+    """
+    import contextlib
+    import io
+
+    from ema_rig.cli import build_parser
+
+    path.write_bytes(buf)
+    args = build_parser().parse_args(["frf", str(path), "-o", str(out)])
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", category=UnitWarning)
+        warnings.filterwarnings("ignore", category=IdentificationWarning)
+        try:
+            args._run(args)
+        except EmaRigError:
+            return "refused", None
+        except Exception:  # noqa: BLE001 - the point of the fuzzer: anything else is a bug
+            return "foreign", traceback.format_exc(limit=6)
+    return "read", None
+
+
+def time_seed(n: int = 512, *, binary: bool = False, labels: tuple[str, str] = ("N", "m/s^2"),
+              t_unit: str = "s", dt: float = 1e-3, u164: bool = False, seed: int = 5) -> bytes:
+    """A force + response time-data file (dataset 58, function type 1), the fuzz seed of ``frf``.
+
+    Written here field by field (not by pyuff): ``n`` samples per channel, float64, even time axis
+    with step ``dt`` in ``t_unit``; with ``u164`` a dataset 164 (inch, lbf) in front.
+    """
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal(n)
+    y = np.convolve(x, [0.5, 1.0, -0.25])[:n]
+
+    def line(text: str) -> str:
+        return text[:80].ljust(80) + "\n"
+
+    out = []
+    if u164:
+        out.append("    -1\n   164\n         2  inch (lbf)          2\n"
+                   "  3.93700787402E+01  2.24808943100E-01  1.00000000000E+00\n  2.73150000000E+02\n    -1\n")
+    for node, code, lab, vals in ((1, 13, labels[0], x), (2, 12, labels[1], y)):
+        head = "    -1\n" + (f"    58b     1     2          11{8 * n:12d}     0     0           0           0\n"
+                             if binary else "    58\n")
+        recs = [line(t) for t in (f"ch {node}", "fuzz seed", "24-Nov-26 00:00:00", "NONE", "NONE")]
+        recs.append(line(f"{1:5d}{0:10d}{0:5d}{0:10d} {'NONE':<10s}{node:10d}{3:4d} {'NONE':<10s}{1:10d}{3:4d}"))
+        recs.append(line(f"{4:10d}{n:10d}{1:10d}{0.0:13.5E}{dt:13.5E}{0.0:13.5E}"))
+        recs.append(line(f"{17:10d}{0:5d}{0:5d}{0:5d} {'Time':<20s} {t_unit:<20s}"))
+        le, fe = (0, 1) if code == 13 else (1, 0)
+        recs.append(line(f"{code:10d}{le:5d}{fe:5d}{0:5d} {'Signal':<20s} {lab:<20s}"))
+        recs += [line(f"{0:10d}{0:5d}{0:5d}{0:5d} {'NONE':<20s} {'NONE':<20s}")] * 2
+        text = (head + "".join(recs)).encode()
+        if binary:
+            body = vals.astype("<f8").tobytes()
+        else:
+            body = "".join(("%20.12E" * len(c)) % tuple(c) + "\n" for c in np.array_split(vals, -(-n // 4))).encode()
+        out.append((text + body + b"    -1\n").decode("latin-1"))
+    return "".join(out).encode("latin-1")

@@ -78,3 +78,44 @@ def test_geometry_validation():
         Geometry([1, 2], np.zeros((2, 3)), lines=[(1, 3)])
     with pytest.raises(ValueError, match="shape"):
         Geometry([1, 2], np.zeros((2, 2)))
+
+
+# ------------------------------------------------------------------------- issue 17
+def _grid15(ids: list[int], xyz: np.ndarray) -> dict:
+    n = len(ids)
+    return pyuff.prepare_15(node_nums=ids, def_cs=[0] * n, disp_cs=[0] * n, color=[1] * n,
+                            x=xyz[:, 0].tolist(), y=xyz[:, 1].tolist(), z=xyz[:, 2].tolist())
+
+
+def test_duplicate_missing_and_unmatched_nodes_reported(tmp_path: Path):
+    from ema_rig.dof import DOF
+    from ema_rig.io.geometry import match_notes
+
+    xyz = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]])
+    path = _write(tmp_path / "g.uff", [_grid15([1, 2, 3], xyz), _grid15([2], np.array([[5.0, 5, 5]]))])
+    g = read_geometry(path)
+    np.testing.assert_array_equal(g.node_ids, [1, 2, 3])  # order of first definition
+    np.testing.assert_allclose(g.coord(2), [5, 5, 5], rtol=1e-6)  # the last definition wins
+    notes = match_notes(g, [DOF(1, 2), DOF(2, 2), DOF(7, 2), DOF(8, -3)])
+    text = " | ".join(notes)
+    assert "1 duplicate node definition(s) of 1 node(s) (e.g. [2])" in text
+    assert "2 response node(s) not in the geometry" in text and "[7, 8]" in text
+    assert "1 of 3 geometry node(s) carry no measured DOF" in text
+    assert match_notes(Geometry([1, 2], np.zeros((2, 3))), [DOF(1, 1), DOF(2, 1)]) == ()
+
+
+def test_nan_coordinates_blamed_on_the_geometry_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+    from ema_rig.cli import main
+
+    xyz = np.array([[0.0, 0, 0], [np.nan, 0, 0]])
+    geo = _write(tmp_path / "geo.uff", [_grid15([1, 2], xyz)])
+    with pytest.raises(UFFError, match=r"dataset 0: dataset 15: 1 node\(s\) with NaN or inf coordinates") as exc:
+        read_geometry(geo)
+    assert exc.value.file == str(geo)
+    data = Path(__file__).resolve().parent.parent / "data"
+    if not (data / "disk.uff").is_file():
+        pytest.skip("bundled data absent")
+    code = main(["modes", str(data / "disk.uff"), "--rig", str(data / "rig.toml"), "--geometry", str(geo),
+                 "--shapes", str(tmp_path / "s")])
+    err = capsys.readouterr().err
+    assert code == 1 and err.startswith(f"error: {geo}: dataset 0:"), err  # not the FRF file

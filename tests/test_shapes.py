@@ -137,7 +137,12 @@ def test_shape_on_geometry(chain, mplcleanup):
                    lines=[(1, 2), (2, 3), (3, 4), (4, 5)])
     p = plot_mode_shape(model, 1, geometry=geo, scale=0.2)
     assert p.ax.name == "3d"
-    assert len(p.undeformed) == len(p.deformed) == 4 + 1  # one line per trace line + the nodes
+    assert len(p.undeformed) == len(p.deformed) == 2  # one collection of the 4 trace lines + the nodes
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(p.figure).draw()  # 3D segments are projected when drawn
+    assert len(p.undeformed[0].get_segments()) == len(p.deformed[0].get_segments()) == 4
+    assert [t.get_text() for t in p.labels] == [" 1", " 2", " 3", " 4", " 5"]  # 5 nodes: all readable
     # drawn Y displacement: the real shape scaled to 0.2 x geometry size (0.3) at its largest
     ref = phi[1] * np.sign(phi[1][np.argmax(np.abs(phi[1]))])
     np.testing.assert_allclose(p.displacement[:4, 1], 0.2 * 0.3 * ref / np.abs(ref).max(), rtol=1e-9)

@@ -196,7 +196,7 @@ def test_corpus_frf_assembly(corpus_dir: Path, name: str) -> None:
 
 def test_corpus_utf8_unit_garbled_is_refused(corpus_dir: Path) -> None:
     # '(m/s≤)/N' with code 0 says no quantity: refused rather than guessed
-    with pytest.raises(UFFError, match=r"dataset 0: unit label .* not understood"):
+    with pytest.raises(UFFError, match=r"dataset 0: ordinate unit label .* not understood"):
         read_uff58(corpus_dir / "ufffiles_frf_utf8unit.unv")
 
 

@@ -144,3 +144,69 @@ def test_mutation_classes(tmp_path: Path, seeds: list[bytes], seed_164: bytes, k
         outcomes[outcome] = outcomes.get(outcome, 0) + 1
     # the class must reach the reader's refusals, not only valid files (else it tests nothing)
     assert outcomes.get("refused", 0) > 0, outcomes
+
+
+def test_seeded_fuzz_with_misread_oracle(tmp_path: Path) -> None:
+    # issue 17: a few hundred seeded mutants of FRF and time-data seeds ema_rig writes itself,
+    # read by read_uff / inspect_uff / read_uff58 and (time data) the frf command; the oracle
+    # (_uff_mutants.misreads) says a read dataset holds the original's values wherever the edit
+    # did not touch them. The long run is benchmarks/fuzz_uff.py (>= 20 000 mutants).
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+    from _uff_mutants import exercise_frf, misreads
+    from fuzz_uff import generated_seeds
+
+    seeds = generated_seeds(tmp_path)
+    kinds = list(MUTATORS)
+    counts = {"read": 0, "refused": 0, "frf_read": 0}
+    for k in range(300):
+        kind = kinds[k % len(kinds)]
+        rng = np.random.default_rng([17, k])
+        name, orig, is_time = seeds[int(rng.integers(len(seeds)))]
+        buf = orig
+        for _ in range(int(rng.integers(1, 4))):
+            buf = MUTATORS[kind](buf, rng)
+        outcome, detail = exercise(tmp_path / "m.uff", buf)
+        assert outcome != "foreign", f"{kind} mutant {k} of {name}: {detail}"
+        counts[outcome] += 1
+        wrong = misreads(orig, buf)
+        assert not wrong, f"{kind} mutant {k} of {name}: {wrong}"
+        if is_time:
+            f_outcome, f_detail = exercise_frf(tmp_path / "m.uff", buf, tmp_path / "frf.uff")
+            assert f_outcome != "foreign", f"{kind} mutant {k} of {name} (frf): {f_detail}"
+            counts["frf_read"] += f_outcome == "read"
+    # the run reaches both sides: mutants read, mutants refused, and frf results written
+    assert counts["read"] > 10 and counts["refused"] > 100 and counts["frf_read"] > 5, counts
+
+
+def test_misread_oracle_catches_a_shift(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the oracle itself: a reader that moved the values by one place (what padding filling a gap
+    # or a byte count eating the close does) is caught; an edited value is not a misread
+    from dataclasses import replace
+
+    from _uff_mutants import misreads
+
+    from ema_rig.io import _uff_parse
+
+    d = FRFData(np.arange(5) * 10.0, (np.arange(1, 11).reshape(2, 1, 5) * (0.25 + 0.1j)), ["1+Y", "2+Y"], ["1+Y"])
+    p = tmp_path / "o.uff"
+    write_uff58(p, d)
+    orig = p.read_bytes()
+    edited = orig.replace(b"2.500000000000E-01", b"2.600000000000E-01", 1)  # a value's own text
+    assert misreads(orig, edited) == []
+    relabel = orig.replace(b"ema_rig", b"ema_RIG", 1)  # dataset 0's header, not its data
+    assert misreads(orig, relabel) == []
+    scan = _uff_parse.scan
+
+    def shifting_scan(buf: bytes) -> list:
+        raws = scan(buf)
+        if buf == relabel:  # a faulty reader: dataset 0's values moved by one place
+            raws[0] = replace(raws[0], y=np.roll(raws[0].y, 1))
+        return raws
+
+    monkeypatch.setattr(_uff_parse, "scan", shifting_scan)
+    found = misreads(orig, relabel)
+    assert len(found) == 1 and "did not touch it" in found[0], found
+    untouched = orig.replace(b"ema_rig", b"ema_rig", 1)  # no edit at all: dataset 0 untouched
+    assert misreads(orig, untouched) == []

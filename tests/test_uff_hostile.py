@@ -367,3 +367,81 @@ def test_nested_unit_powers_refused(tmp_path: Path, label: str) -> None:
     with pytest.raises(UFFError, match="beyond|out of range") as exc:
         read_uff58(p)
     _named(exc, p, 0)
+
+
+# ------------------------------------------------------------- ambiguous framing (issue 17)
+def _binary_float32_real(tmp_path: Path) -> tuple[Path, bytes, np.ndarray]:
+    """One 58b dataset of 12 real float32 values (ordinate type 2, byte count 48), the payload
+    followed directly by the closing "    -1" (as ema_rig's writer does)."""
+    p = tmp_path / "f32.ufb"
+    write_uff58(p, FRFData(np.arange(6.0), np.full((1, 1, 6), 1.5 + 0.25j), ["1+Y"], ["1+Y"]), binary=True,
+                double=False)
+    buf = p.read_bytes().replace(b"         5         6         1", b"         2        12         1", 1)
+    assert buf.endswith(b"    -1\n") and b"          48     0" in buf
+    p.write_bytes(buf)
+    return p, buf, np.tile([1.5, 0.25], 6)
+
+
+def test_58b_float32_num_pts_plus_one_eating_the_close_is_refused(tmp_path: Path) -> None:
+    # num_pts 13 and byte count 52: the 13th float32 is the 4 blanks of "    -1" and the rest
+    # "-1" still looks like a close; the old reader returned 13 values, the last 1.35e-19
+    p, buf, vals = _binary_float32_real(tmp_path)
+    rec = read_uff(p)[0]
+    assert rec.status == "read"
+    np.testing.assert_array_equal(rec.y, vals)  # float32-exact values
+    mutant = buf.replace(b"          48     0", b"          52     0", 1)
+    p.write_bytes(mutant.replace(b"         2        12         1", b"         2        13         1", 1))
+    rec = read_uff(p)[0]
+    assert rec.status == "refused" and "ambiguous framing" in (rec.reason or ""), rec.reason
+
+
+def test_zero_padding_standing_in_for_a_missing_value_is_refused(tmp_path: Path) -> None:
+    # 5 complex points = 10 values, 4 per line: 4 + 4 + 2, the last line padded with 2 zeros.
+    # One value deleted from the first line: 11 values, the last one 0; trimming to 10 would
+    # shift every later value by one (real <-> imaginary). Refused, the padded file still read.
+    p, buf = _ascii(tmp_path)
+    lines = buf.split(b"\n")
+    last = next(i for i in range(len(lines) - 1, 0, -1) if b"E" in lines[i])  # dataset 1's last data line
+    assert [lines[i].count(b"E") for i in (last - 2, last - 1, last)] == [4, 4, 2]
+    lines[last] = lines[last] + b"  0.000000000000E+00  0.000000000000E+00"
+    p.write_bytes(b"\n".join(lines))
+    rec = read_uff(p)
+    assert rec[1].status == "read" and any("zero-padded" in n for n in rec[1].notes)
+    np.testing.assert_allclose(rec[1].y, TRUTH[1, 0], rtol=1e-15)  # 13 digits: to the last bit or two
+    lines[last - 2] = b"".join(b"  " + t for t in lines[last - 2].split()[:3])  # one value missing
+    p.write_bytes(b"\n".join(lines))
+    rec = read_uff(p)
+    assert rec[1].status == "refused" and "ambiguous" in (rec[1].reason or ""), rec[1].reason
+
+
+def test_positive_numbers_run_together_are_refused(tmp_path: Path) -> None:
+    # "2.5E-01" + "1.0E-01" without a blank: "2.500000000000E-011.000000000000E-01" has no
+    # split point the text vouches for (the old reader cut it after "E-011"); a split before a
+    # sign ("...E-01-1.0...") is what fixed-width Fortran output does and stays readable
+    p, buf = _ascii(tmp_path)
+    first = b"  2.500000000000E-01  1.000000000000E-01"
+    assert buf.count(first) == 1
+    p.write_bytes(buf.replace(first, b"  2.500000000000E-011.000000000000E-01"))
+    rec = read_uff(p)[0]
+    assert rec.status == "refused" and "run together without a sign" in (rec.reason or "")
+    p.write_bytes(buf.replace(first, b"  2.500000000000E-01-1.000000000000E-01"))
+    rec = read_uff(p)[0]
+    assert rec.status == "read"
+    assert rec.y[0] == 0.25 - 0.1j
+
+
+def test_58b_data_short_by_a_few_bytes_cannot_take_its_close_as_data(tmp_path: Path) -> None:
+    # 6 bytes lost inside the payload and a second -1 line at the end of the file (a trailing
+    # delimiter): framed by the byte count, the payload ends with the close "    -1" and the
+    # trailing -1 looks like the close; every value after the loss would be shifted by 6 bytes
+    # (found by the fuzz, seed 99: 0.0101 read as 1.2e51)
+    p = tmp_path / "short.ufb"
+    write_uff58(p, FRFData(FREQ, TRUTH[:1], ["1+Y"], ["1+Y"]), binary=True)
+    buf = p.read_bytes() + b"    -1\n"  # a trailing delimiter line at the end of the file
+    q = buf.index(b"\n", buf.index(b"NONE                 NONE", buf.index(b"58b"))) + 1
+    assert buf[q + 80 :] == b"    -1\n    -1\n"  # 5 complex float64 values, then the close
+    p.write_bytes(buf)
+    assert read_uff(p)[0].status == "read"  # a trailing -1 alone is fine
+    p.write_bytes(buf[: q + 20] + buf[q + 26 :])  # 6 bytes of the data lost
+    rec = read_uff(p)
+    assert rec[0].status == "refused" and "ambiguous framing" in (rec[0].reason or ""), rec[0].reason

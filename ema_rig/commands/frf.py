@@ -14,6 +14,7 @@ from dataclasses import replace
 from typing import Any
 
 from ..processing import ANTI_ALIAS_FRACTION
+from ._args import nonneg_float, number, positive_float, positive_int
 
 _IMPULSIVE_CREST = 8.0
 
@@ -29,15 +30,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="hann, rect, force, exponential, impact (force window on the force, "
                              "exponential on both) or any scipy.signal window name; default: impact "
                              "when the force is a blow (crest factor > 8), else hann")
-    parser.add_argument("--segment", type=int, default=None, metavar="N",
+    parser.add_argument("--segment", type=positive_int, default=None, metavar="N",
                         help="samples per segment (FFT length); default: the whole record for rect "
-                             "and impact windows, a quarter of it otherwise")
-    parser.add_argument("--overlap", type=float, default=None, metavar="F",
+                             "and impact windows, a quarter of it (at most 2^20) otherwise")
+    parser.add_argument("--overlap", type=nonneg_float, default=None, metavar="F",
                         help="overlap of consecutive segments, 0 <= F < 1 (default 0.5 for tapered "
                              "windows, 0 for rect and impact windows)")
-    parser.add_argument("--force-width", type=float, default=None, metavar="S",
+    parser.add_argument("--force-width", type=positive_float, default=None, metavar="S",
                         help="force window length in seconds (default: 1/10 of the segment)")
-    parser.add_argument("--exp-end", type=float, default=0.01, metavar="V",
+    parser.add_argument("--exp-end", type=number(float, lo=0.0, lo_open=True, hi=1.0), default=0.01, metavar="V",
                         help="exponential window value at the end of the segment (default 0.01)")
     parser.add_argument("--rig", metavar="R", help="rig file (TOML): sensors, signs and excitations")
     parser.add_argument("--binary", action="store_true", help="write the FRFs as binary 58b")
@@ -48,6 +49,20 @@ def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], li
     """The command's input and output files (checked against each other before it runs)."""
     return ([("TIME.uff", args.file), ("--rig", args.rig)],
             [("-o", args.output)])
+def _crest(force: object) -> float:
+    """Crest factor (peak / RMS about each channel's mean) of forces (n_in, n_samples), in blocks (no copy)."""
+    import numpy as np
+
+    a = np.asarray(force, dtype=np.float64)
+    peak, sq = 0.0, 0.0
+    with np.errstate(over="ignore", invalid="ignore"):  # values near the float limit: an inf RMS gives 0
+        for ch in a:
+            mean = float(ch.mean())
+            for k in range(0, ch.size, 1 << 20):
+                b = ch[k : k + (1 << 20)] - mean
+                peak = max(peak, float(np.abs(b).max(initial=0.0)))
+                sq += float(b @ b)
+        return peak / max(float(np.sqrt(sq / max(a.size, 1))), np.finfo(float).tiny)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -73,8 +88,7 @@ def run(args: argparse.Namespace) -> int:
     td = read_time_uff(args.file, rig=rig)
     window = args.window
     if window is None:
-        f0 = td.force[0] - td.force[0].mean(axis=-1, keepdims=True)
-        crest = float(np.abs(f0).max() / max(float(np.sqrt(np.mean(f0**2))), np.finfo(float).tiny))
+        crest = _crest(td.force[0])
         # a random or periodic force has a crest factor below ~5; a hammer blow far above
         window = "impact" if crest > _IMPULSIVE_CREST else "hann"
         print(f"window {window} (force crest factor {crest:.3g}; --window to choose)")
@@ -88,9 +102,11 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UFFError(str(exc), file=args.file) from None
     data = est.frf
+    td_text, td_notes, td_fs = repr(td), td.notes, td.fs
+    del td  # the time records (views of the file's bytes) are not needed for writing: free them
     date = date_id()
     # issue 18: the processing history travels with the FRFs as dataset 1858 (one before each 58)
-    history = _history(est, td.fs)
+    history = _history(est, td_fs)
     n_frf = data.n_out * data.n_in
     coh = b"".join(
         _uff_1858.dataset_bytes(history, record=n_frf + 1 + i * data.n_in + j)
@@ -102,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         write_uff58(tmp, data, binary=args.binary, rig=rig, history=history)
         with open(tmp, "ab") as fh:
             fh.write(coh)
-    print(f"file   {args.file}: {td!r}")
+    print(f"file   {args.file}: {td_text}")
     print(f"frf    {est.estimator}, {est.window} window, {est.n_averages} average(s) of {est.segment} samples "
           f"(overlap {est.overlap:g}), {data.n_freq} lines {data.freq[0]:g}-{data.freq[-1]:g} Hz, "
           f"{data.frf_form}")
@@ -110,11 +126,11 @@ def run(args: argparse.Namespace) -> int:
         for j, q in enumerate(data.in_dofs):
             c = est.coherence[i, j]
             print(f"  {o} / {q}: coherence median {np.median(c):.3f}, min {c.min():.3f}")
-    for note in td.notes:
+    for note in td_notes:
         print(f"note   {note}")
-    if any("no unit label" in n for n in td.notes):
-        warnings.warn(f"{args.file}: time histories without unit labels: force taken as N and response "
-                      f"as SI ({data.unit_str} written)", UnitWarning, stacklevel=1)
+    if any("no unit label and no dataset 164" in n for n in td_notes):
+        warnings.warn(f"{args.file}: time histories without unit labels or dataset 164: force taken as N and "
+                      f"response as SI ({data.unit_str} written)", UnitWarning, stacklevel=1)
     for w in est.warnings:
         warnings.warn(f"{args.file}: {w}", IdentificationWarning, stacklevel=1)
     print(f"band   usable up to {history.band[1]:g} Hz ({ANTI_ALIAS_FRACTION:g} x fs/2, the anti-alias limit), "

@@ -142,6 +142,11 @@ def run(args: argparse.Namespace) -> int:
         from .._atomic import atomic_path
         from ..plot.shapes import plot_mode_shape
 
+        if geometry is not None:
+            from ..io.geometry import match_notes
+
+            for note in match_notes(geometry, ident.modes.out_dofs):
+                print(f"note   geometry {args.geometry}: {note}")
         for k in range(ident.modes.n_modes):
             out = f"{args.shapes}_{k + 1}.png"
             sp = plot_mode_shape(ident.modes, k, geometry=geometry)

@@ -42,6 +42,8 @@ _ENTITY_DOF = re.compile(r"^\.?(\d+)\.?(RX|RY|RZ|X|Y|Z)([+-]?)$", re.I)
 _NOT_DATA = re.compile(rb"[^0-9eEdD+\-. \t\r\n\x0b\x0cnNaAiIfFtTyY]")
 # a closing -1 that follows a binary payload exactly (at most one line end before it)
 _CLOSE_EXACT = re.compile(rb"(?:\r\n|\r|\n)?[ \t]*-1[ \t]*(?:\r\n|\r|\n|\Z)")
+# the end of a binary payload that is itself a delimiter line ("    -1" after 4 blanks or a line end)
+_DATA_ENDS_AS_CLOSE = re.compile(rb"(?:[\r\n]|[ \t]{4})[ \t]*-1[ \t]*(?:\r\n|\r|\n)?\Z")
 # what may follow a closing -1: blank lines, then the end of the file (after blanks, NULs or a
 # DOS end-of-file mark) or the next dataset's -1
 _AFTER_CLOSE = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*(?:[ \t\x00\x1a]*\Z|[ \t]*-1[ \t]*(?:\r|\n|\Z))")
@@ -268,12 +270,7 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
         try:
             arr = np.array(toks, dtype=np.float64)
         except ValueError:
-            toks = _NUM.findall(chunk)
-            bad = _NOT_DATA.search(chunk)
-            rest = _NUM.sub(b"", chunk).strip() if bad is None else chunk[bad.start() : bad.start() + 20]
-            if rest:
-                raise _Refuse(f"data section holds text that is not a number: {rest[:20].decode('latin-1')!r}") from None
-            arr = np.array(toks, dtype=np.float64)
+            arr = _split_run_together(chunk, toks)
             run_together = True
         count += arr.size
         if count > expected + 4096:
@@ -291,6 +288,7 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
         last_line = tail[max(tail.rfind(b"\n"), tail.rfind(b"\r")) + 1 :]
         n_last = len(_NUM.findall(last_line.translate(_DEXP)))
         if extra <= n_last and not np.any(vals[expected:]):
+            _check_padding(buf, start, end, n, extra)
             notes.append(f"last line zero-padded: {extra} trailing zero(s) past num_pts ignored")
             vals = vals[:expected]
         else:
@@ -298,17 +296,68 @@ def _values_ascii(buf: bytes, start: int, end: int, expected: int) -> tuple[NDAr
     return vals, notes
 
 
+def _split_run_together(chunk: bytes, toks: list[bytes]) -> NDArray[np.float64]:
+    """Values of blank-separated words some of which hold several numbers run together.
+
+    A word is split only before a sign (``1.0E+00-2.0E+00``, written by fixed-width Fortran
+    formats when a negative value takes the blank column); positive numbers run together
+    (``1.0E+001.0E+00``) have no split point that the text vouches for, so they are refused.
+    """
+    out: list[float] = []
+    for w in toks:
+        try:
+            out.append(float(w))
+            continue
+        except ValueError:
+            pass
+        parts = _NUM.findall(w)
+        if b"".join(parts) != w:
+            bad = _NOT_DATA.search(w)
+            shown = (w if bad is None else w[bad.start() :])[:20].decode("latin-1")
+            raise _Refuse(f"data section holds text that is not a number: {shown!r}")
+        if any(p[:1] not in (b"-", b"+") for p in parts[1:]):
+            raise _Refuse(
+                f"numbers run together without a sign between them ({w[:40].decode('latin-1')!r}): where one "
+                "ends and the next begins is ambiguous"
+            )
+        out.extend(float(p) for p in parts)
+    del chunk
+    return np.array(out, dtype=np.float64)
+
+
+def _check_padding(buf: bytes, start: int, end: int, n: int, extra: int) -> None:
+    """Refuse zero padding that may stand in for a missing value.
+
+    Padding fills the last line up to the values per line of the others; it is trusted only
+    when every line holds that same number of values (the last one after padding). A line
+    with one value fewer means a value is missing and the padding would shift every value
+    after it (real and imaginary parts swapped).
+    """
+    counts: set[int] = set()
+    for line in _EOL.split(buf[start:end]):
+        if line.strip():
+            counts.add(len(_NUM.findall(line.translate(_DEXP))))
+            if len(counts) > 1:
+                break
+    if len(counts) != 1:
+        raise _Refuse(
+            f"{n} values where {n - extra} are announced, the last {extra} zero, but the lines hold different "
+            "numbers of values: the zeros may be padding or a value may be missing (ambiguous)"
+        )
+
+
 def _split_values(
     h: dict[str, Any], vals: NDArray[np.float64], x_vals: NDArray[np.float64] | None
-) -> tuple[NDArray[np.float64], NDArray[Any]]:
-    """Turn flat values into (x, y) according to spacing and data type."""
+) -> tuple[NDArray[np.float64] | None, NDArray[Any]]:
+    """Turn flat values into (x, y) according to spacing and data type (x None when even)."""
     is_complex, _ = ORD_TYPES[h["ord_data_type"]]
     n = h["num_pts"]
     even = h["abscissa_spacing"] == 1
     k = 2 if is_complex else 1
-    if even:
+    x: NDArray[np.float64] | None
+    if even:  # the abscissa is min + k inc: not stored (UFFRecord.x computes it on access)
         yv = vals
-        x = h["abscissa_min"] + np.arange(n, dtype=np.float64) * h["abscissa_inc"]
+        x = None
     elif x_vals is not None:
         yv = vals
         x = x_vals
@@ -324,7 +373,7 @@ def _split_values(
         y.imag = yv[1::2]
     else:
         y = np.ascontiguousarray(yv, dtype=np.float64)
-    return np.ascontiguousarray(x, dtype=np.float64), y
+    return (None if x is None else np.ascontiguousarray(x, dtype=np.float64)), y
 
 
 def _check_header_values(h: dict[str, Any]) -> None:
@@ -377,7 +426,7 @@ def _values_binary_cast(
 def _finish58(h: dict[str, Any], vals: NDArray[np.float64], x_vals: NDArray[np.float64] | None) -> tuple[Any, Any]:
     with np.errstate(all="ignore"):  # overflow/NaN are reported by the finiteness check
         x, y = _split_values(h, vals, x_vals)
-    if x.size != h["num_pts"] or y.size != h["num_pts"]:  # pragma: no cover - guarded above
+    if (x is not None and x.size != h["num_pts"]) or y.size != h["num_pts"]:  # pragma: no cover - guarded above
         raise _Refuse("internal: value count differs from num_pts")
     return x, y
 
@@ -651,6 +700,9 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
             "or the end of the file (num_pts or byte count too large?)",
             h,
         ), resume
+    ambiguous = _close_ambiguity(buf, q + nb)
+    if ambiguous:
+        return RawDataset(index, 58, True, start, "refused", f"{ambiguous} (ambiguous framing)", h), end[1]
     gap = buf[q + nb : end[0]]
     if gap:
         notes.append(f"{len(gap)} byte(s) {gap!r} between the binary data and the closing -1")
@@ -659,6 +711,32 @@ def _read_58b(buf: bytes, type_line: bytes, p: int, index: int, start: int) -> t
     vals, x_vals = _values_binary(h, memoryview(buf)[q : q + nb], xs, "<" if bo == 1 else ">")
     x, y = _finish58(h, vals, x_vals)
     return RawDataset(index, 58, True, start, "read", None, h, x, y, tuple(notes), text), end[1]
+
+
+def _close_ambiguity(buf: bytes, p: int) -> str | None:
+    """Why the closing -1 found at the payload end ``p`` does not vouch for where the payload ends.
+
+    Writers put the close right after the payload as ``"    -1"`` (the I6 field: 4 blanks) or on
+    a line of its own after a line end. A close that follows the payload without a line end and
+    with another number of blanks means the payload took some of its blanks (num_pts or the byte
+    count one too many, or a byte lost in the data); a payload whose last byte is a blank or a
+    line end that could equally begin the close line is the same doubt one byte earlier.
+    """
+    m = _DELIM_TAIL.search(buf, p)
+    if m is None:  # pragma: no cover - the caller found a close
+        return None
+    lead = buf[p : m.start()]
+    if b"\n" not in lead and b"\r" not in lead and lead != b"    ":
+        return (f"the closing -1 follows the binary data with {len(lead)} blank(s) and no line end (a close "
+                "written right after the data has 4): the data may have taken some of its blanks")
+    tail = _DATA_ENDS_AS_CLOSE.search(buf, max(0, p - 90), p)
+    if tail is not None:
+        return (f"the binary data end with the bytes of a closing -1 line ({tail.group()!r}): num_pts or the "
+                "byte count too large would read that close as data and take a later -1 for it")
+    if p > 0 and buf[p - 1] in b" \t\r\n" and _delim_after(buf, p - 1) is not None:
+        return (f"the binary data end with {buf[p - 1 : p]!r}, which with what follows forms the closing -1 "
+                "line: num_pts or the byte count one too many would read it as data")
+    return None
 
 
 def _close_exactly(buf: bytes, p: int) -> tuple[int, int] | None:

@@ -10,34 +10,12 @@ force) gives the quantity. Code and label must agree; when they do not, the rig 
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from typing import Any
 
-G0 = 9.80665
-"""Standard gravity in m/s^2 (exact, CGPM 1901)."""
-LBF = 4.4482216152605
-"""One pound-force in N (exact by definition)."""
-INCH = 0.0254
+from .units import G0 as G0  # re-exported: the writer scales by it
+from .units import MAX_UNIT_POWER, Unit, UnitLabelError, is_no_label, parse_unit_label
 
-# atom: (length, time, force) exponents and factor to SI
-_ATOMS: dict[str, tuple[tuple[int, int, int], float]] = {
-    "m": ((1, 0, 0), 1.0),
-    "mm": ((1, 0, 0), 1e-3),
-    "cm": ((1, 0, 0), 1e-2),
-    "um": ((1, 0, 0), 1e-6),
-    "in": ((1, 0, 0), INCH),
-    "inch": ((1, 0, 0), INCH),
-    "ft": ((1, 0, 0), 0.3048),
-    "s": ((0, 1, 0), 1.0),
-    "sec": ((0, 1, 0), 1.0),
-    "n": ((0, 0, 1), 1.0),
-    "kn": ((0, 0, 1), 1e3),
-    "lbf": ((0, 0, 1), LBF),
-    "lb": ((0, 0, 1), LBF),
-    "g": ((1, -2, 0), G0),
-}
-_TOKEN = re.compile(r"\s*(?:([a-z]+)(?:\^?(-?\d+))?|(1)|(\))(?:\^?(-?\d+))?|([(*/]))")
 _FORM_DIMS = {(1, 0, 0): "receptance", (1, -1, 0): "mobility", (1, -2, 0): "accelerance"}
 _CODE_FORM = {8: "receptance", 11: "mobility", 12: "accelerance"}
 _CODE_NAMES = {
@@ -45,123 +23,36 @@ _CODE_NAMES = {
     8: "displacement", 9: "reaction force", 11: "velocity", 12: "acceleration", 13: "excitation force",
     15: "pressure", 16: "mass", 17: "time", 18: "frequency", 19: "rpm", 20: "order",
 }
-_NO_LABEL = {"", "none", "nounits", "-", "n/a", "unknown"}
-MAX_UNIT_POWER = 12
-"""Largest exponent magnitude accepted in a unit label or a header unit exponent (real units
-use 1..3); beyond it a label such as ``mm^120*m^-119`` would give a factor of 0 or overflow."""
 
 
 class UnitRangeError(ValueError):
-    """A unit label or unit exponent is out of range (the factor would be 0, inf or overflow)."""
+    """A dataset-164 conversion is out of range (the factor would be 0, inf or overflow)."""
 
 
-@dataclass(frozen=True, slots=True)
-class Unit:
-    """A parsed unit: exponents of (length, time, force) and the factor to SI."""
-
-    dims: tuple[int, int, int]
-    factor: float
-
-
-def parse_unit(label: str) -> Unit | None:
-    """Parse a unit label; None if it is empty/NONE or not understood.
+def parse_unit(label: str, what: str = "unit label") -> Unit | None:
+    """Parse a unit label with :func:`ema_rig.io.units.parse_unit_label`; None if there is none.
 
     Parameters
     ----------
     label : str
-        E.g. ``"m/s^2"``, ``"g"``, ``"(m/s)/N"``, ``"mm/s2"``, ``"(1/N)*(m/s²)"``.
+        The label as stored (``"NONE"`` or blank: no label).
+    what : str, optional
+        What the label belongs to, for the message (``"ordinate unit label"``).
 
     Raises
     ------
-    UnitRangeError
-        A label that is understood but whose exponents exceed ``MAX_UNIT_POWER`` (``mm^-999/N``).
+    ValueError
+        A label that is given but cannot be read (unknown word, syntax, exponent out of range):
+        never taken as SI.
     """
-    s = label.strip().lower()
-    if s in _NO_LABEL:
+    if is_no_label(label):
         return None
-    s = s.replace("²", "^2").replace("³", "^3").replace("µ", "u").replace("μ", "u").replace("**", "^")
-    s = s.replace(" ", "")
-    shown = label.strip()
-    toks: list[tuple[str, str | None]] = []
-    pos = 0
-    while pos < len(s):
-        m = _TOKEN.match(s, pos)
-        if m is None or m.end() == pos:
-            return None
-        if m.group(1):
-            toks.append((m.group(1), m.group(2)))
-        elif m.group(3):
-            toks.append(("1", None))
-        elif m.group(4):
-            toks.append((m.group(4), m.group(5)))
-        else:
-            toks.append((m.group(6), None))
-        pos = m.end()
     try:
-        unit, rest = _expr(toks, 0)
-    except UnitRangeError as exc:
-        raise UnitRangeError(f"unit label {shown!r}: {exc}") from None
-    except (KeyError, IndexError, ValueError):
-        return None
-    if rest != len(toks):
-        return None
-    return unit
-
-
-def _checked(dims: tuple[int, ...], factor: float, what: str) -> Unit:
-    """A Unit whose exponents and factor are in range (UnitRangeError otherwise)."""
-    if any(abs(x) > MAX_UNIT_POWER for x in dims):
-        raise UnitRangeError(f"{what} gives a unit exponent beyond {MAX_UNIT_POWER}")
-    if not (math.isfinite(factor) and factor > 0.0):
-        raise UnitRangeError(f"{what} gives a conversion factor {factor:g}")
-    return Unit(dims, factor)  # type: ignore[arg-type]
-
-
-def _mul(a: Unit, b: Unit, sign: int) -> Unit:
-    d = tuple(x + sign * y for x, y in zip(a.dims, b.dims, strict=True))
-    return _checked(d, a.factor * (b.factor if sign > 0 else 1.0 / b.factor), "a product of units")
-
-
-def _pow(u: Unit, p: int) -> Unit:
-    if abs(p) > MAX_UNIT_POWER:
-        raise UnitRangeError(f"exponent {p} out of range (at most {MAX_UNIT_POWER} in magnitude)")
-    dims = tuple(x * p for x in u.dims)
-    _checked(dims, 1.0, f"exponent {p}")  # exponents first: then the power below cannot overflow...
-    try:
-        factor = u.factor**p
-    except OverflowError:  # ...unless the factor itself is extreme (a product of many prefixes)
-        factor = math.inf
-    return _checked(dims, factor, f"exponent {p}")
-
-
-def _term(toks: list[tuple[str, str | None]], i: int) -> tuple[Unit, int]:
-    name, power = toks[i]
-    if name == "(":
-        u, j = _expr(toks, i + 1)
-        if toks[j][0] != ")":
-            raise ValueError("unbalanced")
-        p = toks[j][1]
-        return (_pow(u, _power(p)) if p else u), j + 1
-    if name == "1":
-        return Unit((0, 0, 0), 1.0), i + 1
-    dims, fac = _ATOMS[name]
-    u = Unit(dims, fac)
-    return (_pow(u, _power(power)) if power else u), i + 1
-
-
-def _power(text: str) -> int:
-    if len(text.lstrip("-")) > 3:
-        raise UnitRangeError(f"exponent {text[:12]}... out of range (at most {MAX_UNIT_POWER} in magnitude)")
-    return int(text)
-
-
-def _expr(toks: list[tuple[str, str | None]], i: int) -> tuple[Unit, int]:
-    u, i = _term(toks, i)
-    while i < len(toks) and toks[i][0] in ("*", "/"):
-        op = toks[i][0]
-        v, i = _term(toks, i + 1)
-        u = _mul(u, v, 1 if op == "*" else -1)
-    return u, i
+        return parse_unit_label(label)
+    except UnitLabelError as exc:
+        reason = str(exc).split(": ", 1)[-1]
+        raise ValueError(f"{what} {label.strip()!r} not understood ({reason}); the values are not read "
+                         "rather than taken as SI") from None
 
 
 @dataclass(frozen=True, slots=True)
@@ -235,9 +126,9 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
     if den_code not in (0, 1, 9, 13):
         raise ValueError(f"denominator specific data type {_code_name(den_code)} is not a force (13 or 9)")
     code_form = _CODE_FORM.get(num_code)
-    pn, pd = parse_unit(num_lab), parse_unit(den_lab)
-    num_lab_given = num_lab.strip().lower() not in _NO_LABEL
-    den_lab_given = den_lab.strip().lower() not in _NO_LABEL
+    pn = parse_unit(num_lab, "ordinate unit label")
+    pd = parse_unit(den_lab, "denominator unit label")
+    den_lab_given = pd is not None
     notes: list[str] = []
     label_form: str | None = None
     label_factor: float | None = None
@@ -262,13 +153,6 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         label_factor = fac
         if label_form is None:
             label_text = f"label {num_lab!r} (not a displacement, velocity or acceleration per force)"
-    elif num_lab_given and code_form is None:
-        raise ValueError(
-            f"unit label {num_lab!r} not understood and ordinate specific data type {_code_name(num_code)} "
-            "does not say the quantity; cannot tell accelerance, mobility or receptance"
-        )
-    elif num_lab_given:
-        notes.append(f"unit label {num_lab!r} not understood; ignored")
 
     if code_form is not None and label_text and label_form != code_form:
         msg = (
@@ -333,15 +217,79 @@ def _j(notes: list[str]) -> str:
 
 
 def abscissa_factor(h: dict[str, Any]) -> float:
-    """Factor from the file's abscissa unit to Hz (ValueError if it is not a frequency)."""
+    """Factor from the file's abscissa unit to Hz (ValueError if it is not a frequency or unreadable)."""
     code = h["abscissa_spec_data_type"]
-    lab = h["abscissa_axis_units_lab"].strip().lower()
-    if code == 17 or lab in ("s", "sec", "(sec)", "ms"):
-        raise ValueError(f"abscissa is time (code {code}, unit {h['abscissa_axis_units_lab']!r}), not frequency")
-    if lab in ("rad/s", "rad/sec"):
-        return 1.0 / (2.0 * math.pi)
-    if lab in _NO_LABEL or lab in ("hz", "1/s", "(hz)"):
+    lab = h["abscissa_axis_units_lab"]
+    u = parse_unit(lab, "abscissa unit label")
+    if code == 17 or (u is not None and u.quantity == "time"):
+        raise ValueError(f"abscissa is time (code {code}, unit {lab!r}), not frequency")
+    if u is None:
         return 1.0
-    if lab == "khz":
-        return 1e3
-    raise ValueError(f"abscissa unit {h['abscissa_axis_units_lab']!r} is not a frequency unit (Hz, rad/s)")
+    if u.quantity != "frequency":
+        raise ValueError(f"abscissa unit {lab!r} is not a frequency unit (Hz, kHz, rad/s, 1/s)")
+    return u.factor
+
+
+def time_factor(h: dict[str, Any]) -> float:
+    """Factor from the file's abscissa unit to seconds (ValueError if it is not a time or unreadable)."""
+    code = h["abscissa_spec_data_type"]
+    lab = h["abscissa_axis_units_lab"]
+    u = parse_unit(lab, "abscissa unit label")
+    if u is None:
+        if code not in (0, 1, 17):
+            raise ValueError(f"abscissa specific data type {_code_name(code)} is not time (17)")
+        return 1.0
+    if u.quantity != "time":
+        raise ValueError(f"abscissa unit {lab!r} is not a time unit (s, ms, ...)")
+    return u.factor
+
+
+def ordinate_factor(h: dict[str, Any], dims: tuple[int, int, int], units164: dict[str, Any] | None
+                    ) -> tuple[float, str]:
+    """Factor to SI of a dataset-58 ordinate that is not a ratio (time data), and how it was decided.
+
+    Parameters
+    ----------
+    h : dict
+        Parsed header.
+    dims : tuple of int
+        The (length, time, force) exponents the ordinate must have (from its data type code).
+    units164 : dict or None
+        The dataset 164 in force (used only when the ordinate has no unit label).
+
+    Returns
+    -------
+    factor : float
+    text : str
+        ``"label 'mm/s^2'"``, ``"dataset 164 (...)"`` or ``"no unit label and no dataset 164"``.
+
+    Raises
+    ------
+    ValueError
+        A label that cannot be read or is not of ``dims``; a dataset 164 conversion out of range.
+    """
+    lab = h["ordinate_axis_units_lab"]
+    u = parse_unit(lab, "ordinate unit label")
+    if u is not None:
+        if u.dims != dims:
+            want = {(0, 0, 1): "force", (1, -2, 0): "acceleration", (1, -1, 0): "velocity",
+                    (1, 0, 0): "displacement"}.get(dims, str(dims))
+            raise ValueError(f"ordinate unit {lab.strip()!r} is not a {want} unit (it is {u.quantity})")
+        return u.factor, f"label {lab.strip()!r}"
+    if units164 is None:
+        return 1.0, "no unit label and no dataset 164"
+    n_len = h["ordinate_len_unit_exp"] or dims[0]
+    n_force = h["ordinate_force_unit_exp"] or dims[2]
+    if (n_len, n_force) != (dims[0], dims[2]):
+        raise ValueError(f"ordinate unit exponents length {n_len}, force {n_force} do not fit its data type "
+                         f"{_code_name(h['ordinate_spec_data_type'])} (length {dims[0]}, force {dims[2]})")
+    lf, ff = units164["length_factor"], units164["force_factor"]
+    try:
+        fac = 1.0 / (lf**n_len * ff**n_force)
+    except (OverflowError, ZeroDivisionError):
+        fac = math.nan
+    if not (math.isfinite(fac) and fac > 0):
+        raise UnitRangeError(f"dataset 164 unit factors (length {lf:g}, force {ff:g}) give no finite non-zero "
+                             "conversion")
+    return fac, (f"dataset 164 ({units164['unit_description']}: length factor {lf:.10g}, force factor "
+                 f"{ff:.10g})")

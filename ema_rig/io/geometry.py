@@ -21,6 +21,7 @@ in a local coordinate system (``def_cs`` not 0) are taken as global and listed i
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..dof import DOF
 from ..errors import UFFError
 
 NODE_DATASETS: tuple[int, ...] = (15, 2411)
@@ -85,6 +87,25 @@ class Geometry:
         """Number of nodes."""
         return int(self.node_ids.size)
 
+    def rows(self, nodes: Any) -> NDArray[np.int64]:
+        """Row of each node number in ``node_ids`` (-1 where the node is not in the geometry).
+
+        Parameters
+        ----------
+        nodes : array_like of int, shape (n,)
+
+        Returns
+        -------
+        ndarray of int64, shape (n,)
+        """
+        q = np.asarray(nodes, dtype=np.int64).ravel()
+        order = np.argsort(self.node_ids, kind="stable")
+        srt = self.node_ids[order]
+        pos = np.clip(np.searchsorted(srt, q), 0, max(srt.size - 1, 0))
+        hit = srt.size > 0
+        found = (srt[pos] == q) if hit else np.zeros(q.size, dtype=bool)
+        return np.where(found, order[pos] if hit else -1, -1).astype(np.int64)
+
     def coord(self, node: int) -> NDArray[np.float64]:
         """Coordinates of one node, shape (3,).
 
@@ -125,13 +146,15 @@ def read_geometry(path: str | PathLike[str]) -> Geometry:
     Returns
     -------
     Geometry
-        Nodes in file order (a node defined twice keeps its last definition, noted), trace lines
+        Nodes in order of first definition (a node defined twice keeps its last definition, noted), trace lines
         from every dataset 82.
 
     Raises
     ------
     UFFError
-        If the file is missing, holds no node dataset, or pyuff cannot read a node or line dataset.
+        Naming this file and the dataset: the file is missing, holds no node dataset, pyuff
+        cannot read a node or line dataset, a node number is not an integer or a coordinate is
+        NaN/inf.
     """
     import pyuff
 
@@ -143,7 +166,8 @@ def read_geometry(path: str | PathLike[str]) -> Geometry:
         types = [int(t) for t in np.asarray(uff.get_set_types()).ravel()]
     except Exception as exc:  # pyuff raises bare Exception on anything it cannot parse
         raise UFFError(f"pyuff cannot list the datasets: {exc}", file=p) from None
-    nodes: dict[int, NDArray[np.float64]] = {}
+    id_parts: list[NDArray[np.int64]] = []
+    xyz_parts: list[NDArray[np.float64]] = []
     lines: list[tuple[int, int]] = []
     notes: list[str] = []
     for i, t in enumerate(types):
@@ -163,22 +187,74 @@ def read_geometry(path: str | PathLike[str]) -> Geometry:
             raise UFFError(f"dataset {t} without node numbers and coordinates ({exc})", file=p, dataset=i) from None
         if xyz.shape[0] != ids.size:
             raise UFFError(f"dataset {t}: {ids.size} node numbers for {xyz.shape[0]} coordinates", file=p, dataset=i)
+        bad_id = ~np.isfinite(ids) | (ids != np.round(ids)) | (np.abs(ids) > 2**53)
+        if bad_id.any():
+            raise UFFError(f"dataset {t}: {int(bad_id.sum())} node number(s) that are not integers "
+                           f"(first {ids[bad_id][0]!r})", file=p, dataset=i)
+        bad = ~np.all(np.isfinite(xyz), axis=1)
+        if bad.any():
+            first = ids[bad][:5].astype(np.int64).tolist()
+            raise UFFError(f"dataset {t}: {int(bad.sum())} node(s) with NaN or inf coordinates (node(s) {first})",
+                           file=p, dataset=i)
         cs = np.asarray(d.get("def_cs", np.zeros(ids.size)), dtype=float).ravel()
         if np.any(cs != 0):
             notes.append(f"dataset {i}: {int(np.count_nonzero(cs))} node(s) in a local coordinate system "
                          "(taken as global)")
-        for n, c in zip(ids.astype(np.int64).tolist(), xyz, strict=True):
-            if n in nodes:
-                notes.append(f"dataset {i}: node {n} defined again; the last definition is used")
-            nodes[n] = c
-    if not nodes:
+        id_parts.append(ids.astype(np.int64))
+        xyz_parts.append(xyz)
+    if not id_parts:
         raise UFFError("no node dataset (15 or 2411) in the file", file=p)
-    ids_all = np.array(list(nodes), dtype=np.int64)
-    undefined = sorted({n for ab in lines for n in ab} - set(nodes))
+    all_ids = np.concatenate(id_parts)
+    all_xyz = np.concatenate(xyz_parts)
+    # a node defined again keeps its last definition: the last occurrence of each number, in
+    # the order of first appearance
+    rev_ids = all_ids[::-1]
+    uniq, last_rev = np.unique(rev_ids, return_index=True)
+    n_dup = all_ids.size - uniq.size
+    if n_dup:
+        counts = np.unique(all_ids, return_counts=True)
+        twice = counts[0][counts[1] > 1]
+        notes.append(f"{n_dup} duplicate node definition(s) of {twice.size} node(s) (e.g. {twice[:5].tolist()}); "
+                     "the last definition is used")
+    _, first_idx = np.unique(all_ids, return_index=True)
+    order = np.argsort(first_idx, kind="stable")
+    ids_all = uniq[order]
+    coords = all_xyz[all_ids.size - 1 - last_rev[order]]
+    known = set(ids_all.tolist())
+    undefined = sorted({n for ab in lines for n in ab} - known)
     if undefined:
-        notes.append(f"trace lines to undefined node(s) {undefined[:5]} dropped")
-        lines = [ab for ab in lines if ab[0] in nodes and ab[1] in nodes]
-    return Geometry(ids_all, np.array(list(nodes.values())), tuple(lines), str(p), tuple(notes))
+        notes.append(f"trace lines to {len(undefined)} undefined node(s) {undefined[:5]} dropped")
+        lines = [ab for ab in lines if ab[0] in known and ab[1] in known]
+    return Geometry(ids_all, coords, tuple(lines), str(p), tuple(notes))
 
 
-__all__ = ["Geometry", "LINE_DATASET", "NODE_DATASETS", "read_geometry"]
+def match_notes(geometry: Geometry, dofs: Sequence[DOF]) -> tuple[str, ...]:
+    """How the response DOFs and the geometry's nodes match, as one-line notes.
+
+    Parameters
+    ----------
+    geometry : Geometry
+    dofs : sequence of DOF
+        The measured response DOFs.
+
+    Returns
+    -------
+    tuple of str
+        Response nodes missing from the geometry (their shapes are not drawn), geometry nodes
+        with no response DOF (drawn unmoved), and the geometry's own notes (duplicate nodes,
+        local coordinate systems, dropped trace lines); empty when everything matches.
+    """
+    nodes = np.array(sorted({d.node for d in dofs}), dtype=np.int64)
+    rows = geometry.rows(nodes)
+    out = list(geometry.notes)
+    missing = nodes[rows < 0]
+    if missing.size:
+        out.append(f"{missing.size} response node(s) not in the geometry {geometry.source or ''} "
+                   f"(not drawn): {missing[:10].tolist()}")
+    unused = geometry.n_nodes - int(np.count_nonzero(rows >= 0))
+    if unused:
+        out.append(f"{unused} of {geometry.n_nodes} geometry node(s) carry no measured DOF (drawn unmoved)")
+    return tuple(out)
+
+
+__all__ = ["Geometry", "LINE_DATASET", "NODE_DATASETS", "match_notes", "read_geometry"]

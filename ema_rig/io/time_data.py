@@ -19,6 +19,13 @@ ordinate type is 13 (excitation force) or 9 (reaction force) is a force channel;
 (acceleration, velocity, displacement) a response channel. A DOF that appears k times is k
 records (e.g. k impacts, each written as its own force and response datasets); record r pairs
 the r-th dataset of every channel.
+
+Units: the time axis label is read by :func:`ema_rig.io.units.parse_unit_label` (``s``, ``ms``,
+``(Sec)``; no label: s); each channel's values by its ordinate label, else by the dataset 164
+in force (length and force factors, the exponents of its data type), else as SI (noted). A
+label that cannot be read, or one that is not of the channel's quantity, is an error. The
+channels of one record must start at the same time (the header's abscissa minimum); ema_rig
+does not shift channels. A record that needs no scaling is kept as a view of the file's values.
 """
 
 from __future__ import annotations
@@ -93,23 +100,43 @@ class TimeData:
                 f"{self.n_records} record(s) of {self.n_samples} samples at {self.fs:g} Hz)")
 
 
-def _scale(r: UFFRecord, kind: str, src: str, notes: list[str]) -> float:
-    label = str(r.units.get("ordinate", {}).get("label") or "")
+def _scale(r: UFFRecord, kind: str, src: str, notes: list[str], units164: Mapping[str, Any] | None) -> float:
+    """SI factor of one channel's values: its unit label, else the dataset 164 in force, else 1."""
     try:
-        unit = _uff_units.parse_unit(label)
-    except ValueError as exc:  # a label understood but out of range
-        raise UFFError(f"ordinate unit label {label!r}: {exc}", file=src, dataset=r.index) from None
-    if unit is None:
-        if label.strip().lower() not in _uff_units._NO_LABEL:
-            raise UFFError(f"ordinate unit label {label!r} not understood", file=src, dataset=r.index)
-        notes.append(f"dataset {r.index}: no unit label; values used as stored (SI assumed)")
-        return 1.0
-    if unit.dims != _DIMS[kind]:
-        raise UFFError(f"ordinate unit {label!r} is not a {'force' if kind == 'force' else kind + ' response'}"
-                       " unit", file=src, dataset=r.index)
-    if unit.factor != 1.0:
-        notes.append(f"dataset {r.index}: {label} x {unit.factor:.10g} to SI")
-    return float(unit.factor)
+        fac, how = _uff_units.ordinate_factor(dict(r.header), _DIMS[kind], None if units164 is None
+                                              else dict(units164))
+    except ValueError as exc:
+        raise UFFError(str(exc), file=src, dataset=r.index) from None
+    if how.startswith("no unit label"):
+        notes.append(f"dataset {r.index}: no unit label and no dataset 164; values used as stored (SI assumed)")
+    elif fac != 1.0:
+        notes.append(f"dataset {r.index}: {how} x {fac:.10g} to SI")
+    return float(fac)
+
+
+def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
+    """(start [s], sampling interval [s], samples) of a time history, from its header when evenly spaced."""
+    h = r.header
+    try:
+        tfac = _uff_units.time_factor(dict(h))
+    except ValueError as exc:
+        raise UFFError(str(exc), file=src, dataset=r.index) from None
+    assert r.y is not None
+    n = int(r.y.size)
+    if n < 2:
+        raise UFFError("time history with fewer than 2 samples", file=src, dataset=r.index)
+    if h.get("abscissa_spacing") == 1:
+        t0, dt = float(h["abscissa_min"]) * tfac, float(h["abscissa_inc"]) * tfac
+        if not dt > 0:
+            raise UFFError(f"time increment {h['abscissa_inc']!r} is not positive", file=src, dataset=r.index)
+        return t0, dt, n
+    x = r.x
+    assert x is not None
+    d = np.diff(x)
+    dt = float(d.mean())
+    if not dt > 0 or np.ptp(d) > 1e-6 * dt:
+        raise UFFError("time axis is not evenly spaced and increasing", file=src, dataset=r.index)
+    return float(x[0]) * tfac, dt * tfac, n
 
 
 def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) -> TimeData:
@@ -131,18 +158,25 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
     ------
     UFFError
         Naming file and dataset: no time history, a refused time dataset, an ordinate type that
-        is neither force nor response, unknown units, different sampling or lengths, channels
-        with different numbers of records, no force or no response channel.
+        is neither force nor response, unknown units (ordinate or time axis), different sampling
+        or lengths, channels of one record that start at different times, channels with
+        different numbers of records, no force or no response channel.
     """
     uf = read_uff(path)
     src = uf.path
     notes: list[str] = []
-    chans: dict[tuple[str, DOF], list[tuple[UFFRecord, float]]] = {}
+    chans: dict[tuple[str, DOF], list[tuple[UFFRecord, float, float]]] = {}
     forms: set[str] = set()
     dt0: float | None = None
     n0: int | None = None
     first: UFFRecord | None = None
+    current164: Mapping[str, Any] | None = None
     for r in uf.records:
+        if r.type == 164:
+            if r.status != "read":
+                raise UFFError(f"units dataset 164 refused: {r.reason}", file=src, dataset=r.index)
+            current164 = r.header
+            continue
         if r.type != 58 or r.function_type != 1:
             if r.type == 58:
                 notes.append(f"dataset {r.index}: function type {r.function_type}, not a time history; ignored")
@@ -160,21 +194,16 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
         else:
             raise UFFError(f"ordinate type {code} is neither a force (13, 9) nor a response (12, 11, 8): "
                            "cannot tell excitation from response", file=src, dataset=r.index)
-        assert r.x is not None and r.y is not None
+        assert r.y is not None
         if np.iscomplexobj(r.y):
             raise UFFError("complex time history", file=src, dataset=r.index)
-        if r.x.size < 2:
-            raise UFFError("time history with fewer than 2 samples", file=src, dataset=r.index)
-        d = np.diff(r.x)
-        dt = float(d.mean())
-        if not dt > 0 or np.ptp(d) > 1e-6 * dt:
-            raise UFFError("time axis is not evenly spaced and increasing", file=src, dataset=r.index)
+        t_start, dt, n = _time_axis(r, src)
         if first is None:
-            first, dt0, n0 = r, dt, r.x.size
-        elif abs(dt - (dt0 or dt)) > 1e-9 * dt or r.x.size != n0:
-            raise UFFError(f"sampling ({r.x.size} samples, dt {dt:g} s) differs from dataset {first.index} "
+            first, dt0, n0 = r, dt, n
+        elif abs(dt - (dt0 or dt)) > 1e-9 * dt or n != n0:
+            raise UFFError(f"sampling ({n} samples, dt {dt:g} s) differs from dataset {first.index} "
                            f"({n0} samples, dt {dt0:g} s)", file=src, dataset=r.index)
-        fac = _scale(r, "force" if kind == "force" else kind, src, notes)
+        fac = _scale(r, "force" if kind == "force" else kind, src, notes, current164)
         dof = r.response
         sign = float(dof.sign)
         if rig is not None:
@@ -196,7 +225,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
         if sign < 0:
             notes.append(f"dataset {r.index}: {dof} flipped into {dof.positive()} (values x -1)")
         key = ("force" if kind == "force" else "response", dof.positive())
-        chans.setdefault(key, []).append((r, sign * fac))
+        chans.setdefault(key, []).append((r, sign * fac, t_start))
     if first is None or dt0 is None:
         raise UFFError("no time history (dataset 58, function type 1) in the file", file=src)
     if len(forms) > 1:
@@ -219,16 +248,28 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
         raise UFFError("channels hold different numbers of records: "
                        + ", ".join(f"{k}: {v}" for k, v in counts.items()), file=src)
     n_rec = next(iter(counts.values()))
+    assert dt0 is not None
+    for k in range(n_rec):  # record k of every channel must start at the same time
+        starts = [(chans[c][k][2], chans[c][k][0].index) for c in chans]
+        (ta, ia), (tb, ib) = min(starts), max(starts)
+        if tb - ta > 1e-6 * dt0:
+            raise UFFError(
+                f"channels of record {k + 1} start at different times: dataset {ia} at {ta:.9g} s, dataset {ib} "
+                f"at {tb:.9g} s ({(tb - ta) / dt0:.4g} samples apart); the FRF needs simultaneous records "
+                "(ema_rig does not shift channels)", file=src, dataset=ib)
 
     def stack(kind: str, dofs: list[DOF]) -> tuple[NDArray[np.float64], list[list[int]]]:
+        used = [[r.index for r, _, _ in chans[(kind, d)]] for d in dofs]
+        if n_rec == 1 and len(dofs) == 1:
+            r, s, _ = chans[(kind, dofs[0])][0]
+            assert r.y is not None
+            if s == 1.0 and r.y.dtype == np.float64:  # a view of the file's values: no copy
+                return r.y[None, None, :], used
         arr = np.empty((n_rec, len(dofs), int(n0 or 0)))
-        used: list[list[int]] = []
         for c, d in enumerate(dofs):
-            recs = chans[(kind, d)]
-            used.append([r.index for r, _ in recs])
-            for k, (r, s) in enumerate(recs):
+            for k, (r, s, _) in enumerate(chans[(kind, d)]):
                 assert r.y is not None
-                arr[k, c] = np.asarray(r.y, dtype=np.float64) * s
+                np.multiply(r.y, s, out=arr[k, c])
         arr.setflags(write=False)
         return arr, used
 

@@ -85,7 +85,8 @@ class UFFRecord:
     num_pts : int or None
         Number of values returned (equals the header's num_pts for a read dataset 58).
     x : ndarray, shape (num_pts,), float64, or None
-        Abscissa in the file's unit (always explicit, also for even spacing).
+        Abscissa in the file's unit (always explicit; for even spacing it is computed from the
+        header's minimum and increment on each access, ``min + k inc``, and not stored).
     y : ndarray, shape (num_pts,), float64 or complex128, or None
         Values as stored, in the file's unit.
     units : mapping
@@ -111,7 +112,7 @@ class UFFRecord:
     response: DOF | None
     reference: DOF | None
     num_pts: int | None
-    x: NDArray[np.float64] | None
+    x_stored: NDArray[np.float64] | None
     y: NDArray[Any] | None
     units: Mapping[str, Any]
     ids: tuple[str, ...]
@@ -122,6 +123,18 @@ class UFFRecord:
     lines: tuple[str, ...] = field(default=(), repr=False)
 
     @property
+    def x(self) -> NDArray[np.float64] | None:
+        """Abscissa in the file's unit, shape (num_pts,) (see the class docstring), or None."""
+        if self.x_stored is not None or self.y is None:
+            return self.x_stored
+        h = self.header
+        if h.get("abscissa_spacing") != 1:
+            return None
+        x = h["abscissa_min"] + np.arange(self.y.size, dtype=np.float64) * h["abscissa_inc"]
+        x.setflags(write=False)
+        return x
+
+    @property
     def num_pts_header(self) -> int | None:
         """The header's num_pts (dataset 58), also for a refused dataset."""
         v = self.header.get("num_pts")
@@ -130,6 +143,9 @@ class UFFRecord:
     @property
     def band(self) -> tuple[float, float] | None:
         """(first, last) abscissa value of a read dataset 58."""
+        if self.x_stored is None and self.y is not None and self.header.get("abscissa_spacing") == 1:
+            h, n = self.header, self.y.size
+            return (float(h["abscissa_min"]), float(h["abscissa_min"] + (n - 1) * h["abscissa_inc"])) if n else None
         if self.x is None or self.x.size == 0:
             return None
         return float(self.x[0]), float(self.x[-1])
@@ -173,12 +189,14 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
             }
     status, reason = raw.status, raw.reason
     if status == "read" and raw.y is not None:
-        bad = ~np.isfinite(raw.y)
-        if raw.x is not None:
-            bad |= ~np.isfinite(raw.x)
-        if bad.any():
-            k = int(np.argmax(bad))
-            status, reason = "refused", f"{int(bad.sum())} NaN or inf value(s), first at point {k}"
+        n_bad, k = _nonfinite(raw.y, raw.x)
+        if raw.x is None and h.get("abscissa_spacing") == 1 and raw.y.size:
+            with np.errstate(over="ignore", invalid="ignore"):
+                last = h["abscissa_min"] + (raw.y.size - 1) * h["abscissa_inc"]
+            if not np.isfinite(last) and n_bad == 0:
+                n_bad, k = 1, raw.y.size - 1
+        if n_bad:
+            status, reason = "refused", f"{n_bad} NaN or inf value(s), first at point {k}"
     return UFFRecord(
         index=raw.index,
         type=raw.type,
@@ -187,7 +205,7 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
         response=h.get("response"),
         reference=h.get("reference"),
         num_pts=None if raw.y is None or raw.status != "read" else int(raw.y.size),
-        x=_readonly(raw.x),
+        x_stored=_readonly(raw.x),
         y=_readonly(raw.y),
         units=MappingProxyType(units),
         ids=tuple(h.get(f"id{i}", "") for i in range(1, 6)) if raw.type == 58 else (),
@@ -197,6 +215,22 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
         notes=raw.notes,
         lines=raw.lines,
     )
+
+
+def _nonfinite(y: NDArray[Any], x: NDArray[np.float64] | None) -> tuple[int, int]:
+    """(count, first index) of the points whose value or abscissa is NaN or inf, in 1 Mi-point
+    blocks (two boolean arrays of the whole dataset would cost a quarter of its size)."""
+    n_bad, first = 0, -1
+    step = 1 << 20
+    for a in range(0, y.size, step):
+        bad = ~np.isfinite(y[a : a + step])
+        if x is not None:
+            bad |= ~np.isfinite(x[a : a + step])
+        c = int(np.count_nonzero(bad))
+        if c and first < 0:
+            first = a + int(np.argmax(bad))
+        n_bad += c
+    return n_bad, first
 
 
 MAX_FILE_BYTES = 1 << 34
@@ -409,9 +443,12 @@ def read_uff58(
     11 velocity -> mobility, 12 acceleration -> accelerance; denominator 13 or 9, force) and from
     the unit labels (``g`` = 9.80665 m/s^2, ``mm``, ``in``, ``lbf``, ``(m/s)/N`` ...). When code and
     label name different quantities, ``rig.unit_preference`` (``"code"`` or ``"label"``) decides,
-    else it is an error. A unit label that is understood sets the scale; without one, the scale
-    comes from the latest preceding dataset 164 (its length/force factors and the header's unit
-    exponents), else SI is assumed. Each decision is recorded in ``meta["unit_decisions"]``.
+    else it is an error. A unit label sets the scale (:func:`ema_rig.io.units.parse_unit_label`:
+    ``mm s^-2``, ``mg``, ``in/s2/lbf`` ...); a label that cannot be read is an error naming the
+    dataset and the label, never taken as SI; without a label, the scale comes from the latest
+    preceding dataset 164 (its length/force factors and the header's unit exponents), else SI is
+    assumed. The abscissa label is read by the same grammar (Hz, kHz, rad/s; a time unit is an
+    error). Each decision is recorded in ``meta["unit_decisions"]``.
 
     Signs. Without a rig, a negative direction in the file (``13-Y``) is flipped into the
     positive axis (values x -1, DOF ``13+Y``). With a rig, the rig's sign decides: a sensor

@@ -50,6 +50,9 @@ class ShapePlot:
         geometry.
     unmapped : tuple of str
         Response DOFs whose node is not in the geometry (not drawn).
+    labels : list
+        Node-number texts: only the measured nodes, and only when at most
+        :data:`MAX_NODE_LABELS` of them (more would be unreadable).
     """
 
     figure: Figure
@@ -59,6 +62,13 @@ class ShapePlot:
     bars: list[Any] = field(default_factory=list)
     displacement: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
     unmapped: tuple[str, ...] = ()
+    labels: list[Any] = field(default_factory=list)
+
+
+MAX_NODE_LABELS = 40
+"""Most node numbers written on a 3D shape plot (at 7 pt on a 6.4 x 5.2 in figure, more overlap)."""
+MAX_NODE_MARKERS = 1000
+"""Above this many nodes only the measured nodes get a marker (the rest would be a solid blot)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,14 +101,14 @@ def _mode_title(model: ModalModel, mode: int) -> str:
 def _node_displacement(geometry: Geometry, dofs: tuple[DOF, ...], values: NDArray[np.float64]
                        ) -> tuple[NDArray[np.float64], tuple[str, ...]]:
     disp = np.zeros((geometry.n_nodes, 3))
-    index = {int(n): i for i, n in enumerate(geometry.node_ids)}
+    rows = geometry.rows([d.node for d in dofs])
     unmapped = []
-    for d, v in zip(dofs, values, strict=True):
+    for d, v, i in zip(dofs, values, rows, strict=True):
         axis = abs(d.direction)
-        if d.node not in index or not 1 <= axis <= 3:
+        if i < 0 or not 1 <= axis <= 3:
             unmapped.append(str(d))
             continue
-        disp[index[d.node], axis - 1] += d.sign * v
+        disp[i, axis - 1] += d.sign * v
     return disp, tuple(unmapped)
 
 
@@ -183,17 +193,27 @@ def plot_mode_shape(
     disp = disp * (scale * geometry.size / peak)
     xyz = geometry.coords
     moved = xyz + disp
-    index = {int(n): i for i, n in enumerate(geometry.node_ids)}
     und: list[Any] = []
     dfm: list[Any] = []
-    for a, b in geometry.lines:
-        i, j = index[a], index[b]
-        und += ax3.plot(*xyz[[i, j]].T, color="0.6", lw=1.0, ls="--")
-        dfm += ax3.plot(*moved[[i, j]].T, color="tab:blue", lw=1.8)
-    und.append(ax3.scatter(*xyz.T, color="0.5", s=12, label="undeformed"))
-    dfm.append(ax3.scatter(*moved.T, color="tab:blue", s=18, label="deformed"))
-    for n, p in zip(geometry.node_ids, xyz, strict=True):
-        ax3.text(*p, f" {n}", fontsize=7, color="0.4")
+    measured = np.unique(geometry.rows([d.node for d in model.out_dofs]))
+    measured = measured[measured >= 0]
+    large = geometry.n_nodes > MAX_NODE_MARKERS
+    if geometry.lines:  # one collection per state: a Line3D per trace line took minutes for 10^4 nodes
+        from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+        ij = geometry.rows(np.asarray(geometry.lines).ravel()).reshape(-1, 2)
+        und.append(ax3.add_collection3d(Line3DCollection(xyz[ij], colors="0.6", linewidths=0.4 if large else 1.0,
+                                                         linestyles="--")))
+        dfm.append(ax3.add_collection3d(Line3DCollection(moved[ij], colors="tab:blue",
+                                                         linewidths=0.6 if large else 1.8)))
+    # a marker per node where they can be told apart; on a large geometry only the measured nodes
+    dots = measured if large else np.arange(geometry.n_nodes)
+    und.append(ax3.scatter(*xyz[dots].T, color="0.5", s=12, label="undeformed"))
+    dfm.append(ax3.scatter(*moved[dots].T, color="tab:blue", s=18, label="deformed" if not large
+                           else "deformed (measured nodes marked)"))
+    shown = np.arange(geometry.n_nodes) if geometry.n_nodes <= MAX_NODE_LABELS else measured
+    labels = [] if shown.size > MAX_NODE_LABELS else [
+        ax3.text(*xyz[i], f" {geometry.node_ids[i]}", fontsize=7, color="0.4") for i in shown]
     ax.set_xlabel("X")
     ax.set_ylabel("Y")
     ax3.set_zlabel("Z")
@@ -204,7 +224,8 @@ def plot_mode_shape(
     ax3.set_zlim(mid[2] - half, mid[2] + half)
     ax.set_title(title, fontsize=10)
     ax.legend(loc="upper left", fontsize=8)
-    return ShapePlot(figure=fig, ax=ax, undeformed=und, deformed=dfm, displacement=disp, unmapped=unmapped)
+    return ShapePlot(figure=fig, ax=ax, undeformed=und, deformed=dfm, displacement=disp, unmapped=unmapped,
+                     labels=labels)
 
 
 def plot_automac(model: ModalModel, *, ref: DOF | str | None = None, ax: Axes | None = None) -> AutoMACPlot:
@@ -259,4 +280,4 @@ def plot_automac(model: ModalModel, *, ref: DOF | str | None = None, ax: Axes | 
     return AutoMACPlot(figure=fig, ax=ax, image=image, values=values, texts=texts)
 
 
-__all__ = ["AutoMACPlot", "ShapePlot", "plot_automac", "plot_mode_shape"]
+__all__ = ["MAX_NODE_LABELS", "MAX_NODE_MARKERS", "AutoMACPlot", "ShapePlot", "plot_automac", "plot_mode_shape"]
