@@ -488,7 +488,11 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
     ConfigError
         If the file is missing, not TOML, or a key is missing, unknown or invalid.
     """
-    return parse_rig(read_toml(path), file=path)
+    doc = read_toml(path)
+    if "measurement" in doc and "model" not in doc:
+        raise ConfigError("this is a campaign file, not a rig file: run it with 'ema-rig campaign FILE', "
+                          "or give the rig file it names", file=path)
+    return parse_rig(doc, file=path)
 
 
 #: Geometry keys of a ``[bearings.NAME]`` table (SI units), see :func:`parse_bearing_geometry`.

@@ -301,6 +301,9 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
     p = Path(path).resolve()
     fname = str(path)
     doc = read_toml(p)
+    if "model" in doc and "measurement" not in doc:
+        raise ConfigError("this is a rig file, not a campaign file (README, 'Campaign file'): a campaign names "
+                          "it with rig = \"...\" and lists [[measurement]] tables", file=fname)
     check_keys(doc, _TOP_KEYS, "", fname)
     base = p.parent
 

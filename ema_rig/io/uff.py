@@ -201,6 +201,22 @@ def _to_record(raw: _uff_parse.RawDataset) -> UFFRecord:
 MAX_FILE_BYTES = 1 << 34
 """Largest UFF file read (16 GiB); larger files are refused before reading."""
 _HEAD_BYTES = 1 << 16
+
+
+def _toml_hint(head: bytes) -> str | None:
+    """What an ema_rig TOML file given where a UFF file belongs is, and the command for it."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads(head.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    if "measurement" in doc:
+        return "it is a campaign file (TOML); run it with 'ema-rig campaign FILE'"
+    if "model" in doc or "sensor" in doc:
+        return ("it is a rig file (TOML); give it as '--rig FILE' and the UFF measurement as the file, "
+                "e.g. 'ema-rig stiffness MEASUREMENT.uff --rig FILE'")
+    return None
 _HEAD_OK = re.compile(rb"(?:\xef\xbb\xbf)?(?:[ \t]*(?:\r\n|\r|\n))*[ \t]*-1[ \t]*(?:\r|\n|\Z)")
 
 
@@ -242,7 +258,8 @@ def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
                 if not head.strip():
                     raise UFFError("empty file (no UFF dataset)", file=p)
                 raise UFFError(
-                    "not a UFF file: the first line that is not blank is not the dataset delimiter '    -1'",
+                    "not a UFF file: " + (_toml_hint(head) or
+                                          "the first line that is not blank is not the dataset delimiter '    -1'"),
                     file=p,
                 )
             if len(head) < _HEAD_BYTES:
