@@ -73,7 +73,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
             raise
         head = "; " if "the measurement itself is suspect" in exc.message else "; the measurement itself is suspect: "
         raise IdentificationError(exc.message + head + "; ".join(findings), file=exc.file) from None
-    findings = diagnose_file(args.file, data.band(*ident.band))
+    findings = [f for f in diagnose_file(args.file, data.band(*ident.band)) if f"data: {f}" not in ident.warnings]
     if findings:
         ident = replace(ident, warnings=ident.warnings + tuple(f"data: {f}" for f in findings))
     return data, ident
