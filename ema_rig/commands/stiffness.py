@@ -25,6 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--selection", default=None, metavar="JSON",
                         help="replay a saved mode selection (picked with PolePicker, or 'modes --save-selection') "
                              "instead of the automatic identification; the housing mode is matched among its modes")
+    _args.add_units_argument(parser)
     parser.add_argument("--no-spindle", action="store_true",
                         help="skip the identification of the spindle bending mode (faster)")
     parser.add_argument("--fit", action="store_true",
@@ -101,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     if args.max_order is not None and args.max_order < 2:
         raise EmaRigError(f"--max-order must be >= 2, got {args.max_order}", file=args.file)
     rig = load_rig(args.rig)
-    data = read_uff58(args.file, rig=rig)
+    data = read_uff58(args.file, rig=rig, units=args.units)
     data = data.with_meta(file=str(args.file))
     try:
         res = estimate_stiffness(

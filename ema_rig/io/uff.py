@@ -382,7 +382,8 @@ def _match_ref(rig: RigConfig, d: DOF) -> DOF | None:
 
 
 def read_uff58(
-    path: str | PathLike[str], *, rig: RigConfig | None = None, freq_rtol: float = 1e-6
+    path: str | PathLike[str], *, rig: RigConfig | None = None, freq_rtol: float = 1e-6,
+    units: str | None = None,
 ) -> FRFData:
     """Read all FRF datasets of a UFF58 file into one FRFData in SI units.
 
@@ -396,6 +397,10 @@ def read_uff58(
     freq_rtol : float, optional
         Tolerance for comparing frequency axes between datasets, relative to the highest
         frequency. Axes that differ more are an error; nothing is resampled.
+    units : str, optional
+        Response unit of FRF datasets that carry no ordinate unit label, e.g. ``"g"`` (per N
+        unless the denominator says otherwise; ``ema-rig ... --units g``); default the rig
+        file's ``[units] ordinate``. A dataset's own label always wins.
 
     Returns
     -------
@@ -443,6 +448,12 @@ def read_uff58(
     uf = read_uff(path)
     src = uf.path
     pref = rig.unit_preference if rig is not None else None
+    assumed = units if units is not None else (rig.unit_ordinate if rig is not None else None)
+    if assumed is not None:
+        try:
+            _uff_units.response_unit(assumed)
+        except ValueError as exc:
+            raise UFFError(f"units: {exc}", file=src) from None
     current164: Mapping[str, Any] | None = None
     used: list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]] = []
     ignored_datasets: list[str] = []
@@ -473,7 +484,7 @@ def read_uff58(
                 "response or reference DOF missing: " + "; ".join(r.notes), file=src, dataset=r.index
             )
         try:
-            dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref)
+            dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref, assumed)
         except ValueError as exc:
             raise UFFError(str(exc), file=src, dataset=r.index) from None
         used.append((r, dec, current164))
@@ -667,6 +678,7 @@ def write_uff58(
     accel_unit: str = "m/s^2",
     rig: RigConfig | None = None,
     abscissa: str = "auto",
+    labelled: bool = True,
 ) -> None:
     """Write FRFs as UFF dataset 58 (ASCII) or 58b (binary), one dataset per (output, input).
 
@@ -692,6 +704,10 @@ def write_uff58(
         are equally spaced and, in binary, the header's 13-column fields reproduce the axis to
         1e-12 (else the explicit float64 abscissa is stored); in ASCII an even axis is always
         written even (the uneven ASCII abscissa, E13.5, has fewer digits than the header).
+    labelled : bool, optional
+        Write the unit labels (default). False when the units were assumed, not known (time
+        histories without unit labels): the labels say ``NONE``, the ordinate code still names
+        the quantity, and a reader assumes SI with a note instead of reading an assumption as fact.
 
     Raises
     ------
@@ -751,7 +767,8 @@ def write_uff58(
             chunks.append(
                 _uff_write.dataset_bytes(
                     x=freq, y=y, even=even, binary=binary, double=double, response=o_w, reference=q_w,
-                    frf_form=data.frf_form, unit_label=label, ids=ids,
+                    frf_form=data.frf_form, unit_label=label if labelled else "NONE", ids=ids,
+                    force_label="N" if labelled else "NONE",
                 )
             )
     try:
