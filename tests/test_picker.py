@@ -91,7 +91,7 @@ def test_undo_and_keyboard(case, mplcleanup):
     assert not picker.undo()  # nothing left to undo
     _click(chart, *_pixel(chart, *a))
     _click(chart, *_pixel(chart, *b))
-    _key(chart, "backspace")  # remove the last pick
+    _key(chart, "x")  # remove the last pick
     assert picker.picks == [first]
     _key(chart, "escape")  # clear
     assert picker.picks == [] and len(chart.mode_lines) == 0

@@ -15,8 +15,9 @@ widget``). No GUI toolkit is imported here.
 
 The chart holds still while picking: the axes limits are fixed when the picker starts (with room
 for the frequency labels), so the pole under the mouse stays there and a second click on a picked
-pole (or on its ring) un-picks it. Keys: ``u`` / ``ctrl+z`` undo the last change, ``backspace`` /
-``delete`` remove the last pick, ``escape`` clears every pick (undoable). Typical use::
+pole (or on its ring) un-picks it. Keys: ``u`` / ``ctrl+z`` undo the last change, ``x`` / ``delete``
+remove the last pick, ``escape`` clears every pick (undoable); none of them is a key of matplotlib's
+navigation toolbar (``backspace`` would also step the view back). Typical use::
 
     import matplotlib.pyplot as plt
     from ema_rig.identification import identify
@@ -111,7 +112,7 @@ class PolePicker:
         key = getattr(event, "key", None)
         if key in ("u", "ctrl+z", "cmd+z"):
             self.undo()
-        elif key in ("backspace", "delete") and self.picks:
+        elif key in ("x", "delete") and self.picks:
             self._change(self.picks[:-1])
         elif key == "escape" and self.picks:
             self._change([])
