@@ -96,6 +96,13 @@ def test_result_and_selection_print_short(rig, picked):
     assert line.startswith(f"k_TB = {res.k_TB / 1e6:.2f} ± ") and line.endswith("(total) MN/m")
     assert f"± {res.k_TB_std / 1e6:.2g} (total)" in line
     assert len(repr(sel)) < 200 and repr(sel).startswith(f"Selection({len(sel)} modes [manual]")
+    import math
+
+    from ema_rig.rig.stiffness import calibrate
+
+    cal = calibrate(simulate_measurement(rig, k_tb=math.inf, freq=FREQ, noise=0.01, seed=3).data, rig)
+    assert str(cal).splitlines()[0] == (f"k_MS = {cal.k_MS / 1e6:.2f} ± {cal.k_MS_std_measured / 1e6:.2g} (meas.) "
+                                        f"± {cal.k_MS_std / 1e6:.2g} (total) MN/m")
 
 
 def test_cli_stiffness_selection(tmp_path, rig_file, picked, capsys):

@@ -424,6 +424,13 @@ class CalibrationResult:
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
 
+    def __str__(self) -> str:
+        """``k_MS = 114.0 ± 0.05 (meas.) ± 6.6 (total) MN/m`` and the warnings, one line each."""
+        lines = [f"k_MS = {self.k_MS / 1e6:.2f} ± {self.k_MS_std_measured / 1e6:.2g} (meas.) "
+                 f"± {self.k_MS_std / 1e6:.2g} (total) MN/m",
+                 f"housing mode {self.housing_mode.get('natural_freq', math.nan):.1f} Hz with the steel disk"]
+        return "\n".join([*lines, *(f"warning: {w}" for w in self.warnings)])
+
     def __repr__(self) -> str:
         """k_MS with its measured and total standard uncertainty and the warnings."""
         lines = [f"CalibrationResult(k_MS = {self.k_MS / 1e6:.3f} MN/m ± {self.k_MS_std_measured / 1e6:.3f} measured "
