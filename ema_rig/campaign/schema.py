@@ -190,6 +190,7 @@ class CampaignConfig:
             "identification": {k: list(v) if isinstance(v, tuple) else v
                                for k, v in self.rig.identification.items()},
             "unit_preference": self.rig.unit_preference,
+            "unit_ordinate": self.rig.unit_ordinate,
             "calibration": None if self.calibration is None else str(self.calibration),
             "k_disk": self.k_disk,
             "k_disk_std": self.k_disk_std,
