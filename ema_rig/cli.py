@@ -89,6 +89,26 @@ class _InertStream:
         return getattr(self._stream, name)
 
 
+def _sub_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """The parser of sub-command ``command``."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return action.choices[command]  # type: ignore[no-any-return]
+    raise KeyError(command)  # pragma: no cover - build_parser always adds them
+
+
+def _unrecognized(sub: argparse.ArgumentParser, extras: Sequence[str]) -> str:
+    """``unrecognized arguments: --bnad (did you mean --band?)``: the sub-command's closest options."""
+    import difflib
+
+    options = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
+    parts = []
+    for e in extras:
+        near = difflib.get_close_matches(e.split("=", 1)[0], options, n=1, cutoff=0.6) if e.startswith("-") else []
+        parts.append(f"{e} (did you mean {near[0]}?)" if near else e)
+    return "unrecognized arguments: " + " ".join(parts)
+
+
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: object = None, line: str | None = None) -> None:
     print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
@@ -133,8 +153,17 @@ def _main(argv: Sequence[str] | None) -> int:
     from .errors import EmaRigError
 
     parser = build_parser()
+    words = list(sys.argv[1:] if argv is None else argv)
     try:
-        args = parser.parse_args(argv)
+        if words and not words[0].startswith("-") and words[0] not in COMMANDS:
+            import difflib
+
+            near = difflib.get_close_matches(words[0], list(COMMANDS), n=1, cutoff=0.6)
+            parser.error(f"unknown command {words[0]!r}" + (f" (did you mean {near[0]}?)" if near else "")
+                         + f"; commands: {', '.join(COMMANDS)}")
+        args, extras = parser.parse_known_args(words)
+        if extras:  # the sub-command's own usage, with the nearest option it has
+            _sub_parser(parser, args.command).error(_unrecognized(_sub_parser(parser, args.command), extras))
     except SystemExit as exc:  # argparse prints its own message
         return int(exc.code) if isinstance(exc.code, int) else EXIT_USAGE
     try:

@@ -48,6 +48,43 @@ SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")
 SENSOR_AXES: tuple[str, ...] = ("radial", "lateral", "axial")
 _TOP_KEYS = ("model", "excitation", "sensor", "uncertainty", "identification", "units", "rig", "calibration")
 
+#: Table 1 of the paper (SI) and what each parameter is: the centre of the plausible ranges.
+_TABLE1: dict[str, tuple[float, str]] = {
+    "m_H": (2.566, "a housing mass"), "m_S": (2.8, "an equivalent spindle mass"),
+    "m_F": (205.0, "an equivalent frame mass"), "k_MS": (114e6, "a mounting stiffness"),
+    "k_AS": (650e3, "an air-spring stiffness"), "k_S": (348e6, "a spindle bending stiffness"),
+    "k_B": (180e3, "a bushing stiffness"),
+}
+PLAUSIBLE_SPAN = 100.0
+"""A rig parameter is plausible within Table 1 of the paper divided or multiplied by this factor:
+rigs of another size pass, a unit slip (N/m for MN/m, kN/m, g or t for kg: factors 1e3, 1e6) does not."""
+
+
+def check_plausible(model: ModelParams, file: str | None) -> None:
+    """Refuse a rig parameter outside its plausible range, with the unit it was probably meant in.
+
+    Raises
+    ------
+    ConfigError
+        E.g. ``k_MS = 114 N/m is implausible for a mounting stiffness; did you mean 114e6 (MN/m)?``
+    """
+    for key, (ref, what) in _TABLE1.items():
+        v = float(getattr(model, key))
+        lo, hi = ref / PLAUSIBLE_SPAN, ref * PLAUSIBLE_SPAN
+        if lo <= v <= hi:
+            continue
+        mass = key.startswith("m_")
+        unit = "kg" if mass else "N/m"
+        scales = ((1e-3, "g"), (1e3, "t")) if mass else ((1e6, "MN/m"), (1e3, "kN/m"))
+        hint = ""
+        for f, name in scales:
+            if lo <= v * f <= hi:
+                hint = (f"; did you mean {v * f:g} kg ({v:g} {name})?" if mass
+                        else f"; did you mean {v:g}e{round(math.log10(f)):d} ({name})?")
+                break
+        raise ConfigError(f"{key} = {v:g} {unit} is implausible for {what} (expected {lo:g} .. {hi:g} {unit}, "
+                          f"Table 1 of the paper x/÷ {PLAUSIBLE_SPAN:g}){hint}", file=file, key=f"model.{key}")
+
 
 @dataclass(frozen=True, slots=True)
 class ModelParams:
@@ -101,6 +138,8 @@ class RigConfig:
         Optional defaults: ``band`` (lo, hi) Hz, ``max_order``, ``k_MS_band``.
     unit_preference : str or None
         ``'code'`` or ``'label'``: which wins in a UFF unit conflict.
+    unit_ordinate : str or None
+        ``[units] ordinate``: the response unit (e.g. ``"g"``) of FRF datasets without a unit label.
     k_disk : float or None
         Calibration disk stiffness [N/m] (``[calibration]``); None = assumed rigid.
     k_disk_std : float or None
@@ -117,6 +156,7 @@ class RigConfig:
     uncertainty: Mapping[str, float] = field(default_factory=dict)
     identification: Mapping[str, Any] = field(default_factory=dict)
     unit_preference: str | None = None
+    unit_ordinate: str | None = None
     k_disk: float | None = None
     k_disk_std: float | None = None
     name: str = ""
@@ -318,6 +358,7 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
             )
     model = ModelParams(**{k: MODEL_RANGES[k[0]].check(toml_number(m[k], f"model.{k}", fname, lo=0.0, lo_open=True),
                                                          f"model.{k}", fname) for k in MODEL_KEYS})
+    check_plausible(model, fname)
 
     ex = toml_table(doc, "excitation", fname, required=True)
     check_keys(ex, ("radial", "axial"), "excitation", fname)
@@ -384,10 +425,19 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         ident["n_averages"] = toml_number(id_t["n_averages"], "identification.n_averages", fname, lo=1.0)
 
     units_t = toml_table(doc, "units", fname, required=False)
-    check_keys(units_t, ("prefer",), "units", fname)
+    check_keys(units_t, ("prefer", "ordinate"), "units", fname)
     pref = units_t.get("prefer")
     if pref is not None and pref not in ("code", "label"):
         raise ConfigError(f"must be 'code' or 'label', got {short_repr(pref)}", file=fname, key="units.prefer")
+    ordinate = None
+    if "ordinate" in units_t:
+        from .io._uff_units import response_unit
+
+        ordinate = toml_str(units_t["ordinate"], "units.ordinate", fname, nonempty=True)
+        try:
+            response_unit(ordinate)
+        except ValueError as exc:
+            raise ConfigError(str(exc), file=fname, key="units.ordinate") from None
 
     rig_t = toml_table(doc, "rig", fname, required=False)
     check_keys(rig_t, ("name", "description"), "rig", fname)
@@ -406,6 +456,7 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         uncertainty=uncertainty,
         identification=ident,
         unit_preference=pref,
+        unit_ordinate=ordinate,
         k_disk=k_disk,
         k_disk_std=k_disk_std,
         name=toml_str(rig_t.get("name", ""), "rig.name", fname),
@@ -490,7 +541,11 @@ def load_rig(path: str | PathLike[str]) -> RigConfig:
     ConfigError
         If the file is missing, not TOML, or a key is missing, unknown or invalid.
     """
-    return parse_rig(read_toml(path), file=path)
+    doc = read_toml(path)
+    if "measurement" in doc and "model" not in doc:
+        raise ConfigError("this is a campaign file, not a rig file: run it with 'ema-rig campaign FILE', "
+                          "or give the rig file it names", file=path)
+    return parse_rig(doc, file=path)
 
 
 #: Geometry keys of a ``[bearings.NAME]`` table (SI units), see :func:`parse_bearing_geometry`.

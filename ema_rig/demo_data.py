@@ -265,4 +265,34 @@ def generate(out_dir: str | PathLike[str], *, say: Callable[[str], None] | None 
     return here / "campaign.toml"
 
 
-__all__ = ["generate", "plan", "campaign_toml", "RIG_TOML"]
+def source_data_dir() -> Path | None:
+    """The ``data/`` folder of the source tree ema_rig is imported from, or None (an installed package)."""
+    here = Path(__file__).resolve().parents[1] / "data"
+    return here if (here / "campaign.toml").is_file() and (here / "rig.toml").is_file() else None
+
+
+def bundled_campaign(out_dir: str | PathLike[str] | None = None) -> Path:
+    """The bundled campaign file, found through the package wherever the caller runs.
+
+    Parameters
+    ----------
+    out_dir : path, optional
+        Where to generate the campaign (:func:`generate`) when ema_rig is not imported from a
+        source tree; default a new temporary folder.
+
+    Returns
+    -------
+    Path
+        ``campaign.toml`` of the source tree's ``data/``, else of the generated copy.
+    """
+    src = source_data_dir()
+    if src is not None:
+        return src / "campaign.toml"
+    if out_dir is None:
+        import tempfile
+
+        out_dir = tempfile.mkdtemp(prefix="ema-rig-data-")
+    return generate(out_dir)
+
+
+__all__ = ["generate", "plan", "campaign_toml", "bundled_campaign", "source_data_dir", "RIG_TOML"]

@@ -152,10 +152,12 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
                  "uncertainty (measured: from the identified housing frequency; total: with the rig-file tolerances "
                  "and model-form terms); frequencies are undamped natural frequencies |λ|/2π. Each id links to the "
                  "measurement's own section (figures, candidate modes, warnings).</p>")
-    head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB", "± measured",
-            "± total", "k_TB+MS", "f_H [Hz]", "± f_H", "ζ_H [%]", "f_spindle [Hz]", "warnings", "status"]
+    head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB [MN/m]",
+            "± measured [MN/m]", "± total [MN/m]", "k_TB+MS [MN/m]", "f_H [Hz]", "± f_H [Hz]", "ζ_H [%]",
+            "f_spindle [Hz]", "f_H from", "warnings", "status"]
     parts.append("<table><tr>" + "".join(
-        f"<th class='{'l' if i in (0, 1, 15) else ''}'>{_h(h)}</th>" for i, h in enumerate(head)) + "</tr>")
+        f"<th class='{'l' if i in (0, 1, 14, 16) else ''}'>{_h(h)}</th>" for i, h in enumerate(head))
+        + "</tr>")
     for i, r in enumerate(rows):
         cls = "" if r["status"] == "ok" else " class='err'"
         status = "ok" if r["status"] == "ok" else f"error: {r['error']}"
@@ -166,7 +168,8 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
             ("", _fmt(r.get("k_TB_std_measured", math.nan), "N/m")),
             ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
             ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
-            ("", str(len(r.get("warnings") or ()))),
+            ("l", _h(_source(r))),
+            ("", str(len(_unique(r.get("warnings") or ())))),
             ("l", _h(status)),
         ]
         parts.append(f"<tr{cls}>" + "".join(f"<td class='{c}'>{v}</td>" for c, v in cells) + "</tr>")
@@ -194,11 +197,11 @@ def _measurement_section(i: int, r: Mapping[str, Any],
     parts = [head]
     if ok:
         parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m (total) · "
-                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz "
-                     "(measured)</p>")
+                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz (measured)"
+                     f" · from {_h(_SOURCE_TEXT.get(_source(r), _source(r)))}</p>")
     else:
         parts.append(f"<p><b>error:</b> {_h(str(r.get('error')))}</p>")
-    warns = [str(w) for w in (r.get("warnings") or [])] + (list(figs[1]) if figs else [])
+    warns = _unique([*(r.get("warnings") or []), *(figs[1] if figs else [])])
     if warns:
         parts.append("<p>Warnings:</p><ul class='warn'>" + "".join(f"<li>{_h(w)}</li>" for w in warns)
                      + "</ul>")
@@ -219,6 +222,22 @@ def _measurement_section(i: int, r: Mapping[str, Any],
         parts.append(_candidate_table(figs[2], "Identification: every cluster of stable poles and its verdict:"))
     parts.append("</section>")
     return "\n".join(parts)
+
+
+_SOURCE_TEXT = {"auto": "the automatic identification", "pick": "a pick (hand-picked poles)",
+                "replay": "a replayed selection", "tracked replay": "a tracked replay (matched by frequency order: "
+                "check it on the chart)"}
+
+
+def _source(r: Mapping[str, Any]) -> str:
+    """Where the row's housing mode came from: auto, pick, replay or tracked replay ('' for an error)."""
+    v = r.get("mode_source")
+    return v if isinstance(v, str) and r.get("status") == "ok" else ""
+
+
+def _unique(warnings: Any) -> list[str]:
+    """The warnings in order, each once (a caveat the row and the figures both carry is said once)."""
+    return list(dict.fromkeys(str(w) for w in warnings))
 
 
 def _candidate_table(cands: list[Any], title: str) -> str:

@@ -27,6 +27,23 @@ def _shared_dir(path: Path, what: str) -> Path:
     return path
 
 
+def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # noqa: ARG001
+    """One line per reason for the skipped tests, with how to run them (e.g. the ../shared data)."""
+    from collections import Counter
+
+    reasons: Counter[str] = Counter()
+    for rep in terminalreporter.stats.get("skipped", []):
+        longrepr = getattr(rep, "longrepr", None)
+        text = longrepr[2] if isinstance(longrepr, tuple) and len(longrepr) == 3 else str(longrepr)
+        text = str(text).removeprefix("Skipped: ")
+        # the shared-data skips name their path; one line for all of them
+        if _HOW in text:
+            text = f"../shared not found ({SHARED}); {_HOW}"
+        reasons[text] += 1
+    for text, n in reasons.most_common():
+        terminalreporter.write_line(f"{n} test{'s' if n != 1 else ''} skipped: {text}")
+
+
 @pytest.fixture
 def corpus_dir() -> Path:
     """The shared UFF conformance corpus; the test is skipped when it is absent."""

@@ -524,6 +524,7 @@ def test_every_task_field_enters_the_key(small: Path) -> None:
     changed = {
         "kind": "calibration", "k_ms": 1.15e8, "k_ms_std": 2e6, "k_disk": 2e9, "speed_hz": 10.5,
         "band": (150.0, 999.0), "max_order": 18, "rig": dataclasses.replace(rig, model=other_model),
+        "selection": '{"format": "ema_rig.selection/1"}',  # the selection's text: its content is the key
     }
     assert set(changed) | {"file"} == {f.name for f in dataclasses.fields(MeasurementTask)}
     key = task_key(base, "digest")

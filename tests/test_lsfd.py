@@ -27,8 +27,11 @@ def test_exact_poles_give_mass_normalised_shapes(system, form):
     for ref, q in (("11+Y", 0), ("12+Y", 1)):
         shapes = model.mode_shapes(ref)
         for r in range(6):
-            if abs(phi[r, q]) < 1e-12:
-                continue  # a node at the driving point cannot scale that mode
+            # a node at the driving point cannot scale that mode; the node comes out of eigh as
+            # round-off (7e-13 with one OpenBLAS kernel, -2.4e-12 with another), every real component
+            # of these shapes is >= 0.05: relative cut 1e-9 of the mode's largest amplitude
+            if abs(phi[r, q]) < 1e-9 * np.abs(phi[r]).max():
+                continue
             assert mac(shapes[r], phi[r])[0, 0] > 0.999999
             # mass normalisation: amplitudes, not only the shape (classical damping: real)
             np.testing.assert_allclose(np.abs(shapes[r]), np.abs(phi[r]), rtol=1e-6, atol=1e-9)

@@ -39,10 +39,10 @@ KINDS: dict[str, str] = {
                  "sensor of each kind (housing/spindle, radial/lateral/axial); shaded: the identification band.",
 }
 #: Bump when the drawing changes (size, resolution, content): every per-measurement figure is redrawn.
-_DRAW_VERSION = 3
-#: Pixel density and size of the embedded figures: readable on screen, small in the report.
-DPI = 64
-_SIZE = (8.0, 4.8)
+_DRAW_VERSION = 4
+#: Pixel density and size of the embedded figures: at least 1000 px wide (readable on screen; issue 20).
+DPI = 80
+_SIZE = (12.8, 5.6)
 #: Relative difference between the re-identified and the row's housing frequency that is reported.
 _FREQ_TOL = 1e-6
 
@@ -137,7 +137,7 @@ def measurement_figures(
         result = None
         if row.get("status") == "ok":
             result = estimate_stiffness(data, cfg.rig, k_ms=k_ms, k_ms_std=k_ms_std, speed_hz=speed_hz,
-                                        band=cfg.band, max_order=cfg.max_order)
+                                        band=cfg.band, max_order=cfg.max_order, selection=m.selection)
             ident = result.identification
             f_row = row.get("housing_freq")
             f_now = float(result.housing_mode["natural_freq"])
@@ -151,7 +151,8 @@ def measurement_figures(
     except EmaRigError as exc:  # a failed row already says why; a good one that fails now is news
         return MeasurementFigures({}, () if row.get("status") != "ok" else (f"no figures: {exc}",))
     known = {str(w) for w in (row.get("warnings") or ())}
-    warns += [f"identification: {w}" for w in getattr(ident, "warnings", ()) if str(w) not in known]
+    warns += [f"identification: {w}" for w in getattr(ident, "warnings", ())
+              if str(w) not in known and f"identification: {w}" not in known]
     cands = tuple({"natural_freq": float(c.natural_freq), "natural_freq_std": float(c.mode.natural_freq_std),
                    "damping_ratio": float(c.damping_ratio),
                    "verdict": "physical" if c.accepted else "rejected", "reason": str(c.reason)}
@@ -167,15 +168,22 @@ def measurement_figures(
     if result is not None:
         channels = _synthesis_channels(data, ident.modes)
         drawers["model"] = lambda: plot_rig_fit(
-            data, result, cfg.rig, title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
+            data, result, cfg.rig, figure=_figure(_SIZE[0], 8.0), title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
         drawers["synthesis"] = lambda: plot_synthesis(
-            data, ident.modes, channels=channels, title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
+            data, ident.modes, channels=channels, phase=True, fig_width=_SIZE[0], title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
     for kind, draw in drawers.items():
         try:
             png[kind] = png_bytes(draw())
         except (ValueError, KeyError, EmaRigError) as exc:  # a figure that cannot be drawn: said, not hidden
             warns.append(f"{kind} figure not drawn: {exc}")
     return MeasurementFigures(png, tuple(warns), cands)
+
+
+def _figure(width: float, height: float) -> Figure:
+    """A new figure of this size [inch] (no pyplot state)."""
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), layout="constrained")
 
 
 def _synthesis_channels(data: Any, modes: Any, n: int = 4) -> list[tuple[int, int]]:

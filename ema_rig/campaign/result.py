@@ -15,7 +15,7 @@ COLUMNS: tuple[str, ...] = (
     "id", "file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags",
     "status", "k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS",
     "housing_freq", "housing_freq_std", "housing_damping",
-    "spindle_freq", "spindle_damping", "error", "elapsed_s", "warnings",
+    "spindle_freq", "spindle_damping", "mode_source", "error", "elapsed_s", "warnings",
 )
 
 #: Stiffness units of the CSV: name -> factor from N/m.

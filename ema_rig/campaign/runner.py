@@ -87,6 +87,9 @@ class MeasurementTask:
     band : (float, float) or None
         Identification band [Hz] (None: the rig's, else the default).
     max_order : int or None
+    selection : str or None
+        A saved mode selection (its JSON text: the content enters the key) replayed instead of
+        the automatic identification.
     """
 
     kind: str
@@ -98,6 +101,7 @@ class MeasurementTask:
     speed_hz: float | None = None
     band: tuple[float, float] | None = None
     max_order: int | None = None
+    selection: str | None = None
 
 
 def _canonical(obj: Any) -> Any:
@@ -209,8 +213,13 @@ def _compute(task: MeasurementTask) -> dict[str, Any]:
     if task.kind == "calibration":
         d = calibrate(data, task.rig, k_disk=task.k_disk, band=task.band, max_order=task.max_order).to_dict()
         return {**d, "status": "ok", "error": "", "error_kind": "", "warnings": list(d.get("warnings") or [])}
+    selection = None
+    if task.selection is not None:
+        from ..identification import Selection
+
+        selection = Selection.from_json(task.selection)
     res = estimate_stiffness(data, task.rig, k_ms=task.k_ms, k_ms_std=task.k_ms_std, speed_hz=task.speed_hz,
-                             band=task.band, max_order=task.max_order)
+                             band=task.band, max_order=task.max_order, selection=selection)
     d = res.to_dict()
     hm = d.get("housing_mode") or {}
     sm = d.get("spindle_mode") or {}
@@ -222,6 +231,7 @@ def _compute(task: MeasurementTask) -> dict[str, Any]:
         "housing_freq": _nan(hm.get("natural_freq")), "housing_freq_std": _nan(hm.get("natural_freq_std")),
         "housing_damping": _nan(hm.get("damping_ratio")),
         "spindle_freq": _nan(sm.get("natural_freq")), "spindle_damping": _nan(sm.get("damping_ratio")),
+        "mode_source": str(d.get("mode_source") or "auto"),
         "warnings": list(d.get("warnings") or []),
         "detail": d,
     }
@@ -453,10 +463,10 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     todo: list[tuple[Measurement, MeasurementTask, str]] = []
     failed_input: list[tuple[Measurement, dict[str, Any]]] = []
     for m in cfg.measurements:
-        t = MeasurementTask(kind="measurement", file=m.file, rig=rig, k_ms=k_ms, k_ms_std=k_ms_std,
-                            speed_hz=m.speed / 60.0 if m.speed > 0 else None, band=cfg.band,
-                            max_order=cfg.max_order)
         try:
+            t = MeasurementTask(kind="measurement", file=m.file, rig=rig, k_ms=k_ms, k_ms_std=k_ms_std,
+                                speed_hz=m.speed / 60.0 if m.speed > 0 else None, band=cfg.band,
+                                max_order=cfg.max_order, selection=read_selection(m))
             key = task_key(t, file_digest(m.file))
         except EmaRigError as exc:  # missing, unreadable or not a regular file: checked every run
             failed_input.append((m, {"status": "error", "error": str(exc), "error_kind": "input"}))
@@ -475,7 +485,7 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     bar = _progress(progress, len(cfg.measurements), reused)
 
     def finish(m: Measurement, key: str | None, result: dict[str, Any]) -> None:
-        blank = {c: math.nan for c in COLUMNS}  # every column in every row, errors included
+        blank = {c: math.nan for c in COLUMNS} | {"mode_source": ""}  # every column in every row, errors included
         row = {**blank, "warnings": [], **m.conditions(), **result,
                "cache_key": key if _cacheable(result) else None}
         rows[m.id] = row
@@ -531,7 +541,7 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         bar(None)
 
         ordered = tuple(
-            {c: rows[m.id].get(c, math.nan if c not in ("error", "status") else "") for c in COLUMNS}
+            {c: rows[m.id].get(c, math.nan if c not in ("error", "status", "mode_source") else "") for c in COLUMNS}
             | {"detail": rows[m.id].get("detail"), "warnings": list(rows[m.id].get("warnings") or [])}
             for m in cfg.measurements
         )
@@ -553,6 +563,22 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         if own_pool is not None:
             own_pool.shutdown()
     return result
+
+
+def read_selection(m: Measurement) -> str | None:
+    """The text of a measurement's mode selection (None without one).
+
+    Raises
+    ------
+    EmaRigError
+        When the file cannot be read (naming it).
+    """
+    if m.selection is None:
+        return None
+    try:
+        return m.selection.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise EmaRigError(f"cannot read the mode selection: {exc}", file=m.selection) from None
 
 
 def _expected_cost(file: Path, previous: Path | None) -> tuple[float, float]:

@@ -41,9 +41,9 @@ from ..config import (
 from ..errors import ConfigError
 
 _TOP_KEYS = ("rig", "calibration", "k_disk", "k_disk_std", "title", "defaults", "bearings", "measurement", "output")
-_MEAS_KEYS = ("file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags", "id")
-_DEFAULT_KEYS = ("band", "max_order")
-_BEARING_KEYS = ("k_lower", "k_upper", "hertz", "label", *BEARING_GEOMETRY_KEYS)
+_MEAS_KEYS = ("file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags", "id", "selection")
+_DEFAULT_KEYS = ("band", "max_order", "selection")
+_BEARING_KEYS = ("k_lower", "k_upper", "hertz", "label", "selection", *BEARING_GEOMETRY_KEYS)
 _OUTPUT_KEYS = ("stiffness_unit", "damping_unit", "measurement_figures")
 
 #: Characters refused in a measurement id: path separators and what some file systems reserve.
@@ -73,6 +73,11 @@ class Measurement:
     repeat : int
         Repeat number (1 when not given).
     tags : tuple of str
+    selection : Path or None
+        A saved mode selection (JSON, e.g. picked with ``PolePicker``) replayed on this
+        measurement instead of the automatic identification: the measurement's own
+        ``selection``, else its bearing's (``[bearings.NAME] selection``), else
+        ``[defaults] selection``.
     """
 
     id: str
@@ -83,6 +88,7 @@ class Measurement:
     shaft_position: float = math.nan
     repeat: int = 1
     tags: tuple[str, ...] = ()
+    selection: Path | None = None
 
     @property
     def rotating(self) -> bool:
@@ -186,6 +192,7 @@ class CampaignConfig:
             "identification": {k: list(v) if isinstance(v, tuple) else v
                                for k, v in self.rig.identification.items()},
             "unit_preference": self.rig.unit_preference,
+            "unit_ordinate": self.rig.unit_ordinate,
             "calibration": None if self.calibration is None else str(self.calibration),
             "k_disk": self.k_disk,
             "k_disk_std": self.k_disk_std,
@@ -270,6 +277,23 @@ def _existing_file(v: Any, key: str, fname: str, base: Path) -> Path:
     return q
 
 
+def _selection_file(table: Mapping[str, Any], where: str, fname: str, base: Path) -> Path | None:
+    """The ``selection`` key of a table: an existing mode-selection JSON file, or None."""
+    if "selection" not in table:
+        return None
+    key = f"{where}.selection"
+    q = _existing_file(table["selection"], key, fname, base)
+    from ..errors import EmaRigError
+    from ..identification import Selection
+
+    try:
+        Selection.from_json(q)
+    except (EmaRigError, OSError, UnicodeDecodeError) as exc:
+        msg = exc.message if isinstance(exc, EmaRigError) else str(exc)
+        raise ConfigError(f"{q.name}: {msg}", file=fname, key=key) from None
+    return q
+
+
 def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
     """Read and validate a campaign file.
 
@@ -291,6 +315,9 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
     p = Path(path).resolve()
     fname = str(path)
     doc = read_toml(p)
+    if "model" in doc and "measurement" not in doc:
+        raise ConfigError("this is a rig file, not a campaign file (README, 'Campaign file'): a campaign names "
+                          "it with rig = \"...\" and lists [[measurement]] tables", file=fname)
     check_keys(doc, _TOP_KEYS, "", fname)
     base = p.parent
 
@@ -309,6 +336,8 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
     check_keys(defaults, _DEFAULT_KEYS, "defaults", fname)
     band = toml_band(defaults["band"], "defaults.band", fname) if "band" in defaults else None
     max_order = toml_int(defaults["max_order"], "defaults.max_order", fname, lo=2) if "max_order" in defaults else None
+    default_sel = _selection_file(defaults, "defaults", fname, base)
+    bearing_sel: dict[str, Path | None] = {}
 
     bearings: dict[str, BearingInfo] = {}
     raw_b = toml_table(doc, "bearings", fname, required=False)
@@ -332,6 +361,7 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
 
             geometry = BEARING_6302
         label = toml_str(t["label"], f"{where}.label", fname) if "label" in t else ""
+        bearing_sel[str(name)] = _selection_file(t, where, fname, base)
         bearings[str(name)] = BearingInfo(k_lo, k_hi, hertz, label, geometry)
 
     output = toml_table(doc, "output", fname, required=False)
@@ -387,16 +417,21 @@ def load_campaign(path: str | PathLike[str]) -> CampaignConfig:
             v = toml_number(mm[k], f"{w}.{k}", fname, lo=lo)
             return CONDITION_RANGES[k].check(v, f"{w}.{k}", fname) if k in CONDITION_RANGES else v
 
+        bearing = toml_str(m["bearing"], f"{where}.bearing", fname) if "bearing" in m else ""
+        sel = _selection_file(m, where, fname, base)
+        if sel is None:
+            sel = bearing_sel.get(bearing) or default_sel
         meas.append(
             Measurement(
                 id=mid,
                 file=fpath,
-                bearing=toml_str(m["bearing"], f"{where}.bearing", fname) if "bearing" in m else "",
+                bearing=bearing,
                 radial_load=num("radial_load", math.nan, 0.0),
                 speed=num("speed", 0.0, 0.0),
                 shaft_position=num("shaft_position", math.nan, None),
                 repeat=toml_int(m["repeat"], f"{where}.repeat", fname, lo=1) if "repeat" in m else 1,
                 tags=tuple(tags),
+                selection=sel,
             )
         )
     for name, info in bearings.items():  # the Hertz curve is drawn over these loads after the measurements

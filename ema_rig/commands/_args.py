@@ -107,8 +107,27 @@ class BandAction(argparse.Action):
         setattr(namespace, self.dest, (lo, hi))
 
 
-__all__ = ["BandAction", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
+__all__ = ["BandAction", "add_units_argument", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
            "positive_float", "positive_int", "positive_stiffness"]
+
+
+def units(text: str) -> str:
+    """``--units``: a response unit for FRF datasets without a unit label (``g``, ``m/s^2``, ``mm/s`` ...)."""
+    from ..io._uff_units import response_unit
+
+    try:
+        response_unit(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+def add_units_argument(parser: argparse.ArgumentParser) -> None:
+    """Register ``--units UNIT`` (the same option for every command that reads FRFs)."""
+    parser.add_argument("--units", type=units, default=None, metavar="UNIT",
+                        help="response unit of FRF datasets that carry no unit label, e.g. g, m/s^2, mm/s (per N "
+                             "unless the file says otherwise; default: the rig file's [units] ordinate). A unit "
+                             "label in the file always wins")
 
 
 def pm(std: float | None, scale: float = 1.0) -> str:

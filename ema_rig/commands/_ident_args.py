@@ -21,6 +21,7 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: the rig file's, else 256 for one reference, 160 for several)")
     parser.add_argument("--selection", default=None, metavar="JSON",
                         help="replay a saved mode selection instead of the automatic one")
+    _args.add_units_argument(parser)
     parser.add_argument("--refine", action="store_true", default=None,
                         help="maximum-likelihood refinement after PolyMAX: every mode's +/- from the "
                              "Fisher information (noise only, not model error; slower). Default: the rig "
@@ -48,7 +49,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
     if args.max_order is not None and args.max_order < 1:
         raise EmaRigError(f"--max-order must be >= 1, got {args.max_order}", file=args.file)
     rig = load_rig(args.rig) if args.rig else None
-    data = read_uff58(args.file, rig=rig)
+    data = read_uff58(args.file, rig=rig, units=args.units)
     data = data.with_meta(file=str(args.file))
     band = tuple(args.band) if args.band is not None else None
     max_order = args.max_order
@@ -73,7 +74,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
             raise
         head = "; " if "the measurement itself is suspect" in exc.message else "; the measurement itself is suspect: "
         raise IdentificationError(exc.message + head + "; ".join(findings), file=exc.file) from None
-    findings = diagnose_file(args.file, data.band(*ident.band))
+    findings = [f for f in diagnose_file(args.file, data.band(*ident.band)) if f"data: {f}" not in ident.warnings]
     if findings:
         ident = replace(ident, warnings=ident.warnings + tuple(f"data: {f}" for f in findings))
     return data, ident

@@ -11,6 +11,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig calibrate``."""
     parser.add_argument("file", metavar="DISK_FILE", help="UFF58 measurement with the steel disk mounted")
     parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
+    _args.add_units_argument(parser)
     parser.add_argument("--k-disk", type=_args.positive_float, default=None, metavar="V",
                         help="finite disk stiffness [N/m] in series (default: the rig file's [calibration] "
                              "k_disk, else rigid, as the paper)")
@@ -47,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     if args.max_order is not None and args.max_order < 2:
         raise EmaRigError(f"--max-order must be >= 2, got {args.max_order}", file=args.file)
     rig = load_rig(args.rig)
-    data = read_uff58(args.file, rig=rig).with_meta(file=str(args.file))
+    data = read_uff58(args.file, rig=rig, units=args.units).with_meta(file=str(args.file))
     if args.k_disk_std is not None and args.k_disk is None:
         raise EmaRigError("--k-disk-std needs --k-disk", file=args.file)
     try:

@@ -114,8 +114,10 @@ def run(args: argparse.Namespace) -> int:
                           ids=(f"{o} / {q} coherence", "ema_rig", date, f"averages: {est.n_averages}", "NONE"))
         for i, o in enumerate(data.out_dofs) for j, q in enumerate(data.in_dofs)
     )
+    assumed = any("no unit label and no dataset 164" in n for n in td_notes)
     with atomic_path(args.output) as tmp:
-        write_uff58(tmp, data, binary=args.binary, rig=rig, history=history)
+        # an assumed unit is never written as if it were the file's label
+        write_uff58(tmp, data, binary=args.binary, rig=rig, history=history, labelled=not assumed)
         with open(tmp, "ab") as fh:
             fh.write(coh)
     print(f"file   {args.file}: {td_text}")
@@ -128,9 +130,10 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {o} / {q}: coherence median {np.median(c):.3f}, min {c.min():.3f}")
     for note in td_notes:
         print(f"note   {note}")
-    if any("no unit label and no dataset 164" in n for n in td_notes):
-        warnings.warn(f"{args.file}: time histories without unit labels or dataset 164: force taken as N and "
-                      f"response as SI ({data.unit_str} written)", UnitWarning, stacklevel=1)
+    if assumed:
+        warnings.warn(f"{args.file}: time histories without unit labels or dataset 164: force taken as N and response as SI "
+                      f"({data.unit_str}); the FRF file carries no unit label either (give its unit with --units "
+                      "when reading it)", UnitWarning, stacklevel=1)
     for w in est.warnings:
         warnings.warn(f"{args.file}: {w}", IdentificationWarning, stacklevel=1)
     print(f"band   usable up to {history.band[1]:g} Hz ({ANTI_ALIAS_FRACTION:g} x fs/2, the anti-alias limit), "

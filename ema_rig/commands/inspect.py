@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
+from . import _args
+
 if TYPE_CHECKING:
     from ..frf import FRFData
 
@@ -18,6 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig inspect``."""
     parser.add_argument("file", metavar="FILE", help="UFF file (dataset 58 / 58b)")
     parser.add_argument("--rig", metavar="R", help="rig file (TOML): also assemble the FRFs with it")
+    _args.add_units_argument(parser)
     parser.add_argument("--json", metavar="OUT", help="write the dataset list as JSON")
 
 
@@ -114,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
     text = format_table(report)
     if has_frf or rig is not None:
         try:
-            data = read_uff58(args.file, rig=rig)
+            data = read_uff58(args.file, rig=rig, units=args.units)
         except EmaRigError as exc:
             problem = problem or exc
         else:

@@ -22,6 +22,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar=("LO", "HI"),
                         help="identification band of the housing mode [Hz] (default: rig file, else 150 1000)")
     parser.add_argument("--max-order", type=_args.model_order, default=None, metavar="N", help="maximum PolyMAX order")
+    parser.add_argument("--selection", default=None, metavar="JSON",
+                        help="replay a saved mode selection (picked with PolePicker, or 'modes --save-selection') "
+                             "instead of the automatic identification; the housing mode is matched among its modes")
+    _args.add_units_argument(parser)
     parser.add_argument("--no-spindle", action="store_true",
                         help="skip the identification of the spindle bending mode (faster)")
     parser.add_argument("--fit", action="store_true",
@@ -42,6 +46,7 @@ def summary(res: Any) -> str:
     lines = [
         f"file          {res.file or '-'}",
         f"housing mode  {hm['natural_freq']:.2f}{_args.pm(sd)} Hz"
+        + ("" if getattr(res, "mode_source", "auto") == "auto" else f" (from a {res.mode_source})")
         + f", damping {100 * hm['damping_ratio']:.2f}{_args.pm(hm.get('damping_ratio_std'), 100)} %"
         + (f", modal mass {hm['modal_mass']:.2f} kg (model {hm['model_modal_mass']:.2f})"
            if hm.get("modal_mass") is not None else ""),
@@ -104,12 +109,11 @@ def run(args: argparse.Namespace) -> int:
     if args.max_order is not None and args.max_order < 2:
         raise EmaRigError(f"--max-order must be >= 2, got {args.max_order}", file=args.file)
     rig = load_rig(args.rig)
-    data = read_uff58(args.file, rig=rig)
+    data = read_uff58(args.file, rig=rig, units=args.units)
     data = data.with_meta(file=str(args.file))
-    speed_hz = None if not args.speed else args.speed / 60.0
     try:
         res = estimate_stiffness(
-            data, rig, k_ms=args.k_ms, k_ms_std=args.k_ms_std, speed_hz=speed_hz,
+            data, rig, k_ms=args.k_ms, k_ms_std=args.k_ms_std, speed_rpm=args.speed, selection=args.selection,
             band=None if args.band is None else tuple(args.band), max_order=args.max_order,
             spindle=not args.no_spindle, fit=args.fit, progress=True, damping_model=args.damping_model,
         )

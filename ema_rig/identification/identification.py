@@ -510,6 +510,11 @@ def identify(
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
                         f"(above {100 * POOR_FIT:.0f} %); modes may be missing or the data noisy")
     warnings += _edge_warnings(model, stab.band)
+    # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
+    # from the API as from the command line
+    from .diagnose import diagnose_frf
+
+    warnings += [f"data: {f}" for f in diagnose_frf(data) if f"data: {f}" not in warnings]
     ident = Identification(
         poles=stab.poles,
         stabilization=stab,

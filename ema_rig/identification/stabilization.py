@@ -349,6 +349,13 @@ class Selection:
     def __len__(self) -> int:
         return len(self.modes)
 
+    def __repr__(self) -> str:
+        """One line: the modes' frequencies with their provenance, band, order and source."""
+        freqs = ", ".join(f"{m.natural_freq:.1f}" for m in self.modes[:8]) + (", ..." if len(self.modes) > 8 else "")
+        kinds = sorted({m.provenance for m in self.modes})
+        return (f"Selection({len(self.modes)} modes [{', '.join(kinds)}]: {freqs} Hz; band "
+                f"{self.band[0]:g}-{self.band[1]:g} Hz, order {self.max_order}; source {self.source})")
+
     @property
     def poles(self) -> NDArray[np.complex128]:
         """Representative poles [rad/s], shape (n_modes,)."""

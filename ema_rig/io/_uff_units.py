@@ -76,13 +76,50 @@ _AXIS_WORDS = {
 }
 
 
-def decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str | None) -> UnitDecision:
+def response_unit(label: str) -> Unit:
+    """Check a response unit given by the user for files without a unit label (``--units``, ``[units] ordinate``).
+
+    Parameters
+    ----------
+    label : str
+        A displacement, velocity or acceleration unit (``"g"``, ``"m/s^2"``, ``"mm/s"``, ``"um"``),
+        optionally per force (``"g/N"``, ``"(m/s)/lbf"``).
+
+    Returns
+    -------
+    Unit
+
+    Raises
+    ------
+    ValueError
+        Naming the label and what is allowed.
+    """
+    unit = parse_unit(label)
+    dims = None if unit is None else (unit.dims[0], unit.dims[1], 0) if unit.dims[2] in (0, -1) else None
+    if unit is None or dims not in _FORM_DIMS:
+        raise ValueError(f"unit {label!r} is not a displacement, velocity or acceleration unit (optionally per "
+                         "force), e.g. g, m/s^2, mm/s, um, g/N")
+    return unit
+
+
+def decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str | None,
+           assumed: str | None = None) -> UnitDecision:
     """Decide FRF form and SI factor of one dataset-58 FRF (see :func:`_decide`).
 
     A free-text axis label naming another FRF form (``"Receptance"`` over ``(m/s)/N``) does not
-    decide anything, but the disagreement is added to the decision text.
+    decide anything, but the disagreement is added to the decision text. ``assumed`` (a unit
+    checked by :func:`response_unit`) stands in for a missing ordinate unit label; a file's own
+    label always wins.
     """
-    dec = _decide(h, units164, preference)
+    num_lab = str(h.get("ordinate_axis_units_lab", ""))
+    if assumed is not None and is_no_label(num_lab):
+        h = {**h, "ordinate_axis_units_lab": assumed}
+        dec = _decide(h, units164, preference)
+        dec = UnitDecision(dec.frf_form, dec.factor,
+                           f"{dec.text}; the file has no unit label: {assumed!r} given by the user (--units or "
+                           "the rig file's [units] ordinate)")
+    else:
+        dec = _decide(h, units164, preference)
     if not (math.isfinite(dec.factor) and dec.factor > 0.0):
         raise UnitRangeError(f"unit conversion factor {dec.factor:g} is not finite and positive ({dec.text})")
     lab = h.get("ordinate_axis_lab", "")

@@ -78,6 +78,7 @@ def dataset_bytes(
     frf_form: str,
     unit_label: str,
     ids: tuple[str, str, str, str, str],
+    force_label: str = "N",
 ) -> bytes:
     """The bytes of one dataset 58/58b (from the opening to the closing ``-1`` line, LF ends).
 
@@ -102,7 +103,7 @@ def dataset_bytes(
         + f"{0.0:13.6E}",
         _fmt_axis(18, 0, 0, "Frequency", "Hz"),
         _fmt_axis(code, 1, 0, frf_form.capitalize(), unit_label),
-        _fmt_axis(13, 0, 1, "Force", "N"),
+        _fmt_axis(13, 0, 1, "Force", force_label),
         _fmt_axis(0, 0, 0, "NONE", "NONE"),
     ]
     parts = [y.real] if is_real else [y.real, y.imag]

@@ -236,6 +236,22 @@ def _nonfinite(y: NDArray[Any], x: NDArray[np.float64] | None) -> tuple[int, int
 MAX_FILE_BYTES = 1 << 34
 """Largest UFF file read (16 GiB); larger files are refused before reading."""
 _HEAD_BYTES = 1 << 16
+
+
+def _toml_hint(head: bytes) -> str | None:
+    """What an ema_rig TOML file given where a UFF file belongs is, and the command for it."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads(head.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    if "measurement" in doc:
+        return "it is a campaign file (TOML); run it with 'ema-rig campaign FILE'"
+    if "model" in doc or "sensor" in doc:
+        return ("it is a rig file (TOML); give it as '--rig FILE' and the UFF measurement as the file, "
+                "e.g. 'ema-rig stiffness MEASUREMENT.uff --rig FILE'")
+    return None
 _HEAD_OK = re.compile(rb"(?:\xef\xbb\xbf)?(?:[ \t]*(?:\r\n|\r|\n))*[ \t]*-1[ \t]*(?:\r|\n|\Z)")
 
 
@@ -277,7 +293,8 @@ def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
                 if not head.strip():
                     raise UFFError("empty file (no UFF dataset)", file=p)
                 raise UFFError(
-                    "not a UFF file: the first line that is not blank is not the dataset delimiter '    -1'",
+                    "not a UFF file: " + (_toml_hint(head) or
+                                          "the first line that is not blank is not the dataset delimiter '    -1'"),
                     file=p,
                 )
             if len(head) < _HEAD_BYTES:
@@ -400,7 +417,8 @@ def _match_ref(rig: RigConfig, d: DOF) -> DOF | None:
 
 
 def read_uff58(
-    path: str | PathLike[str], *, rig: RigConfig | None = None, freq_rtol: float = 1e-6
+    path: str | PathLike[str], *, rig: RigConfig | None = None, freq_rtol: float = 1e-6,
+    units: str | None = None,
 ) -> FRFData:
     """Read all FRF datasets of a UFF58 file into one FRFData in SI units.
 
@@ -414,6 +432,10 @@ def read_uff58(
     freq_rtol : float, optional
         Tolerance for comparing frequency axes between datasets, relative to the highest
         frequency. Axes that differ more are an error; nothing is resampled.
+    units : str, optional
+        Response unit of FRF datasets that carry no ordinate unit label, e.g. ``"g"`` (per N
+        unless the denominator says otherwise; ``ema-rig ... --units g``); default the rig
+        file's ``[units] ordinate``. A dataset's own label always wins.
 
     Returns
     -------
@@ -467,6 +489,12 @@ def read_uff58(
     uf = read_uff(path)
     src = uf.path
     pref = rig.unit_preference if rig is not None else None
+    assumed = units if units is not None else (rig.unit_ordinate if rig is not None else None)
+    if assumed is not None:
+        try:
+            _uff_units.response_unit(assumed)
+        except ValueError as exc:
+            raise UFFError(f"units: {exc}", file=src) from None
     current164: Mapping[str, Any] | None = None
     used: list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]] = []
     ignored_datasets: list[str] = []
@@ -497,7 +525,7 @@ def read_uff58(
                 "response or reference DOF missing: " + "; ".join(r.notes), file=src, dataset=r.index
             )
         try:
-            dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref)
+            dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref, assumed)
         except ValueError as exc:
             raise UFFError(str(exc), file=src, dataset=r.index) from None
         used.append((r, dec, current164))
@@ -703,6 +731,7 @@ def write_uff58(
     rig: RigConfig | None = None,
     abscissa: str = "auto",
     history: ProcessingHistory | None = None,
+    labelled: bool = True,
 ) -> None:
     """Write FRFs as UFF dataset 58 (ASCII) or 58b (binary), one dataset per (output, input).
 
@@ -731,6 +760,10 @@ def write_uff58(
     history : ProcessingHistory, optional
         How the FRFs were estimated (window, exponential decay, averaging, band): written as a
         dataset 1858 before every dataset 58 and read back into ``meta["processing"]``.
+    labelled : bool, optional
+        Write the unit labels (default). False when the units were assumed, not known (time
+        histories without unit labels): the labels say ``NONE``, the ordinate code still names
+        the quantity, and a reader assumes SI with a note instead of reading an assumption as fact.
 
     Raises
     ------
@@ -792,7 +825,8 @@ def write_uff58(
             chunks.append(
                 _uff_write.dataset_bytes(
                     x=freq, y=y, even=even, binary=binary, double=double, response=o_w, reference=q_w,
-                    frf_form=data.frf_form, unit_label=label, ids=ids,
+                    frf_form=data.frf_form, unit_label=label if labelled else "NONE", ids=ids,
+                    force_label="N" if labelled else "NONE",
                 )
             )
     try:

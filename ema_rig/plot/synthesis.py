@@ -43,6 +43,8 @@ class SynthesisPlot:
         One line per channel.
     channels : list of tuple of int
         ``(output index, reference index)`` of each panel.
+    phase_axes : list of Axes
+        With ``phase=True``: the phase panel under each magnitude panel [deg].
     """
 
     figure: Figure
@@ -50,6 +52,7 @@ class SynthesisPlot:
     measured: list[Any] = field(default_factory=list)
     synthesized: list[Any] = field(default_factory=list)
     channels: list[tuple[int, int]] = field(default_factory=list)
+    phase_axes: list[Axes] = field(default_factory=list)
 
 
 def plot_synthesis(
@@ -60,6 +63,8 @@ def plot_synthesis(
     max_channels: int = 12,
     margin: float = 0.1,
     title: str | None = None,
+    phase: bool = False,
+    fig_width: float | None = None,
 ) -> SynthesisPlot:
     """Overlay measured and synthesised FRFs, one panel per channel.
 
@@ -80,6 +85,10 @@ def plot_synthesis(
         inside the band, the margin shows where it stops being so.
     title : str, optional
         Figure title (default: the source file and the band).
+    phase : bool, optional
+        Also draw the phase [deg] under each magnitude panel (default False).
+    fig_width : float, optional
+        Figure width [inch] (default 11 for two columns, 7 for one).
 
     Returns
     -------
@@ -104,12 +113,27 @@ def plot_synthesis(
     n = len(channels)
     ncol = 2 if n > 1 else 1
     nrow = math.ceil(n / ncol)
-    fig = Figure(figsize=(11.0 if ncol == 2 else 7.0, 1.0 + 2.0 * nrow), layout="constrained")
-    axs = fig.subplots(nrow, ncol, sharex=True, squeeze=False)
+    w = fig_width if fig_width is not None else (11.0 if ncol == 2 else 7.0)
+    fig = Figure(figsize=(w, 1.0 + (3.0 if phase else 2.0) * nrow), layout="constrained")
+    if phase:
+        grid = fig.subplots(2 * nrow, ncol, sharex=True, squeeze=False, height_ratios=[2.0, 1.0] * nrow)
+        axs, paxs = grid[0::2], grid[1::2]
+    else:
+        axs, paxs = fig.subplots(nrow, ncol, sharex=True, squeeze=False), None
     out = SynthesisPlot(figure=fig)
     in_band = (meas.freq >= lo) & (meas.freq <= hi)
     for k, (i, j) in enumerate(channels):
         ax = axs[k // ncol][k % ncol]
+        if paxs is not None:
+            pax = paxs[k // ncol][k % ncol]
+            pax.plot(meas.freq, np.degrees(np.angle(meas.frf[i, j])), color="k", lw=0.9)
+            pax.plot(meas.freq, np.degrees(np.angle(syn.frf[i, j])), color="C3", lw=0.9, ls="--")
+            pax.axvspan(lo, hi, color="C0", alpha=0.06, lw=0)
+            pax.set_ylim(-190, 190)
+            pax.set_yticks([-180, -90, 0, 90, 180])
+            pax.grid(True, alpha=0.25)
+            pax.set_ylabel("phase [deg]", fontsize=8)
+            out.phase_axes.append(pax)
         m = np.abs(meas.frf[i, j])
         s = np.abs(syn.frf[i, j])
         (lm,) = ax.semilogy(meas.freq, m, color="k", lw=1.0, label="measured")
@@ -131,7 +155,9 @@ def plot_synthesis(
         out.channels.append((i, j))
     for k in range(n, nrow * ncol):  # unused panels of the last row
         axs[k // ncol][k % ncol].set_visible(False)
-    for ax in axs[-1]:
+        if paxs is not None:
+            paxs[k // ncol][k % ncol].set_visible(False)
+    for ax in (axs if paxs is None else paxs)[-1]:
         ax.set_xlabel("frequency [Hz]")
     axs[0][0].legend(fontsize=8, loc="lower right")
     src = str(modes.meta.get("file") or data.meta.get("file") or data.meta.get("source") or "")

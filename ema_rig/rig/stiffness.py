@@ -75,6 +75,7 @@ __all__ = [
     "calibrate",
     "default_band",
     "estimate_stiffness",
+    "mode_source",
 ]
 
 logger = logging.getLogger(__name__)
@@ -154,15 +155,19 @@ def _identify_and_match(
     spindle: bool,
     progress: bool,
     file: str | None,
+    ident: Any = None,
 ) -> tuple[Any, Any, MatchResult, tuple[float, float], tuple[float, float] | None]:
-    b = default_band(data, rig, band)
     mo = _max_order(rig, max_order)
-    try:
-        ident = _identify(data, b, mo, progress, rig)
-    except EmaRigError as exc:
-        if exc.file is None and file is not None:
-            exc.file = file
-        raise
+    if ident is not None:  # the caller's modes (a pick, a replayed selection)
+        b = (float(ident.band[0]), float(ident.band[1]))
+    else:
+        b = default_band(data, rig, band)
+        try:
+            ident = _identify(data, b, mo, progress, rig)
+        except EmaRigError as exc:
+            if exc.file is None and file is not None:
+                exc.file = file
+            raise
     m = match_modes(ident.modes, rig, natural_freq_std=ident.natural_freq_std, speed_hz=speed_hz, file=file)
     s_ident, s_band = None, None
     if spindle and m.spindle_mode is None:
@@ -183,6 +188,62 @@ def _identify_and_match(
                         spindle_modes=s_ident.modes, file=file,
                     )
     return ident, s_ident, m, b, s_band
+
+
+#: What ``StiffnessResult.mode_source`` says for each provenance of the housing mode's selection.
+MODE_SOURCES: dict[str, str] = {"auto": "replay", "manual": "pick", "near": "replay", "tracked": "tracked replay"}
+
+
+def mode_source(ident: Any, natural_freq: float) -> str:
+    """Where the mode at ``natural_freq`` [Hz] of a given identification came from.
+
+    ``"pick"`` (picked by hand on these data), ``"replay"`` (a saved selection found again, exactly
+    or within the replay window) or ``"tracked replay"`` (a saved mode matched by frequency order
+    only: check it on the chart); the selected mode nearest in frequency decides.
+    """
+    modes = getattr(getattr(ident, "selection", None), "modes", ())
+    if not modes:
+        return "replay"
+    best = min(modes, key=lambda sm: abs(sm.natural_freq - natural_freq))
+    return MODE_SOURCES.get(best.provenance, "replay")
+
+
+def _speed_hz(speed_hz: float | None, speed_rpm: float | None, file: str | None) -> float | None:
+    """The shaft speed [Hz] from ``speed_hz`` or ``speed_rpm`` (not both)."""
+    if speed_rpm is None:
+        return speed_hz
+    if speed_hz is not None:
+        raise ValueError("give speed_hz or speed_rpm, not both")
+    if not (math.isfinite(speed_rpm) and speed_rpm >= 0):
+        raise InversionError(f"speed_rpm must be finite and >= 0 [rpm], got {speed_rpm!r}", file=file)
+    return speed_rpm / 60.0 if speed_rpm > 0 else None
+
+
+def _given_identification(data: FRFData, rig: RigConfig, identification: Any, selection: Any,
+                          band: tuple[float, float] | None, max_order: int | None, progress: bool,
+                          file: str | None) -> Any:
+    """The identification the caller gave, or ``selection`` replayed on ``data``; None for automatic."""
+    if identification is not None and selection is not None:
+        raise ValueError("give identification or selection, not both")
+    if identification is not None:
+        if not hasattr(identification, "modes") or not hasattr(identification, "band"):
+            raise TypeError(f"identification must be an Identification, got {type(identification).__name__}")
+        return identification
+    if selection is None:
+        return None
+    from ..identification import Selection, identify
+
+    if not isinstance(selection, Selection):
+        selection = Selection.from_json(selection)  # a path; a bad file raises naming it
+    cfg = rig.identification
+    if cfg.get("n_averages") is not None:
+        data = data.with_meta(n_averages=float(cfg["n_averages"]))
+    try:
+        return identify(data, band=band, max_order=max_order, selection=selection, progress=progress,
+                        refine=bool(cfg.get("refine", False)))
+    except EmaRigError as exc:
+        exc.file = exc.file or file
+        raise
 
 
 # --------------------------------------------------------------------------- results
@@ -234,6 +295,9 @@ class StiffnessResult:
         One-line caveats; without any, ``k_TB`` lies within 2 ``k_TB_std`` of the truth.
     notes : tuple of str
         One-line information that is not a caveat (default tolerances applied).
+    mode_source : str
+        Where the housing mode came from: ``"auto"`` (automatic identification), ``"pick"``,
+        ``"replay"`` or ``"tracked replay"`` (see :func:`mode_source`).
     """
 
     k_TB: float
@@ -259,6 +323,16 @@ class StiffnessResult:
     damping_model: str = "viscous"
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    mode_source: str = "auto"
+
+    def __str__(self) -> str:
+        """``k_TB = 71.7 ± 0.1 (meas.) ± 2.7 (total) MN/m`` and the housing mode, one line each."""
+        hm = self.housing_mode
+        lines = [f"k_TB = {self.k_TB / 1e6:.2f} ± {self.k_TB_std_measured / 1e6:.2g} (meas.) "
+                 f"± {self.k_TB_std / 1e6:.2g} (total) MN/m",
+                 f"housing mode {hm.get('natural_freq', math.nan):.1f} Hz ({self.mode_source}), "
+                 f"k_MS = {self.k_MS / 1e6:.1f} MN/m"]
+        return "\n".join([*lines, *(f"warning: {w}" for w in self.warnings)])
 
     def __repr__(self) -> str:
         """k_TB with its measured and total standard uncertainty, the housing mode, the warnings."""
@@ -294,6 +368,7 @@ class StiffnessResult:
             "k_MS_std": self.k_MS_std,
             "inverted_freq": self.inverted_freq,
             "damping_model": self.damping_model,
+            "mode_source": self.mode_source,
             "warnings": list(self.warnings),
             "notes": list(self.notes),
             "housing_mode": dict(self.housing_mode),
@@ -349,6 +424,13 @@ class CalibrationResult:
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
 
+    def __str__(self) -> str:
+        """``k_MS = 114.0 ± 0.05 (meas.) ± 6.6 (total) MN/m`` and the warnings, one line each."""
+        lines = [f"k_MS = {self.k_MS / 1e6:.2f} ± {self.k_MS_std_measured / 1e6:.2g} (meas.) "
+                 f"± {self.k_MS_std / 1e6:.2g} (total) MN/m",
+                 f"housing mode {self.housing_mode.get('natural_freq', math.nan):.1f} Hz with the steel disk"]
+        return "\n".join([*lines, *(f"warning: {w}" for w in self.warnings)])
+
     def __repr__(self) -> str:
         """k_MS with its measured and total standard uncertainty and the warnings."""
         lines = [f"CalibrationResult(k_MS = {self.k_MS / 1e6:.3f} MN/m ± {self.k_MS_std_measured / 1e6:.3f} measured "
@@ -393,6 +475,9 @@ def estimate_stiffness(
     fit: bool = False,
     progress: bool = False,
     damping_model: str = "viscous",
+    identification: Any = None,
+    selection: Any = None,
+    speed_rpm: float | None = None,
 ) -> StiffnessResult:
     """Bearing stiffness ``k_TB`` of one measurement, with its uncertainty.
 
@@ -409,6 +494,8 @@ def estimate_stiffness(
         Its standard uncertainty [N/m]; default the rig file's relative ``k_MS`` uncertainty.
     speed_hz : float, optional
         Shaft speed [Hz] when the bearing rotates (harmonic lines are rejected).
+    speed_rpm : float, optional
+        The same in rpm (as the command line and campaign files give it); give one of the two.
     band : (float, float), optional
         Housing identification band [Hz]; default the rig file's, else 150–1000 Hz.
     max_order : int, optional
@@ -424,6 +511,14 @@ def estimate_stiffness(
     damping_model : {'viscous', 'hysteretic'}, optional
         Declared damping model: which undamped frequency the identified pole stands for
         (:func:`ema_rig.rig.uncertainty.undamped_freq`; the difference enters the budget).
+    identification : Identification, optional
+        Use these modes (e.g. ``identify(data, selection=picker.selection)``) instead of the
+        automatic identification; the housing mode is matched among them.
+    selection : Selection or path, optional
+        A mode selection (e.g. picked with :class:`~ema_rig.plot.picker.PolePicker` and saved
+        with ``Selection.to_json``), replayed on ``data`` (exactly on the data it was picked on,
+        else by nearest frequency or tracked by frequency order, with a warning); give either
+        ``identification`` or ``selection``. ``mode_source`` of the result says which.
 
     Returns
     -------
@@ -444,6 +539,8 @@ def estimate_stiffness(
     from .uncertainty import stiffness_uncertainty
 
     file = _file_of(data)
+    speed_hz = _speed_hz(speed_hz, speed_rpm, file)
+    ident_in = _given_identification(data, rig, identification, selection, band, max_order, progress, file)
     kms = rig.model.k_MS if k_ms is None else float(k_ms)
     if not (math.isfinite(kms) and kms > 0):
         raise InversionError(f"k_MS must be a finite positive stiffness [N/m], got {k_ms!r}", file=file)
@@ -451,9 +548,10 @@ def estimate_stiffness(
         raise InversionError(f"k_MS std must be finite and >= 0 [N/m], got {k_ms_std!r}", file=file)
     ident, s_ident, m, b, s_band = _identify_and_match(
         data, rig, band=band, max_order=max_order, speed_hz=speed_hz, spindle=spindle,
-        progress=progress, file=file,
+        progress=progress, file=file, ident=ident_in,
     )
     asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    source = mode_source(ident, float(m.housing_mode["natural_freq"])) if ident_in is not None else "auto"
     f_h = asm.inverted_freq
     f_std = measured_freq_std(m)
     unknown = [] if math.isfinite(f_std) else [
@@ -478,7 +576,7 @@ def estimate_stiffness(
         k_TB_MS_std=float(unc.k_TB_MS_std),
         k_MS=kms,
         k_MS_std=None if k_ms_std is None else float(k_ms_std),
-        housing_mode=_mode_with_std(m.housing_mode, ident, m.housing_index),
+        housing_mode={**_mode_with_std(m.housing_mode, ident, m.housing_index), "source": source},
         spindle_mode=None if m.spindle_mode is None else _mode_with_std(
             m.spindle_mode, ident if m.spindle_source == "modes" else s_ident, m.spindle_index),
         uncertainty_budget=budget,
@@ -496,6 +594,7 @@ def estimate_stiffness(
         damping_model=damping_model,
         warnings=asm.warnings + tuple(unknown) + tuple(f"identification: {w}" for w in ident.warnings),
         notes=tuple(defaults_note(unc)),
+        mode_source=source,
     )
 
 
