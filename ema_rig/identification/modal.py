@@ -206,7 +206,7 @@ class ModalModel:
             # LR (j w)^(p-2): finite at 0 Hz for accelerance (p = 2), a true pole there otherwise
             with np.errstate(divide="ignore", invalid="ignore"):
                 lr = np.ones_like(jw) if p == 2 else fac / (jw * jw)
-            lr_term = self.lower_residual[:, :, None] * lr
+                lr_term = self.lower_residual[:, :, None] * lr  # inf x residual at 0 Hz: not a number
             lr_term = np.where(self.lower_residual[:, :, None] == 0, 0.0, lr_term)
             h = h + lr_term + self.upper_residual[:, :, None] * fac
         return FRFData(f, h, self.out_dofs, self.in_dofs, frf_form=form, roles=self.roles, axes=self.axes)
