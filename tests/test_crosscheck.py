@@ -103,8 +103,9 @@ def test_dam0_mode_at_11_76_hz_is_flagged(real_frf_dir: Path):
     cc = crosscheck(data, ident)
     row = min(cc.rows, key=lambda r: abs(r.natural_freq - 11.76))
     assert abs(row.natural_freq - 11.76) < 0.05
-    # measured: 0.483 % vs 1.393 %, combined sigma 0.057 %: 16 sigma apart
-    assert abs(row.damping_ratio_peer - row.damping_ratio) > 5 * row.damping_sigma
+    # measured: 0.483 % vs 1.393 %; with the default ML sigma (issue 18: 0.31 % on this mode, which
+    # has < 1.3 lines per half-power bandwidth) the combined sigma is 0.31 %: 2.9 sigma apart
+    assert abs(row.damping_ratio_peer - row.damping_ratio) > 2 * row.damping_sigma
     assert "zeta" in row.flags
     line = next(ln for ln in cc.table().splitlines() if ln.strip().startswith(f"{row.natural_freq:.4f}"))
     assert line.rstrip().endswith(",".join(row.flags))
