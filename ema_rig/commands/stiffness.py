@@ -28,7 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also fit k_TB+MS, k_S, m_S, m_F to the FRFs in 150-700 Hz (paper Fig. 7)")
     parser.add_argument("--damping-model", choices=("viscous", "hysteretic"), default="viscous",
                         help="which undamped frequency the identified pole stands for (default viscous: "
-                             "|lambda|); the difference enters the budget as a model-form term")
+                             "|lambda|); the difference enters the budget as a model-form term. Also the "
+                             "bearing's damping model: a dashpot c_TB in parallel with k_TB (viscous) or "
+                             "k_TB (1 + j loss factor) (hysteretic)")
     parser.add_argument("--json", default=None, metavar="OUT",
                         help="write the result as JSON (on a refused match: the error and every candidate)")
     parser.add_argument("--plot", default=None, metavar="PNG",
@@ -53,6 +55,9 @@ def summary(res: Any) -> str:
         f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std_measured / 1e6:.3f} (measured) "
         f"+/- {res.k_TB_std / 1e6:.3f} (total) MN/m (1 sigma, {100 * res.k_TB_std_measured / res.k_TB:.2f} % / "
         f"{100 * res.k_TB_std / res.k_TB:.2f} %)",
+        "bearing damp. " + ("not available" if res.damping is None else
+                            f"c_TB {res.c_TB:.4g}{_args.pm(res.c_TB_std)} N s/m, loss factor "
+                            f"{res.loss_factor:.4f}{_args.pm(res.loss_factor_std)} ({res.damping.model} bearing)"),
         "budget        " + ", ".join(
             f"{t.name} {100 * t.share:.0f} % [{t.kind}]" for t in res.uncertainty.terms if t.share >= 0.005),
         f"candidates    {len(res.candidates)} modes considered:",

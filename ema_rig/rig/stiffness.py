@@ -234,6 +234,10 @@ class StiffnessResult:
         One-line caveats; without any, ``k_TB`` lies within 2 ``k_TB_std`` of the truth.
     notes : tuple of str
         One-line information that is not a caveat (default tolerances applied).
+    damping : BearingDamping or None
+        The bearing's damping ``c_TB`` [N s/m] and loss factor from the housing pole
+        (:func:`ema_rig.rig.damping.bearing_damping`, model ``damping_model``); None when the
+        pole gives no finite bearing impedance.
     """
 
     k_TB: float
@@ -259,6 +263,27 @@ class StiffnessResult:
     damping_model: str = "viscous"
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    damping: Any = None
+
+    @property
+    def c_TB(self) -> float:
+        """Bearing damping coefficient [N s/m] (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.c_TB)
+
+    @property
+    def c_TB_std(self) -> float:
+        """Its standard uncertainty [N s/m] (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.c_TB_std)
+
+    @property
+    def loss_factor(self) -> float:
+        """Bearing loss factor ``eta`` (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.loss_factor)
+
+    @property
+    def loss_factor_std(self) -> float:
+        """Its standard uncertainty (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.loss_factor_std)
 
     def __repr__(self) -> str:
         """k_TB with its measured and total standard uncertainty, the housing mode, the warnings."""
@@ -305,7 +330,16 @@ class StiffnessResult:
             "speed_hz": self.speed_hz,
             "candidates": [c.to_dict() for c in self.match.candidates],
             "fit": None if self.fit is None else self.fit.to_dict(),
+            **_damping_keys(self.damping),
         }
+
+
+def _damping_keys(d: Any) -> dict[str, Any]:
+    """``c_TB``, ``c_TB_std``, ``loss_factor``, ``loss_factor_std`` (null when not available)."""
+    if d is None:
+        return {"c_TB": None, "c_TB_std": None, "loss_factor": None, "loss_factor_std": None,
+                "bearing_damping_model": None}
+    return {k: v for k, v in d.to_dict().items() if k != "k_TB_complex"}
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -468,6 +502,8 @@ def estimate_stiffness(
         raise InversionError(f"no positive bearing stiffness from {f_h:.2f} Hz", file=file)
     budget = {t.name: float(t.share) for t in unc.terms}
     rig_fit = _fit(data, rig, params, m) if fit else None
+    hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
+    damping = _bearing_damping(hm_std, params, rig, k_ms_std, damping_model)
     return StiffnessResult(
         k_TB=k_tb,
         k_TB_std=float(unc.k_TB_std),
@@ -475,7 +511,7 @@ def estimate_stiffness(
         k_TB_MS_std=float(unc.k_TB_MS_std),
         k_MS=kms,
         k_MS_std=None if k_ms_std is None else float(k_ms_std),
-        housing_mode=_mode_with_std(m.housing_mode, ident, m.housing_index),
+        housing_mode=hm_std,
         spindle_mode=None if m.spindle_mode is None else _mode_with_std(
             m.spindle_mode, ident if m.spindle_source == "modes" else s_ident, m.spindle_index),
         uncertainty_budget=budget,
@@ -493,7 +529,31 @@ def estimate_stiffness(
         damping_model=damping_model,
         warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
         notes=tuple(defaults_note(unc)),
+        damping=damping,
     )
+
+
+def _bearing_damping(hm: dict[str, Any], params: Any, rig: RigConfig, k_ms_std: float | None,
+                     damping_model: str) -> Any:
+    """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
+    from .damping import bearing_damping
+    from .uncertainty import DEFAULT_REL_UNCERTAINTY
+
+    rel = {**DEFAULT_REL_UNCERTAINTY, **dict(rig.uncertainty)}
+    if k_ms_std is not None:
+        rel["k_MS"] = float(k_ms_std) / params.k_MS
+
+    def std(key: str) -> float:
+        v = hm.get(key)
+        return float(v) if v is not None and math.isfinite(float(v)) else 0.0
+
+    try:
+        return bearing_damping(float(hm["natural_freq"]), float(hm["damping_ratio"]), params,
+                               natural_freq_std=std("natural_freq_std"), damping_ratio_std=std("damping_ratio_std"),
+                               rel_unc=rel, model=damping_model)
+    except (InversionError, ValueError, ZeroDivisionError) as exc:
+        logger.info("bearing damping not available: %s", exc)
+        return None
 
 
 def _fit(data: FRFData, rig: RigConfig, params: Any, m: MatchResult) -> Any:
