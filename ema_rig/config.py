@@ -13,7 +13,9 @@ The rig file's keys are a stable interface (README, "The rig file")::
 Optional tables (extensions, all keys optional):
 
 - ``[uncertainty]``: relative standard uncertainty (fraction, 0.01 = 1 %) of any of the seven
-  model parameters, used by the k_TB uncertainty budget.
+  model parameters, used by the k_TB uncertainty budget; ``force_chain``: that of the FRF scale
+  (force sensor x accelerometer calibration); stating it trusts the force chain, so the
+  driving-point modal mass measures ``m_H``.
 - ``[identification]``: ``band = [lo, hi]`` (Hz), ``max_order`` (int, the cap of the adaptive order),
   ``k_MS_band = [lo, hi]``, ``refine`` (bool: maximum-likelihood refinement after PolyMAX),
   ``n_averages`` (number of averages behind the FRFs and coherence, >= 1).
@@ -158,6 +160,10 @@ class RigConfig:
         Attached masses (``[[mass]]`` tables and sensor masses); already in ``model``.
     declared_model : ModelParams or None
         The ``[model]`` table as written (None: same as ``model``, no attached masses).
+    force_chain : float or None
+        ``[uncertainty] force_chain``: relative standard uncertainty of the FRF scale (force
+        sensor times accelerometer sensitivity). Given, the force chain is trusted: the
+        driving-point modal mass measures ``m_H``. None: not trusted.
     """
 
     model: ModelParams
@@ -174,6 +180,7 @@ class RigConfig:
     path: str | None = field(default=None, metadata={"cache_key": False})
     added_masses: tuple[AddedMass, ...] = ()
     declared_model: ModelParams | None = None
+    force_chain: float | None = None
 
     def sensor_for(self, dof: DOF) -> Sensor | None:
         """The sensor whose node and axis match ``dof`` (sign ignored), or None."""
@@ -409,8 +416,9 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         sensors.append(Sensor(dof, role, axis, s_mass, s_std, _position(s, where, fname)))
 
     unc_t = toml_table(doc, "uncertainty", fname, required=False)
-    check_keys(unc_t, MODEL_KEYS, "uncertainty", fname)
+    check_keys(unc_t, (*MODEL_KEYS, "force_chain"), "uncertainty", fname)
     uncertainty = {}
+    force_chain = None
     for k, v in unc_t.items():
         x = toml_number(v, f"uncertainty.{k}", fname)
         if not 0 <= x < 1:
@@ -419,7 +427,10 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
                 file=fname,
                 key=f"uncertainty.{k}",
             )
-        uncertainty[k] = x
+        if k == "force_chain":
+            force_chain = x
+        else:
+            uncertainty[k] = x
 
     id_t = toml_table(doc, "identification", fname, required=False)
     check_keys(id_t, ("band", "max_order", "k_MS_band", "refine", "n_averages"), "identification", fname)
@@ -486,6 +497,7 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         path=fname,
         added_masses=tuple(added),
         declared_model=declared if added else None,
+        force_chain=force_chain,
     )
 
 

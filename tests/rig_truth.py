@@ -102,6 +102,7 @@ class RigTruth:
     sensor_mass: float = 0.0  # kg on each of the five housing sensors, at its position
     declare_sensor_masses: bool = True  # the rig file lists them
     file_m_H_factor: float = 1.0  # the rig file's m_H / the truth's
+    file_force_chain: float | None = None  # [uncertainty] force_chain in the rig file (None: absent)
     c_TB: float = 0.0  # N s/m, damping='bearing_viscous'
     eta_TB: float = 0.0  # loss factor, damping='bearing_hysteretic'
 
@@ -205,6 +206,12 @@ class RigTruth:
             c[s, 9] = _FLEX_FRAME[s]
             c[s, 10] = _OVAL[s]
         return c
+
+    def housing_freq(self) -> float:
+        """Undamped natural frequency [Hz] of the housing's radial mode of this truth."""
+        m, k = self.matrices()
+        lam, phi = _eigh(k, m)
+        return float(math.sqrt(lam[_housing_index(lam, phi, m)]) / (2 * math.pi))
 
     def bearing_impedance(self, om: float) -> complex:
         """Bearing (with its dashpot or loss) in series with k_MS [N/m] at ``om`` rad/s."""
@@ -407,10 +414,13 @@ _SENSORS = (("11+Y", "housing", "radial"), ("12+Y", "housing", "radial"), ("13-Y
 
 
 def rig_text(params: dict[str, float] | None = None, *, drop: tuple[str, ...] = (),
-             sensor_mass: float = 0.0) -> str:
+             sensor_mass: float = 0.0, force_chain: float | None = None) -> str:
     """Rig file (TOML) for the truth's nominal parameters, without the sensors in ``drop``;
-    ``sensor_mass`` [kg] declared on each housing sensor, with its position."""
+    ``sensor_mass`` [kg] declared on each housing sensor, with its position; ``force_chain`` the
+    stated relative std of the FRF scale (the truth's scale is exact)."""
     text = RIG_TOML.format(**(params or TABLE1))
+    if force_chain is not None:
+        text += f"force_chain = {force_chain!r}\n"
     for dof, role, axis in _SENSORS:
         if dof.replace("-", "+") in drop:
             continue
@@ -463,7 +473,8 @@ def write_case(tmp: Path, name: str, truth: RigTruth, freq: NDArray[np.float64],
     params["m_H"] = params["m_H"] * truth.file_m_H_factor
     rig_path = tmp / f"{name}.toml"
     rig_path.write_text(rig_text(params, drop=drop,
-                                 sensor_mass=truth.sensor_mass if truth.declare_sensor_masses else 0.0),
+                                 sensor_mass=truth.sensor_mass if truth.declare_sensor_masses else 0.0,
+                                 force_chain=truth.file_force_chain),
                         encoding="utf-8")
     uff = write_uff(tmp / f"{name}.uff", measurement(truth, freq, **kw))  # type: ignore[arg-type]
     return uff, rig_path

@@ -487,12 +487,17 @@ def estimate_stiffness(
         data, rig, band=band, max_order=max_order, speed_hz=speed_hz, spindle=spindle,
         progress=progress, file=file,
     )
-    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file, data=data)
     f_h = asm.inverted_freq
     f_std = measured_freq_std(m)
     params = replace(rig.model, k_MS=kms)
+    rel_unc = dict(rig.uncertainty)
+    if asm.m_H is not None:
+        params = replace(params, m_H=float(asm.m_H))
+    if asm.m_H_rel_std is not None:
+        rel_unc["m_H"] = float(asm.m_H_rel_std)
     try:
-        unc = stiffness_uncertainty(f_h, f_std, params, dict(rig.uncertainty), k_MS_std=k_ms_std,
+        unc = stiffness_uncertainty(f_h, f_std, params, rel_unc, k_MS_std=k_ms_std,
                                     model_form=asm.model_form)
     except InversionError as exc:
         exc.file = exc.file or file
@@ -503,7 +508,7 @@ def estimate_stiffness(
     budget = {t.name: float(t.share) for t in unc.terms}
     rig_fit = _fit(data, rig, params, m) if fit else None
     hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
-    damping = _bearing_damping(hm_std, params, rig, k_ms_std, damping_model)
+    damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model)
     return StiffnessResult(
         k_TB=k_tb,
         k_TB_std=float(unc.k_TB_std),
@@ -528,18 +533,18 @@ def estimate_stiffness(
         inverted_freq=float(f_h),
         damping_model=damping_model,
         warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
-        notes=tuple(defaults_note(unc)),
+        notes=asm.notes + tuple(defaults_note(unc)),
         damping=damping,
     )
 
 
-def _bearing_damping(hm: dict[str, Any], params: Any, rig: RigConfig, k_ms_std: float | None,
+def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
                      damping_model: str) -> Any:
     """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
     from .damping import bearing_damping
     from .uncertainty import DEFAULT_REL_UNCERTAINTY
 
-    rel = {**DEFAULT_REL_UNCERTAINTY, **dict(rig.uncertainty)}
+    rel = {**DEFAULT_REL_UNCERTAINTY, **rel_unc}
     if k_ms_std is not None:
         rel["k_MS"] = float(k_ms_std) / params.k_MS
 

@@ -1,0 +1,246 @@
+"""Measured evidence of the housing on its bearing beyond the housing frequency.
+
+Functions
+---------
+driving_point_mass
+    The housing mode's effective modal mass at the radial driving point with its standard
+    uncertainty, from a local least-squares fit of the driving-point FRF at the identified poles.
+cross_axis_correction
+    The uncoupled radial housing frequency when a bearing cross stiffness couples the housing's
+    radial motion to its axial or lateral rigid-body motion (two-mode reduction).
+measured_housing_mass
+    ``m_H`` from the identified housing frequency and driving-point modal mass through the 3DOF
+    model (where the force chain is trusted).
+
+Classes
+-------
+DrivingPointMass, CrossAxisCorrection
+    Frozen results.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..config import ModelParams
+from ..frf import _FORM_POWER, FRFData
+from .matching import model_mode_at
+
+__all__ = [
+    "CrossAxisCorrection",
+    "DrivingPointMass",
+    "cross_axis_correction",
+    "driving_point_mass",
+    "measured_housing_mass",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class DrivingPointMass:
+    """Effective modal mass of one mode at the driving point.
+
+    Attributes
+    ----------
+    modal_mass, modal_mass_std : float
+        ``1 / (2 w_d |R_pp|)`` [kg] and its standard uncertainty from the fit residual [kg].
+    n_lines : int
+        Spectral lines used.
+    n_poles : int
+        Identified poles fitted together (the mode and its neighbours).
+    """
+
+    modal_mass: float
+    modal_mass_std: float
+    n_lines: int
+    n_poles: int
+
+
+def driving_point_mass(
+    freq: NDArray[np.float64],
+    frf: NDArray[np.complex128],
+    poles: NDArray[np.complex128],
+    index: int,
+    *,
+    frf_form: str = "accelerance",
+    window: float = 0.10,
+    pole_window: float = 0.40,
+) -> DrivingPointMass | None:
+    """Effective modal mass of mode ``index`` at the driving point, with its std.
+
+    Fits the driving-point receptance on the lines within ``+-window`` of the mode by the
+    identified poles within ``+-pole_window`` (each pole pair ``R / (jw - s) + R* / (jw - s*)`` with a free complex
+    residue ``R``) plus a complex constant and a complex ``1 / w^2`` term for the modes outside,
+    weighted by ``1 / |H|`` (relative noise). Linear least squares: the residue's covariance is
+    ``s^2 (A^T W A)^-1`` with ``s^2`` the weighted residual variance, so the std is measured from
+    the data's scatter about the modal model.
+
+    Parameters
+    ----------
+    freq : ndarray, shape (n_freq,)
+        Frequencies [Hz].
+    frf : ndarray, shape (n_freq,), complex
+        Driving-point FRF in ``frf_form`` (SI).
+    poles : ndarray, shape (n_modes,), complex
+        Identified poles [rad/s] (upper half plane).
+    index : int
+        The mode whose mass is wanted.
+    frf_form : {'receptance', 'mobility', 'accelerance'}
+    window : float
+        Relative half-width of the band of lines around the mode.
+    pole_window : float
+        Identified poles within this relative distance enter the fit with their own residues.
+
+    Returns
+    -------
+    DrivingPointMass or None
+        None when the band holds too few lines.
+    """
+    p = np.asarray(poles, dtype=complex)
+    f0 = abs(p[index]) / (2 * math.pi)
+    sel = (freq > f0 * (1 - window)) & (freq < f0 * (1 + window)) & (freq > 0)
+    w = 2 * math.pi * np.asarray(freq, dtype=float)[sel]
+    if w.size < 20:
+        return None
+    jw = 1j * w
+    h = np.asarray(frf)[sel] / jw ** _FORM_POWER[frf_form]
+    near = [r for r in range(p.size) if abs(abs(p[r]) / (2 * math.pi) / f0 - 1) < pole_window]
+    cols = []
+    for r in near:
+        s = p[r]
+        a = 1 / (jw - s) + 1 / (jw - np.conj(s))
+        b = 1j / (jw - s) - 1j / (jw - np.conj(s))
+        cols += [a, b]
+    cols += [np.ones_like(jw), 1j * np.ones_like(jw), 1 / w**2 + 0j, 1j / w**2]
+    a_mat = np.stack(cols, axis=1)
+    wt = 1.0 / np.maximum(np.abs(h), 1e-300)
+    a_real = np.concatenate([(a_mat * wt[:, None]).real, (a_mat * wt[:, None]).imag])
+    y = np.concatenate([(h * wt).real, (h * wt).imag])
+    coef, *_ = np.linalg.lstsq(a_real, y, rcond=None)
+    resid = y - a_real @ coef
+    dof = y.size - coef.size
+    if dof <= 0:
+        return None
+    s2 = float(resid @ resid) / dof
+    cov = s2 * np.linalg.pinv(a_real.T @ a_real)
+    k = near.index(index)
+    re, im = coef[2 * k], coef[2 * k + 1]
+    mag = math.hypot(re, im)
+    if not mag > 0:
+        return None
+    g = np.array([re, im]) / mag  # d|R| / d(re, im)
+    mag_std = math.sqrt(max(float(g @ cov[2 * k:2 * k + 2, 2 * k:2 * k + 2] @ g), 0.0))
+    wd = float(p[index].imag)
+    mass = 1.0 / (2 * wd * mag)
+    return DrivingPointMass(modal_mass=mass, modal_mass_std=mass * mag_std / mag, n_lines=int(w.size),
+                            n_poles=len(near))
+
+
+def driving_point_mass_of(data: FRFData, p: int, q: int, poles: NDArray[np.complex128], index: int
+                          ) -> DrivingPointMass | None:
+    """:func:`driving_point_mass` on ``data.frf[p, q]``."""
+    return driving_point_mass(data.freq, data.frf[p, q], poles, index, frf_form=data.frf_form)
+
+
+@dataclass(frozen=True, slots=True)
+class CrossAxisCorrection:
+    """Uncoupled radial housing frequency from a cross-coupled partner mode.
+
+    Attributes
+    ----------
+    axis : str
+        ``'axial'`` or ``'lateral'``.
+    ratio : float
+        The housing mode's cross-axis / radial housing amplitude ratio.
+    partner_freq : float
+        The partner mode's frequency [Hz].
+    partner_ratio : float
+        The partner's radial / cross-axis amplitude ratio (``~ ratio`` for a two-mode coupling).
+    mixing : float
+        ``t^2 = ratio^2 m_x / m_eff``: the partner's share over the housing's in the mode.
+    uncoupled_freq, rel_std : float
+        Uncoupled housing frequency [Hz] and its relative standard uncertainty.
+    consistent : bool
+        Both ratios give the same mixing within 3 sigma (a two-mode coupling).
+    """
+
+    axis: str
+    ratio: float
+    partner_freq: float
+    partner_ratio: float
+    mixing: float
+    uncoupled_freq: float
+    rel_std: float
+    consistent: bool = True
+
+
+def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner_ratio: float,
+                          m_cross: float, m_eff: float, *, ratio_std: float, partner_ratio_std: float,
+                          axis: str) -> CrossAxisCorrection:
+    """Two-mode reduction of a bearing cross stiffness.
+
+    The housing mode ``1`` and its partner ``2`` (the housing's axial or lateral rigid-body
+    mode) are, in mass-normalised coordinates, ``cos(t) h + sin(t) p`` and ``-sin(t) h + cos(t) p``
+    of the uncoupled radial housing mode ``h`` (driving-point effective mass ``m_eff``) and the
+    uncoupled cross-axis mode ``p`` (mass ``m_cross``). Mode 1's cross-axis / radial amplitude
+    ratio is ``tan(t) sqrt(m_eff / m_cross)`` and mode 2's radial / cross-axis ratio
+    ``tan(t) sqrt(m_cross / m_eff)``: two estimates of ``tan(t)^2``, combined by inverse variance.
+    The uncoupled eigenvalue is ``cos^2(t) w_1^2 + sin^2(t) w_2^2`` (exact for two modes).
+
+    Parameters
+    ----------
+    f_h : float
+        Identified housing frequency [Hz].
+    ratio : float
+        Its cross-axis / radial housing amplitude ratio.
+    partner_freq : float
+        Partner frequency [Hz].
+    partner_ratio : float
+        The partner's radial / cross-axis amplitude ratio.
+    m_cross, m_eff : float
+        Housing mass along the cross axis and the model's radial effective modal mass [kg].
+    ratio_std, partner_ratio_std : float
+        Standard uncertainties of both ratios (sensor misalignment, cross-axis sensitivity).
+    axis : str
+        ``'axial'`` or ``'lateral'``.
+
+    Returns
+    -------
+    CrossAxisCorrection
+        ``consistent`` False when the two estimates of the mixing differ by more than 3 sigma.
+    """
+    q = m_cross / m_eff
+    t1, u1 = ratio**2 * q, 2 * ratio * ratio_std * q
+    t2, u2 = partner_ratio**2 / q, 2 * partner_ratio * partner_ratio_std / q
+    w1, w2 = 1 / max(u1, 1e-12) ** 2, 1 / max(u2, 1e-12) ** 2
+    t = (w1 * t1 + w2 * t2) / (w1 + w2)
+    u_t = 1 / math.sqrt(w1 + w2)
+    consistent = abs(t1 - t2) <= 3 * math.hypot(u1, u2)
+
+    def fu(x: float) -> float:
+        x = max(x, 0.0)
+        return math.sqrt((f_h**2 + x * partner_freq**2) / (1 + x))
+
+    f_u = fu(t)
+    rel = abs(math.log(fu(t + u_t) / fu(t - u_t))) / 2
+    return CrossAxisCorrection(axis=axis, ratio=ratio, partner_freq=partner_freq, partner_ratio=partner_ratio,
+                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent)
+
+
+def measured_housing_mass(f_h: float, modal_mass: float, params: ModelParams) -> float | None:
+    """``m_H`` [kg] for which the 3DOF model, inverted at ``f_h``, has the measured driving-point
+    effective modal mass (fixed point; the effective mass is nearly proportional to ``m_H``)."""
+    m_h = params.m_H
+    for _ in range(50):
+        info = model_mode_at(replace(params, m_H=m_h), f_h)
+        if info is None or not info.modal_mass > 0:
+            return None
+        new = m_h * modal_mass / info.modal_mass
+        if abs(new - m_h) < 1e-10 * m_h:
+            return new
+        m_h = new
+    return m_h
+
