@@ -141,9 +141,10 @@ def test_unresolved_partner_is_never_silent(tmp_path):
 def test_off_m_h_measured_where_the_force_chain_is_trusted(tmp_path):
     truth = RigTruth(k_TB=66.3e6, file_m_H_factor=1.03, file_force_chain=0.005, seed=2)
     res = _estimate(tmp_path, "mh", truth)
-    assert res.warnings == () and abs(_z(res, truth)) < 2.0
-    note = next(n for n in res.notes if "m_H measured" in n)
-    assert "rig file 2.643" in note  # the rig file's 3 % high mass is named
+    # outside the stated tolerance: said (issue 19), with the measured m_H, which is used
+    msg = next(w for w in res.warnings if "m_H measured" in w)
+    assert "rig file 2.643" in msg and "2.566" not in msg.split("m_H measured")[0][-5:]
+    assert abs(_z(res, truth)) < 2.0
     assert res.k_TB_std / res.k_TB < 0.03
 
 

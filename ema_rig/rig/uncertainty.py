@@ -614,6 +614,17 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     ratio = None
     if hm.get("modal_mass") is not None and hm.get("model_modal_mass"):
         ratio = float(hm["modal_mass"]) / float(hm["model_modal_mass"]) / (1 + t_mix)
+    # the driving-point modal mass from a local fit at every identified pole nearby (the LSFD
+    # value can be biased by a strong overlapping neighbour): it decides whether mass is missing
+    q_ref = None if data is None else _find(data.in_dofs, rig.radial)
+    p_ref = None if data is None else _find(data.out_dofs, rig.radial)
+    dpm0 = None
+    if q_ref is not None and p_ref is not None and info0 is not None:
+        from .fit import driving_point_mass_of
+
+        dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
+        if dpm0 is not None:
+            ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
     # partners that may carry the housing participation missing from its mode: in-phase radial
     # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
     # bandwidths), participation at least a tenth of the housing mode's
@@ -665,15 +676,12 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     # the housing mode's modal mass, measured with its std, against the model's
     dpm, leak_bound = None, None
     m_h_new, m_h_rel = None, None
-    q_ref = None if data is None else _find(data.in_dofs, rig.radial)
-    p_ref = None if data is None else _find(data.out_dofs, rig.radial)
     info_inv = model_mode_at(params, f_inv)
-    if (q_ref is not None and p_ref is not None and info_inv is not None and not used
-            and (ratio is None or abs(math.log(ratio)) <= math.log(MASS_WARN_RATIO))):
-        from .fit import driving_point_mass_of, measured_housing_mass
-
-        dpm = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
+    if not used and (ratio is None or abs(math.log(ratio)) <= math.log(MASS_WARN_RATIO)):
+        dpm = dpm0
     if dpm is not None and info_inv is not None:
+        from .fit import measured_housing_mass
+
         expected = info_inv.modal_mass * (1 + t_mix)
         r = dpm.modal_mass / expected
         # the fit holds the identified pole fixed: its damping ratio's std scales the residue alike
@@ -685,6 +693,10 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         u_fc = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
         u_r = math.sqrt(u_meas**2 + u_mh**2 + u_fc**2)
         ratio = r
+        # a clean housing mode: no cross-axis motion beyond 2 sigma of misalignment, no coupling
+        # corrected, no close neighbour; only then does its modal mass measure m_H alone
+        rhos = [float(v) for v in (hm.get("axial_ratio"), hm.get("lateral_ratio")) if v is not None]
+        clean = cross is None and not m.neighbours and all(v <= 2 * CROSS_AXIS_RATIO_STD for v in rhos)
         if abs(math.log(r)) <= MASS_CHECK_SIGMAS * u_r:
             # agrees: a neighbour cannot have leaked more than this into the housing mode
             leak_bound = abs(math.log(r)) + MASS_CHECK_SIGMAS * u_r
@@ -696,29 +708,30 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                     f"driving-point modal mass {dpm.modal_mass:.4g} kg is {100 * (r - 1):+.1f} % off the model's "
                     f"{expected:.4g} kg, within the force chain's {100 * u_fc:.1f} %: m_H tolerance widened to "
                     f"{100 * m_h_rel:.1f} % (state [uncertainty] force_chain to measure m_H)")
-            if trusted:  # two independent measurements of m_H: combine them
-                mm = measured_housing_mass(f_inv, dpm.modal_mass / (1 + t_mix), params)
-                if mm is not None:
+            if trusted and clean:  # two independent measurements of m_H: combine them
+                mm = measured_housing_mass(f_inv, dpm.modal_mass, params)
+                if mm is not None and u_mh > 0:
                     u_m = math.hypot(u_meas, u_fc)
-                    w1, w2 = 1 / u_mh**2 if u_mh > 0 else math.inf, 1 / u_m**2
-                    if math.isfinite(w1):
-                        m_h_new = (w1 * params.m_H + w2 * mm) / (w1 + w2)
-                        m_h_rel = 1 / math.sqrt(w1 + w2)
+                    w1, w2 = 1 / u_mh**2, 1 / u_m**2
+                    m_h_new = (w1 * params.m_H + w2 * mm) / (w1 + w2)
+                    m_h_rel = 1 / math.sqrt(w1 + w2)
         else:
             mm = measured_housing_mass(f_inv, dpm.modal_mass / (1 + t_mix), params)
             msg = (f"driving-point modal mass {dpm.modal_mass:.4g} +/- {dpm.modal_mass_std:.2g} kg is "
                    f"{100 * (r - 1):+.1f} % off the model's {expected:.4g} kg (tolerance {100 * u_r:.1f} %: "
                    f"m_H {100 * u_mh:.1f} %, force chain {100 * u_fc:.1f} %, fit {100 * u_meas:.1f} %)")
-            if trusted and mm is not None:
+            if trusted and clean and mm is not None:
+                # a clean housing mode (no cross-axis motion, no close neighbour): the force chain
+                # measures m_H; the rig file's value is wrong (or masses are missing from it)
                 m_h_new, m_h_rel = mm, math.hypot(u_meas, u_fc)
-                notes.append(f"{msg}: m_H measured {mm:.4g} +/- {mm * m_h_rel:.2g} kg (rig file "
-                             f"{params.m_H:.4g} kg) and used")
+                warns.append(f"{msg}: m_H measured {mm:.4g} +/- {mm * m_h_rel:.2g} kg (rig file "
+                             f"{params.m_H:.4g} kg) and used; correct the rig file or declare the attached masses")
             else:
                 m_h_rel = math.hypot(u_mh, abs(math.log(r)))
                 extra = "" if mm is None else f"; m_H would be {mm:.4g} kg"
+                why = ("" if trusted else " (state [uncertainty] force_chain to measure m_H)")
                 warns.append(f"{msg}: m_H in the rig file off, undeclared sensor masses or an unresolved "
-                             f"coupling{extra}; m_H tolerance widened to {100 * m_h_rel:.1f} % (state "
-                             "[uncertainty] force_chain to measure m_H)")
+                             f"coupling{extra}; m_H tolerance widened to {100 * m_h_rel:.1f} %{why}")
     for i in m.neighbours:
         if i in used:
             continue  # used by the correction (its own term)
@@ -742,7 +755,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     if dpm is None and ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
         terms["effective mass"] = abs(math.log(ratio)) / 4.0
         warns.append(
-            f"effective modal mass {hm['modal_mass']:.3g} kg is {ratio:.2f}x the model's "
+            f"effective modal mass {dpm0.modal_mass if dpm0 is not None else hm['modal_mass']:.3g} kg is "
+            f"{ratio:.2f}x the model's "
             f"{hm['model_modal_mass']:.3g} kg: an unidentified part of the housing motion or an "
             "off m_H; wider (model-form) uncertainty"
         )
