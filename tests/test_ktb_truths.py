@@ -79,10 +79,12 @@ def test_housing_appendage_recovered_within_sigma(tmp_path, k_tb, fraction):
     truth = RigTruth(k_TB=k_tb, appendage_fraction=fraction, flex_housing_freq=820.0,
                      flex_frame_freq=600.0, seed=4)
     res = _estimate(tmp_path, "app", truth)
-    assert any("share the radial housing motion" in w for w in res.warnings)
-    # the split-mass reading and the identified one lie 1 sigma apart from the inverted value
-    assert abs(_z(res, truth)) < 1.5
-    assert "neighbour coupling" in res.uncertainty.shares
+    # issue 19: the housing with an appendage is fitted to both modes' frequencies and
+    # driving-point masses (4DOF model): resolved, a note instead of a warning (was +-20 % hedged)
+    assert any("appendage fitted" in n for n in res.notes)
+    assert "split housing fit" in res.uncertainty.shares
+    assert res.warnings == () and abs(_z(res, truth)) < 1.5
+    assert abs(res.k_TB / truth.k_TB - 1) < 0.01
 
 
 def test_soft_disk_calibration_never_shrinks_the_uncertainty(tmp_path):

@@ -8,13 +8,15 @@ driving_point_mass
 cross_axis_correction
     The uncoupled radial housing frequency when a bearing cross stiffness couples the housing's
     radial motion to its axial or lateral rigid-body motion (two-mode reduction).
+fit_split_housing
+    ``k_TB+MS`` and an appendage fitted to the two modes that share the housing's radial motion.
 measured_housing_mass
     ``m_H`` from the identified housing frequency and driving-point modal mass through the 3DOF
     model (where the force chain is trusted).
 
 Classes
 -------
-DrivingPointMass, CrossAxisCorrection
+DrivingPointMass, CrossAxisCorrection, SplitHousingFit
     Frozen results.
 """
 
@@ -33,6 +35,8 @@ from .matching import model_mode_at
 __all__ = [
     "CrossAxisCorrection",
     "DrivingPointMass",
+    "SplitHousingFit",
+    "fit_split_housing",
     "cross_axis_correction",
     "driving_point_mass",
     "measured_housing_mass",
@@ -244,3 +248,139 @@ def measured_housing_mass(f_h: float, modal_mass: float, params: ModelParams) ->
         m_h = new
     return m_h
 
+
+
+@dataclass(frozen=True, slots=True)
+class SplitHousingFit:
+    """The housing with an appendage (a load arm, a flexible part) fitted to two measured modes.
+
+    Attributes
+    ----------
+    k_TB_MS, k_TB_MS_std : float
+        Combined bearing + mounting stiffness and its standard uncertainty [N/m].
+    appendage_mass, appendage_mass_std : float
+        Mass of the part on its own spring [kg] (out of ``m_H``).
+    appendage_freq : float
+        Its natural frequency on that spring alone [Hz].
+    force_chain_scale : float
+        Fitted scale of the measured modal masses (1 = the force chain as calibrated).
+    chi2 : float
+        Sum of squared normalised residuals (1 degree of freedom).
+    """
+
+    k_TB_MS: float
+    k_TB_MS_std: float
+    appendage_mass: float
+    appendage_mass_std: float
+    appendage_freq: float
+    force_chain_scale: float
+    chi2: float
+
+
+def _split_modes(params: ModelParams, k_c: float, m_a: float, k_a: float) -> tuple[NDArray[np.float64],
+                                                                                    NDArray[np.float64]]:
+    """Natural frequencies [Hz] and driving-point effective masses [kg] of the 4DOF housing model."""
+    import scipy.linalg
+
+    from .model import mass_matrix, stiffness_matrix
+
+    m = np.zeros((4, 4))
+    k = np.zeros((4, 4))
+    m[:3, :3] = mass_matrix(replace(params, m_H=params.m_H - m_a))
+    k[:3, :3] = stiffness_matrix(params, k_c)
+    m[3, 3] = m_a
+    k[0, 0] += k_a
+    k[3, 3] += k_a
+    k[0, 3] = k[3, 0] = -k_a
+    lam, vec = scipy.linalg.eigh(k, m)
+    with np.errstate(divide="ignore"):
+        return np.sqrt(np.clip(lam, 0, None)) / (2 * math.pi), 1.0 / vec[0] ** 2
+
+
+def fit_split_housing(params: ModelParams, freqs: tuple[float, float], freq_std: tuple[float, float],
+                      masses: tuple[float, float], mass_std: tuple[float, float], force_chain: float
+                      ) -> SplitHousingFit | None:
+    """Fit ``k_TB+MS`` and an appendage (mass ``m_a`` out of ``m_H`` on a spring ``k_a``) to two modes.
+
+    The 3DOF model with the housing split into its main body and an appendage has two modes
+    where the housing moves radially; their frequencies and driving-point effective masses (four
+    data) fix ``k_TB+MS``, ``m_a``, ``k_a`` and a common scale of the measured masses (the force
+    chain, with its prior ``N(1, force_chain^2)``). Weighted least squares on log residuals
+    (``scipy.optimize.least_squares``); the covariance is ``(J^T J)^-1`` at the solution (the
+    residuals are normalised), so ``k_TB_MS_std`` carries the frequency and mass stds and the
+    force chain. ``m_H`` and the other parameters are fixed here (their tolerances enter the
+    k_TB budget through the equivalent frequency).
+
+    Parameters
+    ----------
+    params : ModelParams
+    freqs, freq_std : (float, float)
+        Undamped frequencies of the two modes and their stds [Hz] (housing mode first).
+    masses, mass_std : (float, float)
+        Their driving-point effective masses and stds [kg].
+    force_chain : float
+        Relative std of the FRF scale.
+
+    Returns
+    -------
+    SplitHousingFit or None
+        None when the fit does not converge to two modes near the measured ones.
+    """
+    from scipy.optimize import least_squares
+
+    from .inversion import k_tb_ms_from_housing_freq
+
+    f = np.asarray(freqs, dtype=float)
+    fs = np.maximum(np.asarray(freq_std, dtype=float), 1e-6 * f)
+    mm = np.asarray(masses, dtype=float)
+    ms = np.asarray(mass_std, dtype=float)
+
+    def model(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if not np.all(np.abs(x[:3]) < 50.0):  # exp would leave the physical range (and overflow)
+            raise ValueError("parameters out of range")
+        k_c, m_a, k_a = np.exp(x[:3])
+        if not m_a < 0.5 * params.m_H:
+            raise ValueError("appendage heavier than half the housing")
+        fr, me = _split_modes(params, float(k_c), float(m_a), float(k_a))
+        idx = [int(np.argmin(np.abs(np.log(fr / fi)))) for fi in f]
+        return fr[idx], me[idx]
+
+    def resid(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        try:
+            fr, me = model(x)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            return np.full(5, 1e3)
+        scale = math.exp(min(max(float(x[3]), -5.0), 5.0))
+        return np.concatenate([np.log(fr / f) * f / fs, np.log(me * scale / mm) * mm / ms,
+                               [x[3] / max(force_chain, 1e-6)]])
+
+    try:
+        k0 = k_tb_ms_from_housing_freq(float(np.sqrt(f[0] * f[1])), params)
+    except Exception:  # noqa: BLE001 - outside the 3DOF range: no start
+        return None
+    best = None
+    for frac in (0.01, 0.03, 0.08):
+        m_a0 = frac * params.m_H
+        x0 = np.log([k0, m_a0, m_a0 * (2 * math.pi * f[1]) ** 2, 1.0])
+        x0[3] = 0.0
+        with np.errstate(all="ignore"):
+            sol = least_squares(resid, x0, method="lm", xtol=1e-12, ftol=1e-12, max_nfev=400)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None or not best.success:
+        return None
+    chi2 = float(2 * best.cost)
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac)
+    except np.linalg.LinAlgError:
+        return None
+    k_c, m_a, k_a = np.exp(best.x[:3])
+    fr, _ = model(best.x)
+    if np.any(np.abs(np.log(fr / f)) > 0.05):
+        return None
+    return SplitHousingFit(
+        k_TB_MS=float(k_c), k_TB_MS_std=float(k_c * math.sqrt(max(cov[0, 0], 0.0))),
+        appendage_mass=float(m_a), appendage_mass_std=float(m_a * math.sqrt(max(cov[1, 1], 0.0))),
+        appendage_freq=float(math.sqrt(k_a / m_a) / (2 * math.pi)), force_chain_scale=float(math.exp(best.x[3])),
+        chi2=chi2,
+    )

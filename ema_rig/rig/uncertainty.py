@@ -637,7 +637,35 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         and parts and parts[i] >= 0.1 * parts[m.housing_index]
     ]
     used: list[int] = []
-    if partners and ratio is not None and ratio > MASS_WARN_RATIO:
+    split = None
+    split_leak: float | None = None
+    if partners and ratio is not None and ratio > MASS_WARN_RATIO and dpm0 is not None and p_ref is not None:
+        # the housing split between its body and a part on its own spring (an appendage): fit the
+        # 4DOF housing model to both modes' frequencies and driving-point masses
+        split = _fit_split(m, modes, rig, data, p_ref, q_ref, partners, f0 / f_abs)
+    if split is not None:
+        fit_, j = split
+        from .inversion import housing_freq_from_k_tb_ms, k_tb_ms_from_housing_freq
+
+        fu = housing_freq_from_k_tb_ms(fit_.k_TB_MS, params)
+        h = 1e-4
+        slope = (math.log(k_tb_ms_from_housing_freq(fu * (1 + h), params))
+                 - math.log(k_tb_ms_from_housing_freq(fu * (1 - h), params))) / (2 * h)
+        terms["split housing fit"] = fit_.k_TB_MS_std / fit_.k_TB_MS / abs(slope)
+        f_inv = fu
+        used = [j]
+        ratio = None
+        # both masses explained by the fit (chi2 small): a further neighbour cannot have leaked more
+        # than the masses' tolerance into the housing mode
+        fc_ = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
+        split_leak = MASS_CHECK_SIGMAS * math.hypot(fc_, float(rig.uncertainty.get("m_H", 0.005)))
+        notes.append(
+            f"housing mode and {float(modes.natural_freq[j]):.1f} Hz share the radial housing motion: housing "
+            f"with an appendage fitted to both (appendage {1000 * fit_.appendage_mass:.3g} +/- "
+            f"{1000 * fit_.appendage_mass_std:.2g} g at {fit_.appendage_freq:.0f} Hz, chi2 {fit_.chi2:.2f}); "
+            f"uncoupled housing frequency {fu:.1f} Hz inverted (+/- {100 * terms['split housing fit']:.2f} %)"
+        )
+    elif partners and ratio is not None and ratio > MASS_WARN_RATIO:
         # the housing mode lacks part of its participation and in-phase neighbours carry it:
         # the housing mass is split between them (an appendage, a flexible part) -> recover the
         # uncoupled frequency from the group's compliance, with the subset of partners that
@@ -732,6 +760,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                 why = ("" if trusted else " (state [uncertainty] force_chain to measure m_H)")
                 warns.append(f"{msg}: m_H in the rig file off, undeclared sensor masses or an unresolved "
                              f"coupling{extra}; m_H tolerance widened to {100 * m_h_rel:.1f} %{why}")
+    if split_leak is not None:
+        leak_bound = split_leak
     for i in m.neighbours:
         if i in used:
             continue  # used by the correction (its own term)
@@ -765,6 +795,41 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         warnings=tuple(warns), mass_ratio=ratio, notes=tuple(notes), m_H=m_h_new, m_H_rel_std=m_h_rel,
         cross_axis=cross, modal_mass=dpm,
     )
+
+
+SPLIT_FIT_CHI2 = 6.63
+"""Largest chi-square (1 degree of freedom, p = 0.01) at which the split-housing fit is accepted."""
+
+
+def _fit_split(m: MatchResult, modes: Any, rig: RigConfig, data: Any, p: int, q: int | None, partners: list[int],
+               undamped: float) -> tuple[Any, int] | None:
+    """:func:`ema_rig.rig.fit.fit_split_housing` on the housing mode and its best partner."""
+    from .fit import driving_point_mass_of, fit_split_housing
+
+    if q is None:
+        return None
+    h = m.housing_index
+    fc = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
+    best: tuple[Any, int] | None = None
+    by_index = {c.index: c for c in m.candidates if c.source == "modes"}
+    for j in partners:
+        dp_h = driving_point_mass_of(data, p, q, modes.poles, h)
+        dp_j = driving_point_mass_of(data, p, q, modes.poles, j)
+        if dp_h is None or dp_j is None:
+            continue
+        f_j = float(modes.natural_freq[j])
+        s_h = by_index[h].natural_freq_std if h in by_index else None
+        s_j = by_index[j].natural_freq_std if j in by_index else None
+        fit = fit_split_housing(
+            rig.model, (float(modes.natural_freq[h]) * undamped, f_j * undamped),
+            (s_h or 1e-4 * float(modes.natural_freq[h]), s_j or 1e-4 * f_j),
+            (dp_h.modal_mass, dp_j.modal_mass),
+            (math.hypot(dp_h.modal_mass_std, 0.005 * dp_h.modal_mass), math.hypot(dp_j.modal_mass_std,
+                                                                                    0.005 * dp_j.modal_mass)),
+            fc)
+        if fit is not None and fit.chi2 <= SPLIT_FIT_CHI2 and (best is None or fit.chi2 < best[0].chi2):
+            best = (fit, j)
+    return best
 
 
 def _find(dofs: Any, target: Any) -> int | None:
