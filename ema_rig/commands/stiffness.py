@@ -55,6 +55,9 @@ def summary(res: Any) -> str:
         f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std_measured / 1e6:.3f} (measured) "
         f"+/- {res.k_TB_std / 1e6:.3f} (total) MN/m (1 sigma, {100 * res.k_TB_std_measured / res.k_TB:.2f} % / "
         f"{100 * res.k_TB_std / res.k_TB:.2f} %)",
+        "3DOF inv.     " + ("outside the model's range" if res.inversion_3dof is None else
+                            f"k_TB {res.inversion_3dof['k_TB'] / 1e6:.3f} MN/m at {res.inversion_3dof['freq']:.2f} Hz "
+                            "(identified frequency, rig-file m_H, no correction)"),
         "bearing damp. " + ("not available" if res.damping is None else
                             f"c_TB {res.c_TB:.4g}{_args.pm(res.c_TB_std)} N s/m, loss factor "
                             f"{res.loss_factor:.4f}{_args.pm(res.loss_factor_std)} ({res.damping.model} bearing)"),

@@ -238,6 +238,11 @@ class StiffnessResult:
         The bearing's damping ``c_TB`` [N s/m] and loss factor from the housing pole
         (:func:`ema_rig.rig.damping.bearing_damping`, model ``damping_model``); None when the
         pole gives no finite bearing impedance.
+    inversion_3dof : dict or None
+        The plain 3DOF inversion for comparison: ``freq`` [Hz] (the identified undamped
+        frequency) and ``k_TB`` [N/m] with the rig file's ``m_H``, without the corrections the
+        measured evidence made (cross-axis coupling, appendage, measured ``m_H``); None when that
+        frequency is outside the model's range.
     """
 
     k_TB: float
@@ -264,6 +269,7 @@ class StiffnessResult:
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     damping: Any = None
+    inversion_3dof: dict[str, float] | None = None
 
     @property
     def c_TB(self) -> float:
@@ -331,6 +337,7 @@ class StiffnessResult:
             "candidates": [c.to_dict() for c in self.match.candidates],
             "fit": None if self.fit is None else self.fit.to_dict(),
             **_damping_keys(self.damping),
+            "inversion_3dof": None if self.inversion_3dof is None else dict(self.inversion_3dof),
         }
 
 
@@ -508,6 +515,7 @@ def estimate_stiffness(
     budget = {t.name: float(t.share) for t in unc.terms}
     rig_fit = _fit(data, rig, params, m) if fit else None
     hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
+    inv3 = _plain_inversion(asm.undamped_freq, replace(rig.model, k_MS=kms))
     damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model)
     return StiffnessResult(
         k_TB=k_tb,
@@ -535,7 +543,18 @@ def estimate_stiffness(
         warnings=asm.warnings + tuple(f"identification: {w}" for w in ident.warnings),
         notes=asm.notes + tuple(defaults_note(unc)),
         damping=damping,
+        inversion_3dof=inv3,
     )
+
+
+def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
+    """``k_TB`` of the plain 3DOF inversion at ``f0`` (None outside the model's range)."""
+    from .inversion import k_tb_from_housing_freq
+
+    try:
+        return {"freq": float(f0), "k_TB": float(k_tb_from_housing_freq(f0, params))}
+    except InversionError:
+        return None
 
 
 def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
