@@ -166,3 +166,20 @@ def test_declared_sensor_masses_are_carried(tmp_path):
     res2 = _estimate(tmp_path, "sens2", truth2)
     assert res2.k_TB / truth2.k_TB - 1 < -0.02
     assert res2.warnings or abs(_z(res2, truth2)) <= 2.0
+
+
+# ----------------------------------------------------------------------------- rigid body
+def test_axial_and_cross_stiffness_within_2_sigma(tmp_path):
+    # the axial sensor 15+X sees the housing's axial rigid-body mode: k_ax = m_H w_ax^2 of the
+    # truth's axial coordinate; with a corrected coupling, the cross term of the two-mode reduction
+    truth = RigTruth(k_TB=57.38e6, cross_axis="axial", axial_freq=508.5, cross_leak=0.075, seed=3)
+    rb = _estimate(tmp_path, "rb", truth).rigid_body
+    k_ax = TABLE1["m_H"] * (2 * math.pi * 508.5) ** 2
+    assert abs(rb.axial_stiffness - k_ax) <= 2 * rb.axial_stiffness_std
+    assert abs(rb.cross_stiffness - truth._cross_k()) <= 2 * rb.cross_stiffness_std
+    assert rb.cross_stiffness_std / rb.cross_stiffness < 0.10
+    plain = RigTruth(k_TB=71.57e6, seed=3)
+    rb2 = _estimate(tmp_path, "rb2", plain).rigid_body
+    k_ax2 = TABLE1["m_H"] * (2 * math.pi * 301.0) ** 2
+    assert abs(rb2.axial_stiffness - k_ax2) <= 2 * rb2.axial_stiffness_std
+    assert rb2.cross_stiffness is None and any("tilt" in r for r in rb2.reasons)

@@ -58,6 +58,7 @@ def summary(res: Any) -> str:
         "3DOF inv.     " + ("outside the model's range" if res.inversion_3dof is None else
                             f"k_TB {res.inversion_3dof['k_TB'] / 1e6:.3f} MN/m at {res.inversion_3dof['freq']:.2f} Hz "
                             "(identified frequency, rig-file m_H, no correction)"),
+        "housing body  " + _rigid(res.rigid_body),
         "bearing damp. " + ("not available" if res.damping is None else
                             f"c_TB {res.c_TB:.4g}{_args.pm(res.c_TB_std)} N s/m, loss factor "
                             f"{res.loss_factor:.4f}{_args.pm(res.loss_factor_std)} ({res.damping.model} bearing)"),
@@ -73,6 +74,21 @@ def summary(res: Any) -> str:
     for c in res.candidates:
         lines.append(f"  {c['natural_freq']:8.1f} Hz  {c['status']:<8}  {c['reason']}")
     return "\n".join(lines)
+
+
+def _rigid(rb: Any) -> str:
+    """One line: axial and cross stiffness of the housing on its bearing, or why not."""
+    if rb is None:
+        return "-"
+    parts = []
+    if rb.axial_stiffness is not None:
+        parts.append(f"axial {rb.axial_stiffness / 1e6:.3g}{_args.pm(rb.axial_stiffness_std, 1e-6)} MN/m "
+                     f"({rb.axial_freq:.1f} Hz)")
+    if rb.cross_stiffness is not None:
+        parts.append(f"radial-{rb.cross_axis} cross {rb.cross_stiffness / 1e6:.3g}"
+                     f"{_args.pm(rb.cross_stiffness_std, 1e-6)} MN/m")
+    parts.append("tilt not identifiable")
+    return ", ".join(parts)
 
 
 def print_caveats(res: Any) -> None:

@@ -8,6 +8,8 @@ driving_point_mass
 cross_axis_correction
     The uncoupled radial housing frequency when a bearing cross stiffness couples the housing's
     radial motion to its axial or lateral rigid-body motion (two-mode reduction).
+housing_rigid_body
+    Axial and cross stiffness of the housing on its bearing from the identified modes.
 fit_split_housing
     ``k_TB+MS`` and an appendage fitted to the two modes that share the housing's radial motion.
 measured_housing_mass
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,8 +38,10 @@ from .matching import model_mode_at
 __all__ = [
     "CrossAxisCorrection",
     "DrivingPointMass",
+    "HousingRigidBody",
     "SplitHousingFit",
     "fit_split_housing",
+    "housing_rigid_body",
     "cross_axis_correction",
     "driving_point_mass",
     "measured_housing_mass",
@@ -384,3 +389,115 @@ def fit_split_housing(params: ModelParams, freqs: tuple[float, float], freq_std:
         appendage_freq=float(math.sqrt(k_a / m_a) / (2 * math.pi)), force_chain_scale=float(math.exp(best.x[3])),
         chi2=chi2,
     )
+
+
+@dataclass(frozen=True, slots=True)
+class HousingRigidBody:
+    """The housing's other rigid-body stiffnesses on its bearing, where the sensors see them.
+
+    Attributes
+    ----------
+    axial_stiffness, axial_stiffness_std : float or None
+        ``m_x (2 pi f_ax)^2`` [N/m] of the housing's axial mode (uncoupled from a corrected
+        radial-axial cross coupling) and its std; None when no axial mode is identified.
+    axial_freq : float or None
+        The axial mode's (uncoupled) frequency [Hz].
+    cross_stiffness, cross_stiffness_std : float or None
+        Magnitude of the radial-axial or radial-lateral cross stiffness [N/m] from a corrected
+        coupling (two-mode reduction), and its std; None without one.
+    cross_axis : str or None
+        ``'axial'`` or ``'lateral'``.
+    reasons : tuple of str
+        Why a stiffness is not reported (tilt: the rig file gives no rotary inertia, and the tilt
+        modes lie below the band).
+    """
+
+    axial_stiffness: float | None
+    axial_stiffness_std: float | None
+    axial_freq: float | None
+    cross_stiffness: float | None
+    cross_stiffness_std: float | None
+    cross_axis: str | None
+    reasons: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, object]:
+        """Plain dict for JSON."""
+        return {"axial_stiffness": self.axial_stiffness, "axial_stiffness_std": self.axial_stiffness_std,
+                "axial_freq": self.axial_freq, "cross_stiffness": self.cross_stiffness,
+                "cross_stiffness_std": self.cross_stiffness_std, "cross_axis": self.cross_axis,
+                "tilt_stiffness": None, "unidentifiable": list(self.reasons)}
+
+
+AXIAL_MODE_RATIO = 3.0
+"""A mode whose axial housing motion is at least this many times its mean radial housing motion is
+the housing's axial rigid-body mode (the radial shaker excites it through misalignment only)."""
+
+
+def housing_rigid_body(candidates: list[Any], m_x: float, m_x_rel_std: float, m_eff: float,
+                       cross: CrossAxisCorrection | None, housing_freq: float) -> HousingRigidBody:
+    """Axial and cross stiffness of the housing on its bearing from the identified modes.
+
+    The axial stiffness is ``m_x w_ax^2`` of the mode that moves the housing's axial sensors
+    most (at least :data:`AXIAL_MODE_RATIO` times its radial motion, highest participation); with
+    a corrected radial-axial coupling that mode is the partner and its uncoupled eigenvalue
+    ``sin^2(t) w_1^2 + cos^2(t) w_2^2`` is used. The cross stiffness of a corrected coupling is the
+    off-diagonal term of the two-mode reduction, ``sin t cos t |w_2^2 - w_1^2| sqrt(m_eff m_x)``.
+    Stds: identified frequency std and the ``m_x`` tolerance; the coupling's mixing std.
+
+    Parameters
+    ----------
+    candidates : list of Candidate
+        Every identified mode with its shape metrics (:attr:`MatchResult.candidates`).
+    m_x : float
+        The housing's mass in axial translation [kg] (effective ``m_H``).
+    m_x_rel_std : float
+        Its relative standard uncertainty.
+    m_eff : float
+        Model effective modal mass of the radial housing mode [kg].
+    cross : CrossAxisCorrection or None
+        The corrected coupling, if any.
+    housing_freq : float
+        Identified housing frequency [Hz].
+
+    Returns
+    -------
+    HousingRigidBody
+    """
+    reasons = ["tilt stiffness: the rig file gives no rotary inertia of the housing and the tilt modes lie "
+               "below the identification band"]
+    ax = [c for c in candidates if getattr(c, "axial_ratio", None) is not None
+          and c.axial_ratio >= AXIAL_MODE_RATIO and abs(c.natural_freq - housing_freq) > 1e-9]
+    k_ax = k_ax_std = f_ax = None
+    if cross is not None and cross.axis == "axial":
+        t2 = cross.mixing
+        w1, w2 = (2 * math.pi * housing_freq) ** 2, (2 * math.pi * cross.partner_freq) ** 2
+        lam = (t2 * w1 + w2) / (1 + t2)
+        f_ax = math.sqrt(lam) / (2 * math.pi)
+        part = next((c for c in ax if abs(c.natural_freq - cross.partner_freq) < 1e-9), None)
+        sf = (part.natural_freq_std if part is not None and part.natural_freq_std else 0.0) / cross.partner_freq
+        k_ax = m_x * lam
+        k_ax_std = k_ax * math.hypot(2 * sf, m_x_rel_std, 2 * cross.rel_std)
+    elif ax:
+        best = max(ax, key=lambda c: c.participation or 0.0)
+        f_ax = best.natural_freq
+        sf = (best.natural_freq_std or 0.0) / f_ax
+        k_ax = m_x * (2 * math.pi * f_ax) ** 2
+        k_ax_std = k_ax * math.hypot(2 * sf, m_x_rel_std)
+    else:
+        reasons.append("axial stiffness: no mode moves the housing's axial sensors most (no axial sensor, or "
+                       "the axial mode lies outside the band)")
+    k_x = k_x_std = None
+    if cross is not None:
+        t2 = cross.mixing
+        w1, w2 = (2 * math.pi * housing_freq) ** 2, (2 * math.pi * cross.partner_freq) ** 2
+        # sin t cos t = sqrt(t2) / (1 + t2) with t2 = tan^2 t
+        k_x = math.sqrt(t2) / (1 + t2) * abs(w2 - w1) * math.sqrt(m_eff * m_x)
+        # the mixing's std: from the frequency correction's relative std through d f_u / d t2
+        d = abs(w2 - w1) / (1 + t2) ** 2 / (2 * (2 * math.pi * cross.uncoupled_freq) ** 2)
+        u_t2 = cross.rel_std / d if d > 0 else 0.0
+        k_x_std = k_x * math.hypot(u_t2 / (2 * t2) if t2 > 0 else 0.0, m_x_rel_std / 2)
+    else:
+        reasons.append("cross stiffness: no radial-axial or radial-lateral coupling beyond sensor misalignment")
+    return HousingRigidBody(axial_stiffness=k_ax, axial_stiffness_std=k_ax_std, axial_freq=f_ax,
+                            cross_stiffness=k_x, cross_stiffness_std=k_x_std,
+                            cross_axis=None if cross is None else cross.axis, reasons=tuple(reasons))

@@ -243,6 +243,9 @@ class StiffnessResult:
         frequency) and ``k_TB`` [N/m] with the rig file's ``m_H``, without the corrections the
         measured evidence made (cross-axis coupling, appendage, measured ``m_H``); None when that
         frequency is outside the model's range.
+    rigid_body : HousingRigidBody or None
+        Axial and cross stiffness of the housing on its bearing with stds, or why not
+        (:func:`ema_rig.rig.fit.housing_rigid_body`).
     """
 
     k_TB: float
@@ -270,6 +273,7 @@ class StiffnessResult:
     notes: tuple[str, ...] = ()
     damping: Any = None
     inversion_3dof: dict[str, float] | None = None
+    rigid_body: Any = None
 
     @property
     def c_TB(self) -> float:
@@ -338,6 +342,7 @@ class StiffnessResult:
             "fit": None if self.fit is None else self.fit.to_dict(),
             **_damping_keys(self.damping),
             "inversion_3dof": None if self.inversion_3dof is None else dict(self.inversion_3dof),
+            "housing_rigid_body": None if self.rigid_body is None else self.rigid_body.to_dict(),
         }
 
 
@@ -516,6 +521,7 @@ def estimate_stiffness(
     rig_fit = _fit(data, rig, params, m) if fit else None
     hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
     inv3 = _plain_inversion(asm.undamped_freq, replace(rig.model, k_MS=kms))
+    rigid = _rigid_body(m, asm, params, rel_unc)
     damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model)
     return StiffnessResult(
         k_TB=k_tb,
@@ -544,7 +550,21 @@ def estimate_stiffness(
         notes=asm.notes + tuple(defaults_note(unc)),
         damping=damping,
         inversion_3dof=inv3,
+        rigid_body=rigid,
     )
+
+
+def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]) -> Any:
+    """:func:`ema_rig.rig.fit.housing_rigid_body` of this measurement (None outside the model)."""
+    from .fit import housing_rigid_body
+    from .uncertainty import DEFAULT_REL_UNCERTAINTY
+
+    info = model_mode_at(params, asm.inverted_freq)
+    if info is None:
+        return None
+    cands = [c for c in m.candidates if c.source == "modes"]
+    return housing_rigid_body(cands, params.m_H, float(rel_unc.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"])),
+                              info.modal_mass, asm.cross_axis, asm.undamped_freq)
 
 
 def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
