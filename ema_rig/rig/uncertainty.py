@@ -639,6 +639,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     used: list[int] = []
     split = None
     split_leak: float | None = None
+    m_h_split_rel: float | None = None
     if partners and ratio is not None and ratio > MASS_WARN_RATIO and dpm0 is not None and p_ref is not None:
         # the housing split between its body and a part on its own spring (an appendage): fit the
         # 4DOF housing model to both modes' frequencies and driving-point masses
@@ -655,6 +656,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         f_inv = fu
         used = [j]
         ratio = None
+        # whether the part is inside the rig file's m_H (a split housing) or added to it (a
+        # fixture) the modal data cannot tell (the force chain's tolerance covers the difference):
+        # the other reading lies one sigma away in m_H
+        u_mh0 = float(rig.uncertainty.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"]))
+        m_h_split_rel = math.hypot(u_mh0, fit_.appendage_mass / params.m_H)
         # both masses explained by the fit (chi2 small): a further neighbour cannot have leaked more
         # than the masses' tolerance into the housing mode
         fc_ = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
@@ -663,7 +669,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             f"housing mode and {float(modes.natural_freq[j]):.1f} Hz share the radial housing motion: housing "
             f"with an appendage fitted to both (appendage {1000 * fit_.appendage_mass:.3g} +/- "
             f"{1000 * fit_.appendage_mass_std:.2g} g at {fit_.appendage_freq:.0f} Hz, chi2 {fit_.chi2:.2f}); "
-            f"uncoupled housing frequency {fu:.1f} Hz inverted (+/- {100 * terms['split housing fit']:.2f} %)"
+            f"uncoupled housing frequency {fu:.1f} Hz inverted (+/- {100 * terms['split housing fit']:.2f} %); "
+            f"inside or added to m_H cannot be told: m_H tolerance {100 * m_h_split_rel:.1f} %"
         )
     elif partners and ratio is not None and ratio > MASS_WARN_RATIO:
         # the housing mode lacks part of its participation and in-phase neighbours carry it:
@@ -768,6 +775,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                              f"coupling{extra}; m_H tolerance widened to {100 * m_h_rel:.1f} %{why}")
     if split_leak is not None:
         leak_bound = split_leak
+    if m_h_split_rel is not None and m_h_rel is None:
+        m_h_rel = m_h_split_rel
     for i in m.neighbours:
         if i in used:
             continue  # used by the correction (its own term)
