@@ -10,6 +10,9 @@ hysteretic bearing.
 Usage::
 
     PYTHONPATH=. python benchmarks/study_bearing_truths.py [--seeds N] [--only NAME]
+
+Point PYTHONPATH at another checkout (e.g. the main branch) to count "before": the truths and
+this script stay this tree's (a rig file with sensor masses is refused there).
 """
 
 from __future__ import annotations
@@ -47,7 +50,7 @@ def _run(tmp: Path, name: str, truth: RigTruth, damping_model: str = "viscous") 
     except EmaRigError as exc:
         return ("refused", math.nan, math.nan, math.nan, str(exc)[:120]), None
     w = tuple(res.warnings)
-    rb = res.rigid_body
+    rb = getattr(res, "rigid_body", None)  # absent on a tree before issue 19
     if rb is not None and rb.axial_stiffness is not None and truth.sensor_mass == 0:
         # the truth's axial bearing stiffness: the housing's axial coordinate on its spring
         k_ax = truth.params["m_H"] * (2 * math.pi * truth.axial_freq) ** 2
@@ -158,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
                 truth, model, true_val = dmake(s)
                 truth = _fc(truth, args.force_chain)
                 _, res = _run(t, "d", truth, damping_model=model)
-                if res is None or res.damping is None:  # type: ignore[attr-defined]
+                if res is None or getattr(res, "damping", None) is None:
                     continue
                 d = res.damping  # type: ignore[attr-defined]
                 val, sd = (d.c_TB, d.c_TB_std) if model == "viscous" else (d.loss_factor, d.loss_factor_std)
