@@ -43,9 +43,9 @@ AXIAL: list[bool] = []  # per run with an axial stiffness: within 2 sigma of the
 
 def _run(tmp: Path, name: str, truth: RigTruth, damping_model: str = "viscous") -> tuple[Outcome, object]:
     uff, rig_path = write_case(tmp, name, truth, FREQ)
-    rig = load_rig(rig_path)
-    data = read_uff58(uff, rig=rig)
     try:
+        rig = load_rig(rig_path)
+        data = read_uff58(uff, rig=rig)
         res = st.estimate_stiffness(data, rig, spindle=False, damping_model=damping_model)
     except EmaRigError as exc:
         return ("refused", math.nan, math.nan, math.nan, str(exc)[:120]), None
