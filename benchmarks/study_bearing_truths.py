@@ -172,6 +172,9 @@ def main(argv: list[str] | None = None) -> int:
                 if args.verbose:
                     print(f"|   seed {s} | {val:.4g} vs {true_val:.4g} | z {(val - true_val) / sd:+.2f} "
                           f"| sigma {100 * sd / val:.2f} % | | | {len(res.warnings)} |")  # type: ignore[attr-defined]
+            if not sig:
+                print(f"| {name} | {args.seeds} | no damping reported | | | | |")
+                continue
             print(f"| {name} | {args.seeds} | {inside} | {np.median(sig):.2f} | {np.max(sig):.2f} "
                   f"| {np.median(bias):.2f} | {warned} |")
     return 0
