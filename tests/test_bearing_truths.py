@@ -183,3 +183,14 @@ def test_axial_and_cross_stiffness_within_2_sigma(tmp_path):
     k_ax2 = TABLE1["m_H"] * (2 * math.pi * 301.0) ** 2
     assert abs(rb2.axial_stiffness - k_ax2) <= 2 * rb2.axial_stiffness_std
     assert rb2.cross_stiffness is None and any("tilt" in r for r in rb2.reasons)
+
+
+def test_truth_generator_imports_nothing_from_ema_rig():
+    # the oracle must stay independent of the code under test (issue 19)
+    import ast
+    from pathlib import Path
+
+    tree = ast.parse((Path(__file__).parent / "rig_truth.py").read_text(encoding="utf-8"))
+    names = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+    names += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+    assert not [m for m in names if m.split(".")[0] == "ema_rig"]
