@@ -247,8 +247,10 @@ def test_uncertainty_coverage(rig):
         rel_std.append(res.k_TB_std / res.k_TB)
         hits += abs(z) <= 2.0
     assert hits >= math.ceil(0.9 * n), f"coverage {hits}/{n}, z = {np.round(errs, 2)}"
-    # and the interval stays informative (a huge std would cover trivially): median u(k)/k < 0.5 %
-    assert np.median(rel_std) < 5e-3, f"median relative std {np.median(rel_std):.2e}"
+    # and the interval stays informative (a huge std would cover trivially): median u(k)/k < 1 %
+    # (measured 0.62 %: the ML sigma of f_H plus the term of the housing mode's local modal-mass check,
+    # issues 18/19; a 10x wider interval fails)
+    assert np.median(rel_std) < 1e-2, f"median relative std {np.median(rel_std):.2e}"
 
 
 # ----------------------------------------------------------------------------- plot (Fig. 7)
