@@ -13,7 +13,9 @@ The rig file's keys are a stable interface (README, "The rig file")::
 Optional tables (extensions, all keys optional):
 
 - ``[uncertainty]``: relative standard uncertainty (fraction, 0.01 = 1 %) of any of the seven
-  model parameters, used by the k_TB uncertainty budget.
+  model parameters, used by the k_TB uncertainty budget; ``force_chain``: that of the FRF scale
+  (force sensor x accelerometer calibration); stating it trusts the force chain, so the
+  driving-point modal mass measures ``m_H``.
 - ``[identification]``: ``band = [lo, hi]`` (Hz), ``max_order`` (int, the cap of the adaptive order),
   ``k_MS_band = [lo, hi]``, ``refine`` (bool: maximum-likelihood refinement after PolyMAX),
   ``n_averages`` (number of averages behind the FRFs and coherence, >= 1).
@@ -23,6 +25,17 @@ Optional tables (extensions, all keys optional):
 - ``[calibration]``: ``k_disk`` (the steel disk's own stiffness [N/m], e.g. from FE; it acts in
   series with ``k_MS`` during the calibration) and ``k_disk_std`` (its standard uncertainty [N/m];
   needs ``k_disk``). Without ``k_disk`` the disk is assumed rigid, with a model-form term.
+- ``[[mass]]`` (one table per attached mass: an impedance head, a fixture, cables): ``mass`` [kg,
+  required], ``on = "housing" | "spindle"`` (required), ``mass_std`` [kg, default 10 % of
+  ``mass``], ``position = [x, y, z]`` [m, from the housing's centre of mass: x axial, y radial,
+  z lateral; optional], ``name``.
+- ``[[sensor]]`` optional keys ``mass`` [kg], ``mass_std`` [kg, default 10 % of ``mass``] and
+  ``position = [x, y, z]`` [m]: the accelerometer's own mass rides on the body of its ``role``.
+
+Attached masses are carried by the model: ``RigConfig.model`` holds the effective
+``m_H = [model] m_H + masses on the housing`` (``m_S`` likewise); ``declared_model`` the
+``[model]`` table as written. Their tolerances add in quadrature to the ``m_H`` (``m_S``)
+tolerance, so ``RigConfig.uncertainty`` carries the relative tolerance of the effective mass.
 
 Functions
 ---------
@@ -46,7 +59,12 @@ from .errors import ConfigError
 MODEL_KEYS: tuple[str, ...] = ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B")
 SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")
 SENSOR_AXES: tuple[str, ...] = ("radial", "lateral", "axial")
-_TOP_KEYS = ("model", "excitation", "sensor", "uncertainty", "identification", "units", "rig", "calibration")
+_TOP_KEYS = ("model", "excitation", "sensor", "uncertainty", "identification", "units", "rig", "calibration",
+             "mass")
+MASS_BODIES: tuple[str, ...] = ("housing", "spindle")
+DEFAULT_ADDED_MASS_REL_STD = 0.10
+"""Relative standard uncertainty of an attached mass without ``mass_std``: a datasheet mass leaves
+out the cable, stud, wax or glue (a few grams on a 10 g accelerometer)."""
 
 #: Table 1 of the paper (SI) and what each parameter is: the centre of the plausible ranges.
 _TABLE1: dict[str, tuple[float, str]] = {
@@ -113,11 +131,41 @@ class ModelParams:
 
 @dataclass(frozen=True, slots=True)
 class Sensor:
-    """One accelerometer: its DOF as written in the UFF file, its role and its axis."""
+    """One accelerometer: its DOF as written in the UFF file, its role and its axis.
+
+    ``mass``, ``mass_std`` [kg] and ``position`` ``(x, y, z)`` [m, from the housing's centre of
+    mass; x axial, y radial, z lateral] are optional (0 / None when the rig file does not give them).
+    """
 
     dof: DOF
     role: str
     axis: str
+    mass: float = 0.0
+    mass_std: float = 0.0
+    position: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class AddedMass:
+    """A mass attached to the housing or the spindle (a sensor, an impedance head, a fixture).
+
+    Attributes
+    ----------
+    name : str
+        ``[[mass]] name`` or ``"sensor <dof>"``.
+    mass, mass_std : float
+        Mass and its standard uncertainty [kg].
+    body : str
+        ``'housing'`` or ``'spindle'``.
+    position : tuple of float or None
+        ``(x, y, z)`` [m] from the housing's centre of mass (x axial, y radial, z lateral).
+    """
+
+    name: str
+    mass: float
+    mass_std: float
+    body: str
+    position: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,6 +195,14 @@ class RigConfig:
     name : str
     path : str or None
         File it was read from (for messages; excluded from cache keys: the content counts).
+    added_masses : tuple of AddedMass
+        Attached masses (``[[mass]]`` tables and sensor masses); already in ``model``.
+    declared_model : ModelParams or None
+        The ``[model]`` table as written (None: same as ``model``, no attached masses).
+    force_chain : float or None
+        ``[uncertainty] force_chain``: relative standard uncertainty of the FRF scale (force
+        sensor times accelerometer sensitivity). Given, the force chain is trusted: the
+        driving-point modal mass measures ``m_H``. None: not trusted.
     """
 
     model: ModelParams
@@ -162,6 +218,9 @@ class RigConfig:
     name: str = ""
     # where it was read from: named in messages, but not part of what a result depends on
     path: str | None = field(default=None, metadata={"cache_key": False})
+    added_masses: tuple[AddedMass, ...] = ()
+    declared_model: ModelParams | None = None
+    force_chain: float | None = None
 
     def sensor_for(self, dof: DOF) -> Sensor | None:
         """The sensor whose node and axis match ``dof`` (sign ignored), or None."""
@@ -380,7 +439,7 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         where = f"sensor[{i}]"
         if not isinstance(s, Mapping):
             raise ConfigError("must be a table", file=fname, key=where)
-        check_keys(s, ("dof", "role", "axis", "name"), where, fname)
+        check_keys(s, ("dof", "role", "axis", "name", "mass", "mass_std", "position"), where, fname)
         for req in ("dof", "role", "axis"):
             if req not in s:
                 raise ConfigError("missing required key (dof, role, axis)", file=fname, key=f"{where}.{req}")
@@ -396,11 +455,13 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
                 f"DOF {dof} is already used by sensor[{seen[node_axis]}]", file=fname, key=f"{where}.dof"
             )
         seen[node_axis] = i
-        sensors.append(Sensor(dof, role, axis))
+        s_mass, s_std = _mass_and_std(s, where, fname, required=False)
+        sensors.append(Sensor(dof, role, axis, s_mass, s_std, _position(s, where, fname)))
 
     unc_t = toml_table(doc, "uncertainty", fname, required=False)
-    check_keys(unc_t, MODEL_KEYS, "uncertainty", fname)
+    check_keys(unc_t, (*MODEL_KEYS, "force_chain"), "uncertainty", fname)
     uncertainty = {}
+    force_chain = None
     for k, v in unc_t.items():
         x = toml_number(v, f"uncertainty.{k}", fname)
         if not 0 <= x < 1:
@@ -409,7 +470,10 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
                 file=fname,
                 key=f"uncertainty.{k}",
             )
-        uncertainty[k] = x
+        if k == "force_chain":
+            force_chain = x
+        else:
+            uncertainty[k] = x
 
     id_t = toml_table(doc, "identification", fname, required=False)
     check_keys(id_t, ("band", "max_order", "k_MS_band", "refine", "n_averages"), "identification", fname)
@@ -448,6 +512,29 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
     check_keys(cal_t, ("k_disk", "k_disk_std"), "calibration", fname)
     k_disk, k_disk_std = parse_disk(cal_t, "calibration.", fname)
 
+    added = [AddedMass(f"sensor {se.dof}", se.mass, se.mass_std, se.role, se.position)
+             for se in sensors if se.mass > 0]
+    raw_masses = doc.get("mass", [])
+    if not isinstance(raw_masses, list):
+        raise ConfigError("must be an array of tables [[mass]]", file=fname, key="mass")
+    for i, t in enumerate(raw_masses):
+        where = f"mass[{i}]"
+        if not isinstance(t, Mapping):
+            raise ConfigError("must be a table", file=fname, key=where)
+        check_keys(t, ("name", "mass", "mass_std", "on", "position"), where, fname)
+        if "on" not in t:
+            raise ConfigError("missing required key (the body it sits on: housing or spindle)", file=fname,
+                              key=f"{where}.on")
+        if t["on"] not in MASS_BODIES:
+            raise ConfigError(f"must be one of {', '.join(MASS_BODIES)}, got {short_repr(t['on'])}", file=fname,
+                              key=f"{where}.on")
+        a_mass, a_std = _mass_and_std(t, where, fname, required=True)
+        added.append(AddedMass(toml_str(t.get("name", f"mass[{i}]"), f"{where}.name", fname), a_mass, a_std,
+                               str(t["on"]), _position(t, where, fname)))
+    declared = model
+    if added:
+        model, uncertainty = _with_added_masses(model, uncertainty, added)
+
     return RigConfig(
         model=model,
         radial=radial,
@@ -461,7 +548,61 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         k_disk_std=k_disk_std,
         name=toml_str(rig_t.get("name", ""), "rig.name", fname),
         path=fname,
+        added_masses=tuple(added),
+        declared_model=declared if added else None,
+        force_chain=force_chain,
     )
+
+
+def _mass_and_std(t: Mapping[str, Any], where: str, file: str | None, *, required: bool) -> tuple[float, float]:
+    """``mass`` [kg] (> 0; 0 when absent and not required) and ``mass_std`` [kg] of a table."""
+    if "mass" not in t:
+        if required:
+            raise ConfigError("missing required key (the attached mass in kg)", file=file, key=f"{where}.mass")
+        if "mass_std" in t:
+            raise ConfigError("needs mass (the mass it is the uncertainty of)", file=file, key=f"{where}.mass_std")
+        return 0.0, 0.0
+    mass = toml_number(t["mass"], f"{where}.mass", file, lo=0.0, lo_open=True)
+    std = (toml_number(t["mass_std"], f"{where}.mass_std", file, lo=0.0) if "mass_std" in t
+           else DEFAULT_ADDED_MASS_REL_STD * mass)
+    return mass, std
+
+
+def _position(t: Mapping[str, Any], where: str, file: str | None) -> tuple[float, float, float] | None:
+    """``position = [x, y, z]`` [m] of a table, or None."""
+    if "position" not in t:
+        return None
+    v = t["position"]
+    if not isinstance(v, list) or len(v) != 3:
+        raise ConfigError(f"must be [x, y, z] in metres, got {short_repr(v)}", file=file, key=f"{where}.position")
+    x, y, z = (toml_number(c, f"{where}.position[{j}]", file) for j, c in enumerate(v))
+    return (x, y, z)
+
+
+def _with_added_masses(model: ModelParams, uncertainty: dict[str, float],
+                       added: list[AddedMass]) -> tuple[ModelParams, dict[str, float]]:
+    """Effective ``m_H``/``m_S`` with the attached masses and the tolerance of each sum.
+
+    ``u(m_eff)^2 = (u_rel m)^2 + sum_i u(m_i)^2`` with ``u_rel`` the ``[uncertainty]`` value,
+    else the default of :data:`ema_rig.rig.uncertainty.DEFAULT_REL_UNCERTAINTY` (0.5 % for m_H,
+    2 % for m_S, repeated here so the config layer does not import the rig layer).
+    """
+    from dataclasses import replace
+
+    default_rel = {"m_H": 0.005, "m_S": 0.02}
+    unc = dict(uncertainty)
+    new: dict[str, float] = {}
+    for body, key in (("housing", "m_H"), ("spindle", "m_S")):
+        on = [a for a in added if a.body == body]
+        if not on:
+            continue
+        m0 = float(getattr(model, key))
+        rel0 = unc.get(key, default_rel[key])
+        m_eff = m0 + sum(a.mass for a in on)
+        var = (rel0 * m0) ** 2 + sum(a.mass_std**2 for a in on)
+        new[key] = m_eff
+        unc[key] = math.sqrt(var) / m_eff
+    return replace(model, **new), unc
 
 
 #: Largest TOML file read [bytes]; rig and campaign files are a few kB.
@@ -696,6 +837,7 @@ def check_hertz_curve(geometry: Any, loads: tuple[float, ...], where: str, file:
 
 
 __all__ = [
+    "AddedMass",
     "BEARING_GEOMETRY_KEYS",
     "CONDITION_RANGES",
     "GEOMETRY_RANGES",

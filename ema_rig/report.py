@@ -58,6 +58,9 @@ _CAPTIONS = {
              "(measured) uncertainty of each estimate only; the rig-model tolerances shift every speed "
              "alike and are left out so that a speed effect stays visible.",
     "repeatability": "Deviation of repeated measurements from their condition mean.",
+    "damping": "Bearing damping c_TB (viscous dashpot in parallel with k_TB) from the housing mode's identified "
+               "damping through the 3DOF model, against radial load and speed; damping elsewhere that moves "
+               "with the housing mode is attributed to the bearing (an upper bound).",
 }
 
 
@@ -154,9 +157,9 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
                  "measurement's own section (figures, candidate modes, warnings).</p>")
     head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB [MN/m]",
             "± measured [MN/m]", "± total [MN/m]", "k_TB+MS [MN/m]", "f_H [Hz]", "± f_H [Hz]", "ζ_H [%]",
-            "f_spindle [Hz]", "f_H from", "warnings", "status"]
+            "f_spindle [Hz]", "c_TB [N·s/m]", "± c_TB [N·s/m]", "f_H from", "warnings", "status"]
     parts.append("<table><tr>" + "".join(
-        f"<th class='{'l' if i in (0, 1, 14, 16) else ''}'>{_h(h)}</th>" for i, h in enumerate(head))
+        f"<th class='{'l' if i in (0, 1, 16, 18) else ''}'>{_h(h)}</th>" for i, h in enumerate(head))
         + "</tr>")
     for i, r in enumerate(rows):
         cls = "" if r["status"] == "ok" else " class='err'"
@@ -168,6 +171,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
             ("", _fmt(r.get("k_TB_std_measured", math.nan), "N/m")),
             ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
             ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
+            ("", _fmt(r.get("c_TB", math.nan), ".0f")), ("", _fmt(r.get("c_TB_std", math.nan), ".0f")),
             ("l", _h(_source(r))),
             ("", str(len(_unique(r.get("warnings") or ())))),
             ("l", _h(status)),
@@ -185,6 +189,23 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     return "\n".join(parts)
 
 
+def _comparison(detail: Any) -> str:
+    """The 3DOF inversion of the identified frequency beside the result and what the evidence resolved."""
+    if not isinstance(detail, Mapping):
+        return ""
+    inv = detail.get("inversion_3dof")
+    notes = [str(n) for n in (detail.get("notes") or [])]
+    out = []
+    if isinstance(inv, Mapping) and inv.get("k_TB") is not None:
+        out.append(f"<p class='muted'>Plain 3DOF inversion of the identified frequency (rig-file m_H, no "
+                   f"coupling correction): k_TB {_fmt(float(inv['k_TB']), 'N/m')} MN/m at "
+                   f"{_fmt(float(inv['freq']), '.2f')} Hz; reported (housing model with the measured evidence): "
+                   f"{_fmt(float(detail.get('k_TB', math.nan)), 'N/m')} MN/m.</p>")
+    if notes:
+        out.append("<p>Notes:</p><ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in notes) + "</ul>")
+    return "\n".join(out)
+
+
 def _measurement_section(i: int, r: Mapping[str, Any],
                          figs: tuple[Mapping[str, str | PathLike[str]], list[str], list[Any]] | None) -> str:
     """The section of one measurement: conditions, result, warnings, figures, candidate modes."""
@@ -198,7 +219,12 @@ def _measurement_section(i: int, r: Mapping[str, Any],
     if ok:
         parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m (total) · "
                      f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz (measured)"
-                     f" · from {_h(_SOURCE_TEXT.get(_source(r), _source(r)))}</p>")
+                     f" · from {_h(_SOURCE_TEXT.get(_source(r), _source(r)))} · "
+                     f"bearing damping c_TB {_fmt(r.get('c_TB', math.nan), '.0f')} ± "
+                     f"{_fmt(r.get('c_TB_std', math.nan), '.0f')} N·s/m, loss factor "
+                     f"{_fmt(r.get('loss_factor', math.nan), '.4f')} ± {_fmt(r.get('loss_factor_std', math.nan), '.4f')}"
+                     "</p>")
+        parts.append(_comparison(r.get("detail")))
     else:
         parts.append(f"<p><b>error:</b> {_h(str(r.get('error')))}</p>")
     warns = _unique([*(r.get("warnings") or []), *(figs[1] if figs else [])])

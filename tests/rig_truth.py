@@ -1,9 +1,17 @@
 """Independent rig truths for the k_TB tests: the paper's radial dynamics solved directly.
 
-Nothing here uses ``ema_rig.simulate`` or ``ema_rig.rig.model``: the mass and stiffness matrices
-are written out below, the FRFs come from a direct solve of ``(K - w^2 M + j w C)^-1`` (or
-``K (1 + j eta)`` for hysteretic damping) at every line, and the measurement is written to UFF58
-through ``ema_rig.io.uff.write_uff58`` and read back by the code under test.
+Nothing here imports ema_rig: the mass and stiffness matrices are written out below, the FRFs
+come from a direct solve of ``(K - w^2 M + j w C)^-1`` (or ``K (1 + j eta)`` for hysteretic
+damping) at every line, and the measurement is written to UFF58 by pyuff and read back by the
+code under test.
+
+Beyond the paper's model the truth can hold: a bearing cross stiffness coupling the housing's
+radial deflection to its axial or lateral rigid-body motion (``cross_axis``, ``cross_leak``),
+accelerometer masses at the sensor positions (``sensor_mass``, declared in the rig file or not),
+a rig file whose ``m_H`` is off (``file_m_H_factor``), an appendage, flexible frame and housing
+modes anywhere, and the bearing's own damping (``damping='bearing_viscous'``: a dashpot ``c_TB``
+in parallel with ``k_TB``; ``'bearing_hysteretic'``: ``k_TB (1 + j eta_TB)``; both in series with
+``k_MS``, everything else in the radial chain undamped but a 5 % bushing dashpot).
 
 Generalised coordinates (SI, metres / radians)::
 
@@ -29,14 +37,11 @@ the observation matrix), so every participation is physically consistent.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-
-from ema_rig.dof import DOF
-from ema_rig.frf import FRFData
 
 G = 9.80665
 
@@ -92,13 +97,24 @@ class RigTruth:
     dashpot_zeta: float = 0.0  # extra ζ of the housing mode from the bearing dashpot
     misalign_deg: float = 2.0
     seed: int = 0
+    cross_axis: str = ""  # '' | 'axial' | 'lateral': bearing cross stiffness to that housing motion
+    cross_leak: float = 0.0  # share of the housing mode's kinetic energy in the partner coordinate
+    sensor_mass: float = 0.0  # kg on each of the five housing sensors, at its position
+    declare_sensor_masses: bool = True  # the rig file lists them
+    file_m_H_factor: float = 1.0  # the rig file's m_H / the truth's
+    file_force_chain: float | None = None  # [uncertainty] force_chain in the rig file (None: absent)
+    c_TB: float = 0.0  # N s/m, damping='bearing_viscous'
+    eta_TB: float = 0.0  # loss factor, damping='bearing_hysteretic'
 
     @property
     def k_TB_MS(self) -> float:
         return 1.0 / (1.0 / self.k_TB + 1.0 / self.params["k_MS"])
 
-    def matrices(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Mass and stiffness matrices (12 x 12; coordinate 11 inert without an appendage)."""
+    def matrices(self, k_bearing: float | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Mass and stiffness matrices (12 x 12; coordinate 11 inert without an appendage).
+
+        ``k_bearing`` replaces ``k_TB+MS`` between y_H and x_S (0: the matrix without it).
+        """
         p = self.params
         m_a = self.appendage_fraction * p["m_H"]
         n = 12
@@ -107,7 +123,7 @@ class RigTruth:
         m[0, 0] = p["m_H"] - m_a
         m[1, 1] = p["m_S"]
         m[2, 2] = p["m_F"]
-        kt = self.k_TB_MS
+        kt = self.k_TB_MS if k_bearing is None else k_bearing
         # ground -k_B- F ; F -k_AS- H ; F -k_S- S ; S -k_TB+MS- H
         for i, j, kk in ((0, 2, p["k_AS"]), (1, 2, p["k_S"]), (0, 1, kt)):
             k[i, i] += kk
@@ -138,7 +154,32 @@ class RigTruth:
             k[11, 0] -= ka
         else:
             m[11, 11], k[11, 11] = 1.0, 1.0  # inert, unobserved, unforced
+        if self.sensor_mass > 0:  # point masses on the rigid housing: M += m T^T T
+            for r in _POS.values():
+                t = _rigid_point(r)
+                m += self.sensor_mass * t.T @ t
+        if self.cross_axis:
+            k += self._cross_k() * _cross_pattern(self.cross_axis)
         return m, k
+
+    def _cross_k(self) -> float:
+        """Cross stiffness [N/m] giving the housing mode ``cross_leak`` of its energy in the partner."""
+        if not self.cross_leak > 0:
+            return 0.0
+        from scipy.optimize import brentq
+
+        pat = _cross_pattern(self.cross_axis)
+        trial = replace(self, cross_axis="")
+        m, k0 = trial.matrices()
+
+        def leak(kc: float) -> float:
+            lam, phi = _eigh(k0 + kc * pat, m)
+            h = _housing_index(lam, phi, m)
+            i = 6 if self.cross_axis == "axial" else 5
+            return float(m[i, i] * phi[i, h] ** 2) - self.cross_leak
+
+        hi = 0.3 * self.k_TB_MS
+        return float(brentq(leak, 0.0, hi, xtol=1.0))
 
     def observation(self) -> NDArray[np.float64]:
         """Sensor readings per coordinate, shape (8, 12), misaligned directions."""
@@ -166,8 +207,27 @@ class RigTruth:
             c[s, 10] = _OVAL[s]
         return c
 
+    def housing_freq(self) -> float:
+        """Undamped natural frequency [Hz] of the housing's radial mode of this truth."""
+        m, k = self.matrices()
+        lam, phi = _eigh(k, m)
+        return float(math.sqrt(lam[_housing_index(lam, phi, m)]) / (2 * math.pi))
+
+    def bearing_impedance(self, om: float) -> complex:
+        """Bearing (with its dashpot or loss) in series with k_MS [N/m] at ``om`` rad/s."""
+        kms = self.params["k_MS"]
+        if self.damping == "bearing_viscous":
+            z = self.k_TB + 1j * om * self.c_TB
+        elif self.damping == "bearing_hysteretic":
+            z = self.k_TB * (1 + 1j * self.eta_TB)
+        else:
+            return complex(self.k_TB_MS)
+        return complex(1.0 / (1.0 / z + 1.0 / kms))
+
     def frf(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
         """Accelerance [m/s^2/N] of every sensor for the radial shaker, shape (8, n_freq)."""
+        if self.damping in ("bearing_viscous", "bearing_hysteretic"):
+            return self._frf_bearing(freq)
         m, k = self.matrices()
         c_obs = self.observation()
         b = c_obs[0]  # force along the driving-point sensor's direction, at its point
@@ -196,12 +256,104 @@ class RigTruth:
         return out
 
 
+    def _frf_bearing(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
+        """Only the bearing damps the radial chain (plus a 5 % dashpot on the bushings); every
+        other coordinate has its own dashpot to ground with ``zeta`` at its own frequency."""
+        m, k0 = self.matrices(k_bearing=0.0)
+        c_obs = self.observation()
+        b = c_obs[0]
+        damp = np.zeros_like(m)
+        for i in range(3, 12):
+            damp[i, i] = 2 * self.zeta * math.sqrt(k0[i, i] * m[i, i]) if k0[i, i] > 0 else 0.0
+        damp[2, 2] += 2 * 0.05 * math.sqrt(self.params["k_B"] * self.params["m_F"])
+        e = np.zeros(12)
+        e[0], e[1] = 1.0, -1.0
+        out = np.empty((len(OUT), freq.size), complex)
+        for i, f in enumerate(freq):
+            om = 2 * math.pi * f
+            a = k0 + self.bearing_impedance(om) * np.outer(e, e) - om**2 * m + 1j * om * damp
+            out[:, i] = -(om**2) * (c_obs @ np.linalg.solve(a, b))
+        return out
+
+    def housing_pole(self) -> complex:
+        """The housing mode's complex eigenvalue [rad/s] of a bearing-damped truth, by a Newton
+        iteration on ``det(K(s) + s C + s^2 M)`` started at the undamped mode (oracle for c_TB)."""
+        m, k = self.matrices()
+        lam, phi = _eigh(k, m)
+        h = _housing_index(lam, phi, m)
+        m0, k0 = self.matrices(k_bearing=0.0)
+        damp = np.zeros_like(m0)
+        for i in range(3, 12):
+            damp[i, i] = 2 * self.zeta * math.sqrt(k0[i, i] * m0[i, i]) if k0[i, i] > 0 else 0.0
+        damp[2, 2] += 2 * 0.05 * math.sqrt(self.params["k_B"] * self.params["m_F"])
+        e = np.zeros(12)
+        e[0], e[1] = 1.0, -1.0
+
+        def smallest(s: complex) -> complex:
+            # the bearing impedance as a function of s (om = s / j)
+            a = k0 + self.bearing_impedance(complex(s / 1j)) * np.outer(e, e) + s * damp + s * s * m0  # type: ignore[arg-type]
+            ev = np.linalg.eigvals(np.linalg.solve(m0, a))
+            return complex(ev[np.argmin(np.abs(ev))])
+
+        s = 1j * math.sqrt(lam[h])
+        for _ in range(50):  # secant on the eigenvalue of the pencil closest to zero
+            d = 1e-6 * abs(s)
+            f0, f1 = smallest(s), smallest(s + d)
+            step = f0 * d / (f1 - f0)
+            s = s - step
+            if abs(step) < 1e-12 * abs(s):
+                break
+        return complex(s)
+
+
+def _rigid_point(r: tuple[float, float, float]) -> NDArray[np.float64]:
+    """Displacement (x, y, z) of a point at ``r`` on the rigid housing per coordinate, shape (3, 12)."""
+    rx, ry, rz = r
+    t = np.zeros((3, 12))
+    t[0, 6], t[0, 4] = 1.0, -ry
+    t[1, 0], t[1, 4], t[1, 3] = 1.0, rx, -rz
+    t[2, 5], t[2, 3] = 1.0, ry
+    return t
+
+
+def _cross_pattern(axis: str) -> NDArray[np.float64]:
+    """Unit bearing cross stiffness between the radial deflection (y_H - x_S) and the housing's
+    axial (x_H) or lateral (z_H) translation, shape (12, 12)."""
+    if axis not in ("axial", "lateral"):
+        raise ValueError(f"cross_axis must be 'axial' or 'lateral', got {axis!r}")
+    er = np.zeros(12)
+    er[0], er[1] = 1.0, -1.0
+    ep = np.zeros(12)
+    ep[6 if axis == "axial" else 5] = 1.0
+    return np.outer(er, ep) + np.outer(ep, er)
+
+
+def _housing_index(lam: NDArray[np.float64], phi: NDArray[np.float64], m: NDArray[np.float64]) -> int:
+    """The mode with most kinetic energy in the housing's radial translation (y_H), 150-1300 Hz."""
+    f = np.sqrt(np.clip(lam, 0, None)) / (2 * math.pi)
+    share = m[0, 0] * phi[0] ** 2
+    share = np.where((f > 150) & (f < 1300), share, -1.0)
+    return int(np.argmax(share))
+
+
 def _eigh(k: NDArray[np.float64], m: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Generalised symmetric eigenproblem by Cholesky (M = L L^T), mass-normalised vectors."""
     l_ = np.linalg.cholesky(m)
     li = np.linalg.inv(l_)
     lam, v = np.linalg.eigh(li @ k @ li.T)
     return lam, li.T @ v
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """Noisy accelerance of the kept sensors for the radial shaker (no ema_rig types).
+
+    ``frf`` shape (n_out, n_freq) [m/s^2/N] along each sensor's positive axis; ``out`` the DOF
+    names (``OUT`` order minus the dropped ones)."""
+
+    freq: NDArray[np.float64]
+    frf: NDArray[np.complex128]
+    out: tuple[str, ...]
 
 
 def measurement(
@@ -213,8 +365,8 @@ def measurement(
     drop: tuple[str, ...] = (),
     flip: tuple[str, ...] = (),
     scale: float = 1.0,
-) -> FRFData:
-    """Noisy FRFData (outputs in :data:`OUT` order minus ``drop``; one reference 11+Y).
+) -> Measurement:
+    """Noisy FRFs (outputs in :data:`OUT` order minus ``drop``; one reference 11+Y).
 
     ``noise`` is the relative std of complex Gaussian noise on each line, ``floor`` an additive
     floor relative to the median magnitude of the channel; ``flip`` reverses the sign of sensors
@@ -230,17 +382,7 @@ def measurement(
     keep = [i for i, d in enumerate(OUT) if d not in drop]
     for d in flip:
         h[OUT.index(d)] *= -1.0
-    roles = ("housing",) * 5 + ("spindle",) * 3
-    axes = ("radial", "radial", "radial", "lateral", "axial", "radial", "radial", "axial")
-    return FRFData(
-        freq.astype(np.float64),
-        (scale * h[keep])[:, None, :],
-        tuple(DOF.parse(OUT[i]) for i in keep),
-        (DOF.parse("11+Y"),),
-        frf_form="accelerance",
-        roles=tuple(roles[i] for i in keep),
-        axes=tuple(axes[i] for i in keep),
-    )
+    return Measurement(freq.astype(np.float64), scale * h[keep], tuple(OUT[i] for i in keep))
 
 
 RIG_TOML = """
@@ -271,26 +413,68 @@ _SENSORS = (("11+Y", "housing", "radial"), ("12+Y", "housing", "radial"), ("13-Y
             ("22+Y", "spindle", "radial"), ("23+X", "spindle", "axial"))
 
 
-def rig_text(params: dict[str, float] | None = None, *, drop: tuple[str, ...] = ()) -> str:
-    """Rig file (TOML) for the truth's nominal parameters, without the sensors in ``drop``."""
+def rig_text(params: dict[str, float] | None = None, *, drop: tuple[str, ...] = (),
+             sensor_mass: float = 0.0, force_chain: float | None = None) -> str:
+    """Rig file (TOML) for the truth's nominal parameters, without the sensors in ``drop``;
+    ``sensor_mass`` [kg] declared on each housing sensor, with its position; ``force_chain`` the
+    stated relative std of the FRF scale (the truth's scale is exact)."""
     text = RIG_TOML.format(**(params or TABLE1))
+    if force_chain is not None:
+        text += f"force_chain = {force_chain!r}\n"
     for dof, role, axis in _SENSORS:
         if dof.replace("-", "+") in drop:
             continue
         text += f'\n[[sensor]]\ndof = "{dof}"\nrole = "{role}"\naxis = "{axis}"\n'
+        pos = _POS.get(dof.replace("-", "+"))
+        if sensor_mass > 0 and pos is not None:
+            text += f"mass = {sensor_mass!r}\nposition = [{pos[0]!r}, {pos[1]!r}, {pos[2]!r}]\n"
     return text
 
 
-def write_case(tmp: Path, name: str, truth: RigTruth, freq: NDArray[np.float64], **kw: object) -> tuple[Path, Path]:
-    """Write ``name.uff`` and ``name.toml`` (the rig file) into ``tmp``; return both paths."""
-    from ema_rig.config import load_rig
-    from ema_rig.io.uff import write_uff58
+_DIR = {"X": 1, "Y": 2, "Z": 3}
 
+
+def write_uff(path: Path, meas: Measurement, *, binary: bool = False) -> Path:
+    """UFF58 of ``meas`` written by pyuff (sensor 13 as mounted, along -Y).
+
+    ASCII by default: pyuff 2.5.8 loses the first 58b set in 'overwrite' mode and leaves its file
+    handles open in 'add' mode."""
+    import contextlib
+    import io
+    import warnings
+
+    import pyuff
+
+    sets = []
+    for name, h in zip(meas.out, meas.frf, strict=True):
+        node, axis = int(name[:-2]), name[-1]
+        sign = -1 if name == "13+Y" else 1  # the rig file mounts 13 along -Y
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sets.append(pyuff.prepare_58(
+                binary=int(binary), func_type=4, rsp_node=node, rsp_dir=sign * _DIR[axis], ref_node=11,
+                ref_dir=2, ord_data_type=6, abscissa_spacing=1, abscissa_spec_data_type=18,
+                abscissa_axis_units_lab="Hz", ordinate_spec_data_type=12, ordinate_axis_units_lab="m/s^2",
+                orddenom_spec_data_type=13, orddenom_axis_units_lab="N", data=sign * h, x=meas.freq,
+                id1="rig_truth", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
+            ))
+    with contextlib.redirect_stdout(io.StringIO()):
+        pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    return path
+
+
+def write_case(tmp: Path, name: str, truth: RigTruth, freq: NDArray[np.float64], **kw: object) -> tuple[Path, Path]:
+    """Write ``name.uff`` and ``name.toml`` (the rig file) into ``tmp``; return both paths.
+
+    The rig file holds the nominal parameters with ``m_H`` scaled by ``truth.file_m_H_factor``
+    and, when ``truth.declare_sensor_masses``, the sensor masses with their positions."""
     drop = tuple(kw.get("drop", ()))  # type: ignore[arg-type]
+    params = dict(truth.params)
+    params["m_H"] = params["m_H"] * truth.file_m_H_factor
     rig_path = tmp / f"{name}.toml"
-    rig_path.write_text(rig_text(drop=drop), encoding="utf-8")
-    rig = load_rig(rig_path)
-    data = measurement(truth, freq, **kw)  # type: ignore[arg-type]
-    uff = tmp / f"{name}.uff"
-    write_uff58(uff, data, binary=True, rig=rig)
+    rig_path.write_text(rig_text(params, drop=drop,
+                                 sensor_mass=truth.sensor_mass if truth.declare_sensor_masses else 0.0,
+                                 force_chain=truth.file_force_chain),
+                        encoding="utf-8")
+    uff = write_uff(tmp / f"{name}.uff", measurement(truth, freq, **kw))  # type: ignore[arg-type]
     return uff, rig_path

@@ -419,7 +419,9 @@ def test_figure_names_unique_and_mathtext_escaped(small: Path, tmp_path: Path) -
     figs = sorted(k for k in res.files if k.startswith("k_vs_load_"))
     assert len(figs) == 3 and all(res.files[k].stat().st_size > 10_000 for k in figs)
     html = (out / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 3
+    # per bearing: k_vs_load and damping (issue 19)
+    assert html.count("data:image/png;base64,") == 6
+    assert len([k for k in res.files if k.startswith("damping_")]) == 3
     assert all(Path(res.files[k]).parent == out for k in figs)
 
 

@@ -63,7 +63,13 @@ def test_frame_mode_6_hz_below_warns_and_covers(tmp_path):
     truth = RigTruth(k_TB=93e6, flex_frame_freq=663.0, seed=2)
     for drop in ((), ("11+Y",)):
         res = _estimate(tmp_path, "frame" + str(len(drop)), truth, drop=drop)
-        assert res.warnings, "a frame mode a few Hz from the housing mode must be reported"
+        if drop:
+            # without the driving point nothing bounds the coupling: a warning
+            assert res.warnings, "a frame mode a few Hz from the housing mode must be reported"
+        else:
+            # with it, the measured modal mass bounds the leak into the neighbour (issue 19): a
+            # note naming the neighbour and its term instead of a warning
+            assert res.warnings or any("bounds the coupling" in n for n in res.notes)
         assert abs(_z(res, truth)) < 2.0
 
 
@@ -73,10 +79,12 @@ def test_housing_appendage_recovered_within_sigma(tmp_path, k_tb, fraction):
     truth = RigTruth(k_TB=k_tb, appendage_fraction=fraction, flex_housing_freq=820.0,
                      flex_frame_freq=600.0, seed=4)
     res = _estimate(tmp_path, "app", truth)
-    assert any("share the radial housing motion" in w for w in res.warnings)
-    # the split-mass reading and the identified one lie 1 sigma apart from the inverted value
-    assert abs(_z(res, truth)) < 1.5
-    assert "neighbour coupling" in res.uncertainty.shares
+    # issue 19: the housing with an appendage is fitted to both modes' frequencies and
+    # driving-point masses (4DOF model): resolved, a note instead of a warning (was +-20 % hedged)
+    assert any("appendage fitted" in n for n in res.notes)
+    assert "split housing fit" in res.uncertainty.shares
+    assert res.warnings == () and abs(_z(res, truth)) < 1.5
+    assert abs(res.k_TB / truth.k_TB - 1) < 0.01
 
 
 def test_soft_disk_calibration_never_shrinks_the_uncertainty(tmp_path):
@@ -133,7 +141,8 @@ def test_file_in_g_names_units(tmp_path):
 
 def test_cli_warnings_on_stderr_and_json(tmp_path, capsys):
     truth = RigTruth(k_TB=93e6, flex_frame_freq=663.0, seed=2)
-    uff, rig_path = write_case(tmp_path, "frame", truth, FREQ)
+    # without the driving point the close frame mode stays a warning
+    uff, rig_path = write_case(tmp_path, "frame", truth, FREQ, drop=("11+Y",))
     out = tmp_path / "res.json"
     code = main(["stiffness", str(uff), "--rig", str(rig_path), "--no-spindle", "--json", str(out)])
     cap = capsys.readouterr()

@@ -278,4 +278,6 @@ def test_appendage_obeys_the_k_tb_rule(rig, mass_frac, f_a):
     z = (res.k_TB - K_TB) / res.k_TB_std
     assert abs(z) <= 2.0, (res.k_TB, res.k_TB_std)
     if abs(res.k_TB / K_TB - 1) > 0.01:
-        assert any("share the radial housing motion" in w for w in res.warnings), res.warnings
+        # said: a warning, or (issue 19) the split-housing fit resolved it with a stated m_H term
+        assert (any("share the radial housing motion" in w for w in res.warnings)
+                or any("appendage fitted" in n for n in res.notes)), (res.warnings, res.notes)

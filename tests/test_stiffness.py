@@ -247,8 +247,10 @@ def test_uncertainty_coverage(rig):
         rel_std.append(res.k_TB_std / res.k_TB)
         hits += abs(z) <= 2.0
     assert hits >= math.ceil(0.9 * n), f"coverage {hits}/{n}, z = {np.round(errs, 2)}"
-    # and the interval stays informative (a huge std would cover trivially): median u(k)/k < 0.5 %
-    assert np.median(rel_std) < 5e-3, f"median relative std {np.median(rel_std):.2e}"
+    # and the interval stays informative (a huge std would cover trivially): median u(k)/k < 1 %
+    # (measured 0.62 %: the ML sigma of f_H plus the term of the housing mode's local modal-mass check,
+    # issues 18/19; a 10x wider interval fails)
+    assert np.median(rel_std) < 1e-2, f"median relative std {np.median(rel_std):.2e}"
 
 
 # ----------------------------------------------------------------------------- plot (Fig. 7)
@@ -294,7 +296,9 @@ def test_mass_off_the_model_warns_and_widens(rig, monkeypatch):
     _fake_identify(monkeypatch, mm, 0.1)
     res = st.estimate_stiffness(_data_from(mm), _zero_unc(rig), spindle=False)
     assert any("1.30x the model's" in w for w in res.warnings)
-    assert res.uncertainty.term("effective mass").rel_input == pytest.approx(math.log(1.3) / 4, rel=1e-9)
+    # the mass ratio now comes from the local driving-point fit at the identified poles (issue 19):
+    # exact to ~1e-5 on these synthesised FRFs (the fit's residual terms are approximate)
+    assert res.uncertainty.term("effective mass").rel_input == pytest.approx(math.log(1.3) / 4, rel=1e-4)
     # the value itself is untouched (the identified frequency is inverted)
     assert res.inverted_freq == pytest.approx(626.0, rel=1e-12)
     assert res.to_dict()["warnings"] == list(res.warnings)

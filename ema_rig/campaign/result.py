@@ -15,7 +15,8 @@ COLUMNS: tuple[str, ...] = (
     "id", "file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags",
     "status", "k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS",
     "housing_freq", "housing_freq_std", "housing_damping",
-    "spindle_freq", "spindle_damping", "mode_source", "error", "elapsed_s", "warnings",
+    "spindle_freq", "spindle_damping", "c_TB", "c_TB_std", "loss_factor", "loss_factor_std",
+    "mode_source", "error", "elapsed_s", "warnings",
 )
 
 #: Stiffness units of the CSV: name -> factor from N/m.
@@ -26,7 +27,8 @@ _STIFFNESS_COLUMNS = ("k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS"
 _DAMPING_COLUMNS = ("housing_damping", "spindle_damping")
 #: Units of the other numeric columns (in the CSV header).
 _UNITS = {"radial_load": "N", "speed": "rpm", "shaft_position": "deg", "housing_freq": "Hz",
-          "housing_freq_std": "Hz", "spindle_freq": "Hz", "elapsed_s": "s"}
+          "housing_freq_std": "Hz", "spindle_freq": "Hz", "elapsed_s": "s", "c_TB": "N s/m",
+          "c_TB_std": "N s/m", "loss_factor": "-", "loss_factor_std": "-"}
 
 
 def csv_header(column: str, *, stiffness_unit: str = "N/m", damping_unit: str = "-") -> str:

@@ -60,10 +60,11 @@ logger = logging.getLogger(__name__)
 #: Name of the calibration's result in ``results/`` (ids may not start with ``_``).
 CALIBRATION_NAME = "_calibration"
 #: Bump when the meaning of a cached result changes without a version change.
-_KEY_SCHEMA = 3
+_KEY_SCHEMA = 4
 _MAX_RESULT_BYTES = 64 * 1024 * 1024
 _NUMERIC = ("radial_load", "speed", "shaft_position", "k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS", "housing_freq",
-            "housing_freq_std", "housing_damping", "spindle_freq", "spindle_damping", "elapsed_s")
+            "housing_freq_std", "housing_damping", "spindle_freq", "spindle_damping", "c_TB", "c_TB_std",
+            "loss_factor", "loss_factor_std", "elapsed_s")
 
 
 @dataclass(frozen=True, slots=True)
@@ -232,6 +233,8 @@ def _compute(task: MeasurementTask) -> dict[str, Any]:
         "housing_damping": _nan(hm.get("damping_ratio")),
         "spindle_freq": _nan(sm.get("natural_freq")), "spindle_damping": _nan(sm.get("damping_ratio")),
         "mode_source": str(d.get("mode_source") or "auto"),
+        "c_TB": _nan(d.get("c_TB")), "c_TB_std": _nan(d.get("c_TB_std")),
+        "loss_factor": _nan(d.get("loss_factor")), "loss_factor_std": _nan(d.get("loss_factor_std")),
         "warnings": list(d.get("warnings") or []),
         "detail": d,
     }

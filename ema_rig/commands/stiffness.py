@@ -32,7 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also fit k_TB+MS, k_S, m_S, m_F to the FRFs in 150-700 Hz (paper Fig. 7)")
     parser.add_argument("--damping-model", choices=("viscous", "hysteretic"), default="viscous",
                         help="which undamped frequency the identified pole stands for (default viscous: "
-                             "|lambda|); the difference enters the budget as a model-form term")
+                             "|lambda|); the difference enters the budget as a model-form term. Also the "
+                             "bearing's damping model: a dashpot c_TB in parallel with k_TB (viscous) or "
+                             "k_TB (1 + j loss factor) (hysteretic)")
     parser.add_argument("--json", default=None, metavar="OUT",
                         help="write the result as JSON (on a refused match: the error and every candidate)")
     parser.add_argument("--plot", default=None, metavar="PNG",
@@ -58,6 +60,13 @@ def summary(res: Any) -> str:
         f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std_measured / 1e6:.3f} (measured) "
         f"+/- {res.k_TB_std / 1e6:.3f} (total) MN/m (1 sigma, {100 * res.k_TB_std_measured / res.k_TB:.2f} % / "
         f"{100 * res.k_TB_std / res.k_TB:.2f} %)",
+        "3DOF inv.     " + ("outside the model's range" if res.inversion_3dof is None else
+                            f"k_TB {res.inversion_3dof['k_TB'] / 1e6:.3f} MN/m at {res.inversion_3dof['freq']:.2f} Hz "
+                            "(identified frequency, rig-file m_H, no correction)"),
+        "housing body  " + _rigid(res.rigid_body),
+        "bearing damp. " + ("not available" if res.damping is None else
+                            f"c_TB {res.c_TB:.4g}{_args.pm(res.c_TB_std)} N s/m, loss factor "
+                            f"{res.loss_factor:.4f}{_args.pm(res.loss_factor_std)} ({res.damping.model} bearing)"),
         "budget        " + ", ".join(
             f"{t.name} {100 * t.share:.0f} % [{t.kind}]" for t in res.uncertainty.terms if t.share >= 0.005),
         f"candidates    {len(res.candidates)} modes considered:",
@@ -70,6 +79,21 @@ def summary(res: Any) -> str:
     for c in res.candidates:
         lines.append(f"  {c['natural_freq']:8.1f} Hz  {c['status']:<8}  {c['reason']}")
     return "\n".join(lines)
+
+
+def _rigid(rb: Any) -> str:
+    """One line: axial and cross stiffness of the housing on its bearing, or why not."""
+    if rb is None:
+        return "-"
+    parts = []
+    if rb.axial_stiffness is not None:
+        parts.append(f"axial {rb.axial_stiffness / 1e6:.3g}{_args.pm(rb.axial_stiffness_std, 1e-6)} MN/m "
+                     f"({rb.axial_freq:.1f} Hz)")
+    if rb.cross_stiffness is not None:
+        parts.append(f"radial-{rb.cross_axis} cross {rb.cross_stiffness / 1e6:.3g}"
+                     f"{_args.pm(rb.cross_stiffness_std, 1e-6)} MN/m")
+    parts.append("tilt not identifiable")
+    return ", ".join(parts)
 
 
 def print_caveats(res: Any) -> None:

@@ -353,6 +353,49 @@ def _planted(rows: Sequence[Row], result: CampaignResult) -> dict[str, float]:
     return out
 
 
+def plot_damping(rows: Sequence[Row], bearing: str) -> Figure | None:
+    """Bearing damping ``c_TB`` (±1σ) of one bearing against radial load and against speed.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        Campaign rows (``radial_load`` N, ``speed`` rpm, ``c_TB``/``c_TB_std`` N s/m).
+    bearing : str
+        Bearing name to plot.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+        None when no row of the bearing has a damping value, or neither load nor speed varies.
+    """
+    sel = [r for r in _ok(rows) if r["bearing"] == bearing and _finite(r.get("c_TB"))]
+    loads = {r["radial_load"] for r in sel if _finite(r["radial_load"])}
+    speeds = {r["speed"] for r in sel if _finite(r["speed"])}
+    panels = [p for p, vals in (("radial_load", loads), ("speed", speeds)) if len(vals) > 1]
+    if not sel or not panels:
+        return None
+    fig = _figure((4.2 * len(panels) + 1.0, 4.0))
+    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    labels = {"radial_load": "radial load F_r [N]", "speed": "speed [rpm]"}
+    for ax, key in zip(axes, panels, strict=True):
+        rot = [r for r in sel if _finite(r[key])]
+        for name, group, (mk, col) in (("rotating", [r for r in rot if r["speed"] > 0], ("o", "C0")),
+                                       ("not rotating", [r for r in rot if r["speed"] <= 0], ("s", "C3"))):
+            if not group:
+                continue
+            x = np.array([r[key] for r in group], dtype=float)
+            y = np.array([r["c_TB"] for r in group], dtype=float)
+            e = np.array([r.get("c_TB_std", math.nan) for r in group], dtype=float)
+            ax.errorbar(x, y, yerr=np.where(np.isfinite(e), e, 0.0), fmt=mk, color=col, capsize=3, ms=5,
+                        label=f"{name} (±1σ)")
+        ax.set_xlabel(labels[key])
+        ax.set_ylabel("bearing damping c_TB [N·s/m]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
+    fig.suptitle(f"Bearing {plain(bearing)}: damping from the housing mode (3DOF model)", fontsize=10)
+    return fig
+
+
 def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
     """Every figure the campaign's data support.
 
@@ -360,8 +403,8 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
     -------
     dict
         Name -> Figure: ``validation_<bearing>`` for bearings with FE bounds,
-        ``k_vs_load_<bearing>``, ``rotating_vs_static_<bearing>``, ``speed_<bearing>`` where the
-        data exist, and ``repeatability``.
+        ``k_vs_load_<bearing>``, ``rotating_vs_static_<bearing>``, ``speed_<bearing>``,
+        ``damping_<bearing>`` where the data exist, and ``repeatability``.
     """
     from ..campaign.schema import BearingInfo
 
@@ -382,6 +425,9 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
             figs[f"rotating_vs_static_{safe}"], _ = plot_rotating_vs_static(rows, b, planted=_planted(rs, result))
         if len({r["speed"] for r in rs if r["speed"] > 0}) > 1:
             figs[f"speed_{safe}"] = plot_speed_effect(rows, b)
+        damp = plot_damping(rows, b)
+        if damp is not None:
+            figs[f"damping_{safe}"] = damp
     # Sect. 5 (validation) before Sect. 6 (operating conditions)
     figs = dict(sorted(figs.items(), key=lambda kv: not kv[0].startswith("validation")))
     rep = plot_repeatability(rows)
@@ -394,6 +440,7 @@ __all__ = [
     "campaign_figures",
     "measured_std",
     "figure_stem",
+    "plot_damping",
     "plot_k_vs_load",
     "plot_repeatability",
     "plot_rotating_vs_static",

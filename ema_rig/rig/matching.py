@@ -382,6 +382,8 @@ def match_modes(
         "model_modal_mass": info.modal_mass,
         "spindle_ratio": best.spindle_ratio,
         "model_spindle_ratio": info.spindle_ratio,
+        "axial_ratio": best.axial_ratio,
+        "lateral_ratio": best.lateral_ratio,
     }
     warns: list[str] = []
     has_dp = find_dof(modes.out_dofs, rig.radial.positive()) is not None

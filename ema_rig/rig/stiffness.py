@@ -49,6 +49,13 @@ resolved silently; it is either covered by a stated model-form term *and* a warn
 * effective modal mass off the model's by more than 10 %: warning and a term ``|ln r| / 4``;
 * damping: the declared model (viscous default) gives the undamped frequency; the
   viscous/hysteretic difference is always in the budget (no warning);
+* issue 19, what the measured evidence resolves (notes, terms; warnings only where it cannot):
+  the driving-point modal mass measured with its std (:mod:`ema_rig.rig.fit`) against the
+  model's — bounding close neighbours, measuring ``m_H`` where ``[uncertainty] force_chain`` is
+  stated, a warning naming both masses outside the tolerance; a cross-axis coupled partner
+  (two-mode reduction); two modes sharing the housing's radial motion (the 4DOF split-housing
+  fit). The plain 3DOF inversion is kept beside the result (``inversion_3dof``); the bearing's
+  damping ``c_TB``/loss factor and the housing's axial and cross stiffness are reported with stds;
 * calibration with the disk assumed rigid: a model-form term of 5.8 % in ``k_MS_std`` (note).
 
 Refusals are one line (at most 300 characters) naming the likely cause (polarity of a named
@@ -298,6 +305,18 @@ class StiffnessResult:
     mode_source : str
         Where the housing mode came from: ``"auto"`` (automatic identification), ``"pick"``,
         ``"replay"`` or ``"tracked replay"`` (see :func:`mode_source`).
+    damping : BearingDamping or None
+        The bearing's damping ``c_TB`` [N s/m] and loss factor from the housing pole
+        (:func:`ema_rig.rig.damping.bearing_damping`, model ``damping_model``); None when the
+        pole gives no finite bearing impedance.
+    inversion_3dof : dict or None
+        The plain 3DOF inversion for comparison: ``freq`` [Hz] (the identified undamped
+        frequency) and ``k_TB`` [N/m] with the rig file's ``m_H``, without the corrections the
+        measured evidence made (cross-axis coupling, appendage, measured ``m_H``); None when that
+        frequency is outside the model's range.
+    rigid_body : HousingRigidBody or None
+        Axial and cross stiffness of the housing on its bearing with stds, or why not
+        (:func:`ema_rig.rig.fit.housing_rigid_body`).
     """
 
     k_TB: float
@@ -323,6 +342,30 @@ class StiffnessResult:
     damping_model: str = "viscous"
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    damping: Any = None
+    inversion_3dof: dict[str, float] | None = None
+    rigid_body: Any = None
+
+    @property
+    def c_TB(self) -> float:
+        """Bearing damping coefficient [N s/m] (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.c_TB)
+
+    @property
+    def c_TB_std(self) -> float:
+        """Its standard uncertainty [N s/m] (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.c_TB_std)
+
+    @property
+    def loss_factor(self) -> float:
+        """Bearing loss factor ``eta`` (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.loss_factor)
+
+    @property
+    def loss_factor_std(self) -> float:
+        """Its standard uncertainty (NaN when not available)."""
+        return math.nan if self.damping is None else float(self.damping.loss_factor_std)
+
     mode_source: str = "auto"
 
     def __str__(self) -> str:
@@ -380,7 +423,18 @@ class StiffnessResult:
             "speed_hz": self.speed_hz,
             "candidates": [c.to_dict() for c in self.match.candidates],
             "fit": None if self.fit is None else self.fit.to_dict(),
+            **_damping_keys(self.damping),
+            "inversion_3dof": None if self.inversion_3dof is None else dict(self.inversion_3dof),
+            "housing_rigid_body": None if self.rigid_body is None else self.rigid_body.to_dict(),
         }
+
+
+def _damping_keys(d: Any) -> dict[str, Any]:
+    """``c_TB``, ``c_TB_std``, ``loss_factor``, ``loss_factor_std`` (null when not available)."""
+    if d is None:
+        return {"c_TB": None, "c_TB_std": None, "loss_factor": None, "loss_factor_std": None,
+                "bearing_damping_model": None}
+    return {k: v for k, v in d.to_dict().items() if k != "k_TB_complex"}
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -550,7 +604,7 @@ def estimate_stiffness(
         data, rig, band=band, max_order=max_order, speed_hz=speed_hz, spindle=spindle,
         progress=progress, file=file, ident=ident_in,
     )
-    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file, data=data)
     source = mode_source(ident, float(m.housing_mode["natural_freq"])) if ident_in is not None else "auto"
     f_h = asm.inverted_freq
     f_std = measured_freq_std(m)
@@ -558,8 +612,13 @@ def estimate_stiffness(
         "the housing mode's standard uncertainty is unknown (see the identification warnings), so "
         "k_TB_std_measured and k_TB_std are NaN"]
     params = replace(rig.model, k_MS=kms)
+    rel_unc = dict(rig.uncertainty)
+    if asm.m_H is not None:
+        params = replace(params, m_H=float(asm.m_H))
+    if asm.m_H_rel_std is not None:
+        rel_unc["m_H"] = float(asm.m_H_rel_std)
     try:
-        unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, dict(rig.uncertainty), k_MS_std=k_ms_std,
+        unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, rel_unc, k_MS_std=k_ms_std,
                                     model_form=asm.model_form)
     except InversionError as exc:
         exc.file = exc.file or file
@@ -569,6 +628,10 @@ def estimate_stiffness(
         raise InversionError(f"no positive bearing stiffness from {f_h:.2f} Hz", file=file)
     budget = {t.name: float(t.share) for t in unc.terms}
     rig_fit = _fit(data, rig, params, m) if fit else None
+    hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
+    inv3 = _plain_inversion(asm.undamped_freq, replace(rig.model, k_MS=kms))
+    rigid = _rigid_body(m, asm, params, rel_unc)
+    damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model)
     return StiffnessResult(
         k_TB=k_tb,
         k_TB_std=float(unc.k_TB_std) if not unknown else math.nan,
@@ -576,7 +639,7 @@ def estimate_stiffness(
         k_TB_MS_std=float(unc.k_TB_MS_std),
         k_MS=kms,
         k_MS_std=None if k_ms_std is None else float(k_ms_std),
-        housing_mode={**_mode_with_std(m.housing_mode, ident, m.housing_index), "source": source},
+        housing_mode={**hm_std, "source": source},
         spindle_mode=None if m.spindle_mode is None else _mode_with_std(
             m.spindle_mode, ident if m.spindle_source == "modes" else s_ident, m.spindle_index),
         uncertainty_budget=budget,
@@ -593,9 +656,58 @@ def estimate_stiffness(
         inverted_freq=float(f_h),
         damping_model=damping_model,
         warnings=asm.warnings + tuple(unknown) + tuple(f"identification: {w}" for w in ident.warnings),
-        notes=tuple(defaults_note(unc)),
+        notes=asm.notes + tuple(defaults_note(unc)),
         mode_source=source,
+        damping=damping,
+        inversion_3dof=inv3,
+        rigid_body=rigid,
     )
+
+
+def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]) -> Any:
+    """:func:`ema_rig.rig.fit.housing_rigid_body` of this measurement (None outside the model)."""
+    from .fit import housing_rigid_body
+    from .uncertainty import DEFAULT_REL_UNCERTAINTY
+
+    info = model_mode_at(params, asm.inverted_freq)
+    if info is None:
+        return None
+    cands = [c for c in m.candidates if c.source == "modes"]
+    return housing_rigid_body(cands, params.m_H, float(rel_unc.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"])),
+                              info.modal_mass, asm.cross_axis, asm.undamped_freq)
+
+
+def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
+    """``k_TB`` of the plain 3DOF inversion at ``f0`` (None outside the model's range)."""
+    from .inversion import k_tb_from_housing_freq
+
+    try:
+        return {"freq": float(f0), "k_TB": float(k_tb_from_housing_freq(f0, params))}
+    except InversionError:
+        return None
+
+
+def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
+                     damping_model: str) -> Any:
+    """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
+    from .damping import bearing_damping
+    from .uncertainty import DEFAULT_REL_UNCERTAINTY
+
+    rel = {**DEFAULT_REL_UNCERTAINTY, **rel_unc}
+    if k_ms_std is not None:
+        rel["k_MS"] = float(k_ms_std) / params.k_MS
+
+    def std(key: str) -> float:
+        v = hm.get(key)
+        return float(v) if v is not None and math.isfinite(float(v)) else 0.0
+
+    try:
+        return bearing_damping(float(hm["natural_freq"]), float(hm["damping_ratio"]), params,
+                               natural_freq_std=std("natural_freq_std"), damping_ratio_std=std("damping_ratio_std"),
+                               rel_unc=rel, model=damping_model)
+    except (InversionError, ValueError, ZeroDivisionError) as exc:
+        logger.info("bearing damping not available: %s", exc)
+        return None
 
 
 def _fit(data: FRFData, rig: RigConfig, params: Any, m: MatchResult) -> Any:

@@ -386,6 +386,25 @@ MASS_WARN_RATIO = 1.1
 MAX_ALTERNATIVE_SPREAD = 0.10
 """Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
 
+CROSS_AXIS_RATIO_STD = 0.035
+"""Standard uncertainty of a measured cross-axis / radial amplitude ratio: an accelerometer
+mounted within 2 degrees reads sin(2 deg) = 0.035 of the motion across its axis."""
+
+CROSS_AXIS_RATIO = 3 * CROSS_AXIS_RATIO_STD
+"""The housing mode moving its axial or lateral sensors more than this (3 sigma of misalignment)
+is physically coupled to a cross-axis motion (a bearing cross stiffness)."""
+
+UNTRUSTED_FORCE_CHAIN = 0.02
+"""Relative std of the FRF scale when the rig file states none: force sensor and accelerometer
+calibrations of about 1 % each (typical calibration certificates), combined and rounded up."""
+
+MASS_RESOLUTION = 1e-3
+"""Below 0.1 % a modal-mass discrepancy is not evidence about m_H (the best identified modal
+masses of the issue-19 truths scatter by 0.1-1 %)."""
+
+MASS_CHECK_SIGMAS = 2.0
+"""A driving-point modal mass more than this many combined sigma off the model's is reported."""
+
 
 @dataclass(frozen=True, slots=True)
 class Assessment:
@@ -406,6 +425,19 @@ class Assessment:
         One line each.
     mass_ratio : float or None
         Identified / model effective modal mass at the driving point.
+    notes : tuple of str
+        What the evidence resolved (a cross-coupled partner corrected, m_H measured, a
+        neighbour bounded by the modal mass): information, not a caveat.
+    m_H : float or None
+        Housing mass [kg] to invert with (measured from the driving-point modal mass where the
+        force chain is trusted); None: the rig file's.
+    m_H_rel_std : float or None
+        Its relative standard uncertainty (replaces the rig file's ``m_H`` tolerance); None: the
+        rig file's.
+    cross_axis : CrossAxisCorrection or None
+        The cross-coupled partner's correction, when one was applied.
+    modal_mass : DrivingPointMass or None
+        The housing mode's driving-point modal mass from the local fit, with its std.
     """
 
     abs_freq: float
@@ -414,6 +446,11 @@ class Assessment:
     model_form: dict[str, float]
     warnings: tuple[str, ...]
     mass_ratio: float | None
+    notes: tuple[str, ...] = ()
+    m_H: float | None = None
+    m_H_rel_std: float | None = None
+    cross_axis: Any = None
+    modal_mass: Any = None
 
 
 def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> float | None:
@@ -441,7 +478,7 @@ def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> floa
 
 
 def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: str = "viscous",
-                        file: str | None = None) -> Assessment:
+                        file: str | None = None, data: Any = None) -> Assessment:
     """Frequency to invert and the model-form terms and warnings of one matched housing mode.
 
     The rule: a ``k_TB`` reported without a warning lies within 2 sigma of the truth, so every
@@ -464,6 +501,16 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       the housing mode's): warning; a weak coupling ``c`` shifts the housing mode by
       ``c^2 / df`` while leaking ``eps^2 = (c / df)^2 <= P_n / P_h`` of its participation, so
       the term is ``(P_n / P_h) |ln(f_n / f_h)|``;
+    * **cross-axis coupling**: the housing mode moves its axial or lateral sensors more than
+      :data:`CROSS_AXIS_RATIO` of the radial ones: with an identified partner whose radial /
+      cross-axis ratio tells the same mixing, the uncoupled frequency is recovered
+      (:func:`ema_rig.rig.fit.cross_axis_correction`, a note and a term); otherwise a warning
+      and a term bounding the shift for a partner anywhere in the band;
+    * **modal mass check** (with ``data`` and a driving point): the measured modal mass against
+      the model's (times ``1 + t^2`` of a corrected coupling) within :data:`MASS_CHECK_SIGMAS`
+      combined sigma (measured std, m_H tolerance, force chain); outside, and the force chain
+      trusted: ``m_H`` measured and used (note); not trusted: a warning naming both masses, and
+      the m_H tolerance widened to the discrepancy;
     * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
       identified mass scatters by a few % under 10 % noise and the model's by the m_H
       tolerance): warning; term ``|ln r| / 4``: if all of the housing's compliance sits in this
@@ -479,6 +526,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     damping_model : {'viscous', 'hysteretic'}
     file : str, optional
         For error messages.
+    data : FRFData, optional
+        The measurement: with a radial driving point, the housing mode's modal mass is measured
+        with its std (:func:`ema_rig.rig.fit.driving_point_mass`), checked against the model's
+        and, where the force chain is trusted, turned into a measured ``m_H``; the same evidence
+        bounds what an uncoupled neighbour can do (a note, not a warning).
 
     Returns
     -------
@@ -495,8 +547,56 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     f0, u_damp = undamped_freq(f_abs, zeta, damping_model)
     terms: dict[str, float] = {"damping model": u_damp}
     warns = list(m.warnings)
+    notes: list[str] = []
     f_inv = f0
     params = rig.model
+    by_index0 = {c.index: c for c in m.candidates if c.source == "modes"}
+    t_mix = 0.0
+    cross = None
+    info0 = model_mode_at(params, f0)
+    for axis, key in (("axial", "axial_ratio"), ("lateral", "lateral_ratio")):
+        rho = hm.get(key)
+        if rho is None or not rho > CROSS_AXIS_RATIO or info0 is None:
+            continue
+        # the partner: a mode moving the cross-axis sensors relatively more than the housing mode
+        # does, whose radial / cross-axis ratio tells the same mixing (the most consistent one)
+        cands_p = [c for i, c in by_index0.items() if i != m.housing_index and getattr(c, key) is not None
+                   and getattr(c, key) > max(float(rho), CROSS_AXIS_RATIO)]
+        n_rad = sum(1 for se in rig.sensors if se.role == "housing" and se.axis == "radial")
+        corr = None
+        if cands_p:
+            from .fit import cross_axis_correction
+
+            trials = [cross_axis_correction(
+                f0, float(rho), c.natural_freq, 1.0 / float(getattr(c, key)), params.m_H,
+                info0.modal_mass, ratio_std=CROSS_AXIS_RATIO_STD,
+                partner_ratio_std=CROSS_AXIS_RATIO_STD / math.sqrt(max(n_rad, 1)), axis=axis) for c in cands_p]
+            corr = min(trials, key=lambda x: abs(math.log(max(x.ratio**2 * params.m_H / info0.modal_mass, 1e-12)
+                                                          / max(x.partner_ratio**2 * info0.modal_mass / params.m_H,
+                                                                1e-12))))
+        if corr is not None and corr.consistent:
+            cross = corr
+            t_mix = corr.mixing
+            f_inv = corr.uncoupled_freq
+            terms[f"{axis} coupling"] = corr.rel_std
+            notes.append(
+                f"housing mode moves the {axis} sensors {rho:.2f}x the radial ones, partner at "
+                f"{corr.partner_freq:.1f} Hz ({corr.partner_ratio:.2f} radial/{axis}): bearing cross coupling, "
+                f"mixing {100 * corr.mixing:.1f} %; uncoupled housing frequency {f_inv:.1f} Hz inverted "
+                f"(identified {f0:.1f} Hz, +/- {100 * corr.rel_std:.2f} %)"
+            )
+        else:
+            lo_b, hi_b = 150.0, 1000.0
+            tb = float(rho) ** 2 * params.m_H / info0.modal_mass
+            shift = max(abs(0.5 * math.log((1 + tb * (fp / f0) ** 2) / (1 + tb))) for fp in (lo_b, hi_b))
+            terms[f"{axis} coupling"] = shift
+            why = ("no identified partner moving the " + axis + " sensors" if corr is None else
+                   f"the partner at {corr.partner_freq:.1f} Hz tells another mixing ({corr.partner_ratio:.2f})")
+            warns.append(
+                f"housing mode moves the {axis} sensors {rho:.2f}x the radial ones (misalignment alone: "
+                f"<= {CROSS_AXIS_RATIO:.2f}): coupled to a {axis} motion, {why}; term {100 * shift:.2f} % "
+                "of the frequency"
+            )
     # several passing modes
     if m.alternatives:
         spread = max(abs(math.log(float(modes.natural_freq[i]) / f_abs)) for i in m.alternatives)
@@ -513,7 +613,18 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     parts = m.participation
     ratio = None
     if hm.get("modal_mass") is not None and hm.get("model_modal_mass"):
-        ratio = float(hm["modal_mass"]) / float(hm["model_modal_mass"])
+        ratio = float(hm["modal_mass"]) / float(hm["model_modal_mass"]) / (1 + t_mix)
+    # the driving-point modal mass from a local fit at every identified pole nearby (the LSFD
+    # value can be biased by a strong overlapping neighbour): it decides whether mass is missing
+    q_ref = None if data is None else _find(data.in_dofs, rig.radial)
+    p_ref = None if data is None else _find(data.out_dofs, rig.radial)
+    dpm0 = None
+    if q_ref is not None and p_ref is not None and info0 is not None:
+        from .fit import driving_point_mass_of
+
+        dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
+        if dpm0 is not None:
+            ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
     # partners that may carry the housing participation missing from its mode: in-phase radial
     # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
     # bandwidths), participation at least a tenth of the housing mode's
@@ -526,7 +637,42 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         and parts and parts[i] >= 0.1 * parts[m.housing_index]
     ]
     used: list[int] = []
-    if partners and ratio is not None and ratio > MASS_WARN_RATIO:
+    split = None
+    split_leak: float | None = None
+    m_h_split_rel: float | None = None
+    if partners and ratio is not None and ratio > MASS_WARN_RATIO and dpm0 is not None and p_ref is not None:
+        # the housing split between its body and a part on its own spring (an appendage): fit the
+        # 4DOF housing model to both modes' frequencies and driving-point masses
+        split = _fit_split(m, modes, rig, data, p_ref, q_ref, partners, f0 / f_abs)
+    if split is not None:
+        fit_, j = split
+        from .inversion import housing_freq_from_k_tb_ms, k_tb_ms_from_housing_freq
+
+        fu = housing_freq_from_k_tb_ms(fit_.k_TB_MS, params)
+        h = 1e-4
+        slope = (math.log(k_tb_ms_from_housing_freq(fu * (1 + h), params))
+                 - math.log(k_tb_ms_from_housing_freq(fu * (1 - h), params))) / (2 * h)
+        terms["split housing fit"] = fit_.k_TB_MS_std / fit_.k_TB_MS / abs(slope)
+        f_inv = fu
+        used = [j]
+        ratio = None
+        # whether the part is inside the rig file's m_H (a split housing) or added to it (a
+        # fixture) the modal data cannot tell (the force chain's tolerance covers the difference):
+        # the other reading lies one sigma away in m_H
+        u_mh0 = float(rig.uncertainty.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"]))
+        m_h_split_rel = math.hypot(u_mh0, fit_.appendage_mass / params.m_H)
+        # both masses explained by the fit (chi2 small): a further neighbour cannot have leaked more
+        # than the masses' tolerance into the housing mode
+        fc_ = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
+        split_leak = MASS_CHECK_SIGMAS * math.hypot(fc_, float(rig.uncertainty.get("m_H", 0.005)))
+        notes.append(
+            f"housing mode and {float(modes.natural_freq[j]):.1f} Hz share the radial housing motion: housing "
+            f"with an appendage fitted to both (appendage {1000 * fit_.appendage_mass:.3g} +/- "
+            f"{1000 * fit_.appendage_mass_std:.2g} g at {fit_.appendage_freq:.0f} Hz, chi2 {fit_.chi2:.2f}); "
+            f"uncoupled housing frequency {fu:.1f} Hz inverted (+/- {100 * terms['split housing fit']:.2f} %); "
+            f"inside or added to m_H cannot be told: m_H tolerance {100 * m_h_split_rel:.1f} %"
+        )
+    elif partners and ratio is not None and ratio > MASS_WARN_RATIO:
         # the housing mode lacks part of its participation and in-phase neighbours carry it:
         # the housing mass is split between them (an appendage, a flexible part) -> recover the
         # uncoupled frequency from the group's compliance, with the subset of partners that
@@ -562,6 +708,75 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                 f"{f_abs:.1f} Hz; inverted {f_inv:.1f} Hz +/- {100 * d / 2:.1f} %"
             )
             used = sub
+    # the housing mode's modal mass, measured with its std, against the model's
+    dpm, leak_bound = None, None
+    m_h_new, m_h_rel = None, None
+    info_inv = model_mode_at(params, f_inv)
+    if not used and (ratio is None or abs(math.log(ratio)) <= math.log(MASS_WARN_RATIO)):
+        dpm = dpm0
+    if dpm is not None and info_inv is not None:
+        from .fit import measured_housing_mass
+
+        expected = info_inv.modal_mass * (1 + t_mix)
+        r = dpm.modal_mass / expected
+        # the fit holds the identified pole fixed: its damping ratio's std scales the residue alike
+        z_std = hm.get("damping_ratio_std")
+        u_z = float(z_std) / zeta if z_std is not None and math.isfinite(float(z_std)) and zeta > 0 else 0.0
+        u_meas = math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_z)
+        u_mh = float(rig.uncertainty.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"]))
+        trusted = rig.force_chain is not None
+        u_fc = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
+        u_r = math.sqrt(u_meas**2 + u_mh**2 + u_fc**2)
+        ratio = r
+        # a clean housing mode: no cross-axis motion beyond 2 sigma of misalignment, no coupling
+        # corrected, no close neighbour; only then does its modal mass measure m_H alone
+        rhos = [float(v) for v in (hm.get("axial_ratio"), hm.get("lateral_ratio")) if v is not None]
+        clean = cross is None and not m.neighbours and all(v <= 2 * CROSS_AXIS_RATIO_STD for v in rhos)
+        if abs(math.log(r)) <= MASS_CHECK_SIGMAS * u_r:
+            # agrees: a neighbour cannot have leaked more than this into the housing mode
+            leak_bound = abs(math.log(r)) + MASS_CHECK_SIGMAS * u_r
+            if not trusted and abs(math.log(r)) > max(math.hypot(u_meas, u_mh), MASS_RESOLUTION):
+                # within the untrusted force chain's tolerance, but more than m_H's and the fit's:
+                # m_H may be off by that much; its tolerance covers the discrepancy
+                m_h_rel = math.hypot(u_mh, math.log(r))
+                notes.append(
+                    f"driving-point modal mass {dpm.modal_mass:.4g} kg is {100 * (r - 1):+.1f} % off the model's "
+                    f"{expected:.4g} kg, within the force chain's {100 * u_fc:.1f} %: m_H tolerance widened to "
+                    f"{100 * m_h_rel:.1f} % (state [uncertainty] force_chain to measure m_H)")
+            if trusted and clean:  # two independent measurements of m_H: combine them
+                mm = measured_housing_mass(f_inv, dpm.modal_mass, params)
+                if mm is not None and u_mh > 0:
+                    u_m = math.hypot(u_meas, u_fc)
+                    w1, w2 = 1 / u_mh**2, 1 / u_m**2
+                    m_h_new = (w1 * params.m_H + w2 * mm) / (w1 + w2)
+                    m_h_rel = 1 / math.sqrt(w1 + w2)
+        else:
+            mm = measured_housing_mass(f_inv, dpm.modal_mass / (1 + t_mix), params)
+            msg = (f"driving-point modal mass {dpm.modal_mass:.4g} +/- {dpm.modal_mass_std:.2g} kg is "
+                   f"{100 * (r - 1):+.1f} % off the model's {expected:.4g} kg (tolerance {100 * u_r:.1f} %: "
+                   f"m_H {100 * u_mh:.1f} %, force chain {100 * u_fc:.1f} %, fit {100 * u_meas:.1f} %)")
+            if cross is not None:
+                # a corrected cross coupling: its two-mode mixing explains the frequency but the mass
+                # only to the mixing's accuracy; m_H's tolerance covers the rest (a note)
+                m_h_rel = math.hypot(u_mh, abs(math.log(r)))
+                notes.append(f"{msg}, after the {cross.axis} coupling's mixing: m_H tolerance widened to "
+                             f"{100 * m_h_rel:.1f} %")
+            elif trusted and clean and mm is not None:
+                # a clean housing mode (no cross-axis motion, no close neighbour): the force chain
+                # measures m_H; the rig file's value is wrong (or masses are missing from it)
+                m_h_new, m_h_rel = mm, math.hypot(u_meas, u_fc)
+                warns.append(f"{msg}: m_H measured {mm:.4g} +/- {mm * m_h_rel:.2g} kg (rig file "
+                             f"{params.m_H:.4g} kg) and used; correct the rig file or declare the attached masses")
+            else:
+                m_h_rel = math.hypot(u_mh, abs(math.log(r)))
+                extra = "" if mm is None else f"; m_H would be {mm:.4g} kg"
+                why = ("" if trusted else " (state [uncertainty] force_chain to measure m_H)")
+                warns.append(f"{msg}: m_H in the rig file off, undeclared sensor masses or an unresolved "
+                             f"coupling{extra}; m_H tolerance widened to {100 * m_h_rel:.1f} %{why}")
+    if split_leak is not None:
+        leak_bound = split_leak
+    if m_h_split_rel is not None and m_h_rel is None:
+        m_h_rel = m_h_split_rel
     for i in m.neighbours:
         if i in used:
             continue  # used by the correction (its own term)
@@ -569,23 +784,73 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         # weak coupling c moves a mode by ~c^2 / (f_n - f_h) while leaking eps^2 = (c / df)^2 of its
         # participation into the neighbour: shift ~ eps^2 |df| with eps^2 <= P_n / P_h
         eps2 = min(1.0, parts[i] / parts[m.housing_index]) if parts and parts[m.housing_index] > 0 else 1.0
-        terms[f"neighbour {fn:.0f} Hz"] = eps2 * abs(math.log(fn / f_abs))
-        warns.append(
-            f"mode at {fn:.1f} Hz moves the radial housing sensors within a few half-power bandwidths "
-            f"of the housing mode: possible coupling (term {100 * eps2 * abs(math.log(fn / f_abs)):.2f} % "
-            "of the frequency)"
-        )
-    if ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
+        bounded = leak_bound is not None
+        if leak_bound is not None:
+            eps2 = min(eps2, float(leak_bound))
+        term = eps2 * abs(math.log(fn / f_abs))
+        terms[f"neighbour {fn:.0f} Hz"] = term
+        if bounded:
+            notes.append(f"mode at {fn:.1f} Hz within a few half-power bandwidths of the housing mode: the "
+                         f"measured modal mass bounds the coupling (term {100 * term:.2f} % of the frequency)")
+        else:
+            warns.append(
+                f"mode at {fn:.1f} Hz moves the radial housing sensors within a few half-power bandwidths "
+                f"of the housing mode: possible coupling (term {100 * term:.2f} % of the frequency)"
+            )
+    if dpm is None and ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
         terms["effective mass"] = abs(math.log(ratio)) / 4.0
         warns.append(
-            f"effective modal mass {hm['modal_mass']:.3g} kg is {ratio:.2f}x the model's "
+            f"effective modal mass {dpm0.modal_mass if dpm0 is not None else hm['modal_mass']:.3g} kg is "
+            f"{ratio:.2f}x the model's "
             f"{hm['model_modal_mass']:.3g} kg: an unidentified part of the housing motion or an "
             "off m_H; wider (model-form) uncertainty"
         )
     return Assessment(
         abs_freq=f_abs, undamped_freq=f0, inverted_freq=f_inv, model_form=terms,
-        warnings=tuple(warns), mass_ratio=ratio,
+        warnings=tuple(warns), mass_ratio=ratio, notes=tuple(notes), m_H=m_h_new, m_H_rel_std=m_h_rel,
+        cross_axis=cross, modal_mass=dpm,
     )
+
+
+SPLIT_FIT_CHI2 = 6.63
+"""Largest chi-square (1 degree of freedom, p = 0.01) at which the split-housing fit is accepted."""
+
+
+def _fit_split(m: MatchResult, modes: Any, rig: RigConfig, data: Any, p: int, q: int | None, partners: list[int],
+               undamped: float) -> tuple[Any, int] | None:
+    """:func:`ema_rig.rig.fit.fit_split_housing` on the housing mode and its best partner."""
+    from .fit import driving_point_mass_of, fit_split_housing
+
+    if q is None:
+        return None
+    h = m.housing_index
+    fc = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
+    best: tuple[Any, int] | None = None
+    by_index = {c.index: c for c in m.candidates if c.source == "modes"}
+    for j in partners:
+        dp_h = driving_point_mass_of(data, p, q, modes.poles, h)
+        dp_j = driving_point_mass_of(data, p, q, modes.poles, j)
+        if dp_h is None or dp_j is None:
+            continue
+        f_j = float(modes.natural_freq[j])
+        s_h = by_index[h].natural_freq_std if h in by_index else None
+        s_j = by_index[j].natural_freq_std if j in by_index else None
+        fit = fit_split_housing(
+            rig.model, (float(modes.natural_freq[h]) * undamped, f_j * undamped),
+            (s_h or 1e-4 * float(modes.natural_freq[h]), s_j or 1e-4 * f_j),
+            (dp_h.modal_mass, dp_j.modal_mass),
+            (math.hypot(dp_h.modal_mass_std, 0.005 * dp_h.modal_mass), math.hypot(dp_j.modal_mass_std,
+                                                                                    0.005 * dp_j.modal_mass)),
+            fc)
+        if fit is not None and fit.chi2 <= SPLIT_FIT_CHI2 and (best is None or fit.chi2 < best[0].chi2):
+            best = (fit, j)
+    return best
+
+
+def _find(dofs: Any, target: Any) -> int | None:
+    from .candidates import find_dof
+
+    return find_dof(dofs, target.positive())
 
 
 def measured_freq_std(m: MatchResult) -> float:

@@ -1,0 +1,230 @@
+"""The bearing's damping from the identified housing pole, through the 3DOF model.
+
+The paper's reference method (Kraus et al. 1987) measures stiffness *and* damping; the 3DOF
+model's housing mode carries both. With the bearing an impedance ``Z_TB(s)`` in series with the
+(real) mounting stiffness ``k_MS``, the model's characteristic equation at the identified pole
+``s`` has the same closed form as the stiffness inversion (:mod:`ema_rig.rig.inversion`), now in
+complex arithmetic::
+
+    k_TB+MS(s) = -1 / (e^T (K0 + s^2 M)^-1 e),    Z_TB(s) = 1 / (1 / k_TB+MS(s) - 1 / k_MS)
+
+with ``e = [1, -1, 0]`` and ``s = 2 pi f (-zeta + j sqrt(1 - zeta^2))`` from the identified
+``|lambda| / 2 pi`` and damping ratio. One complex equation gives two real unknowns:
+
+* viscous dashpot in parallel with ``k_TB``: ``Z = k_TB + c_TB s``, so
+  ``c_TB = Im Z / Im s`` and ``k_TB = Re Z - c_TB Re s``;
+* hysteretic bearing: ``Z = k_TB (1 + j eta)``, so ``k_TB = Re Z`` and ``eta = Im Z / Re Z``.
+
+Each is quoted also in the other's terms at the housing mode (``eta = c_TB w / k_TB``).
+Everything else in the model is undamped: damping elsewhere that moves with the housing mode
+(air springs, the frame, the housing's own material) is attributed to the bearing, so ``c_TB``
+is an upper bound of the bearing's own damping on a rig with damped surroundings.
+
+Functions
+---------
+bearing_impedance
+    ``Z_TB(s)`` [N/m] at an identified pole.
+bearing_damping
+    ``c_TB`` and the loss factor with their standard uncertainties.
+
+Classes
+-------
+BearingDamping
+    Frozen result.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..config import MODEL_KEYS, ModelParams
+from ..errors import InversionError
+from .model import mass_matrix, stiffness_matrix
+
+__all__ = ["BEARING_DAMPING_MODELS", "BearingDamping", "bearing_damping", "bearing_impedance"]
+
+BEARING_DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
+"""Bearing damping models: a dashpot in parallel with ``k_TB``, or ``k_TB (1 + j eta)``."""
+
+_E = np.array([1.0, -1.0, 0.0])
+
+
+def _pole(natural_freq: float, damping_ratio: float) -> complex:
+    w = 2.0 * math.pi * float(natural_freq)
+    z = float(damping_ratio)
+    return complex(-z * w, w * math.sqrt(max(1.0 - z * z, 0.0)))
+
+
+def bearing_impedance(natural_freq: float, damping_ratio: float, params: ModelParams,
+                      k_MS: float | None = None) -> complex:
+    """Complex bearing stiffness ``Z_TB(s)`` [N/m] that puts the 3DOF model's pole at ``s``.
+
+    Parameters
+    ----------
+    natural_freq : float
+        Identified ``|lambda| / 2 pi`` of the housing mode [Hz].
+    damping_ratio : float
+        Identified ``-Re(lambda) / |lambda|``, in [0, 1).
+    params : ModelParams
+        Rig parameters (undamped elsewhere).
+    k_MS : float, optional
+        Mounting stiffness [N/m]; default ``params.k_MS``.
+
+    Returns
+    -------
+    complex
+        ``Z_TB`` [N/m]; the real part near ``k_TB``, the imaginary part the damping.
+
+    Raises
+    ------
+    InversionError
+        When no finite bearing impedance puts the pole there (``k_TB+MS(s) = k_MS``).
+    """
+    s = _pole(natural_freq, damping_ratio)
+    kms = params.k_MS if k_MS is None else float(k_MS)
+    a = stiffness_matrix(params, 0.0).astype(complex) + s * s * mass_matrix(params)
+    k_c = -1.0 / complex(_E @ np.linalg.solve(a, _E.astype(complex)))
+    d = 1.0 / k_c - 1.0 / kms
+    if d == 0 or not np.isfinite(d):
+        raise InversionError(f"no finite bearing impedance for the pole at {natural_freq:.2f} Hz")
+    return complex(1.0 / d)
+
+
+def _read(natural_freq: float, damping_ratio: float, params: ModelParams, model: str) -> tuple[float, float, float]:
+    """(k_TB [N/m], c_TB [N s/m], eta) of one reading of the pole."""
+    z = bearing_impedance(natural_freq, damping_ratio, params)
+    s = _pole(natural_freq, damping_ratio)
+    if model == "viscous":
+        c = z.imag / s.imag
+        k = z.real - c * s.real
+        w = abs(s)
+        return k, c, c * w / k
+    k = z.real
+    eta = z.imag / z.real
+    return k, eta * k / abs(s), eta
+
+
+@dataclass(frozen=True, slots=True)
+class BearingDamping:
+    """Damping of the test bearing from the housing mode.
+
+    Attributes
+    ----------
+    model : str
+        ``'viscous'`` (dashpot in parallel with ``k_TB``) or ``'hysteretic'`` (``k_TB (1 + j eta)``).
+    c_TB, c_TB_std : float
+        Viscous damping coefficient [N s/m] and its standard uncertainty (for the hysteretic
+        model the equivalent ``eta k_TB / w`` at the housing mode).
+    loss_factor, loss_factor_std : float
+        Loss factor ``eta`` (dimensionless) and its std (for the viscous model ``c_TB w / k_TB``).
+    k_TB : float
+        Bearing stiffness of this complex reading [N/m] (beside the headline ``k_TB``, which
+        inverts the undamped frequency).
+    c_TB_std_measured : float
+        The part of ``c_TB_std`` from the identified frequency and damping ratio [N s/m].
+    """
+
+    model: str
+    c_TB: float
+    c_TB_std: float
+    loss_factor: float
+    loss_factor_std: float
+    k_TB: float
+    c_TB_std_measured: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict for JSON (``c_TB``, ``c_TB_std``, ``loss_factor``, ``loss_factor_std`` ...)."""
+        return {"bearing_damping_model": self.model, "c_TB": self.c_TB, "c_TB_std": self.c_TB_std,
+                "c_TB_std_measured": self.c_TB_std_measured, "loss_factor": self.loss_factor,
+                "loss_factor_std": self.loss_factor_std, "k_TB_complex": self.k_TB}
+
+
+def bearing_damping(
+    natural_freq: float,
+    damping_ratio: float,
+    params: ModelParams,
+    *,
+    natural_freq_std: float = 0.0,
+    damping_ratio_std: float = 0.0,
+    rel_unc: Mapping[str, float] | None = None,
+    model: str = "viscous",
+) -> BearingDamping:
+    """Bearing damping ``c_TB`` and loss factor with standard uncertainties.
+
+    The stds propagate (linearised, central differences of relative step 1e-4, inputs
+    uncorrelated) the identified ``natural_freq_std`` and ``damping_ratio_std`` (measured) and
+    the relative tolerances of the model parameters in ``rel_unc`` (missing names: none).
+
+    Parameters
+    ----------
+    natural_freq : float
+        Identified ``|lambda| / 2 pi`` of the housing mode [Hz].
+    damping_ratio : float
+        Its identified damping ratio.
+    params : ModelParams
+        Rig parameters (``k_MS`` the one used for ``k_TB``).
+    natural_freq_std, damping_ratio_std : float
+        Their measured standard uncertainties [Hz], [-].
+    rel_unc : mapping, optional
+        Relative standard uncertainty per model parameter name.
+    model : {'viscous', 'hysteretic'}
+        Bearing damping model.
+
+    Returns
+    -------
+    BearingDamping
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``model``.
+    InversionError
+        When the pole gives no finite bearing impedance.
+
+    Examples
+    --------
+    >>> from ema_rig.config import ModelParams
+    >>> p = ModelParams(2.566, 2.8, 205.0, 114e6, 650e3, 348e6, 180e3)
+    >>> d = bearing_damping(626.0, 0.02, p)
+    >>> round(d.c_TB), round(d.loss_factor, 4)
+    (1393, 0.0768)
+    """
+    if model not in BEARING_DAMPING_MODELS:
+        raise ValueError(f"model must be one of {BEARING_DAMPING_MODELS}, got {model!r}")
+    f, z = float(natural_freq), float(damping_ratio)
+    k, c, eta = _read(f, z, params, model)
+    h = 1e-4
+    var_m = {"c": 0.0, "eta": 0.0}
+    var_a = {"c": 0.0, "eta": 0.0}
+
+    def add(var: dict[str, float], plus: tuple[float, float, float], minus: tuple[float, float, float],
+            step: float, u: float) -> None:
+        dc = (plus[1] - minus[1]) / (2 * step) * u
+        de = (plus[2] - minus[2]) / (2 * step) * u
+        var["c"] += dc * dc
+        var["eta"] += de * de
+
+    if natural_freq_std > 0:
+        add(var_m, _read(f * (1 + h), z, params, model), _read(f * (1 - h), z, params, model), f * h,
+            float(natural_freq_std))
+    if damping_ratio_std > 0:
+        dz = max(z * h, 1e-7)
+        lo = max(z - dz, 0.0)  # one-sided at zero damping
+        add(var_m, _read(f, z + dz, params, model), _read(f, lo, params, model), (z + dz - lo) / 2,
+            float(damping_ratio_std))
+    for name, u in (rel_unc or {}).items():
+        if name not in MODEL_KEYS or not u:
+            continue
+        v = float(getattr(params, name))
+        plus = _read(f, z, replace(params, **{name: v * (1 + h)}), model)
+        minus = _read(f, z, replace(params, **{name: v * (1 - h)}), model)
+        add(var_a, plus, minus, h, float(u))  # relative step against relative tolerance
+    c_std = math.sqrt(var_m["c"] + var_a["c"])
+    return BearingDamping(model=model, c_TB=float(c), c_TB_std=c_std, loss_factor=float(eta),
+                          loss_factor_std=math.sqrt(var_m["eta"] + var_a["eta"]), k_TB=float(k),
+                          c_TB_std_measured=math.sqrt(var_m["c"]))

@@ -1,0 +1,503 @@
+"""Measured evidence of the housing on its bearing beyond the housing frequency.
+
+Functions
+---------
+driving_point_mass
+    The housing mode's effective modal mass at the radial driving point with its standard
+    uncertainty, from a local least-squares fit of the driving-point FRF at the identified poles.
+cross_axis_correction
+    The uncoupled radial housing frequency when a bearing cross stiffness couples the housing's
+    radial motion to its axial or lateral rigid-body motion (two-mode reduction).
+housing_rigid_body
+    Axial and cross stiffness of the housing on its bearing from the identified modes.
+fit_split_housing
+    ``k_TB+MS`` and an appendage fitted to the two modes that share the housing's radial motion.
+measured_housing_mass
+    ``m_H`` from the identified housing frequency and driving-point modal mass through the 3DOF
+    model (where the force chain is trusted).
+
+Classes
+-------
+DrivingPointMass, CrossAxisCorrection, SplitHousingFit
+    Frozen results.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..config import ModelParams
+from ..frf import _FORM_POWER, FRFData
+from .matching import model_mode_at
+
+__all__ = [
+    "CrossAxisCorrection",
+    "DrivingPointMass",
+    "HousingRigidBody",
+    "SplitHousingFit",
+    "fit_split_housing",
+    "housing_rigid_body",
+    "cross_axis_correction",
+    "driving_point_mass",
+    "measured_housing_mass",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class DrivingPointMass:
+    """Effective modal mass of one mode at the driving point.
+
+    Attributes
+    ----------
+    modal_mass, modal_mass_std : float
+        ``1 / (2 w_d |R_pp|)`` [kg] and its standard uncertainty from the fit residual [kg].
+    n_lines : int
+        Spectral lines used.
+    n_poles : int
+        Identified poles fitted together (the mode and its neighbours).
+    """
+
+    modal_mass: float
+    modal_mass_std: float
+    n_lines: int
+    n_poles: int
+
+
+def driving_point_mass(
+    freq: NDArray[np.float64],
+    frf: NDArray[np.complex128],
+    poles: NDArray[np.complex128],
+    index: int,
+    *,
+    frf_form: str = "accelerance",
+    window: float = 0.10,
+    pole_window: float = 0.40,
+) -> DrivingPointMass | None:
+    """Effective modal mass of mode ``index`` at the driving point, with its std.
+
+    Fits the driving-point receptance on the lines within ``+-window`` of the mode by the
+    identified poles within ``+-pole_window`` (each pole pair ``R / (jw - s) + R* / (jw - s*)`` with a free complex
+    residue ``R``) plus a complex constant and a complex ``1 / w^2`` term for the modes outside,
+    weighted by ``1 / |H|`` (relative noise). Linear least squares: the residue's covariance is
+    ``s^2 (A^T W A)^-1`` with ``s^2`` the weighted residual variance, so the std is measured from
+    the data's scatter about the modal model.
+
+    Parameters
+    ----------
+    freq : ndarray, shape (n_freq,)
+        Frequencies [Hz].
+    frf : ndarray, shape (n_freq,), complex
+        Driving-point FRF in ``frf_form`` (SI).
+    poles : ndarray, shape (n_modes,), complex
+        Identified poles [rad/s] (upper half plane).
+    index : int
+        The mode whose mass is wanted.
+    frf_form : {'receptance', 'mobility', 'accelerance'}
+    window : float
+        Relative half-width of the band of lines around the mode.
+    pole_window : float
+        Identified poles within this relative distance enter the fit with their own residues.
+
+    Returns
+    -------
+    DrivingPointMass or None
+        None when the band holds too few lines.
+    """
+    p = np.asarray(poles, dtype=complex)
+    f0 = abs(p[index]) / (2 * math.pi)
+    sel = (freq > f0 * (1 - window)) & (freq < f0 * (1 + window)) & (freq > 0)
+    w = 2 * math.pi * np.asarray(freq, dtype=float)[sel]
+    if w.size < 20:
+        return None
+    jw = 1j * w
+    h = np.asarray(frf)[sel] / jw ** _FORM_POWER[frf_form]
+    near = [r for r in range(p.size) if abs(abs(p[r]) / (2 * math.pi) / f0 - 1) < pole_window]
+    cols = []
+    for r in near:
+        s = p[r]
+        a = 1 / (jw - s) + 1 / (jw - np.conj(s))
+        b = 1j / (jw - s) - 1j / (jw - np.conj(s))
+        cols += [a, b]
+    cols += [np.ones_like(jw), 1j * np.ones_like(jw), 1 / w**2 + 0j, 1j / w**2]
+    a_mat = np.stack(cols, axis=1)
+    wt = 1.0 / np.maximum(np.abs(h), 1e-300)
+    a_real = np.concatenate([(a_mat * wt[:, None]).real, (a_mat * wt[:, None]).imag])
+    y = np.concatenate([(h * wt).real, (h * wt).imag])
+    coef, *_ = np.linalg.lstsq(a_real, y, rcond=None)
+    resid = y - a_real @ coef
+    dof = y.size - coef.size
+    if dof <= 0:
+        return None
+    s2 = float(resid @ resid) / dof
+    cov = s2 * np.linalg.pinv(a_real.T @ a_real)
+    k = near.index(index)
+    re, im = coef[2 * k], coef[2 * k + 1]
+    mag = math.hypot(re, im)
+    if not mag > 0:
+        return None
+    g = np.array([re, im]) / mag  # d|R| / d(re, im)
+    mag_std = math.sqrt(max(float(g @ cov[2 * k:2 * k + 2, 2 * k:2 * k + 2] @ g), 0.0))
+    wd = float(p[index].imag)
+    mass = 1.0 / (2 * wd * mag)
+    return DrivingPointMass(modal_mass=mass, modal_mass_std=mass * mag_std / mag, n_lines=int(w.size),
+                            n_poles=len(near))
+
+
+def driving_point_mass_of(data: FRFData, p: int, q: int, poles: NDArray[np.complex128], index: int
+                          ) -> DrivingPointMass | None:
+    """:func:`driving_point_mass` on ``data.frf[p, q]``."""
+    return driving_point_mass(data.freq, data.frf[p, q], poles, index, frf_form=data.frf_form)
+
+
+@dataclass(frozen=True, slots=True)
+class CrossAxisCorrection:
+    """Uncoupled radial housing frequency from a cross-coupled partner mode.
+
+    Attributes
+    ----------
+    axis : str
+        ``'axial'`` or ``'lateral'``.
+    ratio : float
+        The housing mode's cross-axis / radial housing amplitude ratio.
+    partner_freq : float
+        The partner mode's frequency [Hz].
+    partner_ratio : float
+        The partner's radial / cross-axis amplitude ratio (``~ ratio`` for a two-mode coupling).
+    mixing : float
+        ``t^2 = ratio^2 m_x / m_eff``: the partner's share over the housing's in the mode.
+    uncoupled_freq, rel_std : float
+        Uncoupled housing frequency [Hz] and its relative standard uncertainty.
+    consistent : bool
+        Both ratios give the same mixing within 3 sigma (a two-mode coupling).
+    """
+
+    axis: str
+    ratio: float
+    partner_freq: float
+    partner_ratio: float
+    mixing: float
+    uncoupled_freq: float
+    rel_std: float
+    consistent: bool = True
+
+
+def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner_ratio: float,
+                          m_cross: float, m_eff: float, *, ratio_std: float, partner_ratio_std: float,
+                          axis: str) -> CrossAxisCorrection:
+    """Two-mode reduction of a bearing cross stiffness.
+
+    The housing mode ``1`` and its partner ``2`` (the housing's axial or lateral rigid-body
+    mode) are, in mass-normalised coordinates, ``cos(t) h + sin(t) p`` and ``-sin(t) h + cos(t) p``
+    of the uncoupled radial housing mode ``h`` (driving-point effective mass ``m_eff``) and the
+    uncoupled cross-axis mode ``p`` (mass ``m_cross``). Mode 1's cross-axis / radial amplitude
+    ratio is ``tan(t) sqrt(m_eff / m_cross)`` and mode 2's radial / cross-axis ratio
+    ``tan(t) sqrt(m_cross / m_eff)``: two estimates of ``tan(t)^2``, combined by inverse variance.
+    The uncoupled eigenvalue is ``cos^2(t) w_1^2 + sin^2(t) w_2^2`` (exact for two modes).
+
+    Parameters
+    ----------
+    f_h : float
+        Identified housing frequency [Hz].
+    ratio : float
+        Its cross-axis / radial housing amplitude ratio.
+    partner_freq : float
+        Partner frequency [Hz].
+    partner_ratio : float
+        The partner's radial / cross-axis amplitude ratio.
+    m_cross, m_eff : float
+        Housing mass along the cross axis and the model's radial effective modal mass [kg].
+    ratio_std, partner_ratio_std : float
+        Standard uncertainties of both ratios (sensor misalignment, cross-axis sensitivity).
+    axis : str
+        ``'axial'`` or ``'lateral'``.
+
+    Returns
+    -------
+    CrossAxisCorrection
+        ``consistent`` False when the two estimates of the mixing differ by more than 3 sigma.
+    """
+    q = m_cross / m_eff
+    t1, u1 = ratio**2 * q, 2 * ratio * ratio_std * q
+    t2, u2 = partner_ratio**2 / q, 2 * partner_ratio * partner_ratio_std / q
+    w1, w2 = 1 / max(u1, 1e-12) ** 2, 1 / max(u2, 1e-12) ** 2
+    t = (w1 * t1 + w2 * t2) / (w1 + w2)
+    u_t = 1 / math.sqrt(w1 + w2)
+    consistent = abs(t1 - t2) <= 3 * math.hypot(u1, u2)
+
+    def fu(x: float) -> float:
+        x = max(x, 0.0)
+        return math.sqrt((f_h**2 + x * partner_freq**2) / (1 + x))
+
+    f_u = fu(t)
+    rel = abs(math.log(fu(t + u_t) / fu(t - u_t))) / 2
+    return CrossAxisCorrection(axis=axis, ratio=ratio, partner_freq=partner_freq, partner_ratio=partner_ratio,
+                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent)
+
+
+def measured_housing_mass(f_h: float, modal_mass: float, params: ModelParams) -> float | None:
+    """``m_H`` [kg] for which the 3DOF model, inverted at ``f_h``, has the measured driving-point
+    effective modal mass (fixed point; the effective mass is nearly proportional to ``m_H``)."""
+    m_h = params.m_H
+    for _ in range(50):
+        info = model_mode_at(replace(params, m_H=m_h), f_h)
+        if info is None or not info.modal_mass > 0:
+            return None
+        new = m_h * modal_mass / info.modal_mass
+        if abs(new - m_h) < 1e-10 * m_h:
+            return new
+        m_h = new
+    return m_h
+
+
+
+@dataclass(frozen=True, slots=True)
+class SplitHousingFit:
+    """The housing with an appendage (a load arm, a flexible part) fitted to two measured modes.
+
+    Attributes
+    ----------
+    k_TB_MS, k_TB_MS_std : float
+        Combined bearing + mounting stiffness and its standard uncertainty [N/m].
+    appendage_mass, appendage_mass_std : float
+        Mass of the part on its own spring [kg] (out of ``m_H``).
+    appendage_freq : float
+        Its natural frequency on that spring alone [Hz].
+    force_chain_scale : float
+        Fitted scale of the measured modal masses (1 = the force chain as calibrated).
+    chi2 : float
+        Sum of squared normalised residuals (1 degree of freedom).
+    """
+
+    k_TB_MS: float
+    k_TB_MS_std: float
+    appendage_mass: float
+    appendage_mass_std: float
+    appendage_freq: float
+    force_chain_scale: float
+    chi2: float
+
+
+def _split_modes(params: ModelParams, k_c: float, m_a: float, k_a: float) -> tuple[NDArray[np.float64],
+                                                                                    NDArray[np.float64]]:
+    """Natural frequencies [Hz] and driving-point effective masses [kg] of the 4DOF housing model."""
+    import scipy.linalg
+
+    from .model import mass_matrix, stiffness_matrix
+
+    m = np.zeros((4, 4))
+    k = np.zeros((4, 4))
+    m[:3, :3] = mass_matrix(replace(params, m_H=params.m_H - m_a))
+    k[:3, :3] = stiffness_matrix(params, k_c)
+    m[3, 3] = m_a
+    k[0, 0] += k_a
+    k[3, 3] += k_a
+    k[0, 3] = k[3, 0] = -k_a
+    lam, vec = scipy.linalg.eigh(k, m)
+    with np.errstate(divide="ignore"):
+        return np.sqrt(np.clip(lam, 0, None)) / (2 * math.pi), 1.0 / vec[0] ** 2
+
+
+def fit_split_housing(params: ModelParams, freqs: tuple[float, float], freq_std: tuple[float, float],
+                      masses: tuple[float, float], mass_std: tuple[float, float], force_chain: float
+                      ) -> SplitHousingFit | None:
+    """Fit ``k_TB+MS`` and an appendage (mass ``m_a`` out of ``m_H`` on a spring ``k_a``) to two modes.
+
+    The 3DOF model with the housing split into its main body and an appendage has two modes
+    where the housing moves radially; their frequencies and driving-point effective masses (four
+    data) fix ``k_TB+MS``, ``m_a``, ``k_a`` and a common scale of the measured masses (the force
+    chain, with its prior ``N(1, force_chain^2)``). Weighted least squares on log residuals
+    (``scipy.optimize.least_squares``); the covariance is ``(J^T J)^-1`` at the solution (the
+    residuals are normalised), so ``k_TB_MS_std`` carries the frequency and mass stds and the
+    force chain. ``m_H`` and the other parameters are fixed here (their tolerances enter the
+    k_TB budget through the equivalent frequency).
+
+    Parameters
+    ----------
+    params : ModelParams
+    freqs, freq_std : (float, float)
+        Undamped frequencies of the two modes and their stds [Hz] (housing mode first).
+    masses, mass_std : (float, float)
+        Their driving-point effective masses and stds [kg].
+    force_chain : float
+        Relative std of the FRF scale.
+
+    Returns
+    -------
+    SplitHousingFit or None
+        None when the fit does not converge to two modes near the measured ones.
+    """
+    from scipy.optimize import least_squares
+
+    from .inversion import k_tb_ms_from_housing_freq
+
+    f = np.asarray(freqs, dtype=float)
+    fs = np.maximum(np.asarray(freq_std, dtype=float), 1e-6 * f)
+    mm = np.asarray(masses, dtype=float)
+    ms = np.asarray(mass_std, dtype=float)
+
+    def model(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if not np.all(np.abs(x[:3]) < 50.0):  # exp would leave the physical range (and overflow)
+            raise ValueError("parameters out of range")
+        k_c, m_a, k_a = np.exp(x[:3])
+        if not m_a < 0.5 * params.m_H:
+            raise ValueError("appendage heavier than half the housing")
+        fr, me = _split_modes(params, float(k_c), float(m_a), float(k_a))
+        idx = [int(np.argmin(np.abs(np.log(fr / fi)))) for fi in f]
+        return fr[idx], me[idx]
+
+    def resid(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        try:
+            fr, me = model(x)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            return np.full(5, 1e3)
+        scale = math.exp(min(max(float(x[3]), -5.0), 5.0))
+        return np.concatenate([np.log(fr / f) * f / fs, np.log(me * scale / mm) * mm / ms,
+                               [x[3] / max(force_chain, 1e-6)]])
+
+    try:
+        k0 = k_tb_ms_from_housing_freq(float(np.sqrt(f[0] * f[1])), params)
+    except Exception:  # noqa: BLE001 - outside the 3DOF range: no start
+        return None
+    best = None
+    for frac in (0.01, 0.03, 0.08):
+        m_a0 = frac * params.m_H
+        x0 = np.log([k0, m_a0, m_a0 * (2 * math.pi * f[1]) ** 2, 1.0])
+        x0[3] = 0.0
+        with np.errstate(all="ignore"):
+            sol = least_squares(resid, x0, method="lm", xtol=1e-12, ftol=1e-12, max_nfev=400)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None or not best.success:
+        return None
+    chi2 = float(2 * best.cost)
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac)
+    except np.linalg.LinAlgError:
+        return None
+    k_c, m_a, k_a = np.exp(best.x[:3])
+    fr, _ = model(best.x)
+    if np.any(np.abs(np.log(fr / f)) > 0.05):
+        return None
+    return SplitHousingFit(
+        k_TB_MS=float(k_c), k_TB_MS_std=float(k_c * math.sqrt(max(cov[0, 0], 0.0))),
+        appendage_mass=float(m_a), appendage_mass_std=float(m_a * math.sqrt(max(cov[1, 1], 0.0))),
+        appendage_freq=float(math.sqrt(k_a / m_a) / (2 * math.pi)), force_chain_scale=float(math.exp(best.x[3])),
+        chi2=chi2,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class HousingRigidBody:
+    """The housing's other rigid-body stiffnesses on its bearing, where the sensors see them.
+
+    Attributes
+    ----------
+    axial_stiffness, axial_stiffness_std : float or None
+        ``m_x (2 pi f_ax)^2`` [N/m] of the housing's axial mode (uncoupled from a corrected
+        radial-axial cross coupling) and its std; None when no axial mode is identified.
+    axial_freq : float or None
+        The axial mode's (uncoupled) frequency [Hz].
+    cross_stiffness, cross_stiffness_std : float or None
+        Magnitude of the radial-axial or radial-lateral cross stiffness [N/m] from a corrected
+        coupling (two-mode reduction), and its std; None without one.
+    cross_axis : str or None
+        ``'axial'`` or ``'lateral'``.
+    reasons : tuple of str
+        Why a stiffness is not reported (tilt: the rig file gives no rotary inertia, and the tilt
+        modes lie below the band).
+    """
+
+    axial_stiffness: float | None
+    axial_stiffness_std: float | None
+    axial_freq: float | None
+    cross_stiffness: float | None
+    cross_stiffness_std: float | None
+    cross_axis: str | None
+    reasons: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, object]:
+        """Plain dict for JSON."""
+        return {"axial_stiffness": self.axial_stiffness, "axial_stiffness_std": self.axial_stiffness_std,
+                "axial_freq": self.axial_freq, "cross_stiffness": self.cross_stiffness,
+                "cross_stiffness_std": self.cross_stiffness_std, "cross_axis": self.cross_axis,
+                "tilt_stiffness": None, "unidentifiable": list(self.reasons)}
+
+
+AXIAL_MODE_RATIO = 3.0
+"""A mode whose axial housing motion is at least this many times its mean radial housing motion is
+the housing's axial rigid-body mode (the radial shaker excites it through misalignment only)."""
+
+
+def housing_rigid_body(candidates: list[Any], m_x: float, m_x_rel_std: float, m_eff: float,
+                       cross: CrossAxisCorrection | None, housing_freq: float) -> HousingRigidBody:
+    """Axial and cross stiffness of the housing on its bearing from the identified modes.
+
+    The axial stiffness is ``m_x w_ax^2`` of the mode that moves the housing's axial sensors
+    most (at least :data:`AXIAL_MODE_RATIO` times its radial motion, highest participation); with
+    a corrected radial-axial coupling that mode is the partner and its uncoupled eigenvalue
+    ``sin^2(t) w_1^2 + cos^2(t) w_2^2`` is used. The cross stiffness of a corrected coupling is the
+    off-diagonal term of the two-mode reduction, ``sin t cos t |w_2^2 - w_1^2| sqrt(m_eff m_x)``.
+    Stds: identified frequency std and the ``m_x`` tolerance; the coupling's mixing std.
+
+    Parameters
+    ----------
+    candidates : list of Candidate
+        Every identified mode with its shape metrics (:attr:`MatchResult.candidates`).
+    m_x : float
+        The housing's mass in axial translation [kg] (effective ``m_H``).
+    m_x_rel_std : float
+        Its relative standard uncertainty.
+    m_eff : float
+        Model effective modal mass of the radial housing mode [kg].
+    cross : CrossAxisCorrection or None
+        The corrected coupling, if any.
+    housing_freq : float
+        Identified housing frequency [Hz].
+
+    Returns
+    -------
+    HousingRigidBody
+    """
+    reasons = ["tilt stiffness: the rig file gives no rotary inertia of the housing and the tilt modes lie "
+               "below the identification band"]
+    ax = [c for c in candidates if getattr(c, "axial_ratio", None) is not None
+          and c.axial_ratio >= AXIAL_MODE_RATIO and abs(c.natural_freq - housing_freq) > 1e-9]
+    k_ax = k_ax_std = f_ax = None
+    if cross is not None and cross.axis == "axial":
+        t2 = cross.mixing
+        w1, w2 = (2 * math.pi * housing_freq) ** 2, (2 * math.pi * cross.partner_freq) ** 2
+        lam = (t2 * w1 + w2) / (1 + t2)
+        f_ax = math.sqrt(lam) / (2 * math.pi)
+        part = next((c for c in ax if abs(c.natural_freq - cross.partner_freq) < 1e-9), None)
+        sf = (part.natural_freq_std if part is not None and part.natural_freq_std else 0.0) / cross.partner_freq
+        k_ax = m_x * lam
+        k_ax_std = k_ax * math.hypot(2 * sf, m_x_rel_std, 2 * cross.rel_std)
+    elif ax:
+        best = max(ax, key=lambda c: c.participation or 0.0)
+        f_ax = best.natural_freq
+        sf = (best.natural_freq_std or 0.0) / f_ax
+        k_ax = m_x * (2 * math.pi * f_ax) ** 2
+        k_ax_std = k_ax * math.hypot(2 * sf, m_x_rel_std)
+    else:
+        reasons.append("axial stiffness: no mode moves the housing's axial sensors most (no axial sensor, or "
+                       "the axial mode lies outside the band)")
+    k_x = k_x_std = None
+    if cross is not None:
+        t2 = cross.mixing
+        w1, w2 = (2 * math.pi * housing_freq) ** 2, (2 * math.pi * cross.partner_freq) ** 2
+        # sin t cos t = sqrt(t2) / (1 + t2) with t2 = tan^2 t
+        k_x = math.sqrt(t2) / (1 + t2) * abs(w2 - w1) * math.sqrt(m_eff * m_x)
+        # the mixing's std: from the frequency correction's relative std through d f_u / d t2
+        d = abs(w2 - w1) / (1 + t2) ** 2 / (2 * (2 * math.pi * cross.uncoupled_freq) ** 2)
+        u_t2 = cross.rel_std / d if d > 0 else 0.0
+        k_x_std = k_x * math.hypot(u_t2 / (2 * t2) if t2 > 0 else 0.0, m_x_rel_std / 2)
+    else:
+        reasons.append("cross stiffness: no radial-axial or radial-lateral coupling beyond sensor misalignment")
+    return HousingRigidBody(axial_stiffness=k_ax, axial_stiffness_std=k_ax_std, axial_freq=f_ax,
+                            cross_stiffness=k_x, cross_stiffness_std=k_x_std,
+                            cross_axis=None if cross is None else cross.axis, reasons=tuple(reasons))
