@@ -66,6 +66,7 @@ from numpy.typing import NDArray
 
 from ..frf import _FORM_POWER, FRFData
 from .noise import coherence_variance, fit_noise_model
+from .refine import inv_psd
 
 
 @dataclass(frozen=True, slots=True)
@@ -324,18 +325,8 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], max
 
 
 def _inv(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
-    d = np.sqrt(np.abs(np.diag(h)))
-    if h.size == 0 or not np.all(d > 0) or not np.all(np.isfinite(h)):
-        return None
-    hs = h / np.outer(d, d)
-    try:
-        c = np.linalg.cholesky(hs)
-    except np.linalg.LinAlgError:
-        return None
-    if np.min(np.abs(np.diag(c))) ** 2 < 1e-13:
-        return None
-    ci = np.linalg.inv(c)
-    return (ci.T @ ci) / np.outer(d, d)
+    """:func:`~ema_rig.identification.refine.inv_psd`, None for an empty matrix."""
+    return None if h.size == 0 else inv_psd(h)
 
 
 def _windows(fn: NDArray[np.float64], hb: NDArray[np.float64], freq: NDArray[np.float64], crit: MLCriteria

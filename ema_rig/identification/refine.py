@@ -568,7 +568,7 @@ def _refine(
         chi2_red = chi2 / dof
         noise = as_noise(var, source)
         lam = prob.poles(sol.x)
-        cov_u = _inv_psd(hess)
+        cov_u = inv_psd(hess)
         bad = _bad_modes(lam, lam0, prob.free, fband, float(np.median(np.diff(freq))), hess if cov_u is None else None)
         if sol.status <= 0 and not bad:
             return _fallback(model, noise, f"no convergence within {max_nfev} evaluations", n_iter, chi2, chi2_red,
@@ -729,7 +729,7 @@ def _fit(
         if source == "coherence":
             var = _coherence_var(coh, model2, n_avg, resid2, None)  # type: ignore[arg-type]
             continue
-        cov = _inv_psd(prob.gauss_newton(e)[0])
+        cov = inv_psd(prob.gauss_newton(e)[0])
         lev = None if cov is None else prob.second_order(e, cov)[0]
         if source == "estimated":
             var = fit_noise_model(resid2, model2, lev)[2]
@@ -799,7 +799,7 @@ def _coherence_var(
     return shape * max(kappa, 1e-300)
 
 
-def _inv_psd(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
+def inv_psd(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
     """Inverse of a symmetric positive definite matrix (scaled Cholesky), None when singular."""
     d = np.sqrt(np.abs(np.diag(h)))
     if not np.all(d > 0) or not np.all(np.isfinite(h)):
