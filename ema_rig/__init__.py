@@ -30,9 +30,11 @@ imports neither numpy nor scipy, and ``ema-rig --help`` or a usage error stays f
 
 from __future__ import annotations
 
+import importlib
 import logging
 from typing import TYPE_CHECKING, Any
 
+from ._version import version
 from .config import RigConfig, load_rig
 from .dof import DOF
 from .errors import (
@@ -68,23 +70,11 @@ _LAZY = {
 }
 
 
-def _version() -> str:
-    # importlib.metadata costs ~40 ms: only when the version is asked for
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("ema-rig")
-    except PackageNotFoundError:  # running from a source tree that is not installed
-        return "0.0.0+unknown"
-
-
 def __getattr__(name: str) -> Any:
     if name == "__version__":
-        globals()["__version__"] = v = _version()
+        globals()["__version__"] = v = version()  # importlib.metadata (~40 ms): only when asked for
         return v
     if name in _LAZY:
-        import importlib
-
         mod, attr = _LAZY[name]
         globals()[name] = value = getattr(importlib.import_module(mod), attr)  # once
         return value

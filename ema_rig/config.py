@@ -225,7 +225,7 @@ class RigConfig:
     def sensor_for(self, dof: DOF) -> Sensor | None:
         """The sensor whose node and axis match ``dof`` (sign ignored), or None."""
         for s in self.sensors:
-            if s.dof.node == dof.node and abs(s.dof.direction) == abs(dof.direction):
+            if s.dof.same_axis(dof):
                 return s
         return None
 

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 from . import _atomic
 from ._text import inert
+from ._version import version
 
 if TYPE_CHECKING:
     from .campaign.result import CampaignResult
@@ -123,8 +124,6 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     str
         A complete HTML document with no external references.
     """
-    from . import __version__
-
     cfg = result.config
     rows = result.rows
     n_ok = sum(r["status"] == "ok" for r in rows)
@@ -132,7 +131,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
         f"<title>{_h(cfg.title)} — ema_rig report</title><style>{_CSS}</style></head><body>",
         f"<h1>{_h(cfg.title)}</h1>",
-        f"<p class='muted'>ema_rig {_h(__version__)} · Python {platform.python_version()} · "
+        f"<p class='muted'>ema_rig {_h(version())} · Python {platform.python_version()} · "
         f"{_h(generated if generated is not None else datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC'))}"
         " · campaign file "
         f"<code>{_h(str(cfg.path))}</code></p>",

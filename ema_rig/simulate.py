@@ -206,7 +206,7 @@ def _extra_modes(sensors: Sequence[Sensor], f_H: float, damping: Mapping[str, fl
 
 def _sensor_index(sensors: Sequence[Sensor], dof: DOF) -> int | None:
     for j, s in enumerate(sensors):
-        if s.dof.node == dof.node and abs(s.dof.direction) == abs(dof.direction):
+        if s.dof.same_axis(dof):
             return j
     return None
 

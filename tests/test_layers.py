@@ -39,10 +39,11 @@ LAYERS: tuple[tuple[int, str], ...] = (
     (0, "ema_rig._atomic"), (0, "ema_rig._blas"), (0, "ema_rig._optional"), (0, "ema_rig._progress"),
     (0, "ema_rig._text"), (0, "ema_rig._version"), (0, "ema_rig.errors"), (0, "ema_rig.dof"),
     (0, "ema_rig.frf"), (0, "ema_rig.processing"),
-    # 1: io -- reads and writes DOFs, units and data; knows no rig
-    (1, "ema_rig.io"),
-    # 2: identification -- poles, stabilization, LSFD, ML; spectral estimation (H1/H2/Hv); shapes
-    (2, "ema_rig.identification"), (2, "ema_rig.spectral"), (2, "ema_rig.mode_shapes"),
+    # 1: io -- reads and writes DOFs, units and data; knows no rig (nor the identification: mode
+    #    shapes reach the dataset-55 writer as records of mode_shapes, on a structural ModalShapes)
+    (1, "ema_rig.io"), (1, "ema_rig.mode_shapes"),
+    # 2: identification -- poles, stabilization, LSFD, ML; spectral estimation (H1/H2/Hv)
+    (2, "ema_rig.identification"), (2, "ema_rig.spectral"),
     # 3: the rig -- its file, sensor roles, model, candidates, matching, inversion, fit,
     #    uncertainty, stiffness, Hertz; the simulator of a rig measurement
     (3, "ema_rig.config"), (3, "ema_rig.rig"), (3, "ema_rig.simulate"),
@@ -298,13 +299,11 @@ def test_every_module_has_a_layer() -> None:
         layer_of(m)
 
 
-@pytest.mark.xfail(strict=True, reason='issue 21: the tree before the layer fix')
 def test_no_upward_import() -> None:
     bad = upward_imports(collect_imports())
     assert not bad, f"{len(bad)} upward imports:\n" + "\n".join(bad)
 
 
-@pytest.mark.xfail(strict=True, reason='issue 21: the tree before the layer fix')
 def test_no_import_cycle() -> None:
     cyc = import_cycles(collect_imports())
     assert not cyc, f"{len(cyc)} import cycles:\n" + "\n".join(" <-> ".join(c) for c in cyc)
@@ -325,7 +324,7 @@ def test_no_private_name_crosses_a_module() -> None:
 def test_the_parser_sees_lazy_and_type_checking_imports() -> None:
     # the checker itself: a known function-level import and a known TYPE_CHECKING import are found
     imps = collect_imports()
-    assert any(i.importer == "ema_rig" and i.target == "importlib" and i.in_function for i in imps)
+    assert any(i.importer == "ema_rig._version" and i.target == "importlib.metadata" and i.in_function for i in imps)
     assert any(i.importer == "ema_rig" and i.type_checking for i in imps)
     assert layer_of("ema_rig.io.uff") < layer_of("ema_rig.identification.lsfd") < layer_of("ema_rig.rig.stiffness")
 

@@ -24,6 +24,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from .._version import version
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -77,9 +79,7 @@ def figure_key(row: Mapping[str, Any]) -> str | None:
     key = row.get("cache_key")
     if not isinstance(key, str) or not key:
         return None
-    from .. import __version__
-
-    payload = {"row": key, "draw": _DRAW_VERSION, "dpi": DPI, "size": list(_SIZE), "version": __version__}
+    payload = {"row": key, "draw": _DRAW_VERSION, "dpi": DPI, "size": list(_SIZE), "version": version()}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 

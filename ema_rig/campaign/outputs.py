@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _atomic
+from .._version import version
 from ..config import read_regular_file
 from .result import COLUMNS, CampaignResult
 
@@ -138,11 +139,9 @@ def _hash(obj: Any) -> str:
 def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
                       manifest: dict[str, Any]) -> dict[str, Path]:
     """The campaign figures: drawn again only when the rows or the bearing information changed."""
-    from .. import __version__
-
     shown = [{c: r.get(c) for c in COLUMNS if c != "elapsed_s"} for r in result.rows]
     bearings = {k: repr(v) for k, v in result.config.bearings.items()}
-    key = _hash({"rows": shown, "bearings": bearings, "version": __version__})
+    key = _hash({"rows": shown, "bearings": bearings, "version": version()})
     old = previous.get("figures", {})
     names = previous.get("campaign_figures")
     if (isinstance(names, list) and names and all(isinstance(n, str) and _safe_rel(n) for n in names)

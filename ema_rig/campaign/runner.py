@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _atomic
+from .._version import version
 from ..config import RigConfig, read_regular_file
 from ..errors import EmaRigError
 from .result import COLUMNS, CampaignResult
@@ -131,11 +132,9 @@ def task_key(task: MeasurementTask, digest: str) -> str:
     ``metadata={"cache_key": False}``, such as the rig's path, are left out), with the file's
     content hash, the ema_rig version and the key schema.
     """
-    from .. import __version__
-
     fields = _canonical(task)
     fields.pop("file")
-    payload = {"task": fields, "digest": digest, "version": __version__, "schema": _KEY_SCHEMA}
+    payload = {"task": fields, "digest": digest, "version": version(), "schema": _KEY_SCHEMA}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 

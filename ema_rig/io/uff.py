@@ -51,12 +51,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._atomic import atomic_path
-from ..config import RigConfig
 from ..dof import DOF
 from ..errors import UFFError, UnitWarning
 from ..frf import FRFData
 from ..processing import ProcessingHistory
 from . import _uff_1858, _uff_coherence, _uff_parse, _uff_units, _uff_write
+from .layout import SensorLayout
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -409,15 +409,15 @@ def inspect_uff(path: str | PathLike[str]) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- read_uff58
-def _match_ref(rig: RigConfig, d: DOF) -> DOF | None:
+def _match_ref(rig: SensorLayout, d: DOF) -> DOF | None:
     for r in rig.references:
-        if r.node == d.node and abs(r.direction) == abs(d.direction):
+        if r.same_axis(d):
             return r
     return None
 
 
 def read_uff58(
-    path: str | PathLike[str], *, rig: RigConfig | None = None, freq_rtol: float = 1e-6,
+    path: str | PathLike[str], *, rig: SensorLayout | None = None, freq_rtol: float = 1e-6,
     units: str | None = None,
 ) -> FRFData:
     """Read all FRF datasets of a UFF58 file into one FRFData in SI units.
@@ -426,7 +426,7 @@ def read_uff58(
     ----------
     path : str or path-like
         UFF file with datasets 58/58b; every dataset of function type 4 (FRF) is used.
-    rig : RigConfig, optional
+    rig : SensorLayout (a RigConfig or a ChannelLayout), optional
         Rig configuration: selects and orders the outputs (rig sensor order), sets roles and axes,
         decides signs, and may settle unit conflicts (``unit_preference``).
     freq_rtol : float, optional
@@ -728,7 +728,7 @@ def write_uff58(
     binary: bool = False,
     double: bool = True,
     accel_unit: str = "m/s^2",
-    rig: RigConfig | None = None,
+    rig: SensorLayout | None = None,
     abscissa: str = "auto",
     history: ProcessingHistory | None = None,
     labelled: bool = True,
@@ -748,7 +748,7 @@ def write_uff58(
         (type 5; ASCII E13.5, 6 digits; binary float32).
     accel_unit : {'m/s^2', 'g'}, optional
         Unit of accelerance: ``'g'`` writes values / 9.80665 labelled ``g`` (read back in m/s^2/N).
-    rig : RigConfig, optional
+    rig : SensorLayout (a RigConfig or a ChannelLayout), optional
         Each output is written with its rig sensor's signed DOF (sensor ``13-Y``: node 13,
         direction -2, values x -1), and each input with the rig's signed reference, so that
         ``read_uff58(path, rig=rig)`` gives ``data`` back.

@@ -136,7 +136,7 @@ def plot_rig_fit(
     if not hi > lo:
         raise ValueError(f"band must satisfy lo < hi, got {band!r}")
     ref = rig.radial.positive()
-    in_idx = [j for j, d in enumerate(data.in_dofs) if d.node == ref.node and abs(d.direction) == abs(ref.direction)]
+    in_idx = [j for j, d in enumerate(data.in_dofs) if d.same_axis(ref)]
     if not in_idx:
         raise ValueError(f"the data have no radial reference {rig.radial}")
     q = in_idx[0]

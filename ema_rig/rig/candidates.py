@@ -128,7 +128,7 @@ class Candidate:
 def find_dof(dofs: tuple[DOF, ...], target: DOF) -> int | None:
     """Index of the first DOF with ``target``'s node and axis (sign ignored), or None."""
     for i, d in enumerate(dofs):
-        if d.node == target.node and abs(d.direction) == abs(target.direction):
+        if d.same_axis(target):
             return i
     return None
 
