@@ -46,15 +46,18 @@ load_rig, parse_rig
 from __future__ import annotations
 
 import math
+import os
+import stat
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from os import PathLike
 from pathlib import Path
 from typing import Any
 
 from .dof import DOF
 from .errors import ConfigError
+from .io._uff_units import response_unit
 
 MODEL_KEYS: tuple[str, ...] = ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B")
 SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")
@@ -495,8 +498,6 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         raise ConfigError(f"must be 'code' or 'label', got {short_repr(pref)}", file=fname, key="units.prefer")
     ordinate = None
     if "ordinate" in units_t:
-        from .io._uff_units import response_unit
-
         ordinate = toml_str(units_t["ordinate"], "units.ordinate", fname, nonempty=True)
         try:
             response_unit(ordinate)
@@ -587,8 +588,6 @@ def _with_added_masses(model: ModelParams, uncertainty: dict[str, float],
     else the default of :data:`ema_rig.rig.uncertainty.DEFAULT_REL_UNCERTAINTY` (0.5 % for m_H,
     2 % for m_S, repeated here so the config layer does not import the rig layer).
     """
-    from dataclasses import replace
-
     default_rel = {"m_H": 0.005, "m_S": 0.02}
     unc = dict(uncertainty)
     new: dict[str, float] = {}
@@ -622,9 +621,6 @@ def read_regular_file(path: str | PathLike[str], *, max_bytes: int) -> bytes:
     ValueError
         When it is not a regular file or larger than ``max_bytes``; the message names no file.
     """
-    import os
-    import stat
-
     fd = os.open(os.fspath(path), os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     try:
         st = os.fstat(fd)

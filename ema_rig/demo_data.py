@@ -34,6 +34,7 @@ import csv
 import io
 import math
 import os
+import tempfile
 from collections.abc import Callable
 from os import PathLike
 from pathlib import Path
@@ -289,8 +290,6 @@ def bundled_campaign(out_dir: str | PathLike[str] | None = None) -> Path:
     if src is not None:
         return src / "campaign.toml"
     if out_dir is None:
-        import tempfile
-
         out_dir = tempfile.mkdtemp(prefix="ema-rig-data-")
     return generate(out_dir)
 

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 from . import _atomic
 from ._text import inert
 from ._version import version
+from .campaign.drilldown import KINDS
 
 if TYPE_CHECKING:
     from .campaign.result import CampaignResult
@@ -208,8 +209,6 @@ def _comparison(detail: Any) -> str:
 def _measurement_section(i: int, r: Mapping[str, Any],
                          figs: tuple[Mapping[str, str | PathLike[str]], list[str], list[Any]] | None) -> str:
     """The section of one measurement: conditions, result, warnings, figures, candidate modes."""
-    from .campaign.drilldown import KINDS
-
     ok = r["status"] == "ok"
     head = (f"<section class='meas' id='{anchor(i)}'><a class='top' href='#results'>back to the table</a>"
             f"<h3>{_h(str(r['id']))}</h3><p class='muted'>{_h(str(r.get('file', '')))} · "

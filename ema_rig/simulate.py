@@ -38,6 +38,7 @@ truth_path
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -50,9 +51,11 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from . import _atomic
 from .config import RigConfig, Sensor
 from .dof import DOF
 from .frf import FRFData
+from .io.uff import write_uff58
 from .rig.model import HOUSING, SPINDLE, RigModel, modal_frf, series_stiffness
 
 DEFAULT_DAMPING: Mapping[str, float] = MappingProxyType(
@@ -554,8 +557,6 @@ def planted_k_tb(path: str | PathLike[str]) -> float | None:
         When a truth file exists but is not a JSON object with a numeric ``k_TB`` (or null for the
         disk), naming the file.
     """
-    import json
-
     tp = truth_path(path)
     if not tp.is_file():
         return None
@@ -602,9 +603,6 @@ def write_measurement(
     Path
         The UFF file written.
     """
-    from . import _atomic
-    from .io.uff import write_uff58
-
     p = Path(path)
     write_uff58(p, sim.data, binary=binary, double=double, accel_unit=accel_unit, rig=rig)
     truth = sim.truth_dict()

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from .._version import version
+from ..errors import EmaRigError
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -124,7 +125,6 @@ def measurement_figures(
     MeasurementFigures
         For a failed row only the stabilization chart (when the identification itself worked).
     """
-    from ..errors import EmaRigError
     from ..identification import identify
     from ..io.uff import read_uff58
     from ..plot._text import plain

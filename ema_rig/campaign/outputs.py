@@ -32,6 +32,7 @@ from typing import Any
 from .. import _atomic
 from .._version import version
 from ..config import read_regular_file
+from .drilldown import KINDS, MeasurementFigures, figure_key, measurement_figures
 from .result import COLUMNS, CampaignResult
 
 logger = logging.getLogger(__name__)
@@ -164,8 +165,6 @@ def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, 
 
 def _plan(result: CampaignResult, out: Path, previous: Mapping[str, Any]) -> list[tuple[Any, Any, str, dict[str, str], bool]]:
     """Per measurement with a figure key: (measurement, row, key, relative paths, reusable)."""
-    from .drilldown import KINDS, figure_key
-
     old_figs = previous.get("figures", {})
     old_meas = previous.get("measurements", {})
     plan = []
@@ -186,8 +185,6 @@ def _plan(result: CampaignResult, out: Path, previous: Mapping[str, Any]) -> lis
 def _draw_ahead(result: CampaignResult, out: Path, previous: Mapping[str, Any],
                 executor: Executor) -> dict[str, Future[Any]]:
     """Submit the measurements' figures that cannot be reused to ``executor``."""
-    from .drilldown import measurement_figures
-
     if not result.config.measurement_figures:
         return {}
     return {m.id: executor.submit(measurement_figures, m, row, result.config, k_ms=result.k_MS,
@@ -199,8 +196,6 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
                          manifest: dict[str, Any], ahead: Mapping[str, Future[Any]] | None = None,
                          ) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
     """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
-    from .drilldown import KINDS, MeasurementFigures, measurement_figures
-
     folder = out / MEASUREMENT_DIR
     if folder.is_dir():
         _atomic.remove_temporaries(folder)

@@ -31,8 +31,10 @@ import json
 import logging
 import math
 import os
+import signal
 import stat
 import sys
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping
@@ -50,9 +52,13 @@ from pathlib import Path
 from typing import Any
 
 from .. import _atomic
+from .._blas import single_threaded
+from .._progress import progress_bar
 from .._version import version
 from ..config import RigConfig, read_regular_file
 from ..errors import EmaRigError
+from .drilldown import KINDS
+from .outputs import _MANIFEST, MEASUREMENT_DIR, write_outputs
 from .result import COLUMNS, CampaignResult
 from .schema import CampaignConfig, Measurement, load_campaign
 
@@ -188,8 +194,6 @@ def process_measurement(task: MeasurementTask) -> dict[str, Any]:
         columns, ``detail`` and ``elapsed_s``. Errors are returned, never raised, so that one bad
         file does not stop a campaign; ``KeyboardInterrupt`` and ``SystemExit`` propagate.
     """
-    from .._blas import single_threaded
-
     t0 = time.perf_counter()
     # one BLAS thread per measurement: the matrices are small, and with --jobs N the N workers
     # would otherwise each start a thread per core and fight over the cores
@@ -273,9 +277,6 @@ def _positive(x: Any) -> bool:
 # --------------------------------------------------------------------------- workers
 def _worker_init(parent: int) -> None:
     """Initializer of pool workers: die with ``parent``; leave Ctrl-C to the parent."""
-    import signal
-    import threading
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles an interrupt and stops the pool
     _atomic.close_inherited_locks()  # the parent's folder lock must die with the parent
     if sys.platform.startswith("linux"):
@@ -398,9 +399,6 @@ def check_out_folder(cfg: CampaignConfig, out: Path) -> None:
     OutputIsInputError
         Naming the output and the input it would overwrite.
     """
-    from .drilldown import KINDS
-    from .outputs import _MANIFEST, MEASUREMENT_DIR
-
     inputs = [("campaign file", cfg.path), ("rig", cfg.rig_file), ("calibration", cfg.calibration)]
     inputs += [(f"measurement {m.id!r}", m.file) for m in cfg.measurements]
     outputs: list[tuple[str, Any]] = [(n, out / n) for n in ("campaign.csv", "settings.json", "report.html",
@@ -552,8 +550,6 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
             out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
         )
         if out is not None and report:
-            from .outputs import write_outputs
-
             result = dataclasses.replace(result, files=write_outputs(result, out, executor=own_pool))
     except BaseException:
         bar(None)
@@ -616,8 +612,6 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
 
         return step
     if progress:
-        from .._progress import progress_bar
-
         pbar = progress_bar(total=total, initial=initial, desc="measurements", unit="meas")
 
         def step(n: int | None) -> None:

@@ -4,8 +4,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import stat
+from pathlib import Path
 
+from .._atomic import make_folder, write_text
+from ..errors import EmaRigError
 from . import _args
+from .campaign import run_campaign
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,10 +30,6 @@ def find_data_dir(explicit: str | None = None):
     Looks in ``explicit`` (an error if it has no campaign), then ``./data``, then the ``data/``
     folder of the source tree.
     """
-    from pathlib import Path
-
-    from ..errors import EmaRigError
-
     if explicit:
         if not (Path(explicit) / "campaign.toml").is_file():
             raise EmaRigError("no campaign.toml in this folder", file=explicit)
@@ -55,13 +56,6 @@ def claim_folder(out):
     EmaRigError
         Naming the folder.
     """
-    import os
-    import stat
-    from pathlib import Path
-
-    from .._atomic import make_folder, write_text
-    from ..errors import EmaRigError
-
     out = Path(out)
     existed = os.path.lexists(out)
     make_folder(out)
@@ -85,10 +79,6 @@ def claim_folder(out):
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig demo``."""
-    from pathlib import Path
-
-    from .campaign import run_campaign
-
     data = find_data_dir(args.data)
     claim_folder(args.out)
     if data is None:  # installed without the source tree: regenerate the (seeded) bundled data

@@ -26,11 +26,14 @@ measurements an engineer would repeat, not borderline ones):
 from __future__ import annotations
 
 from os import PathLike
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import EmaRigError
 from ..frf import FRFData
+from ..io.uff import read_uff
 
 PHASE_JUMP_FRACTION = 0.10
 LOW_COHERENCE = 0.5
@@ -108,11 +111,6 @@ def diagnose_file(path: str | PathLike[str], data: FRFData | None = None) -> lis
         One line per finding. A file that cannot be read gives no finding (the reader's own
         error is reported elsewhere).
     """
-    from pathlib import Path
-
-    from ..errors import EmaRigError
-    from ..io.uff import read_uff
-
     if data is not None and data.meta.get("source") == str(Path(path)) and not data.meta.get("ignored_datasets", True):
         # the reader used every dataset of this file (FRFs and attached coherence; no time
         # record, no loose coherence): the file holds nothing beyond `data`, no second read

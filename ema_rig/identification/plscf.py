@@ -91,6 +91,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._blas import single_threaded
+from .._progress import progress_bar
 from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
@@ -881,8 +882,6 @@ class PlscfEngine:
             raise ValueError(f"orders below {self._last + 1} can no longer be added, got {todo[0]}")
         bar = None
         if progress and todo:
-            from .._progress import progress_bar
-
             bar = progress_bar(total=len(todo), desc="pLSCF orders", unit="order")
         try:
             if todo:

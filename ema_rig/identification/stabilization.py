@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._atomic import write_text
 from ..errors import IdentificationError
 from .mac import mac
 from .plscf import PoleSet
@@ -397,8 +398,6 @@ class Selection:
         """Serialise to JSON; also write it (atomically) to ``path`` when given."""
         text = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
         if path is not None:
-            from .._atomic import write_text
-
             write_text(path, text)
         return text
 

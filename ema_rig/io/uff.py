@@ -39,6 +39,7 @@ from __future__ import annotations
 import os
 import re
 import stat
+import tomllib
 import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -240,8 +241,6 @@ _HEAD_BYTES = 1 << 16
 
 def _toml_hint(head: bytes) -> str | None:
     """What an ema_rig TOML file given where a UFF file belongs is, and the command for it."""
-    import tomllib
-
     try:
         doc = tomllib.loads(head.decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError):

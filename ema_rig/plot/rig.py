@@ -17,12 +17,14 @@ RigPlot
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from os import PathLike
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._atomic import atomic_path
+from ..rig.model import HOUSING, SPINDLE, RigModel
 from ._text import plain
 
 if TYPE_CHECKING:
@@ -78,10 +80,6 @@ def _model_parts(result: Any, rig: RigConfig) -> list[tuple[str, Any, np.ndarray
     Always the model with the inverted ``k_TB+MS`` and the identified damping; in addition the
     least-squares fit when the result carries one.
     """
-    from dataclasses import replace
-
-    from ..rig.model import RigModel
-
     k = float(result.k_TB_MS)
     k_ms = getattr(result, "k_MS", None)
     params = rig.model if k_ms is None else replace(rig.model, k_MS=float(k_ms))
@@ -129,8 +127,6 @@ def plot_rig_fit(
     RigPlot
     """
     from matplotlib.figure import Figure
-
-    from ..rig.model import HOUSING, SPINDLE
 
     lo, hi = float(band[0]), float(band[1])
     if not hi > lo:
@@ -266,7 +262,5 @@ def plot_rig_fit(
 
 def save_figure(fig: Figure, path: str | PathLike[str], *, dpi: int = 150) -> None:
     """Save ``fig`` atomically (format from the suffix: png, svg, pdf)."""
-    from .._atomic import atomic_path
-
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi)

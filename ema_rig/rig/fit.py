@@ -33,7 +33,9 @@ from numpy.typing import NDArray
 
 from ..config import ModelParams
 from ..frf import _FORM_POWER, FRFData
+from .inversion import k_tb_ms_from_housing_freq
 from .matching import model_mode_at
+from .model import mass_matrix, stiffness_matrix
 
 __all__ = [
     "CrossAxisCorrection",
@@ -287,8 +289,6 @@ def _split_modes(params: ModelParams, k_c: float, m_a: float, k_a: float) -> tup
     """Natural frequencies [Hz] and driving-point effective masses [kg] of the 4DOF housing model."""
     import scipy.linalg
 
-    from .model import mass_matrix, stiffness_matrix
-
     m = np.zeros((4, 4))
     k = np.zeros((4, 4))
     m[:3, :3] = mass_matrix(replace(params, m_H=params.m_H - m_a))
@@ -332,8 +332,6 @@ def fit_split_housing(params: ModelParams, freqs: tuple[float, float], freq_std:
         None when the fit does not converge to two modes near the measured ones.
     """
     from scipy.optimize import least_squares
-
-    from .inversion import k_tb_ms_from_housing_freq
 
     f = np.asarray(freqs, dtype=float)
     fs = np.maximum(np.asarray(freq_std, dtype=float), 1e-6 * f)

@@ -58,6 +58,8 @@ from ..config import ModelParams, RigConfig
 from ..errors import MatchingError
 from ..identification.modal import ModalModel
 from .candidates import Candidate, find_dof, measure_candidates
+from .inversion import housing_freq_bounds, k_tb_ms_from_housing_freq
+from .model import HOUSING, HOUSING_MODE, SPINDLE, SPINDLE_MODE, RigModel
 
 __all__ = [
     "Candidate",
@@ -84,8 +86,6 @@ def model_valid_range(params: ModelParams) -> tuple[float, float]:
     (float, float)
         Lower and upper limit in Hz (both excluded).
     """
-    from .inversion import housing_freq_bounds
-
     return housing_freq_bounds(params)
 
 
@@ -135,9 +135,6 @@ def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | N
     ModelModeInfo or None
         None when the frequency is outside :func:`model_valid_range` (no positive stiffness).
     """
-    from .inversion import k_tb_ms_from_housing_freq
-    from .model import HOUSING, HOUSING_MODE, SPINDLE, SPINDLE_MODE, RigModel
-
     lo, hi = model_valid_range(params)
     if not lo < natural_freq < hi:
         return None

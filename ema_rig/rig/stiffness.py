@@ -66,15 +66,26 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
+from ..identification import Selection, identify
 from .candidates import find_dof
+from .damping import bearing_damping
+from .fit import housing_rigid_body
+from .inversion import calibrate_k_ms, fit_rig, k_tb_from_housing_freq
 from .matching import MatchResult, match_modes, model_mode_at
-from .uncertainty import assess_housing_mode, defaults_note, measured_freq_std
+from .uncertainty import (
+    DEFAULT_REL_UNCERTAINTY,
+    assess_housing_mode,
+    defaults_note,
+    measured_freq_std,
+    stiffness_uncertainty,
+)
 
 __all__ = [
     "CalibrationResult",
@@ -116,8 +127,6 @@ def default_band(data: FRFData, rig: RigConfig, band: tuple[float, float] | None
 
 def _file_of(data: FRFData) -> str | None:
     """The measurement file of ``data``: ``meta['file']``, else ``meta['source']`` if it is a file."""
-    from pathlib import Path
-
     v = data.meta.get("file")
     if isinstance(v, str) and v:
         return v
@@ -130,8 +139,6 @@ def _file_of(data: FRFData) -> str | None:
 def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool,
               rig: RigConfig) -> Any:
     """PolyMAX (and, when the rig file's ``[identification] refine`` is true, the ML refinement)."""
-    from ..identification import identify
-
     cfg = rig.identification
     if cfg.get("n_averages") is not None:
         data = data.with_meta(n_averages=float(cfg["n_averages"]))
@@ -238,7 +245,6 @@ def _given_identification(data: FRFData, rig: RigConfig, identification: Any, se
         return identification
     if selection is None:
         return None
-    from ..identification import Selection, identify
 
     if not isinstance(selection, Selection):
         selection = Selection.from_json(selection)  # a path; a bad file raises naming it
@@ -588,10 +594,6 @@ def estimate_stiffness(
         The housing frequency gives no positive ``k_TB`` (outside the valid range, or above the
         mode with a rigid bearing for this ``k_MS``).
     """
-    from dataclasses import replace
-
-    from .uncertainty import stiffness_uncertainty
-
     file = _file_of(data)
     speed_hz = _speed_hz(speed_hz, speed_rpm, file)
     ident_in = _given_identification(data, rig, identification, selection, band, max_order, progress, file)
@@ -666,9 +668,6 @@ def estimate_stiffness(
 
 def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]) -> Any:
     """:func:`ema_rig.rig.fit.housing_rigid_body` of this measurement (None outside the model)."""
-    from .fit import housing_rigid_body
-    from .uncertainty import DEFAULT_REL_UNCERTAINTY
-
     info = model_mode_at(params, asm.inverted_freq)
     if info is None:
         return None
@@ -679,8 +678,6 @@ def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]
 
 def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
     """``k_TB`` of the plain 3DOF inversion at ``f0`` (None outside the model's range)."""
-    from .inversion import k_tb_from_housing_freq
-
     try:
         return {"freq": float(f0), "k_TB": float(k_tb_from_housing_freq(f0, params))}
     except InversionError:
@@ -690,9 +687,6 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
 def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
                      damping_model: str) -> Any:
     """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
-    from .damping import bearing_damping
-    from .uncertainty import DEFAULT_REL_UNCERTAINTY
-
     rel = {**DEFAULT_REL_UNCERTAINTY, **rel_unc}
     if k_ms_std is not None:
         rel["k_MS"] = float(k_ms_std) / params.k_MS
@@ -712,8 +706,6 @@ def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float],
 
 def _fit(data: FRFData, rig: RigConfig, params: Any, m: MatchResult) -> Any:
     """Fit the 3DOF model to the radial driving-point and mean spindle FRFs (150–700 Hz)."""
-    from .inversion import fit_rig
-
     q = find_dof(data.in_dofs, rig.radial)
     p = find_dof(data.out_dofs, rig.radial)
     if q is None or p is None:
@@ -782,8 +774,6 @@ def calibrate(
     ------
     IdentificationError, MatchingError, InversionError
     """
-    from .inversion import calibrate_k_ms
-
     file = _file_of(data)
     if band is None:
         band = rig.identification.get("k_MS_band")

@@ -31,6 +31,13 @@ from typing import Any
 
 from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import MatchingError
+from .candidates import find_dof
+from .fit import (
+    cross_axis_correction,
+    driving_point_mass_of,
+    fit_split_housing,
+    measured_housing_mass,
+)
 from .inversion import (
     KIND_DEFAULT,
     KIND_MEASURED,
@@ -38,7 +45,9 @@ from .inversion import (
     KIND_RIG,
     KINDS,
     _closed_form,
+    housing_freq_from_k_tb_ms,
     k_tb_from_housing_freq,
+    k_tb_ms_from_housing_freq,
 )
 from .matching import MatchResult, model_mode_at
 
@@ -565,8 +574,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         n_rad = sum(1 for se in rig.sensors if se.role == "housing" and se.axis == "radial")
         corr = None
         if cands_p:
-            from .fit import cross_axis_correction
-
             trials = [cross_axis_correction(
                 f0, float(rho), c.natural_freq, 1.0 / float(getattr(c, key)), params.m_H,
                 info0.modal_mass, ratio_std=CROSS_AXIS_RATIO_STD,
@@ -620,8 +627,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     p_ref = None if data is None else _find(data.out_dofs, rig.radial)
     dpm0 = None
     if q_ref is not None and p_ref is not None and info0 is not None:
-        from .fit import driving_point_mass_of
-
         dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
         if dpm0 is not None:
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
@@ -646,7 +651,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         split = _fit_split(m, modes, rig, data, p_ref, q_ref, partners, f0 / f_abs)
     if split is not None:
         fit_, j = split
-        from .inversion import housing_freq_from_k_tb_ms, k_tb_ms_from_housing_freq
 
         fu = housing_freq_from_k_tb_ms(fit_.k_TB_MS, params)
         h = 1e-4
@@ -715,8 +719,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     if not used and (ratio is None or abs(math.log(ratio)) <= math.log(MASS_WARN_RATIO)):
         dpm = dpm0
     if dpm is not None and info_inv is not None:
-        from .fit import measured_housing_mass
-
         expected = info_inv.modal_mass * (1 + t_mix)
         r = dpm.modal_mass / expected
         # the fit holds the identified pole fixed: its damping ratio's std scales the residue alike
@@ -819,8 +821,6 @@ SPLIT_FIT_CHI2 = 6.63
 def _fit_split(m: MatchResult, modes: Any, rig: RigConfig, data: Any, p: int, q: int | None, partners: list[int],
                undamped: float) -> tuple[Any, int] | None:
     """:func:`ema_rig.rig.fit.fit_split_housing` on the housing mode and its best partner."""
-    from .fit import driving_point_mass_of, fit_split_housing
-
     if q is None:
         return None
     h = m.housing_index
@@ -848,8 +848,6 @@ def _fit_split(m: MatchResult, modes: Any, rig: RigConfig, data: Any, p: int, q:
 
 
 def _find(dofs: Any, target: Any) -> int | None:
-    from .candidates import find_dof
-
     return find_dof(dofs, target.positive())
 
 
