@@ -23,10 +23,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .dof import DOF, as_dof
+from .literals import FrfForm
 
-FrfForm = Literal["accelerance", "mobility", "receptance"]
 FRF_FORMS: tuple[str, ...] = ("accelerance", "mobility", "receptance")
-_FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+"""Power of ``j omega`` that turns a receptance into each FRF form (0, 1, 2)."""
+_FORM_POWER = FORM_POWER  # the old private name, kept while the branches in flight land
 _FORM_UNIT = {"receptance": "m/N", "mobility": "m/s/N", "accelerance": "m/s^2/N"}
 
 
@@ -358,7 +360,7 @@ class FRFData:
         FRFData
         """
         frf_unit(frf_form)
-        p = _FORM_POWER[frf_form] - _FORM_POWER[self.frf_form]
+        p = FORM_POWER[frf_form] - FORM_POWER[self.frf_form]
         if p == 0:
             return self
         data = self
@@ -404,4 +406,4 @@ class FRFData:
         return replace(self, **changes)
 
 
-__all__ = ["FRFData", "FRF_FORMS", "FrfForm", "frf_unit"]
+__all__ = ["FORM_POWER", "FRFData", "FRF_FORMS", "FrfForm", "frf_unit"]

@@ -38,7 +38,7 @@ from .result import COLUMNS, CampaignResult
 logger = logging.getLogger(__name__)
 
 #: The figures written by the last run of a folder with the hash of their inputs.
-_MANIFEST = ".ema-rig-figures.json"
+MANIFEST = ".ema-rig-figures.json"
 _MANIFEST_VERSION = 2
 #: Folder of the per-measurement figures.
 MEASUREMENT_DIR = "measurements"
@@ -97,7 +97,7 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     files["report"] = out / "report.html"
     manifest["report"] = write_report_if_changed(result, files["report"], figures, measurements=per_meas,
                                                  previous_hash=previous.get("report"))
-    write_if_changed(out / _MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    write_if_changed(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return files
 
 
@@ -118,7 +118,7 @@ def _record(out: Path, previous: Mapping[str, Any], manifest: Mapping[str, Any])
         "campaign_figures": manifest.get("campaign_figures", previous.get("campaign_figures")),
         "report": None,
     }
-    _atomic.write_text(out / _MANIFEST, json.dumps(partial, sort_keys=True, separators=(",", ":")) + "\n")
+    _atomic.write_text(out / MANIFEST, json.dumps(partial, sort_keys=True, separators=(",", ":")) + "\n")
 
 
 def write_if_changed(path: Path, text: str) -> bool:
@@ -280,7 +280,7 @@ def _safe_rel(name: str) -> bool:
 def _read_manifest(out: Path) -> dict[str, Any]:
     """The previous run's manifest (an older list of names counts as figures without hashes)."""
     try:
-        doc = json.loads(read_regular_file(out / _MANIFEST, max_bytes=1 << 24).decode("utf-8"))
+        doc = json.loads(read_regular_file(out / MANIFEST, max_bytes=1 << 24).decode("utf-8"))
     except (OSError, ValueError, RecursionError):
         return {}
     if isinstance(doc, list):

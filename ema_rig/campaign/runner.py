@@ -58,7 +58,7 @@ from .._version import version
 from ..config import RigConfig, read_regular_file
 from ..errors import EmaRigError
 from .drilldown import KINDS
-from .outputs import _MANIFEST, MEASUREMENT_DIR, write_outputs
+from .outputs import MANIFEST, MEASUREMENT_DIR, write_outputs
 from .result import COLUMNS, CampaignResult
 from .schema import CampaignConfig, Measurement, load_campaign
 
@@ -402,7 +402,7 @@ def check_out_folder(cfg: CampaignConfig, out: Path) -> None:
     inputs = [("campaign file", cfg.path), ("rig", cfg.rig_file), ("calibration", cfg.calibration)]
     inputs += [(f"measurement {m.id!r}", m.file) for m in cfg.measurements]
     outputs: list[tuple[str, Any]] = [(n, out / n) for n in ("campaign.csv", "settings.json", "report.html",
-                                                              _MANIFEST, ".ema-rig.lock")]
+                                                              MANIFEST, ".ema-rig.lock")]
     outputs.append(("calibration result", out / "results" / f"{CALIBRATION_NAME}.json"))
     for m in cfg.measurements:
         outputs.append((f"result of {m.id!r}", out / "results" / f"{m.id}.json"))

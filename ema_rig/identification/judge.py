@@ -55,7 +55,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._blas import single_threaded
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .lsfd import _design, _output_chunks, _projector
 from .mac import mac, mpc
 from .stabilization import (

@@ -33,7 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._blas import single_threaded
 from ..errors import IdentificationError
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .modal import ModalModel
 from .plscf import check_data, source_of
 

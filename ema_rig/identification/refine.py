@@ -69,7 +69,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._blas import single_threaded
 from ..errors import IdentificationError
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .modal import ModalModel
 from .noise import NoiseModel, check_coherence, coherence_variance, fit_noise_model
 from .plscf import check_data, source_of

@@ -32,9 +32,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..config import ModelParams
-from ..frf import _FORM_POWER, FRFData
-from .inversion import k_tb_ms_from_housing_freq
-from .matching import model_mode_at
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
+from .inversion import k_tb_ms_from_housing_freq, model_mode_at
 from .model import mass_matrix, stiffness_matrix
 
 __all__ = [

@@ -13,7 +13,7 @@ match_modes
     Pick the radial housing mode (and the spindle bending mode) from a :class:`ModalModel`.
 model_mode_at
     The 3DOF model's housing-mode shape, modal mass and spindle mode when its housing mode is
-    tuned to a given frequency.
+    tuned to a given frequency (defined in :mod:`ema_rig.rig.inversion`; re-exported here).
 model_valid_range
     Housing-mode frequency range in which the 3DOF model gives ``k_TB+MS > 0``.
 
@@ -58,8 +58,7 @@ from ..config import ModelParams, RigConfig
 from ..errors import MatchingError
 from ..identification.modal import ModalModel
 from .candidates import Candidate, find_dof, measure_candidates
-from .inversion import housing_freq_bounds, k_tb_ms_from_housing_freq
-from .model import HOUSING, HOUSING_MODE, SPINDLE, SPINDLE_MODE, RigModel
+from .inversion import ModelModeInfo, housing_freq_bounds, model_mode_at
 
 __all__ = [
     "Candidate",
@@ -87,69 +86,6 @@ def model_valid_range(params: ModelParams) -> tuple[float, float]:
         Lower and upper limit in Hz (both excluded).
     """
     return housing_freq_bounds(params)
-
-
-@dataclass(frozen=True, slots=True)
-class ModelModeInfo:
-    """The 3DOF model with its housing mode tuned to ``natural_freq``.
-
-    Attributes
-    ----------
-    natural_freq : float
-        Housing-mode frequency [Hz] the model was tuned to.
-    k_tb_ms : float
-        ``k_TB+MS`` [N/m] that puts the housing mode there.
-    modal_mass : float
-        Effective modal mass of the housing mode at the housing DOF, ``1 / phi_H^2`` [kg].
-    spindle_ratio : float
-        ``phi_S / phi_H`` of the housing mode (signed).
-    spindle_freq : float
-        Natural frequency of the model's spindle bending mode [Hz].
-    spindle_mode_ratio : float
-        ``phi_S / phi_H`` of that spindle mode (signed, large and negative).
-    spindle_modal_mass : float
-        Effective modal mass of the spindle mode at the housing DOF [kg].
-    """
-
-    natural_freq: float
-    k_tb_ms: float
-    modal_mass: float
-    spindle_ratio: float
-    spindle_freq: float
-    spindle_mode_ratio: float
-    spindle_modal_mass: float
-
-
-def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | None:
-    """The 3DOF model whose housing mode lies at ``natural_freq``.
-
-    Parameters
-    ----------
-    params : ModelParams
-        Table 1 parameters (``k_MS`` is not used: only ``k_TB+MS`` matters here).
-    natural_freq : float
-        Housing-mode frequency [Hz].
-
-    Returns
-    -------
-    ModelModeInfo or None
-        None when the frequency is outside :func:`model_valid_range` (no positive stiffness).
-    """
-    lo, hi = model_valid_range(params)
-    if not lo < natural_freq < hi:
-        return None
-    k = k_tb_ms_from_housing_freq(natural_freq, params)
-    model = RigModel(params, k)
-    ph, ps = model.mode_shapes[:, HOUSING_MODE], model.mode_shapes[:, SPINDLE_MODE]
-    return ModelModeInfo(
-        natural_freq=float(natural_freq),
-        k_tb_ms=float(k),
-        modal_mass=model.effective_mass(HOUSING_MODE, HOUSING),
-        spindle_ratio=float(ph[SPINDLE] / ph[HOUSING]),
-        spindle_freq=model.spindle_freq,
-        spindle_mode_ratio=float(ps[SPINDLE] / ps[HOUSING]),
-        spindle_modal_mass=model.effective_mass(SPINDLE_MODE, HOUSING),
-    )
 
 
 # --------------------------------------------------------------------------- criteria

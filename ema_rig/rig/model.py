@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..config import ModelParams
 from ..dof import DOF
-from ..frf import _FORM_POWER, FRFData, frf_unit
+from ..frf import FORM_POWER, FRFData, frf_unit
 
 DOF_NAMES: tuple[str, ...] = ("H", "S", "F")
 """Names of the model's DOFs: housing, spindle, frame (in matrix order)."""
@@ -172,7 +172,7 @@ def modal_frf(
     w = 2.0 * np.pi * f
     denom = wr[:, None] ** 2 - w[None, :] ** 2 + 2j * z[:, None] * wr[:, None] * w[None, :]
     h = np.einsum("or,ir,rf->oif", po, pi, 1.0 / denom)
-    p = _FORM_POWER[frf_form]
+    p = FORM_POWER[frf_form]
     if p:
         h = h * (1j * w) ** p
     return np.asarray(h, dtype=np.complex128)

@@ -77,8 +77,8 @@ from ..identification import Selection, identify
 from .candidates import find_dof
 from .damping import bearing_damping
 from .fit import housing_rigid_body
-from .inversion import calibrate_k_ms, fit_rig, k_tb_from_housing_freq
-from .matching import MatchResult, match_modes, model_mode_at
+from .inversion import calibrate_k_ms, fit_rig, k_tb_from_housing_freq, model_mode_at
+from .matching import MatchResult, match_modes
 from .uncertainty import (
     DEFAULT_REL_UNCERTAINTY,
     assess_housing_mode,

@@ -31,6 +31,7 @@ from typing import Any
 
 from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import MatchingError
+from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS
 from .candidates import find_dof
 from .fit import (
     cross_axis_correction,
@@ -39,17 +40,13 @@ from .fit import (
     measured_housing_mass,
 )
 from .inversion import (
-    KIND_DEFAULT,
-    KIND_MEASURED,
-    KIND_MODEL,
-    KIND_RIG,
-    KINDS,
-    _closed_form,
     housing_freq_from_k_tb_ms,
     k_tb_from_housing_freq,
+    k_tb_ms_closed_form,
     k_tb_ms_from_housing_freq,
+    model_mode_at,
 )
-from .matching import MatchResult, model_mode_at
+from .matching import MatchResult
 
 __all__ = [
     "DAMPING_MODELS",
@@ -254,7 +251,7 @@ class StiffnessUncertainty:
 
 
 def _k_tb_raw(f_H: float, p: ModelParams) -> float:
-    k = _closed_form(f_H, p)
+    k = k_tb_ms_closed_form(f_H, p)
     return 1.0 / (1.0 / k - 1.0 / p.k_MS)
 
 
@@ -336,7 +333,7 @@ def stiffness_uncertainty(
     if not (math.isfinite(f_std) and f_std >= 0):
         raise ValueError(f"f_H_std must be a finite non-negative frequency [Hz], got {f_H_std!r}")
     k_tb = k_tb_from_housing_freq(f_H, params)
-    k_c = _closed_form(float(f_H), params)
+    k_c = k_tb_ms_closed_form(float(f_H), params)
     sens = sensitivities(f_H, params)
     rel = dict(DEFAULT_REL_UNCERTAINTY)
     kinds = {n: KIND_DEFAULT for n in rel}
