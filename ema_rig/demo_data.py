@@ -38,6 +38,7 @@ import tempfile
 from collections.abc import Callable
 from os import PathLike
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -140,7 +141,7 @@ def plan() -> list[Plan]:
 
     def k_rot(load: float) -> float:
         # Hertz trend, plus a small run-to-run scatter (0.2 %) like the paper's speed series
-        return K_6302_1KN * (load / 1000.0) ** (1.0 / 3.0) * (1.0 + 0.002 * rng.standard_normal())
+        return cast("float", K_6302_1KN * (load / 1000.0) ** (1.0 / 3.0) * (1.0 + 0.002 * rng.standard_normal()))
 
     for j, f in enumerate(LOADS_6302):
         fid = f"b6302_{int(f)}N_1200rpm"

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg
@@ -236,7 +236,7 @@ def _driving_point(modes: list[dict[str, Any]], j_dp: int) -> None:
 def _misalignment(points: Sequence[Sensor], std_deg: float) -> NDArray[np.float64]:
     """Per point: the two seeded tilt angles [rad] towards its transverse axes, shape (n, 2)."""
     rng = np.random.default_rng(_MOUNT_SEED)
-    return np.deg2rad(std_deg) * rng.normal(size=(len(points), 2))
+    return cast("NDArray[np.float64]", np.deg2rad(std_deg) * rng.normal(size=(len(points), 2)))
 
 
 def _askew(points: Sequence[Sensor], psi: NDArray[np.float64], tilt: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -608,7 +608,7 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
         def step(n: int | None) -> None:
             if n is not None:
                 state["done"] += n
-                progress(state["done"], total)  # type: ignore[operator]
+                progress(state["done"], total)
 
         return step
     if progress:

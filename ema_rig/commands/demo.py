@@ -24,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
 
 
-def find_data_dir(explicit: str | None = None):
+def find_data_dir(explicit: str | None = None) -> Path | None:
     """The folder with the bundled ``campaign.toml``, or None.
 
     Looks in ``explicit`` (an error if it has no campaign), then ``./data``, then the ``data/``
@@ -44,7 +44,7 @@ def find_data_dir(explicit: str | None = None):
 MARKER = ".ema-rig-demo"
 
 
-def claim_folder(out):
+def claim_folder(out: str | os.PathLike[str]) -> Path:
     """Make sure ``out`` is a folder ``demo`` may write into: new, empty, or made by demo before.
 
     A new or empty folder gets the marker file :data:`MARKER`; a folder with anything else in it

@@ -31,7 +31,7 @@ def _cell(v: object) -> str:
     return "-" if v is None else str(v)
 
 
-def format_table(report: dict) -> str:
+def format_table(report: dict[str, Any]) -> str:
     """The inspect report as a fixed-width text table (one row per dataset)."""
     head = ("#", "type", "function", "response", "reference", "points", "band [Hz or s]", "units", "status")
     rows = []

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from os import PathLike
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,7 +40,7 @@ PHASE_JUMP_FRACTION = 0.10
 LOW_COHERENCE = 0.5
 
 
-def _jump_fraction(h: NDArray) -> float:
+def _jump_fraction(h: NDArray[Any]) -> float:
     """Fraction of neighbouring-line pairs whose phase differs by more than 90 degrees."""
     if h.size < 8:
         return 0.0
@@ -61,7 +62,7 @@ def _phase_findings(data: FRFData) -> list[str]:
                            for o in range(data.n_out) for i in range(data.n_in)])
 
 
-def _coherence_findings(freq: NDArray, coh: NDArray, h: NDArray, label: str) -> list[str]:
+def _coherence_findings(freq: NDArray[Any], coh: NDArray[Any], h: NDArray[Any], label: str) -> list[str]:
     coh = np.real(np.asarray(coh))
     if coh.size != h.size:
         return []

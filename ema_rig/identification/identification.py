@@ -23,7 +23,7 @@ import html
 import warnings as _warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -170,9 +170,9 @@ class Identification:
         drive = [q for q, d in enumerate(mm.in_dofs) if d in mm.out_dofs]
         if drive:
             mass = np.stack([mm.modal_mass(mm.in_dofs[q]) for q in drive], axis=1)
-            return np.asarray(drive)[np.argmin(mass, axis=1)]
+            return cast("NDArray[np.intp]", np.asarray(drive)[np.argmin(mass, axis=1)])
         col = np.linalg.norm(mm.residues, axis=1)  # (n_modes, n_in)
-        return np.argmax(col, axis=1)
+        return cast("NDArray[np.intp]", np.argmax(col, axis=1))
 
     def best_shapes(self) -> NDArray[np.complex128]:
         """Each mode's shape from its best reference (mass-normalised at a driving point), (n_modes, n_out)."""
@@ -534,7 +534,7 @@ def identify(
     # ---- optional maximum-likelihood refinement (issue 10) ----
     if refine:
         ident = _refined(ident, data)
-    return remove_window_damping(ident, data)  # issue 18: an exponential window's damping
+    return cast("Identification", remove_window_damping(ident, data))  # issue 18: an exponential window's damping
 
 
 def _local_ml(data: FRFData, model: ModalModel) -> LocalML:

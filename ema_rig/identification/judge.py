@@ -123,7 +123,7 @@ class Candidate:
         return d
 
 
-def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
+def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
     """Residues (n_modes, n_out, n_in), the F statistic and the peak share of every mode (n_modes,).
 
     The peak share is ``||H_k|| / ||H||`` over the lines within one half-power bandwidth (at

@@ -421,7 +421,7 @@ class Selection:
                 raise ValueError(f"format must be 'ema_rig.selection/1', got {d.get('format')!r}")
             return cls(
                 modes=tuple(SelectedMode.from_dict(m) for m in d["modes"]),
-                band=tuple(d["band"]),  # type: ignore[arg-type]
+                band=tuple(d["band"]),
                 max_order=int(d["max_order"]),
                 tolerances=d.get("tolerances", {}),
                 in_dofs=tuple(d.get("in_dofs", ())),

@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -133,7 +133,7 @@ class UFFRecord:
             return None
         x = h["abscissa_min"] + np.arange(self.y.size, dtype=np.float64) * h["abscissa_inc"]
         x.setflags(write=False)
-        return x
+        return cast("NDArray[np.float64] | None", x)
 
     @property
     def num_pts_header(self) -> int | None:
@@ -514,7 +514,7 @@ def read_uff58(
             coh_recs.append(r)
             continue
         if r.function_type not in (4, None):
-            name = FUNCTION_TYPES.get(r.function_type, "other")  # type: ignore[arg-type]
+            name = FUNCTION_TYPES.get(r.function_type, "other")
             ignored_datasets.append(f"dataset {r.index}: function type {r.function_type} ({name}), not an FRF")
             continue
         if r.status != "read":

@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg
@@ -79,7 +79,7 @@ def _constrained_freqs(params: ModelParams) -> NDArray[np.float64]:
     ka, ks, kb = params.k_AS, params.k_S, params.k_B
     k = np.array([[ka + ks, -(ka + ks)], [-(ka + ks), ka + ks + kb]])
     lam = scipy.linalg.eigh(k, m, eigvals_only=True)
-    return np.sqrt(lam) / (2.0 * np.pi)
+    return cast("NDArray[np.float64]", np.sqrt(lam) / (2.0 * np.pi))
 
 
 def housing_freq_bounds(params: ModelParams, *, bearing: bool = False) -> tuple[float, float]:
