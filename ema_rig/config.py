@@ -136,8 +136,18 @@ class ModelParams:
 class Sensor:
     """One accelerometer: its DOF as written in the UFF file, its role and its axis.
 
-    ``mass``, ``mass_std`` [kg] and ``position`` ``(x, y, z)`` [m, from the housing's centre of
-    mass; x axial, y radial, z lateral] are optional (0 / None when the rig file does not give them).
+    Parameters
+    ----------
+    dof : DOF
+        Node and signed direction as written in the UFF file (``13-Y`` measures along -Y).
+    role : str
+        ``'housing'`` or ``'spindle'``.
+    axis : str
+        ``'radial'``, ``'lateral'`` or ``'axial'``.
+    mass, mass_std : float, optional
+        The sensor's mass and its standard uncertainty [kg] (0 when the rig file does not give it).
+    position : (float, float, float) or None, optional
+        ``(x, y, z)`` [m] from the housing's centre of mass (x axial, y radial, z lateral).
     """
 
     dof: DOF

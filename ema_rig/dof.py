@@ -141,7 +141,17 @@ class DOF:
 
 
 def as_dof(value: str | DOF | tuple[int, int]) -> DOF:
-    """Coerce ``"11+Y"``, a ``DOF`` or a ``(node, code)`` tuple to a DOF."""
+    """Coerce ``"11+Y"``, a ``DOF`` or a ``(node, code)`` tuple to a DOF.
+
+    Parameters
+    ----------
+    value : str, DOF or (int, int)
+        DOF text, a DOF (returned unchanged) or ``(node, signed direction code)``.
+
+    Returns
+    -------
+    DOF
+    """
     if isinstance(value, DOF):
         return value
     if isinstance(value, tuple):

@@ -532,7 +532,17 @@ def simulate_measurement(
 
 
 def truth_path(path: str | PathLike[str]) -> Path:
-    """The truth file of a measurement: ``<file>.truth.json`` beside it (``m.uff.truth.json``)."""
+    """The truth file of a measurement: ``<file>.truth.json`` beside it (``m.uff.truth.json``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The measurement file.
+
+    Returns
+    -------
+    Path
+    """
     p = Path(path)
     return p.with_name(p.name + ".truth.json")
 

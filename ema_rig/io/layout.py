@@ -88,7 +88,17 @@ class SensorLayout(Protocol):
 
 @dataclass(frozen=True, slots=True)
 class Channel:
-    """A plain :class:`SensorChannel`: ``dof``, ``role``, ``axis``."""
+    """A plain :class:`SensorChannel`.
+
+    Parameters
+    ----------
+    dof : DOF
+        Node and signed direction as the file or rig writes it.
+    role : str, optional
+        What it is mounted on (``"housing"``, ``"spindle"``); empty when not known.
+    axis : str, optional
+        Its axis in the rig (``"radial"``, ``"lateral"``, ``"axial"``); empty when not known.
+    """
 
     dof: DOF
     role: str = ""

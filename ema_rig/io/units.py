@@ -137,7 +137,17 @@ class Unit:
 
 
 def is_no_label(label: str) -> bool:
-    """True for an empty label or one that says there is none (``NONE``, ``-``, ``n/a``)."""
+    """True for an empty label or one that says there is none (``NONE``, ``-``, ``n/a``).
+
+    Parameters
+    ----------
+    label : str
+        A unit label as written in a file.
+
+    Returns
+    -------
+    bool
+    """
     return label.strip().lower() in _NO_LABEL
 
 

@@ -68,7 +68,20 @@ _E = np.array([1.0, -1.0, 0.0])
 
 # --------------------------------------------------------------------------- forward / bounds
 def housing_freq_from_k_tb_ms(k_TB_MS: float, params: ModelParams) -> float:
-    """Natural frequency of the housing mode [Hz] for a combined stiffness ``k_TB+MS`` [N/m]."""
+    """Natural frequency of the housing mode [Hz] for a combined stiffness ``k_TB+MS`` [N/m].
+
+    Parameters
+    ----------
+    k_TB_MS : float
+        Bearing and mounting system in series, ``k_TB+MS`` [N/m].
+    params : ModelParams
+        The rig model.
+
+    Returns
+    -------
+    float
+        Housing-mode natural frequency [Hz].
+    """
     return RigModel(params, k_TB_MS).housing_freq
 
 

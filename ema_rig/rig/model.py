@@ -96,7 +96,17 @@ def k_tb_from_series(k_TB_MS: float, k_MS: float) -> float:
 
 
 def mass_matrix(params: ModelParams) -> NDArray[np.float64]:
-    """Mass matrix ``diag(m_H, m_S, m_F)`` [kg], shape (3, 3)."""
+    """Mass matrix ``diag(m_H, m_S, m_F)`` [kg], shape (3, 3).
+
+    Parameters
+    ----------
+    params : ModelParams
+        The rig model (masses in kg).
+
+    Returns
+    -------
+    ndarray, shape (3, 3), float64
+    """
     return np.diag([params.m_H, params.m_S, params.m_F]).astype(np.float64)
 
 
