@@ -143,6 +143,7 @@ def measurement_figures(
             result = estimate_stiffness(data, cfg.rig, k_ms=k_ms, k_ms_std=k_ms_std, speed_hz=speed_hz,
                                         band=cfg.band, max_order=cfg.max_order, selection=m.selection)
             ident = result.identification
+            assert ident is not None  # estimate_stiffness returns the identification it used
             f_row = row.get("housing_freq")
             f_now = float(result.housing_mode["natural_freq"])
             if isinstance(f_row, float) and math.isfinite(f_row) and abs(f_now - f_row) > _FREQ_TOL * f_row:

@@ -48,6 +48,7 @@ mass-normalised at the radial driving point, sign-corrected DOFs):
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -59,6 +60,7 @@ from ..errors import MatchingError
 from ..identification.modal import ModalModel
 from .candidates import Candidate, find_dof, measure_candidates
 from .inversion import ModelModeInfo, housing_freq_bounds, model_mode_at
+from .matched_mode import MatchedMode
 
 __all__ = [
     "Candidate",
@@ -148,12 +150,12 @@ class MatchResult:
     ----------
     housing_index : int
         Index of the housing mode in the matched :class:`ModalModel`.
-    housing_mode : dict
+    housing_mode : MatchedMode
         ``natural_freq`` [Hz] (``|lambda| / 2 pi``), ``damping_ratio``, ``natural_freq_std``
         (Hz or None), ``modal_mass`` [kg], ``model_modal_mass`` [kg].
     spindle_index : int or None
         Index of the spindle bending mode in the model it was found in (``spindle_source``).
-    spindle_mode : dict or None
+    spindle_mode : MatchedMode or None
         ``natural_freq``, ``damping_ratio`` of the spindle bending mode, or None when absent.
     spindle_source : str or None
         ``'modes'`` or ``'spindle_modes'``: which ModalModel holds the spindle mode.
@@ -181,9 +183,9 @@ class MatchResult:
     """
 
     housing_index: int
-    housing_mode: dict[str, Any]
+    housing_mode: MatchedMode
     spindle_index: int | None
-    spindle_mode: dict[str, Any] | None
+    spindle_mode: MatchedMode | None
     spindle_source: str | None
     candidates: tuple[Candidate, ...] = ()
     valid_range: tuple[float, float] = (0.0, math.inf)
@@ -194,7 +196,7 @@ class MatchResult:
     warnings: tuple[str, ...] = ()
 
     def __repr__(self) -> str:
-        hm = self.housing_mode or {}
+        hm: Mapping[str, Any] = self.housing_mode or {}
         return (f"MatchResult(housing mode {hm.get('natural_freq', float('nan')):.2f} Hz, "
                 f"{len(self.candidates)} candidates)")
 
@@ -306,7 +308,7 @@ def match_modes(
             cands[c.index] = replace(c, reason=(
                 f"passes the housing criteria but {best.natural_freq:.1f} Hz matches better "
                 f"(score {_score(c):.3f} vs {_score(best):.3f})"))
-    housing = {
+    housing = MatchedMode.from_mapping({
         "natural_freq": float(modes.natural_freq[hi_idx]),
         "damping_ratio": float(modes.damping_ratio[hi_idx]),
         "natural_freq_std": best.natural_freq_std,
@@ -317,7 +319,7 @@ def match_modes(
         "model_spindle_ratio": info.spindle_ratio,
         "axial_ratio": best.axial_ratio,
         "lateral_ratio": best.lateral_ratio,
-    }
+    })
     warns: list[str] = []
     has_dp = find_dof(modes.out_dofs, rig.radial.positive()) is not None
     if not has_dp:
@@ -385,11 +387,11 @@ def match_modes(
     if sbest is not None:
         src = modes if sbest.source == "modes" else spindle_modes
         assert src is not None
-        spindle = {
+        spindle = MatchedMode.from_mapping({
             "natural_freq": float(src.natural_freq[sbest.index]),
             "damping_ratio": float(src.damping_ratio[sbest.index]),
             "model_natural_freq": info.spindle_freq,
-        }
+        })
     return MatchResult(
         housing_index=int(hi_idx),
         housing_mode=housing,

@@ -66,6 +66,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -73,14 +74,23 @@ from typing import Any
 from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
-from ..identification import Selection, identify
+from ..identification import Identification, Selection, identify
 from .candidates import find_dof
-from .damping import bearing_damping
-from .fit import housing_rigid_body
-from .inversion import calibrate_k_ms, fit_rig, k_tb_from_housing_freq, model_mode_at
+from .damping import BearingDamping, bearing_damping
+from .fit import HousingRigidBody, housing_rigid_body
+from .inversion import (
+    KmsCalibration,
+    RigFit,
+    calibrate_k_ms,
+    fit_rig,
+    k_tb_from_housing_freq,
+    model_mode_at,
+)
+from .matched_mode import MatchedMode
 from .matching import MatchResult, match_modes
 from .uncertainty import (
     DEFAULT_REL_UNCERTAINTY,
+    StiffnessUncertainty,
     assess_housing_mode,
     defaults_note,
     measured_freq_std,
@@ -149,14 +159,14 @@ def _max_order(rig: RigConfig, max_order: int | None) -> int | None:
     return max_order if max_order is not None else rig.identification.get("max_order")
 
 
-def _mode_with_std(mode: dict[str, Any], ident: Any, index: int | None) -> dict[str, Any]:
-    """The matched mode's dict with the identification's ``natural_freq_std`` and ``damping_ratio_std``."""
-    out = dict(mode)
+def _mode_with_std(mode: MatchedMode, ident: Any, index: int | None) -> MatchedMode:
+    """The matched mode with the identification's ``natural_freq_std`` and ``damping_ratio_std``."""
+    out: dict[str, float] = {}
     for key in ("natural_freq_std", "damping_ratio_std"):
         arr = getattr(ident, key, None)
-        if out.get(key) is None and arr is not None and index is not None and 0 <= index < len(arr):
+        if mode.get(key) is None and arr is not None and index is not None and 0 <= index < len(arr):
             out[key] = float(arr[index])
-    return out
+    return mode.with_entries(**out)
 
 
 def _identify_and_match(
@@ -273,10 +283,10 @@ class StiffnessResult:
     k_MS, k_MS_std : float
         Mounting stiffness used and its std [N/m] (std None when the rig file's relative value
         or the default applies).
-    housing_mode : dict
+    housing_mode : MatchedMode
         ``natural_freq`` [Hz, ``|lambda|/2 pi``], ``damping_ratio``, ``natural_freq_std``,
-        ``modal_mass`` ... of the matched housing mode.
-    spindle_mode : dict or None
+        ``modal_mass`` ... of the matched housing mode (typed; also read as a mapping).
+    spindle_mode : MatchedMode or None
         ``natural_freq``, ``damping_ratio`` of the spindle bending mode, or None.
     uncertainty_budget : dict
         Variance share per input (``f_H`` and the model parameters); shares sum to 1.
@@ -331,26 +341,26 @@ class StiffnessResult:
     k_TB_MS_std: float
     k_MS: float
     k_MS_std: float | None
-    housing_mode: dict[str, Any]
-    spindle_mode: dict[str, Any] | None
+    housing_mode: MatchedMode
+    spindle_mode: MatchedMode | None
     uncertainty_budget: dict[str, float]
-    uncertainty: Any
+    uncertainty: StiffnessUncertainty
     match: MatchResult
-    identification: Any = field(default=None, repr=False)
-    spindle_identification: Any = field(default=None, repr=False)
+    identification: Identification | None = field(default=None, repr=False)
+    spindle_identification: Identification | None = field(default=None, repr=False)
     band: tuple[float, float] | None = None
     spindle_band: tuple[float, float] | None = None
     speed_hz: float | None = None
     file: str | None = None
-    fit: Any = field(default=None, repr=False)
+    fit: RigFit | None = field(default=None, repr=False)
     k_TB_std_measured: float = 0.0
     inverted_freq: float = math.nan
     damping_model: str = "viscous"
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
-    damping: Any = None
+    damping: BearingDamping | None = None
     inversion_3dof: dict[str, float] | None = None
-    rigid_body: Any = None
+    rigid_body: HousingRigidBody | None = None
 
     @property
     def c_TB(self) -> float:
@@ -455,7 +465,7 @@ class CalibrationResult:
         Combined stiffness from the disk frequency [N/m].
     k_disk : float or None
         Disk stiffness put in series [N/m] (None: rigid disk, the paper's assumption).
-    housing_mode : dict
+    housing_mode : MatchedMode
         The matched housing mode with the disk (``natural_freq``, ``damping_ratio``, ...).
     calibration : KmsCalibration
     match : MatchResult
@@ -474,10 +484,10 @@ class CalibrationResult:
     k_MS_std: float
     k_TB_MS: float
     k_disk: float | None
-    housing_mode: dict[str, Any]
-    calibration: Any
+    housing_mode: MatchedMode
+    calibration: KmsCalibration
     match: MatchResult
-    identification: Any = field(default=None, repr=False)
+    identification: Identification | None = field(default=None, repr=False)
     band: tuple[float, float] | None = None
     file: str | None = None
     k_MS_std_measured: float = 0.0
@@ -641,7 +651,7 @@ def estimate_stiffness(
         k_TB_MS_std=float(unc.k_TB_MS_std),
         k_MS=kms,
         k_MS_std=None if k_ms_std is None else float(k_ms_std),
-        housing_mode={**hm_std, "source": source},
+        housing_mode=hm_std.with_entries(source=source),
         spindle_mode=None if m.spindle_mode is None else _mode_with_std(
             m.spindle_mode, ident if m.spindle_source == "modes" else s_ident, m.spindle_index),
         uncertainty_budget=budget,
@@ -684,7 +694,7 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
         return None
 
 
-def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
+def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
                      damping_model: str) -> Any:
     """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
     rel = {**DEFAULT_REL_UNCERTAINTY, **rel_unc}
