@@ -256,7 +256,13 @@ _INT64 = 2**63
 
 
 def short_repr(v: Any) -> str:
-    """``repr`` of a value, shortened so a 5000-digit integer does not flood the message."""
+    """``repr`` of a value, shortened so a 5000-digit integer does not flood the message.
+
+    Parameters
+    ----------
+    v : object
+        Any value.
+    """
     text = repr(v)
     return text if len(text) <= 40 else f"{text[:30]}... ({len(text)} characters)"
 
@@ -282,6 +288,8 @@ def toml_number(v: Any, key: str, file: str | None, *, lo: float | None = None, 
         The TOML file, for the message.
     lo : float, optional
         Lower bound; ``lo_open=True`` excludes it (``lo=0, lo_open=True``: positive).
+    lo_open : bool, optional
+        Whether ``lo`` itself is refused.
 
     Returns
     -------
@@ -306,7 +314,19 @@ def toml_number(v: Any, key: str, file: str | None, *, lo: float | None = None, 
 
 
 def toml_int(v: Any, key: str, file: str | None, *, lo: int | None = None) -> int:
-    """An integer (never a bool or a float) inside TOML's 64-bit range, optionally ``>= lo``."""
+    """An integer (never a bool or a float) inside TOML's 64-bit range, optionally ``>= lo``.
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value.
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    lo : int, optional
+        Smallest value allowed.
+    """
     if isinstance(v, bool) or not isinstance(v, int):
         raise ConfigError(f"must be an integer, got {short_repr(v)}", file=file, key=key)
     _int64(v, key, file)
@@ -316,14 +336,36 @@ def toml_int(v: Any, key: str, file: str | None, *, lo: int | None = None) -> in
 
 
 def toml_bool(v: Any, key: str, file: str | None) -> bool:
-    """``true`` or ``false`` (a string such as ``"false"`` or a number is an error)."""
+    """``true`` or ``false`` (a string such as ``"false"`` or a number is an error).
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value.
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    """
     if not isinstance(v, bool):
         raise ConfigError(f"must be true or false, got {short_repr(v)}", file=file, key=key)
     return v
 
 
 def toml_str(v: Any, key: str, file: str | None, *, nonempty: bool = False) -> str:
-    """A string (a number or a bool is an error), optionally not empty."""
+    """A string (a number or a bool is an error), optionally not empty.
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value.
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    nonempty : bool, optional
+        Refuse an empty or blank string.
+    """
     if not isinstance(v, str):
         raise ConfigError(f"must be a string, got {short_repr(v)}", file=file, key=key)
     if nonempty and not v.strip():
@@ -332,7 +374,19 @@ def toml_str(v: Any, key: str, file: str | None, *, nonempty: bool = False) -> s
 
 
 def check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, file: str | None) -> None:
-    """Refuse a key of ``table`` that is not in ``allowed``, naming it and the allowed keys."""
+    """Refuse a key of ``table`` that is not in ``allowed``, naming it and the allowed keys.
+
+    Parameters
+    ----------
+    table : mapping
+        A parsed TOML table.
+    allowed : tuple of str
+        Its allowed keys.
+    where : str
+        Key path of the table (empty at the top level).
+    file : str or None
+        The TOML file (named in the error).
+    """
     for k in table:
         if k not in allowed:
             key = f"{where}.{k}" if where else k
@@ -343,7 +397,21 @@ def check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, f
 
 def toml_table(doc: Mapping[str, Any], name: str, file: str | None, *, required: bool,
                where: str = "") -> Mapping[str, Any]:
-    """The sub-table ``doc[name]`` (empty when absent and not required)."""
+    """The sub-table ``doc[name]`` (empty when absent and not required).
+
+    Parameters
+    ----------
+    doc : mapping
+        The parsed TOML document or table.
+    name : str
+        The sub-table's name.
+    file : str or None
+        The TOML file (named in the error).
+    required : bool
+        Whether an absent table is an error.
+    where : str, optional
+        Key path of ``doc`` (empty at the top level).
+    """
     key = f"{where}.{name}" if where else name
     if name not in doc:
         if required:
@@ -356,7 +424,17 @@ def toml_table(doc: Mapping[str, Any], name: str, file: str | None, *, required:
 
 
 def toml_band(v: Any, key: str, file: str | None) -> tuple[float, float]:
-    """A frequency band ``[lo, hi]`` in Hz with ``0 <= lo < hi``."""
+    """A frequency band ``[lo, hi]`` in Hz with ``0 <= lo < hi``.
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value (a two-element array).
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    """
     if not isinstance(v, (list, tuple)) or len(v) != 2:
         raise ConfigError(f"must be a pair [lo, hi] in Hz, got {short_repr(v)}", file=file, key=key)
     lo = toml_number(v[0], key, file, lo=0.0)
@@ -371,6 +449,15 @@ def parse_disk(t: Mapping[str, Any], prefix: str, file: str | None) -> tuple[flo
 
     ``prefix`` is the key path of the table (``"calibration."`` in the rig file, ``""`` at the top
     of a campaign file), for the error messages.
+
+    Parameters
+    ----------
+    t : mapping
+        The TOML table holding ``k_disk`` / ``k_disk_std``.
+    prefix : str
+        Key path of the table, with its trailing dot.
+    file : str or None
+        The TOML file (named in the error).
     """
     k_disk = (CONDITION_RANGES["k_disk"].check(toml_number(t["k_disk"], f"{prefix}k_disk", file, lo=0.0, lo_open=True),
                                                f"{prefix}k_disk", file) if "k_disk" in t else None)
@@ -624,6 +711,13 @@ def read_regular_file(path: str | PathLike[str], *, max_bytes: int) -> bytes:
     The file is opened non-blocking and checked with ``fstat`` on the open descriptor, so a FIFO
     or a device given as a file name gives an error instead of a hang (or an endless read).
 
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    max_bytes : int
+        Largest size read; a larger file is refused.
+
     Raises
     ------
     OSError
@@ -650,6 +744,11 @@ def read_toml(path: str | PathLike[str]) -> dict[str, Any]:
     """Read a TOML file, turning IO and syntax errors into :class:`ConfigError`.
 
     Only regular files up to :data:`MAX_TOML_BYTES` are read (a FIFO or device is refused at once).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The TOML file.
     """
     p = Path(path)
     try:
