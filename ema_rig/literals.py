@@ -15,6 +15,9 @@ UnitPreference
     ``[units] prefer`` of a rig file: which of a UFF dataset's unit code and label wins.
 DampingModel
     The bearing damping model of :func:`ema_rig.rig.damping.bearing_damping`.
+FailureKind
+    Which housing criterion a candidate mode failed (:class:`ema_rig.rig.failures.Failure`):
+    ``"mass units"`` is a modal-mass failure whose ratio points at a unit mistake (g vs m/s^2).
 
 Constants
 ---------
@@ -32,6 +35,8 @@ SensorRole = Literal["housing", "spindle"]
 SensorAxis = Literal["radial", "lateral", "axial"]
 UnitPreference = Literal["code", "label"]
 DampingModel = Literal["viscous", "hysteretic"]
+FailureKind = Literal["range", "harmonic", "no radial sensor", "no radial motion", "spindle ratio", "lateral",
+                      "axial", "tilt", "amplitude", "mass", "mass units"]
 
 KIND_MEASURED: Final = "measured"
 KIND_RIG: Final = "assumed (rig file)"
@@ -47,6 +52,7 @@ __all__ = [
     "KIND_MODEL",
     "KIND_RIG",
     "DampingModel",
+    "FailureKind",
     "FrfForm",
     "SensorAxis",
     "SensorRole",

@@ -36,3 +36,15 @@ def test_unknown_names_are_refused_and_the_record_pickles() -> None:
     m = MatchedMode.from_mapping(_DICT)
     back = pickle.loads(pickle.dumps(m))  # campaign workers send results between processes
     assert dict(back) == dict(m) and back.entries == m.entries
+
+
+def test_a_failure_is_its_text_with_a_kind() -> None:
+    import copy
+
+    from ema_rig.rig.failures import Failure
+
+    f = Failure("mass units", "effective modal mass 25.9 kg, model 2.64 kg (ratio 9.8, allowed 0.5-2): "
+                              "accelerations in g read as m/s^2? check the file's units")
+    assert json.dumps([f]) == json.dumps([str(f)])  # the JSON of the candidates is unchanged
+    for back in (pickle.loads(pickle.dumps(f)), copy.deepcopy(f)):  # workers; dataclasses.asdict
+        assert back == f and back.kind == "mass units" and isinstance(back, Failure)

@@ -59,6 +59,7 @@ from ..config import ModelParams, RigConfig
 from ..errors import MatchingError
 from ..identification.modal import ModalModel
 from .candidates import Candidate, find_dof, measure_candidates
+from .failures import Failure
 from .inversion import ModelModeInfo, housing_freq_bounds, model_mode_at
 from .matched_mode import MatchedMode
 
@@ -431,14 +432,14 @@ def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig) -> st
         return _short(f"{head}; no radial driving point ({rig.radial}): without it the shapes do not single "
                       f"out the housing mode; nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}")
     sus = [c for c in inside if c.polarity_suspect]
-    units = [c for c in inside if any("units" in f for f in c.failures)]
+    units = [c for c in inside if any(getattr(f, "kind", None) == "mass units" for f in c.failures)]
     if sus:
         c = sus[0]
         cause = (f"{c.natural_freq:.1f} Hz is a clean translation with {c.polarity_suspect} reversed: "
                  "check its polarity")
     elif units:
         c = units[0]
-        cause = f"{c.natural_freq:.1f} Hz: " + next(f for f in c.failures if "units" in f)
+        cause = f"{c.natural_freq:.1f} Hz: " + next(f for f in c.failures if getattr(f, "kind", None) == "mass units")
     else:
         cause = f"nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}"
     return _short(f"{head}; {cause}")
@@ -446,36 +447,37 @@ def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig) -> st
 
 def _judge_housing(c: Candidate, params: ModelParams, lo: float, hi: float, crit: MatchCriteria) -> Candidate:
     """The candidate with its housing-criteria failures, model comparison and reason."""
-    fails: list[str] = []
+    fails: list[Failure] = []
     fn = c.natural_freq
     info = model_mode_at(params, fn) if lo < fn < hi else None
     if info is None:
-        fails.append(f"outside the housing-mode range {lo:.1f}-{hi:.1f} Hz of the 3DOF model")
+        fails.append(Failure("range", f"outside the housing-mode range {lo:.1f}-{hi:.1f} Hz of the 3DOF model"))
     if c.harmonic is not None:
-        fails.append(f"harmonic line {c.harmonic} x shaft speed (damping {c.damping_ratio:.2e})")
+        fails.append(Failure("harmonic", f"harmonic line {c.harmonic} x shaft speed (damping {c.damping_ratio:.2e})"))
     if not c.radial_sensors:
-        fails.append("no radial housing sensor in the data")
+        fails.append(Failure("no radial sensor", "no radial housing sensor in the data"))
     elif c.radial_phase_cos is None:
-        fails.append("no radial housing motion")
+        fails.append(Failure("no radial motion", "no radial housing motion"))
     else:
         sr = c.spindle_ratio
         if info is not None and sr is not None:
             tol = crit.spindle_ratio_tol + 0.5 * abs(info.spindle_ratio)
             if abs(sr - info.spindle_ratio) > tol:
                 kind = "spindle mode: " if abs(sr) > 1.0 else ""
-                fails.append(f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} (+/- {tol:.2f})")
+                fails.append(Failure("spindle ratio",
+                                     f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} (+/- {tol:.2f})"))
         lat, ax = c.lateral_ratio, c.axial_ratio
         if lat is not None and lat > crit.max_cross_axis_ratio and lat >= (ax or 0.0):
-            fails.append(f"lateral mode (lateral/radial housing motion {lat:.2f})")
+            fails.append(Failure("lateral", f"lateral mode (lateral/radial housing motion {lat:.2f})"))
         elif ax is not None and ax > crit.max_cross_axis_ratio:
-            fails.append(f"axial mode (axial/radial motion {ax:.2f})")
+            fails.append(Failure("axial", f"axial mode (axial/radial motion {ax:.2f})"))
         if c.radial_phase_cos < crit.min_phase_cos:
-            fails.append(f"tilt: radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f})")
+            fails.append(Failure("tilt", f"tilt: radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f})"))
         if (c.radial_amplitude_ratio or 0.0) < crit.min_amplitude_ratio:
-            fails.append(
+            fails.append(Failure("amplitude",
                 f"radial housing amplitudes differ (min/max {_fmt(c.radial_amplitude_ratio, '.2f')}):"
                 " not a rigid radial translation"
-            )
+            ))
     ratio = None
     if info is not None and c.modal_mass is not None:
         ratio = c.modal_mass / info.modal_mass
@@ -490,14 +492,14 @@ def _judge_housing(c: Candidate, params: ModelParams, lo: float, hi: float, crit
                 hint = ": accelerations in g read as m/s^2? check the file's units"
             elif dp and not fails and abs(math.log(ratio * g)) < 0.25:
                 hint = ": off by a factor g? check the file's units"
-            fails.append(
+            fails.append(Failure("mass units" if hint else "mass",
                 f"effective modal mass {c.modal_mass:.3g} kg, model {info.modal_mass:.3g} kg "
                 f"(ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g}){hint}"
-            )
+            ))
     sus = c.polarity_suspect
-    if sus and len(fails) == 1 and fails[0].startswith("tilt"):
+    if sus and len(fails) == 1 and fails[0].kind == "tilt":
         # out of phase is the only objection, and one sign flip makes a clean translation
-        fails[0] = (
+        fails[0] = Failure("tilt",
             f"radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f}) but a clean "
             f"translation with {sus} reversed: check the polarity (sign) of {sus}"
         )
