@@ -15,6 +15,8 @@ UnitPreference
     ``[units] prefer`` of a rig file: which of a UFF dataset's unit code and label wins.
 DampingModel
     The bearing damping model of :func:`ema_rig.rig.damping.bearing_damping`.
+Estimator
+    The FRF estimator of :func:`ema_rig.spectral.estimate_frf`.
 FailureKind
     Which housing criterion a candidate mode failed (:class:`ema_rig.rig.failures.Failure`):
     ``"mass units"`` is a modal-mass failure whose ratio points at a unit mistake (g vs m/s^2).
@@ -35,6 +37,7 @@ SensorRole = Literal["housing", "spindle"]
 SensorAxis = Literal["radial", "lateral", "axial"]
 UnitPreference = Literal["code", "label"]
 DampingModel = Literal["viscous", "hysteretic"]
+Estimator = Literal["H1", "H2", "Hv"]
 FailureKind = Literal["range", "harmonic", "no radial sensor", "no radial motion", "spindle ratio", "lateral",
                       "axial", "tilt", "amplitude", "mass", "mass units"]
 
@@ -52,6 +55,7 @@ __all__ = [
     "KIND_MODEL",
     "KIND_RIG",
     "DampingModel",
+    "Estimator",
     "FailureKind",
     "FrfForm",
     "SensorAxis",

@@ -75,6 +75,7 @@ from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
 from ..identification import Identification, Selection, identify
+from ..literals import DampingModel
 from .candidates import find_dof
 from .damping import BearingDamping, bearing_damping
 from .fit import HousingRigidBody, housing_rigid_body
@@ -355,7 +356,7 @@ class StiffnessResult:
     fit: RigFit | None = field(default=None, repr=False)
     k_TB_std_measured: float = 0.0
     inverted_freq: float = math.nan
-    damping_model: str = "viscous"
+    damping_model: DampingModel = "viscous"
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     damping: BearingDamping | None = None
@@ -544,7 +545,7 @@ def estimate_stiffness(
     spindle: bool = True,
     fit: bool = False,
     progress: bool = False,
-    damping_model: str = "viscous",
+    damping_model: DampingModel = "viscous",
     identification: Any = None,
     selection: Any = None,
     speed_rpm: float | None = None,
@@ -695,7 +696,7 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
 
 
 def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
-                     damping_model: str) -> Any:
+                     damping_model: DampingModel) -> Any:
     """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
     rel = {**DEFAULT_REL_UNCERTAINTY, **rel_unc}
     if k_ms_std is not None:
@@ -746,7 +747,7 @@ def calibrate(
     max_order: int | None = None,
     progress: bool = False,
     k_disk_std: float | None = None,
-    damping_model: str = "viscous",
+    damping_model: DampingModel = "viscous",
 ) -> CalibrationResult:
     """Mounting stiffness ``k_MS`` from a steel-disk measurement (paper Sect. 4).
 

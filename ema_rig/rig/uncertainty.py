@@ -31,7 +31,7 @@ from typing import Any
 
 from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import MatchingError
-from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS
+from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
 from .candidates import find_dof
 from .fit import (
     cross_axis_correction,
@@ -85,7 +85,7 @@ DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 
 
 # --------------------------------------------------------------------------- damping
-def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: str = "viscous") -> tuple[float, float]:
+def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: DampingModel = "viscous") -> tuple[float, float]:
     """Undamped natural frequency of the (real-stiffness) model from an identified pole.
 
     The identification gives ``|lambda| / 2 pi`` and ``zeta = -Re(lambda) / |lambda|``; the 3DOF
@@ -483,7 +483,7 @@ def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> floa
     return f
 
 
-def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: str = "viscous",
+def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: DampingModel = "viscous",
                         file: str | None = None, data: Any = None) -> Assessment:
     """Frequency to invert and the model-form terms and warnings of one matched housing mode.
 
