@@ -68,7 +68,8 @@ LAZY_EXTERNAL: dict[str, str] = {
     "sdypy": "optional peer for the crosscheck; it imports pyplot on import",
     "threadpoolctl": "optional: BLAS thread limits only when it is installed",
     "tqdm": "only when a progress bar is shown (CLI)",
-    "numpy": "config and _atomic are imported by `import ema_rig`, which must not import numpy (test_cold_start)",
+    "numpy": "only in modules that must load without it: config and _atomic (imported by `import ema_rig`) and "
+             "the commands (the CLI's start-up) (test_cold_start)",
     "importlib": "importlib.metadata costs ~40 ms; only when the version is asked for",
     "fcntl": "POSIX only (file locks)",
     "msvcrt": "Windows only (file locks)",
