@@ -31,7 +31,8 @@ def main() -> None:
         Path(args.json).write_text(json.dumps(counts, indent=1) + "\n", encoding="utf-8")
     if not args.v:
         return
-    for fn in (tl.upward_imports, tl.unjustified_function_level_imports, tl.private_imports):
+    for fn in (tl.upward_imports, tl.unjustified_function_level_imports, tl.private_imports,
+               tl.private_module_imports):
         print(f"\n# {fn.__name__}")
         print("\n".join(fn(imps)))
     print("\n# import_cycles")

@@ -57,7 +57,7 @@ from typing import Any
 
 from .dof import DOF
 from .errors import ConfigError
-from .io._uff_units import response_unit
+from .io.units import response_unit
 
 MODEL_KEYS: tuple[str, ...] = ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B")
 SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")

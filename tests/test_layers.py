@@ -13,7 +13,9 @@ under ``if TYPE_CHECKING:`` included -- and
   (``tests/test_cold_start.py``: ``import ema_rig``, ``ema_rig.campaign`` and every command's
   start-up stay free of numpy) (``test_function_level_imports_have_a_reason``);
 * no private name (``_x``) of one module is imported into another
-  (``test_no_private_name_crosses_a_module``), apart from the listed exceptions.
+  (``test_no_private_name_crosses_a_module``), and no private module of a subpackage is imported
+  from outside it (``test_no_private_module_is_imported_from_another_package``), apart from the
+  listed exceptions.
 
 ``python benchmarks/import_counts.py [-v]`` prints the counts (imports inside functions, under
 ``TYPE_CHECKING``, violations) and, with ``-v``, each violation.
@@ -296,6 +298,36 @@ def private_imports(imps: list[Imp]) -> list[str]:
     return sorted(set(bad))
 
 
+# Private modules of a subpackage imported from outside it, each with its reason.
+PRIVATE_MODULES_ALLOWED: dict[tuple[str, str], str] = {
+    # `ema-rig frf` writes FRFs, coherence and processing history as one UFF file byte by byte;
+    # a public writer of all three in ema_rig.io would replace these three imports
+    ("ema_rig.commands.frf", "ema_rig.io._uff_1858"): "the frf command's dataset-1858 writer",
+    ("ema_rig.commands.frf", "ema_rig.io._uff58_coherence"): "the frf command's coherence datasets",
+    ("ema_rig.commands.frf", "ema_rig.io._uff_write"): "the frf command's date id line",
+}
+
+
+def private_module_imports(imps: list[Imp]) -> list[str]:
+    """Imports of a subpackage's private module (``ema_rig.io._uff_units``) from outside that subpackage.
+
+    ``ema_rig``'s own private modules (``ema_rig._atomic``, ``ema_rig._text``) are the whole
+    package's helpers and may be imported anywhere in it.
+    """
+    bad = []
+    for i in _internal(imps):
+        parts = i.target.split(".")
+        k = next((k for k, part in enumerate(parts) if part.startswith("_")), None)
+        if k is None or k < 2:
+            continue
+        pkg = ".".join(parts[:k])
+        if i.importer == pkg or i.importer.startswith(pkg + "."):
+            continue
+        if (i.importer, i.target) not in PRIVATE_MODULES_ALLOWED:
+            bad.append(f"{i.importer}:{i.line} imports {i.target} (private to {pkg})")
+    return sorted(set(bad))
+
+
 def counts(imps: list[Imp]) -> dict[str, int]:
     stmts_fn = {(i.importer, i.line) for i in imps if i.in_function}
     stmts_tc = {(i.importer, i.line) for i in imps if i.type_checking}
@@ -308,6 +340,7 @@ def counts(imps: list[Imp]) -> dict[str, int]:
         "import cycles": len(import_cycles(imps)),
         "unjustified function-level imports": len(unjustified_function_level_imports(imps)),
         "private names across modules": len(private_imports(imps)),
+        "private modules across packages": len(private_module_imports(imps)),
     }
 
 
@@ -335,6 +368,11 @@ def test_function_level_imports_have_a_reason() -> None:
 def test_no_private_name_crosses_a_module() -> None:
     bad = private_imports(collect_imports())
     assert not bad, f"{len(bad)} private names imported across modules:\n" + "\n".join(bad)
+
+
+def test_no_private_module_is_imported_from_another_package() -> None:
+    bad = private_module_imports(collect_imports())
+    assert not bad, f"{len(bad)} private modules imported from outside their package:\n" + "\n".join(bad)
 
 
 def test_the_parser_sees_lazy_and_type_checking_imports() -> None:

@@ -24,6 +24,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from .._text import plain
 from .._version import version
 from ..errors import EmaRigError
 
@@ -127,7 +128,6 @@ def measurement_figures(
     """
     from ..identification import identify
     from ..io.uff import read_uff58
-    from ..plot._text import plain
     from ..plot.rig import plot_rig_fit
     from ..plot.stabilization import plot_stabilization
     from ..plot.synthesis import plot_synthesis

@@ -27,7 +27,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..io._uff_units import response_unit
+from ..io.units import response_unit
 
 
 def _describe(kind: type, lo: float | None, hi: float | None, lo_open: bool, allow_inf: bool) -> str:

@@ -31,10 +31,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._text import plain
 from ..campaign.schema import BearingInfo
 from ..rig.hertz import ball_bearing_radial_stiffness
 from ..simulate import planted_k_tb
-from ._text import plain
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -24,8 +24,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._atomic import atomic_path
+from .._text import plain
 from ..rig.model import HOUSING, SPINDLE, RigModel
-from ._text import plain
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
