@@ -804,7 +804,21 @@ _GEOMETRY_REQUIRED = ("n_balls", "ball_diameter", "pitch_diameter")
 
 @dataclass(frozen=True, slots=True)
 class KeyRange:
-    """The physically plausible range of a numeric key, its unit and where the range comes from."""
+    """The physically plausible range of a numeric key, its unit and where the range comes from.
+
+    Parameters
+    ----------
+    lo, hi : float
+        Lower and upper limit, in ``unit``.
+    unit : str
+        Unit of the key (for the message).
+    source : str
+        Where the range comes from (named in the message).
+    lo_open : bool, optional
+        Whether ``lo`` itself is refused.
+    zero_ok : bool, optional
+        Whether 0 is allowed besides ``[lo, hi]`` (a clearance of exactly zero).
+    """
 
     lo: float
     hi: float
@@ -878,6 +892,15 @@ def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -
         ball_diameter = 7.938e-3
         pitch_diameter = 28.5e-3
 
+    Parameters
+    ----------
+    t : mapping
+        The ``[bearings.NAME]`` table.
+    where : str
+        Its key path (``bearings.NAME``), for the messages.
+    file : str or None
+        The TOML file (named in the error).
+
     Returns
     -------
     BallBearingGeometry or None
@@ -919,6 +942,17 @@ def check_hertz_curve(geometry: Any, loads: tuple[float, ...], where: str, file:
 
     Run when the file is loaded, so that a geometry whose Hertz curve cannot be drawn is refused
     before any measurement is computed, never after.
+
+    Parameters
+    ----------
+    geometry : BallBearingGeometry
+        The bearing geometry.
+    loads : tuple of float
+        Radial loads [N] the campaign measures at.
+    where : str
+        Key path of the bearing table (``bearings.NAME``).
+    file : str or None
+        The TOML file (named in the error).
 
     Raises
     ------

@@ -173,7 +173,13 @@ def _toml_value(v: object) -> str:
 
 
 def campaign_toml(rows: list[Plan]) -> str:
-    """The campaign file for the runner."""
+    """The campaign file for the runner.
+
+    Parameters
+    ----------
+    rows : list of Plan
+        The planned measurements, in order.
+    """
     out = [
         "# Bundled synthetic campaign (ema_rig.demo_data, data/make_data.py): dummy-bearing validation (paper Sect. 5)",
         "# and the 6302 under load, speed and shaft position (paper Sect. 6).",

@@ -202,7 +202,13 @@ class CampaignConfig:
 
 
 def normalized_id(mid: str) -> str:
-    """The form under which two ids are the same file on some file system (NFC, case-folded)."""
+    """The form under which two ids are the same file on some file system (NFC, case-folded).
+
+    Parameters
+    ----------
+    mid : str
+        A measurement id.
+    """
     return unicodedata.normalize("NFC", mid).casefold()
 
 

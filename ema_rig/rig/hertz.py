@@ -236,7 +236,15 @@ def radial_stiffness(
     radial_load: float | ArrayLike, geometry: BallBearingGeometry = BEARING_6302
 ) -> float | NDArray[np.float64]:
     """Hertzian radial stiffness estimate [N/m] of the 6302 (Stribeck average); see
-    :func:`ball_bearing_radial_stiffness`."""
+    :func:`ball_bearing_radial_stiffness`.
+
+    Parameters
+    ----------
+    radial_load : float or array_like
+        Radial load(s) [N].
+    geometry : BallBearingGeometry, optional
+        The bearing (default the paper's 6302).
+    """
     return ball_bearing_radial_stiffness(radial_load, geometry)
 
 
