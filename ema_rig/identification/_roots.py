@@ -71,7 +71,12 @@ def _ratio(c: NDArray, dc: NDArray, cr: NDArray, dcr: NDArray, z: NDArray) -> tu
         np.cumprod(pw[:, 1:], axis=1, out=pw[:, 1:])
         p = pw @ coef
         dp = pw[:, :-1] @ dcoef
-        small[mask] = np.abs(p) <= 4.0 * n * _EPS * (np.abs(pw) @ np.abs(coef))
+        # |x^j| = |x|^j: the bound from real powers (no modulus of the complex powers)
+        pa = np.empty((x.size, n + 1))
+        pa[:, 0] = 1.0
+        pa[:, 1:] = np.abs(x)[:, None]
+        np.cumprod(pa[:, 1:], axis=1, out=pa[:, 1:])
+        small[mask] = np.abs(p) <= 4.0 * n * _EPS * (pa @ np.abs(coef))
         with np.errstate(divide="ignore", invalid="ignore"):
             # outside: p'(z) / p(z) = N y - y^2 q'(y) / q(y)
             r[mask] = p / dp if not flip else 1.0 / (n * x - x * x * dp / p)
