@@ -9,8 +9,8 @@ the children: unlike the wall time it hardly depends on what else runs on the ma
 1-minute load average before the run, and the wall time of the output phase (``write_outputs``:
 table, figures and report; with ``--jobs 2`` the measurement figures are drawn by the pool within
 it) as a share of the run (it includes the identification each measurement's figures need),
-and the time spent on the figures proper (building them and making their PNG bytes, summed over
-every process) as a share of the CPU time. Reported: medians with min-max, and the median of the per-round
+and the time spent on the figures proper (building them and making their PNG bytes: CPU seconds summed
+over every process) as a share of the run's CPU time. Reported: medians with min-max, and the median of the per-round
 ratios new/old.
 
 Run from the repository root::
@@ -58,14 +58,14 @@ def drawing(fn):
     def wrapper(*a, **k):
         outer = getattr(_depth, "n", 0) == 0
         _depth.n = getattr(_depth, "n", 0) + 1
-        t = time.perf_counter()
+        t = time.process_time()  # CPU seconds of this process: a loaded machine does not count
         try:
             return fn(*a, **k)
         finally:
             _depth.n -= 1
             if outer:
                 with open(_log, "a") as fh:
-                    fh.write(f"{time.perf_counter() - t}\n")
+                    fh.write(f"{time.process_time() - t}\n")
     return wrapper
 for mod, name in [("ema_rig.plot.stabilization", "plot_stabilization"), ("ema_rig.plot.rig", "plot_rig_fit"),
                   ("ema_rig.plot.synthesis", "plot_synthesis"), ("ema_rig.plot.campaign", "campaign_figures"),
