@@ -82,6 +82,7 @@ code = main(["demo", "-o", sys.argv[1], "--jobs", sys.argv[2]])
 print(json.dumps({"code": code, "inside": time.perf_counter() - t0, "outputs": sum(spent)}))
 """
 
+
 def one_run(tree: Path, jobs: int) -> dict[str, float]:
     env = {**os.environ, "PYTHONPATH": str(tree), "MPLBACKEND": "Agg"}
     load = os.getloadavg()[0]
