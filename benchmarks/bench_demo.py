@@ -16,7 +16,7 @@ ratios new/old.
 Run from the repository root::
 
     git worktree add /tmp/old5424261 5424261
-    python benchmarks/bench_demo.py --old /tmp/old5424261 [--rounds 3] [--jobs 1 2]
+    python benchmarks/bench_demo.py --old /tmp/old5424261 [--rounds 3] [--jobs 1 2] [--savefig-rounds 2]
 """
 
 from __future__ import annotations
@@ -83,14 +83,35 @@ print(json.dumps({"code": code, "inside": time.perf_counter() - t0, "outputs": s
 """
 
 
-def one_run(tree: Path, jobs: int) -> dict[str, float]:
+# prepended to the driver for "this tree with savefig": matplotlib's savefig and an adaptive palette
+# (the path before issue 22) in place of the renderer, the same figures
+_SAVEFIG = r"""
+import io
+import ema_rig.plot._render as _render
+def _savefig_png(fig, *, dpi, colors=128, optimize=True, reuse_layout=True):
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    if colors is None:
+        return buf.getvalue()
+    from PIL import Image
+    buf.seek(0)
+    with Image.open(buf) as img:
+        out = io.BytesIO()
+        img.convert("RGB").quantize(colors=colors).save(out, format="PNG", optimize=True)
+    return out.getvalue()
+_render.render_png = _savefig_png
+"""
+
+
+def one_run(tree: Path, jobs: int, savefig: bool = False) -> dict[str, float]:
     env = {**os.environ, "PYTHONPATH": str(tree), "MPLBACKEND": "Agg"}
     load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         log = Path(tmp) / "drawing.txt"
-        out = subprocess.run([sys.executable, "-c", _DRIVER, str(Path(tmp) / "demo"), str(jobs), str(log)], cwd=tree,
+        driver = (_SAVEFIG if savefig else "") + _DRIVER
+        out = subprocess.run([sys.executable, "-c", driver, str(Path(tmp) / "demo"), str(jobs), str(log)], cwd=tree,
                              env=env, capture_output=True, text=True, check=True)
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -112,7 +133,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--old", type=Path, required=True, help="root of the older tree (a git worktree)")
     ap.add_argument("--rounds", type=int, default=3, help="pairs per --jobs setting (default 3)")
-    ap.add_argument("--jobs", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--jobs", type=int, nargs="*", default=[1, 2], help="--jobs settings (none: only --savefig-rounds)")
+    ap.add_argument("--savefig-rounds", type=int, default=0,
+                    help="also pair this tree against itself with savefig in place of the renderer (--jobs 1)")
     args = ap.parse_args()
     trees = {"new": ROOT, "old": args.old.resolve()}
     head = {k: subprocess.run(["git", "-C", str(t), "rev-parse", "--short", "HEAD"], capture_output=True,
@@ -140,6 +163,17 @@ def main() -> int:
               f"of the run; figures (building + PNG, all processes) new {spread([100 * r['draw_share'] for r in n], '{:.0f}')} %, "
               f"old {spread([100 * r['draw_share'] for r in o], '{:.0f}')} % of the CPU time; load {min(loads):.1f}-{max(loads):.1f}",
               flush=True)
+    if args.savefig_rounds:
+        runs = {"render": [], "savefig": []}
+        for i in range(args.savefig_rounds):
+            for name in (("render", "savefig") if i % 2 == 0 else ("savefig", "render")):
+                r = one_run(ROOT, 1, savefig=name == "savefig")
+                runs[name].append(r)
+                print(f"  this tree, jobs 1, {name}: wall {r['wall']:.1f} s, cpu {r['cpu']:.1f} s, figures "
+                      f"{r['drawing']:.1f} s ({r['draw_share']:.0%} of cpu), load {r['load']:.1f}", flush=True)
+        fig_ratio = [a["drawing"] / b["drawing"] for a, b in zip(runs["render"], runs["savefig"], strict=True)]
+        print(f"this tree, renderer vs savefig: figures CPU {spread([r['drawing'] for r in runs['render']])} s vs "
+              f"{spread([r['drawing'] for r in runs['savefig']])} s, ratio {spread(fig_ratio, '{:.2f}')}", flush=True)
     return 0
 
 
