@@ -33,6 +33,7 @@ from __future__ import annotations
 import io
 import math
 import os
+import threading
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -47,9 +48,8 @@ __all__ = ["collapse_minor_ticks", "render_png"]
 _LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
 _MAX_LAYOUTS = 8
 #: One Agg canvas per figure size [px] and dpi, reused for every figure of that size, in the
-#: process that made it only (see :func:`_canvas`).
-_CANVASES: dict[tuple[int, int, float], Any] = {}
-_CANVASES_PID = [os.getpid()]
+#: thread of the process that made it only (see :func:`_canvas`): ``canvases`` and ``pid``.
+_LOCAL = threading.local()
 
 
 def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: bool = True,
@@ -107,15 +107,18 @@ def _canvas(fig: Figure, dpi: float, canvas_class: Any) -> Any:
     offset with its parent and its siblings, so two processes loading glyphs through the same
     font read each other's positions ("FT_Load_Glyph ... invalid outline"). matplotlib clears its
     own font cache in a forked child for this reason; the canvases kept here are dropped likewise.
+    Nor one of another thread: two figures drawn at once on one canvas draw into one pixel buffer
+    (threads of an executor drawing a campaign's figures); the canvases are kept per thread.
     """
     pid = os.getpid()
-    if _CANVASES_PID[0] != pid:  # a forked child: its parent's canvases are not ours to use
-        _CANVASES.clear()
-        _CANVASES_PID[0] = pid
+    canvases: dict[tuple[int, int, float], Any] | None = getattr(_LOCAL, "canvases", None)
+    if canvases is None or getattr(_LOCAL, "pid", None) != pid:  # a new thread, or a forked child
+        canvases = _LOCAL.canvases = {}
+        _LOCAL.pid = pid
     size = (round(fig.bbox.width), round(fig.bbox.height), dpi)
-    canvas = _CANVASES.get(size)
+    canvas = canvases.get(size)
     if canvas is None:
-        canvas = _CANVASES[size] = canvas_class(fig)
+        canvas = canvases[size] = canvas_class(fig)
     else:
         canvas.figure = fig
         fig.set_canvas(canvas)
