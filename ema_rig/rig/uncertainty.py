@@ -750,12 +750,14 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         # identification missed beside a close neighbour hides in the housing mode's residue: on
         # the issue-19 truths the 663 Hz frame mode under a strong 695 Hz mode took 9 % of it)
         rhos = [float(v) for v in (hm.get("axial_ratio"), hm.get("lateral_ratio")) if v is not None]
-        clean = cross is None and not m.neighbours and all(v <= 2 * CROSS_AXIS_RATIO_STD for v in rhos)
+        radial_only = cross is None and all(v <= 2 * CROSS_AXIS_RATIO_STD for v in rhos)
+        clean = radial_only and not m.neighbours
         # the pole held at the identified one biases the residue by the damping ratio's error (they
-        # trade at the peak): on a clean mode, re-estimate the pole on the driving point with the
-        # residue (20 baseline truths: rms z of the mass 1.1 against 3.1 with the pole held)
+        # trade at the peak): on a mode without cross-axis motion, re-estimate the pole on the
+        # driving point with the residue (20 baseline truths: rms z of the mass 1.1 against 3.1 with
+        # the pole held; with cross-axis motion, the bundled simulator's, the held pole is closer)
         dpf = driving_point_mass(data.freq, data.frf[p_ref, q_ref], modes.poles, m.housing_index,
-                                 frf_form=data.frf_form, free_pole=True) if clean else None
+                                 frf_form=data.frf_form, free_pole=True) if radial_only else None
         if dpf is not None and math.isfinite(dpf.modal_mass_std) and dpf.modal_mass_std > 0:
             dpm = dpf
             u_meas = dpm.modal_mass_std / dpm.modal_mass
@@ -764,13 +766,20 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             u_z = float(z_std) / zeta if z_std is not None and math.isfinite(float(z_std)) and zeta > 0 else 0.0
             u_meas = math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_z)
         expected = info_inv.modal_mass * (1 + t_mix)
+        mix_mass = 1 + t_mix
+        pair = _pair_mass(cross, modes, data, p_ref, q_ref, dpm, u_meas) if cross is not None else None
+        if pair is not None:
+            # the pair's driving-point compliance 1/m_1 + 1/m_2 does not depend on the mixing (nor, to
+            # second order, on the driving point's misalignment): it measures the uncoupled housing
+            dpm, u_meas = pair
+            expected, mix_mass = info_inv.modal_mass, 1.0
         r = dpm.modal_mass / expected
         u_mh = float(rig.uncertainty.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"]))
         trusted = rig.force_chain is not None
         u_fc = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
         u_r = math.sqrt(u_meas**2 + u_mh**2 + u_fc**2)
         ratio = r
-        mm = measured_housing_mass(f_inv, dpm.modal_mass / (1 + t_mix), params)
+        mm = measured_housing_mass(f_inv, dpm.modal_mass / mix_mass, params)
         u_m = math.hypot(u_meas, u_fc)
         d_rig = abs(math.log(r))
         # the rig file's m_H against the data at the rig file's own tolerance and the fit's std (the
@@ -907,6 +916,29 @@ def _fit_split(m: MatchResult, modes: Any, rig: RigConfig, data: Any, p: int, q:
         if fit is not None and fit.chi2 <= SPLIT_FIT_CHI2 and (best is None or fit.chi2 < best[0].chi2):
             best = (fit, j)
     return best
+
+
+def _pair_mass(cross: Any, modes: Any, data: Any, p: int, q: int, dpm: Any, u_meas: float
+               ) -> tuple[Any, float] | None:
+    """The housing mode and its cross-axis partner as one driving-point mass ``1 / (1/m_1 + 1/m_2)``
+    with its relative std, from the partner's local fit; None when the partner's fit fails.
+
+    Two modes mixed by a bearing cross stiffness, mass-normalised ``cos t h + sin t p`` and
+    ``-sin t h + cos t p``, move the driving point by ``cos t`` and ``-sin t`` of the housing's
+    uncoupled amplitude (plus ``eps sin t``, ``eps cos t`` of the partner's through a misalignment
+    ``eps``): the sum of their squares, the pair's compliance, is the uncoupled one times
+    ``1 + eps^2``."""
+    from .fit import driving_point_mass_of
+
+    fn = [float(f) for f in modes.natural_freq]
+    j = min(range(len(fn)), key=lambda i: abs(fn[i] - cross.partner_freq))
+    dpj = driving_point_mass_of(data, p, q, modes.poles, j)
+    if dpj is None or not (dpj.modal_mass > 0 and math.isfinite(dpj.modal_mass_std)):
+        return None
+    m1, m2 = dpm.modal_mass, dpj.modal_mass
+    pair = 1.0 / (1.0 / m1 + 1.0 / m2)
+    u = math.hypot(pair / m1 * u_meas, pair / m2 * dpj.modal_mass_std / m2)
+    return replace(dpm, modal_mass=pair, modal_mass_std=pair * u), u
 
 
 def _find(dofs: Any, target: Any) -> int | None:
