@@ -767,7 +767,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             u_meas = math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_z)
         expected = info_inv.modal_mass * (1 + t_mix)
         mix_mass = 1 + t_mix
-        pair = _pair_mass(cross, modes, data, p_ref, q_ref, dpm, u_meas) if cross is not None else None
+        pair = None
+        if cross is not None and p_ref is not None and q_ref is not None:
+            pair = _pair_mass(cross, modes, data, p_ref, q_ref, dpm, u_meas)
         if pair is not None:
             # the pair's driving-point compliance 1/m_1 + 1/m_2 does not depend on the mixing (nor, to
             # second order, on the driving point's misalignment): it measures the uncoupled housing
