@@ -305,6 +305,10 @@ PRIVATE_MODULES_ALLOWED: dict[tuple[str, str], str] = {
     ("ema_rig.commands.frf", "ema_rig.io._uff_1858"): "the frf command's dataset-1858 writer",
     ("ema_rig.commands.frf", "ema_rig.io._uff58_coherence"): "the frf command's coherence datasets",
     ("ema_rig.commands.frf", "ema_rig.io._uff_write"): "the frf command's date id line",
+    # the campaign's figure phase draws through issue 22's renderer (plot/_render.py, owned by
+    # that issue's engineer); to become a public ema_rig.plot module once it settles
+    ("ema_rig.campaign.drilldown", "ema_rig.plot._render"): "the figure renderer of issue 22",
+    ("ema_rig.campaign.outputs", "ema_rig.plot._render"): "the figure renderer of issue 22",
 }
 
 
