@@ -76,6 +76,9 @@ def main() -> None:
             p.stdin.flush()
             return float(p.stdout.readline())
 
+        print(f"baseline {args.baseline}; BLAS threads: {'1' if args.one_thread else 'default'}; "
+              f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(default)')}; "
+              f"load average at start {os.getloadavg()[0]:.1f}")
         print(f"{'data':28s} {'old identify [s]':>22s} {'new identify [s]':>22s} {'new/old':>18s}")
         for case, name in (("rig", "rig file (8 out, 1701 lines)"), ("256", "256 outputs (1801 lines)")):
             t = {"old": [], "new": []}
@@ -87,7 +90,8 @@ def main() -> None:
             def fmt(x: list[float], f: str = ".3f") -> str:
                 return f"{statistics.median(x):{f}} ({min(x):{f}}-{max(x):{f}})"
 
-            print(f"{name:28s} {fmt(t['old']):>22s} {fmt(t['new']):>22s} {fmt(ratio, '.2f'):>18s}")
+            print(f"{name:28s} {fmt(t['old']):>22s} {fmt(t['new']):>22s} {fmt(ratio, '.2f'):>18s}"
+                  f"  (load average now {os.getloadavg()[0]:.1f})", flush=True)
         for p in procs.values():
             assert p.stdin is not None
             p.stdin.close()
