@@ -23,9 +23,14 @@ segment every channel ``c`` is modelled as::
 
     H_c(w) = (j w)^p sum_r ( R_rc / (j w - l_r) + conj(R_rc) / (j w - conj(l_r)) ) + P_c(w)
 
-with ``P_c`` a complex polynomial (degree up to 2) in ``w`` that stands for the modes outside
-the segment. The poles ``l_r`` are shared by all channels; residues and polynomial enter
-linearly and are eliminated (variable projection, Golub & Pereyra 1973; Kaufman's 1975
+with ``P_c`` a complex polynomial (degree up to 2) in ``w`` and the tails of the other modes (at
+their poles, residues free) standing for what lies outside the segment. Over a few dozen lines
+these columns are nearly collinear (condition up to 1e16), so they enter as one orthonormal basis
+of their span, cut at the numerical rank and at the noise: a direction along which the start
+model's background stays below one noise standard deviation in every channel is dropped
+(truncated SVD at the discrepancy level, Hansen 1998). Otherwise the projection, the cost and the
+estimate would be set by rounding (they moved by 0.5 sigma between two BLAS kernels on dam0).
+The poles ``l_r`` are shared by all channels; residues and polynomial enter linearly and are eliminated (variable projection, Golub & Pereyra 1973; Kaufman's 1975
 Jacobian). The noise weights are separable (a line profile times a channel scale), so the
 weighted basis and its QR factor are the same for every channel and the whole problem costs a
 few matrix products of the segment's data (BLAS 3), whatever the number of outputs. The
@@ -54,7 +59,8 @@ never set to 0.
 References: Pintelon & Schoukens, *System Identification: A Frequency Domain Approach*, 2nd ed.
 2012, ch. 9 and 19 (ML and its covariance; the sandwich under model errors); Golub & Pereyra,
 SIAM J. Numer. Anal. 10 (1973); Kaufman, BIT 15 (1975); White, Econometrica 48 (1980);
-Harris, Proc. IEEE 66 (1978) (window main lobes).
+Harris, Proc. IEEE 66 (1978) (window main lobes); Golub & Van Loan, *Matrix Computations*, 4th ed.
+2013 (numerical rank); Hansen, *Rank-Deficient and Discrete Ill-Posed Problems*, SIAM 1998.
 """
 
 from __future__ import annotations
@@ -96,9 +102,11 @@ class MLCriteria:
     basis_rcond : float
         Numerical rank of a segment's pole-free columns (local polynomial and the other modes'
         tails): singular directions below ``basis_rcond`` times the largest are dropped (default
-        1.5e-8 = sqrt of the float64 epsilon). The Gauss-Newton matrix of the poles is formed from
-        products of these columns, so its error grows with their condition squared; a direction
-        below sqrt(eps) is set by rounding, not by the data (Golub & Van Loan 2013, sect. 5.4.1).
+        1.5e-8 = sqrt of the float64 epsilon). A singular vector is determined only to an angle of
+        about ``eps / gap`` (Golub & Van Loan 2013, sect. 5.4.1 and 8.6): below sqrt(eps) its
+        direction, and so the projection of the data, is set by rounding, not by the data. Of the
+        directions above it, those along which the start model stays below the noise are dropped
+        too (:meth:`_Segment.keep_supported`: truncated SVD at the discrepancy level).
     move_hbw : float
         A pole may move by this many PolyMAX half-power half-bandwidths, or two line spacings
         (default 1): further means it left for another feature of the data (the same rule as
@@ -123,7 +131,7 @@ class MLCriteria:
             "max_iter": "work limit (Levenberg-Marquardt converges in < 10 evaluations from PolyMAX)",
             "misfit_p": "chi-square test of the residual against the noise estimate, p = 0.001 with its dof",
             "misfit_ratio": "residual twice the noise: the refinement's bound for a model error (refine.py)",
-            "basis_rcond": "sqrt(float64 eps): numerical rank of the pole-free columns (Golub & Van Loan 5.4.1)",
+            "basis_rcond": "sqrt(float64 eps): numerical rank of the pole-free columns (Golub & Van Loan 5.4.1, 8.6)",
             "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
         }
 
