@@ -35,7 +35,8 @@ cases = {"rig": (read_uff58(repo + "/data/b6302_1000N_1200rpm.uff", rig=load_rig
          "256": (read_uff58(synth), (100.0, 1000.0))}
 for d, b in cases.values():
     identify(d, band=b)
-print("ready", flush=True)
+import ema_rig
+print("ready", ema_rig.__file__, flush=True)
 for line in sys.stdin:
     d, b = cases[line.strip()]
     t0 = time.perf_counter()
@@ -61,13 +62,19 @@ def main() -> None:
                        env=env, check=True)
         procs = {}
         for tag, tree in (("new", REPO), ("old", args.baseline.resolve())):
+            # cwd=tree: ``python -c`` puts the working directory first on sys.path, before PYTHONPATH
+            # (run from this repository's root, both workers would import this tree)
             procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(REPO), str(synth)], text=True,
-                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=str(tree),
                                           env=dict(os.environ, PYTHONPATH=str(tree),
                                                    **({"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                                                        "MKL_NUM_THREADS": "1"} if args.one_thread else {})))
-        for p in procs.values():
-            assert p.stdout is not None and p.stdout.readline().strip() == "ready"
+        for tag, p in procs.items():
+            assert p.stdout is not None
+            ready, where = p.stdout.readline().split()
+            tree = REPO if tag == "new" else args.baseline.resolve()
+            assert ready == "ready" and Path(where).resolve().is_relative_to(tree), (tag, where)
+            print(f"{tag}: ema_rig from {where}")
 
         def ask(tag: str, case: str) -> float:
             p = procs[tag]

@@ -44,7 +44,8 @@ def _modes(tree: Path, f: Path, out: Path, kernel: str | None) -> tuple[int, dic
     cmd = [sys.executable, "-m", "ema_rig.cli", "modes", str(f), "--json", str(out)]
     if f.name in BANDS:
         cmd += ["--band", *BANDS[f.name]]
-    run = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=900)
+    # cwd: ``python -m`` puts the working directory first on sys.path, before PYTHONPATH
+    run = subprocess.run(cmd, env=env, cwd=tree, capture_output=True, text=True, timeout=900)
     return run.returncode, (json.loads(out.read_text()) if run.returncode == 0 and out.exists() else None)
 
 

@@ -30,8 +30,8 @@ of their span, cut at the numerical rank and at the noise: a direction along whi
 model's background stays below one noise standard deviation in every channel is dropped
 (truncated SVD at the discrepancy level, Hansen 1998). Otherwise the projection, the cost and the
 estimate would be set by rounding (they moved by 0.5 sigma between two BLAS kernels on dam0).
-The poles ``l_r`` are shared by all channels; residues and polynomial enter linearly and are eliminated (variable projection, Golub & Pereyra 1973; Kaufman's 1975
-Jacobian). The noise weights are separable (a line profile times a channel scale), so the
+The poles ``l_r`` are shared by all channels; residues and polynomial enter linearly and are
+eliminated (variable projection, Golub & Pereyra 1973; Kaufman's 1975 Jacobian). The noise weights are separable (a line profile times a channel scale), so the
 weighted basis and its QR factor are the same for every channel and the whole problem costs a
 few matrix products of the segment's data (BLAS 3), whatever the number of outputs. The
 Gauss-Newton matrix of the poles is the Schur complement of the full Fisher information (the
@@ -107,6 +107,11 @@ class MLCriteria:
         direction, and so the projection of the data, is set by rounding, not by the data. Of the
         directions above it, those along which the start model stays below the noise are dropped
         too (:meth:`_Segment.keep_supported`: truncated SVD at the discrepancy level).
+    background_sigmas : float
+        ... that is, below ``background_sigmas`` (default 1) noise standard deviations in every
+        channel: a term whose squared coefficient is below its variance adds more variance than it
+        removes bias (the break-even of Mallows' Cp, Technometrics 15, 1973; the discrepancy
+        principle, Hansen 1998 sect. 7.2).
     move_hbw : float
         A pole may move by this many PolyMAX half-power half-bandwidths, or two line spacings
         (default 1): further means it left for another feature of the data (the same rule as
@@ -121,6 +126,7 @@ class MLCriteria:
     misfit_p: float = 1e-3
     misfit_ratio: float = 2.0
     basis_rcond: float = 1.4901161193847656e-08
+    background_sigmas: float = 1.0
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name."""
@@ -132,6 +138,7 @@ class MLCriteria:
             "misfit_p": "chi-square test of the residual against the noise estimate, p = 0.001 with its dof",
             "misfit_ratio": "residual twice the noise: the refinement's bound for a model error (refine.py)",
             "basis_rcond": "sqrt(float64 eps): numerical rank of the pole-free columns (Golub & Van Loan 5.4.1, 8.6)",
+            "background_sigmas": "1 noise sigma: break-even of bias and variance (Mallows' Cp 1973, discrepancy principle)",
             "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
         }
 
@@ -232,7 +239,7 @@ class _Segment:
             else np.zeros((2 * om.size, 0))
         self.L = 2 * self.m + self.fixed.shape[1]
 
-    def keep_supported(self, model_w: NDArray[np.float64], noise_sd: NDArray[np.float64]) -> None:
+    def keep_supported(self, model_w: NDArray[np.float64], noise_sd: NDArray[np.float64], sigmas: float = 1.0) -> None:
         """Keep the background directions along which the start model exceeds the noise.
 
         Parameters
@@ -241,6 +248,9 @@ class _Segment:
             The start model (LSFD at the start poles) on the segment's lines, weighted like the data.
         noise_sd : ndarray, shape (C,)
             Noise standard deviation of one weighted real equation, per channel.
+        sigmas : float, optional
+            Kept when above this many noise standard deviations in some channel
+            (:attr:`MLCriteria.background_sigmas`).
 
         Notes
         -----
@@ -260,7 +270,7 @@ class _Segment:
         cols[:, 0::2], cols[:, 1::2] = pos + neg, 1j * (pos - neg)
         a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
         coef = np.linalg.lstsq(a, model_w, rcond=None)[0][a.shape[1] - n_t :]  # (n_t, C)
-        keep = np.any(np.abs(coef) > noise_sd[None, :], axis=1)
+        keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
         self.fixed = np.ascontiguousarray(self.fixed[:, keep])
         self.L = 2 * self.m + self.fixed.shape[1]
 
@@ -548,7 +558,7 @@ def local_ml(
         # the background directions the start model uses above the noise (the rest only fit noise)
         nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
         seg.keep_supported(_stack(mod[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :],
-                           np.sqrt(np.maximum(np.mean(nv, axis=0) / 2.0, 1e-300)))
+                           np.sqrt(np.maximum(np.mean(nv, axis=0) / 2.0, 1e-300)), criteria.background_sigmas)
         th0 = seg.theta(lam0[rs_arr])
         free = np.ones(m, bool)
         why: dict[int, str] = {}
