@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -35,12 +36,16 @@ def _data_hash(tree: Path) -> str:
     return h.hexdigest()[:16]
 
 
-def _run(tree: Path, out: Path) -> float:
+def _run(tree: Path, out: Path) -> tuple[float, float]:
+    """Wall time and CPU time (user + system of the process and its workers) [s] of one campaign."""
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg")
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "ema_rig.cli", "campaign", str(tree / "data" / "campaign.toml"),
                     "-o", str(out), "--force"], cwd=tree, env=env, check=True, capture_output=True)
-    return time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
 
 
 def main() -> None:
@@ -54,22 +59,28 @@ def main() -> None:
     if not same:
         raise SystemExit("the two trees bundle different data: no like-for-like comparison")
     t: dict[str, list[float]] = {"old": [], "new": []}
+    cpu: dict[str, list[float]] = {"old": [], "new": []}
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(args.repeat):
             load0 = os.getloadavg()[0]
             for tag in (("old", "new") if i % 2 == 0 else ("new", "old")):
                 tree = old if tag == "old" else new
-                t[tag].append(_run(tree, Path(tmp) / f"{tag}_{i}"))
+                wall, c = _run(tree, Path(tmp) / f"{tag}_{i}")
+                t[tag].append(wall)
+                cpu[tag].append(c)
             print(f"pair {i + 1}: old {t['old'][-1]:.1f} s, new {t['new'][-1]:.1f} s, "
-                  f"ratio {t['new'][-1] / t['old'][-1]:.2f}; load average {load0:.1f} -> {os.getloadavg()[0]:.1f}",
+                  f"ratio {t['new'][-1] / t['old'][-1]:.2f}; CPU old {cpu['old'][-1]:.1f} s, new {cpu['new'][-1]:.1f} s, "
+                  f"ratio {cpu['new'][-1] / cpu['old'][-1]:.2f}; load average {load0:.1f} -> {os.getloadavg()[0]:.1f}",
                   flush=True)
     ratio = [b / a for a, b in zip(t["old"], t["new"], strict=True)]
+    cratio = [b / a for a, b in zip(cpu["old"], cpu["new"], strict=True)]
 
     def fmt(x: list[float], f: str = ".1f") -> str:
         return f"{statistics.median(x):{f}} [{min(x):{f}}-{max(x):{f}}]"
 
-    print(f"old {fmt(t['old'])} s, new {fmt(t['new'])} s, new/old {fmt(ratio, '.2f')} (median [range] of "
+    print(f"wall: old {fmt(t['old'])} s, new {fmt(t['new'])} s, new/old {fmt(ratio, '.2f')} (median [range] of "
           f"{args.repeat} pairs)")
+    print(f"CPU:  old {fmt(cpu['old'])} s, new {fmt(cpu['new'])} s, new/old {fmt(cratio, '.2f')}")
 
 
 if __name__ == "__main__":

@@ -39,9 +39,9 @@ import ema_rig
 print("ready", ema_rig.__file__, flush=True)
 for line in sys.stdin:
     d, b = cases[line.strip()]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     identify(d, band=b)
-    print(f"{time.perf_counter() - t0:.6f}", flush=True)
+    print(f"{time.perf_counter() - t0:.6f} {time.process_time() - c0:.6f}", flush=True)
 """
 
 
@@ -76,29 +76,35 @@ def main() -> None:
             assert ready == "ready" and Path(where).resolve().is_relative_to(tree), (tag, where)
             print(f"{tag}: ema_rig from {where}")
 
-        def ask(tag: str, case: str) -> float:
+        def ask(tag: str, case: str) -> tuple[float, float]:
             p = procs[tag]
             assert p.stdin is not None and p.stdout is not None
             p.stdin.write(case + "\n")
             p.stdin.flush()
-            return float(p.stdout.readline())
+            wall, cpu = p.stdout.readline().split()
+            return float(wall), float(cpu)
 
         print(f"baseline {args.baseline}; BLAS threads: {'1' if args.one_thread else 'default'}; "
               f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(default)')}; "
               f"load average at start {os.getloadavg()[0]:.1f}")
-        print(f"{'data':28s} {'old identify [s]':>22s} {'new identify [s]':>22s} {'new/old':>18s}")
+        print(f"{'data':28s} {'':5s} {'old identify [s]':>22s} {'new identify [s]':>22s} {'new/old':>18s}")
         for case, name in (("rig", "rig file (8 out, 1701 lines)"), ("256", "256 outputs (1801 lines)")):
-            t = {"old": [], "new": []}
+            t: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
             for i in range(args.repeat):
                 for tag in (("old", "new") if i % 2 == 0 else ("new", "old")):
                     t[tag].append(ask(tag, case))
-            ratio = [b / a for a, b in zip(t["old"], t["new"], strict=True)]
 
             def fmt(x: list[float], f: str = ".3f") -> str:
                 return f"{statistics.median(x):{f}} ({min(x):{f}}-{max(x):{f}})"
 
-            print(f"{name:28s} {fmt(t['old']):>22s} {fmt(t['new']):>22s} {fmt(ratio, '.2f'):>18s}"
-                  f"  (load average now {os.getloadavg()[0]:.1f})", flush=True)
+            # wall time, and the CPU time of the process (all its threads): on a busy machine the
+            # wall time mostly measures waiting for a core, the CPU time the work
+            for k, kind in ((0, "wall"), (1, "cpu")):
+                old = [x[k] for x in t["old"]]
+                new = [x[k] for x in t["new"]]
+                ratio = [b / a for a, b in zip(old, new, strict=True)]
+                print(f"{name:28s} {kind:5s} {fmt(old):>22s} {fmt(new):>22s} {fmt(ratio, '.2f'):>18s}"
+                      f"  (load average now {os.getloadavg()[0]:.1f})", flush=True)
         for p in procs.values():
             assert p.stdin is not None
             p.stdin.close()
