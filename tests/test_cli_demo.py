@@ -26,6 +26,9 @@ def test_demo_regenerates_data_when_installed_without_source_tree(tmp_path: Path
         assert float(r["k_TB [N/m]"]) == pytest.approx(demo_data.K_DUMMY[200.0], rel=0.01)
         assert demo_data.K_DUMMY[200.0] > 31.14e6 and float(r["k_TB [N/m]"]) < 34.12e6  # inside the FE bounds
     assert (out / "report.html").stat().st_size > 10_000 and (out / "data" / "disk.uff").is_file()
+    # nothing left behind (issue 20): no lock, no temporary; only the figure manifest and demo's mark
+    hidden = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.name.startswith(".") or ".tmp" in p.name)
+    assert hidden == [".ema-rig-demo", ".ema-rig-figures.json"], hidden
 
 
 def test_demo_data_option_must_hold_a_campaign(tmp_path: Path, capsys) -> None:

@@ -79,6 +79,16 @@ def test_walkthrough_runs_from_any_folder(tmp_path: Path, monkeypatch: pytest.Mo
     assert _images(nb) >= 2  # the picking chart and the replayed 500 N chart
     _numbers_of_the_text_are_printed(nb)
     _housing_modes_quoted_are_the_runs(nb)
+    # the committed outputs are the current code's (not a stale run): every k_TB and housing mode
+    # printed, to within the last printed digit (the ML estimates move in far lower digits across BLAS)
+    committed = _outputs(nbformat.read(NOTEBOOK, as_version=4))
+    for pattern, tol in ((r"k_TB = (\d+\.\d\d)", 0.011), (r"housing mode (\d+\.\d) Hz", 0.11)):
+        now, then = re.findall(pattern, text), re.findall(pattern, committed)
+        assert len(now) == len(then) >= 5, (now, then)
+        assert all(abs(float(a) - float(b)) <= tol for a, b in zip(now, then, strict=True)), (now, then)
+    # and the measured sigma of the pick's k_TB to its first digit (a stale run said 0.22 for 0.0061)
+    now, then = (float(re.search(r"± (\S+) \(meas\.\)", t).group(1)) for t in (text, committed))  # type: ignore[union-attr]
+    assert abs(now / then - 1.0) < 0.2, (now, then)
     assert [p.name for p in tmp_path.glob("ema-rig-walkthrough-*/*")] != []
     assert list(run_dir.iterdir()) == []  # nothing written where it was started
 

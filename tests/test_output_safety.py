@@ -290,3 +290,42 @@ def test_ignored_signals_stay_ignored() -> None:
         assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
     finally:
         signal.signal(signal.SIGHUP, old)
+
+
+# --------------------------------------------------------------- nothing left behind (issue 20)
+#: The hidden files an output folder keeps on purpose: what the campaign's figures were drawn from
+#: (a rerun reuses them) and the mark of a folder ``demo`` made itself. Nothing else: no lock file,
+#: no temporary.
+_KEPT = {".ema-rig-figures.json", ".ema-rig-demo"}
+
+
+def _left_behind(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*")
+                  if (p.name.startswith(".") and p.name not in _KEPT) or ".tmp" in p.name)
+
+
+def test_nothing_left_behind_by_any_command_on_any_exit(small: Path, tmp_path: Path, capsys) -> None:  # noqa: F811
+    import shutil
+
+    d = tmp_path / "c"
+    shutil.copytree(small, d)
+    out = tmp_path / "out"
+    assert main(["campaign", str(d / "campaign.toml"), "-o", str(out / "ok")]) == 0
+    assert (out / "ok" / "campaign.csv").is_file() and _left_behind(out / "ok") == []
+    (d / "m2.uff").write_text("not a UFF file\n")  # one measurement fails: exit 3
+    assert main(["campaign", str(d / "campaign.toml"), "-o", str(out / "ok")]) == 3
+    assert _left_behind(out / "ok") == []
+    (out / "u").mkdir()
+    (out / "u" / "notes.txt").write_text("a user's folder\n")  # demo refuses it: exit 1
+    assert main(["demo", "-o", str(out / "u")]) == 1
+    assert sorted(p.name for p in (out / "u").iterdir()) == ["notes.txt"]
+    # (a demo that runs: tests/test_cli_demo.py, with the same check)
+    m1, rig = d / "m1.uff", d / "rig.toml"
+    assert main(["modes", str(m1), "--rig", str(rig), "--json", str(out / "m" / "m.json"),
+                 "--plot", str(out / "m" / "m.png")]) == 0
+    assert main(["stiffness", str(m1), "--rig", str(rig), "--json", str(out / "s" / "s.json")]) == 0
+    assert main(["stiffness", str(rig), "--rig", str(rig), "--json", str(out / "e" / "s.json")]) == 1
+    assert sorted(p.name for p in (out / "m").iterdir()) == ["m.json", "m.png"]
+    assert sorted(p.name for p in (out / "s").iterdir()) == ["s.json"]
+    assert not (out / "e").exists() or list((out / "e").iterdir()) == []
+    capsys.readouterr()

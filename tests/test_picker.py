@@ -71,6 +71,15 @@ def test_clicks_do_not_move_the_chart_and_a_second_click_unpicks(case, mplcleanu
     assert (chart.axes.get_xlim(), chart.axes.get_ylim()) == limits
     # (the layout engine may nudge the axes by a fraction of a pixel; the pick radius is 5 px)
     np.testing.assert_allclose(_pixel(chart, f, o), (px, py), atol=1.0)
+    # the label of the picked mode sits in the room kept above the poles, not over them (it was
+    # placed for the chart's own top while the picker held a higher one: over the highest orders)
+    chart.figure.canvas.draw()
+    renderer = chart.figure.canvas.get_renderer()
+    n_max = max(case[1].stabilization.orders)
+    assert len(chart.mode_labels) == 1
+    for t in chart.mode_labels:
+        bottom = chart.axes.transData.inverted().transform((0.0, t.get_window_extent(renderer).y0))[1]
+        assert bottom > n_max, (bottom, n_max)
     _click(chart, px, py)
     assert picker.picks == [] and picker.markers == []
     assert (chart.axes.get_xlim(), chart.axes.get_ylim()) == limits

@@ -63,6 +63,8 @@ def test_a_pick_drives_k_tb(rig, picked):
         estimate_stiffness(sim.data, rig, selection=wrong)
     with pytest.raises(ValueError, match="not both"):
         estimate_stiffness(sim.data, rig, selection=sel, identification=ident)
+    with pytest.raises(TypeError, match="give an Identification as identification="):  # not a bare TypeError
+        estimate_stiffness(sim.data, rig, selection=ident)
 
 
 def test_replay_and_tracked_replay(rig, picked):

@@ -312,3 +312,30 @@ def test_two_passing_modes_far_apart_are_refused(rig, monkeypatch):
     with pytest.raises(MatchingError, match="ambiguous housing mode") as ei:
         st.estimate_stiffness(_data_from(mm), rig, spindle=False)
     assert len(ei.value.message) <= 300 and ei.value.candidates
+
+
+def test_plot_rig_fit_phase(rig, monkeypatch, mplcleanup):
+    """Drill-down figure with magnitude and phase (issue 20): the phase drawn is the FRF's angle,
+    wrapped so that a driving point's accelerance (180 deg below its resonance, 0 above) is one
+    unbroken line through +90 deg at the housing mode."""
+    from ema_rig.plot.rig import plot_rig_fit
+
+    mm = modal(rig_modes(rig.model, 626.0))
+    _fake_identify(monkeypatch, mm, 0.2)
+    data = _data_from(mm)
+    res = st.estimate_stiffness(data, rig, spindle=False)
+    p = plot_rig_fit(data, res, rig, phase=True)
+    assert set(p.axes) == {"housing", "housing_phase", "spindle", "spindle_phase", "candidates"}
+    assert p.axes["housing_phase"].get_ylim() == (-100.0, 280.0)  # accelerance: centred on +90 deg
+    meas = p.axes["housing_phase"].get_lines()[0]
+    f, ph = np.asarray(meas.get_xdata()), np.asarray(meas.get_ydata())
+    ok = np.isfinite(ph)
+    # noise-free data: the line is the angle of the FRF (to rounding), wrapped into [-90, 270) deg
+    expect = np.degrees(np.angle(data.frf[0, 0, (data.freq >= 150.0) & (data.freq <= 700.0)]))
+    np.testing.assert_allclose(np.mod(ph[ok] - expect + 180.0, 360.0) - 180.0, 0.0, atol=1e-9)
+    assert np.all((ph[ok] >= -90.0) & (ph[ok] < 270.0)) and np.array_equal(np.isnan(f), ~ok)
+    # a driving point's phase at its resonance is +90 deg (accelerance of a lightly damped mode);
+    # the neighbouring modes shift it (here by 0.9 deg)
+    assert abs(np.interp(626.0, f[ok], ph[ok]) - 90.0) < 3.0
+    model = p.artists["model"]
+    assert all(np.isfinite(ln.get_ydata()).all() for ln in model if ln.axes is p.axes["housing_phase"])

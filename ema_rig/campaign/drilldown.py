@@ -35,12 +35,12 @@ logger = logging.getLogger(__name__)
 KINDS: dict[str, str] = {
     "stabilization": "Stabilization chart over the sum of FRF magnitudes; dashed: the automatically selected modes.",
     "model": "Measured radial FRFs (black) against the 3DOF rig model at the identified k_TB+MS (grey), "
-             "every candidate mode below with its verdict (paper Fig. 7).",
+             "magnitude and phase, every candidate mode below with its verdict (paper Fig. 7).",
     "synthesis": "Measured FRFs against the FRFs synthesised from the identified modal model (LSFD), one "
                  "sensor of each kind (housing/spindle, radial/lateral/axial); shaded: the identification band.",
 }
 #: Bump when the drawing changes (size, resolution, content): every per-measurement figure is redrawn.
-_DRAW_VERSION = 4
+_DRAW_VERSION = 5
 #: Pixel density and size of the embedded figures: at least 1000 px wide (readable on screen; issue 20).
 DPI = 80
 _SIZE = (12.8, 5.6)
@@ -172,7 +172,8 @@ def measurement_figures(
     if result is not None:
         channels = _synthesis_channels(data, ident.modes)
         drawers["model"] = lambda: plot_rig_fit(
-            data, result, cfg.rig, figure=_figure(_SIZE[0], 8.0), title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
+            data, result, cfg.rig, figure=_figure(_SIZE[0], 10.4), phase=True,
+            title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
         drawers["synthesis"] = lambda: plot_synthesis(
             data, ident.modes, channels=channels, phase=True, fig_width=_SIZE[0], title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
     for kind, draw in drawers.items():

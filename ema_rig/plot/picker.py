@@ -25,7 +25,7 @@ navigation toolbar (``backspace`` would also step the view back). Typical use::
     from ema_rig.plot.picker import PolePicker
 
     ident = identify(data, band=(150, 1000))
-    fig, ax = plt.subplots(figsize=(10, 6))
+    fig, ax = plt.subplots(figsize=(10, 6), layout="constrained")  # room for the legend
     chart = plot_stabilization(ident.stabilization, data, ax=ax, selection=ident.selection)
     picker = PolePicker(chart)        # click poles; click again to unpick
     plt.show()                        # (in Jupyter the figure is live already)

@@ -3,8 +3,9 @@
 Functions
 ---------
 plot_rig_fit
-    Housing and spindle radial FRFs (black) against the model (grey) in 150–700 Hz, the chosen
-    housing mode marked, every candidate mode in a strip below with the reason it was rejected.
+    Housing and spindle radial FRFs (black) against the model (grey) in 150–700 Hz, magnitude
+    (and on request phase), the chosen housing mode marked, every candidate mode in a strip below
+    with the reason it was rejected.
 save_figure
     Save a figure atomically.
 
@@ -47,7 +48,8 @@ class RigPlot:
     ----------
     figure : matplotlib.figure.Figure
     axes : dict
-        ``'housing'``, ``'spindle'`` (may be absent) and ``'candidates'`` axes.
+        ``'housing'``, ``'spindle'`` (may be absent) and ``'candidates'`` axes; with ``phase=True``
+        also ``'housing_phase'`` and ``'spindle_phase'`` (the phase [deg] under each magnitude).
     artists : dict
         ``'measured'``, ``'model'``, ``'housing_mode'``, ``'candidates'``: lists of artists.
     model_k_tb_ms : float
@@ -97,6 +99,17 @@ def _model_parts(result: Any, rig: RigConfig) -> list[tuple[str, Any, np.ndarray
     return out
 
 
+def _phase_line(f: np.ndarray, h: np.ndarray, centre: float) -> tuple[np.ndarray, np.ndarray]:
+    """Frequencies [Hz] and phase of ``h`` [deg] wrapped into ``[centre - 180, centre + 180)``.
+
+    A NaN is inserted in both where the phase wraps by a full turn, so the wrap is drawn as the
+    gap it is and not as a vertical stroke across the panel.
+    """
+    ph = np.mod(np.degrees(np.angle(h)) - centre + 180.0, 360.0) - 180.0 + centre
+    jump = np.flatnonzero(np.abs(np.diff(ph)) > 180.0) + 1
+    return np.insert(np.asarray(f, dtype=float), jump, np.nan), np.insert(ph, jump, np.nan)
+
+
 def plot_rig_fit(
     data: FRFData,
     result: Any,
@@ -105,6 +118,7 @@ def plot_rig_fit(
     band: tuple[float, float] = (150.0, 700.0),
     figure: Figure | None = None,
     title: str | None = None,
+    phase: bool = False,
 ) -> RigPlot:
     """Measured radial FRFs against the 3DOF model (paper Fig. 7).
 
@@ -123,6 +137,9 @@ def plot_rig_fit(
         Figure to draw into (cleared); default a new one (no pyplot state).
     title : str, optional
         Figure title (default: file name and k_TB).
+    phase : bool, optional
+        Also draw the phase [deg] of the measured and model FRFs under each magnitude panel
+        (default False: the paper's Fig. 7 shows magnitudes only).
 
     Returns
     -------
@@ -165,13 +182,17 @@ def plot_rig_fit(
 
     fig = figure if figure is not None else Figure(figsize=(8.0, 7.2), layout="constrained")
     fig.clear()
-    n_main = 2 if s_out else 1
-    gs = fig.add_gridspec(n_main + 1, 1, height_ratios=[3.0] * n_main + [1.25])
+    names = ["housing", "spindle"] if s_out else ["housing"]
+    if phase:
+        names = [n for name in names for n in (name, f"{name}_phase")]
+    n_main = len(names)
+    gs = fig.add_gridspec(n_main + 1, 1, height_ratios=[1.2 if n.endswith("_phase") else 3.0 for n in names]
+                          + [1.25])
     axes: dict[str, Any] = {}
     ax_h = fig.add_subplot(gs[0])
     axes["housing"] = ax_h
-    if s_out:
-        axes["spindle"] = fig.add_subplot(gs[1], sharex=ax_h)
+    for k, name in enumerate(names[1:], start=1):
+        axes[name] = fig.add_subplot(gs[k], sharex=ax_h)
     ax_c = fig.add_subplot(gs[n_main], sharex=ax_h)
     axes["candidates"] = ax_c
     artists: dict[str, list[Any]] = {"measured": [], "model": [], "housing_mode": [], "candidates": []}
@@ -197,9 +218,25 @@ def plot_rig_fit(
         dofs = ", ".join(str(data.out_dofs[i]) for i in idx)
         ax.text(0.01, 0.97, f"{label} ({dofs}) / force {data.in_dofs[q]}", transform=ax.transAxes,
                 va="top", ha="left", fontsize=9, bbox={"fc": "white", "ec": "none", "alpha": 0.8})
+        if phase:
+            pax = axes[f"{name}_phase"]
+            # the window holds a driving point's whole range without a wrap: 180..0 deg for
+            # accelerance, 90..-90 for mobility, 0..-180 for receptance
+            c = {"accelerance": 90.0, "mobility": 0.0}.get(data.frf_form, -90.0)
+            for i in idx:
+                h = data.frf[i, q, sel]
+                (ln,) = pax.plot(*_phase_line(f, h, c), color=_MEAS, lw=0.9)
+                artists["measured"].append(ln)
+            for (_, _, _, style), hm in zip(models, h_models, strict=True):
+                (lm,) = pax.plot(*_phase_line(ff, hm[row], c), zorder=1, **style)
+                artists["model"].append(lm)
+            pax.set_ylim(c - 190.0, c + 190.0)
+            pax.set_yticks(c + np.array([-180.0, -90.0, 0.0, 90.0, 180.0]))
+            pax.set_ylabel("phase [deg]")
+            pax.grid(True, color="0.88", lw=0.6)
 
     fh = float(result.housing_mode["natural_freq"])
-    for name in [p[0] for p in panels]:
+    for name in names:
         ax = axes[name]
         if lo <= fh <= hi:
             vl = ax.axvline(fh, color=_STATUS_COLOR["housing"], lw=1.0, ls="--", zorder=0,
@@ -253,7 +290,7 @@ def plot_rig_fit(
         note += f"; {len(outside)} outside {lo:.0f}–{hi:.0f} Hz:\n{shown}" + (", ..." if len(outside) > 5 else "")
     ax_c.set_title(note, fontsize=8, loc="left")
     ax_c.set_xlabel("Frequency [Hz]")
-    for name in [p[0] for p in panels]:
+    for name in names:
         axes[name].tick_params(labelbottom=False)
         axes[name].set_xlim(lo, hi)
     if title is None:

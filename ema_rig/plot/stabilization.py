@@ -163,8 +163,11 @@ class StabilizationPlot:
                     rows.append(k)
         n_rows = max(rows) + 1
         row_h = 0.13  # fraction of the axis height per label row
-        top = 1.03 * n_max / (1.0 - row_h * n_rows)
-        ax.set_ylim(0, top)
+        if ax.get_autoscale_on():
+            top = 1.03 * n_max / (1.0 - row_h * n_rows)
+            ax.set_ylim(0, top)
+        else:  # the view is fixed (a PolePicker holds it still, with room for four rows): label in it
+            top = ax.get_ylim()[1]
         for f, k in zip(freqs, rows, strict=True):
             ln = ax.axvline(f, color=self.colors.get("mode", "g"), lw=1.0, ls="--", alpha=0.8, zorder=1)
             y = top * (1.0 - row_h * k) - 0.01 * top

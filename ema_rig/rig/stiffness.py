@@ -242,6 +242,9 @@ def _given_identification(data: FRFData, rig: RigConfig, identification: Any, se
         return None
     from ..identification import Selection, identify
 
+    if hasattr(selection, "modes") and hasattr(selection, "stabilization"):  # an Identification
+        raise TypeError("selection must be a Selection or the path of its JSON file; "
+                        "give an Identification as identification=")
     if not isinstance(selection, Selection):
         selection = Selection.from_json(selection)  # a path; a bad file raises naming it
     cfg = rig.identification
