@@ -89,7 +89,7 @@ from .inversion import (
     model_mode_at,
 )
 from .matched_mode import MatchedMode
-from .matching import MatchResult, match_modes
+from .matching import MATCH_CRITERIA, MatchResult, match_modes
 from .uncertainty import (
     DEFAULT_REL_UNCERTAINTY,
     StiffnessUncertainty,
@@ -199,9 +199,11 @@ def _identify_and_match(
     if spindle and m.spindle_mode is None:
         info = model_mode_at(rig.model, m.housing_mode["natural_freq"])
         if info is not None:
-            lo, hi = 0.8 * info.spindle_freq, min(1.2 * info.spindle_freq, float(data.freq[-1]))
+            c = MATCH_CRITERIA
+            lo = (1.0 - c.spindle_freq_tol) * info.spindle_freq
+            hi = min((1.0 + c.spindle_freq_tol) * info.spindle_freq, float(data.freq[-1]))
             # only worth it when the band reaches past the predicted mode and lies beyond the first
-            if hi > info.spindle_freq * 1.02 and lo > b[1] * 0.5:
+            if hi > info.spindle_freq * (1.0 + c.spindle_search_margin) and lo > b[1] * c.spindle_search_min_fraction:
                 s_band = (lo, hi)
                 try:
                     s_ident = _identify(data, s_band, mo, progress, rig)
