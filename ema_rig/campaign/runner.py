@@ -212,24 +212,24 @@ def _process(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | N
     return out, computed
 
 
-def _process_and_draw(task: MeasurementTask, m: Measurement, cfg: CampaignConfig) -> tuple[dict[str, Any], Any]:
-    """Run a measurement's task and draw its report figures from that computation: a picklable worker.
+def _process_and_draw(task: MeasurementTask, m: Measurement | None = None,
+                      cfg: CampaignConfig | None = None) -> tuple[dict[str, Any], Any]:
+    """Run a measurement's task and, with ``m`` and ``cfg``, draw its report figures from that computation.
 
-    The figures are drawn from the identification just made (it is not picklable, and
-    identifying again for the figures would double the work); they are returned as
-    :class:`~ema_rig.campaign.drilldown.MeasurementFigures` (PNG bytes), or None when the row is
-    not good or drawing failed unexpectedly (logged; then the output phase draws them again, as
-    for a row reused from a previous run).
+    A picklable worker: it returns the row of :func:`process_measurement` and the figures. They
+    are drawn from the identification just made (it is not picklable, and identifying again for
+    the figures would double the work), as :class:`~ema_rig.campaign.drilldown.MeasurementFigures`
+    (PNG bytes); None without ``m``, for a failed row, or when drawing failed unexpectedly
+    (logged; the output phase then draws them again, as for a row reused from a previous run).
     """
     out, computed = _process(task)
-    if computed is None or out.get("status") != "ok":
+    if computed is None or out.get("status") != "ok" or m is None or cfg is None:
         return out, None
     from .drilldown import measurement_figures
 
     try:
         drawn = measurement_figures(m, out, cfg, k_ms=cfg.rig.model.k_MS if task.k_ms is None else task.k_ms,
-                                    k_ms_std=task.k_ms_std,
-                                    computed=computed)
+                                    k_ms_std=task.k_ms_std, computed=computed)
     except Exception:  # a drawing bug must not cost the row: the output phase tries again and reports it
         logger.exception("%s: figures not drawn with the computation", m.id)
         drawn = None
@@ -544,7 +544,7 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     drawn: dict[str, Any] = {}
 
     def task_of(m: Measurement, t: MeasurementTask) -> tuple[Callable[..., Any], tuple[Any, ...]]:
-        return (_process_and_draw, (t, m, cfg)) if m.id in draw else (_process, (t,))
+        return (_process_and_draw, (t, m, cfg) if m.id in draw else (t,))
 
     def settle(m: Measurement, key: str, outcome: tuple[dict[str, Any], Any]) -> None:
         result, figs = outcome
