@@ -10,7 +10,7 @@ speed, band, order): the pipeline is deterministic, so the selection drawn is th
 housing frequency found again is compared with the row's; a difference is reported in the figure
 set's ``warnings`` instead of being drawn silently.
 
-The figures are expensive (an identification each), so :func:`figure_key` names what they depend
+The figures are expensive (drawing; an identification each when drawn here), so :func:`figure_key` names what they depend
 on - the row's cache key (file content, task, ema_rig version) and this module's drawing settings -
 and :mod:`ema_rig.campaign.outputs` draws them again only when that key changes.
 """

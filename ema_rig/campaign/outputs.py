@@ -52,8 +52,8 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     out_dir : path
         The output folder (the caller holds its lock during :func:`~ema_rig.campaign.run`).
     executor : concurrent.futures.Executor, optional
-        Draws the measurements' figures (an identification each) in parallel while this process
-        draws the campaign figures; the files are written here, in the same order.
+        Draws the measurements' figures not in ``drawn`` (an identification each) in parallel
+        while this process draws the campaign figures; the files are written here, in the same order.
     drawn : mapping, optional
         Measurement id -> (row cache key, :class:`~ema_rig.campaign.drilldown.MeasurementFigures`)
         drawn by the runner's worker with the computation (:func:`figures_to_draw`): written as

@@ -18,9 +18,11 @@ Where the time goes with ``jobs > 1``: the calibration runs first in this proces
 call pays the imports of the numerical stack (scipy, the identification); the pool is started
 after it, so its forked workers inherit those modules instead of importing them again. The
 measurements are submitted longest first (by their time in the previous run, else by file size),
-so that no worker is left alone with one long measurement at the end. The same pool then draws
-the report's per-measurement figures (an identification each, the largest part of a run with
-the report) while this process draws the campaign figures.
+so that no worker is left alone with one long measurement at the end. A worker draws the
+report's figures of the measurement it computed right after computing it, from that computation
+(it is not identified again; only the PNG bytes come back). The figures of rows
+reused from a previous run but missing from the folder are drawn at the end by the same pool (an
+identification each) while this process draws the campaign figures.
 """
 
 from __future__ import annotations
@@ -554,7 +556,7 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     own_pool: ProcessPoolExecutor | None = None
     if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
         # forked after the calibration: the workers inherit its imports; they also draw the
-        # measurements' figures of the report (an identification each) at the end
+        # measurements' figures of the report (with the computation, or at the end for reused rows)
         own_pool = executor = make_pool(min(jobs, len(cfg.measurements)))
     try:
         if executor is None:
