@@ -35,12 +35,13 @@ cases = {"rig": (read_uff58(repo + "/data/b6302_1000N_1200rpm.uff", rig=load_rig
          "256": (read_uff58(synth), (100.0, 1000.0))}
 for d, b in cases.values():
     identify(d, band=b)
-print("ready", flush=True)
+import ema_rig
+print("ready", ema_rig.__file__, flush=True)
 for line in sys.stdin:
     d, b = cases[line.strip()]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     identify(d, band=b)
-    print(f"{time.perf_counter() - t0:.6f}", flush=True)
+    print(f"{time.perf_counter() - t0:.6f} {time.process_time() - c0:.6f}", flush=True)
 """
 
 
@@ -61,33 +62,49 @@ def main() -> None:
                        env=env, check=True)
         procs = {}
         for tag, tree in (("new", REPO), ("old", args.baseline.resolve())):
+            # cwd=tree: ``python -c`` puts the working directory first on sys.path, before PYTHONPATH
+            # (run from this repository's root, both workers would import this tree)
             procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(REPO), str(synth)], text=True,
-                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=str(tree),
                                           env=dict(os.environ, PYTHONPATH=str(tree),
                                                    **({"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                                                        "MKL_NUM_THREADS": "1"} if args.one_thread else {})))
-        for p in procs.values():
-            assert p.stdout is not None and p.stdout.readline().strip() == "ready"
+        for tag, p in procs.items():
+            assert p.stdout is not None
+            ready, where = p.stdout.readline().split()
+            tree = REPO if tag == "new" else args.baseline.resolve()
+            assert ready == "ready" and Path(where).resolve().is_relative_to(tree), (tag, where)
+            print(f"{tag}: ema_rig from {where}")
 
-        def ask(tag: str, case: str) -> float:
+        def ask(tag: str, case: str) -> tuple[float, float]:
             p = procs[tag]
             assert p.stdin is not None and p.stdout is not None
             p.stdin.write(case + "\n")
             p.stdin.flush()
-            return float(p.stdout.readline())
+            wall, cpu = p.stdout.readline().split()
+            return float(wall), float(cpu)
 
-        print(f"{'data':28s} {'old identify [s]':>22s} {'new identify [s]':>22s} {'new/old':>18s}")
+        print(f"baseline {args.baseline}; BLAS threads: {'1' if args.one_thread else 'default'}; "
+              f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(default)')}; "
+              f"load average at start {os.getloadavg()[0]:.1f}")
+        print(f"{'data':28s} {'':5s} {'old identify [s]':>22s} {'new identify [s]':>22s} {'new/old':>18s}")
         for case, name in (("rig", "rig file (8 out, 1701 lines)"), ("256", "256 outputs (1801 lines)")):
-            t = {"old": [], "new": []}
+            t: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
             for i in range(args.repeat):
                 for tag in (("old", "new") if i % 2 == 0 else ("new", "old")):
                     t[tag].append(ask(tag, case))
-            ratio = [b / a for a, b in zip(t["old"], t["new"], strict=True)]
 
             def fmt(x: list[float], f: str = ".3f") -> str:
                 return f"{statistics.median(x):{f}} ({min(x):{f}}-{max(x):{f}})"
 
-            print(f"{name:28s} {fmt(t['old']):>22s} {fmt(t['new']):>22s} {fmt(ratio, '.2f'):>18s}")
+            # wall time, and the CPU time of the process (all its threads): on a busy machine the
+            # wall time mostly measures waiting for a core, the CPU time the work
+            for k, kind in ((0, "wall"), (1, "cpu")):
+                old = [x[k] for x in t["old"]]
+                new = [x[k] for x in t["new"]]
+                ratio = [b / a for a, b in zip(old, new, strict=True)]
+                print(f"{name:28s} {kind:5s} {fmt(old):>22s} {fmt(new):>22s} {fmt(ratio, '.2f'):>18s}"
+                      f"  (load average now {os.getloadavg()[0]:.1f})", flush=True)
         for p in procs.values():
             assert p.stdin is not None
             p.stdin.close()

@@ -201,6 +201,12 @@ def _comparison(detail: Any) -> str:
                    f"coupling correction): k_TB {_fmt(float(inv['k_TB']), 'N/m')} MN/m at "
                    f"{_fmt(float(inv['freq']), '.2f')} Hz; reported (housing model with the measured evidence): "
                    f"{_fmt(float(detail.get('k_TB', math.nan)), 'N/m')} MN/m.</p>")
+    hmass = detail.get("housing_mass")
+    if isinstance(hmass, Mapping) and hmass.get("m_H_measured") is not None:
+        out.append(f"<p class='muted'>Housing mass from the driving-point modal mass: "
+                   f"{_fmt(float(hmass['m_H_measured']), '.4g')} ± {_fmt(float(hmass['m_H_measured_std']), '.2g')} kg "
+                   f"(rig file {_fmt(float(hmass['m_H_rig_file']), '.4g')} kg); used: "
+                   f"{html.escape(str(hmass.get('source')))}.</p>")
     if notes:
         out.append("<p>Notes:</p><ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in notes) + "</ul>")
     return "\n".join(out)

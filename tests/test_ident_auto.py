@@ -286,14 +286,13 @@ def test_dam0_every_peer_mode_found_once(real_frf_dir):
     assert np.all((ident.damping_ratio[k] > 0.001) & (ident.damping_ratio[k] < 0.05))
     recs = ident.to_records()
     for i in k:
-        # the judgement's acceptance bar (min_mpc 0.25): shapes at the ML poles, measured >= 0.29
+        # the judgement's acceptance bar (min_mpc 0.25): shapes at the ML poles, measured >= 0.56
         assert recs[i]["mpc"] > 0.25 and recs[i]["n_poles"] >= 10
     # frequencies agree with the peer (sdypy-EMA LSCF, 4 digits; a peer, not the truth: the README)
-    # to 3e-3: the default ML estimate differs from the LSCF values by up to 2.7e-3 (2.95 and 3.50 Hz,
-    # under 1.3 lines per half-power half-bandwidth), PolyMAX by 2.1e-4
-    # rtol 4e-3: the default ML estimate of the 8.64 Hz mode (< 1.3 lines per half-power bandwidth)
-    # moves by 3.4e-3 under another OpenBLAS kernel (Haswell); open in issue 18
-    np.testing.assert_allclose(ident.natural_freq[k], DAM0_PEER, rtol=4e-3)
+    # to 3e-3: the default ML estimate differs from the LSCF values by up to 2.1e-3 (10.89 Hz), PolyMAX
+    # by 2.1e-4; the OpenBLAS kernel (default vs Haswell) moves the ML estimates by at most 3.1e-5
+    # (0.02 sigma; 3.4e-3 before issue 18 item 1, a rank-deficient background basis in ml.py)
+    np.testing.assert_allclose(ident.natural_freq[k], DAM0_PEER, rtol=3e-3)
     assert ident.converged
 
 

@@ -191,3 +191,29 @@ def test_close_neighbour_with_radial_housing_motion(rig):
     assert j in m.neighbours
     # participation = 1 / m_eff for a rigid housing: the neighbour carries a quarter of the housing's
     assert m.participation[j] / m.participation[m.housing_index] == pytest.approx(0.25, rel=1e-9)
+
+
+def test_every_rig_threshold_has_a_source_and_the_defaults_are_unchanged():
+    """Issue 18 item 5: the rig stage's thresholds live in one frozen criteria object, each with its source."""
+    import dataclasses
+
+    from ema_rig.identification.ml import MLCriteria
+    from ema_rig.rig.matching import MATCH_CRITERIA, MatchCriteria
+
+    for cls in (MatchCriteria, MLCriteria):
+        crit = cls()
+        src = crit.sources()
+        assert set(src) == {f.name for f in dataclasses.fields(cls)}, cls
+        assert all(isinstance(v, str) and len(v) > 10 for v in src.values())
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            crit.__setattr__(dataclasses.fields(cls)[0].name, 0.0)
+    # the values the thresholds had as bare numbers before they moved here (and the old keywords)
+    old = MatchCriteria(min_phase_cos=0.2, min_amplitude_ratio=0.5, max_cross_axis_ratio=0.5, spindle_ratio_tol=0.15,
+                        mass_ratio_range=(0.5, 2.0), harmonic_freq_tol=2e-3, harmonic_max_damping=5e-3,
+                        spindle_freq_tol=0.2, min_spindle_ratio=1.0, neighbour_bandwidths=3.0,
+                        neighbour_participation=0.1)
+    assert old == MATCH_CRITERIA
+    assert (MATCH_CRITERIA.polarity_min_cos, MATCH_CRITERIA.harmonic_sigmas, MATCH_CRITERIA.harmonic_min_order,
+            MATCH_CRITERIA.spindle_ratio_rel_tol, MATCH_CRITERIA.units_hint_log_tol,
+            MATCH_CRITERIA.max_spindle_axial_ratio, MATCH_CRITERIA.spindle_search_margin,
+            MATCH_CRITERIA.spindle_search_min_fraction) == (0.9, 3.0, 0.5, 0.5, 0.25, 1.0, 0.02, 0.5)

@@ -89,6 +89,21 @@ def test_warm_started_roots():
     assert aberth(c, warm_start(np.zeros(0), 10), maxiter=1) is None
 
 
+@pytest.mark.parametrize("n", [0, 1, 7, 64, 200])
+def test_block_powers_match_numpy_power(n):
+    from ema_rig.identification._roots import powers
+
+    rng = np.random.default_rng(n)
+    x = np.exp(2j * np.pi * rng.random(9)) * (1.0 + 0.02 * rng.standard_normal(9))
+    x[0] = 0.0  # 0**0 = 1
+    got = powers(x, n)
+    assert got.shape == (n + 1, 9)
+    want = x[None, :] ** np.arange(n + 1)[:, None]  # numpy's own power, independent of the blocks
+    # rounding grows with the number of rounded factors (at most 2 sqrt(n) products here, n in
+    # a running product; measured 6e-14 at n = 200): 2n eps bounds both
+    np.testing.assert_allclose(got, want, rtol=2 * max(n, 1) * np.finfo(float).eps, atol=0)
+    np.testing.assert_allclose(powers(np.abs(x), n), np.abs(want), rtol=2 * max(n, 1) * np.finfo(float).eps, atol=0)
+
 def test_reduced_normal_equations_match_explicit_least_squares(system):
     from ema_rig.identification.plscf import _lag_sums, _reduced_blocks
 

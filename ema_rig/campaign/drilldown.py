@@ -16,7 +16,6 @@ and :mod:`ema_rig.campaign.outputs` draws them again only when that key changes.
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import logging
 import math
@@ -84,19 +83,16 @@ def figure_key(row: Mapping[str, Any]) -> str | None:
 
 
 def png_bytes(fig: Figure, dpi: int = DPI) -> bytes:
-    """A figure as a compact PNG (an adaptive palette of 128 colours, optimised)."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    try:
-        from PIL import Image  # a matplotlib dependency
-    except ImportError:  # pragma: no cover - matplotlib always ships with Pillow
-        return buf.getvalue()
-    buf.seek(0)
-    with Image.open(buf) as img:
-        small = img.convert("RGB").quantize(colors=128)
-        out = io.BytesIO()
-        small.save(out, format="PNG", optimize=True)
-    return out.getvalue()
+    """A figure as a compact PNG (an adaptive palette of 128 colours).
+
+    Drawn once by Agg and quantized from the pixel buffer, the minor ticks of log axes as one
+    artist each (:func:`ema_rig.plot._render.render_png`): the picture ``savefig`` gives, faster.
+    zlib's default level: the exhaustive one (``optimize``) saves 8-10 % of the bytes for 8x the
+    encoding time.
+    """
+    from ..plot._render import render_png
+
+    return render_png(fig, dpi=dpi, colors=128, optimize=False)
 
 
 def measurement_figures(

@@ -150,13 +150,13 @@ def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, 
         manifest["campaign_figures"] = names
         manifest["figures"].update({n: key for n in names})
         return {Path(n).stem: out / n for n in names}
+    from ..plot._render import render_png
     from ..plot.campaign import campaign_figures
 
     figures: dict[str, Path] = {}
     for name, fig in campaign_figures(result).items():  # pyplot-free Figures: nothing to close
         path = out / f"{name}.png"
-        with _atomic.atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=120)
+        _atomic.write_bytes(path, render_png(fig, dpi=120, colors=None, optimize=False))
         figures[name] = path
     manifest["campaign_figures"] = [p.name for p in figures.values()]
     manifest["figures"].update({p.name: key for p in figures.values()})

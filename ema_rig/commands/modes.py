@@ -86,10 +86,12 @@ def run(args: argparse.Namespace) -> int:
         for c in rejected:
             print(f"  {c.natural_freq:>10.2f} Hz  zeta {100 * c.damping_ratio:.2f} %  {c.reason}")
     print_warnings(ident, args.file)
+    cross = None
     if args.crosscheck:
         from ..identification.crosscheck import crosscheck
 
-        print(crosscheck(data, ident).table())
+        cross = crosscheck(data, ident)
+        print(cross.table())
     if args.json:
         from .._atomic import write_json
 
@@ -115,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
             "selection": ident.selection.to_dict(),
             "processing": _processing(data),  # issue 18: window, averages, usable band (dataset 1858)
         }
+        if cross is not None:  # issue 18: the flags and the peer's extra modes, for scripts
+            doc["crosscheck"] = cross.to_dict()
         write_json(args.json, doc)
         print(f"wrote {args.json}")
     if args.plot:

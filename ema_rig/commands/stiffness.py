@@ -63,6 +63,7 @@ def summary(res: Any) -> str:
         "3DOF inv.     " + ("outside the model's range" if res.inversion_3dof is None else
                             f"k_TB {res.inversion_3dof['k_TB'] / 1e6:.3f} MN/m at {res.inversion_3dof['freq']:.2f} Hz "
                             "(identified frequency, rig-file m_H, no correction)"),
+        "housing mass  " + _mass(getattr(res, "housing_mass", None)),
         "housing body  " + _rigid(res.rigid_body),
         "bearing damp. " + ("not available" if res.damping is None else
                             f"c_TB {res.c_TB:.4g}{_args.pm(res.c_TB_std)} N s/m, loss factor "
@@ -79,6 +80,14 @@ def summary(res: Any) -> str:
     for c in res.candidates:
         lines.append(f"  {c['natural_freq']:8.1f} Hz  {c['status']:<8}  {c['reason']}")
     return "\n".join(lines)
+
+
+def _mass(hm: Any) -> str:
+    """One line: m_H measured from the driving-point modal mass beside the rig file's, and which was used."""
+    if hm is None:
+        return "not measured (no clean housing mode at a radial driving point)"
+    return (f"measured {hm.measured:.4g}{_args.pm(hm.measured_std)} kg, rig file {hm.rig_file:.4g} kg "
+            f"({100 * (hm.measured / hm.rig_file - 1):+.1f} %); used: {hm.source}")
 
 
 def _rigid(rb: Any) -> str:

@@ -18,10 +18,17 @@ References
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
 _EPS = np.finfo(float).eps
+#: Newton ratio |p / p'| relative to |z| below which the rounding-level test of p is made (a root
+#: at rounding level has a ratio of ~N eps times its condition number; 1e-4 leaves condition
+#: numbers up to ~1e9 tested at once, and a worse-conditioned root is tested once it has moved
+#: that close).
+_NEAR = 1e-4
 
 
 def det_coefficients(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -48,11 +55,41 @@ def det_coefficients(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.fft.ifft(d).real * 1.0
 
 
+def powers(x: NDArray, n: int) -> NDArray:
+    """``x**j`` for ``j = 0..n``, shape (n + 1, x.size), in blocks of about ``sqrt(n)`` powers.
+
+    The first block ``x^0 .. x^(b-1)`` and the block starts ``x^0, x^b, x^2b ...`` come from two
+    short running products (one row per power, vectorised over ``x``), every power from one
+    product of the two: half the time of a running product over all ``n`` powers at degree
+    150-200, with the same rounding (each power has at most ``2 sqrt(n)`` rounded factors
+    instead of ``n``).
+    """
+    m = x.size
+    b = max(1, math.isqrt(n) + 1)
+    k = -(-(n + 1) // b)
+    base = np.empty((b, m), dtype=x.dtype)
+    base[0] = 1.0
+    if b > 1:
+        base[1:] = x
+        np.cumprod(base[1:], axis=0, out=base[1:])
+    big = np.empty((k, m), dtype=x.dtype)
+    big[0] = 1.0
+    if k > 1:
+        big[1:] = base[b - 1] * x
+        np.cumprod(big[1:], axis=0, out=big[1:])
+    out = np.empty((k, b, m), dtype=x.dtype)
+    np.multiply(big[:, None, :], base[None, :, :], out=out)
+    return out.reshape(k * b, m)[: n + 1]
+
+
 def _ratio(c: NDArray, dc: NDArray, cr: NDArray, dcr: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
     """Newton ratio p(z) / p'(z) and a flag "p(z) is at rounding level" for every z.
 
     Inside the unit circle p is evaluated directly, outside through the reversed polynomial
-    ``q(y) = y^N p(1/y)``, so no power of z exceeds 1 in modulus.
+    ``q(y) = y^N p(1/y)``, so no power of z exceeds 1 in modulus. The flag's bound (the
+    polynomial of the coefficients' moduli at ``|z|``) is computed only where the Newton ratio
+    is below :data:`_NEAR` of ``|z|``: farther from a root (or from a cluster of roots, where
+    ``p'`` is small as well) ``p`` is not at rounding level, and the flag is False.
     """
     n = c.size - 1
     r = np.empty(z.size, dtype=np.complex128)
@@ -65,16 +102,20 @@ def _ratio(c: NDArray, dc: NDArray, cr: NDArray, dcr: NDArray, z: NDArray) -> tu
         if not mask.any():
             continue
         x = z[mask] if not flip else 1.0 / z[mask]
-        pw = np.empty((x.size, n + 1), dtype=np.complex128)
-        pw[:, 0] = 1.0
-        pw[:, 1:] = x[:, None]
-        np.cumprod(pw[:, 1:], axis=1, out=pw[:, 1:])
-        p = pw @ coef
-        dp = pw[:, :-1] @ dcoef
-        small[mask] = np.abs(p) <= 4.0 * n * _EPS * (np.abs(pw) @ np.abs(coef))
+        pw = powers(x, n)  # (n + 1, x.size)
+        p = coef @ pw
+        dp = dcoef @ pw[:-1]
         with np.errstate(divide="ignore", invalid="ignore"):
             # outside: p'(z) / p(z) = N y - y^2 q'(y) / q(y)
-            r[mask] = p / dp if not flip else 1.0 / (n * x - x * x * dp / p)
+            rm = p / dp if not flip else 1.0 / (n * x - x * x * dp / p)
+            near = ~(np.abs(rm) > _NEAR * np.abs(z[mask]))  # NaN (p = p' = 0) counts as near
+        r[mask] = rm
+        flag = np.zeros(x.size, dtype=bool)
+        if near.any():
+            # |x^j| = |x|^j: the bound from real powers (no modulus of the complex powers)
+            pa = powers(np.abs(x[near]), n)
+            flag[near] = np.abs(p[near]) <= 4.0 * n * _EPS * (np.abs(coef) @ pa)
+        small[mask] = flag
     return r, small
 
 
@@ -95,19 +136,21 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
     z = np.asarray(z0, dtype=np.complex128).copy()
     act = np.arange(n)  # roots still iterating
     for _ in range(maxiter):
+        r, small = _ratio(c, dc, cr, dcr, z[act])
+        # a root whose backward error is at rounding level is done: no correction for it
+        act, r = act[~small], r[~small]
+        if act.size == 0:
+            break
         za = z[act]
-        r, small = _ratio(c, dc, cr, dcr, za)
         diff = za[:, None] - z[None, :]
         diff[np.arange(act.size), act] = 1.0
         with np.errstate(divide="ignore", invalid="ignore"):
             s = (1.0 / diff).sum(axis=1) - 1.0  # without the diagonal's 1/1
             w = r / (1.0 - r * s)
         ok = np.isfinite(w)
-        step = ~small & ok
-        z[act[step]] = za[step] - w[step]
-        # converged: backward error at rounding level, or a correction at rounding level
-        conv = small | (ok & (np.abs(w) <= 4.0 * _EPS * np.abs(za)))
-        act = act[~conv]
+        z[act[ok]] = za[ok] - w[ok]
+        # also done: a correction at rounding level
+        act = act[~(ok & (np.abs(w) <= 4.0 * _EPS * np.abs(za)))]
         if act.size == 0:
             break
     if act.size:

@@ -169,6 +169,26 @@ class CrossCheck:
     seconds: float
     peer_only: tuple[PeerMode, ...] = ()
 
+    def to_dict(self) -> dict[str, Any]:
+        """The table as JSON-ready values: band, order, one entry per mode with its ``flags``, and
+        ``peer_only``. The wall time is left out (a result never depends on the clock); NaN is None."""
+
+        def num(x: float) -> float | None:
+            return float(x) if np.isfinite(x) else None
+
+        rows = [{"natural_freq": num(r.natural_freq), "damping_ratio": num(r.damping_ratio),
+                 "natural_freq_std": num(r.natural_freq_std), "damping_ratio_std": num(r.damping_ratio_std),
+                 "natural_freq_peer": num(r.natural_freq_peer), "damping_ratio_peer": num(r.damping_ratio_peer),
+                 "natural_freq_std_peer": num(r.natural_freq_std_peer),
+                 "damping_ratio_std_peer": num(r.damping_ratio_std_peer), "n_orders_peer": int(r.n_orders_peer),
+                 "flags": list(r.flags)} for r in self.rows]
+        missed = [{"natural_freq": num(m.natural_freq), "damping_ratio": num(m.damping_ratio),
+                   "natural_freq_std": num(m.natural_freq_std), "damping_ratio_std": num(m.damping_ratio_std),
+                   "n_orders": int(m.n_orders)} for m in self.peer_only]
+        return {"tool": "sdypy-EMA LSCF", "band": [float(self.band[0]), float(self.band[1])], "order": int(self.order),
+                "combined_sigmas": COMBINED_SIGMAS, "n_flagged": int(self.n_flagged), "modes": rows,
+                "peer_only": missed}
+
     @property
     def n_flagged(self) -> int:
         """Number of flagged modes."""
@@ -286,10 +306,10 @@ def crosscheck(data: FRFData, ident: Identification, *, order: int | None = None
     rows = []
     for k, (f0, z0) in enumerate(zip(np.asarray(natural_freq, float), np.asarray(damping_ratio, float),
                                      strict=True)):
-        near = np.abs(f_st - f0) <= tol * f0
+        near = _closest_per_order(f_st, k_st, f0, tol)
         own = {"natural_freq_std": float(f_std[k]), "damping_ratio_std": float(z_std[k])}
-        if near.any():
-            n = int(near.sum())
+        if near.size:
+            n = int(near.size)
             rows.append(CrossCheckRow(
                 float(f0), float(z0), float(np.median(f_st[near])), float(np.median(z_st[near])), n,
                 natural_freq_std_peer=float(np.std(f_st[near], ddof=1)) if n > 1 else float("nan"),
@@ -298,6 +318,21 @@ def crosscheck(data: FRFData, ident: Identification, *, order: int | None = None
             rows.append(CrossCheckRow(float(f0), float(z0), float("nan"), float("nan"), 0, **own))
     peer_only = _peer_only(f_st, z_st, k_st, np.asarray(natural_freq, float), tol)
     return CrossCheck(rows=tuple(rows), band=(lo, hi), order=2 * half, seconds=seconds, peer_only=peer_only)
+
+
+def _closest_per_order(f: np.ndarray, k: np.ndarray, f0: float, tol: float) -> np.ndarray:
+    """Indices of the stable pole nearest ``f0`` in each order, where it lies within ``tol`` (relative).
+
+    One pole per order, as sdypy-EMA's own ``select_closest_poles`` picks them: a second mode of
+    the peer within the tolerance (a close pair) does not enter the median and the spread.
+    """
+    idx = np.flatnonzero(np.abs(f - f0) <= tol * f0)
+    if idx.size == 0:
+        return idx
+    best: dict[int, int] = {}
+    for i in idx[np.argsort(np.abs(f[idx] - f0), kind="stable")].tolist():
+        best.setdefault(int(k[i]), i)
+    return np.array(sorted(best.values()), dtype=int)
 
 
 def _peer_only(f: np.ndarray, z: np.ndarray, k: np.ndarray, ours: np.ndarray, tol: float) -> tuple[PeerMode, ...]:

@@ -23,10 +23,15 @@ segment every channel ``c`` is modelled as::
 
     H_c(w) = (j w)^p sum_r ( R_rc / (j w - l_r) + conj(R_rc) / (j w - conj(l_r)) ) + P_c(w)
 
-with ``P_c`` a complex polynomial (degree up to 2) in ``w`` that stands for the modes outside
-the segment. The poles ``l_r`` are shared by all channels; residues and polynomial enter
-linearly and are eliminated (variable projection, Golub & Pereyra 1973; Kaufman's 1975
-Jacobian). The noise weights are separable (a line profile times a channel scale), so the
+with ``P_c`` a complex polynomial (degree up to 2) in ``w`` and the tails of the other modes (at
+their poles, residues free) standing for what lies outside the segment. Over a few dozen lines
+these columns are nearly collinear (condition up to 1e16), so they enter as one orthonormal basis
+of their span, cut at the numerical rank and at the noise: a direction along which the start
+model's background stays below one noise standard deviation in every channel is dropped
+(truncated SVD at the discrepancy level, Hansen 1998). Otherwise the projection, the cost and the
+estimate would be set by rounding (they moved by 0.5 sigma between two BLAS kernels on dam0).
+The poles ``l_r`` are shared by all channels; residues and polynomial enter linearly and are
+eliminated (variable projection, Golub & Pereyra 1973; Kaufman's 1975 Jacobian). The noise weights are separable (a line profile times a channel scale), so the
 weighted basis and its QR factor are the same for every channel and the whole problem costs a
 few matrix products of the segment's data (BLAS 3), whatever the number of outputs. The
 Gauss-Newton matrix of the poles is the Schur complement of the full Fisher information (the
@@ -54,7 +59,8 @@ never set to 0.
 References: Pintelon & Schoukens, *System Identification: A Frequency Domain Approach*, 2nd ed.
 2012, ch. 9 and 19 (ML and its covariance; the sandwich under model errors); Golub & Pereyra,
 SIAM J. Numer. Anal. 10 (1973); Kaufman, BIT 15 (1975); White, Econometrica 48 (1980);
-Harris, Proc. IEEE 66 (1978) (window main lobes).
+Harris, Proc. IEEE 66 (1978) (window main lobes); Golub & Van Loan, *Matrix Computations*, 4th ed.
+2013 (numerical rank); Hansen, *Rank-Deficient and Discrete Ill-Posed Problems*, SIAM 1998.
 """
 
 from __future__ import annotations
@@ -93,6 +99,19 @@ class MLCriteria:
         at ``p < misfit_p`` (default 0.001, dof = its real equations) and by at least
         ``misfit_ratio`` (default 2, the rule of :func:`~ema_rig.identification.refine.refine` for a
         residual above the stated noise) is reported as a local misfit.
+    basis_rcond : float
+        Numerical rank of a segment's pole-free columns (local polynomial and the other modes'
+        tails): singular directions below ``basis_rcond`` times the largest are dropped (default
+        1.5e-8 = sqrt of the float64 epsilon). A singular vector is determined only to an angle of
+        about ``eps / gap`` (Golub & Van Loan 2013, sect. 5.4.1 and 8.6): below sqrt(eps) its
+        direction, and so the projection of the data, is set by rounding, not by the data. Of the
+        directions above it, those along which the start model stays below the noise are dropped
+        too (:meth:`_Segment.keep_supported`: truncated SVD at the discrepancy level).
+    background_sigmas : float
+        ... that is, below ``background_sigmas`` (default 1) noise standard deviations in every
+        channel: a term whose squared coefficient is below its variance adds more variance than it
+        removes bias (the break-even of Mallows' Cp, Technometrics 15, 1973; the discrepancy
+        principle, Hansen 1998 sect. 7.2).
     move_hbw : float
         A pole may move by this many PolyMAX half-power half-bandwidths, or two line spacings
         (default 1): further means it left for another feature of the data (the same rule as
@@ -106,6 +125,8 @@ class MLCriteria:
     move_hbw: float = 1.0
     misfit_p: float = 1e-3
     misfit_ratio: float = 2.0
+    basis_rcond: float = 1.4901161193847656e-08
+    background_sigmas: float = 1.0
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name."""
@@ -116,6 +137,8 @@ class MLCriteria:
             "max_iter": "work limit (Levenberg-Marquardt converges in < 10 evaluations from PolyMAX)",
             "misfit_p": "chi-square test of the residual against the noise estimate, p = 0.001 with its dof",
             "misfit_ratio": "residual twice the noise: the refinement's bound for a model error (refine.py)",
+            "basis_rcond": "sqrt(float64 eps): numerical rank of the pole-free columns (Golub & Van Loan 5.4.1, 8.6)",
+            "background_sigmas": "1 noise sigma: break-even of bias and variance (Mallows' Cp 1973, discrepancy principle)",
             "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
         }
 
@@ -165,12 +188,27 @@ def _stack(z: NDArray[np.complex128]) -> NDArray[np.float64]:
     return np.concatenate([z.real, z.imag], axis=0)
 
 
+def _orth_span(a: NDArray[np.float64], rcond: float) -> NDArray[np.float64]:
+    """Orthonormal basis, shape (rows, r), of the columns of ``a`` at numerical rank ``rcond``.
+
+    The columns are equilibrated first; singular directions below ``rcond`` times the largest
+    singular value are dropped (Golub & Van Loan 2013, sect. 5.4.1). The columns of the result are
+    the left singular vectors, by decreasing singular value.
+    """
+    norm = np.linalg.norm(a, axis=0)
+    a = a[:, norm > 0] / norm[norm > 0]
+    if a.shape[1] == 0:
+        return a
+    u, sv, _ = np.linalg.svd(a, full_matrices=False)
+    return np.ascontiguousarray(u[:, sv > rcond * sv[0]])
+
+
 class _Segment:
     """One segment: lines, weighted data, and the projected problem of its poles."""
 
     def __init__(self, jw: NDArray[np.complex128], power: int, yw: NDArray[np.float64], w: NDArray[np.float64],
                  lam0: NDArray[np.complex128], n_poly: int, others: NDArray[np.complex128],
-                 kernel: tuple[NDArray[np.float64], NDArray[np.float64]]) -> None:
+                 kernel: tuple[NDArray[np.float64], NDArray[np.float64]], rcond: float) -> None:
         # quadrature of the spectral window: the model is sum_m K_m H(w - nu_m) (lines x nodes)
         nu, kw = kernel
         self.jwn = jw[:, None] - 1j * nu[None, :]  # (n, n_nodes)
@@ -192,8 +230,49 @@ class _Segment:
         for lam in others.tolist():
             p1, n1 = self._pn(np.array([lam]), 1)
             poly += [(p1 + n1)[:, 0], 1j * (p1 - n1)[:, 0]]
-        self.poly = np.stack(poly, axis=1) if poly else np.zeros((om.size, 0), np.complex128)
-        self.L = 2 * self.m + self.poly.shape[1]
+        # the pole-free columns do not depend on the poles: one orthonormal basis of their weighted
+        # span, cut at its numerical rank. Over a few dozen lines the tails of far modes and the
+        # polynomial are nearly collinear (condition 1e16 on dam0): a basis of that rank projects the
+        # data onto directions set by rounding, so the cost jumps by percent between two evaluations
+        # of nearly the same poles (and between two BLAS kernels), and the iterations stop anywhere.
+        self.fixed = _orth_span(_stack(np.stack(poly, axis=1)) * np.concatenate([w, w])[:, None], rcond) if poly \
+            else np.zeros((2 * om.size, 0))
+        self.L = 2 * self.m + self.fixed.shape[1]
+
+    def keep_supported(self, model_w: NDArray[np.float64], noise_sd: NDArray[np.float64], sigmas: float = 1.0) -> None:
+        """Keep the background directions along which the start model exceeds the noise.
+
+        Parameters
+        ----------
+        model_w : ndarray, shape (2n, C)
+            The start model (LSFD at the start poles) on the segment's lines, weighted like the data.
+        noise_sd : ndarray, shape (C,)
+            Noise standard deviation of one weighted real equation, per channel.
+        sigmas : float, optional
+            Kept when above this many noise standard deviations in some channel
+            (:attr:`MLCriteria.background_sigmas`).
+
+        Notes
+        -----
+        The singular values of the background columns (local polynomial and the other modes' tails)
+        fall geometrically (a far mode's tail over a few dozen lines is a power series in
+        the line offset), so they set no rank. The start model does: it is the background the data
+        support, expanded in the orthonormal directions; a direction along which it stays below one
+        noise standard deviation in every channel cannot be resolved by the data and only lets the
+        fit absorb noise and the modes' own shape (truncated SVD at the discrepancy level: Hansen,
+        *Rank-Deficient and Discrete Ill-Posed Problems*, 1998, ch. 3 and 7).
+        """
+        n_t = self.fixed.shape[1]
+        if n_t == 0:
+            return
+        pos, neg = self._pn(self.lam0, 1)
+        cols = np.empty((self.jw.size, 2 * self.m), np.complex128)
+        cols[:, 0::2], cols[:, 1::2] = pos + neg, 1j * (pos - neg)
+        a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
+        coef = np.linalg.lstsq(a, model_w, rcond=None)[0][a.shape[1] - n_t :]  # (n_t, C)
+        keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
+        self.fixed = np.ascontiguousarray(self.fixed[:, keep])
+        self.L = 2 * self.m + self.fixed.shape[1]
 
     def _pn(self, lam: NDArray[np.complex128], k: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
         """Window-averaged ``(jw)^p / (jw - l)^k`` and ``(jw)^p / (jw - conj l)^k``, shape (n, n_poles)."""
@@ -214,11 +293,10 @@ class _Segment:
         """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores)."""
         lam = self.poles(theta)
         pos, neg = self._pn(lam, 1)
-        cols = np.empty((self.jw.size, self.L), np.complex128)
-        cols[:, 0 : 2 * self.m : 2] = pos + neg
-        cols[:, 1 : 2 * self.m : 2] = 1j * (pos - neg)
-        cols[:, 2 * self.m :] = self.poly
-        a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]
+        cols = np.empty((self.jw.size, 2 * self.m), np.complex128)
+        cols[:, 0::2] = pos + neg
+        cols[:, 1::2] = 1j * (pos - neg)
+        a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
         q, r = np.linalg.qr(a / d)
@@ -475,7 +553,12 @@ def local_ml(
         w = 1.0 / np.sqrt(v_i)
         ww = np.concatenate([w, w])[:, None]
         yw = _stack(y[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :]
-        seg = _Segment(jw_all[i0:i1], power, yw, w, lam0[rs_arr], n_poly, np.asarray(poles_out[np.sort(others)], dtype=np.complex128), kernel)
+        seg = _Segment(jw_all[i0:i1], power, yw, w, lam0[rs_arr], n_poly, np.asarray(poles_out[np.sort(others)], dtype=np.complex128), kernel,
+                       criteria.basis_rcond)
+        # the background directions the start model uses above the noise (the rest only fit noise)
+        nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
+        seg.keep_supported(_stack(mod[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :],
+                           np.sqrt(np.maximum(np.mean(nv, axis=0) / 2.0, 1e-300)), criteria.background_sigmas)
         th0 = seg.theta(lam0[rs_arr])
         free = np.ones(m, bool)
         why: dict[int, str] = {}
@@ -499,7 +582,6 @@ def local_ml(
         # residual covariance between channels is pooled after standardising by it
         # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
         # at the peaks, which is no random error of the lines)
-        nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
         full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv)
         n_eval += 1
         hess = np.asarray(full["hess"])

@@ -510,62 +510,13 @@ def _companion(beta: NDArray) -> NDArray:
     return c
 
 
-def _eval_poly(alpha: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
-    """``A(z)`` and ``A'(z)`` for coefficients alpha (n+1, n_in, n_in) at points z (n_z,)."""
-    n = alpha.shape[0] - 1
-    j = np.arange(n + 1)
-    with np.errstate(over="ignore", invalid="ignore"):
-        v = z[:, None] ** j[None, :]  # (n_z, n+1)
-    a = np.einsum("pj,jab->pab", v, alpha)
-    dv = np.zeros_like(v)
-    dv[:, 1:] = v[:, :-1] * j[1:]
-    da = np.einsum("pj,jab->pab", dv, alpha)
-    return a, da
-
-
-def _refine(alpha: NDArray, z: NDArray, iters: int = 3) -> NDArray:
-    """Newton steps on ``det A(z) = 0`` from the starting roots ``z``.
-
-    The step is ``det A / (d det A / dz)`` with the derivative from Jacobi's formula (sum of
-    the determinants with one column replaced by the column of ``A'``), which stays finite at
-    a root. A root that moves by more than a tenth of its distance to the unit circle is left
-    where it started.
-    """
-    z0 = z.copy()
-    zk = z.copy()
-    n_in = alpha.shape[1]
-    for _ in range(iters):
-        a, da = _eval_poly(alpha, zk)
-        with np.errstate(all="ignore"):
-            if n_in == 1:
-                step = a[:, 0, 0] / da[:, 0, 0]
-            else:
-                ddet = np.zeros(zk.size, dtype=np.complex128)
-                for i in range(n_in):
-                    ai = a.copy()
-                    ai[:, :, i] = da[:, :, i]
-                    ddet += np.linalg.det(ai)
-                step = np.linalg.det(a) / ddet
-        step = np.where(np.isfinite(step), step, 0.0)
-        zk = zk - step
-        if np.all(np.abs(step) <= 1e-12 * np.abs(zk)):
-            break
-    moved = np.abs(zk - z0)
-    bad = ~np.isfinite(zk) | (moved > 0.1 * np.abs(1.0 - np.abs(z0)))
-    zk[bad] = z0[bad]
-    return zk
-
-
 def _eigvals(c: NDArray) -> NDArray:
     return np.linalg.eigvals(c)
 
 
-def _participation(alpha: NDArray, z: NDArray) -> NDArray:
-    """Unit-norm null vectors ``l`` of ``A(z)^T`` (left null vectors of A), shape (n_z, n_in)."""
-    n_in = alpha.shape[1]
-    if n_in == 1:
-        return np.ones((z.size, 1), dtype=np.complex128)
-    a, _ = _eval_poly(alpha, z)
+def _null_vectors(a: NDArray) -> NDArray:
+    """Unit-norm left null vectors of each ``a[r]`` (n_z, n_in, n_in), largest entry real > 0."""
+    n_in = a.shape[1]
     at = np.swapaxes(a, 1, 2)
     if n_in == 2:
         # l orthogonal to the row of larger norm: row (u, v) -> l = (-v, u)
@@ -593,33 +544,112 @@ def _roots_eig(low: NDArray) -> NDArray:
     return 1.0 / w
 
 
-def _poles_of_order(
-    low: NDArray, high: NDArray, dt: float, f_lo: float, z: NDArray | None = None
-) -> tuple[NDArray, NDArray]:
-    """Physical poles (rad/s, Im > 0) and participation vectors of one order.
+def _poles_of_orders(
+    entries: list[tuple[int, NDArray, NDArray]], dt: float, f_lo: float
+) -> list[tuple[NDArray, NDArray]]:
+    """Physical poles (rad/s, Im > 0) and participation vectors of several orders.
 
-    ``z`` are the roots of ``det A_low`` when already known (warm-started root finder).
+    ``entries`` holds ``(order, alpha_high, z)`` per order, ``z`` all roots of ``det A_low``.
+    Of each conjugate pair only the root with ``Im s' > 0`` is kept (real roots, ``z > 0``: no
+    oscillation, ``z < 0``: exactly at the band's top, are not modes); each stable root
+    (``|z| < 1``) is polished on the ``alpha_n = I`` polynomial (:func:`_refine_many`), and the
+    participation vector is computed where a mode can be physical (``Re s < 0``, the test of
+    ``StabilizationData.unstable``; NaN otherwise). The polish and the participation vectors of
+    every order are evaluated together, one array operation per step instead of several per
+    order: the coefficient blocks of each order are padded with zero blocks to the highest
+    order, which changes no polynomial.
     """
-    if z is None:
-        z = _roots_eig(low)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.log(z) / dt
-    # one root of each complex pair; real roots (z > 0: no oscillation, z < 0: exactly at the
-    # band's top) are not modes
     nyq = np.pi / dt
-    z = z[(s.imag > 1e-9 * nyq) & (s.imag < (1 - 1e-9) * nyq)]
-    stable = np.abs(z) < 1.0
+    kept = []
+    for _, _, z in entries:
+        im = np.angle(z) / dt  # = Im(log z) / dt
+        kept.append(z[(im > 1e-9 * nyq) & (im < (1 - 1e-9) * nyq) & (z != 0)])
+    n_in = entries[0][1].shape[1] if entries else 1
+    top = max((e[1].shape[0] for e in entries), default=1)
+    high = np.zeros((len(entries), top, n_in, n_in))
+    for k, (_, h, _) in enumerate(entries):
+        high[k, : h.shape[0]] = h
+    owner = np.concatenate([np.full(z.size, k) for k, z in enumerate(kept)]) if kept else np.zeros(0, int)
+    z_all = np.concatenate(kept) if kept else np.zeros(0, complex)
+    stable = np.abs(z_all) < 1.0
     if stable.any():
-        z[stable] = _refine(high, z[stable])
+        z_all[stable] = _refine_many(high, owner[stable], z_all[stable])
     with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.log(z) / dt
-    # participation only where a mode can be physical (Re s < 0, the same test as
-    # StabilizationData.unstable): NaN otherwise
-    part = np.full((z.size, high.shape[1]), np.nan, dtype=np.complex128)
-    phys = s.real < 0
+        s_all = np.log(z_all) / dt
+    part = np.full((z_all.size, n_in), np.nan, dtype=np.complex128)
+    phys = s_all.real < 0
     if phys.any():
-        part[phys] = _participation(high, z[phys])
-    return s + 2j * np.pi * f_lo, part
+        part[phys] = _participation_many(high, owner[phys], z_all[phys])
+    bounds = np.cumsum([0] + [z.size for z in kept])
+    return [(s_all[a:b] + 2j * np.pi * f_lo, part[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def _eval_many(high: NDArray, owner: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
+    """``A(z)`` and ``A'(z)`` of the polynomial ``high[owner[r]]`` at each ``z[r]``: (n_z, n_in, n_in).
+
+    In chunks of roots of about half a megabyte of powers and gathered coefficients: the roots of
+    every order are many, and their powers are never held all at once.
+    """
+    n1, n_in = high.shape[1], high.shape[2]
+    j = np.arange(n1)
+    a = np.empty((z.size, n_in, n_in), dtype=np.complex128)
+    da = np.empty_like(a)
+    step = max(1, (1 << 19) // (n1 * (n_in * n_in + 4) * 8))
+    for r0 in range(0, z.size, step):
+        zc = z[r0 : r0 + step]
+        v = np.empty((zc.size, n1), dtype=np.complex128)
+        v[:, 0] = 1.0
+        if n1 > 1:
+            v[:, 1:] = zc[:, None]
+            np.cumprod(v[:, 1:], axis=1, out=v[:, 1:])
+        dv = np.zeros_like(v)
+        dv[:, 1:] = v[:, :-1] * j[1:]
+        c = high[owner[r0 : r0 + step]]  # (chunk, n1, n_in, n_in)
+        a[r0 : r0 + step] = np.einsum("rj,rjab->rab", v, c)
+        da[r0 : r0 + step] = np.einsum("rj,rjab->rab", dv, c)
+    return a, da
+
+
+def _refine_many(high: NDArray, owner: NDArray, z: NDArray, iters: int = 3) -> NDArray:
+    """Newton steps on ``det A(z) = 0`` from the starting roots ``z``, ``A = high[owner[r]]`` for root r.
+
+    The step is ``det A / (d det A / dz)`` with the derivative from Jacobi's formula (sum of
+    the determinants with one column replaced by the column of ``A'``), which stays finite at
+    a root. A root that moves by more than a tenth of its distance to the unit circle is left
+    where it started.
+    """
+    z0 = z.copy()
+    zk = z.copy()
+    n_in = high.shape[2]
+    for _ in range(iters):
+        a, da = _eval_many(high, owner, zk)
+        with np.errstate(all="ignore"):
+            if n_in == 1:
+                step = a[:, 0, 0] / da[:, 0, 0]
+            else:
+                ddet = np.zeros(zk.size, dtype=np.complex128)
+                for i in range(n_in):
+                    ai = a.copy()
+                    ai[:, :, i] = da[:, :, i]
+                    ddet += np.linalg.det(ai)
+                step = np.linalg.det(a) / ddet
+        step = np.where(np.isfinite(step), step, 0.0)
+        zk = zk - step
+        if np.all(np.abs(step) <= 1e-12 * np.abs(zk)):
+            break
+    moved = np.abs(zk - z0)
+    bad = ~np.isfinite(zk) | (moved > 0.1 * np.abs(1.0 - np.abs(z0)))
+    zk[bad] = z0[bad]
+    return zk
+
+
+def _participation_many(high: NDArray, owner: NDArray, z: NDArray) -> NDArray:
+    """Unit-norm null vectors ``l`` of ``A(z)^T`` (left null vectors of A), ``A = high[owner[r]]``: (n_z, n_in)."""
+    n_in = high.shape[2]
+    if n_in == 1:
+        return np.ones((z.size, 1), dtype=np.complex128)
+    a, _ = _eval_many(high, owner, z)
+    return _null_vectors(a)
 
 
 def _normalise_orders(orders: Iterable[int] | None, max_order: int, n_in: int) -> list[int]:
@@ -759,7 +789,7 @@ class PlscfEngine:
         self.f_lo, self.f_hi = float(data.freq[0]), float(data.freq[-1])
         with single_threaded():
             self._r, self._s, self._t, _, self.dt = _lag_sums(data, max_order)
-        self.order_limit = _order_limit(self._r)
+            self.order_limit = _order_limit(self._r)
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
@@ -811,13 +841,12 @@ class PlscfEngine:
         with single_threaded():
             self._blocks(order_list[-1])
         pool = None
-        futures: list[tuple[int, Any]] = []
         if self.root_finder == "eig" and self.threads > 1 and len(order_list) > 4:
             pool = ThreadPoolExecutor(max_workers=self.threads)
 
-        def work(low: NDArray, high: NDArray) -> tuple[NDArray, NDArray]:
+        def work(low: NDArray) -> NDArray:
             with single_threaded():
-                return _poles_of_order(low, high, dt, f_lo)
+                return _roots_eig(low)
 
         wanted = set(order_list)
 
@@ -831,6 +860,9 @@ class PlscfEngine:
                     if i0 + k in wanted:
                         yield i0 + k
 
+        # per order: solve and root; the polish of the stable roots and the participation
+        # factors of all these orders follow at once (_poles_of_orders)
+        entries: list[tuple[int, NDArray, Any]] = []
         try:
             with single_threaded():
                 for n in solvable():
@@ -838,7 +870,7 @@ class PlscfEngine:
                     low, high = _solve_order(self._T[:c, :c] - self._P[:c, :c], n, n_in)
                     self._last = n
                     if pool is not None:
-                        futures.append((n, pool.submit(work, low, high)))
+                        entries.append((n, high, pool.submit(work, low)))
                         continue
                     z = None
                     big = self.root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
@@ -850,16 +882,20 @@ class PlscfEngine:
                     if z is None:
                         z = _roots_eig(low)
                     self._prev = z
-                    self._rows[n] = _poles_of_order(low, high, dt, f_lo, z)
+                    entries.append((n, high, z))
                     if bar is not None:
                         bar.update()
-            for n, fut in futures:
-                self._rows[n] = fut.result()
+            if pool is not None:
+                entries = [(n, high, fut.result()) for n, high, fut in entries]
                 if bar is not None:
-                    bar.update()
+                    bar.update(len(entries))
         finally:
             if pool is not None:
                 pool.shutdown(wait=True, cancel_futures=True)
+        with single_threaded():
+            done = _poles_of_orders(entries, dt, f_lo)
+        for (n, _, _), row in zip(entries, done, strict=True):
+            self._rows[n] = row
 
     def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
         """Poles of the given orders (computing those not yet computed).

@@ -184,13 +184,14 @@ def _shape_metrics(phi: NDArray[np.complex128], p: int | None, g: dict[tuple[str
 
 
 def _polarity_suspect(phi: NDArray[np.complex128], p: int | None, h_rad: list[int],
-                      out_dofs: tuple[DOF, ...], min_amplitude_ratio: float) -> str | None:
+                      out_dofs: tuple[DOF, ...], min_amplitude_ratio: float, min_cos: float = 0.9) -> str | None:
     """The radial housing sensor whose sign flip would make a tilt-like shape a clean translation.
 
     A rigid radial translation moves every radial housing sensor in phase with similar
     amplitude; a tilt mode moves them out of phase *and* with different amplitudes (a sensor near
     the tilt axis hardly moves). When flipping exactly one sensor gives in-phase motion
-    (``cos >= 0.9``) with similar amplitudes, that sensor's polarity is the likely cause.
+    (``cos >= min_cos``, :attr:`MatchCriteria.polarity_min_cos`) with similar amplitudes, that
+    sensor's polarity is the likely cause.
     """
     a = np.asarray(phi[h_rad], dtype=complex)
     if len(h_rad) < 2 or not np.all(np.abs(a) > 0):
@@ -200,7 +201,7 @@ def _polarity_suspect(phi: NDArray[np.complex128], p: int | None, h_rad: list[in
     def clean(v: NDArray[np.complex128]) -> bool:
         cos = np.real(v * np.conj(v[pref])) / (np.abs(v) * abs(v[pref]))
         amp = np.min(np.abs(v)) / np.max(np.abs(v))
-        return bool(np.min(cos) >= 0.9 and amp >= min_amplitude_ratio)
+        return bool(np.min(cos) >= min_cos and amp >= min_amplitude_ratio)
 
     if clean(a):
         return None
@@ -226,6 +227,9 @@ def measure_candidates(
     harmonic_freq_tol: float,
     harmonic_max_damping: float,
     min_amplitude_ratio: float,
+    harmonic_sigmas: float = 3.0,
+    harmonic_min_order: float = 0.5,
+    polarity_min_cos: float = 0.9,
 ) -> list[Candidate]:
     """Shape, scale and harmonic metrics of every mode (status ``'rejected'``, no reason yet).
 
@@ -243,6 +247,8 @@ def measure_candidates(
         Shaft speed [Hz] of a rotating bearing.
     harmonic_freq_tol, harmonic_max_damping, min_amplitude_ratio : float
         See :class:`ema_rig.rig.matching.MatchCriteria`.
+    harmonic_sigmas, harmonic_min_order, polarity_min_cos : float, optional
+        See :class:`ema_rig.rig.matching.MatchCriteria` (defaults: its defaults).
 
     Returns
     -------
@@ -286,16 +292,16 @@ def measure_candidates(
         fn, z = float(modes.natural_freq[r]), float(modes.damping_ratio[r])
         sd = None if natural_freq_std is None else _clean(float(natural_freq_std[r]))
         harmonic = None
-        if speed_hz is not None and fn >= 0.5 * speed_hz:
+        if speed_hz is not None and fn >= harmonic_min_order * speed_hz:
             k = max(1, round(fn / speed_hz))
-            tol = harmonic_freq_tol * fn if sd is None else max(harmonic_freq_tol * fn, 3.0 * sd)
+            tol = harmonic_freq_tol * fn if sd is None else max(harmonic_freq_tol * fn, harmonic_sigmas * sd)
             if abs(fn - k * speed_hz) <= tol and z < harmonic_max_damping:
                 harmonic = int(k)
         metrics: dict[str, Any] = {}
         if h_rad:
             metrics = dict(_shape_metrics(shapes[r], p, groups))
             metrics["polarity_suspect"] = _polarity_suspect(shapes[r], p, h_rad, modes.out_dofs,
-                                                            min_amplitude_ratio)
+                                                            min_amplitude_ratio, polarity_min_cos)
         out.append(Candidate(
             index=r, source=source, natural_freq=fn, damping_ratio=z, natural_freq_std=sd,
             radial_sensors=bool(h_rad), modal_mass=None if mass is None else _clean(float(mass[r])),

@@ -66,6 +66,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -73,7 +74,7 @@ from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
 from .candidates import find_dof
-from .matching import MatchResult, match_modes, model_mode_at
+from .matching import MATCH_CRITERIA, MatchResult, match_modes, model_mode_at
 from .uncertainty import assess_housing_mode, defaults_note, measured_freq_std
 
 __all__ = [
@@ -180,9 +181,11 @@ def _identify_and_match(
     if spindle and m.spindle_mode is None:
         info = model_mode_at(rig.model, m.housing_mode["natural_freq"])
         if info is not None:
-            lo, hi = 0.8 * info.spindle_freq, min(1.2 * info.spindle_freq, float(data.freq[-1]))
+            c = MATCH_CRITERIA
+            lo = (1.0 - c.spindle_freq_tol) * info.spindle_freq
+            hi = min((1.0 + c.spindle_freq_tol) * info.spindle_freq, float(data.freq[-1]))
             # only worth it when the band reaches past the predicted mode and lies beyond the first
-            if hi > info.spindle_freq * 1.02 and lo > b[1] * 0.5:
+            if hi > info.spindle_freq * (1.0 + c.spindle_search_margin) and lo > b[1] * c.spindle_search_min_fraction:
                 s_band = (lo, hi)
                 try:
                     s_ident = _identify(data, s_band, mo, progress, rig)
@@ -320,6 +323,10 @@ class StiffnessResult:
     rigid_body : HousingRigidBody or None
         Axial and cross stiffness of the housing on its bearing with stds, or why not
         (:func:`ema_rig.rig.fit.housing_rigid_body`).
+    housing_mass : HousingMass or None
+        ``m_H`` measured from the driving-point modal mass with its std, the rig file's, and which
+        the inversion used (:class:`ema_rig.rig.fit.HousingMass`); None without a clean housing
+        mode at a radial driving point.
     """
 
     k_TB: float
@@ -348,6 +355,7 @@ class StiffnessResult:
     damping: Any = None
     inversion_3dof: dict[str, float] | None = None
     rigid_body: Any = None
+    housing_mass: Any = None
 
     @property
     def c_TB(self) -> float:
@@ -429,6 +437,7 @@ class StiffnessResult:
             **_damping_keys(self.damping),
             "inversion_3dof": None if self.inversion_3dof is None else dict(self.inversion_3dof),
             "housing_rigid_body": None if self.rigid_body is None else self.rigid_body.to_dict(),
+            "housing_mass": None if self.housing_mass is None else self.housing_mass.to_dict(),
         }
 
 
@@ -620,9 +629,12 @@ def estimate_stiffness(
         params = replace(params, m_H=float(asm.m_H))
     if asm.m_H_rel_std is not None:
         rel_unc["m_H"] = float(asm.m_H_rel_std)
+    hmass = asm.housing_mass
+    id_warns, id_notes = _identification_caveats(ident, m, asm)
     try:
         unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, rel_unc, k_MS_std=k_ms_std,
-                                    model_form=asm.model_form)
+                                    model_form=asm.model_form,
+                                    measured=("m_H",) if hmass is not None and hmass.used is not None else ())
     except InversionError as exc:
         exc.file = exc.file or file
         raise
@@ -658,13 +670,44 @@ def estimate_stiffness(
         k_TB_std_measured=float(unc.k_TB_std_measured) if not unknown else math.nan,
         inverted_freq=float(f_h),
         damping_model=damping_model,
-        warnings=asm.warnings + tuple(unknown) + tuple(f"identification: {w}" for w in ident.warnings),
-        notes=asm.notes + tuple(defaults_note(unc)),
+        warnings=asm.warnings + tuple(unknown) + tuple(f"identification: {w}" for w in id_warns),
+        notes=asm.notes + tuple(defaults_note(unc)) + tuple(f"identification: {w}" for w in id_notes),
         mode_source=source,
         damping=damping,
         inversion_3dof=inv3,
         rigid_body=rigid,
+        housing_mass=hmass,
     )
+
+
+_HELD = re.compile(r"^mode at ([0-9.eE+-]+) Hz held at its PolyMAX pole")
+
+
+def _identification_caveats(ident: Any, m: MatchResult, asm: Any) -> tuple[list[str], list[str]]:
+    """The identification's warnings split into caveats of ``k_TB`` and notes.
+
+    A mode held at its PolyMAX pole by the ML estimate (``std_kind`` ``'held'``) that the result
+    does not use (not the housing mode, an alternative, a neighbour given a term, or a corrected
+    cross-axis partner) leaves ``k_TB`` and its std as they are (the held pole's uncertainty is
+    propagated to the free poles of its segment): its warning is a note of this result.
+    """
+    kinds = tuple(getattr(ident, "std_kind", ()) or ())
+    fn = [float(f) for f in ident.modes.natural_freq]
+    used = {m.housing_index, *m.alternatives, *m.neighbours}
+    cross = getattr(asm, "cross_axis", None)
+    if cross is not None:
+        used.add(min(range(len(fn)), key=lambda i: abs(fn[i] - cross.partner_freq)))
+    warns: list[str] = []
+    notes: list[str] = []
+    for w in ident.warnings:
+        hit = _HELD.match(w)
+        idx = None
+        if hit is not None and len(kinds) == len(fn):
+            f_w = float(hit.group(1))
+            near = [i for i in range(len(fn)) if kinds[i] == "held" and abs(fn[i] - f_w) <= 1e-5 * f_w]
+            idx = near[0] if len(near) == 1 else None
+        (notes if idx is not None and idx not in used else warns).append(w)
+    return warns, notes
 
 
 def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]) -> Any:

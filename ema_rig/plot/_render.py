@@ -1,0 +1,329 @@
+"""Render a finished figure to a compact PNG with less work for the same picture.
+
+Functions
+---------
+render_png
+    A figure as palette PNG bytes: drawn once by Agg, quantized from the pixel buffer (no PNG
+    written and read back), the minor ticks of log axes drawn as one artist per kind.
+
+Notes
+-----
+Most of the time matplotlib spends on a small report figure goes to the minor ticks of its log
+axes: every minor tick is a ``Tick`` object (two marker lines, a gridline and two labels, each
+transformed and drawn on its own), eight per decade per log axis, and a constrained layout walks
+them twice more to measure their (empty) labels. Once a figure is finished (limits and styles no
+longer change), :func:`collapse_minor_ticks` replaces the unlabelled minor ticks of each log axis by
+one marker line per tick side and one line collection for the gridlines, with the style of the
+axis' own minor tick (size, width, colour, direction, grid colour, width, style and alpha) at the
+positions the axis would draw (``get_minorticklocs`` inside the view interval). The picture is the
+same; minor ticks that carry labels (a log axis spanning about a decade or less) are left alone.
+
+A constrained layout measures every tick label, title and legend twice per save. Report figures of
+one kind differ only in their data, so :func:`render_png` keeps, per process, the axes positions a
+constrained layout gave, keyed by everything the layout reads: figure size and dpi, the texts the
+layout measures with their digits folded to ``0`` (digits are equally wide in the default font),
+the tick labels each axis will draw and, to the pixel, how far the outermost labels sit from the
+axis ends (a label at an end sticks out of the axes), the legends and titles (line counts, and
+whether they fit their axes). A figure with the same key gets the same positions without the
+layout being run again; any other figure is laid out in full and its positions kept for the next.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import threading
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.axis import Axis
+    from matplotlib.figure import Figure
+
+__all__ = ["collapse_minor_ticks", "render_png"]
+
+#: Layouts kept per process (structure -> [(key, positions)]), newest last; a few per figure kind.
+_LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
+_MAX_LAYOUTS = 8
+#: One Agg canvas per figure size [px] and dpi, reused for every figure of that size, in the
+#: thread of the process that made it only (see :func:`_canvas`): ``canvases`` and ``pid``.
+_LOCAL = threading.local()
+
+
+def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: bool = True,
+               reuse_layout: bool = True) -> bytes:
+    """Draw ``fig`` once and return it as PNG bytes.
+
+    Parameters
+    ----------
+    fig : Figure
+        A finished figure (it is modified: minor ticks collapsed, an Agg canvas attached).
+    dpi : float
+        Pixel density [dots per inch].
+    colors : int or None, optional
+        Adaptive palette size (default 128); None keeps full RGB.
+    optimize : bool, optional
+        Let the PNG encoder search for the smallest encoding (default True).
+    reuse_layout : bool, optional
+        Take the positions of an earlier constrained layout with the same key (module notes)
+        instead of laying the figure out again (default True).
+
+    Returns
+    -------
+    bytes
+        The PNG image, the same pixels ``fig.savefig(format="png", dpi=dpi)`` gives (before the
+        palette).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+    from PIL import Image  # a matplotlib dependency
+
+    collapse_minor_ticks(fig)
+    fig.set_dpi(dpi)
+    canvas = _canvas(fig, float(dpi), FigureCanvasAgg)
+    constrained = isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+    reused = constrained and reuse_layout and _reuse_layout(fig)
+    canvas.draw()
+    if constrained and reuse_layout and not reused:
+        _keep_layout(fig)
+    w, h = canvas.get_width_height()
+    img = Image.frombuffer("RGBA", (w, h), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
+    if colors is not None:
+        img = img.quantize(colors=colors)
+    out = io.BytesIO()
+    img.save(out, format="PNG", optimize=optimize)
+    return out.getvalue()
+
+
+def _canvas(fig: Figure, dpi: float, canvas_class: Any) -> Any:
+    """The Agg canvas of this process for ``fig``'s size, attached to ``fig``.
+
+    One canvas (and renderer) per size: matplotlib's text metrics and mathtext caches are per
+    renderer. Never one made by another process: a renderer's mathtext parses (log tick labels,
+    ``$...$``) hold the FreeType fonts they were laid out with, and a font's glyphs are read on
+    demand through the file descriptor it opened. A forked child shares that descriptor's file
+    offset with its parent and its siblings, so two processes loading glyphs through the same
+    font read each other's positions ("FT_Load_Glyph ... invalid outline"). matplotlib clears its
+    own font cache in a forked child for this reason; the canvases kept here are dropped likewise.
+    Nor one of another thread: two figures drawn at once on one canvas draw into one pixel buffer
+    (threads of an executor drawing a campaign's figures); the canvases are kept per thread.
+    """
+    pid = os.getpid()
+    canvases: dict[tuple[int, int, float], Any] | None = getattr(_LOCAL, "canvases", None)
+    if canvases is None or getattr(_LOCAL, "pid", None) != pid:  # a new thread, or a forked child
+        canvases = _LOCAL.canvases = {}
+        _LOCAL.pid = pid
+    size = (round(fig.bbox.width), round(fig.bbox.height), dpi)
+    canvas = canvases.get(size)
+    if canvas is None:
+        canvas = canvases[size] = canvas_class(fig)
+    else:
+        canvas.figure = fig
+        fig.set_canvas(canvas)
+    return canvas
+
+
+def collapse_minor_ticks(fig: Figure) -> int:
+    """Replace the unlabelled minor ticks of every log axis by two artists; returns how many axes.
+
+    Call on a finished figure: the positions are those of the current view limits.
+    """
+    n = 0
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        for axis in (ax.xaxis, ax.yaxis):
+            n += _collapse(axis)
+    return n
+
+
+def _collapse(axis: Axis) -> int:
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import NullLocator
+
+    if axis.get_scale() != "log" or isinstance(axis.get_minor_locator(), NullLocator) or not axis.get_visible():
+        return 0
+    ax = axis.axes
+    locs = np.asarray(axis.get_minorticklocs(), dtype=float)
+    # the ticks matplotlib would draw: inside the view interval (its own test, in log space)
+    lo, hi = sorted(axis.get_view_interval())
+    if not (lo > 0 and np.isfinite(hi)):
+        return 0
+    a, b = np.log10(lo), np.log10(hi)
+    tol = (b - a) * 1e-10
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.log10(locs)
+    locs = locs[(t >= a - tol) & (t <= b + tol)]
+    if locs.size and any(axis.get_minor_formatter().format_ticks(list(locs))):
+        return 0  # labelled minor ticks: keep matplotlib's own
+    axis.set_minor_locator(NullLocator())
+    if not locs.size:
+        return 1
+    tick = axis.get_minor_ticks(1)[0]  # styled as this axis' minor ticks; not drawn (no locations)
+    is_x = axis is ax.xaxis
+    zorder = axis.get_zorder()
+    for line in (tick.tick1line, tick.tick2line):
+        if not line.get_visible():
+            continue
+        pos = float(np.asarray(line.get_xdata() if not is_x else line.get_ydata())[0])
+        xy = (locs, np.full(locs.size, pos)) if is_x else (np.full(locs.size, pos), locs)
+        marks = Line2D(*xy, transform=line.get_transform(), ls="none", marker=line.get_marker(),
+                       ms=line.get_markersize(), mew=line.get_markeredgewidth(), color=line.get_color(),
+                       mec=line.get_markeredgecolor(), alpha=line.get_alpha(), zorder=zorder, clip_on=False)
+        ax.add_artist(marks)
+    g = tick.gridline
+    if g.get_visible():
+        seg = np.empty((locs.size, 2, 2))
+        if is_x:
+            seg[:, :, 0] = locs[:, None]
+            seg[:, :, 1] = [0.0, 1.0]
+        else:
+            seg[:, :, 0] = [0.0, 1.0]
+            seg[:, :, 1] = locs[:, None]
+        grid: Any = LineCollection(list(seg), transform=g.get_transform(), colors=[g.get_color()],
+                                   linewidths=g.get_linewidth(), linestyles=g.get_linestyle(),
+                                   alpha=g.get_alpha(), zorder=zorder, antialiased=g.get_antialiased())
+        grid.set_clip_path(ax.patch)
+        grid.set_capstyle(g.get_solid_capstyle())
+        ax.add_collection(grid, autolim=False)
+    return 1
+
+
+# ----------------------------------------------------------------------------- layout reuse
+_DIGITS = str.maketrans("0123456789", "0000000000")
+
+
+def _fold(text: Any) -> str:
+    return str(text).translate(_DIGITS)
+
+
+def _structure(fig: Figure) -> tuple[Any, ...]:
+    """Figure size [px], dpi and the grid place of every axes: which layouts can apply at all."""
+    geo = []
+    for ax in fig.axes:
+        ss = ax.get_subplotspec()
+        gs = None if ss is None else ss.get_gridspec()
+        geo.append(None if ss is None or gs is None else
+                   (ss.get_geometry(), repr(gs.get_height_ratios()), repr(gs.get_width_ratios())))
+    return (round(fig.bbox.width), round(fig.bbox.height), float(fig.dpi), tuple(geo))
+
+
+def _positions(fig: Figure) -> tuple[Any, ...]:
+    axes = tuple(tuple(ax.get_position(original=False).bounds) for ax in fig.axes)
+    texts = tuple((tuple(np.asarray(t.get_position(), dtype=float)), t.get_verticalalignment()) for t in fig.texts)
+    return axes, texts
+
+
+def _apply(fig: Figure, positions: tuple[Any, ...]) -> None:
+    axes, texts = positions
+    for ax, bounds in zip(fig.axes, axes, strict=True):
+        ax.set_position(bounds, which="both")
+        ax.set_in_layout(True)  # set_position takes the axes out of the layout; keep it in
+    for t, (xy, va) in zip(fig.texts, texts, strict=True):
+        t.set_position(xy)
+        t.set_verticalalignment(va)
+
+
+def _text_key(t: Any, room_px: float | None) -> Any:
+    """What a layout reads of a text: folded content, or only its lines and size when it fits ``room_px``."""
+    if not t.get_visible() or not t.get_text():
+        return None
+    s = str(t.get_text())
+    size = float(t.get_fontsize())
+    if room_px is not None:
+        # generous estimate of the widest line (0.7 em per character): narrower than its room, only
+        # the height counts
+        wide = max(len(line) for line in s.split("\n")) * 0.7 * size * t.figure.dpi / 72.0
+        if wide < room_px:
+            return ("fits", s.count("\n"), size, t.get_rotation())
+    return (_fold(s), size, t.get_rotation(), t.get_in_layout())
+
+
+def _axis_key(axis: Any, length_px: float) -> Any:
+    """Tick labels an axis will draw (folded) and where its outermost ones sit, to the pixel."""
+    if not axis.get_visible():
+        return None
+    params = axis.get_tick_params(which="major")
+    shown = tuple(sorted((k, bool(v)) for k, v in params.items() if k.startswith("label") and k[5:] in
+                         ("top", "bottom", "left", "right")))
+    lo, hi = axis.get_view_interval()
+    locs = np.asarray(axis.get_majorticklocs(), dtype=float)
+    tr = axis.get_transform()
+    ends = tr.transform(np.array([min(lo, hi), max(lo, hi)]))
+    with np.errstate(all="ignore"):
+        t = tr.transform(locs) if locs.size else locs
+    span = ends[1] - ends[0]
+    inside = (t >= ends[0] - 1e-10 * span) & (t <= ends[1] + 1e-10 * span) if span > 0 else np.zeros(locs.size, bool)
+    locs, t = locs[inside], t[inside]
+    labels = [_fold(x) for x in axis.get_major_formatter().format_ticks(list(locs))] if locs.size else []
+    # a label sticks out of the axes only when it sits within half its extent of an end: half
+    # its height along a vertical axis, half its width along a horizontal one
+    size = params.get("labelsize")
+    if not isinstance(size, (int, float)):
+        from matplotlib import rcParams
+        from matplotlib.font_manager import FontProperties
+
+        rc = rcParams["xtick.labelsize"] if axis.axis_name == "x" else rcParams["ytick.labelsize"]
+        size = FontProperties(size=rc).get_size_in_points()
+    em = float(size) * axis.figure.dpi / 72.0
+    widest = max((len(x) for x in labels), default=0)
+    cap = math.ceil(0.5 * em) if axis.axis_name == "y" else math.ceil(0.2 * em * widest)  # [2 px]
+    if t.size and span > 0:
+        frac = (t - ends[0]) / span
+        # to 2 px: the constrained layout's pads (3 pt) absorb the rest
+        near = (min(round(float(frac.min()) * length_px / 2), cap), min(round(float(1.0 - frac.max()) * length_px / 2), cap))
+    else:
+        near = None
+    widths = tuple(sorted(set(labels)))  # only the widest matters, and which are at the ends (near)
+    return (axis.get_scale(), shown, widths, near, _fold(axis.get_major_formatter().get_offset()),
+            _text_key(axis.label, None), axis.get_label_position())
+
+
+def _layout_key(fig: Figure) -> Any:
+    """Everything a constrained layout reads, at the current axes positions; None: do not reuse."""
+    keys: list[Any] = [_structure(fig)]
+    fw = fig.bbox.width
+    keys.append(tuple(_text_key(t, fw * 0.9) for t in fig.texts))
+    for ax in fig.axes:
+        if not ax.get_visible():
+            keys.append(None)
+            continue
+        box = ax.get_window_extent()
+        titles = tuple(_text_key(t, box.width * 0.95) for t in (ax.title, *ax.texts) if
+                       t is ax.title or not t.get_clip_on())
+        for loc in ("left", "right"):
+            titles += ((loc, _fold(ax.get_title(loc=loc))),)
+        leg = ax.get_legend()
+        legend = None if leg is None else (tuple(_fold(x.get_text()) for x in leg.get_texts()),
+                                           tuple(leg.get_bbox_to_anchor().bounds), leg.get_visible())
+        keys.append((ax.get_in_layout(), titles, legend, _axis_key(ax.xaxis, box.width),
+                     _axis_key(ax.yaxis, box.height)))
+    return tuple(keys)
+
+
+def _reuse_layout(fig: Figure) -> bool:
+    """Apply a kept layout whose key this figure has; True when one did (the engine is then off)."""
+    for key, positions in reversed(_LAYOUTS.get(_structure(fig), [])):
+        _apply(fig, positions)
+        try:
+            same = _layout_key(fig) == key
+        except (ValueError, TypeError, AttributeError):
+            same = False
+        if same:
+            fig.set_layout_engine("none")
+            return True
+    return False
+
+
+def _keep_layout(fig: Figure) -> None:
+    """Keep the positions of the layout just drawn under this figure's key."""
+    try:
+        key = _layout_key(fig)
+    except (ValueError, TypeError, AttributeError):
+        return
+    kept = _LAYOUTS.setdefault(key[0], [])
+    kept.append((key, _positions(fig)))
+    del kept[:-_MAX_LAYOUTS]
