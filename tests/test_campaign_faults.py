@@ -704,3 +704,34 @@ def test_parent_killed_in_figure_phase_keeps_finished_figures(small: Path, tmp_p
     clean = run(_with_figures(small, tmp_path / "clean", ids) / "campaign.toml", report=False)
     assert _k(res) == pytest.approx(_k(clean), rel=1e-9)  # same code, same data: the same numbers
     assert not any(_atomic._TEMP_NAME.match(p.name) for p in out.rglob("*"))
+
+
+# ------------------------------------------------------------------------ issue 22: one identification each
+def test_figures_drawn_from_the_computation(small: Path, tmp_path: Path, monkeypatch) -> None:
+    # was: every measurement identified twice, once for its row and again for its figures
+    from ema_rig.rig import stiffness
+
+    d = _with_figures(small, tmp_path / "c", ("m1", "m2"))
+    calls: list[str] = []
+    real = stiffness.estimate_stiffness
+
+    def counted(data, *a, **k):
+        calls.append(str(data.meta.get("source")))
+        return real(data, *a, **k)
+
+    monkeypatch.setattr(stiffness, "estimate_stiffness", counted)
+    out = tmp_path / "out"
+    assert run(d / "campaign.toml", out_dir=out).ok
+    assert len(calls) == 2, calls  # one identification per measurement, none again for its figures
+    first = {p.name: p.read_bytes() for p in (out / "measurements").iterdir()}
+    assert len(first) == 6
+    # a resumed run (rows reused from disk, figures lost) identifies once to draw them, the old
+    # way: the same PNG bytes (same process, same BLAS setting) as drawn from the computation
+    for p in (out / "measurements").iterdir():
+        p.unlink()
+    calls.clear()
+    res = run(d / "campaign.toml", out_dir=out)
+    assert res.reused == 2 and len(calls) == 2, calls
+    assert {p.name: p.read_bytes() for p in (out / "measurements").iterdir()} == first
+    calls.clear()
+    assert run(d / "campaign.toml", out_dir=out).reused == 2 and calls == []  # nothing to draw, nothing identified

@@ -2,13 +2,15 @@
 
 For every measurement the report shows the stabilization chart over the sum of FRFs, the measured
 radial FRFs against the 3DOF model (the paper's Fig. 7) and the measured against the synthesised
-FRFs. The runner's workers return JSON rows, not the identification objects, so the figures are
-drawn here again from the measurement file with exactly the settings of the row's task (the rig,
-k_MS and its std, speed, band, order): the pipeline is deterministic, so the selection drawn is the
-row's. The housing frequency found again is compared with the row's; a difference is reported in
-the figure set's ``warnings`` instead of being drawn silently.
+FRFs. A measurement computed in this run is drawn by the runner's worker right after its
+computation, from that computation's objects (they do not cross the process boundary: the
+figures, PNG bytes, do). A row reused from a previous run (or a failed row) is drawn here again
+from the measurement file with exactly the settings of the row's task (the rig, k_MS and its std,
+speed, band, order): the pipeline is deterministic, so the selection drawn is the row's. The
+housing frequency found again is compared with the row's; a difference is reported in the figure
+set's ``warnings`` instead of being drawn silently.
 
-The figures are expensive (an identification each), so :func:`figure_key` names what they depend
+The figures are expensive (drawing; an identification each when drawn here), so :func:`figure_key` names what they depend
 on - the row's cache key (file content, task, ema_rig version) and this module's drawing settings -
 and :mod:`ema_rig.campaign.outputs` draws them again only when that key changes.
 """
@@ -102,6 +104,7 @@ def measurement_figures(
     *,
     k_ms: float,
     k_ms_std: float | None,
+    computed: tuple[Any, Any] | None = None,
 ) -> MeasurementFigures:
     """Draw the figures of one measurement from its file, with the settings of its row.
 
@@ -114,6 +117,10 @@ def measurement_figures(
         Gives the rig, band and order.
     k_ms, k_ms_std : float
         Mounting stiffness [N/m] used by the campaign and its standard uncertainty.
+    computed : (FRFData, StiffnessResult), optional
+        The measured FRFs and the result of the row's own computation, in this process (the
+        runner's worker draws right after computing): drawn from them instead of reading and
+        identifying again. Used for an ``ok`` row only.
 
     Returns
     -------
@@ -133,9 +140,12 @@ def measurement_figures(
     warns: list[str] = []
     speed_hz = m.speed / 60.0 if m.speed > 0 else None
     try:
-        data = read_uff58(m.file, rig=cfg.rig).with_meta(file=m.file.name)
         result = None
-        if row.get("status") == "ok":
+        if computed is not None and row.get("status") == "ok":
+            data, result = computed[0].with_meta(file=m.file.name), computed[1]
+            ident = result.identification
+        elif row.get("status") == "ok":
+            data = read_uff58(m.file, rig=cfg.rig).with_meta(file=m.file.name)
             result = estimate_stiffness(data, cfg.rig, k_ms=k_ms, k_ms_std=k_ms_std, speed_hz=speed_hz,
                                         band=cfg.band, max_order=cfg.max_order, selection=m.selection)
             ident = result.identification
@@ -145,6 +155,7 @@ def measurement_figures(
                 warns.append(f"the figures show a housing mode at {f_now:.2f} Hz, the table {f_row:.2f} Hz "
                              "(the data changed since the row was computed?)")
         else:
+            data = read_uff58(m.file, rig=cfg.rig).with_meta(file=m.file.name)
             band = default_band(data, cfg.rig, cfg.band)
             mo = cfg.max_order if cfg.max_order is not None else cfg.rig.identification.get("max_order")
             ident = identify(data, band=band, max_order=mo)

@@ -43,7 +43,7 @@ MEASUREMENT_DIR = "measurements"
 
 
 def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
-                  executor: Executor | None = None) -> dict[str, Path]:
+                  executor: Executor | None = None, drawn: Mapping[str, Any] | None = None) -> dict[str, Path]:
     """Write the table (CSV), the resolved settings (JSON), the figures and the HTML report.
 
     Parameters
@@ -52,8 +52,12 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     out_dir : path
         The output folder (the caller holds its lock during :func:`~ema_rig.campaign.run`).
     executor : concurrent.futures.Executor, optional
-        Draws the measurements' figures (an identification each) in parallel while this process
-        draws the campaign figures; the files are written here, in the same order.
+        Draws the measurements' figures not in ``drawn`` (an identification each) in parallel
+        while this process draws the campaign figures; the files are written here, in the same order.
+    drawn : mapping, optional
+        Measurement id -> (row cache key, :class:`~ema_rig.campaign.drilldown.MeasurementFigures`)
+        drawn by the runner's worker with the computation (:func:`figures_to_draw`): written as
+        they are when the row's key is still that one, instead of being drawn again.
 
     Returns
     -------
@@ -81,10 +85,11 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     previous = _read_manifest(out)
     manifest: dict[str, Any] = {"version": _MANIFEST_VERSION, "figures": {}, "measurements": {}}
     # the measurements' figures that must be drawn again start first, in the executor
-    ahead = {} if executor is None else _draw_ahead(result, out, previous, executor)
+    drawn = drawn or {}
+    ahead = {} if executor is None else _draw_ahead(result, out, previous, executor, drawn)
     figures = _campaign_figures(result, out, previous, manifest)
     _record(out, previous, manifest)
-    per_meas = _measurement_figures(result, out, previous, manifest, ahead)
+    per_meas = _measurement_figures(result, out, previous, manifest, ahead, drawn)
     kept = set(manifest["figures"])
     for stale in set(previous.get("figures", {})) - kept:
         if _safe_rel(stale):
@@ -165,39 +170,66 @@ def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, 
 
 def _plan(result: CampaignResult, out: Path, previous: Mapping[str, Any]) -> list[tuple[Any, Any, str, dict[str, str], bool]]:
     """Per measurement with a figure key: (measurement, row, key, relative paths, reusable)."""
-    from .drilldown import KINDS, figure_key
+    from .drilldown import figure_key
 
-    old_figs = previous.get("figures", {})
-    old_meas = previous.get("measurements", {})
     plan = []
     for m, row in zip(result.config.measurements, result.rows, strict=True):
         key = figure_key({"cache_key": row.get("cache_key") or _stored_key(out, m.id)})
         if key is None:
             continue
-        rels = {k: f"{MEASUREMENT_DIR}/{m.id}.{k}.png" for k in KINDS}
-        info = old_meas.get(m.id)
-        reuse = bool(isinstance(info, dict) and info.get("key") == key and isinstance(info.get("kinds"), list)
-                     and isinstance(info.get("warnings"), list) and isinstance(info.get("candidates"), list)
-                     and all(k in rels and old_figs.get(rels[k]) == key and (out / rels[k]).is_file()
-                             for k in info["kinds"]))
+        rels, reuse = _reusable(out, previous, m.id, key)
         plan.append((m, row, key, rels, reuse))
     return plan
 
 
+def _reusable(out: Path, previous: Mapping[str, Any], mid: str, key: str) -> tuple[dict[str, str], bool]:
+    """A measurement's figure paths (relative) and whether the previous run's figures with this key are there."""
+    from .drilldown import KINDS
+
+    old_figs = previous.get("figures", {})
+    rels = {k: f"{MEASUREMENT_DIR}/{mid}.{k}.png" for k in KINDS}
+    info = previous.get("measurements", {}).get(mid)
+    reuse = bool(isinstance(info, dict) and info.get("key") == key and isinstance(info.get("kinds"), list)
+                 and isinstance(info.get("warnings"), list) and isinstance(info.get("candidates"), list)
+                 and all(k in rels and old_figs.get(rels[k]) == key and (out / rels[k]).is_file()
+                         for k in info["kinds"]))
+    return rels, reuse
+
+
+def figures_to_draw(out: str | PathLike[str], rows: list[tuple[str, str]]) -> set[str]:
+    """The measurements, of ``(id, row cache key)`` computed now, whose figures the folder cannot reuse.
+
+    The runner has their workers draw them with the computation; the others (reused from the
+    folder's previous run) are not drawn at all.
+    """
+    from .drilldown import figure_key
+
+    folder = Path(out)
+    previous = _read_manifest(folder)
+    need = set()
+    for mid, cache_key in rows:
+        key = figure_key({"cache_key": cache_key})
+        if key is not None and not _reusable(folder, previous, mid, key)[1]:
+            need.add(mid)
+    return need
+
+
 def _draw_ahead(result: CampaignResult, out: Path, previous: Mapping[str, Any],
-                executor: Executor) -> dict[str, Future[Any]]:
-    """Submit the measurements' figures that cannot be reused to ``executor``."""
+                executor: Executor, drawn: Mapping[str, Any]) -> dict[str, Future[Any]]:
+    """Submit the measurements' figures that cannot be reused nor were drawn with the computation to ``executor``."""
     from .drilldown import measurement_figures
 
     if not result.config.measurement_figures:
         return {}
     return {m.id: executor.submit(measurement_figures, m, row, result.config, k_ms=result.k_MS,
                                   k_ms_std=result.k_MS_std)
-            for m, row, _, _, reuse in _plan(result, out, previous) if not reuse}
+            for m, row, key, _, reuse in _plan(result, out, previous)
+            if not reuse and _given(drawn, m.id, key) is None}
 
 
 def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
                          manifest: dict[str, Any], ahead: Mapping[str, Future[Any]] | None = None,
+                         drawn: Mapping[str, Any] | None = None,
                          ) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
     """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
     from .drilldown import KINDS, MeasurementFigures, measurement_figures
@@ -257,10 +289,21 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
             keep(m, key, rels, [k for k in KINDS if k in info["kinds"]], [str(w) for w in info["warnings"]],
                  [c for c in info["candidates"] if isinstance(c, dict)])
         elif m.id not in drawn_now:
-            drawn_now[m.id] = measurement_figures(m, row, result.config, k_ms=result.k_MS,
-                                                  k_ms_std=result.k_MS_std)
+            given = _given(drawn or {}, m.id, key)
+            drawn_now[m.id] = given if given is not None else measurement_figures(
+                m, row, result.config, k_ms=result.k_MS, k_ms_std=result.k_MS_std)
             write(m, key, rels, drawn_now[m.id])
     return {m.id: done[m.id] for m, *_ in plan if m.id in done}  # in the campaign's order
+
+
+def _given(drawn: Mapping[str, Any], mid: str, key: str) -> Any:
+    """The figures the runner's worker drew for ``mid`` when their row's figure key is ``key``, else None."""
+    from .drilldown import figure_key
+
+    entry = drawn.get(mid)
+    if entry is None or figure_key({"cache_key": entry[0]}) != key:
+        return None
+    return entry[1]
 
 
 def _stored_key(out: Path, mid: str) -> str | None:
@@ -309,4 +352,4 @@ def _strip(d: Mapping[str, Any] | None) -> dict[str, Any] | None:
     return {k: v for k, v in d.items() if k not in ("candidates",)}
 
 
-__all__ = ["MEASUREMENT_DIR", "write_if_changed", "write_outputs"]
+__all__ = ["MEASUREMENT_DIR", "figures_to_draw", "write_if_changed", "write_outputs"]

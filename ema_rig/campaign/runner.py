@@ -18,9 +18,11 @@ Where the time goes with ``jobs > 1``: the calibration runs first in this proces
 call pays the imports of the numerical stack (scipy, the identification); the pool is started
 after it, so its forked workers inherit those modules instead of importing them again. The
 measurements are submitted longest first (by their time in the previous run, else by file size),
-so that no worker is left alone with one long measurement at the end. The same pool then draws
-the report's per-measurement figures (an identification each, the largest part of a run with
-the report) while this process draws the campaign figures.
+so that no worker is left alone with one long measurement at the end. A worker draws the
+report's figures of the measurement it computed right after computing it, from that computation
+(it is not identified again; only the PNG bytes come back). The figures of rows
+reused from a previous run but missing from the folder are drawn at the end by the same pool (an
+identification each) while this process draws the campaign figures.
 """
 
 from __future__ import annotations
@@ -189,31 +191,61 @@ def process_measurement(task: MeasurementTask) -> dict[str, Any]:
         columns, ``detail`` and ``elapsed_s``. Errors are returned, never raised, so that one bad
         file does not stop a campaign; ``KeyboardInterrupt`` and ``SystemExit`` propagate.
     """
+    return _process(task)[0]
+
+
+def _process(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | None]:
+    """:func:`process_measurement`, also giving (FRFData, StiffnessResult) of a good measurement."""
     from .._blas import single_threaded
 
     t0 = time.perf_counter()
+    computed = None
     # one BLAS thread per measurement: the matrices are small, and with --jobs N the N workers
     # would otherwise each start a thread per core and fight over the cores
     try:
         with single_threaded():
-            out = _compute(task)
+            out, computed = _compute(task)
     except EmaRigError as exc:
         out = {"status": "error", "error": str(exc), "error_kind": "data"}
     except Exception as exc:  # a bug or an unexpected file: reported, logged, never cached
         logger.exception("%s failed unexpectedly", task.file)
         out = {"status": "error", "error": f"internal error ({type(exc).__name__}): {exc}", "error_kind": "internal"}
     out["elapsed_s"] = time.perf_counter() - t0
-    return out
+    return out, computed
 
 
-def _compute(task: MeasurementTask) -> dict[str, Any]:
+def _process_and_draw(task: MeasurementTask, m: Measurement | None = None,
+                      cfg: CampaignConfig | None = None) -> tuple[dict[str, Any], Any]:
+    """Run a measurement's task and, with ``m`` and ``cfg``, draw its report figures from that computation.
+
+    A picklable worker: it returns the row of :func:`process_measurement` and the figures. They
+    are drawn from the identification just made (it is not picklable, and identifying again for
+    the figures would double the work), as :class:`~ema_rig.campaign.drilldown.MeasurementFigures`
+    (PNG bytes); None without ``m``, for a failed row, or when drawing failed unexpectedly
+    (logged; the output phase then draws them again, as for a row reused from a previous run).
+    """
+    out, computed = _process(task)
+    if computed is None or out.get("status") != "ok" or m is None or cfg is None:
+        return out, None
+    from .drilldown import measurement_figures
+
+    try:
+        drawn = measurement_figures(m, out, cfg, k_ms=cfg.rig.model.k_MS if task.k_ms is None else task.k_ms,
+                                    k_ms_std=task.k_ms_std, computed=computed)
+    except Exception:  # a drawing bug must not cost the row: the output phase tries again and reports it
+        logger.exception("%s: figures not drawn with the computation", m.id)
+        drawn = None
+    return out, drawn
+
+
+def _compute(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | None]:
     from ..io.uff import read_uff58
     from ..rig.stiffness import calibrate, estimate_stiffness
 
     data = read_uff58(task.file, rig=task.rig)
     if task.kind == "calibration":
         d = calibrate(data, task.rig, k_disk=task.k_disk, band=task.band, max_order=task.max_order).to_dict()
-        return {**d, "status": "ok", "error": "", "error_kind": "", "warnings": list(d.get("warnings") or [])}
+        return {**d, "status": "ok", "error": "", "error_kind": "", "warnings": list(d.get("warnings") or [])}, None
     selection = None
     if task.selection is not None:
         from ..identification import Selection
@@ -237,7 +269,7 @@ def _compute(task: MeasurementTask) -> dict[str, Any]:
         "loss_factor": _nan(d.get("loss_factor")), "loss_factor_std": _nan(d.get("loss_factor_std")),
         "warnings": list(d.get("warnings") or []),
         "detail": d,
-    }
+    }, (data, res)
 
 
 def _cacheable(result: Mapping[str, Any]) -> bool:
@@ -503,39 +535,59 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         # the rows change: the previous report must not look current while (or if) this run stops
         (out / "report.html").unlink(missing_ok=True)
     drill_down = out is not None and report and cfg.measurement_figures
+    # a measurement computed now whose figures cannot be reused is drawn by its worker, from the
+    # computation (no second identification); its figures wait in `drawn` for the output phase
+    draw: set[str] = set()
+    if drill_down and todo:
+        assert out is not None
+        from .outputs import figures_to_draw
+
+        draw = figures_to_draw(out, [(m.id, key) for m, _, key in todo])
+    drawn: dict[str, Any] = {}
+
+    def task_of(m: Measurement, t: MeasurementTask) -> tuple[Callable[..., Any], tuple[Any, ...]]:
+        return (_process_and_draw, (t, m, cfg) if m.id in draw else (t,))
+
+    def settle(m: Measurement, key: str, outcome: tuple[dict[str, Any], Any]) -> None:
+        result, figs = outcome
+        if figs is not None and key is not None and m.id in draw:
+            drawn[m.id] = (key, figs)
+        finish(m, key, result)
     own_pool: ProcessPoolExecutor | None = None
     if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
         # forked after the calibration: the workers inherit its imports; they also draw the
-        # measurements' figures of the report (an identification each) at the end
+        # measurements' figures of the report (with the computation, or at the end for reused rows)
         own_pool = executor = make_pool(min(jobs, len(cfg.measurements)))
     try:
         if executor is None:
             for m, t, key in todo:
-                finish(m, key, process_measurement(t))
+                fn, args = task_of(m, t)
+                settle(m, key, fn(*args))
         else:
             # our own pool gets one task per worker at a time, so a worker that dies (killed, out of
             # memory) takes down only the measurements in flight: they become error rows, and the
             # rest go on in a fresh pool; another executor gets every task at once
             pending = deque(todo)
             window = jobs if own_pool is not None else max(len(todo), 1)
-            futs: dict[Future[dict[str, Any]], tuple[Measurement, str]] = {}
+            futs: dict[Future[Any], tuple[Measurement, str]] = {}
             while pending or futs:
                 while pending and len(futs) < window:
                     m, t, key = pending.popleft()
-                    futs[executor.submit(process_measurement, t)] = (m, key)
+                    fn, args = task_of(m, t)
+                    futs[executor.submit(fn, *args)] = (m, key)
                 ready, _ = wait(futs, return_when=FIRST_COMPLETED)
                 broken = False
                 while ready:
                     for fut in ready:
                         m, key = futs.pop(fut)
                         try:
-                            outcome = fut.result()
+                            got = fut.result()
                         except Exception as exc:  # the worker died (killed process, lost dask worker)
                             broken = broken or isinstance(exc, BrokenExecutor)
-                            outcome = {"status": "error", "error_kind": "infrastructure",
-                                       "error": f"worker failed ({type(exc).__name__}: {exc or 'no message'}); "
-                                                "not cached, computed again on the next run"}
-                        finish(m, key, outcome)
+                            got = ({"status": "error", "error_kind": "infrastructure",
+                                    "error": f"worker failed ({type(exc).__name__}: {exc or 'no message'}); "
+                                             "not cached, computed again on the next run"}, None)
+                        settle(m, key, got)
                     # a broken pool fails every task it holds: collect them all before replacing it
                     ready = set(wait(futs)[0]) if broken and futs else set()
                 if broken and own_pool is not None:
@@ -555,7 +607,7 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         if out is not None and report:
             from .outputs import write_outputs
 
-            result = dataclasses.replace(result, files=write_outputs(result, out, executor=own_pool))
+            result = dataclasses.replace(result, files=write_outputs(result, out, executor=own_pool, drawn=drawn))
     except BaseException:
         bar(None)
         if own_pool is not None:
