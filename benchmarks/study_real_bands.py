@@ -4,7 +4,8 @@ For each file, ``identify`` at the defaults on two overlapping bands. A mode fou
 (nearest within 1 %) counts as consistent when its change lies within the combined two standard
 uncertainties ``2 sqrt(s_a^2 + s_b^2)`` in natural frequency (and, reported separately, damping).
 Modes away from the overlap's edges (three half-power bandwidths) found in only one band are
-listed. Files: ``real-frf/dam0.unv``, ``real-frf/vt_case1_full.uff``, ``uff-corpus/ufffiles_frf.unv``
+listed. Every reference mode of the data's README (a peer's or a published value) inside a band,
+away from its edges, must be found exactly once (within 1 %). Files: ``real-frf/dam0.unv``, ``real-frf/vt_case1_full.uff``, ``uff-corpus/ufffiles_frf.unv``
 under ``$EMA_RIG_SHARED`` (default ``/work/shared``).
 
 Run: ``python benchmarks/study_real_bands.py``.
@@ -19,6 +20,11 @@ from pathlib import Path
 import numpy as np
 
 SHARED = Path(os.environ.get("EMA_RIG_SHARED", "/work/shared"))
+#: Reference modes [Hz] from ``real-frf/README.md`` (vt_case1: published and two peers; dam0: sdypy-EMA).
+REFERENCE = {
+    "real-frf/dam0.unv": (2.482, 2.958, 3.497, 4.081, 4.167, 4.633, 7.124, 8.223, 8.643, 10.21, 10.89),
+    "real-frf/vt_case1_full.uff": (34.06, 161.6, 212.09),
+}
 CASES = (
     ("real-frf/dam0.unv", (1.0, 12.0), (1.5, 11.5)),
     ("real-frf/dam0.unv", (1.0, 12.0), (2.0, 12.4)),
@@ -33,6 +39,7 @@ def main() -> None:
     from ema_rig.io.uff import read_uff58
 
     n_f = n_f_ok = n_z_ok = 0
+    n_ref = n_ref_once = n_one_band = 0
     for rel, band_a, band_b in CASES:
         path = SHARED / rel
         if not path.exists():
@@ -49,6 +56,15 @@ def main() -> None:
             b = identify(data, band=band_b)
         lo, hi = max(a.band[0], b.band[0]), min(a.band[1], b.band[1])
         print(f"{rel}: band A {band_a}, {a.natural_freq.size} modes; band B {band_b}, {b.natural_freq.size} modes")
+        for x, tag in ((a, "A"), (b, "B")):
+            for fr in REFERENCE.get(rel, ()):
+                if not (x.band[0] + 0.02 * fr < fr < x.band[1] - 0.02 * fr):
+                    continue
+                hits = int(np.sum(np.abs(x.natural_freq - fr) <= 0.01 * fr))
+                n_ref += 1
+                n_ref_once += hits == 1
+                if hits != 1:
+                    print(f"    reference {fr:g} Hz found {hits} times in band {tag}")
         for x, y, tag in ((a, b, "A"), (b, a, "B")):
             for k, f in enumerate(x.natural_freq):
                 edge = 3 * x.damping_ratio[k] * f
@@ -57,6 +73,7 @@ def main() -> None:
                 j = int(np.argmin(np.abs(y.natural_freq - f))) if y.natural_freq.size else -1
                 if j < 0 or abs(y.natural_freq[j] - f) > 0.01 * f:
                     print(f"    {f:10.4f} Hz only in band {tag}")
+                    n_one_band += 1
                     continue
                 if tag == "B":
                     continue
@@ -72,6 +89,8 @@ def main() -> None:
     if n_f:
         print(f"inside 2 sigma: frequency {n_f_ok}/{n_f} = {100 * n_f_ok / n_f:.0f} %, "
               f"damping {n_z_ok}/{n_f} = {100 * n_z_ok / n_f:.0f} %")
+    print(f"reference modes found exactly once: {n_ref_once}/{n_ref}; modes in only one band (away from the "
+          f"edges): {n_one_band}")
 
 
 if __name__ == "__main__":

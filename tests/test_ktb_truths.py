@@ -68,8 +68,12 @@ def test_frame_mode_6_hz_below_warns_and_covers(tmp_path):
             assert res.warnings, "a frame mode a few Hz from the housing mode must be reported"
         else:
             # with it, the measured modal mass bounds the leak into the neighbour (issue 19): a
-            # note naming the neighbour and its term instead of a warning
-            assert res.warnings or any("bounds the coupling" in n for n in res.notes)
+            # note naming the neighbour and its term instead of a warning. Since the identification
+            # finds the housing mode beside the frame mode (issue 18: 667.28 Hz, truth 667.32 Hz;
+            # main merged both into 663.9 Hz), the frame mode is its own mode and the rig reports
+            # the driving-point mass the coupling lowers (-8.9 %) in a note instead
+            assert res.warnings or any("bounds the coupling" in n or "housing mass measured" in n
+                                       for n in res.notes)
         assert abs(_z(res, truth)) < 2.0
 
 

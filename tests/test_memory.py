@@ -218,7 +218,7 @@ def test_judge_fit_in_chunks_matches_brute_force(big):
     # the true poles plus a spurious one at 850 Hz, in a trough between two modes
     wx = 2 * np.pi * 850.0
     lam = np.append(_poles(), -0.01 * wx + 1j * wx)
-    res, support, share = judge_mod._fit(big, lam)
+    res, support, share, _dof = judge_mod._fit(big, lam)
     res0, support0, share0 = _oracle_fit(big.freq, big.frf, lam)
     # two solvers of a well-conditioned (scaled) problem agree to ~1e-12; 1e-10 with margin
     np.testing.assert_allclose(res, res0, rtol=0, atol=1e-10 * np.abs(res0).max())

@@ -30,12 +30,19 @@ from numpy.typing import NDArray
 
 from .._blas import single_threaded
 from ..errors import IdentificationError
+from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
+from .criteria import (
+    CompletenessCriteria,
+    IdentificationCriteria,
+    StabilizationCriteria,
+)
 from .diagnose import diagnose_frf
-from .judge import Candidate, judge_clusters, shape_mpc
+from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import _lsfd_checked
 from .ml import LocalML, local_ml
 from .modal import ModalModel
+from .noise import MisfitTest, segment_misfit
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
 from .refine import refine as refine_model
@@ -98,6 +105,10 @@ class Identification:
         What each mode's ``natural_freq_std`` / ``damping_ratio_std`` is: ``"ml"`` (measured
         standard uncertainty of the ML estimate, robust covariance), ``"held"`` (mode kept at its
         PolyMAX pole; the ML uncertainty at that pole), ``"none"`` (NaN, the warning says why).
+    residual_test : MisfitTest or None
+        The completeness test of the final model: the residual against the noise estimate per
+        band segment and channel (:func:`~ema_rig.identification.noise.segment_misfit`); None for
+        a replayed selection.
     """
 
     poles: PoleSet
@@ -116,6 +127,7 @@ class Identification:
     natural_freq_spread: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     damping_ratio_spread: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     std_kind: tuple[str, ...] = ()
+    residual_test: MisfitTest | None = None
 
     def __repr__(self) -> str:
         """One line per mode, not the arrays (a notebook prints this)."""
@@ -288,9 +300,9 @@ def identify(
     *,
     band: tuple[float, float] | None = None,
     max_order: int | None = None,
-    freq_tol: float = 0.01,
-    damping_tol: float = 0.05,
-    mac_tol: float = 0.02,
+    freq_tol: float | None = None,
+    damping_tol: float | None = None,
+    mac_tol: float | None = None,
     selection: Selection | None = None,
     near_tol: float = 0.03,
     residuals: bool = True,
@@ -298,15 +310,23 @@ def identify(
     time_budget: float | None = None,
     transpose: bool | None = None,
     refine: bool = False,
+    criteria: IdentificationCriteria | None = None,
 ) -> Identification:
     """Identify the physical modes of a measurement in a band.
 
     The model order grows from :func:`~ema_rig.identification.plscf.default_max_order` in
     steps of a quarter of it until the automatically selected mode set is the same (same
     number of modes, frequencies within three standard deviations of their cluster, at least
-    0.1 %) at two orders one step apart, up to the cap ``max_order``. Only work limits (orders,
-    evaluations) stop a loop, never the clock: the same data give the same result on any
-    machine and load.
+    0.1 %) at two orders one step apart, up to the cap ``max_order``. The mode set is then
+    complete when the residual of its model (LSFD at the ML poles) is consistent with the noise
+    estimate in every band segment and channel (:func:`~ema_rig.identification.noise.segment_misfit`,
+    a chi-square test with its degrees of freedom). Where a segment fails, a rejected candidate
+    in it is added when its F test passes and the segment then passes (a local misfit around a
+    peak is a missing mode). A failing segment without any candidate cluster makes the order grow
+    by one more span (``CompletenessCriteria.max_extra_steps``) when that changes the modes in the
+    failing segments. Segments that still fail are named: in a warning when the order cap stopped
+    the growth, else in a note (a higher order changed nothing there). Only work limits (orders, evaluations) stop a loop, never the clock:
+    the same data give the same result on any machine and load.
     Every cluster of stable poles is judged (:func:`~ema_rig.identification.judge.judge_clusters`);
     the accepted ones are fitted by LSFD on the data as measured.
 
@@ -346,6 +366,10 @@ def identify(
         report its Fisher-information standard deviations (default False). When it does not
         converge, the PolyMAX model and cluster spreads are kept with an
         :class:`~ema_rig.errors.IdentificationWarning` giving the reason.
+    criteria : IdentificationCriteria, optional
+        The thresholds of every stage with their sources
+        (:class:`~ema_rig.identification.criteria.IdentificationCriteria`); ``freq_tol``,
+        ``damping_tol``, ``mac_tol`` given replace the fields of its ``stabilization``.
 
     Returns
     -------
@@ -375,6 +399,12 @@ def identify(
                        DeprecationWarning, stacklevel=2)
     if selection is not None and not isinstance(selection, Selection):
         raise TypeError(f"selection must be a Selection, got {type(selection).__name__}")
+    crit = IdentificationCriteria() if criteria is None else criteria
+    if not isinstance(crit, IdentificationCriteria):
+        raise TypeError(f"criteria must be an IdentificationCriteria, got {type(crit).__name__}")
+    tols = {k: v for k, v in (("freq_tol", freq_tol), ("damping_tol", damping_tol), ("mac_tol", mac_tol))
+            if v is not None}
+    stab_crit: StabilizationCriteria = replace(crit.stabilization, **tols) if tols else crit.stabilization
     if selection is not None:
         # replay: the selection's band and order unless given explicitly
         band = selection.band if band is None else band
@@ -426,11 +456,12 @@ def identify(
         return list(range(step, n + 1, step)) or [n]
 
     def stabilized(n: int) -> StabilizationData:
-        return stabilize(engine.poles(orders_to(n), progress=progress),
-                         freq_tol=freq_tol, damping_tol=damping_tol, mac_tol=mac_tol)
+        return stabilize(engine.poles(orders_to(n), progress=progress), criteria=stab_crit)
 
     candidates: tuple[Candidate, ...] = ()
     converged = True
+    fitted: _Fitted | None = None
+    residual_test: MisfitTest | None = None
     if selection is not None:
         stab = stabilized(cap)
         _require_stable(stab, cap, src, data)
@@ -453,7 +484,7 @@ def identify(
         while True:
             stab = stabilized(n)
             clusters = cluster_poles(stab)
-            candidates = judge_clusters(stab, data, clusters=clusters)
+            candidates = judge_clusters(stab, data, clusters=clusters, criteria=crit.judge)
             cur = [c.mode for c in candidates if c.accepted]
             history.append(f"{n}: {len(cur)}")
             if prev is None:
@@ -464,9 +495,10 @@ def identify(
                 early = _up_to(stab, prev_n)
                 k = len(early)
                 cut = [r[r < k] for r in clusters if np.any(r < k)]
-                prev = [c.mode for c in judge_clusters(early, data, fit=False, clusters=cut) if c.accepted]
+                prev = [c.mode for c in judge_clusters(early, data, fit=False, clusters=cut, criteria=crit.judge)
+                        if c.accepted]
                 if not _same_modes(prev, cur):
-                    prev = [c.mode for c in judge_clusters(early, data) if c.accepted]
+                    prev = [c.mode for c in judge_clusters(early, data, criteria=crit.judge) if c.accepted]
             converged = bool(cur) and _same_modes(prev, cur)
             if converged or n >= cap:
                 break
@@ -474,6 +506,64 @@ def identify(
         _require_stable(stab, n, src, data)
         notes.append(f"model order grown to {n} (modes per order: {', '.join(history)}); "
                      + ("the mode set converged" if converged else "the mode set did NOT converge"))
+        # ---- complete: the residual of the model consistent with the noise in every segment ----
+        if cur:
+            judged = cur
+            done = _complete(data, cur, candidates, residuals, crit)
+            cur, candidates, fitted = done.modes, done.candidates, done.fitted
+            step_i = tried = 0
+            last_fail = done.test.failing()
+            def uncovered(d: _Completed) -> bool:
+                """A failing segment without any candidate cluster: only a higher order can add one."""
+                return any(not any(a <= c.natural_freq <= b for c in d.candidates) for a, b in d.test.failing())
+
+            while (not done.test.passed and uncovered(done) and n < cap
+                   and step_i < crit.completeness.max_extra_steps):
+                step_i += 1
+                n_new = tried = min(n + span, cap)
+                stab_new = stabilized(n_new)
+                clusters = cluster_poles(stab_new)
+                cand_new = judge_clusters(stab_new, data, clusters=clusters, criteria=crit.judge)
+                acc = [c.mode for c in cand_new if c.accepted]
+                history.append(f"{n_new}: {len(acc)}")
+                fails = done.test.failing()
+
+                def where_failing(ms: list[SelectedMode], fails: list[tuple[float, float]] = fails) -> list[SelectedMode]:
+                    return [m for m in _unique_modes(ms) if any(a <= m.natural_freq <= b for a, b in fails)]
+
+                if not acc or _same_modes(where_failing(acc), where_failing(judged)):
+                    break  # the higher order changed nothing where the residual exceeds the noise
+                judged = acc
+                trial = _complete(data, acc, cand_new, residuals, crit)
+                n, stab = n_new, stab_new
+                changed = not _same_modes(trial.modes, cur) or trial.test.failing() != last_fail
+                cur, candidates, done, fitted = trial.modes, trial.candidates, trial, trial.fitted
+                if not changed:
+                    break
+                last_fail = done.test.failing()
+            if done.added:
+                notes.append("missing modes added where the residual exceeded the noise: "
+                             + ", ".join(f"{f:.6g} Hz" for f in done.added))
+            if done.dropped:
+                notes.append("weak modes the data do not need (the residual stays consistent with the noise "
+                             "without them) left out: " + ", ".join(f"{f:.6g} Hz" for f in done.dropped))
+            if step_i:
+                notes.append(f"model orders up to {tried} tried while the residual exceeded the noise estimate "
+                             f"(modes per order: {', '.join(history)}); the modes of order {n} kept")
+            if not done.test.passed:
+                msg = (f"the residual exceeds the {done.test.noise_source} noise estimate (chi-square test, "
+                       f"p < {crit.completeness.p_value:g} over {done.test.failed.size} segments) in "
+                       f"{done.test.describe()}")
+                if n >= cap:  # stopped by the order cap: a mode may be missing
+                    warnings.append(msg + f" up to the order cap {cap}: a mode may be missing there or the model "
+                                    "does not fit")
+                else:  # a higher order changed nothing there: no mode the estimator sees is missing
+                    notes.append(msg + "; a higher order changed no mode there (the model does not fit the "
+                                 "data to the noise: check the chart)")
+            if done.test.edge.any():
+                notes.append(f"the residual exceeds the noise at the band edge in {done.test.describe('edge')}: "
+                             "a mode just outside the band (the residual terms stand only for modes far from it)")
+            residual_test = done.test
         if not converged:
             warnings.append(f"the mode set did not converge up to order {n} (stopped by the order cap): "
                             f"{len(prev or [])} modes at order {prev_order}, {len(cur)} at order {n}")
@@ -488,17 +578,10 @@ def identify(
                 file=src,
             )
     # one LSFD pole per mode; sorted by |pole| so the spreads align with the modal model
-    modes = sorted(sel.modes, key=lambda m: abs(m.pole))
-    unique: dict[complex, SelectedMode] = {}
-    for m in modes:
-        unique.setdefault(m.pole, m)
-    modes = list(unique.values())
-    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked above
-    # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
-    ml = _local_ml(data, model)
-    polymax = [[float(p.real), float(p.imag)] for p in model.poles]
-    if np.any(ml.poles != model.poles):
-        model = _lsfd_checked(data, ml.poles, residuals=residuals)
+    modes = _unique_modes(sel.modes)
+    if fitted is None:
+        fitted = _fit_modes(data, modes, residuals)
+    model, ml, polymax = fitted
     warnings += list(ml.warnings)
     meta = dict(model.meta)
     meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed,
@@ -524,6 +607,7 @@ def identify(
         natural_freq_spread=np.array([m.natural_freq_std for m in modes]),
         damping_ratio_spread=np.array([m.damping_ratio_std for m in modes]),
         std_kind=ml.kind,
+        residual_test=residual_test,
         band=stab.band,
         candidates=candidates,
         converged=converged,
@@ -535,6 +619,192 @@ def identify(
     if refine:
         ident = _refined(ident, data)
     return cast("Identification", remove_window_damping(ident, data))  # issue 18: an exponential window's damping
+
+
+_Fitted = tuple[ModalModel, LocalML, list[list[float]]]
+
+
+@dataclass(frozen=True, slots=True)
+class _Completed:
+    """The accepted modes after the completeness test, their fit and test, the modes added [Hz]."""
+
+    modes: list[SelectedMode]
+    candidates: tuple[Candidate, ...]
+    fitted: _Fitted
+    test: MisfitTest
+    added: tuple[float, ...]
+    dropped: tuple[float, ...] = ()
+
+
+def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
+    """One mode per pole, sorted by ``|pole|`` (the order of the modal model)."""
+    unique: dict[complex, SelectedMode] = {}
+    for m in sorted(modes, key=lambda m: abs(m.pole)):
+        unique.setdefault(m.pole, m)
+    return list(unique.values())
+
+
+def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) -> _Fitted:
+    """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)."""
+    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked by identify
+    # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
+    ml = _local_ml(data, model)
+    polymax = [[float(p.real), float(p.imag)] for p in model.poles]
+    if np.any(ml.poles != model.poles):
+        model = _lsfd_checked(data, ml.poles, residuals=residuals)
+    return model, ml, polymax
+
+
+def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> MisfitTest:
+    """:func:`~ema_rig.identification.noise.segment_misfit` of ``model`` on ``data`` (cut to the band)."""
+    with single_threaded():  # many small factorizations: threads only add hand-off time
+        return segment_misfit(data.freq, data.frf, model.poles, power=_FORM_POWER[data.frf_form],
+                              coherence=data.coherence, n_averages=data.n_averages, criteria=crit)
+
+
+def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candidate, ...], residuals: bool,
+              crit: IdentificationCriteria) -> _Completed:
+    """Test the accepted modes' residual per segment; in a failing segment add a rejected candidate.
+
+    A candidate lying in a failing segment (a cluster stable at ``min_poles`` orders at least,
+    rejected for anything but its damping or the band) is added when, fitted with the accepted modes, its F test passes
+    (:meth:`~ema_rig.identification.criteria.JudgeCriteria.support_threshold`, dof of the local
+    noise estimate) and the segment then passes the residual test; the strongest candidates
+    (most poles) are tried first, at most ``max_added`` per segment.
+    """
+    cc = crit.completeness
+    modes = _unique_modes(modes)
+    fitted = _fit_modes(data, modes, residuals)
+    test = _misfit(data, fitted[0], cc)
+    added: list[float] = []
+    if test.passed:
+        return _parsimonious(data, _Completed(modes, candidates, fitted, test, ()), list(fitted[0].poles),
+                             residuals, crit)
+    cands = list(candidates)
+    accepted_poles = {m.pole for m in modes}
+    model_poles = list(fitted[0].poles)
+    n_chan = data.n_out * data.n_in
+    for lo, hi in test.failing():
+        pool = [i for i, c in enumerate(cands) if not c.accepted and lo <= c.natural_freq <= hi
+                and c.mode.pole not in accepted_poles and 0 < c.damping_ratio <= crit.judge.max_damping
+                and c.mode.n_poles >= crit.judge.min_poles and "outside the band" not in c.reason]
+        pool.sort(key=lambda i: (-cands[i].mode.n_poles, cands[i].natural_freq))
+        n_added = 0
+        for i in pool[: 2 * cc.max_added]:
+            if n_added >= cc.max_added:
+                break
+            c = cands[i]
+            trial = _unique_modes([*modes, c.mode])
+            poles = np.array([m.pole for m in trial])
+            k = int(np.flatnonzero(poles == c.mode.pole)[0])
+            with single_threaded():
+                _res, sup, _shr, dof = _fit(data, poles)
+            need = float(crit.judge.support_threshold(n_chan, float(dof[k]), len(pool)))
+            if not sup[k] >= need:
+                continue
+            # does the segment pass with it? the local test around it, against the same noise
+            if not _passes_with(data, [*model_poles, c.mode.pole], lo, hi, test, cc, refine=True):
+                continue
+            modes = trial
+            model_poles.append(c.mode.pole)
+            accepted_poles.add(c.mode.pole)
+            cands[i] = replace(c, accepted=True, support=float(sup[k]),
+                               reason=(f"physical: a missing mode (the residual near it was above the noise; "
+                                       f"F = {sup[k]:.3g} >= {need:.3g} with {2 * n_chan}, {dof[k]:.0f} dof; "
+                                       f"before: {c.reason})"))
+            added.append(c.natural_freq)
+            n_added += 1
+    return _parsimonious(data, _Completed(modes, tuple(cands), fitted, test, tuple(added)), model_poles,
+                         residuals, crit)
+
+
+def _passes_with(data: FRFData, poles: Sequence[complex], lo: float, hi: float, test: MisfitTest,
+                 cc: CompletenessCriteria, *, refine: bool = False, alone: bool = False) -> bool:
+    """Whether the segment ``lo..hi`` [Hz] passes with ``poles``, tested on its neighbourhood (one
+    segment width each side) against the noise variance of ``test``; with ``alone`` the segment
+    itself as one segment (its lines and width unchanged by the poles).
+
+    With ``refine`` the poles inside the neighbourhood are first re-estimated there by the local
+    ML (started at the given poles): a candidate's PolyMAX pole is a start value, not its estimate.
+    """
+    if test.variance is None:
+        return False
+    f = data.freq
+    width = 0.0 if alone else hi - lo
+    sl = (f >= lo - width) & (f <= hi + width)
+    n_chan = data.n_out * data.n_in
+    lam = np.asarray(poles, dtype=np.complex128)
+    if refine:
+        fn = np.abs(lam) / (2 * np.pi)
+        inside = (fn >= f[sl][0]) & (fn <= f[sl][-1])
+        idx = np.flatnonzero(sl)
+        part = data.replace(freq=f[sl], frf=data.frf[:, :, sl],
+                            coherence=None if data.coherence is None else data.coherence[:, :, sl])
+        if inside.any() and 2 * idx.size > 2 * int(inside.sum()) + 2:
+            try:
+                model = _lsfd_checked(part, lam[inside], residuals=True)
+                ml = _local_ml(part, model)
+            except (IdentificationError, np.linalg.LinAlgError, ValueError):
+                return False
+            if np.all(np.isfinite(ml.poles)) and np.all(ml.poles.imag > 0):
+                lam = lam.copy()
+                lam[np.flatnonzero(inside)] = ml.poles
+    coh = None if data.coherence is None else data.coherence.reshape(n_chan, -1)[:, sl]
+    with single_threaded():
+        t = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], lam,
+                           power=_FORM_POWER[data.frf_form], variance=test.variance[:, sl], coherence=coh,
+                           edges=[0, int(sl.sum())] if alone else None, criteria=cc)
+    mid = 0.5 * (lo + hi)
+    # the slice's ends are no band edges: an "edge" failure there is a failure
+    bad = t.failed | t.edge
+    return not bool(np.any(bad & (t.freq_lower <= mid) & (mid <= t.freq_upper)))
+
+
+def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residuals: bool,
+                  crit: IdentificationCriteria) -> _Completed:
+    """Drop weak modes the data do not need, then fit the final set once (LSFD and local ML).
+
+    ``poles`` are the current poles (the ML poles of ``done.fitted`` plus the PolyMAX poles of
+    modes added since). A mode whose own term is less than ``JudgeCriteria.weak_peak_share`` of
+    the FRF near it is tested: its segment is fitted without its pole and tested against the
+    noise variance of the full model's test; when it passes, the mode is dropped (weakest first;
+    one local test per weak mode, a work limit). Not done when the noise level is unknown (a
+    coherence without the number of averages).
+    """
+    var = done.test.variance if crit.completeness.drop_weak else None
+    if done.test.noise_source == "coherence" and data.n_averages is None:
+        var = None  # the coherence without the number of averages gives the noise's shape, not its level
+    cands = list(done.candidates)
+    modes = list(done.modes)
+    dropped: list[float] = []
+    by_pole = {c.mode.pole: i for i, c in enumerate(cands)}
+    weak = [i for m in modes if (i := by_pole.get(m.pole)) is not None and cands[i].accepted
+            and np.isfinite(cands[i].peak_share) and cands[i].peak_share < crit.judge.weak_peak_share]
+    weak.sort(key=lambda i: cands[i].peak_share)
+    f = data.freq
+    for i in weak if var is not None else []:
+        c = cands[i]
+        k = int(np.argmin(np.abs(np.abs(np.asarray(poles)) - abs(c.mode.pole))))  # its current pole
+        fk = abs(poles[k]) / (2 * np.pi)
+        seg = np.flatnonzero((done.test.freq_lower <= fk) & (fk <= done.test.freq_upper))
+        others = [p for j, p in enumerate(poles) if j != k]
+        if seg.size == 0 or not others:
+            continue
+        lo, hi = float(done.test.freq_lower[seg[0]]), float(done.test.freq_upper[seg[0]])
+        if lo >= hi or not np.any((f >= lo) & (f <= hi)):
+            continue
+        if _passes_with(data, others, lo, hi, done.test, crit.completeness, alone=True):
+            modes = [m for m in modes if m.pole != c.mode.pole]
+            poles = others
+            cands[i] = replace(c, accepted=False, reason=(
+                f"not needed by the data: without it the residual near {fk:.6g} Hz stays consistent with the "
+                f"noise estimate (its own term {100 * c.peak_share:.0f} % of the FRF near it)"))
+            dropped.append(fk)
+    if not dropped and not done.added:
+        return done
+    fitted = _fit_modes(data, modes, residuals)
+    return _Completed(modes, tuple(cands), fitted, _misfit(data, fitted[0], crit.completeness), done.added,
+                      tuple(dropped))
 
 
 def _local_ml(data: FRFData, model: ModalModel) -> LocalML:

@@ -13,7 +13,8 @@ Candidate
 
 Notes
 -----
-A candidate is rejected, in this order, when
+Every number below is a field of :class:`~ema_rig.identification.criteria.JudgeCriteria`, with
+its source there. A candidate is rejected, in this order, when
 
 1. it is stable at fewer than ``min_poles`` orders, or present at less than
    ``min_persistence`` of the computed orders from its first appearance up (it flickers);
@@ -27,17 +28,20 @@ A candidate is rejected, in this order, when
    pole that splits a mode -- unless it is well founded on its own (stable at 80 % of its
    orders, damping stable to 20 %, F at least a tenth of the neighbour's);
 5. removing it from the LSFD fit does not worsen the fit: the F statistic of its two real
-   parameters per channel, ``dRSS / (2 n_chan) / sigma^2``, is below ``min_support`` (a pole
-   that only fits noise gives about 1; a mode of the data tens to thousands). ``sigma^2`` is
-   the residual per real number over the lines within two half-power bandwidths (at least
-   five lines) of the candidate: the noise where the candidate acts;
+   parameters per channel, ``dRSS / (2 n_chan) / sigma^2``, is below the F test threshold
+   ``F.isf(support_p / n_candidates, 2 n_chan, dof)`` (:meth:`JudgeCriteria.support_threshold
+   <ema_rig.identification.criteria.JudgeCriteria.support_threshold>`, p = 0.001 family-wise,
+   Bonferroni over the candidates judged together; a fixed ``min_support`` when given). ``sigma^2``
+   is the residual per real number over the lines within two half-power bandwidths (at least
+   five lines) of the candidate: the noise where the candidate acts, with
+   ``dof = 2 n_lines n_chan - 2 n_chan - 2``;
 6. its own term of the fit is less than ``min_peak_share`` (5 %) of the measured FRFs within
    its half-power bandwidth (``peak_share``): it makes no peak;
 7. with three or more response (or reference) DOFs, its shape has no common phase (MPC below
    ``min_mpc``, 0.25: the noise columns of a measurement; unless well founded as in rule 4 with
-   F at least ``10 min_support``), or it is far from monophase (MPC
-   below ``split_mpc``) and its evidence is weak (F below ``4 min_support`` or peak share below
-   30 %) and it is not well founded otherwise (as in rule 4, F at least ``10 min_support``). Physical modes of a lightly damped structure are nearly monophase; the dam's
+   F at least ten times the threshold), or it is far from monophase (MPC
+   below ``split_mpc``) and its evidence is weak (F below four times the threshold or peak share below
+   30 %) and it is not well founded otherwise (as in rule 4, F at least ten times the threshold). Physical modes of a lightly damped structure are nearly monophase; the dam's
    most complex accepted shapes have MPC 0.34-0.45.
 
 The MPC is computed on the residues along the longer axis of the measurement (outputs for a
@@ -48,7 +52,7 @@ apply.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -57,8 +61,10 @@ from numpy.typing import NDArray
 from .._blas import single_threaded
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
-from .lsfd import _design, _output_chunks, _projector
+from .criteria import JUDGE_CRITERIA, JudgeCriteria
+from .lsfd import _output_chunks, _projector
 from .mac import mac, mpc
+from .modal import pole_residue_basis
 from .stabilization import (
     SelectedMode,
     StabilizationData,
@@ -123,8 +129,8 @@ class Candidate:
         return d
 
 
-def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
-    """Residues (n_modes, n_out, n_in), the F statistic and the peak share of every mode (n_modes,).
+def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
+    """Residues (n_modes, n_out, n_in), the F statistic, the peak share and the residual dof of every mode.
 
     The peak share is ``||H_k|| / ||H||`` over the lines within one half-power bandwidth (at
     least two lines each side) of mode ``k``, ``H_k`` its own term of the fit: about 1 for a
@@ -146,7 +152,7 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], ND
     n_f = f.size
     n_out, n_in = h.shape[:2]
     n_chan = n_out * n_in
-    a, scale = _design(f, poles, p, True)
+    a, scale = pole_residue_basis(f, poles, p, residuals=True)
     n_unk = a.shape[1]
     df = float(np.median(np.diff(f))) if n_f > 1 else 1.0
     # rows of `a` (Re, Im interleaved) on the lines within one half-power bandwidth of each mode
@@ -181,12 +187,15 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], ND
     floor = 1e-14 * float(y2.sum()) / max(2 * n_f * n_chan, 1)
     sigma2 = np.empty(n)
     share = np.empty(n)
+    dof = np.empty(n)
     for k, lam in enumerate(poles):
         # noise level near each mode: residual per real number over the lines within two
         # half-power bandwidths (at least 5 lines each side), so junk far away cannot mask it
         fk = abs(lam) / (2 * np.pi)
         win = np.abs(f - fk) <= max(-2.0 * lam.real / (2 * np.pi), 5 * df)
         sigma2[k] = max(float(line[win].mean() if win.any() else line.mean()) / (2 * n_chan), floor)
+        # real equations of the noise estimate minus the candidate's parameters (2 per channel + pole)
+        dof[k] = max(2.0 * (int(win.sum()) if win.any() else n_f) * n_chan - 2 * n_chan - 2, 1.0)
         rows = near_rows[k][0::2] // 2
         share[k] = float(np.sqrt(t2[k] / max(float(y2[rows].sum()), floor)))
     cov = proj @ proj.T  # (A^T A)^-1 of the scaled basis
@@ -200,7 +209,7 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], ND
     support = np.maximum(d_rss, 0.0) / (2 * n_chan) / sigma2
     x /= scale
     res = x[:, :, :n] + 1j * x[:, :, n : 2 * n]
-    return np.moveaxis(res, 2, 0), support, share
+    return np.moveaxis(res, 2, 0), support, share, dof
 
 
 def shape_mpc(residues: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -221,16 +230,17 @@ def judge_clusters(
     stab: StabilizationData,
     data: FRFData,
     *,
-    min_poles: int = 4,
-    min_persistence: float = 0.5,
-    max_damping: float = 0.2,
-    min_support: float = 5.0,
-    split_mpc: float = 0.5,
-    min_peak_share: float = 0.05,
-    min_mpc: float = 0.25,
-    max_damping_spread: float = 0.5,
+    min_poles: int | None = None,
+    min_persistence: float | None = None,
+    max_damping: float | None = None,
+    min_support: float | None = None,
+    split_mpc: float | None = None,
+    min_peak_share: float | None = None,
+    min_mpc: float | None = None,
+    max_damping_spread: float | None = None,
     fit: bool = True,
     clusters: list[NDArray[np.intp]] | None = None,
+    criteria: JudgeCriteria | None = None,
 ) -> tuple[Candidate, ...]:
     """Judge every cluster of stable poles of ``stab`` against the data ``data``.
 
@@ -243,18 +253,35 @@ def judge_clusters(
         The measured FRFs in the band (original layout), used for the LSFD-based rules.
     min_poles, min_persistence, max_damping, min_support, split_mpc, min_peak_share, min_mpc, \
     max_damping_spread : optional
-        Thresholds of the rules in the module notes.
+        Thresholds of the rules in the module notes; each one given replaces the field of the same
+        name of ``criteria``. ``min_support`` given makes the support a fixed F threshold instead
+        of the F test of :meth:`~ema_rig.identification.criteria.JudgeCriteria.support_threshold`.
     fit : bool, optional
         Apply the LSFD-based rules 4-7 (default True); False judges on stability,
         damping and participation duplicates only (rules 1-3).
     clusters : list of ndarray, optional
         Rows of ``stab`` per cluster (default :func:`~ema_rig.identification.stabilization.cluster_poles`).
+    criteria : JudgeCriteria, optional
+        Every threshold with its source (default :data:`~ema_rig.identification.criteria.JUDGE_CRITERIA`).
 
     Returns
     -------
     tuple of Candidate
         Sorted by frequency; ``accepted`` ones are the physical modes.
     """
+    crit = JUDGE_CRITERIA if criteria is None else criteria
+    if not isinstance(crit, JudgeCriteria):
+        raise TypeError(f"criteria must be a JudgeCriteria, got {type(crit).__name__}")
+    given = {k: v for k, v in (("min_poles", min_poles), ("min_persistence", min_persistence),
+                               ("max_damping", max_damping), ("min_support", min_support),
+                               ("split_mpc", split_mpc), ("min_peak_share", min_peak_share),
+                               ("min_mpc", min_mpc), ("max_damping_spread", max_damping_spread)) if v is not None}
+    if given:
+        crit = replace(crit, **given)  # type: ignore[arg-type]
+    min_poles, min_persistence, max_damping = crit.min_poles, crit.min_persistence, crit.max_damping
+    split_mpc, min_peak_share, min_mpc = crit.split_mpc, crit.min_peak_share, crit.min_mpc
+    max_damping_spread = crit.max_damping_spread
+    n_chan = data.n_out * data.n_in
     orders = np.asarray(stab.orders)
     if clusters is None:
         clusters = cluster_poles(stab, max_damping=max_damping)
@@ -286,7 +313,7 @@ def judge_clusters(
                 continue
             mi, mj = modes[i], modes[j]
             close = abs(mi.natural_freq - mj.natural_freq) <= 3 * (mi.natural_freq_std + mj.natural_freq_std)
-            if close and float(mac(np.array(mi.participation), np.array(mj.participation))[0, 0]) > 0.9:
+            if close and float(mac(np.array(mi.participation), np.array(mj.participation))[0, 0]) > crit.dup_participation_mac:
                 weak, strong = (j, i) if mi.n_poles >= mj.n_poles else (i, j)
                 verdict[weak] = f"duplicate of {modes[strong].natural_freq:.6g} Hz"
     mpcs = np.full(len(modes), np.nan)
@@ -298,7 +325,8 @@ def judge_clusters(
             break
         poles = np.array([modes[i].pole for i in alive])
         with single_threaded():
-            res, sup, shr = _fit(data, poles)
+            res, sup, shr, dof = _fit(data, poles)
+        need = np.asarray(crit.support_threshold(n_chan, dof, len(alive)), dtype=float)
         mp = shape_mpc(res)
         mpcs[alive] = mp
         support[alive] = sup
@@ -315,30 +343,36 @@ def judge_clusters(
                 stronger = sup[b_i] > sup[a_i]
                 if not stronger or abs(fi - fj) > bw:
                     continue
-                if abs(fi - fj) < 0.1 * bw and float(mac(shapes[a_i], shapes[b_i])[0, 0]) > 0.95:
-                    verdict[i] = f"duplicate of {fj:.6g} Hz (shape MAC > 0.95)"
+                if abs(fi - fj) < 0.1 * bw and float(mac(shapes[a_i], shapes[b_i])[0, 0]) > crit.dup_shape_mac:
+                    verdict[i] = f"duplicate of {fj:.6g} Hz (shape MAC > {crit.dup_shape_mac:g})"
                     new = True
-                elif (mp[a_i] < split_mpc and mp[a_i] < mp[b_i] - 0.3
-                      and not _well_founded(modes[i], persistence[i], sup[a_i], 0.1 * sup[b_i])):
+                elif (mp[a_i] < split_mpc and mp[a_i] < mp[b_i] - crit.mpc_gap
+                      and not _well_founded(modes[i], persistence[i], sup[a_i],
+                                            crit.founded_support_ratio * sup[b_i], crit)):
                     verdict[i] = f"splits the {fj:.6g} Hz mode (MPC {mp[a_i]:.2f} against {mp[b_i]:.2f})"
                     new = True
         n_dof = max(data.n_out, data.n_in)
         for a_i, i in enumerate(alive):
             if verdict[i] is not None:
                 continue
-            if sup[a_i] < min_support:
-                verdict[i] = f"negligible contribution to the fit (F = {sup[a_i]:.3g} < {min_support:g})"
+            if sup[a_i] < need[a_i]:
+                verdict[i] = (f"negligible contribution to the fit (F = {sup[a_i]:.3g} < {need[a_i]:.3g}"
+                              + (")" if crit.min_support is not None else
+                                 f", F test p = {crit.support_p:g}/{len(alive)} with {2 * n_chan}, "
+                                 f"{dof[a_i]:.0f} dof)"))
                 new = True
             elif shr[a_i] < min_peak_share:
                 verdict[i] = (f"no peak of its own: {100 * shr[a_i]:.0f} % of the FRF near {modes[i].natural_freq:.5g} Hz "
                               f"(< {100 * min_peak_share:g} %)")
                 new = True
             elif n_dof >= 3 and mp[a_i] < min_mpc and not _well_founded(
-                    modes[i], persistence[i], sup[a_i], 10 * min_support):
+                    modes[i], persistence[i], sup[a_i], crit.strong_support_factor * need[a_i], crit):
                 verdict[i] = f"shape without a common phase (MPC {mp[a_i]:.2f} < {min_mpc:g})"
                 new = True
-            elif (n_dof >= 3 and mp[a_i] < split_mpc and (sup[a_i] < 4 * min_support or shr[a_i] < 0.3)
-                  and not _well_founded(modes[i], persistence[i], sup[a_i], 10 * min_support)):
+            elif (n_dof >= 3 and mp[a_i] < split_mpc
+                  and (sup[a_i] < crit.weak_support_factor * need[a_i] or shr[a_i] < crit.weak_peak_share)
+                  and not _well_founded(modes[i], persistence[i], sup[a_i],
+                                        crit.strong_support_factor * need[a_i], crit)):
                 verdict[i] = (f"weak (F = {sup[a_i]:.3g}, {100 * shr[a_i]:.0f} % of the FRF near it) with a shape "
                               f"far from monophase (MPC {mp[a_i]:.2f} < {split_mpc:g})")
                 new = True
@@ -353,14 +387,16 @@ def judge_clusters(
     return tuple(out)
 
 
-def _well_founded(m: SelectedMode, persistence: float, support: float, need: float) -> bool:
+def _well_founded(m: SelectedMode, persistence: float, support: float, need: float,
+                  crit: JudgeCriteria = JUDGE_CRITERIA) -> bool:
     """A candidate whose other evidence outweighs a poor shape phase.
 
     Stable at 80 % of the orders from its first appearance up (a split or noise pole flickers),
     with damping stable to 20 % and an F statistic of at least ``need``: closely spaced,
     heavily overlapping modes can have residues whose phase LSFD cannot separate cleanly.
     """
-    return (persistence >= 0.8 and m.damping_ratio_std <= 0.2 * m.damping_ratio and support >= need)
+    return (persistence >= crit.founded_persistence
+            and m.damping_ratio_std <= crit.founded_damping_spread * m.damping_ratio and support >= need)
 
 
 def _shapes(res: NDArray[np.complex128]) -> NDArray[np.complex128]:

@@ -26,7 +26,6 @@ Lines at 0 Hz are skipped when the basis is singular there.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,7 +34,7 @@ from .._blas import single_threaded
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
-from .modal import ModalModel
+from .modal import ModalModel, pole_residue_basis
 from .plscf import check_data, source_of
 
 
@@ -112,7 +111,7 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) ->
         raise IdentificationError(
             f"LSFD: {n_f} lines cannot determine {n_unk} real unknowns ({n_modes} modes)", file=src
         )
-    a, scale = _design(f, lam, p, residuals)
+    a, scale = pole_residue_basis(f, lam, p, residuals=residuals)
     n_out, n_in, _ = h.shape
     x = np.empty((n_out, n_in, n_unk))
     num = np.empty((n_out, n_in))
@@ -149,48 +148,6 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) ->
         fit_error=fit_error,
         meta={"method": "lsfd", "residuals": bool(residuals)},
     )
-
-
-def _design(
-    f: NDArray[np.float64], lam: NDArray[np.complex128], p: int, residuals: bool
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Real LSFD basis with unit-norm columns and the column norms.
-
-    Parameters
-    ----------
-    f : ndarray, shape (n_freq,)
-        Lines [Hz] (0 Hz already dropped when the basis is singular there).
-    lam : ndarray, shape (n_modes,), complex
-        Poles [rad/s], ``Im > 0``, in the column order wanted.
-    p : int
-        Form power of the data (0 receptance, 1 mobility, 2 accelerance).
-    residuals : bool
-        Append the lower and upper residual columns.
-
-    Returns
-    -------
-    a : ndarray, shape (2 n_freq, n_unknown)
-        Rows (Re, Im) interleaved per line, as a complex FRF row viewed as float64; columns
-        ``Re R_r`` (n_modes), ``Im R_r`` (n_modes), then ``LR``, ``UR``; each of unit norm.
-    scale : ndarray, shape (n_unknown,)
-        Column norms (1 for an all-zero column): unknowns of ``a`` divided by ``scale`` are
-        the physical ones.
-    """
-    jw = 2j * np.pi * f
-    with np.errstate(divide="ignore", invalid="ignore"):
-        fac = jw**p
-        pos = 1.0 / (jw[:, None] - lam[None, :])
-        neg = 1.0 / (jw[:, None] - lam.conj()[None, :])
-        cols: list[NDArray[Any]] = [fac[:, None] * (pos + neg), fac[:, None] * (1j * pos - 1j * neg)]
-        if residuals:
-            lr = jw ** (p - 2) if p >= 2 else 1.0 / jw ** (2 - p)
-            cols += [lr[:, None], fac[:, None]]
-    basis = np.concatenate(cols, axis=1)  # (n_freq, n_unknown) complex
-    n_f, n_unk = basis.shape
-    a = basis.view(np.float64).reshape(n_f, n_unk, 2).transpose(0, 2, 1).reshape(2 * n_f, n_unk)
-    scale = np.sqrt(np.einsum("kj,kj->j", a, a))
-    scale = np.where(scale > 0, scale, 1.0)
-    return a / scale, scale
 
 
 def _projector(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -1,5 +1,11 @@
 """The modal model: poles, residues, residual terms and derived mode shapes.
 
+Functions
+---------
+pole_residue_basis
+    The real pole-residue basis (with residual terms) that LSFD, the judgement and the
+    completeness test fit the FRFs with: one definition of the modal kernel.
+
 Classes
 -------
 ModalModel
@@ -225,4 +231,53 @@ class ModalModel:
         ]
 
 
-__all__ = ["ModalModel"]
+def pole_residue_basis(
+    f: NDArray[np.float64], lam: NDArray[np.complex128], p: int, *, residuals: bool = True
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The pole-residue basis of the modal model, real, with unit-norm columns, and the column norms.
+
+    One definition of the kernel shared by LSFD (:func:`~ema_rig.identification.lsfd.lsfd`), the
+    judgement of candidates (:func:`~ema_rig.identification.judge.judge_clusters`) and the
+    completeness test of :func:`~ema_rig.identification.identification.identify`: column ``r`` of
+    the complex basis is ``(j w)^p / (j w - lambda_r) + (j w)^p / (j w - conj(lambda_r))`` (the
+    real part of ``R_r``), column ``n_modes + r`` the same with ``j`` and ``-j`` (its imaginary
+    part), then ``(j w)^(p-2)`` (lower residual) and ``(j w)^p`` (upper residual).
+
+    Parameters
+    ----------
+    f : ndarray, shape (n_freq,)
+        Lines [Hz] (0 Hz already dropped when the basis is singular there).
+    lam : ndarray, shape (n_modes,), complex
+        Poles [rad/s], ``Im > 0``, in the column order wanted.
+    p : int
+        Form power of the data (0 receptance, 1 mobility, 2 accelerance).
+    residuals : bool
+        Append the lower and upper residual columns.
+
+    Returns
+    -------
+    a : ndarray, shape (2 n_freq, n_unknown)
+        Rows (Re, Im) interleaved per line, as a complex FRF row viewed as float64; columns
+        ``Re R_r`` (n_modes), ``Im R_r`` (n_modes), then ``LR``, ``UR``; each of unit norm.
+    scale : ndarray, shape (n_unknown,)
+        Column norms (1 for an all-zero column): unknowns of ``a`` divided by ``scale`` are
+        the physical ones.
+    """
+    jw = 2j * np.pi * f
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fac = jw**p
+        pos = 1.0 / (jw[:, None] - lam[None, :])
+        neg = 1.0 / (jw[:, None] - lam.conj()[None, :])
+        cols: list[NDArray[Any]] = [fac[:, None] * (pos + neg), fac[:, None] * (1j * pos - 1j * neg)]
+        if residuals:
+            lr = jw ** (p - 2) if p >= 2 else 1.0 / jw ** (2 - p)
+            cols += [lr[:, None], fac[:, None]]
+    basis = np.concatenate(cols, axis=1)  # (n_freq, n_unknown) complex
+    n_f, n_unk = basis.shape
+    a = basis.view(np.float64).reshape(n_f, n_unk, 2).transpose(0, 2, 1).reshape(2 * n_f, n_unk)
+    scale = np.sqrt(np.einsum("kj,kj->j", a, a))
+    scale = np.where(scale > 0, scale, 1.0)
+    return a / scale, scale
+
+
+__all__ = ["ModalModel", "pole_residue_basis"]

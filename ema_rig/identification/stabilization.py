@@ -52,6 +52,7 @@ from numpy.typing import NDArray
 
 from .._atomic import write_text
 from ..errors import IdentificationError
+from .criteria import STABILIZATION_CRITERIA, StabilizationCriteria
 from .mac import mac
 from .plscf import PoleSet
 
@@ -166,9 +167,10 @@ class StabilizationData:
 def stabilize(
     poles: PoleSet,
     *,
-    freq_tol: float = 0.01,
-    damping_tol: float = 0.05,
-    mac_tol: float = 0.02,
+    freq_tol: float | None = None,
+    damping_tol: float | None = None,
+    mac_tol: float | None = None,
+    criteria: StabilizationCriteria | None = None,
 ) -> StabilizationData:
     """Classify every pole against the previous model order.
 
@@ -182,6 +184,10 @@ def stabilize(
         Relative damping-ratio tolerance (default 0.05).
     mac_tol : float, optional
         Tolerance on ``1 - MAC`` of the participation vectors (default 0.02).
+    criteria : StabilizationCriteria, optional
+        The three tolerances with their sources
+        (:class:`~ema_rig.identification.criteria.StabilizationCriteria`); each keyword given
+        replaces its field.
 
     Returns
     -------
@@ -191,6 +197,10 @@ def stabilize(
     --------
     See :func:`ema_rig.identification.identify` for the whole chain.
     """
+    crit = STABILIZATION_CRITERIA if criteria is None else criteria
+    freq_tol = crit.freq_tol if freq_tol is None else freq_tol
+    damping_tol = crit.damping_tol if damping_tol is None else damping_tol
+    mac_tol = crit.mac_tol if mac_tol is None else mac_tol
     for name, v in (("freq_tol", freq_tol), ("damping_tol", damping_tol), ("mac_tol", mac_tol)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be a positive number, got {v!r}")

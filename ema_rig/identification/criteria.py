@@ -1,0 +1,264 @@
+"""The thresholds of each identification stage, one frozen object per stage, each with its source.
+
+Classes
+-------
+IdentificationCriteria
+    The three below, for :func:`~ema_rig.identification.identification.identify` (``criteria=``).
+StabilizationCriteria
+    Tolerances of the status letters of the stabilization chart.
+JudgeCriteria
+    Rules of the physical-mode judgement of :func:`~ema_rig.identification.judge.judge_clusters`,
+    the support of a candidate as an F test with its degrees of freedom.
+CompletenessCriteria
+    When the mode set of :func:`~ema_rig.identification.identification.identify` is complete:
+    a chi-square test of the residual against the noise estimate per band segment and channel.
+
+Every field carries its source in ``dataclasses.fields(...)[i].metadata["source"]`` (and
+:meth:`sources` returns them by name): a p-value with its degrees of freedom, the paper
+(``/work/shared/paper.md``: PolyMAX and its stabilization tolerances), a textbook, or the named
+data set a value was checked on. Nothing here was tuned until a grid passed.
+
+References
+----------
+Peeters, Van der Auweraer, Guillaume, Leuridan, "The PolyMAX frequency-domain method: a new
+standard for modal parameter estimation?", Shock and Vibration 11 (2004): stabilization
+tolerances 1 % (frequency), 5 % (damping), 2 % (vector).
+Bendat & Piersol, *Random Data*, 4th ed. 2010, ch. 9 (variance of H1 estimates).
+Pintelon & Schoukens, *System Identification*, 2nd ed. 2012, ch. 19 (cost function at the
+minimum is chi-square with N - P degrees of freedom; model-error detection).
+Allemang, "The modal assurance criterion - twenty years of use and abuse", Sound and Vibration
+37 (2003) (MAC above 0.9 for the same vector; MPC of a real mode near 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+
+def _src(default: Any, source: str) -> Any:
+    return field(default=default, metadata={"source": source})
+
+
+class _Sourced:
+    """Mixin: the source of every field by name."""
+
+    __slots__ = ()
+
+    def sources(self) -> dict[str, str]:
+        """The source of every threshold, by field name."""
+        return {f.name: str(f.metadata.get("source", "")) for f in fields(self)}  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True, slots=True)
+class StabilizationCriteria(_Sourced):
+    """Tolerances of the stabilization letters (:func:`~ema_rig.identification.stabilization.stabilize`).
+
+    Parameters
+    ----------
+    freq_tol : float
+        Relative change of natural frequency between two orders for ``f`` (default 0.01).
+    damping_tol : float
+        Relative change of damping ratio for ``d`` (default 0.05).
+    mac_tol : float
+        ``1 - MAC`` of the participation vectors for ``v`` (default 0.02).
+    """
+
+    freq_tol: float = _src(0.01, "PolyMAX standard tolerance 1 % (Peeters et al. 2004; paper.md, stabilization)")
+    damping_tol: float = _src(0.05, "PolyMAX standard tolerance 5 % (Peeters et al. 2004; paper.md)")
+    mac_tol: float = _src(0.02, "PolyMAX standard tolerance 2 % on 1 - MAC (Peeters et al. 2004; paper.md)")
+
+    def as_kwargs(self) -> dict[str, float]:
+        """``freq_tol``, ``damping_tol``, ``mac_tol`` for :func:`stabilize`."""
+        return {"freq_tol": self.freq_tol, "damping_tol": self.damping_tol, "mac_tol": self.mac_tol}
+
+
+@dataclass(frozen=True, slots=True)
+class JudgeCriteria(_Sourced):
+    """Rules of :func:`~ema_rig.identification.judge.judge_clusters` (numbers in its module notes).
+
+    Parameters
+    ----------
+    min_poles : int
+        Orders a cluster must be stable at (default 4).
+    min_persistence : float
+        Share of the computed orders from its first appearance up (default 0.5).
+    max_damping : float
+        Largest damping ratio of a mode (default 0.2).
+    max_damping_spread : float
+        Largest standard deviation of the damping over the cluster, relative (default 0.5).
+    support_p : float
+        Family-wise level of the F test of a candidate's support (default 0.001): the candidate is
+        kept when its F statistic exceeds ``F.isf(support_p / n_candidates, 2 n_chan, dof_resid)``
+        (Bonferroni over the candidates judged together: the pole of a noise cluster was placed
+        where it fits best, so each candidate is one look). ``2 n_chan`` residue parameters (the
+        statistic's numerator); ``dof_resid = 2 n_lines n_chan - 2 n_chan - 2`` on the lines of the
+        noise estimate (two half-power bandwidths, at least 5 lines each side).
+    min_support : float or None
+        A fixed F threshold instead of the test (default None: the F quantile above). Kept for the
+        old keyword argument ``judge_clusters(min_support=...)``.
+    split_mpc : float
+        MPC below which a candidate inside a stronger one's half-power band splits it (0.5).
+    mpc_gap : float
+        ... and at least this much below the neighbour's MPC (0.3).
+    min_peak_share : float
+        Share of the measured FRF near the candidate its own term must carry (0.05).
+    min_mpc : float
+        MPC below which a shape has no common phase (0.25).
+    dup_participation_mac : float
+        Participation MAC above which two clusters within three standard deviations are one (0.9).
+    dup_shape_mac : float
+        Shape MAC above which two candidates a tenth of a half-power band apart are one (0.95).
+    founded_persistence, founded_damping_spread, founded_support_ratio : float
+        A candidate with a poor shape phase is "well founded" when stable at this share of its
+        orders (0.8), its damping stable to this fraction (0.2), and F at least this fraction of its
+        stronger neighbour's (0.1).
+    strong_support_factor, weak_support_factor, weak_peak_share : float
+        "Well founded" against rule 7 needs F at least ``strong_support_factor`` times the threshold
+        (10); "weak" evidence is F below ``weak_support_factor`` times it (4) or a peak share below
+        ``weak_peak_share`` (0.3).
+    """
+
+    min_poles: int = _src(4, "a cluster at 4 orders spans a full growth step (orders step 2, span n/4 >= 8)")
+    min_persistence: float = _src(0.5, "a physical pole is present at most orders; noise poles flicker "
+                                  "(dam0, vt_case1: physical >= 0.7, rejected <= 0.4)")
+    max_damping: float = _src(0.2, "structural damping of test rigs < 20 % (issue 18 time truths up to 8 %)")
+    max_damping_spread: float = _src(0.5, "a physical pole's damping is stable to 5 % per order "
+                                     "(PolyMAX tolerance, Peeters et al. 2004); 50 % over the cluster")
+    support_p: float = _src(1e-3, "F test p = 0.001 family-wise (Bonferroni over the candidates), "
+                            "dof (2 n_chan, 2 n_lines n_chan - 2 n_chan - 2)")
+    min_support: float | None = _src(None, "None: the F quantile of support_p; a number: a fixed F (old API)")
+    split_mpc: float = _src(0.5, "MPC of a real mode is near 1 (Allemang 2003); 0.5 halfway to a random phase")
+    mpc_gap: float = _src(0.3, "an MPC 0.3 below the neighbour's: outside the spread of physical modes on dam0")
+    min_peak_share: float = _src(0.05, "a mode whose own term is 5 % of the FRF is below the 2-10 % noise of "
+                                 "the bundled simulator: no peak of its own")
+    min_mpc: float = _src(0.25, "random residue phases of n_dof >= 3 give MPC ~ 1/n_dof; dam0's most "
+                          "complex accepted shapes have MPC 0.34-0.45 (data set dam0)")
+    dup_participation_mac: float = _src(0.9, "MAC above 0.9: the same vector (Allemang 2003)")
+    dup_shape_mac: float = _src(0.95, "MAC above 0.95: the same shape within 2 % noise (Allemang 2003)")
+    founded_persistence: float = _src(0.8, "stable at 80 % of its orders: a physical pole (dam0, vt_case1)")
+    founded_damping_spread: float = _src(0.2, "damping stable to 20 %: four PolyMAX tolerances of 5 %")
+    founded_support_ratio: float = _src(0.1, "F a tenth of the neighbour's: one order of magnitude")
+    strong_support_factor: float = _src(10.0, "F ten times the test threshold: one order of magnitude")
+    weak_support_factor: float = _src(4.0, "F below four times the threshold: within a factor 2 in amplitude")
+    weak_peak_share: float = _src(0.3, "own term below 30 % of the FRF: the half-power level is 71 %")
+
+    def support_threshold(self, n_chan: int, dof_resid: Any, n_looks: int = 1) -> Any:
+        """F threshold of a candidate's support: ``F.isf(support_p / n_looks, 2 n_chan, dof_resid)``.
+
+        Parameters
+        ----------
+        n_chan : int
+            Channels (outputs x references) of the fit.
+        dof_resid : float or ndarray
+            Degrees of freedom of the noise estimate (real equations minus parameters), one per
+            candidate.
+        n_looks : int, optional
+            Candidates tested together (Bonferroni).
+
+        Returns
+        -------
+        float or ndarray
+            Same shape as ``dof_resid``; ``min_support`` when it is set.
+        """
+        import numpy as np
+
+        dof = np.maximum(np.asarray(dof_resid, dtype=float), 1.0)
+        if self.min_support is not None:
+            out = np.full(dof.shape, float(self.min_support))
+        else:
+            from scipy.stats import f as f_dist
+
+            out = np.asarray(f_dist.isf(self.support_p / max(int(n_looks), 1), 2 * n_chan, dof), dtype=float)
+        return float(out) if out.ndim == 0 else out
+
+
+@dataclass(frozen=True, slots=True)
+class CompletenessCriteria(_Sourced):
+    """When the mode set is complete: the residual is consistent with the noise estimate.
+
+    Parameters
+    ----------
+    p_value : float
+        Family-wise level of the chi-square tests (default 0.001), Bonferroni over the segments x
+        (channels + 1) tests. A segment's statistic is ``sum 2 |e|^2 / var`` over its lines and
+        channels, chi-square with ``2 n_lines n_chan - 2 m n_chan - 2 m`` dof (``m`` modes in it;
+        per channel ``2 n_lines - 2 m``).
+    misfit_ratio : float
+        ... and the residual at least this many times the noise estimate (default 2): the bound of
+        a model error of :func:`~ema_rig.identification.refine.refine` (and of the local ML's
+        misfit warning, ``MLCriteria.misfit_ratio``); below it a real structure's small model
+        errors (nonlinearity, leakage) would fail every segment of a long record.
+    segment_hbw : float
+        Each accepted mode's segment spans this many half-power half-bandwidths each side (4, the
+        local ML window: 99.4 % of a mode's information, ``MLCriteria.window_hbw``); the lines between
+        are cut into segments no wider than the median mode segment.
+    min_segment_lines : int
+        Lines per segment at least (24: two ML sides of 12 lines, ``MLCriteria.min_side_lines``).
+    poly_degree : int
+        Degree of the complex polynomial removed from each segment's residual before the test (2):
+        it stands for the modes outside the segment and the band, as the local polynomial of the
+        ML segments (``ema_rig.identification.ml``, degree up to 2); a missing mode is a peak, which
+        it cannot take.
+    max_extra_steps : int
+        Work limit: growth steps of the order beyond the first repeat of the mode set while a
+        segment without any candidate cluster fails (1); the step is kept only when the higher
+        order changes the modes in the failing segments.
+    max_added : int
+        Work limit: missing modes added per failing segment and step (2).
+    drop_weak : bool
+        Drop an accepted mode whose own term is weak (``JudgeCriteria.weak_peak_share``) when its
+        segment passes the test without it (default False: on ufffiles_frf this dropped 5-13 of
+        ~40 modes, differently in two overlapping bands, and made the band study worse).
+    """
+
+    p_value: float = _src(1e-3, "chi-square test p = 0.001 family-wise (Bonferroni), dof = 2 lines x channels - "
+                          "parameters (Pintelon & Schoukens 2012, ch. 19)")
+    misfit_ratio: float = _src(2.0, "refine.py / MLCriteria.misfit_ratio: a residual twice the noise is a model error")
+    segment_hbw: float = _src(4.0, "MLCriteria.window_hbw: 99.4 % of a mode's Fisher information within 4 hbw")
+    min_segment_lines: int = _src(24, "2 x MLCriteria.min_side_lines (residues + local polynomial)")
+    poly_degree: int = _src(2, "the ML segments' local polynomial (ml.py, degree 2) for modes outside a segment")
+    max_extra_steps: int = _src(1, "work limit (no clock): one more growth span (the count rule's span) while a "
+                                "segment fails and the modes there change")
+    max_added: int = _src(2, "work limit: two missing modes per segment and step (a close pair)")
+    drop_weak: bool = _src(False, "off: on ufffiles_frf (two bands) it dropped modes inconsistently "
+                           "(benchmarks/study_real_bands.py)")
+
+
+@dataclass(frozen=True, slots=True)
+class IdentificationCriteria:
+    """The criteria of every stage of :func:`~ema_rig.identification.identification.identify`.
+
+    Parameters
+    ----------
+    stabilization : StabilizationCriteria
+    judge : JudgeCriteria
+    completeness : CompletenessCriteria
+    """
+
+    stabilization: StabilizationCriteria = field(default_factory=StabilizationCriteria)
+    judge: JudgeCriteria = field(default_factory=JudgeCriteria)
+    completeness: CompletenessCriteria = field(default_factory=CompletenessCriteria)
+
+    def sources(self) -> dict[str, str]:
+        """The source of every threshold, by ``stage.field``."""
+        return {f"{stage}.{k}": v for stage in ("stabilization", "judge", "completeness")
+                for k, v in getattr(self, stage).sources().items()}
+
+
+#: Defaults of each stage.
+STABILIZATION_CRITERIA = StabilizationCriteria()
+JUDGE_CRITERIA = JudgeCriteria()
+COMPLETENESS_CRITERIA = CompletenessCriteria()
+IDENTIFICATION_CRITERIA = IdentificationCriteria()
+
+__all__ = [
+    "COMPLETENESS_CRITERIA",
+    "IDENTIFICATION_CRITERIA",
+    "JUDGE_CRITERIA",
+    "STABILIZATION_CRITERIA",
+    "CompletenessCriteria",
+    "IdentificationCriteria",
+    "JudgeCriteria",
+    "StabilizationCriteria",
+]

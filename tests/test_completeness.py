@@ -1,0 +1,163 @@
+"""A complete mode set decided by the data (issue 18, points 3 and 5).
+
+Oracles, independent of the code under test: the state-space eigenvalues of lumped systems
+(``tests/lumped.py``), the undamped eigenvalues ``eig(K, M)`` of the rig truth
+(``tests/rig_truth.py``, modal damping: the poles' moduli), a scipy F / chi-square quantile, and
+a real measurement with published and peer values (``real-frf/README.md``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.linalg
+from lumped import five_mode_system
+from scipy.stats import f as f_dist
+
+from ema_rig.identification import identify, judge_clusters
+from ema_rig.identification.criteria import (
+    CompletenessCriteria,
+    IdentificationCriteria,
+    JudgeCriteria,
+    StabilizationCriteria,
+)
+from ema_rig.identification.modal import pole_residue_basis
+from ema_rig.identification.noise import segment_misfit
+
+FREQ = np.arange(0.0, 1000.5, 0.5)
+
+
+def test_every_criterion_has_a_source():
+    for obj in (StabilizationCriteria(), JudgeCriteria(), CompletenessCriteria()):
+        src = obj.sources()
+        assert set(src) == {f.name for f in dataclasses.fields(obj)}
+        assert all(len(v) > 10 for v in src.values()), src
+    assert len(IdentificationCriteria().sources()) == sum(
+        len(dataclasses.fields(c)) for c in (StabilizationCriteria, JudgeCriteria, CompletenessCriteria))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        JudgeCriteria().support_p = 0.5  # type: ignore[misc]
+
+
+def test_support_threshold_is_the_f_quantile_with_its_dof():
+    crit = JudgeCriteria()
+    # 8 channels, 300 residual dof, 10 candidates judged together: F(16, 300) at 1e-4
+    assert crit.support_threshold(8, 300.0, 10) == pytest.approx(f_dist.isf(1e-4, 16, 300), rel=1e-12)
+    # the old keyword: a fixed F
+    assert dataclasses.replace(crit, min_support=5.0).support_threshold(8, 300.0, 10) == 5.0
+
+
+def test_old_keywords_still_work_and_win_over_criteria():
+    sys5 = five_mode_system(close_pair=False)
+    d = sys5.frf(FREQ, inputs=[0], noise=0.01, rng=np.random.default_rng(0))
+    ident = identify(d, band=(50, 950))
+    strict = judge_clusters(ident.stabilization, d.band(50, 950), min_support=1e12)
+    assert not any(c.accepted for c in strict)
+    assert all("negligible contribution" in c.reason for c in strict if c.reason.startswith("negligible"))
+    with pytest.raises(TypeError):
+        identify(d, band=(50, 950), criteria=JudgeCriteria())  # type: ignore[arg-type]
+    # a tighter stabilization tolerance given as a keyword replaces the criteria's
+    ident2 = identify(d, band=(50, 950), freq_tol=0.005, criteria=IdentificationCriteria())
+    assert ident2.stabilization.tolerances["freq_tol"] == 0.005
+
+
+def test_one_kernel_lsfd_basis():
+    # the basis is the modal model's own synthesis: Re/Im columns times the residue give H
+    f = np.linspace(10.0, 500.0, 300)
+    lam = np.array([-2.0 + 2j * np.pi * 120.0, -5.0 + 2j * np.pi * 300.0])
+    res = np.array([1e-3 + 2e-3j, -4e-3 + 1e-3j])
+    a, scale = pole_residue_basis(f, lam, 2, residuals=False)
+    x = np.concatenate([res.real, res.imag]) * scale
+    h = (a @ x).view(np.complex128)
+    jw = 2j * np.pi * f
+    direct = sum(jw**2 * (r / (jw - p) + np.conj(r) / (jw - np.conj(p))) for r, p in zip(res, lam, strict=True))
+    np.testing.assert_allclose(h, direct, rtol=1e-12)
+
+
+def test_missing_mode_fails_its_segment_only():
+    # the exact poles pass at the noise level; leaving one out fails the segment around it
+    sys5 = five_mode_system(close_pair=False)
+    d = sys5.frf(FREQ, inputs=[0, 1], noise=0.01, rng=np.random.default_rng(1)).band(50, 950)
+    poles = sys5.poles[sys5.natural_freq < 900]
+    full = segment_misfit(d.freq, d.frf, poles, power=2)
+    assert full.passed
+    # the ratio of a segment is chi2 / dof: about 1 at the noise (measured 0.8-1.2)
+    assert np.all(full.ratio < 1.5), full.ratio
+    miss = segment_misfit(d.freq, d.frf, np.delete(poles, 2), power=2)
+    bad = miss.failing()
+    # the segments around 410 Hz fail (its skirt spans a few), those of the other modes pass
+    assert any(a <= sys5.natural_freq[2] <= b for a, b in bad), bad
+    assert all(300 < a and b < 520 for a, b in bad), bad
+
+
+def test_close_pair_one_reference_2_percent_noise_both_found():
+    # modes 3 and 4 are 1 % apart (410 / 414.1 Hz); reference 1 excites both
+    sys5 = five_mode_system(close_pair=True)
+    for seed in (0, 1):
+        d = sys5.frf(FREQ, inputs=[1], noise=0.02, rng=np.random.default_rng(seed))
+        ident = identify(d, band=(50, 950))
+        truth = sys5.natural_freq
+        assert ident.natural_freq.size == truth.size, np.round(ident.natural_freq, 2)
+        err = np.abs(ident.natural_freq / truth - 1)
+        assert np.all(err < 1e-3), err  # measured <= 3.6e-4 (the pair)
+        assert ident.residual_test is not None and ident.residual_test.passed
+
+
+def test_noise_only_segment_adds_no_mode():
+    # twenty times the noise in 300-360 Hz, where there is no mode: the segment fails the test and
+    # is named (a note: a higher order changed nothing there), but no candidate passes the F test
+    sys5 = five_mode_system(close_pair=False)
+    d = sys5.frf(FREQ, inputs=[0], noise=0.01, rng=np.random.default_rng(5))
+    rng = np.random.default_rng(6)
+    h = d.frf.copy()
+    sel = (FREQ >= 300) & (FREQ <= 360)
+    rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=2, keepdims=True))
+    h[:, :, sel] += 0.2 * rms * (rng.standard_normal(h[:, :, sel].shape)
+                                 + 1j * rng.standard_normal(h[:, :, sel].shape)) / np.sqrt(2)
+    ident = identify(d.replace(frf=h), band=(50, 950))
+    truth = sys5.natural_freq[sys5.natural_freq < 950]
+    truth = truth[np.abs(sys5.mode_shapes[: truth.size, 0]) > 1e-6]  # mode 4 has a node at reference 0
+    assert ident.natural_freq.size == truth.size, np.round(ident.natural_freq, 2)
+    assert not np.any((ident.natural_freq > 290) & (ident.natural_freq < 370))
+    assert not any("missing modes added" in n for n in ident.notes)
+    assert any("residual exceeds" in n for n in ident.notes + ident.warnings)
+    bad = ident.residual_test.failing()
+    assert bad and all(a < 375 and b > 285 for a, b in bad), bad
+
+
+@pytest.mark.parametrize("k_tb", [94.85e6, 93e6])
+def test_housing_mode_next_to_the_frame_mode_is_found(tmp_path, k_tb):
+    # a housing mode 1.1 % (k_TB 94.85e6) and 0.65 % (93e6) above the 663 Hz frame mode, one
+    # reference, 2 % damping: main rejected it as a duplicate / intermittent cluster
+    from rig_truth import RigTruth, write_case
+
+    from ema_rig.config import load_rig
+    from ema_rig.io.uff import read_uff58
+
+    truth = RigTruth(k_TB=k_tb, flex_frame_freq=663.0, seed=2)
+    m, k = truth.matrices()
+    fn = np.sqrt(np.clip(scipy.linalg.eigh(k, m, eigvals_only=True), 0, None)) / (2 * np.pi)
+    pair = fn[(fn > 650) & (fn < 680)]
+    assert pair.size == 2  # the oracle: frame 663 Hz and the housing mode
+    uff, rig_path = write_case(tmp_path, "frame", truth, np.arange(0.0, 1100.25, 0.5))
+    ident = identify(read_uff58(uff, rig=load_rig(rig_path)), band=(150, 1000))
+    found = ident.natural_freq[(ident.natural_freq > 650) & (ident.natural_freq < 680)]
+    assert found.size == 2, np.round(ident.natural_freq, 2)
+    # measured: 1.1 %: 0.02 % and 0.02 %; 0.65 %: 0.04 % and 0.01 %
+    np.testing.assert_allclose(found, pair, rtol=1.5e-3)
+
+
+def test_vt_case1_no_phantom(real_frf_dir):
+    from ema_rig.io.uff import read_uff58
+
+    d = read_uff58(real_frf_dir / "vt_case1_full.uff")
+    # 156-312 Hz: main reported a 303.6 Hz mode where the FRF has no peak (F = 34 on one channel:
+    # below the F(2, dof) quantile at p = 0.001 / 4 candidates, about 10)
+    ident = identify(d, band=(156.25, 311.875))
+    assert not np.any(np.abs(ident.natural_freq - 303.6) < 5.0), ident.natural_freq
+    assert np.sum(np.abs(ident.natural_freq - 212.09) < 2.0) == 1
+    # 0-500 Hz: the README's three modes (published 212.09 Hz; peers 161.6 and 34.06 Hz), each once
+    wide = identify(d, band=(0.0, 500.0))
+    for ref in (34.06, 161.6, 212.09):
+        assert np.sum(np.abs(wide.natural_freq / ref - 1) < 0.01) == 1, (ref, wide.natural_freq)
