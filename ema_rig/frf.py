@@ -32,7 +32,7 @@ _FORM_POWER = FORM_POWER  # the old private name, kept while the branches in fli
 _FORM_UNIT = {"receptance": "m/N", "mobility": "m/s/N", "accelerance": "m/s^2/N"}
 
 
-def frf_unit(frf_form: str) -> str:
+def frf_unit(frf_form: FrfForm) -> str:
     """SI unit string of an FRF form.
 
     Parameters
@@ -142,7 +142,7 @@ class FRFData:
     frf: NDArray[np.complex128]
     out_dofs: tuple[DOF, ...]
     in_dofs: tuple[DOF, ...]
-    frf_form: str = "accelerance"
+    frf_form: FrfForm = "accelerance"
     roles: tuple[str | None, ...] = ()
     axes: tuple[str | None, ...] = ()
     meta: Mapping[str, Any] = field(default_factory=dict)
@@ -347,7 +347,7 @@ class FRFData:
         return data
 
     # ------------------------------------------------------------ conversion
-    def to_form(self, frf_form: str, *, at_zero: Literal["nan", "drop"] = "nan") -> FRFData:
+    def to_form(self, frf_form: FrfForm, *, at_zero: Literal["nan", "drop"] = "nan") -> FRFData:
         """Convert between accelerance, mobility and receptance.
 
         ``accelerance = (j w) mobility = (j w)^2 receptance`` with ``w = 2 pi freq``.

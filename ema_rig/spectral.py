@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .dof import DOF, as_dof
 from .frf import FRFData
-from .literals import Estimator
+from .literals import Estimator, FrfForm
 
 ESTIMATORS: tuple[str, ...] = ("H1", "H2", "Hv")
 LOW_COHERENCE = 0.8
@@ -195,7 +195,7 @@ def estimate_frf(
     *,
     in_dofs: Sequence[DOF | str],
     out_dofs: Sequence[DOF | str],
-    frf_form: str = "accelerance",
+    frf_form: FrfForm = "accelerance",
     estimator: Estimator = "H1",
     window: str = "hann",
     segment: int | None = None,
