@@ -684,6 +684,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     accepted_poles = {m.pole for m in modes}
     model_poles = list(fitted[0].poles)
     n_chan = data.n_out * data.n_in
+    df = float(np.median(np.diff(data.freq))) if data.freq.size > 1 else 0.0
     for lo, hi in test.failing():
         pool = [i for i, c in enumerate(cands) if not c.accepted and lo <= c.natural_freq <= hi
                 and c.mode.pole not in accepted_poles and 0 < c.damping_ratio <= crit.judge.max_damping
@@ -694,6 +695,13 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
             if n_added >= cc.max_added:
                 break
             c = cands[i]
+            # within a tenth of a model mode's half-power band (as the lines resolve it: at least one
+            # line spacing, as in ml.py) it is that mode: the judge's duplicate distance
+            # (JudgeCriteria.dup_shape_mac); no data resolve two poles so close
+            lam_m = np.asarray(model_poles, dtype=np.complex128)
+            f_m, z_m = np.abs(lam_m) / (2 * np.pi), -lam_m.real / np.maximum(np.abs(lam_m), 1e-300)
+            if np.any(np.abs(c.natural_freq - f_m) < 0.1 * np.maximum(2 * np.maximum(z_m, 1e-4) * f_m, df)):
+                continue
             trial = _unique_modes([*modes, c.mode])
             poles = np.array([m.pole for m in trial])
             k = int(np.flatnonzero(poles == c.mode.pole)[0])
