@@ -811,6 +811,20 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
     if not dropped and not done.added:
         return done
     fitted = _fit_modes(data, modes, residuals)
+    # a missing mode is added as a start value: when the ML of the whole band cannot hold it (it
+    # leaves its half-power band or turns unstable), the data do not determine it as a mode
+    added = {c.mode.pole: i for i, c in enumerate(cands) if c.accepted and c.reason.startswith("physical: a missing mode")}
+    lost = [m for j, m in enumerate(modes) if m.pole in added and fitted[1].kind[j] == "held"]
+    if lost:
+        gone = {cands[added[m.pole]].natural_freq for m in lost}
+        for m in lost:
+            i = added[m.pole]
+            cands[i] = replace(cands[i], accepted=False, reason=(
+                f"not determined by the data: added as a missing mode, but the ML fit could not hold it "
+                f"(before: {cands[i].reason})"))
+        modes = [m for m in modes if m.pole not in {x.pole for x in lost}]
+        fitted = _fit_modes(data, modes, residuals)
+        done = replace(done, added=tuple(f for f in done.added if f not in gone))
     return _Completed(modes, tuple(cands), fitted, _misfit(data, fitted[0], crit.completeness), done.added,
                       tuple(dropped))
 
