@@ -808,9 +808,36 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                 f"not needed by the data: without it the residual near {fk:.6g} Hz stays consistent with the "
                 f"noise estimate (its own term {100 * c.peak_share:.0f} % of the FRF near it)"))
             dropped.append(fk)
-    if not dropped and not done.added:
+    fitted = _fit_modes(data, modes, residuals) if dropped or done.added else done.fitted
+    # two modes the ML does not resolve (frequencies within three times their summed ML standard
+    # uncertainties, participation MAC above JudgeCriteria.dup_participation_mac: the judge's
+    # duplicate rule, with the ML uncertainty in place of the order spread) are one: the weaker
+    # cluster (fewer poles) goes
+    from .mac import mac
+
+    ml = fitted[1]
+    fn_ml = np.abs(ml.poles) / (2 * np.pi)
+    dup: set[complex] = set()
+    for a in range(len(modes)):
+        for b in range(a + 1, len(modes)):
+            ma, mb = modes[a], modes[b]
+            s_ab = float(ml.natural_freq_std[a] + ml.natural_freq_std[b])
+            if ma.pole in dup or mb.pole in dup or not np.isfinite(s_ab):
+                continue
+            if abs(fn_ml[a] - fn_ml[b]) <= 3 * s_ab and float(
+                    mac(np.array(ma.participation), np.array(mb.participation))[0, 0]) > crit.judge.dup_participation_mac:
+                lesser, stronger = (mb, ma) if ma.n_poles >= mb.n_poles else (ma, mb)
+                dup.add(lesser.pole)
+                i = by_pole.get(lesser.pole)
+                if i is not None:
+                    cands[i] = replace(cands[i], accepted=False, reason=(
+                        f"duplicate of {stronger.natural_freq:.6g} Hz: the ML does not resolve the two "
+                        f"(within 3 x their summed uncertainty, participation MAC > {crit.judge.dup_participation_mac:g})"))
+    if dup:
+        modes = [m for m in modes if m.pole not in dup]
+        fitted = _fit_modes(data, modes, residuals)
+    elif not dropped and not done.added:
         return done
-    fitted = _fit_modes(data, modes, residuals)
     # a missing mode is added as a start value: when the ML of the whole band cannot hold it (it
     # leaves its half-power band or turns unstable), the data do not determine it as a mode
     added = {c.mode.pole: i for i, c in enumerate(cands) if c.accepted and c.reason.startswith("physical: a missing mode")}
