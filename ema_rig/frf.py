@@ -17,20 +17,22 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .dof import DOF, as_dof
+from .literals import FrfForm
 
-FrfForm = Literal["accelerance", "mobility", "receptance"]
 FRF_FORMS: tuple[str, ...] = ("accelerance", "mobility", "receptance")
-_FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+"""Power of ``j omega`` that turns a receptance into each FRF form (0, 1, 2)."""
+_FORM_POWER = FORM_POWER  # the old private name, kept while the branches in flight land
 _FORM_UNIT = {"receptance": "m/N", "mobility": "m/s/N", "accelerance": "m/s^2/N"}
 
 
-def frf_unit(frf_form: str) -> str:
+def frf_unit(frf_form: FrfForm) -> str:
     """SI unit string of an FRF form.
 
     Parameters
@@ -84,7 +86,7 @@ def _check_coherence(coherence: Any, shape: tuple[int, ...]) -> NDArray[np.float
     if coh.size and not (coh.min() >= 0.0 and coh.max() <= 1.0):
         raise ValueError(f"coherence values must lie in 0..1, got {coh.min():g}..{coh.max():g}")
     coh.setflags(write=False)
-    return coh
+    return cast("NDArray[np.float64]", coh)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -112,8 +114,11 @@ class FRFData:
     coherence : array_like, shape (n_out, n_in, n_freq), optional
         Ordinary coherence ``gamma^2`` of each FRF (unit-less, float64, finite, 0 <= value <= 1),
         e.g. from UFF58 function type 6 datasets. None when not known for every FRF.
-    n_averages : int, optional
-        Number of averages behind the FRFs and the coherence (>= 1), None when unknown.
+    n_averages : float, optional
+        Number of averages behind the FRFs and the coherence (>= 1; an effective, non-integer
+        number where overlapped segments are not independent), None when unknown. The one place
+        this number lives: readers, ``--averages`` and the rig file's ``[identification]
+        n_averages`` all set it here.
 
     Notes
     -----
@@ -137,12 +142,12 @@ class FRFData:
     frf: NDArray[np.complex128]
     out_dofs: tuple[DOF, ...]
     in_dofs: tuple[DOF, ...]
-    frf_form: str = "accelerance"
+    frf_form: FrfForm = "accelerance"
     roles: tuple[str | None, ...] = ()
     axes: tuple[str | None, ...] = ()
     meta: Mapping[str, Any] = field(default_factory=dict)
     coherence: NDArray[np.float64] | None = None
-    n_averages: int | None = None
+    n_averages: float | None = None
 
     def __post_init__(self) -> None:
         freq = np.array(self.freq, dtype=np.float64, copy=True)
@@ -180,14 +185,17 @@ class FRFData:
             raise ValueError("roles and axes must have one entry per output DOF")
         coherence = None if self.coherence is None else _check_coherence(self.coherence, frf.shape)
         if self.n_averages is not None and (
-            isinstance(self.n_averages, bool) or not isinstance(self.n_averages, (int, np.integer))
-            or self.n_averages < 1
+            isinstance(self.n_averages, bool) or not isinstance(self.n_averages, (int, float, np.integer, np.floating))
+            or not np.isfinite(self.n_averages) or self.n_averages < 1
         ):
-            raise ValueError(f"n_averages must be an integer >= 1 or None, got {self.n_averages!r}")
+            raise ValueError(f"n_averages must be a number >= 1 or None, got {self.n_averages!r}")
         freq.setflags(write=False)
         frf.setflags(write=False)
         object.__setattr__(self, "coherence", coherence)
-        object.__setattr__(self, "n_averages", None if self.n_averages is None else int(self.n_averages))
+        n_avg = self.n_averages
+        if n_avg is not None:
+            n_avg = int(n_avg) if float(n_avg).is_integer() else float(n_avg)
+        object.__setattr__(self, "n_averages", n_avg)
         object.__setattr__(self, "freq", freq)
         object.__setattr__(self, "frf", frf)
         object.__setattr__(self, "out_dofs", out_dofs)
@@ -200,22 +208,22 @@ class FRFData:
     @property
     def shape(self) -> tuple[int, int, int]:
         """``(n_out, n_in, n_freq)``."""
-        return self.frf.shape  # type: ignore[return-value]
+        return self.frf.shape
 
     @property
     def n_out(self) -> int:
         """Number of response DOFs."""
-        return self.frf.shape[0]
+        return cast("int", self.frf.shape[0])
 
     @property
     def n_in(self) -> int:
         """Number of reference DOFs."""
-        return self.frf.shape[1]
+        return cast("int", self.frf.shape[1])
 
     @property
     def n_freq(self) -> int:
         """Number of frequency lines."""
-        return self.frf.shape[2]
+        return cast("int", self.frf.shape[2])
 
     @property
     def freq_rad(self) -> NDArray[np.float64]:
@@ -339,7 +347,7 @@ class FRFData:
         return data
 
     # ------------------------------------------------------------ conversion
-    def to_form(self, frf_form: str, *, at_zero: Literal["nan", "drop"] = "nan") -> FRFData:
+    def to_form(self, frf_form: FrfForm, *, at_zero: Literal["nan", "drop"] = "nan") -> FRFData:
         """Convert between accelerance, mobility and receptance.
 
         ``accelerance = (j w) mobility = (j w)^2 receptance`` with ``w = 2 pi freq``.
@@ -358,7 +366,7 @@ class FRFData:
         FRFData
         """
         frf_unit(frf_form)
-        p = _FORM_POWER[frf_form] - _FORM_POWER[self.frf_form]
+        p = FORM_POWER[frf_form] - FORM_POWER[self.frf_form]
         if p == 0:
             return self
         data = self
@@ -380,7 +388,7 @@ class FRFData:
     # ------------------------------------------------------------- summaries
     def sum_frf(self) -> NDArray[np.float64]:
         """Sum of FRF magnitudes over all outputs and inputs, shape (n_freq,), unit ``unit_str``."""
-        return np.abs(self.frf).sum(axis=(0, 1))
+        return cast("NDArray[np.float64]", np.abs(self.frf).sum(axis=(0, 1)))
 
     def cmif(self) -> NDArray[np.float64]:
         """Complex mode indicator function: singular values per line.
@@ -404,4 +412,4 @@ class FRFData:
         return replace(self, **changes)
 
 
-__all__ = ["FRFData", "FRF_FORMS", "FrfForm", "frf_unit"]
+__all__ = ["FORM_POWER", "FRFData", "FRF_FORMS", "FrfForm", "frf_unit"]

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from dataclasses import replace
 from typing import Any
 
+from ..config import load_rig
+from ..errors import EmaRigError, IdentificationError
 from . import _args
 
 
@@ -26,8 +30,9 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
                         help="maximum-likelihood refinement after PolyMAX: every mode's +/- from the "
                              "Fisher information (noise only, not model error; slower). Default: the rig "
                              "file's [identification] refine, else off")
-    parser.add_argument("--averages", type=_args.positive_float, default=None, metavar="N",
-                        help="number of averages behind the FRFs and coherence (used by --refine; "
+    parser.add_argument("--averages", type=_args.number(float, lo=1.0), default=None, metavar="N",
+                        help="number of averages behind the FRFs and coherence (weights the coherence-based noise of the "
+                             "default ML estimate and of --refine; "
                              "default: the rig file's [identification] n_averages)")
 
 
@@ -38,10 +43,6 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
     findings of :func:`~ema_rig.identification.diagnose.diagnose_file`. A refusal
     (:class:`~ema_rig.errors.IdentificationError`) is re-raised with those findings appended.
     """
-    from dataclasses import replace
-
-    from ..config import load_rig
-    from ..errors import EmaRigError, IdentificationError
     from ..identification import Selection, identify
     from ..identification.diagnose import diagnose_file
     from ..io.uff import read_uff58
@@ -63,7 +64,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
         refine = refine if refine is not None else rig.identification.get("refine")
         n_averages = n_averages if n_averages is not None else rig.identification.get("n_averages")
     if n_averages is not None:
-        data = data.with_meta(n_averages=float(n_averages))
+        data = data.replace(n_averages=float(n_averages))
     selection = Selection.from_json(args.selection) if args.selection else None
     try:
         ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True,
@@ -82,8 +83,6 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def print_warnings(ident: Any, file: Any = None) -> None:
     """One ``warning: <file>: …`` line per warning of the identification, on stderr."""
-    import sys
-
     prefix = f"{file}: " if file else ""
     for w in ident.warnings:
         text = str(w)

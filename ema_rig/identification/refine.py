@@ -62,14 +62,15 @@ least-squares complex frequency-domain estimator" (the PolyMAX start values).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._blas import single_threaded
 from ..errors import IdentificationError
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .modal import ModalModel
 from .noise import NoiseModel, check_coherence, coherence_variance, fit_noise_model
 from .plscf import check_data, source_of
@@ -282,7 +283,7 @@ class _Problem:
             cf, d = val.chol[c]
 
             def gsolve(rhs: NDArray[np.float64], cf: Any = cf, d: NDArray[np.float64] = d) -> NDArray[np.float64]:
-                return scipy.linalg.cho_solve(cf, rhs / d[:, None], check_finite=False) / d[:, None]
+                return cast("NDArray[np.float64]", scipy.linalg.cho_solve(cf, rhs / d[:, None], check_finite=False) / d[:, None])
 
             a = self.w[c][:, None] * br
             r = a @ val.x[c] - self.w[c] * self.yr[c]
@@ -405,7 +406,7 @@ def _input_noise(
     notes += list(cnotes)
     coh = coh[:, :, idx].reshape(n_chan, -1)
     if n_averages is None:
-        n_avg = getattr(data, "n_averages", None) or data.meta.get("n_averages")
+        n_avg = getattr(data, "n_averages", None)
         n_averages = float(n_avg) if n_avg else None
     if n_averages is not None and not n_averages >= 1:
         raise IdentificationError(f"n_averages must be >= 1, got {n_averages!r}", file=src)
@@ -465,8 +466,7 @@ def refine(
     coherence : array_like, shape (n_out, n_in, n_freq), optional
         Ordinary coherence 0..1 of every line (default ``data.coherence`` when present).
     n_averages : float, optional
-        Number of averages of the coherence/H1 estimate (default ``data.n_averages`` or
-        ``data.meta['n_averages']``). Without it the coherence gives the shape of the variance and
+        Number of averages of the coherence/H1 estimate (default ``data.n_averages``). Without it the coherence gives the shape of the variance and
         its level is estimated from the residual.
     residuals : bool, optional
         Fit lower and upper residual terms (default True).
@@ -812,7 +812,7 @@ def inv_psd(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
     if np.min(np.abs(np.diag(c))) ** 2 < 1e-13:
         return None
     ci = np.linalg.inv(c)
-    return (ci.T @ ci) / np.outer(d, d)
+    return cast("NDArray[np.float64] | None", (ci.T @ ci) / np.outer(d, d))
 
 
 __all__ = ["Refinement", "refine"]

@@ -40,14 +40,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..config import RigConfig
 from ..dof import DOF
 from ..errors import UFFError, UnitWarning
+from ..literals import FrfForm
 from . import _uff_units
+from .layout import SensorLayout
 from .uff import UFFRecord, read_uff
 
 _FORCE_CODES = (13, 9)
-_RESPONSE_FORM = {12: "accelerance", 11: "mobility", 8: "receptance"}
+_RESPONSE_FORM: dict[int, FrfForm] = {12: "accelerance", 11: "mobility", 8: "receptance"}
 _DIMS = {"force": (0, 0, 1), "accelerance": (1, -2, 0), "mobility": (1, -1, 0), "receptance": (1, 0, 0)}
 
 
@@ -80,7 +81,7 @@ class TimeData:
     fs: float
     in_dofs: tuple[DOF, ...]
     out_dofs: tuple[DOF, ...]
-    frf_form: str
+    frf_form: FrfForm
     source: str
     notes: tuple[str, ...] = ()
     datasets: Mapping[str, Any] = field(default_factory=dict)
@@ -139,14 +140,14 @@ def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
     return float(x[0]) * tfac, dt * tfac, n
 
 
-def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) -> TimeData:
+def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None) -> TimeData:
     """Read the force and response time histories of a UFF file.
 
     Parameters
     ----------
     path : str or path-like
         UFF file with dataset-58 time histories (function type 1), ASCII or binary.
-    rig : RigConfig, optional
+    rig : SensorLayout (a RigConfig or a ChannelLayout), optional
         Keeps only the rig's sensors (in rig order, the rig's sign decides as in
         :func:`~ema_rig.io.uff.read_uff58`) and the rig's excitations as forces.
 
@@ -166,7 +167,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
     src = uf.path
     notes: list[str] = []
     chans: dict[tuple[str, DOF], list[tuple[UFFRecord, float, float]]] = {}
-    forms: set[str] = set()
+    forms: set[FrfForm] = set()
     dt0: float | None = None
     n0: int | None = None
     first: UFFRecord | None = None
@@ -208,8 +209,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
         sign = float(dof.sign)
         if rig is not None:
             if kind == "force":
-                match = next((q for q in rig.references if q.node == dof.node
-                              and abs(q.direction) == abs(dof.direction)), None)
+                match = next((q for q in rig.references if q.same_axis(dof)), None)
                 if match is None:
                     notes.append(f"dataset {r.index}: force at {dof} is not a rig excitation; ignored")
                     continue

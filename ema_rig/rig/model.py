@@ -33,7 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..config import ModelParams
 from ..dof import DOF
-from ..frf import _FORM_POWER, FRFData, frf_unit
+from ..frf import FORM_POWER, FRFData, frf_unit
+from ..literals import FrfForm
 
 DOF_NAMES: tuple[str, ...] = ("H", "S", "F")
 """Names of the model's DOFs: housing, spindle, frame (in matrix order)."""
@@ -96,7 +97,17 @@ def k_tb_from_series(k_TB_MS: float, k_MS: float) -> float:
 
 
 def mass_matrix(params: ModelParams) -> NDArray[np.float64]:
-    """Mass matrix ``diag(m_H, m_S, m_F)`` [kg], shape (3, 3)."""
+    """Mass matrix ``diag(m_H, m_S, m_F)`` [kg], shape (3, 3).
+
+    Parameters
+    ----------
+    params : ModelParams
+        The rig model (masses in kg).
+
+    Returns
+    -------
+    ndarray, shape (3, 3), float64
+    """
     return np.diag([params.m_H, params.m_S, params.m_F]).astype(np.float64)
 
 
@@ -136,7 +147,7 @@ def modal_frf(
     shapes_in: ArrayLike,
     damping_ratio: float | ArrayLike,
     *,
-    frf_form: str = "receptance",
+    frf_form: FrfForm = "receptance",
 ) -> NDArray[np.complex128]:
     """FRF matrix of a proportionally (modally) damped system by modal superposition.
 
@@ -172,7 +183,7 @@ def modal_frf(
     w = 2.0 * np.pi * f
     denom = wr[:, None] ** 2 - w[None, :] ** 2 + 2j * z[:, None] * wr[:, None] * w[None, :]
     h = np.einsum("or,ir,rf->oif", po, pi, 1.0 / denom)
-    p = _FORM_POWER[frf_form]
+    p = FORM_POWER[frf_form]
     if p:
         h = h * (1j * w) ** p
     return np.asarray(h, dtype=np.complex128)
@@ -269,7 +280,7 @@ class RigModel:
         freq: ArrayLike,
         *,
         damping_ratio: float | ArrayLike = 0.0,
-        frf_form: str = "receptance",
+        frf_form: FrfForm = "receptance",
         outputs: Sequence[int] = (HOUSING, SPINDLE, FRAME),
     ) -> NDArray[np.complex128]:
         """FRFs for a force on the housing mass, by modal superposition.
@@ -305,7 +316,7 @@ class RigModel:
         freq: ArrayLike,
         *,
         damping_ratio: float | ArrayLike = 0.0,
-        frf_form: str = "accelerance",
+        frf_form: FrfForm = "accelerance",
         housing_dof: str = "1+Y",
         spindle_dof: str = "2+Y",
     ) -> FRFData:
