@@ -810,13 +810,14 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
             dropped.append(fk)
     fitted = _fit_modes(data, modes, residuals) if dropped or done.added else done.fitted
     # two modes the ML does not resolve (frequencies within three times their summed ML standard
-    # uncertainties, participation MAC above JudgeCriteria.dup_participation_mac: the judge's
+    # uncertainties and within a half-power half-bandwidth, participation MAC above JudgeCriteria.dup_participation_mac: the judge's
     # duplicate rule, with the ML uncertainty in place of the order spread) are one: the weaker
     # cluster (fewer poles) goes
     from .mac import mac
 
     ml = fitted[1]
     fn_ml = np.abs(ml.poles) / (2 * np.pi)
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
     dup: set[complex] = set()
     for a in range(len(modes)):
         for b in range(a + 1, len(modes)):
@@ -824,7 +825,10 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
             s_ab = float(ml.natural_freq_std[a] + ml.natural_freq_std[b])
             if ma.pole in dup or mb.pole in dup or not np.isfinite(s_ab):
                 continue
-            if abs(fn_ml[a] - fn_ml[b]) <= 3 * s_ab and float(
+            # ... and within the stronger's half-power half-bandwidth (at least a line spacing): modes
+            # further apart are resolved by the lines themselves, whatever their uncertainty
+            hb = max(float(-ml.poles[a].real if ma.n_poles >= mb.n_poles else -ml.poles[b].real) / (2 * np.pi), df)
+            if abs(fn_ml[a] - fn_ml[b]) <= min(3 * s_ab, hb) and float(
                     mac(np.array(ma.participation), np.array(mb.participation))[0, 0]) > crit.judge.dup_participation_mac:
                 lesser, stronger = (mb, ma) if ma.n_poles >= mb.n_poles else (ma, mb)
                 dup.add(lesser.pole)
