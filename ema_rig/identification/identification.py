@@ -40,6 +40,7 @@ from .criteria import (
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import _lsfd_checked
+from .mac import mac
 from .ml import LocalML, local_ml
 from .modal import ModalModel
 from .noise import MisfitTest, segment_misfit
@@ -813,8 +814,6 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
     # uncertainties and within a half-power half-bandwidth, participation MAC above JudgeCriteria.dup_participation_mac: the judge's
     # duplicate rule, with the ML uncertainty in place of the order spread) are one: the weaker
     # cluster (fewer poles) goes
-    from .mac import mac
-
     ml = fitted[1]
     fn_ml = np.abs(ml.poles) / (2 * np.pi)
     df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
