@@ -56,11 +56,13 @@ def run(args: argparse.Namespace) -> int:
         rec["mode_shape"] = {k: shp[k] for k in ("reference", "normalisation", "unit", "shape")}
     drive = [str(d) for d in ident.modes.in_dofs if d in ident.modes.out_dofs]
     fit = ident.fit_error
+    line_err = ident.modes.line_error(data)
     print(f"file   {args.file}")
     print(f"data   {data.n_out} outputs x {data.n_in} reference(s), band {ident.band[0]:g}-{ident.band[1]:g} Hz, "
           f"orders {min(ident.poles.orders)}-{max(ident.poles.orders)} "
           f"({'converged' if ident.converged else 'NOT converged'}), "
-          f"synthesis error median {100 * float(np.median(fit)):.1f} %, max {100 * float(np.max(fit)):.1f} %")
+          f"synthesis error median {100 * float(np.median(fit)):.1f} %, max {100 * float(np.max(fit)):.1f} %, "
+          f"per line (median over the lines) {100 * float(np.nanmedian(line_err)):.0f} %")
     for note in ident.notes:
         print(f"note   {note}")
     ref = ident.refinement
@@ -106,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
             "candidates": [c.to_dict() for c in ident.candidates],
             "fit_error": fit.tolist(),
             "fit_error_median": float(np.median(fit)),
+            "line_error": [[None if not np.isfinite(v) else float(v) for v in row] for row in line_err],
             "warnings": list(ident.warnings),
             "notes": list(ident.notes),
             "refinement": None if ref is None else {

@@ -204,6 +204,11 @@ class CompletenessCriteria(_Sourced):
         Work limit: growth steps of the order beyond the first repeat of the mode set while a
         segment without any candidate cluster fails (1); the step is kept only when the higher
         order changes the modes in the failing segments.
+    edge_peak_lines : int
+        A failing segment at a band edge is put down to a mode outside the band only when its excess
+        over the noise is largest in its outermost ``edge_peak_lines`` lines (default 4, the Hann main
+        lobe): the skirt of a mode beyond the edge grows towards it, a mode inside the band (a peak of
+        the data) has its largest excess at its own lines, and is a missing mode.
     max_added : int
         Work limit: missing modes added per failing segment and step (2).
     drop_weak : bool
@@ -220,6 +225,8 @@ class CompletenessCriteria(_Sourced):
     poly_degree: int = _src(2, "the ML segments' local polynomial (ml.py, degree 2) for modes outside a segment")
     max_extra_steps: int = _src(1, "work limit (no clock): one more growth span (the count rule's span) while a "
                                 "segment fails and the modes there change")
+    edge_peak_lines: int = _src(4, "Hann main lobe, 4 lines (Harris 1978; MLCriteria.block_lines): a skirt from "
+                                "beyond the band peaks in the outermost lobe, a mode inside peaks further in")
     max_added: int = _src(2, "work limit: two missing modes per segment and step (a close pair)")
     drop_weak: bool = _src(False, "off: on ufffiles_frf (two bands) it dropped modes inconsistently "
                            "(benchmarks/study_real_bands.py)")

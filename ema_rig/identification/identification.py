@@ -40,6 +40,7 @@ from .criteria import (
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import _lsfd_checked
+from .mac import mac
 from .ml import LocalML, local_ml
 from .modal import ModalModel
 from .noise import MisfitTest, segment_misfit
@@ -684,6 +685,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     accepted_poles = {m.pole for m in modes}
     model_poles = list(fitted[0].poles)
     n_chan = data.n_out * data.n_in
+    df = float(np.median(np.diff(data.freq))) if data.freq.size > 1 else 0.0
     for lo, hi in test.failing():
         pool = [i for i, c in enumerate(cands) if not c.accepted and lo <= c.natural_freq <= hi
                 and c.mode.pole not in accepted_poles and 0 < c.damping_ratio <= crit.judge.max_damping
@@ -694,6 +696,13 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
             if n_added >= cc.max_added:
                 break
             c = cands[i]
+            # within a tenth of a model mode's half-power band (as the lines resolve it: at least one
+            # line spacing, as in ml.py) it is that mode: the judge's duplicate distance
+            # (JudgeCriteria.dup_shape_mac); no data resolve two poles so close
+            lam_m = np.asarray(model_poles, dtype=np.complex128)
+            f_m, z_m = np.abs(lam_m) / (2 * np.pi), -lam_m.real / np.maximum(np.abs(lam_m), 1e-300)
+            if np.any(np.abs(c.natural_freq - f_m) < 0.1 * np.maximum(2 * np.maximum(z_m, 1e-4) * f_m, df)):
+                continue
             trial = _unique_modes([*modes, c.mode])
             poles = np.array([m.pole for m in trial])
             k = int(np.flatnonzero(poles == c.mode.pole)[0])
@@ -800,9 +809,52 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                 f"not needed by the data: without it the residual near {fk:.6g} Hz stays consistent with the "
                 f"noise estimate (its own term {100 * c.peak_share:.0f} % of the FRF near it)"))
             dropped.append(fk)
-    if not dropped and not done.added:
+    fitted = _fit_modes(data, modes, residuals) if dropped or done.added else done.fitted
+    # two modes the ML does not resolve (frequencies within three times their summed ML standard
+    # uncertainties and within a half-power half-bandwidth, participation MAC above JudgeCriteria.dup_participation_mac: the judge's
+    # duplicate rule, with the ML uncertainty in place of the order spread) are one: the weaker
+    # cluster (fewer poles) goes
+    ml = fitted[1]
+    fn_ml = np.abs(ml.poles) / (2 * np.pi)
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    dup: set[complex] = set()
+    for a in range(len(modes)):
+        for b in range(a + 1, len(modes)):
+            ma, mb = modes[a], modes[b]
+            s_ab = float(ml.natural_freq_std[a] + ml.natural_freq_std[b])
+            if ma.pole in dup or mb.pole in dup or not np.isfinite(s_ab):
+                continue
+            # ... and within the stronger's half-power half-bandwidth (at least a line spacing): modes
+            # further apart are resolved by the lines themselves, whatever their uncertainty
+            hb = max(float(-ml.poles[a].real if ma.n_poles >= mb.n_poles else -ml.poles[b].real) / (2 * np.pi), df)
+            if abs(fn_ml[a] - fn_ml[b]) <= min(3 * s_ab, hb) and float(
+                    mac(np.array(ma.participation), np.array(mb.participation))[0, 0]) > crit.judge.dup_participation_mac:
+                lesser, stronger = (mb, ma) if ma.n_poles >= mb.n_poles else (ma, mb)
+                dup.add(lesser.pole)
+                i = by_pole.get(lesser.pole)
+                if i is not None:
+                    cands[i] = replace(cands[i], accepted=False, reason=(
+                        f"duplicate of {stronger.natural_freq:.6g} Hz: the ML does not resolve the two "
+                        f"(within 3 x their summed uncertainty, participation MAC > {crit.judge.dup_participation_mac:g})"))
+    if dup:
+        modes = [m for m in modes if m.pole not in dup]
+        fitted = _fit_modes(data, modes, residuals)
+    elif not dropped and not done.added:
         return done
-    fitted = _fit_modes(data, modes, residuals)
+    # a missing mode is added as a start value: when the ML of the whole band cannot hold it (it
+    # leaves its half-power band or turns unstable), the data do not determine it as a mode
+    added = {c.mode.pole: i for i, c in enumerate(cands) if c.accepted and c.reason.startswith("physical: a missing mode")}
+    lost = [m for j, m in enumerate(modes) if m.pole in added and fitted[1].kind[j] == "held"]
+    if lost:
+        gone = {cands[added[m.pole]].natural_freq for m in lost}
+        for m in lost:
+            i = added[m.pole]
+            cands[i] = replace(cands[i], accepted=False, reason=(
+                f"not determined by the data: added as a missing mode, but the ML fit could not hold it "
+                f"(before: {cands[i].reason})"))
+        modes = [m for m in modes if m.pole not in {x.pole for x in lost}]
+        fitted = _fit_modes(data, modes, residuals)
+        done = replace(done, added=tuple(f for f in done.added if f not in gone))
     return _Completed(modes, tuple(cands), fitted, _misfit(data, fitted[0], crit.completeness), done.added,
                       tuple(dropped))
 

@@ -275,6 +275,11 @@ class _Segment:
         self.fixed = np.ascontiguousarray(self.fixed[:, keep])
         self.L = 2 * self.m + self.fixed.shape[1]
 
+    def restore_basis(self, fixed: NDArray[np.float64]) -> None:
+        """Set the background directions back to ``fixed`` (shape (2n, n_t), the basis before the cut)."""
+        self.fixed = fixed
+        self.L = 2 * self.m + self.fixed.shape[1]
+
     def _pn(self, lam: NDArray[np.complex128], k: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
         """Window-averaged ``(jw)^p / (jw - l)^k`` and ``(jw)^p / (jw - conj l)^k``, shape (n, n_poles)."""
         pos = np.einsum("in,inr->ir", self.facn * self.kw[None, :], 1.0 / (self.jwn[:, :, None] - lam) ** k)
@@ -558,19 +563,27 @@ def local_ml(
                        criteria.basis_rcond)
         # the background directions the start model uses above the noise (the rest only fit noise)
         nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
+        full_basis = seg.fixed
         seg.keep_supported(_stack(mod[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :],
                            np.sqrt(np.maximum(np.mean(nv, axis=0) / 2.0, 1e-300)), criteria.background_sigmas)
         th0 = seg.theta(lam0[rs_arr])
         free = np.ones(m, bool)
         why: dict[int, str] = {}
         theta = th0
-        for _attempt in range(m + 1):
+        for _attempt in range(m + 2):
             theta, k = _lm(seg, th0, free, criteria.max_iter)
             n_eval += k
             bad = _check(seg.poles(theta), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
                          criteria.move_hbw)
             if not bad:
                 break
+            if seg.fixed.shape[1] < full_basis.shape[1]:
+                # the cut is a variance saving that holds only when the dropped directions bias
+                # nothing: a pole leaving its half-bandwidth shows that the data need them (the
+                # start model's background misses part of a heavily damped mode's neighbourhood),
+                # so the segment is fitted again on its whole background before any pole is held
+                seg.restore_basis(full_basis)
+                continue
             worst = max(bad, key=lambda j: bad[j][0])
             why[worst] = bad[worst][1]
             free[worst] = False

@@ -219,6 +219,36 @@ class ModalModel:
             h = h + lr_term + self.upper_residual[:, :, None] * fac
         return FRFData(f, h, self.out_dofs, self.in_dofs, frf_form=form, roles=self.roles, axes=self.axes)
 
+    def line_error(self, data: FRFData) -> NDArray[np.float64]:
+        """Median over the band's lines of the relative error ``|H - H_syn| / |H|``, per channel.
+
+        Unlike :attr:`fit_error` (a norm over the band, set by its largest peak), every line
+        counts alike: a misfit between the peaks cannot hide behind a well-fitted resonance.
+
+        Parameters
+        ----------
+        data : FRFData
+            Measured FRFs holding the model's DOFs (any form; converted to the model's).
+
+        Returns
+        -------
+        ndarray, shape (n_out, n_in)
+            Dimensionless; NaN where the band has no line with a finite, non-zero FRF.
+        """
+        lo, hi = float(self.band[0]), float(self.band[1])
+        meas = data.sel(out=list(self.out_dofs), inp=list(self.in_dofs)).to_form(self.frf_form)
+        keep = (meas.freq >= lo) & (meas.freq <= hi) if np.isfinite(lo) and np.isfinite(hi) else np.ones(meas.freq.size, bool)
+        m = meas.frf[:, :, keep]
+        syn = self.synthesize(meas.freq[keep]).frf
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.abs(m - syn) / np.abs(m)
+        rel = np.where(np.isfinite(rel), rel, np.nan)
+        out = np.full(m.shape[:2], np.nan)
+        for i, j in np.ndindex(*out.shape):
+            if np.any(np.isfinite(rel[i, j])):
+                out[i, j] = float(np.nanmedian(rel[i, j]))
+        return out
+
     def to_records(self) -> list[dict[str, Any]]:
         """One dict per mode: ``natural_freq`` (Hz), ``damping_ratio``, ``pole`` (re, im)."""
         return [

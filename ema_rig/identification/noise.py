@@ -559,7 +559,11 @@ def segment_misfit(
         i0, i1 = int(edges[s_i]), int(edges[s_i + 1])
         mid = (i0 + i1) // 2
         outer, inner = (w[i0:mid], w[mid:i1]) if s_i == 0 else (w[mid:i1], w[i0:mid])
-        if m_seg[s_i] == 0 or outer.sum() > inner.sum():
+        # ... unless its excess peaks inside the segment: a mode in the band, not a skirt from beyond
+        k = min(criteria.edge_peak_lines, i1 - i0)
+        rim = w[i0:i0 + k] if s_i == 0 else w[i1 - k:i1]
+        peak_inside = bool(w[i0:i1].size) and float(np.max(w[i0:i1])) > float(np.max(rim))
+        if (m_seg[s_i] == 0 or outer.sum() > inner.sum()) and not peak_inside:
             edge[s_i] = True
     fail = fail & ~edge
     return MisfitTest(f[edges[:-1]], f[edges[1:] - 1], r_p, r_w, p, dof_p, fail, float(alpha), source, edge, var)

@@ -108,6 +108,7 @@ def plot_synthesis(
     shown = data.band(max(float(data.freq[0]), lo - margin * width), min(float(data.freq[-1]), hi + margin * width))
     meas = shown.sel(out=list(modes.out_dofs), inp=list(modes.in_dofs)).to_form(modes.frf_form)
     syn = modes.synthesize(meas.freq, frf_form=modes.frf_form)
+    per_line = modes.line_error(meas)
     if channels is None:
         channels = [(i, j) for j in range(len(modes.in_dofs)) for i in range(len(modes.out_dofs))][:max_channels]
     n = len(channels)
@@ -145,7 +146,8 @@ def plot_synthesis(
             np.linalg.norm(meas.frf[i, j, in_band]), np.finfo(float).tiny)
         role = modes.roles[i] or ""
         axis = modes.axes[i] or ""
-        ax.set_title(f"{modes.out_dofs[i]} / {modes.in_dofs[j]}  {role} {axis}  fit error {100 * err:.1f} %",
+        ax.set_title(f"{modes.out_dofs[i]} / {modes.in_dofs[j]}  {role} {axis}  fit error {100 * err:.1f} %"
+                     f" (median per line {100 * per_line[i, j]:.0f} %)",
                      fontsize=8.5, loc="left")
         ax.grid(True, which="both", alpha=0.25)
         ax.set_ylabel(f"|H| [{meas.unit_str}]", fontsize=8)
