@@ -23,6 +23,32 @@ estimate_stiffness, calibrate
 load_campaign, run_campaign
     Campaign files and runs (``ema_rig.campaign``).
 
+Layers
+------
+Bottom to top; a module imports only from its own layer or below (``tests/test_layers.py``
+states the same table and checks every import, the ones inside functions and under
+``TYPE_CHECKING`` included, and that the import graph has no cycle):
+
+0. foundations: ``errors``, ``dof`` (node + signed direction; ``DOF.same_axis`` is the one
+   "same sensor axis"), ``literals`` (every ``Literal`` alias), ``frf`` (``FRFData``),
+   ``processing`` (the record of how FRFs were estimated), the private helpers.
+1. ``io/``: UFF read/write, time data, geometry, units; ``mode_shapes`` (shape records, for
+   JSON and dataset 55). Knows DOFs and units, not the rig: the readers take a
+   ``io.layout.SensorLayout`` (a ``RigConfig`` is one), the dataset-55 writer a
+   ``mode_shapes.ModalShapes`` (a ``ModalModel`` is one).
+2. ``identification/`` (pLSCF, stabilization, LSFD, ML, crosscheck) and ``spectral`` (H1/H2/Hv).
+3. the rig: ``config`` (the rig file; it assigns the sensor roles), ``rig/`` (model, candidates,
+   matching, inversion, fit, uncertainty, stiffness, Hertz) and ``simulate``.
+4. campaign core: ``campaign.schema``, ``campaign.result``; ``demo_data``.
+5. outputs: ``plot/``, ``campaign.drilldown``, ``report``, ``campaign.outputs``.
+6. the campaign run: ``campaign.runner`` (every measurement, then the outputs) and the
+   ``campaign`` facade.
+7. ``commands/``, ``cli``, and this facade.
+
+Imports inside functions remain only to keep a light module light (``import ema_rig``, the
+command line's start-up and ``import ema_rig.campaign`` load no numpy) or for an optional,
+heavy or platform-specific package; the test lists each kind with its reason.
+
 The errors, DOF, RigConfig and load_rig are plain Python and imported with the package; every
 other name (FRFData and ``__version__`` included) is resolved on first use, so ``import ema_rig``
 imports neither numpy nor scipy, and ``ema-rig --help`` or a usage error stays fast.
@@ -30,9 +56,11 @@ imports neither numpy nor scipy, and ``ema-rig --help`` or a usage error stays f
 
 from __future__ import annotations
 
+import importlib
 import logging
 from typing import TYPE_CHECKING, Any
 
+from ._version import version
 from .config import RigConfig, load_rig
 from .dof import DOF
 from .errors import (
@@ -68,23 +96,11 @@ _LAZY = {
 }
 
 
-def _version() -> str:
-    # importlib.metadata costs ~40 ms: only when the version is asked for
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("ema-rig")
-    except PackageNotFoundError:  # running from a source tree that is not installed
-        return "0.0.0+unknown"
-
-
 def __getattr__(name: str) -> Any:
     if name == "__version__":
-        globals()["__version__"] = v = _version()
+        globals()["__version__"] = v = version()  # importlib.metadata (~40 ms): only when asked for
         return v
     if name in _LAZY:
-        import importlib
-
         mod, attr = _LAZY[name]
         globals()[name] = value = getattr(importlib.import_module(mod), attr)  # once
         return value

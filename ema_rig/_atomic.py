@@ -12,12 +12,14 @@ output that is one of the inputs before anything is written.
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import signal
 import stat
 import sys
 import tempfile
+import threading
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from os import PathLike
@@ -284,8 +286,6 @@ def removing_temporaries_on_signal() -> Iterator[None]:
     nothing outside the main thread (only it may set signal handlers); a signal that is ignored
     when the block starts (``nohup``) stays ignored.
     """
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -370,8 +370,6 @@ def write_json(path: str | PathLike[str], obj: Any) -> None:
 
 def _clean(obj: Any) -> Any:
     """Make numpy scalars/arrays and non-finite floats JSON-safe."""
-    import math
-
     import numpy as np
 
     if isinstance(obj, dict):

@@ -24,7 +24,7 @@ def progress_bar(*, total: int, desc: str, unit: str = "it", initial: int = 0) -
     """A tqdm bar: the notebook widget in Jupyter, a terminal bar on a TTY, nothing otherwise."""
     from tqdm.auto import tqdm
 
-    class _Bar(tqdm):  # type: ignore[misc, valid-type]
+    class _Bar(tqdm):  # type: ignore[misc]
         # no monitor thread: a campaign forks its worker pool while the bar is open
         monitor_interval = 0
 

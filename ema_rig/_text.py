@@ -103,4 +103,23 @@ def csv_cell(value: Any) -> Any:
     return inert(s)
 
 
-__all__ = ["BIDI_CONTROLS", "csv_cell", "inert", "unsafe"]
+
+def plain(text: Any) -> str:
+    """``text`` as a string matplotlib draws literally: ``$`` escaped, so no mathtext is parsed.
+
+    An unescaped pair of ``$`` starts mathtext, and an invalid formula (``p$\\frac$q``) makes
+    ``savefig`` raise, losing the figure.
+
+    Parameters
+    ----------
+    text : object
+        A name from user input (file, bearing, tag).
+
+    Returns
+    -------
+    str
+    """
+    return str(text).replace("$", r"\$")
+
+
+__all__ = ["BIDI_CONTROLS", "csv_cell", "inert", "plain", "unsafe"]

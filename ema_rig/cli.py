@@ -15,11 +15,18 @@ Exit codes
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
+import os
 import sys
 import warnings
 from collections.abc import Sequence
 from typing import Any
+
+from . import _atomic
+from ._text import inert
+from ._version import version
+from .errors import EmaRigError
 
 EXIT_OK = 0
 EXIT_ERROR = 1
@@ -48,9 +55,7 @@ class _VersionAction(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
                  values: object, option_string: str | None = None) -> None:
-        from . import __version__
-
-        print(f"ema-rig {__version__}")
+        print(f"ema-rig {version()}")
         parser.exit()
 
 
@@ -81,8 +86,6 @@ class _InertStream:
         self._stream = stream
 
     def write(self, text: str) -> int:
-        from ._text import inert
-
         return int(self._stream.write(inert(text, keep="\n\t\r")))
 
     def __getattr__(self, name: str) -> Any:
@@ -99,8 +102,6 @@ def _sub_parser(parser: argparse.ArgumentParser, command: str) -> argparse.Argum
 
 def _unrecognized(sub: argparse.ArgumentParser, extras: Sequence[str]) -> str:
     """``unrecognized arguments: --bnad (did you mean --band?)``: the sub-command's closest options."""
-    import difflib
-
     options = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
     parts = []
     for e in extras:
@@ -149,15 +150,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    from . import _atomic
-    from .errors import EmaRigError
-
     parser = build_parser()
     words = list(sys.argv[1:] if argv is None else argv)
     try:
         if words and not words[0].startswith("-") and words[0] not in COMMANDS:
-            import difflib
-
             near = difflib.get_close_matches(words[0], list(COMMANDS), n=1, cutoff=0.6)
             parser.error(f"unknown command {words[0]!r}" + (f" (did you mean {near[0]}?)" if near else "")
                          + f"; commands: {', '.join(COMMANDS)}")
@@ -179,7 +175,6 @@ def _main(argv: Sequence[str] | None) -> int:
         print(_error_line(None if exc.file else _subject(args), str(exc)), file=sys.stderr)
         return EXIT_ERROR
     except BrokenPipeError:  # output piped into `head` and closed early: not an error of ours
-        import os
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK

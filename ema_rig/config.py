@@ -46,15 +46,18 @@ load_rig, parse_rig
 from __future__ import annotations
 
 import math
+import os
+import stat
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from os import PathLike
 from pathlib import Path
 from typing import Any
 
 from .dof import DOF
 from .errors import ConfigError
+from .io.units import response_unit
 
 MODEL_KEYS: tuple[str, ...] = ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B")
 SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")
@@ -133,8 +136,18 @@ class ModelParams:
 class Sensor:
     """One accelerometer: its DOF as written in the UFF file, its role and its axis.
 
-    ``mass``, ``mass_std`` [kg] and ``position`` ``(x, y, z)`` [m, from the housing's centre of
-    mass; x axial, y radial, z lateral] are optional (0 / None when the rig file does not give them).
+    Parameters
+    ----------
+    dof : DOF
+        Node and signed direction as written in the UFF file (``13-Y`` measures along -Y).
+    role : str
+        ``'housing'`` or ``'spindle'``.
+    axis : str
+        ``'radial'``, ``'lateral'`` or ``'axial'``.
+    mass, mass_std : float, optional
+        The sensor's mass and its standard uncertainty [kg] (0 when the rig file does not give it).
+    position : (float, float, float) or None, optional
+        ``(x, y, z)`` [m] from the housing's centre of mass (x axial, y radial, z lateral).
     """
 
     dof: DOF
@@ -225,7 +238,7 @@ class RigConfig:
     def sensor_for(self, dof: DOF) -> Sensor | None:
         """The sensor whose node and axis match ``dof`` (sign ignored), or None."""
         for s in self.sensors:
-            if s.dof.node == dof.node and abs(s.dof.direction) == abs(dof.direction):
+            if s.dof.same_axis(dof):
                 return s
         return None
 
@@ -243,7 +256,13 @@ _INT64 = 2**63
 
 
 def short_repr(v: Any) -> str:
-    """``repr`` of a value, shortened so a 5000-digit integer does not flood the message."""
+    """``repr`` of a value, shortened so a 5000-digit integer does not flood the message.
+
+    Parameters
+    ----------
+    v : object
+        Any value.
+    """
     text = repr(v)
     return text if len(text) <= 40 else f"{text[:30]}... ({len(text)} characters)"
 
@@ -269,6 +288,8 @@ def toml_number(v: Any, key: str, file: str | None, *, lo: float | None = None, 
         The TOML file, for the message.
     lo : float, optional
         Lower bound; ``lo_open=True`` excludes it (``lo=0, lo_open=True``: positive).
+    lo_open : bool, optional
+        Whether ``lo`` itself is refused.
 
     Returns
     -------
@@ -293,7 +314,19 @@ def toml_number(v: Any, key: str, file: str | None, *, lo: float | None = None, 
 
 
 def toml_int(v: Any, key: str, file: str | None, *, lo: int | None = None) -> int:
-    """An integer (never a bool or a float) inside TOML's 64-bit range, optionally ``>= lo``."""
+    """An integer (never a bool or a float) inside TOML's 64-bit range, optionally ``>= lo``.
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value.
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    lo : int, optional
+        Smallest value allowed.
+    """
     if isinstance(v, bool) or not isinstance(v, int):
         raise ConfigError(f"must be an integer, got {short_repr(v)}", file=file, key=key)
     _int64(v, key, file)
@@ -303,14 +336,36 @@ def toml_int(v: Any, key: str, file: str | None, *, lo: int | None = None) -> in
 
 
 def toml_bool(v: Any, key: str, file: str | None) -> bool:
-    """``true`` or ``false`` (a string such as ``"false"`` or a number is an error)."""
+    """``true`` or ``false`` (a string such as ``"false"`` or a number is an error).
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value.
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    """
     if not isinstance(v, bool):
         raise ConfigError(f"must be true or false, got {short_repr(v)}", file=file, key=key)
     return v
 
 
 def toml_str(v: Any, key: str, file: str | None, *, nonempty: bool = False) -> str:
-    """A string (a number or a bool is an error), optionally not empty."""
+    """A string (a number or a bool is an error), optionally not empty.
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value.
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    nonempty : bool, optional
+        Refuse an empty or blank string.
+    """
     if not isinstance(v, str):
         raise ConfigError(f"must be a string, got {short_repr(v)}", file=file, key=key)
     if nonempty and not v.strip():
@@ -319,7 +374,19 @@ def toml_str(v: Any, key: str, file: str | None, *, nonempty: bool = False) -> s
 
 
 def check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, file: str | None) -> None:
-    """Refuse a key of ``table`` that is not in ``allowed``, naming it and the allowed keys."""
+    """Refuse a key of ``table`` that is not in ``allowed``, naming it and the allowed keys.
+
+    Parameters
+    ----------
+    table : mapping
+        A parsed TOML table.
+    allowed : tuple of str
+        Its allowed keys.
+    where : str
+        Key path of the table (empty at the top level).
+    file : str or None
+        The TOML file (named in the error).
+    """
     for k in table:
         if k not in allowed:
             key = f"{where}.{k}" if where else k
@@ -330,7 +397,21 @@ def check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, f
 
 def toml_table(doc: Mapping[str, Any], name: str, file: str | None, *, required: bool,
                where: str = "") -> Mapping[str, Any]:
-    """The sub-table ``doc[name]`` (empty when absent and not required)."""
+    """The sub-table ``doc[name]`` (empty when absent and not required).
+
+    Parameters
+    ----------
+    doc : mapping
+        The parsed TOML document or table.
+    name : str
+        The sub-table's name.
+    file : str or None
+        The TOML file (named in the error).
+    required : bool
+        Whether an absent table is an error.
+    where : str, optional
+        Key path of ``doc`` (empty at the top level).
+    """
     key = f"{where}.{name}" if where else name
     if name not in doc:
         if required:
@@ -343,7 +424,17 @@ def toml_table(doc: Mapping[str, Any], name: str, file: str | None, *, required:
 
 
 def toml_band(v: Any, key: str, file: str | None) -> tuple[float, float]:
-    """A frequency band ``[lo, hi]`` in Hz with ``0 <= lo < hi``."""
+    """A frequency band ``[lo, hi]`` in Hz with ``0 <= lo < hi``.
+
+    Parameters
+    ----------
+    v : object
+        The parsed TOML value (a two-element array).
+    key : str
+        Its key path (named in the error).
+    file : str or None
+        The TOML file (named in the error).
+    """
     if not isinstance(v, (list, tuple)) or len(v) != 2:
         raise ConfigError(f"must be a pair [lo, hi] in Hz, got {short_repr(v)}", file=file, key=key)
     lo = toml_number(v[0], key, file, lo=0.0)
@@ -358,6 +449,15 @@ def parse_disk(t: Mapping[str, Any], prefix: str, file: str | None) -> tuple[flo
 
     ``prefix`` is the key path of the table (``"calibration."`` in the rig file, ``""`` at the top
     of a campaign file), for the error messages.
+
+    Parameters
+    ----------
+    t : mapping
+        The TOML table holding ``k_disk`` / ``k_disk_std``.
+    prefix : str
+        Key path of the table, with its trailing dot.
+    file : str or None
+        The TOML file (named in the error).
     """
     k_disk = (CONDITION_RANGES["k_disk"].check(toml_number(t["k_disk"], f"{prefix}k_disk", file, lo=0.0, lo_open=True),
                                                f"{prefix}k_disk", file) if "k_disk" in t else None)
@@ -495,8 +595,6 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         raise ConfigError(f"must be 'code' or 'label', got {short_repr(pref)}", file=fname, key="units.prefer")
     ordinate = None
     if "ordinate" in units_t:
-        from .io._uff_units import response_unit
-
         ordinate = toml_str(units_t["ordinate"], "units.ordinate", fname, nonempty=True)
         try:
             response_unit(ordinate)
@@ -587,8 +685,6 @@ def _with_added_masses(model: ModelParams, uncertainty: dict[str, float],
     else the default of :data:`ema_rig.rig.uncertainty.DEFAULT_REL_UNCERTAINTY` (0.5 % for m_H,
     2 % for m_S, repeated here so the config layer does not import the rig layer).
     """
-    from dataclasses import replace
-
     default_rel = {"m_H": 0.005, "m_S": 0.02}
     unc = dict(uncertainty)
     new: dict[str, float] = {}
@@ -615,6 +711,13 @@ def read_regular_file(path: str | PathLike[str], *, max_bytes: int) -> bytes:
     The file is opened non-blocking and checked with ``fstat`` on the open descriptor, so a FIFO
     or a device given as a file name gives an error instead of a hang (or an endless read).
 
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    max_bytes : int
+        Largest size read; a larger file is refused.
+
     Raises
     ------
     OSError
@@ -622,9 +725,6 @@ def read_regular_file(path: str | PathLike[str], *, max_bytes: int) -> bytes:
     ValueError
         When it is not a regular file or larger than ``max_bytes``; the message names no file.
     """
-    import os
-    import stat
-
     fd = os.open(os.fspath(path), os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     try:
         st = os.fstat(fd)
@@ -644,6 +744,11 @@ def read_toml(path: str | PathLike[str]) -> dict[str, Any]:
     """Read a TOML file, turning IO and syntax errors into :class:`ConfigError`.
 
     Only regular files up to :data:`MAX_TOML_BYTES` are read (a FIFO or device is refused at once).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The TOML file.
     """
     p = Path(path)
     try:
@@ -699,7 +804,21 @@ _GEOMETRY_REQUIRED = ("n_balls", "ball_diameter", "pitch_diameter")
 
 @dataclass(frozen=True, slots=True)
 class KeyRange:
-    """The physically plausible range of a numeric key, its unit and where the range comes from."""
+    """The physically plausible range of a numeric key, its unit and where the range comes from.
+
+    Parameters
+    ----------
+    lo, hi : float
+        Lower and upper limit, in ``unit``.
+    unit : str
+        Unit of the key (for the message).
+    source : str
+        Where the range comes from (named in the message).
+    lo_open : bool, optional
+        Whether ``lo`` itself is refused.
+    zero_ok : bool, optional
+        Whether 0 is allowed besides ``[lo, hi]`` (a clearance of exactly zero).
+    """
 
     lo: float
     hi: float
@@ -773,6 +892,15 @@ def parse_bearing_geometry(t: Mapping[str, Any], where: str, file: str | None) -
         ball_diameter = 7.938e-3
         pitch_diameter = 28.5e-3
 
+    Parameters
+    ----------
+    t : mapping
+        The ``[bearings.NAME]`` table.
+    where : str
+        Its key path (``bearings.NAME``), for the messages.
+    file : str or None
+        The TOML file (named in the error).
+
     Returns
     -------
     BallBearingGeometry or None
@@ -814,6 +942,17 @@ def check_hertz_curve(geometry: Any, loads: tuple[float, ...], where: str, file:
 
     Run when the file is loaded, so that a geometry whose Hertz curve cannot be drawn is refused
     before any measurement is computed, never after.
+
+    Parameters
+    ----------
+    geometry : BallBearingGeometry
+        The bearing geometry.
+    loads : tuple of float
+        Radial loads [N] the campaign measures at.
+    where : str
+        Key path of the bearing table (``bearings.NAME``).
+    file : str or None
+        The TOML file (named in the error).
 
     Raises
     ------

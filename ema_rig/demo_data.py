@@ -34,9 +34,11 @@ import csv
 import io
 import math
 import os
+import tempfile
 from collections.abc import Callable
 from os import PathLike
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -139,7 +141,7 @@ def plan() -> list[Plan]:
 
     def k_rot(load: float) -> float:
         # Hertz trend, plus a small run-to-run scatter (0.2 %) like the paper's speed series
-        return K_6302_1KN * (load / 1000.0) ** (1.0 / 3.0) * (1.0 + 0.002 * rng.standard_normal())
+        return cast("float", K_6302_1KN * (load / 1000.0) ** (1.0 / 3.0) * (1.0 + 0.002 * rng.standard_normal()))
 
     for j, f in enumerate(LOADS_6302):
         fid = f"b6302_{int(f)}N_1200rpm"
@@ -171,7 +173,13 @@ def _toml_value(v: object) -> str:
 
 
 def campaign_toml(rows: list[Plan]) -> str:
-    """The campaign file for the runner."""
+    """The campaign file for the runner.
+
+    Parameters
+    ----------
+    rows : list of Plan
+        The planned measurements, in order.
+    """
     out = [
         "# Bundled synthetic campaign (ema_rig.demo_data, data/make_data.py): dummy-bearing validation (paper Sect. 5)",
         "# and the 6302 under load, speed and shaft position (paper Sect. 6).",
@@ -289,8 +297,6 @@ def bundled_campaign(out_dir: str | PathLike[str] | None = None) -> Path:
     if src is not None:
         return src / "campaign.toml"
     if out_dir is None:
-        import tempfile
-
         out_dir = tempfile.mkdtemp(prefix="ema-rig-data-")
     return generate(out_dir)
 

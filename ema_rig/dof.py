@@ -107,6 +107,30 @@ class DOF:
         """The same node and axis with a positive sign."""
         return DOF(self.node, abs(self.direction))
 
+    def same_axis(self, other: DOF) -> bool:
+        """Whether ``other`` is measured at the same node along the same axis (sign ignored).
+
+        The one definition of "the same sensor axis": ``13-Y`` and ``13+Y`` are one channel
+        written with opposite signs; ``13+Y`` and ``13+Z`` or ``14+Y`` are not.
+
+        Parameters
+        ----------
+        other : DOF
+            The DOF to compare with.
+
+        Returns
+        -------
+        bool
+
+        Examples
+        --------
+        >>> DOF.parse("13-Y").same_axis(DOF.parse("13+Y"))
+        True
+        >>> DOF.parse("13+Y").same_axis(DOF.parse("13+Z"))
+        False
+        """
+        return self.node == other.node and abs(self.direction) == abs(other.direction)
+
     def __str__(self) -> str:
         if self.direction == 0:
             return f"{self.node}"
@@ -117,7 +141,17 @@ class DOF:
 
 
 def as_dof(value: str | DOF | tuple[int, int]) -> DOF:
-    """Coerce ``"11+Y"``, a ``DOF`` or a ``(node, code)`` tuple to a DOF."""
+    """Coerce ``"11+Y"``, a ``DOF`` or a ``(node, code)`` tuple to a DOF.
+
+    Parameters
+    ----------
+    value : str, DOF or (int, int)
+        DOF text, a DOF (returned unchanged) or ``(node, signed direction code)``.
+
+    Returns
+    -------
+    DOF
+    """
     if isinstance(value, DOF):
         return value
     if isinstance(value, tuple):

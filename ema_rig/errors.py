@@ -109,11 +109,27 @@ class ConfigError(EmaRigError, ValueError):
 
 
 class IdentificationError(EmaRigError, ValueError):
-    """Modal identification failed or was asked something impossible."""
+    """Modal identification failed or was asked something impossible.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong.
+    file : str or path-like, optional
+        The measurement file it concerns.
+    """
 
 
 class InversionError(EmaRigError, ValueError):
-    """A natural frequency lies outside the range that gives a positive stiffness."""
+    """A natural frequency lies outside the range that gives a positive stiffness.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong (the frequency and the valid range).
+    file : str or path-like, optional
+        The measurement file it concerns.
+    """
 
 
 class MatchingError(EmaRigError):

@@ -17,16 +17,18 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .dof import DOF, as_dof
+from .literals import FrfForm
 
-FrfForm = Literal["accelerance", "mobility", "receptance"]
 FRF_FORMS: tuple[str, ...] = ("accelerance", "mobility", "receptance")
-_FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+"""Power of ``j omega`` that turns a receptance into each FRF form (0, 1, 2)."""
+_FORM_POWER = FORM_POWER  # the old private name, kept while the branches in flight land
 _FORM_UNIT = {"receptance": "m/N", "mobility": "m/s/N", "accelerance": "m/s^2/N"}
 
 
@@ -84,7 +86,7 @@ def _check_coherence(coherence: Any, shape: tuple[int, ...]) -> NDArray[np.float
     if coh.size and not (coh.min() >= 0.0 and coh.max() <= 1.0):
         raise ValueError(f"coherence values must lie in 0..1, got {coh.min():g}..{coh.max():g}")
     coh.setflags(write=False)
-    return coh
+    return cast("NDArray[np.float64]", coh)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -200,22 +202,22 @@ class FRFData:
     @property
     def shape(self) -> tuple[int, int, int]:
         """``(n_out, n_in, n_freq)``."""
-        return self.frf.shape  # type: ignore[return-value]
+        return self.frf.shape
 
     @property
     def n_out(self) -> int:
         """Number of response DOFs."""
-        return self.frf.shape[0]
+        return cast("int", self.frf.shape[0])
 
     @property
     def n_in(self) -> int:
         """Number of reference DOFs."""
-        return self.frf.shape[1]
+        return cast("int", self.frf.shape[1])
 
     @property
     def n_freq(self) -> int:
         """Number of frequency lines."""
-        return self.frf.shape[2]
+        return cast("int", self.frf.shape[2])
 
     @property
     def freq_rad(self) -> NDArray[np.float64]:
@@ -358,7 +360,7 @@ class FRFData:
         FRFData
         """
         frf_unit(frf_form)
-        p = _FORM_POWER[frf_form] - _FORM_POWER[self.frf_form]
+        p = FORM_POWER[frf_form] - FORM_POWER[self.frf_form]
         if p == 0:
             return self
         data = self
@@ -380,7 +382,7 @@ class FRFData:
     # ------------------------------------------------------------- summaries
     def sum_frf(self) -> NDArray[np.float64]:
         """Sum of FRF magnitudes over all outputs and inputs, shape (n_freq,), unit ``unit_str``."""
-        return np.abs(self.frf).sum(axis=(0, 1))
+        return cast("NDArray[np.float64]", np.abs(self.frf).sum(axis=(0, 1)))
 
     def cmif(self) -> NDArray[np.float64]:
         """Complex mode indicator function: singular values per line.
@@ -404,4 +406,4 @@ class FRFData:
         return replace(self, **changes)
 
 
-__all__ = ["FRFData", "FRF_FORMS", "FrfForm", "frf_unit"]
+__all__ = ["FORM_POWER", "FRFData", "FRF_FORMS", "FrfForm", "frf_unit"]

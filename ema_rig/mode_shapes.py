@@ -1,5 +1,12 @@
 """Mode shapes of a modal model as plain records, and their real (normal-mode) form.
 
+Classes
+-------
+ModalShapes
+    What these functions (and the dataset-55 writer of :mod:`ema_rig.io.uff55`) need of a modal
+    model: a structural type that :class:`ema_rig.identification.ModalModel` satisfies, so that
+    this module and the io layer need not import the identification layer.
+
 Functions
 ---------
 mode_shapes_records
@@ -18,13 +25,51 @@ mass scaling).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .dof import DOF, as_dof
-from .identification.modal import ModalModel
+
+
+class ModalShapes(Protocol):
+    """What shape records need of a modal model (:class:`~ema_rig.identification.ModalModel` is one).
+
+    Attributes
+    ----------
+    poles : ndarray, shape (n_modes,), complex128
+        Poles [rad/s].
+    out_dofs, in_dofs : tuple of DOF
+        Response and reference DOFs.
+    n_modes : int
+    natural_freq : ndarray, shape (n_modes,), float64
+        Undamped natural frequencies [Hz].
+    damping_ratio : ndarray, shape (n_modes,), float64
+        Damping ratios [-].
+    """
+
+    @property
+    def poles(self) -> NDArray[np.complex128]: ...
+
+    @property
+    def out_dofs(self) -> tuple[DOF, ...]: ...
+
+    @property
+    def in_dofs(self) -> tuple[DOF, ...]: ...
+
+    @property
+    def n_modes(self) -> int: ...
+
+    @property
+    def natural_freq(self) -> NDArray[np.float64]: ...
+
+    @property
+    def damping_ratio(self) -> NDArray[np.float64]: ...
+
+    def mode_shapes(self, reference: DOF | str | None = None) -> NDArray[np.complex128]:
+        """Shapes, shape (n_modes, n_out), complex: mass-normalised at a driving point."""
+        ...
 
 
 def real_shapes(phi: ArrayLike) -> NDArray[np.float64]:
@@ -56,13 +101,13 @@ def real_shapes(phi: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(r * sign[:, None], dtype=np.float64)
 
 
-def mode_shapes_records(model: ModalModel, *, ref: DOF | str | None = None) -> list[dict[str, Any]]:
+def mode_shapes_records(model: ModalShapes, *, ref: DOF | str | None = None) -> list[dict[str, Any]]:
     """Mode shapes for a JSON file, one dict per mode.
 
     Parameters
     ----------
-    model : ModalModel
-        Identified modes (residues of shape (n_modes, n_out, n_in)).
+    model : ModalShapes
+        Identified modes (a :class:`~ema_rig.identification.ModalModel`).
     ref : DOF or str, optional
         Reference whose residue column gives the shapes (default: the first driving point, i.e.
         a reference that is also a response DOF, else the first reference).
@@ -116,4 +161,4 @@ def mode_shapes_records(model: ModalModel, *, ref: DOF | str | None = None) -> l
     return out
 
 
-__all__ = ["mode_shapes_records", "real_shapes"]
+__all__ = ["ModalShapes", "mode_shapes_records", "real_shapes"]

@@ -31,6 +31,8 @@ from typing import TYPE_CHECKING, Any
 
 from . import _atomic
 from ._text import inert
+from ._version import version
+from .campaign.drilldown import KINDS
 
 if TYPE_CHECKING:
     from .campaign.result import CampaignResult
@@ -123,8 +125,6 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     str
         A complete HTML document with no external references.
     """
-    from . import __version__
-
     cfg = result.config
     rows = result.rows
     n_ok = sum(r["status"] == "ok" for r in rows)
@@ -132,7 +132,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
         f"<title>{_h(cfg.title)} — ema_rig report</title><style>{_CSS}</style></head><body>",
         f"<h1>{_h(cfg.title)}</h1>",
-        f"<p class='muted'>ema_rig {_h(__version__)} · Python {platform.python_version()} · "
+        f"<p class='muted'>ema_rig {_h(version())} · Python {platform.python_version()} · "
         f"{_h(generated if generated is not None else datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC'))}"
         " · campaign file "
         f"<code>{_h(str(cfg.path))}</code></p>",
@@ -215,8 +215,6 @@ def _comparison(detail: Any) -> str:
 def _measurement_section(i: int, r: Mapping[str, Any],
                          figs: tuple[Mapping[str, str | PathLike[str]], list[str], list[Any]] | None) -> str:
     """The section of one measurement: conditions, result, warnings, figures, candidate modes."""
-    from .campaign.drilldown import KINDS
-
     ok = r["status"] == "ok"
     head = (f"<section class='meas' id='{anchor(i)}'><a class='top' href='#results'>back to the table</a>"
             f"<h3>{_h(str(r['id']))}</h3><p class='muted'>{_h(str(r.get('file', '')))} · "

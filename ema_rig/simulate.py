@@ -38,21 +38,24 @@ truth_path
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from . import _atomic
 from .config import RigConfig, Sensor
 from .dof import DOF
 from .frf import FRFData
+from .io.uff import write_uff58
 from .rig.model import HOUSING, SPINDLE, RigModel, modal_frf, series_stiffness
 
 DEFAULT_DAMPING: Mapping[str, float] = MappingProxyType(
@@ -206,7 +209,7 @@ def _extra_modes(sensors: Sequence[Sensor], f_H: float, damping: Mapping[str, fl
 
 def _sensor_index(sensors: Sequence[Sensor], dof: DOF) -> int | None:
     for j, s in enumerate(sensors):
-        if s.dof.node == dof.node and abs(s.dof.direction) == abs(dof.direction):
+        if s.dof.same_axis(dof):
             return j
     return None
 
@@ -233,7 +236,7 @@ def _driving_point(modes: list[dict[str, Any]], j_dp: int) -> None:
 def _misalignment(points: Sequence[Sensor], std_deg: float) -> NDArray[np.float64]:
     """Per point: the two seeded tilt angles [rad] towards its transverse axes, shape (n, 2)."""
     rng = np.random.default_rng(_MOUNT_SEED)
-    return np.deg2rad(std_deg) * rng.normal(size=(len(points), 2))
+    return cast("NDArray[np.float64]", np.deg2rad(std_deg) * rng.normal(size=(len(points), 2)))
 
 
 def _askew(points: Sequence[Sensor], psi: NDArray[np.float64], tilt: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -529,7 +532,17 @@ def simulate_measurement(
 
 
 def truth_path(path: str | PathLike[str]) -> Path:
-    """The truth file of a measurement: ``<file>.truth.json`` beside it (``m.uff.truth.json``)."""
+    """The truth file of a measurement: ``<file>.truth.json`` beside it (``m.uff.truth.json``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The measurement file.
+
+    Returns
+    -------
+    Path
+    """
     p = Path(path)
     return p.with_name(p.name + ".truth.json")
 
@@ -554,8 +567,6 @@ def planted_k_tb(path: str | PathLike[str]) -> float | None:
         When a truth file exists but is not a JSON object with a numeric ``k_TB`` (or null for the
         disk), naming the file.
     """
-    import json
-
     tp = truth_path(path)
     if not tp.is_file():
         return None
@@ -602,9 +613,6 @@ def write_measurement(
     Path
         The UFF file written.
     """
-    from . import _atomic
-    from .io.uff import write_uff58
-
     p = Path(path)
     write_uff58(p, sim.data, binary=binary, double=double, accel_unit=accel_unit, rig=rig)
     truth = sim.truth_dict()

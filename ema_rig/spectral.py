@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .dof import DOF, as_dof
 from .frf import FRFData
+from .literals import Estimator
 
 ESTIMATORS: tuple[str, ...] = ("H1", "H2", "Hv")
 LOW_COHERENCE = 0.8
@@ -195,7 +196,7 @@ def estimate_frf(
     in_dofs: Sequence[DOF | str],
     out_dofs: Sequence[DOF | str],
     frf_form: str = "accelerance",
-    estimator: str = "H1",
+    estimator: Estimator = "H1",
     window: str = "hann",
     segment: int | None = None,
     overlap: float | None = None,

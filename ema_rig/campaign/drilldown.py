@@ -25,6 +25,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from .._text import plain
+from .._version import version
+from ..errors import EmaRigError
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -78,9 +82,7 @@ def figure_key(row: Mapping[str, Any]) -> str | None:
     key = row.get("cache_key")
     if not isinstance(key, str) or not key:
         return None
-    from .. import __version__
-
-    payload = {"row": key, "draw": _DRAW_VERSION, "dpi": DPI, "size": list(_SIZE), "version": __version__}
+    payload = {"row": key, "draw": _DRAW_VERSION, "dpi": DPI, "size": list(_SIZE), "version": version()}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
@@ -127,10 +129,8 @@ def measurement_figures(
     MeasurementFigures
         For a failed row only the stabilization chart (when the identification itself worked).
     """
-    from ..errors import EmaRigError
     from ..identification import identify
     from ..io.uff import read_uff58
-    from ..plot._text import plain
     from ..plot.rig import plot_rig_fit
     from ..plot.stabilization import plot_stabilization
     from ..plot.synthesis import plot_synthesis
@@ -149,6 +149,7 @@ def measurement_figures(
             result = estimate_stiffness(data, cfg.rig, k_ms=k_ms, k_ms_std=k_ms_std, speed_hz=speed_hz,
                                         band=cfg.band, max_order=cfg.max_order, selection=m.selection)
             ident = result.identification
+            assert ident is not None  # estimate_stiffness returns the identification it used
             f_row = row.get("housing_freq")
             f_now = float(result.housing_mode["natural_freq"])
             if isinstance(f_row, float) and math.isfinite(f_row) and abs(f_now - f_row) > _FREQ_TOL * f_row:

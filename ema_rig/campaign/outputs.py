@@ -30,13 +30,15 @@ from pathlib import Path
 from typing import Any
 
 from .. import _atomic
+from .._version import version
 from ..config import read_regular_file
+from .drilldown import KINDS, MeasurementFigures, figure_key, measurement_figures
 from .result import COLUMNS, CampaignResult
 
 logger = logging.getLogger(__name__)
 
 #: The figures written by the last run of a folder with the hash of their inputs.
-_MANIFEST = ".ema-rig-figures.json"
+MANIFEST = ".ema-rig-figures.json"
 _MANIFEST_VERSION = 2
 #: Folder of the per-measurement figures.
 MEASUREMENT_DIR = "measurements"
@@ -100,7 +102,7 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     files["report"] = out / "report.html"
     manifest["report"] = write_report_if_changed(result, files["report"], figures, measurements=per_meas,
                                                  previous_hash=previous.get("report"))
-    write_if_changed(out / _MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    write_if_changed(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return files
 
 
@@ -121,7 +123,7 @@ def _record(out: Path, previous: Mapping[str, Any], manifest: Mapping[str, Any])
         "campaign_figures": manifest.get("campaign_figures", previous.get("campaign_figures")),
         "report": None,
     }
-    _atomic.write_text(out / _MANIFEST, json.dumps(partial, sort_keys=True, separators=(",", ":")) + "\n")
+    _atomic.write_text(out / MANIFEST, json.dumps(partial, sort_keys=True, separators=(",", ":")) + "\n")
 
 
 def write_if_changed(path: Path, text: str) -> bool:
@@ -143,11 +145,9 @@ def _hash(obj: Any) -> str:
 def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
                       manifest: dict[str, Any]) -> dict[str, Path]:
     """The campaign figures: drawn again only when the rows or the bearing information changed."""
-    from .. import __version__
-
     shown = [{c: r.get(c) for c in COLUMNS if c != "elapsed_s"} for r in result.rows]
     bearings = {k: repr(v) for k, v in result.config.bearings.items()}
-    key = _hash({"rows": shown, "bearings": bearings, "version": __version__})
+    key = _hash({"rows": shown, "bearings": bearings, "version": version()})
     old = previous.get("figures", {})
     names = previous.get("campaign_figures")
     if (isinstance(names, list) and names and all(isinstance(n, str) and _safe_rel(n) for n in names)
@@ -170,8 +170,6 @@ def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, 
 
 def _plan(result: CampaignResult, out: Path, previous: Mapping[str, Any]) -> list[tuple[Any, Any, str, dict[str, str], bool]]:
     """Per measurement with a figure key: (measurement, row, key, relative paths, reusable)."""
-    from .drilldown import figure_key
-
     plan = []
     for m, row in zip(result.config.measurements, result.rows, strict=True):
         key = figure_key({"cache_key": row.get("cache_key") or _stored_key(out, m.id)})
@@ -184,8 +182,6 @@ def _plan(result: CampaignResult, out: Path, previous: Mapping[str, Any]) -> lis
 
 def _reusable(out: Path, previous: Mapping[str, Any], mid: str, key: str) -> tuple[dict[str, str], bool]:
     """A measurement's figure paths (relative) and whether the previous run's figures with this key are there."""
-    from .drilldown import KINDS
-
     old_figs = previous.get("figures", {})
     rels = {k: f"{MEASUREMENT_DIR}/{mid}.{k}.png" for k in KINDS}
     info = previous.get("measurements", {}).get(mid)
@@ -201,9 +197,19 @@ def figures_to_draw(out: str | PathLike[str], rows: list[tuple[str, str]]) -> se
 
     The runner has their workers draw them with the computation; the others (reused from the
     folder's previous run) are not drawn at all.
-    """
-    from .drilldown import figure_key
 
+    Parameters
+    ----------
+    out : str or path-like
+        The campaign's output folder.
+    rows : list of (str, str)
+        ``(measurement id, row cache key)`` of the measurements computed in this run.
+
+    Returns
+    -------
+    set of str
+        The ids whose figures must be drawn.
+    """
     folder = Path(out)
     previous = _read_manifest(folder)
     need = set()
@@ -217,8 +223,6 @@ def figures_to_draw(out: str | PathLike[str], rows: list[tuple[str, str]]) -> se
 def _draw_ahead(result: CampaignResult, out: Path, previous: Mapping[str, Any],
                 executor: Executor, drawn: Mapping[str, Any]) -> dict[str, Future[Any]]:
     """Submit the measurements' figures that cannot be reused nor were drawn with the computation to ``executor``."""
-    from .drilldown import measurement_figures
-
     if not result.config.measurement_figures:
         return {}
     return {m.id: executor.submit(measurement_figures, m, row, result.config, k_ms=result.k_MS,
@@ -232,8 +236,6 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
                          drawn: Mapping[str, Any] | None = None,
                          ) -> dict[str, tuple[dict[str, Path], list[str], list[Any]]]:
     """Each measurement's figures (``measurements/<id>.<kind>.png``), warnings and identification candidates."""
-    from .drilldown import KINDS, MeasurementFigures, measurement_figures
-
     folder = out / MEASUREMENT_DIR
     if folder.is_dir():
         _atomic.remove_temporaries(folder)
@@ -298,8 +300,6 @@ def _measurement_figures(result: CampaignResult, out: Path, previous: Mapping[st
 
 def _given(drawn: Mapping[str, Any], mid: str, key: str) -> Any:
     """The figures the runner's worker drew for ``mid`` when their row's figure key is ``key``, else None."""
-    from .drilldown import figure_key
-
     entry = drawn.get(mid)
     if entry is None or figure_key({"cache_key": entry[0]}) != key:
         return None
@@ -329,7 +329,7 @@ def _safe_rel(name: str) -> bool:
 def _read_manifest(out: Path) -> dict[str, Any]:
     """The previous run's manifest (an older list of names counts as figures without hashes)."""
     try:
-        doc = json.loads(read_regular_file(out / _MANIFEST, max_bytes=1 << 24).decode("utf-8"))
+        doc = json.loads(read_regular_file(out / MANIFEST, max_bytes=1 << 24).decode("utf-8"))
     except (OSError, ValueError, RecursionError):
         return {}
     if isinstance(doc, list):

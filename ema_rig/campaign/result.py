@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import csv
+import html
+import io
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .._optional import import_optional
+from .._text import csv_cell
 from .schema import CampaignConfig
 
 #: Column order of the campaign table.
@@ -81,8 +86,6 @@ class CampaignResult:
 
     def _repr_html_(self) -> str:
         """The summary table in Jupyter (id, conditions, k_TB ± std in MN/m, housing mode, status)."""
-        import html
-
         head = "".join(f"<th>{html.escape(h)}</th>" for h in
                        ("id", "bearing", "load [N]", "speed [rpm]", "k_TB [MN/m]", "± [MN/m]", "f_H [Hz]", "status"))
         body = []
@@ -110,8 +113,6 @@ class CampaignResult:
 
     def to_dataframe(self) -> Any:
         """The table as a pandas DataFrame (needs the ``pandas`` extra)."""
-        from .._optional import import_optional
-
         pd = import_optional("pandas", extra="pandas")
         return pd.DataFrame(self.to_records(), columns=list(COLUMNS))
 
@@ -132,9 +133,6 @@ class CampaignResult:
         ValueError
             For an unknown unit.
         """
-        import csv
-        import io
-
         su = stiffness_unit if stiffness_unit is not None else self.config.stiffness_unit
         su = su.replace("\u03bc", "\u00b5")  # Greek mu typed for the micro sign: the same unit
         du = damping_unit if damping_unit is not None else self.config.damping_unit
@@ -153,8 +151,6 @@ class CampaignResult:
 
 def _csv_value(v: Any, scale: float = 1.0) -> Any:
     """A cell: numbers as numbers, text inert (no control characters, never a spreadsheet formula)."""
-    from .._text import csv_cell
-
     if v is None:
         return ""
     if isinstance(v, (list, tuple)):  # warnings: one cell, caveats separated by " | "

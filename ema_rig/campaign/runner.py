@@ -33,8 +33,10 @@ import json
 import logging
 import math
 import os
+import signal
 import stat
 import sys
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping
@@ -52,8 +54,13 @@ from pathlib import Path
 from typing import Any
 
 from .. import _atomic
+from .._blas import single_threaded
+from .._progress import progress_bar
+from .._version import version
 from ..config import RigConfig, read_regular_file
 from ..errors import EmaRigError
+from .drilldown import KINDS, measurement_figures
+from .outputs import MANIFEST, MEASUREMENT_DIR, figures_to_draw, write_outputs
 from .result import COLUMNS, CampaignResult
 from .schema import CampaignConfig, Measurement, load_campaign
 
@@ -133,11 +140,9 @@ def task_key(task: MeasurementTask, digest: str) -> str:
     ``metadata={"cache_key": False}``, such as the rig's path, are left out), with the file's
     content hash, the ema_rig version and the key schema.
     """
-    from .. import __version__
-
     fields = _canonical(task)
     fields.pop("file")
-    payload = {"task": fields, "digest": digest, "version": __version__, "schema": _KEY_SCHEMA}
+    payload = {"task": fields, "digest": digest, "version": version(), "schema": _KEY_SCHEMA}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
@@ -196,8 +201,6 @@ def process_measurement(task: MeasurementTask) -> dict[str, Any]:
 
 def _process(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | None]:
     """:func:`process_measurement`, also giving (FRFData, StiffnessResult) of a good measurement."""
-    from .._blas import single_threaded
-
     t0 = time.perf_counter()
     computed = None
     # one BLAS thread per measurement: the matrices are small, and with --jobs N the N workers
@@ -227,7 +230,6 @@ def _process_and_draw(task: MeasurementTask, m: Measurement | None = None,
     out, computed = _process(task)
     if computed is None or out.get("status") != "ok" or m is None or cfg is None:
         return out, None
-    from .drilldown import measurement_figures
 
     try:
         drawn = measurement_figures(m, out, cfg, k_ms=cfg.rig.model.k_MS if task.k_ms is None else task.k_ms,
@@ -306,9 +308,6 @@ def _positive(x: Any) -> bool:
 # --------------------------------------------------------------------------- workers
 def _worker_init(parent: int) -> None:
     """Initializer of pool workers: die with ``parent``; leave Ctrl-C to the parent."""
-    import signal
-    import threading
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles an interrupt and stops the pool
     _atomic.close_inherited_locks()  # the parent's folder lock must die with the parent
     if sys.platform.startswith("linux"):
@@ -431,13 +430,10 @@ def check_out_folder(cfg: CampaignConfig, out: Path) -> None:
     OutputIsInputError
         Naming the output and the input it would overwrite.
     """
-    from .drilldown import KINDS
-    from .outputs import _MANIFEST, MEASUREMENT_DIR
-
     inputs = [("campaign file", cfg.path), ("rig", cfg.rig_file), ("calibration", cfg.calibration)]
     inputs += [(f"measurement {m.id!r}", m.file) for m in cfg.measurements]
     outputs: list[tuple[str, Any]] = [(n, out / n) for n in ("campaign.csv", "settings.json", "report.html",
-                                                              _MANIFEST, ".ema-rig.lock")]
+                                                              MANIFEST, ".ema-rig.lock")]
     outputs.append(("calibration result", out / "results" / f"{CALIBRATION_NAME}.json"))
     for m in cfg.measurements:
         outputs.append((f"result of {m.id!r}", out / "results" / f"{m.id}.json"))
@@ -540,7 +536,6 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     draw: set[str] = set()
     if drill_down and todo:
         assert out is not None
-        from .outputs import figures_to_draw
 
         draw = figures_to_draw(out, [(m.id, key) for m, _, key in todo])
     drawn: dict[str, Any] = {}
@@ -605,8 +600,6 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
             out_dir=out, computed=len(cfg.measurements) - reused, reused=reused,
         )
         if out is not None and report:
-            from .outputs import write_outputs
-
             result = dataclasses.replace(result, files=write_outputs(result, out, executor=own_pool, drawn=drawn))
     except BaseException:
         bar(None)
@@ -665,12 +658,10 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
         def step(n: int | None) -> None:
             if n is not None:
                 state["done"] += n
-                progress(state["done"], total)  # type: ignore[operator]
+                progress(state["done"], total)
 
         return step
     if progress:
-        from .._progress import progress_bar
-
         pbar = progress_bar(total=total, initial=initial, desc="measurements", unit="meas")
 
         def step(n: int | None) -> None:

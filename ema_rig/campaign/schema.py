@@ -38,7 +38,7 @@ from ..config import (
     toml_str,
     toml_table,
 )
-from ..errors import ConfigError
+from ..errors import ConfigError, EmaRigError
 
 _TOP_KEYS = ("rig", "calibration", "k_disk", "k_disk_std", "title", "defaults", "bearings", "measurement", "output")
 _MEAS_KEYS = ("file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags", "id", "selection")
@@ -202,7 +202,13 @@ class CampaignConfig:
 
 
 def normalized_id(mid: str) -> str:
-    """The form under which two ids are the same file on some file system (NFC, case-folded)."""
+    """The form under which two ids are the same file on some file system (NFC, case-folded).
+
+    Parameters
+    ----------
+    mid : str
+        A measurement id.
+    """
     return unicodedata.normalize("NFC", mid).casefold()
 
 
@@ -283,7 +289,6 @@ def _selection_file(table: Mapping[str, Any], where: str, fname: str, base: Path
         return None
     key = f"{where}.selection"
     q = _existing_file(table["selection"], key, fname, base)
-    from ..errors import EmaRigError
     from ..identification import Selection
 
     try:

@@ -27,6 +27,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from ..io.units import response_unit
+
 
 def _describe(kind: type, lo: float | None, hi: float | None, lo_open: bool, allow_inf: bool) -> str:
     what = "an integer" if kind is int else ("a number" if allow_inf else "a finite number")
@@ -113,8 +115,6 @@ __all__ = ["BandAction", "add_units_argument", "finite_float", "nonneg_float", "
 
 def units(text: str) -> str:
     """``--units``: a response unit for FRF datasets without a unit label (``g``, ``m/s^2``, ``mm/s`` ...)."""
-    from ..io._uff_units import response_unit
-
     try:
         response_unit(text)
     except ValueError as exc:

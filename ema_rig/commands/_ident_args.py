@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from dataclasses import replace
 from typing import Any
 
+from ..config import load_rig
+from ..errors import EmaRigError, IdentificationError
 from . import _args
 
 
@@ -38,10 +42,6 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
     findings of :func:`~ema_rig.identification.diagnose.diagnose_file`. A refusal
     (:class:`~ema_rig.errors.IdentificationError`) is re-raised with those findings appended.
     """
-    from dataclasses import replace
-
-    from ..config import load_rig
-    from ..errors import EmaRigError, IdentificationError
     from ..identification import Selection, identify
     from ..identification.diagnose import diagnose_file
     from ..io.uff import read_uff58
@@ -82,8 +82,6 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def print_warnings(ident: Any, file: Any = None) -> None:
     """One ``warning: <file>: …`` line per warning of the identification, on stderr."""
-    import sys
-
     prefix = f"{file}: " if file else ""
     for w in ident.warnings:
         text = str(w)

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import argparse
 
+from .._atomic import write_json
+from ..config import load_rig
+from ..errors import EmaRigError, MatchingError
 from . import _args
+from .stiffness import print_caveats, write_refusal
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,11 +41,8 @@ def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], li
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig calibrate``."""
-    from ..config import load_rig
-    from ..errors import EmaRigError, MatchingError
     from ..io.uff import read_uff58
     from ..rig.stiffness import calibrate
-    from .stiffness import print_caveats, write_refusal
 
     if args.k_disk is not None and not args.k_disk > 0:
         raise EmaRigError(f"--k-disk must be a positive stiffness [N/m], got {args.k_disk:g}", file=args.file)
@@ -71,8 +72,6 @@ def run(args: argparse.Namespace) -> int:
           f"{res.k_MS_std:.3g} with 'ema-rig stiffness'")
     print_caveats(res)
     if args.json:
-        from .._atomic import write_json
-
         write_json(args.json, res.to_dict())
         print(f"wrote {args.json}")
     if args.plot:

@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
+from pathlib import Path
 from typing import Any
 
+from ..campaign import load_campaign
+from ..campaign import run as run_files
+from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
+from ..errors import EmaRigError
 from . import _args
 
 
@@ -63,18 +69,11 @@ def print_table(result: Any) -> None:
 
 def run_campaign(campaign: str, out: str | None, jobs: int, force: bool) -> int:
     """Run a campaign file and print the outcome; shared by ``campaign`` and ``demo``."""
-    import sys
-    from pathlib import Path
-
-    from ..campaign import load_campaign, run
-    from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
-    from ..errors import EmaRigError
-
     if jobs < 1:
         raise EmaRigError(f"--jobs must be >= 1, got {jobs}", file=campaign)
     cfg = load_campaign(campaign)
     out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
-    result = run(cfg, out_dir=out_dir, jobs=jobs, force=force, progress=True)
+    result = run_files(cfg, out_dir=out_dir, jobs=jobs, force=force, progress=True)
     print_table(result)
     print(f"\n{len(result.rows) - result.n_failed}/{len(result.rows)} measurements ok "
           f"({result.computed} computed, {result.reused} reused); k_MS = {result.k_MS / 1e6:.2f} MN/m")

@@ -4,8 +4,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import stat
+from pathlib import Path
 
+from .._atomic import make_folder, write_text
+from ..errors import EmaRigError
 from . import _args
+from .campaign import run_campaign
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -19,16 +24,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
 
 
-def find_data_dir(explicit: str | None = None):
+def find_data_dir(explicit: str | None = None) -> Path | None:
     """The folder with the bundled ``campaign.toml``, or None.
 
     Looks in ``explicit`` (an error if it has no campaign), then ``./data``, then the ``data/``
     folder of the source tree.
     """
-    from pathlib import Path
-
-    from ..errors import EmaRigError
-
     if explicit:
         if not (Path(explicit) / "campaign.toml").is_file():
             raise EmaRigError("no campaign.toml in this folder", file=explicit)
@@ -43,7 +44,7 @@ def find_data_dir(explicit: str | None = None):
 MARKER = ".ema-rig-demo"
 
 
-def claim_folder(out):
+def claim_folder(out: str | os.PathLike[str]) -> Path:
     """Make sure ``out`` is a folder ``demo`` may write into: new, empty, or made by demo before.
 
     A new or empty folder gets the marker file :data:`MARKER`; a folder with anything else in it
@@ -55,13 +56,6 @@ def claim_folder(out):
     EmaRigError
         Naming the folder.
     """
-    import os
-    import stat
-    from pathlib import Path
-
-    from .._atomic import make_folder, write_text
-    from ..errors import EmaRigError
-
     out = Path(out)
     existed = os.path.lexists(out)
     make_folder(out)
@@ -85,10 +79,6 @@ def claim_folder(out):
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig demo``."""
-    from pathlib import Path
-
-    from .campaign import run_campaign
-
     data = find_data_dir(args.data)
     claim_folder(args.out)
     if data is None:  # installed without the source tree: regenerate the (seeded) bundled data

@@ -10,10 +10,15 @@ FRF dataset (function type 4) per (response, force) pair followed by one coheren
 from __future__ import annotations
 
 import argparse
+import warnings
 from dataclasses import replace
 from typing import Any
 
-from ..processing import ANTI_ALIAS_FRACTION
+from .._atomic import atomic_path
+from ..config import load_rig
+from ..errors import IdentificationWarning, UFFError, UnitWarning
+from ..io import _uff_1858
+from ..processing import ANTI_ALIAS_FRACTION, ProcessingHistory, usable_band, window_code
 from ._args import nonneg_float, number, positive_float, positive_int
 
 _IMPULSIVE_CREST = 8.0
@@ -67,13 +72,8 @@ def _crest(force: object) -> float:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig frf``."""
-    import warnings
-
     import numpy as np
 
-    from .._atomic import atomic_path
-    from ..errors import IdentificationWarning, UFFError, UnitWarning
-    from ..io import _uff_1858
     from ..io._uff58_coherence import coherence_bytes
     from ..io._uff_write import date_id
     from ..io.time_data import read_time_uff
@@ -82,8 +82,6 @@ def run(args: argparse.Namespace) -> int:
 
     rig = None
     if args.rig:
-        from ..config import load_rig
-
         rig = load_rig(args.rig)
     td = read_time_uff(args.file, rig=rig)
     window = args.window
@@ -145,8 +143,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _history(est: Any, fs: float) -> Any:
     """The :class:`~ema_rig.processing.ProcessingHistory` of an estimate (band: up to the anti-alias limit)."""
-    from ..processing import ProcessingHistory, usable_band, window_code
-
     h = ProcessingHistory(
         window=est.window, window_code=window_code(est.window), exp_decay=float(est.added_damping),
         n_samples=int(est.segment), n_averages=int(est.n_averages), overlap=float(est.overlap),

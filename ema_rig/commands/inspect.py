@@ -10,6 +10,9 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
+from .._atomic import write_json
+from ..config import load_rig
+from ..errors import EmaRigError, UFFError
 from . import _args
 
 if TYPE_CHECKING:
@@ -28,7 +31,7 @@ def _cell(v: object) -> str:
     return "-" if v is None else str(v)
 
 
-def format_table(report: dict) -> str:
+def format_table(report: dict[str, Any]) -> str:
     """The inspect report as a fixed-width text table (one row per dataset)."""
     head = ("#", "type", "function", "response", "reference", "points", "band [Hz or s]", "units", "status")
     rows = []
@@ -97,8 +100,6 @@ def run(args: argparse.Namespace) -> int:
     one line on stderr, when a dataset is refused or the FRF datasets cannot be assembled (with
     the rig file when given): duplicate or missing pairs, mismatched axes, units, rig DOFs.
     """
-    from .._atomic import write_json
-    from ..errors import EmaRigError, UFFError
     from ..io.uff import inspect_uff, read_uff58
 
     report = inspect_uff(args.file)
@@ -111,8 +112,6 @@ def run(args: argparse.Namespace) -> int:
     has_frf = any(d["type"] == 58 and d["function_type"] in (4, None) for d in report["datasets"])
     rig = None
     if args.rig:
-        from ..config import load_rig
-
         rig = load_rig(args.rig)
     text = format_table(report)
     if has_frf or rig is not None:

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+from .._atomic import atomic_path, check_outputs, write_json
+from ..processing import processing_history
+from ._ident_args import add_identification_arguments, load_and_identify, print_warnings
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig modes``."""
-    from ._ident_args import add_identification_arguments
-
     add_identification_arguments(parser)
     parser.add_argument("--json", default=None, metavar="OUT", help="write the modes as JSON")
     parser.add_argument("--save-selection", default=None, metavar="JSON",
@@ -38,11 +40,9 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..mode_shapes import mode_shapes_records
-    from ._ident_args import load_and_identify, print_warnings
 
     data, ident = load_and_identify(args)
     if args.shapes:  # PREFIX_<n>.png: known once the modes are; checked before anything is written
-        from .._atomic import check_outputs
 
         ins, outs = io_paths(args)
         check_outputs(ins, outs + [("--shapes", f"{args.shapes}_{k + 1}.png") for k in range(ident.modes.n_modes)])
@@ -93,8 +93,6 @@ def run(args: argparse.Namespace) -> int:
         cross = crosscheck(data, ident)
         print(cross.table())
     if args.json:
-        from .._atomic import write_json
-
         doc = {
             "file": str(args.file),
             "band": list(ident.band),
@@ -122,7 +120,6 @@ def run(args: argparse.Namespace) -> int:
         write_json(args.json, doc)
         print(f"wrote {args.json}")
     if args.plot:
-        from .._atomic import atomic_path
         from ..plot.synthesis import plot_synthesis
 
         chart = plot_synthesis(data, ident.modes)
@@ -135,7 +132,6 @@ def run(args: argparse.Namespace) -> int:
         write_uff55(args.uff55, ident.modes, name=f"ema_rig modes of {args.file}")
         print(f"wrote {args.uff55}")
     if args.automac:
-        from .._atomic import atomic_path
         from ..plot.shapes import plot_automac
 
         am = plot_automac(ident.modes)
@@ -143,7 +139,6 @@ def run(args: argparse.Namespace) -> int:
             am.figure.savefig(tmp, dpi=110)
         print(f"wrote {args.automac}")
     if args.shapes:
-        from .._atomic import atomic_path
         from ..plot.shapes import plot_mode_shape
 
         if geometry is not None:
@@ -165,7 +160,5 @@ def run(args: argparse.Namespace) -> int:
 
 def _processing(data: object) -> dict[str, object] | None:
     """The data's processing history as JSON (None when the file records none)."""
-    from ..processing import processing_history
-
     hist = processing_history(data)
     return None if hist is None else hist.to_dict()

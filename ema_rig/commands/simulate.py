@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from ..config import load_rig
+from ..errors import EmaRigError
 from . import _args
 
 MAX_LINES = 200_001
@@ -60,8 +62,6 @@ def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig simulate``."""
     import numpy as np
 
-    from ..config import load_rig
-    from ..errors import EmaRigError
     from ..simulate import simulate_measurement, truth_path, write_measurement
 
     # every option is range-checked by argparse; what is left is how many lines they make

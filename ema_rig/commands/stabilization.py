@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from .._atomic import atomic_path
+from ..errors import EmaRigError
+from ._ident_args import add_identification_arguments, load_and_identify, print_warnings
 
 _FORMATS = (".png", ".svg", ".pdf")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stabilization``."""
-    from ._ident_args import add_identification_arguments
-
     add_identification_arguments(parser)
     parser.add_argument("-o", "--output", required=True, metavar="CHART",
                         help="chart file: .png, .svg or .pdf")
@@ -29,10 +32,6 @@ def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], li
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stabilization``."""
-    from pathlib import Path
-
-    from ..errors import EmaRigError
-
     suffix = Path(args.output).suffix.lower()
     if suffix not in _FORMATS:
         raise EmaRigError(f"-o must end in {', '.join(_FORMATS)}, got {args.output!r}", file=args.file)
@@ -41,9 +40,7 @@ def run(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .._atomic import atomic_path
     from ..plot.stabilization import plot_stabilization
-    from ._ident_args import load_and_identify, print_warnings
 
     data, ident = load_and_identify(args)
     print_warnings(ident, args.file)

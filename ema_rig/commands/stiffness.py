@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
+from .._atomic import write_json
+from ..config import load_rig
+from ..errors import EmaRigError, MatchingError
 from . import _args
 
 
@@ -107,8 +111,6 @@ def _rigid(rb: Any) -> str:
 
 def print_caveats(res: Any) -> None:
     """One stderr line per warning (``warning: ...``) and per note (``note: ...``)."""
-    import sys
-
     for w in res.warnings:
         print(f"warning: {res.file or '-'}: {w}", file=sys.stderr)
     for n in res.notes:
@@ -117,8 +119,6 @@ def print_caveats(res: Any) -> None:
 
 def write_refusal(path: str, file: str, exc: Any) -> None:
     """JSON of a refused match: the one-line error, every candidate, empty warnings."""
-    from .._atomic import write_json
-
     write_json(path, {"file": str(file), "error": exc.message, "warnings": [],
                       "candidates": [dict(c) for c in exc.candidates]})
 
@@ -132,8 +132,6 @@ def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], li
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stiffness``."""
-    from ..config import load_rig
-    from ..errors import EmaRigError, MatchingError
     from ..io.uff import read_uff58
     from ..rig.stiffness import estimate_stiffness
 
@@ -157,8 +155,6 @@ def run(args: argparse.Namespace) -> int:
     print(summary(res))
     print_caveats(res)
     if args.json:
-        from .._atomic import write_json
-
         write_json(args.json, res.to_dict())
         print(f"wrote {args.json}")
     if args.plot:

@@ -19,6 +19,7 @@ References
 from __future__ import annotations
 
 import math
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,7 +56,7 @@ def det_coefficients(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.fft.ifft(d).real * 1.0
 
 
-def powers(x: NDArray, n: int) -> NDArray:
+def powers(x: NDArray[Any], n: int) -> NDArray[Any]:
     """``x**j`` for ``j = 0..n``, shape (n + 1, x.size), in blocks of about ``sqrt(n)`` powers.
 
     The first block ``x^0 .. x^(b-1)`` and the block starts ``x^0, x^b, x^2b ...`` come from two
@@ -82,7 +83,7 @@ def powers(x: NDArray, n: int) -> NDArray:
     return out.reshape(k * b, m)[: n + 1]
 
 
-def _ratio(c: NDArray, dc: NDArray, cr: NDArray, dcr: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
+def _ratio(c: NDArray[Any], dc: NDArray[Any], cr: NDArray[Any], dcr: NDArray[Any], z: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
     """Newton ratio p(z) / p'(z) and a flag "p(z) is at rounding level" for every z.
 
     Inside the unit circle p is evaluated directly, outside through the reversed polynomial
@@ -182,7 +183,7 @@ def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex
         m = 0
     k = np.arange(m)
     new = 1.1 * np.exp(1j * (0.4 + 2 * np.pi * (k + 0.5) / max(m, 1)))
-    return np.concatenate([prev, new]) * np.exp(1e-3j)
+    return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * np.exp(1e-3j))
 
 
 __all__ = ["aberth", "det_coefficients", "warm_start"]

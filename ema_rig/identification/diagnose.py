@@ -26,17 +26,21 @@ measurements an engineer would repeat, not borderline ones):
 from __future__ import annotations
 
 from os import PathLike
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import EmaRigError
 from ..frf import FRFData
+from ..io.uff import read_uff
 
 PHASE_JUMP_FRACTION = 0.10
 LOW_COHERENCE = 0.5
 
 
-def _jump_fraction(h: NDArray) -> float:
+def _jump_fraction(h: NDArray[Any]) -> float:
     """Fraction of neighbouring-line pairs whose phase differs by more than 90 degrees."""
     if h.size < 8:
         return 0.0
@@ -58,7 +62,7 @@ def _phase_findings(data: FRFData) -> list[str]:
                            for o in range(data.n_out) for i in range(data.n_in)])
 
 
-def _coherence_findings(freq: NDArray, coh: NDArray, h: NDArray, label: str) -> list[str]:
+def _coherence_findings(freq: NDArray[Any], coh: NDArray[Any], h: NDArray[Any], label: str) -> list[str]:
     coh = np.real(np.asarray(coh))
     if coh.size != h.size:
         return []
@@ -108,11 +112,6 @@ def diagnose_file(path: str | PathLike[str], data: FRFData | None = None) -> lis
         One line per finding. A file that cannot be read gives no finding (the reader's own
         error is reported elsewhere).
     """
-    from pathlib import Path
-
-    from ..errors import EmaRigError
-    from ..io.uff import read_uff
-
     if data is not None and data.meta.get("source") == str(Path(path)) and not data.meta.get("ignored_datasets", True):
         # the reader used every dataset of this file (FRFs and attached coherence; no time
         # record, no loose coherence): the file holds nothing beyond `data`, no second read

@@ -19,21 +19,25 @@ Identification
 
 from __future__ import annotations
 
+import html
+import warnings as _warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._blas import single_threaded
 from ..errors import IdentificationError
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .criteria import (
     CompletenessCriteria,
     IdentificationCriteria,
     StabilizationCriteria,
 )
+from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import _lsfd_checked
 from .ml import LocalML, local_ml
@@ -41,6 +45,7 @@ from .modal import ModalModel
 from .noise import MisfitTest, segment_misfit
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
+from .refine import refine as refine_model
 from .stabilization import (
     SelectedMode,
     Selection,
@@ -137,8 +142,6 @@ class Identification:
         return "\n".join([head, *rows, *(f"  warning: {w}" for w in self.warnings)])
 
     def _repr_html_(self) -> str:
-        import html
-
         rows = "".join(
             f"<tr><td>{f:.3f}</td><td>{sf:.3g}</td><td>{100 * z:.3f}</td><td>{100 * sz:.2g}</td></tr>"
             for f, sf, z, sz in zip(self.natural_freq, self.natural_freq_std, self.damping_ratio,
@@ -179,9 +182,9 @@ class Identification:
         drive = [q for q, d in enumerate(mm.in_dofs) if d in mm.out_dofs]
         if drive:
             mass = np.stack([mm.modal_mass(mm.in_dofs[q]) for q in drive], axis=1)
-            return np.asarray(drive)[np.argmin(mass, axis=1)]
+            return cast("NDArray[np.intp]", np.asarray(drive)[np.argmin(mass, axis=1)])
         col = np.linalg.norm(mm.residues, axis=1)  # (n_modes, n_in)
-        return np.argmax(col, axis=1)
+        return cast("NDArray[np.intp]", np.argmax(col, axis=1))
 
     def best_shapes(self) -> NDArray[np.complex128]:
         """Each mode's shape from its best reference (mass-normalised at a driving point), (n_modes, n_out)."""
@@ -391,8 +394,6 @@ def identify(
     (array([150.]), array([0.01]))
     """
     if time_budget is not None:
-        import warnings as _warnings
-
         _warnings.warn("identify(time_budget=...) is deprecated and ignored: the order growth stops at the "
                        "order cap (max_order) only, so the result does not depend on the machine's load",
                        DeprecationWarning, stacklevel=2)
@@ -594,7 +595,6 @@ def identify(
     warnings += _edge_warnings(model, stab.band)
     # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
     # from the API as from the command line
-    from .diagnose import diagnose_frf
 
     warnings += [f"data: {f}" for f in diagnose_frf(data) if f"data: {f}" not in warnings]
     ident = Identification(
@@ -618,7 +618,7 @@ def identify(
     # ---- optional maximum-likelihood refinement (issue 10) ----
     if refine:
         ident = _refined(ident, data)
-    return remove_window_damping(ident, data)  # issue 18: an exponential window's damping
+    return cast("Identification", remove_window_damping(ident, data))  # issue 18: an exponential window's damping
 
 
 _Fitted = tuple[ModalModel, LocalML, list[list[float]]]
@@ -817,8 +817,6 @@ def _local_ml(data: FRFData, model: ModalModel) -> LocalML:
 
 def _refined(ident: Identification, data: FRFData) -> Identification:
     """``ident`` with the ML-refined modes and their standard deviations, or unchanged with a warning."""
-    from .refine import refine as refine_model
-
     ref = refine_model(data, ident.modes)
     # the caveats travel in Identification.warnings (the CLI prints each once), not as Python warnings
     if not ref.converged:
@@ -855,8 +853,6 @@ def _up_to(stab: StabilizationData, n: int) -> StabilizationData:
 
 def _why(data: FRFData) -> str:
     """What in the FRFs makes them untrustworthy (phase, coherence), as a clause for a refusal."""
-    from .diagnose import diagnose_frf
-
     findings = diagnose_frf(data)
     return ("; the measurement itself is suspect: " + "; ".join(findings)) if findings else ""
 

@@ -59,7 +59,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._blas import single_threaded
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .criteria import JUDGE_CRITERIA, JudgeCriteria
 from .lsfd import _output_chunks, _projector
 from .mac import mac, mpc
@@ -128,7 +129,7 @@ class Candidate:
         return d
 
 
-def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
     """Residues (n_modes, n_out, n_in), the F statistic, the peak share and the residual dof of every mode.
 
     The peak share is ``||H_k|| / ||H||`` over the lines within one half-power bandwidth (at

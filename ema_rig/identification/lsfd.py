@@ -32,7 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._blas import single_threaded
 from ..errors import IdentificationError
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .modal import ModalModel, pole_residue_basis
 from .plscf import check_data, source_of
 

@@ -17,6 +17,8 @@ cross-check test compares both.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -50,7 +52,7 @@ def mac(phi_a: ArrayLike, phi_b: ArrayLike | None = None) -> NDArray[np.float64]
     den = np.outer(np.sum(np.abs(a) ** 2, axis=1), np.sum(np.abs(b) ** 2, axis=1))
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
-    return np.clip(out.real, 0.0, 1.0)
+    return cast("NDArray[np.float64]", np.clip(out.real, 0.0, 1.0))
 
 
 def mpc(phi: ArrayLike) -> NDArray[np.float64]:

@@ -70,7 +70,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .noise import coherence_variance, fit_noise_model
 from .refine import inv_psd
 

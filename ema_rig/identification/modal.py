@@ -36,7 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..dof import DOF, as_dof
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 
 
 @dataclass(frozen=True, slots=True, eq=False)

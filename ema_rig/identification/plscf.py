@@ -85,12 +85,13 @@ from collections.abc import Iterable, Iterator, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._blas import single_threaded
+from .._progress import progress_bar
 from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
@@ -289,7 +290,7 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
 
 
 # --------------------------------------------------------------------------- kernels
-def _lag_sums(data: FRFData, p: int) -> tuple[NDArray, NDArray, NDArray, NDArray, float]:
+def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any], float]:
     """Weighted lag sums of R, S_o and T for lags -p..p.
 
     Returns ``r`` (p+1,) real for lags 0..p, ``s`` (n_out, n_in, 2p+1) complex for lags -p..p,
@@ -389,7 +390,7 @@ _S_CHUNK_BYTES = 2 << 20
 _R_PIVOT_TOL = 1e-6
 
 
-def _order_limit(r: NDArray) -> int:
+def _order_limit(r: NDArray[Any]) -> int:
     """Highest order ``p`` whose ``R_p`` (lags ``r[:p+1]``, Toeplitz) is safely positive definite.
 
     On evenly spaced lines ``R`` is almost ``n_freq`` times the identity and every order up to
@@ -414,7 +415,7 @@ def _order_limit(r: NDArray) -> int:
     return n_good - 1
 
 
-def _reduced_factor(r: NDArray, t: NDArray, p: int) -> tuple[NDArray, NDArray]:
+def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int) -> tuple[NDArray[Any], NDArray[Any]]:
     """``T`` of the max order and ``L^-1``, the inverse Cholesky factor of ``R``.
 
     Returns ``T`` shape ((p+1) n_in, (p+1) n_in) and ``Linv`` shape (p+1, p+1), lower
@@ -435,7 +436,7 @@ def _reduced_factor(r: NDArray, t: NDArray, p: int) -> tuple[NDArray, NDArray]:
     return T, linv
 
 
-def _q_rows(s: NDArray, linv: NDArray, p: int, a: int, b: int) -> NDArray:
+def _q_rows(s: NDArray[Any], linv: NDArray[Any], p: int, a: int, b: int) -> NDArray[Any]:
     """Rows ``a..b`` of ``Q_o = L^-1 S_o`` for every output, shape (b-a+1, n_out, (p+1) n_in).
 
     ``S_o[i, (j, c)] = -Re s_oc(j - i)`` is rebuilt from the lag sums ``s`` (n_out, n_in, 2p+1)
@@ -462,13 +463,13 @@ def _q_rows(s: NDArray, linv: NDArray, p: int, a: int, b: int) -> NDArray:
     return out
 
 
-def _reduced_blocks(r: NDArray, s: NDArray, t: NDArray, p: int) -> tuple[NDArray, NDArray]:
+def _reduced_blocks(r: NDArray[Any], s: NDArray[Any], t: NDArray[Any], p: int) -> tuple[NDArray[Any], NDArray[Any]]:
     """``T`` and the whole ``Q`` (p+1, n_out, (p+1) n_in) at once (small problems, tests)."""
     T, linv = _reduced_factor(r, t, p)
     return T, _q_rows(s, linv, p, 0, p)
 
 
-def _solve_order(m: NDArray, n: int, n_in: int) -> tuple[NDArray, NDArray]:
+def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDArray[Any]]:
     """Denominator coefficients of order n under both constraints.
 
     Returns ``(alpha_low, alpha_high)``, each of shape (n + 1, n_in, n_in) holding
@@ -484,17 +485,17 @@ def _solve_order(m: NDArray, n: int, n_in: int) -> tuple[NDArray, NDArray]:
     return low, high
 
 
-def _spd_solve(a: NDArray, b: NDArray) -> NDArray:
+def _spd_solve(a: NDArray[Any], b: NDArray[Any]) -> NDArray[Any]:
     """Solve ``a x = b`` for symmetric positive (semi)definite ``a`` (LAPACK posv, lstsq fallback)."""
     from scipy.linalg import lapack, lstsq
 
     _, x, info = lapack.dposv(a, b, lower=1, overwrite_a=0, overwrite_b=0)
     if info != 0:
-        return lstsq(a, b, check_finite=False)[0]
-    return x
+        return cast("NDArray[Any]", lstsq(a, b, check_finite=False)[0])
+    return cast("NDArray[Any]", x)
 
 
-def _companion(beta: NDArray) -> NDArray:
+def _companion(beta: NDArray[Any]) -> NDArray[Any]:
     """Block companion matrix of the monic matrix polynomial ``sum_j beta_j w^j`` (beta_n = I).
 
     ``beta`` has shape (n + 1, n_in, n_in) (the last block, I, is not used). The first block
@@ -510,11 +511,11 @@ def _companion(beta: NDArray) -> NDArray:
     return c
 
 
-def _eigvals(c: NDArray) -> NDArray:
+def _eigvals(c: NDArray[Any]) -> NDArray[Any]:
     return np.linalg.eigvals(c)
 
 
-def _null_vectors(a: NDArray) -> NDArray:
+def _null_vectors(a: NDArray[Any]) -> NDArray[Any]:
     """Unit-norm left null vectors of each ``a[r]`` (n_z, n_in, n_in), largest entry real > 0."""
     n_in = a.shape[1]
     at = np.swapaxes(a, 1, 2)
@@ -533,20 +534,20 @@ def _null_vectors(a: NDArray) -> NDArray:
     ph = vec[np.arange(vec.shape[0]), big]
     with np.errstate(invalid="ignore", divide="ignore"):
         vec = vec * (np.abs(ph) / np.where(ph != 0, ph, 1.0))[:, None]
-    return vec
+    return cast("NDArray[Any]", vec)
 
 
-def _roots_eig(low: NDArray) -> NDArray:
+def _roots_eig(low: NDArray[Any]) -> NDArray[Any]:
     """All roots z of det A_low(z), from the companion matrix of the reversed polynomial."""
     # roots of A_low(z) (alpha_0 = I) are 1 / w with w the roots of the reversed, monic polynomial
     w = _eigvals(_companion(low[::-1]))
     w = w[(w != 0) & np.isfinite(w)]
-    return 1.0 / w
+    return cast("NDArray[Any]", 1.0 / w)
 
 
 def _poles_of_orders(
-    entries: list[tuple[int, NDArray, NDArray]], dt: float, f_lo: float
-) -> list[tuple[NDArray, NDArray]]:
+    entries: list[tuple[int, NDArray[Any], NDArray[Any]]], dt: float, f_lo: float
+) -> list[tuple[NDArray[Any], NDArray[Any]]]:
     """Physical poles (rad/s, Im > 0) and participation vectors of several orders.
 
     ``entries`` holds ``(order, alpha_high, z)`` per order, ``z`` all roots of ``det A_low``.
@@ -584,7 +585,7 @@ def _poles_of_orders(
     return [(s_all[a:b] + 2j * np.pi * f_lo, part[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
-def _eval_many(high: NDArray, owner: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
+def _eval_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
     """``A(z)`` and ``A'(z)`` of the polynomial ``high[owner[r]]`` at each ``z[r]``: (n_z, n_in, n_in).
 
     In chunks of roots of about half a megabyte of powers and gathered coefficients: the roots of
@@ -610,7 +611,7 @@ def _eval_many(high: NDArray, owner: NDArray, z: NDArray) -> tuple[NDArray, NDAr
     return a, da
 
 
-def _refine_many(high: NDArray, owner: NDArray, z: NDArray, iters: int = 3) -> NDArray:
+def _refine_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any], iters: int = 3) -> NDArray[Any]:
     """Newton steps on ``det A(z) = 0`` from the starting roots ``z``, ``A = high[owner[r]]`` for root r.
 
     The step is ``det A / (d det A / dz)`` with the derivative from Jacobi's formula (sum of
@@ -643,7 +644,7 @@ def _refine_many(high: NDArray, owner: NDArray, z: NDArray, iters: int = 3) -> N
     return zk
 
 
-def _participation_many(high: NDArray, owner: NDArray, z: NDArray) -> NDArray:
+def _participation_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any]) -> NDArray[Any]:
     """Unit-norm null vectors ``l`` of ``A(z)^T`` (left null vectors of A), ``A = high[owner[r]]``: (n_z, n_in)."""
     n_in = high.shape[2]
     if n_in == 1:
@@ -793,8 +794,8 @@ class PlscfEngine:
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
-        self._prev: NDArray | None = None
-        self._rows: dict[int, tuple[NDArray, NDArray]] = {}
+        self._prev: NDArray[Any] | None = None
+        self._rows: dict[int, tuple[NDArray[Any], NDArray[Any]]] = {}
         self.n_aberth = 0
         self.fallbacks = 0
 
@@ -820,7 +821,7 @@ class PlscfEngine:
             q = rows.reshape(-1, ncol)
             self._P += q.T @ q
 
-    def _row_blocks(self, a: int, b: int) -> Iterator[tuple[int, NDArray]]:
+    def _row_blocks(self, a: int, b: int) -> Iterator[tuple[int, NDArray[Any]]]:
         """Rows ``a..b`` of ``Q`` in blocks of at most :data:`_Q_BLOCK_BYTES`: (first row, rows)."""
         p = self._alloc
         n_out = self._sp.shape[0]
@@ -844,7 +845,7 @@ class PlscfEngine:
         if self.root_finder == "eig" and self.threads > 1 and len(order_list) > 4:
             pool = ThreadPoolExecutor(max_workers=self.threads)
 
-        def work(low: NDArray) -> NDArray:
+        def work(low: NDArray[Any]) -> NDArray[Any]:
             with single_threaded():
                 return _roots_eig(low)
 
@@ -862,7 +863,7 @@ class PlscfEngine:
 
         # per order: solve and root; the polish of the stable roots and the participation
         # factors of all these orders follow at once (_poles_of_orders)
-        entries: list[tuple[int, NDArray, Any]] = []
+        entries: list[tuple[int, NDArray[Any], Any]] = []
         try:
             with single_threaded():
                 for n in solvable():
@@ -917,8 +918,6 @@ class PlscfEngine:
             raise ValueError(f"orders below {self._last + 1} can no longer be added, got {todo[0]}")
         bar = None
         if progress and todo:
-            from .._progress import progress_bar
-
             bar = progress_bar(total=len(todo), desc="pLSCF orders", unit="order")
         try:
             if todo:

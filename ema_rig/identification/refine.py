@@ -62,14 +62,15 @@ least-squares complex frequency-domain estimator" (the PolyMAX start values).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._blas import single_threaded
 from ..errors import IdentificationError
-from ..frf import _FORM_POWER, FRFData
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
 from .modal import ModalModel
 from .noise import NoiseModel, check_coherence, coherence_variance, fit_noise_model
 from .plscf import check_data, source_of
@@ -282,7 +283,7 @@ class _Problem:
             cf, d = val.chol[c]
 
             def gsolve(rhs: NDArray[np.float64], cf: Any = cf, d: NDArray[np.float64] = d) -> NDArray[np.float64]:
-                return scipy.linalg.cho_solve(cf, rhs / d[:, None], check_finite=False) / d[:, None]
+                return cast("NDArray[np.float64]", scipy.linalg.cho_solve(cf, rhs / d[:, None], check_finite=False) / d[:, None])
 
             a = self.w[c][:, None] * br
             r = a @ val.x[c] - self.w[c] * self.yr[c]
@@ -812,7 +813,7 @@ def inv_psd(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
     if np.min(np.abs(np.diag(c))) ** 2 < 1e-13:
         return None
     ci = np.linalg.inv(c)
-    return (ci.T @ ci) / np.outer(d, d)
+    return cast("NDArray[np.float64] | None", (ci.T @ ci) / np.outer(d, d))
 
 
 __all__ = ["Refinement", "refine"]

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._atomic import write_text
 from ..errors import IdentificationError
 from .criteria import STABILIZATION_CRITERIA, StabilizationCriteria
 from .mac import mac
@@ -407,8 +408,6 @@ class Selection:
         """Serialise to JSON; also write it (atomically) to ``path`` when given."""
         text = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
         if path is not None:
-            from .._atomic import write_text
-
             write_text(path, text)
         return text
 
@@ -432,7 +431,7 @@ class Selection:
                 raise ValueError(f"format must be 'ema_rig.selection/1', got {d.get('format')!r}")
             return cls(
                 modes=tuple(SelectedMode.from_dict(m) for m in d["modes"]),
-                band=tuple(d["band"]),  # type: ignore[arg-type]
+                band=tuple(d["band"]),
                 max_order=int(d["max_order"]),
                 tolerances=d.get("tolerances", {}),
                 in_dofs=tuple(d.get("in_dofs", ())),

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..dof import DOF
-from ._uff_write import _fmt_axis, _line80, fmt13, format_values
+from ._uff_write import fmt13, fmt_axis, format_values, line80
 
 
 def coherence_bytes(freq: NDArray[np.float64], coherence: NDArray[np.float64], *, response: DOF,
@@ -38,14 +38,14 @@ def coherence_bytes(freq: NDArray[np.float64], coherence: NDArray[np.float64], *
         raise ValueError("coherence contains NaN or inf values")
     n = f.size
     head = [
-        *(_line80(s) for s in ids),
+        *(line80(s) for s in ids),
         f"{6:5d}{1:10d}{0:5d}{0:10d} {'NONE':<10}{response.node:10d}{response.direction:4d} "
         f"{'NONE':<10}{reference.node:10d}{reference.direction:4d}",
         f"{4:10d}{n:10d}{1:10d}" + fmt13(f[0]) + fmt13((f[-1] - f[0]) / (n - 1)) + f"{0.0:13.6E}",
-        _fmt_axis(18, 0, 0, "Frequency", "Hz"),
-        _fmt_axis(0, 0, 0, "Coherence", "NONE"),
-        _fmt_axis(0, 0, 0, "NONE", "NONE"),
-        _fmt_axis(0, 0, 0, "NONE", "NONE"),
+        fmt_axis(18, 0, 0, "Frequency", "Hz"),
+        fmt_axis(0, 0, 0, "Coherence", "NONE"),
+        fmt_axis(0, 0, 0, "NONE", "NONE"),
+        fmt_axis(0, 0, 0, "NONE", "NONE"),
     ]
     body = format_values(c, ["%20.12E"] * 4)
     return ("    -1\n" + f"{58:6d}" + "\n" + "\n".join(head) + "\n" + body + "    -1\n").encode("utf-8")

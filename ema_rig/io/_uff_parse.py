@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..dof import DOF
+from ..dof import AXIS_NAMES, DOF
 
 _EOL = re.compile(rb"\r\n|\r|\n")
 # a delimiter line: optional blanks, -1, optional blanks, end of line (or of file)
@@ -193,8 +193,6 @@ def _dof_from(node: int, direction: int, entity: str) -> tuple[DOF | None, str |
     if node == 0 and direction == 0:
         m = _ENTITY_DOF.match(entity.strip())
         if m:
-            from ..dof import AXIS_NAMES
-
             code = AXIS_NAMES.index(m.group(2).upper())
             d = DOF(int(m.group(1)), -code if m.group(3) == "-" else code)
             return d, f"DOF {d} taken from entity name {entity!r} (node/direction fields are 0)"

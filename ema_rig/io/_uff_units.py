@@ -13,10 +13,11 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from .units import FORM_DIMS, MAX_UNIT_POWER, is_no_label, parse_unit
 from .units import G0 as G0  # re-exported: the writer scales by it
-from .units import MAX_UNIT_POWER, Unit, UnitLabelError, is_no_label, parse_unit_label
+from .units import response_unit as response_unit  # re-exported: read_uff58 checks --units with it
 
-_FORM_DIMS = {(1, 0, 0): "receptance", (1, -1, 0): "mobility", (1, -2, 0): "accelerance"}
+_FORM_DIMS = FORM_DIMS
 _CODE_FORM = {8: "receptance", 11: "mobility", 12: "accelerance"}
 _CODE_NAMES = {
     0: "unknown", 1: "general", 2: "stress", 3: "strain", 5: "temperature", 6: "heat flux",
@@ -27,32 +28,6 @@ _CODE_NAMES = {
 
 class UnitRangeError(ValueError):
     """A dataset-164 conversion is out of range (the factor would be 0, inf or overflow)."""
-
-
-def parse_unit(label: str, what: str = "unit label") -> Unit | None:
-    """Parse a unit label with :func:`ema_rig.io.units.parse_unit_label`; None if there is none.
-
-    Parameters
-    ----------
-    label : str
-        The label as stored (``"NONE"`` or blank: no label).
-    what : str, optional
-        What the label belongs to, for the message (``"ordinate unit label"``).
-
-    Raises
-    ------
-    ValueError
-        A label that is given but cannot be read (unknown word, syntax, exponent out of range):
-        never taken as SI.
-    """
-    if is_no_label(label):
-        return None
-    try:
-        return parse_unit_label(label)
-    except UnitLabelError as exc:
-        reason = str(exc).split(": ", 1)[-1]
-        raise ValueError(f"{what} {label.strip()!r} not understood ({reason}); the values are not read "
-                         "rather than taken as SI") from None
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,32 +49,6 @@ _AXIS_WORDS = {
     "mobility": "mobility", "admittance": "mobility",
     "accelerance": "accelerance", "inertance": "accelerance",
 }
-
-
-def response_unit(label: str) -> Unit:
-    """Check a response unit given by the user for files without a unit label (``--units``, ``[units] ordinate``).
-
-    Parameters
-    ----------
-    label : str
-        A displacement, velocity or acceleration unit (``"g"``, ``"m/s^2"``, ``"mm/s"``, ``"um"``),
-        optionally per force (``"g/N"``, ``"(m/s)/lbf"``).
-
-    Returns
-    -------
-    Unit
-
-    Raises
-    ------
-    ValueError
-        Naming the label and what is allowed.
-    """
-    unit = parse_unit(label)
-    dims = None if unit is None else (unit.dims[0], unit.dims[1], 0) if unit.dims[2] in (0, -1) else None
-    if unit is None or dims not in _FORM_DIMS:
-        raise ValueError(f"unit {label!r} is not a displacement, velocity or acceleration unit (optionally per "
-                         "force), e.g. g, m/s^2, mm/s, um, g/N")
-    return unit
 
 
 def decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str | None,

@@ -45,11 +45,11 @@ def fmt13(v: float) -> str:
     return best.rjust(13)
 
 
-def _line80(text: str) -> str:
+def line80(text: str) -> str:
     return f"{text[:80]:<80}"
 
 
-def _fmt_axis(code: int, len_exp: int, force_exp: int, label: str, unit: str) -> str:
+def fmt_axis(code: int, len_exp: int, force_exp: int, label: str, unit: str) -> str:
     return f"{code:10d}{len_exp:5d}{force_exp:5d}{0:5d} {label[:20]:<20} {unit[:20]:<20}"
 
 
@@ -95,16 +95,16 @@ def dataset_bytes(
     is_real = not np.any(y.imag)
     ord_type = (4 if double else 2) if is_real else (6 if double else 5)
     head = [
-        *(_line80(s) for s in ids),
+        *(line80(s) for s in ids),
         f"{4:5d}{1:10d}{0:5d}{0:10d} {'NONE':<10}{response.node:10d}{response.direction:4d} "
         f"{'NONE':<10}{reference.node:10d}{reference.direction:4d}",
         f"{ord_type:10d}{n:10d}{1 if even else 0:10d}"
         + (fmt13(x[0]) + fmt13((x[-1] - x[0]) / (n - 1) if n > 1 else 0.0) if even else f"{0.0:13.6E}{0.0:13.6E}")
         + f"{0.0:13.6E}",
-        _fmt_axis(18, 0, 0, "Frequency", "Hz"),
-        _fmt_axis(code, 1, 0, frf_form.capitalize(), unit_label),
-        _fmt_axis(13, 0, 1, "Force", force_label),
-        _fmt_axis(0, 0, 0, "NONE", "NONE"),
+        fmt_axis(18, 0, 0, "Frequency", "Hz"),
+        fmt_axis(code, 1, 0, frf_form.capitalize(), unit_label),
+        fmt_axis(13, 0, 1, "Force", force_label),
+        fmt_axis(0, 0, 0, "NONE", "NONE"),
     ]
     parts = [y.real] if is_real else [y.real, y.imag]
     cols = parts if even else [x, *parts]

@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -117,7 +117,7 @@ class Geometry:
         hit = np.flatnonzero(self.node_ids == int(node))
         if hit.size == 0:
             raise KeyError(f"node {node} is not in the geometry ({self.source or 'no file'})")
-        return self.coords[int(hit[0])]
+        return cast("NDArray[np.float64]", self.coords[int(hit[0])])
 
     @property
     def size(self) -> float:

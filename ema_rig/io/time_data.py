@@ -40,10 +40,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..config import RigConfig
 from ..dof import DOF
 from ..errors import UFFError, UnitWarning
 from . import _uff_units
+from .layout import SensorLayout
 from .uff import UFFRecord, read_uff
 
 _FORCE_CODES = (13, 9)
@@ -139,14 +139,14 @@ def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
     return float(x[0]) * tfac, dt * tfac, n
 
 
-def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) -> TimeData:
+def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None) -> TimeData:
     """Read the force and response time histories of a UFF file.
 
     Parameters
     ----------
     path : str or path-like
         UFF file with dataset-58 time histories (function type 1), ASCII or binary.
-    rig : RigConfig, optional
+    rig : SensorLayout (a RigConfig or a ChannelLayout), optional
         Keeps only the rig's sensors (in rig order, the rig's sign decides as in
         :func:`~ema_rig.io.uff.read_uff58`) and the rig's excitations as forces.
 
@@ -208,8 +208,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: RigConfig | None = None) ->
         sign = float(dof.sign)
         if rig is not None:
             if kind == "force":
-                match = next((q for q in rig.references if q.node == dof.node
-                              and abs(q.direction) == abs(dof.direction)), None)
+                match = next((q for q in rig.references if q.same_axis(dof)), None)
                 if match is None:
                     notes.append(f"dataset {r.index}: force at {dof} is not a rig excitation; ignored")
                     continue

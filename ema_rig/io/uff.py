@@ -39,24 +39,25 @@ from __future__ import annotations
 import os
 import re
 import stat
+import tomllib
 import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._atomic import atomic_path
-from ..config import RigConfig
 from ..dof import DOF
 from ..errors import UFFError, UnitWarning
 from ..frf import FRFData
 from ..processing import ProcessingHistory
 from . import _uff_1858, _uff_coherence, _uff_parse, _uff_units, _uff_write
+from .layout import SensorLayout
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -132,7 +133,7 @@ class UFFRecord:
             return None
         x = h["abscissa_min"] + np.arange(self.y.size, dtype=np.float64) * h["abscissa_inc"]
         x.setflags(write=False)
-        return x
+        return cast("NDArray[np.float64] | None", x)
 
     @property
     def num_pts_header(self) -> int | None:
@@ -240,8 +241,6 @@ _HEAD_BYTES = 1 << 16
 
 def _toml_hint(head: bytes) -> str | None:
     """What an ema_rig TOML file given where a UFF file belongs is, and the command for it."""
-    import tomllib
-
     try:
         doc = tomllib.loads(head.decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError):
@@ -409,15 +408,15 @@ def inspect_uff(path: str | PathLike[str]) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- read_uff58
-def _match_ref(rig: RigConfig, d: DOF) -> DOF | None:
+def _match_ref(rig: SensorLayout, d: DOF) -> DOF | None:
     for r in rig.references:
-        if r.node == d.node and abs(r.direction) == abs(d.direction):
+        if r.same_axis(d):
             return r
     return None
 
 
 def read_uff58(
-    path: str | PathLike[str], *, rig: RigConfig | None = None, freq_rtol: float = 1e-6,
+    path: str | PathLike[str], *, rig: SensorLayout | None = None, freq_rtol: float = 1e-6,
     units: str | None = None,
 ) -> FRFData:
     """Read all FRF datasets of a UFF58 file into one FRFData in SI units.
@@ -426,7 +425,7 @@ def read_uff58(
     ----------
     path : str or path-like
         UFF file with datasets 58/58b; every dataset of function type 4 (FRF) is used.
-    rig : RigConfig, optional
+    rig : SensorLayout (a RigConfig or a ChannelLayout), optional
         Rig configuration: selects and orders the outputs (rig sensor order), sets roles and axes,
         decides signs, and may settle unit conflicts (``unit_preference``).
     freq_rtol : float, optional
@@ -495,8 +494,68 @@ def read_uff58(
             _uff_units.response_unit(assumed)
         except ValueError as exc:
             raise UFFError(f"units: {exc}", file=src) from None
+    used, ignored_datasets, coh_recs = _frf_datasets(uf, src, pref, assumed)
+    freq, tol, dec0 = _common_freq_axis(used, src, freq_rtol)
+    chans = _map_channels(used, rig, src)
+    out_order, in_order, roles, axes = _rig_order(chans, rig, src)
+    frf, decisions, used_idx, ids = _assemble(used, chans, out_order, in_order, freq.size, src)
+    notes = [f"dataset {r.index}: {n}" for r, _, _ in used for n in r.notes]
+
+    def coh_key(rd: DOF, fd: DOF) -> tuple[DOF, DOF] | None:
+        if rig is None:
+            return rd.positive(), fd.positive()
+        sensor, rref = rig.sensor_for(rd), _match_ref(rig, fd)
+        return None if sensor is None or rref is None else (sensor.dof.positive(), rref.positive())
+
+    coh = _uff_coherence.attach(coh_recs, freq, tol, out_order, in_order, coh_key)
+    attached = set(coh.datasets)
+    ignored_datasets += [f"dataset {r.index}: function type 6 (coherence), not attached" for r in coh_recs
+                         if r.index not in attached]
+    n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
+    notes += list(coh.notes) + ([avg_note] if avg_note else [])
+    # ---- processing history from datasets 1858 (issue 18; see _uff_1858) ----
+    q_pairs, q_notes = _uff_1858.qualify(uf.records)
+    history, h_notes, h_warnings = _uff_1858.combine(q_pairs, sorted(used_idx))
+    q_used = {q for q, _ in q_pairs.values()}
+    ignored_datasets = [s for s in ignored_datasets if not any(s.startswith(f"dataset {q}:") for q in q_used)]
+    notes += q_notes + h_notes
+    if history is not None and n_avg is None:
+        n_avg = history.n_averages
+    # ---- end processing history ----
+    meta: dict[str, Any] = {
+        "source": src,
+        "datasets": sorted(used_idx),
+        "coherence_datasets": list(coh.datasets),
+        "unit_decisions": decisions,
+        "sign_flips": chans.sign_flips,
+        "ignored_channels": chans.ignored_channels,
+        "ignored_datasets": ignored_datasets,
+        "notes": notes,
+        "warnings": list(coh.warnings) + h_warnings,
+        "ids": ids,
+        "rig": None if rig is None else rig.path,
+    }
+    if history is not None:
+        meta["processing"] = history  # issue 18: window, averaging, band (dataset 1858)
+    frf.setflags(write=False)  # built here and frozen: FRFData keeps it without a copy
+    try:
+        return FRFData(
+            freq, frf, tuple(out_order), tuple(in_order), dec0.frf_form, roles=tuple(roles), axes=tuple(axes),
+            meta=meta, coherence=coh.values, n_averages=n_avg,
+        )
+    except ValueError as exc:  # pragma: no cover - all checked above
+        raise UFFError(str(exc), file=src) from None
+
+
+# ---- the parts of read_uff58, in the order it calls them
+_Used = list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]]
+
+
+def _frf_datasets(uf: UFFFile, src: str, pref: str | None,
+                  assumed: str | None) -> tuple[_Used, list[str], list[UFFRecord]]:
+    """The FRF datasets with their unit decisions, the datasets ignored (why), the coherence datasets."""
     current164: Mapping[str, Any] | None = None
-    used: list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]] = []
+    used: _Used = []
     ignored_datasets: list[str] = []
     coh_recs: list[UFFRecord] = []
     for r in uf.records:
@@ -515,7 +574,7 @@ def read_uff58(
             coh_recs.append(r)
             continue
         if r.function_type not in (4, None):
-            name = FUNCTION_TYPES.get(r.function_type, "other")  # type: ignore[arg-type]
+            name = FUNCTION_TYPES.get(r.function_type, "other")
             ignored_datasets.append(f"dataset {r.index}: function type {r.function_type} ({name}), not an FRF")
             continue
         if r.status != "read":
@@ -537,8 +596,13 @@ def read_uff58(
             + (f"; found {', '.join(kinds)}" if kinds else ""),
             file=src,
         )
+    return used, ignored_datasets, coh_recs
 
-    # frequency axes: one common axis, compared with a tolerance
+
+def _common_freq_axis(used: _Used, src: str,
+                      freq_rtol: float) -> tuple[NDArray[np.float64], float, _uff_units.UnitDecision]:
+    """The one frequency axis [Hz] of every FRF dataset (compared with a tolerance), the tolerance
+    [Hz] and the first dataset's unit decision (its FRF form is every dataset's)."""
     r0, dec0, _ = used[0]
     try:
         afac0 = _uff_units.abscissa_factor(dict(r0.header))
@@ -572,13 +636,23 @@ def read_uff58(
                 f"FRF form {dec.frf_form} differs from dataset {r0.index} ({dec0.frf_form})",
                 file=src, dataset=r.index,
             )
+    return freq, tol, dec0
 
-    # DOFs, signs and rig mapping
-    sign_flips: list[str] = []
-    ignored_channels: list[str] = []
-    pairs: dict[tuple[DOF, DOF], tuple[int, float, UFFRecord]] = {}
-    out_order: list[DOF] = []
-    in_order: list[DOF] = []
+
+@dataclass
+class _Channels:
+    """The (response, reference) pairs of the file in positive DOFs, with the sign of each."""
+
+    pairs: dict[tuple[DOF, DOF], tuple[int, float, UFFRecord]] = field(default_factory=dict)
+    out_order: list[DOF] = field(default_factory=list)
+    in_order: list[DOF] = field(default_factory=list)
+    sign_flips: list[str] = field(default_factory=list)
+    ignored_channels: list[str] = field(default_factory=list)
+
+
+def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
+    """DOFs, signs and the rig's sensors: every FRF dataset as a positive (response, reference) pair."""
+    ch = _Channels()
     for r, _dec, _ in used:
         rd, fd = r.response, r.reference
         assert rd is not None and fd is not None
@@ -586,19 +660,19 @@ def read_uff58(
             sensor = rig.sensor_for(rd)
             if sensor is None:
                 msg = f"{src}: dataset {r.index}: response {rd} has no [[sensor]] entry in the rig file; channel ignored"
-                warnings.warn(msg, UnitWarning, stacklevel=2)
-                ignored_channels.append(f"dataset {r.index}: {rd} (no rig sensor)")
+                warnings.warn(msg, UnitWarning, stacklevel=3)  # the caller of read_uff58
+                ch.ignored_channels.append(f"dataset {r.index}: {rd} (no rig sensor)")
                 continue
             rref = _match_ref(rig, fd)
             if rref is None:
                 msg = f"{src}: dataset {r.index}: reference {fd} is not an excitation of the rig file; dataset ignored"
-                warnings.warn(msg, UnitWarning, stacklevel=2)
-                ignored_channels.append(f"dataset {r.index}: reference {fd} (not a rig excitation)")
+                warnings.warn(msg, UnitWarning, stacklevel=3)  # the caller of read_uff58
+                ch.ignored_channels.append(f"dataset {r.index}: reference {fd} (not a rig excitation)")
                 continue
             so, si = sensor.dof.sign, rref.sign
             for fdof, rdof in ((rd, sensor.dof), (fd, rref)):
                 if fdof.sign != rdof.sign:
-                    sign_flips.append(
+                    ch.sign_flips.append(
                         f"dataset {r.index}: file writes {fdof}, rig file says {rdof}: the rig's sign is used"
                     )
             out_key, in_key = sensor.dof.positive(), rref.positive()
@@ -607,51 +681,59 @@ def read_uff58(
             out_key, in_key = rd.positive(), fd.positive()
         for fdof, s in ((rd, so), (fd, si)):
             if s < 0:
-                sign_flips.append(f"dataset {r.index}: {fdof} flipped into {fdof.positive()} (values x -1)")
+                ch.sign_flips.append(f"dataset {r.index}: {fdof} flipped into {fdof.positive()} (values x -1)")
         key = (out_key, in_key)
-        if key in pairs:
+        if key in ch.pairs:
             raise UFFError(
-                f"duplicate FRF {out_key} / {in_key}: also in dataset {pairs[key][0]}",
+                f"duplicate FRF {out_key} / {in_key}: also in dataset {ch.pairs[key][0]}",
                 file=src, dataset=r.index,
             )
-        pairs[key] = (r.index, float(so * si), r)
-        if out_key not in out_order:
-            out_order.append(out_key)
-        if in_key not in in_order:
-            in_order.append(in_key)
+        ch.pairs[key] = (r.index, float(so * si), r)
+        if out_key not in ch.out_order:
+            ch.out_order.append(out_key)
+        if in_key not in ch.in_order:
+            ch.in_order.append(in_key)
+    return ch
 
-    roles: list[str | None] = []
-    axes: list[str | None] = []
-    if rig is not None:
-        for sensor in rig.sensors:
-            if sensor.dof.positive() not in out_order:
-                raise UFFError(
-                    f"rig sensor {sensor.dof} ({rig.path or 'rig file'}) has no FRF in the file "
-                    f"(file responses: {', '.join(str(d) for d in out_order) or 'none'})",
-                    file=src,
-                )
-        for ref in rig.references:
-            if ref.positive() not in in_order:
-                raise UFFError(
-                    f"rig excitation {ref} ({rig.path or 'rig file'}) is not a reference in the file "
-                    f"(file references: {', '.join(str(d) for d in in_order) or 'none'})",
-                    file=src,
-                )
-        out_order = [s.dof.positive() for s in rig.sensors]
-        in_order = [d.positive() for d in rig.references]
-        roles = [s.role for s in rig.sensors]
-        axes = [s.axis for s in rig.sensors]
-    n_out, n_in = len(out_order), len(in_order)
-    frf = np.empty((n_out, n_in, freq.size), dtype=np.complex128)
+
+def _rig_order(ch: _Channels, rig: SensorLayout | None,
+               src: str) -> tuple[list[DOF], list[DOF], list[str | None], list[str | None]]:
+    """Output and input order, roles and axes: the file's order without a rig, the rig's with one
+    (every rig sensor and excitation must be in the file)."""
+    if rig is None:
+        return ch.out_order, ch.in_order, [], []
+    for sensor in rig.sensors:
+        if sensor.dof.positive() not in ch.out_order:
+            raise UFFError(
+                f"rig sensor {sensor.dof} ({rig.path or 'rig file'}) has no FRF in the file "
+                f"(file responses: {', '.join(str(d) for d in ch.out_order) or 'none'})",
+                file=src,
+            )
+    for ref in rig.references:
+        if ref.positive() not in ch.in_order:
+            raise UFFError(
+                f"rig excitation {ref} ({rig.path or 'rig file'}) is not a reference in the file "
+                f"(file references: {', '.join(str(d) for d in ch.in_order) or 'none'})",
+                file=src,
+            )
+    return ([s.dof.positive() for s in rig.sensors], [d.positive() for d in rig.references],
+            [s.role for s in rig.sensors], [s.axis for s in rig.sensors])
+
+
+def _assemble(used: _Used, ch: _Channels, out_order: list[DOF], in_order: list[DOF], n_freq: int,
+              src: str) -> tuple[NDArray[np.complex128], list[str], list[int], dict[int, tuple[str, ...]]]:
+    """The FRF matrix (n_out, n_in, n_freq) in SI with signs applied, the unit decision of each
+    dataset, the datasets used and their id lines."""
+    frf = np.empty((len(out_order), len(in_order), n_freq), dtype=np.complex128)
     decisions: list[str] = []
     used_idx: list[int] = []
     ids: dict[int, tuple[str, ...]] = {}
     dec_by_index = {r.index: dec for r, dec, _ in used}
     for i, o in enumerate(out_order):
         for j, q in enumerate(in_order):
-            if (o, q) not in pairs:
+            if (o, q) not in ch.pairs:
                 raise UFFError(f"missing FRF {o} / {q}: no dataset for this (response, reference) pair", file=src)
-            idx, sign, r = pairs[(o, q)]
+            idx, sign, r = ch.pairs[(o, q)]
             dec = dec_by_index[idx]
             assert r.y is not None
             with np.errstate(over="ignore", under="ignore"):
@@ -660,52 +742,7 @@ def read_uff58(
             decisions.append(f"dataset {idx}: {dec.text}")
             used_idx.append(idx)
             ids[idx] = r.ids
-    notes = [f"dataset {r.index}: {n}" for r, _, _ in used for n in r.notes]
-
-    def coh_key(rd: DOF, fd: DOF) -> tuple[DOF, DOF] | None:
-        if rig is None:
-            return rd.positive(), fd.positive()
-        sensor, rref = rig.sensor_for(rd), _match_ref(rig, fd)
-        return None if sensor is None or rref is None else (sensor.dof.positive(), rref.positive())
-
-    coh = _uff_coherence.attach(coh_recs, freq, tol, out_order, in_order, coh_key)
-    attached = set(coh.datasets)
-    ignored_datasets += [f"dataset {r.index}: function type 6 (coherence), not attached" for r in coh_recs
-                         if r.index not in attached]
-    n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
-    notes += list(coh.notes) + ([avg_note] if avg_note else [])
-    # ---- processing history from datasets 1858 (issue 18; see _uff_1858) ----
-    q_pairs, q_notes = _uff_1858.qualify(uf.records)
-    history, h_notes, h_warnings = _uff_1858.combine(q_pairs, sorted(used_idx))
-    q_used = {q for q, _ in q_pairs.values()}
-    ignored_datasets = [s for s in ignored_datasets if not any(s.startswith(f"dataset {q}:") for q in q_used)]
-    notes += q_notes + h_notes
-    if history is not None and n_avg is None:
-        n_avg = history.n_averages
-    # ---- end processing history ----
-    meta: dict[str, Any] = {
-        "source": src,
-        "datasets": sorted(used_idx),
-        "coherence_datasets": list(coh.datasets),
-        "unit_decisions": decisions,
-        "sign_flips": sign_flips,
-        "ignored_channels": ignored_channels,
-        "ignored_datasets": ignored_datasets,
-        "notes": notes,
-        "warnings": list(coh.warnings) + h_warnings,
-        "ids": ids,
-        "rig": None if rig is None else rig.path,
-    }
-    if history is not None:
-        meta["processing"] = history  # issue 18: window, averaging, band (dataset 1858)
-    frf.setflags(write=False)  # built here and frozen: FRFData keeps it without a copy
-    try:
-        return FRFData(
-            freq, frf, tuple(out_order), tuple(in_order), dec0.frf_form, roles=tuple(roles), axes=tuple(axes),
-            meta=meta, coherence=coh.values, n_averages=n_avg,
-        )
-    except ValueError as exc:  # pragma: no cover - all checked above
-        raise UFFError(str(exc), file=src) from None
+    return frf, decisions, used_idx, ids
 
 
 def _check_scaled(y: NDArray[Any], scaled: NDArray[Any], factor: float, src: str, idx: int) -> None:
@@ -728,7 +765,7 @@ def write_uff58(
     binary: bool = False,
     double: bool = True,
     accel_unit: str = "m/s^2",
-    rig: RigConfig | None = None,
+    rig: SensorLayout | None = None,
     abscissa: str = "auto",
     history: ProcessingHistory | None = None,
     labelled: bool = True,
@@ -748,7 +785,7 @@ def write_uff58(
         (type 5; ASCII E13.5, 6 digits; binary float32).
     accel_unit : {'m/s^2', 'g'}, optional
         Unit of accelerance: ``'g'`` writes values / 9.80665 labelled ``g`` (read back in m/s^2/N).
-    rig : RigConfig, optional
+    rig : SensorLayout (a RigConfig or a ChannelLayout), optional
         Each output is written with its rig sensor's signed DOF (sensor ``13-Y``: node 13,
         direction -2, values x -1), and each input with the rig's signed reference, so that
         ``read_uff58(path, rig=rig)`` gives ``data`` back.

@@ -4,7 +4,8 @@ Functions
 ---------
 write_uff55
     One dataset 55 per mode of a :class:`~ema_rig.identification.ModalModel` (complex modes,
-    analysis type 3), atomically.
+    analysis type 3), atomically. The model is taken as a :class:`~ema_rig.mode_shapes.ModalShapes`
+    (a structural type), so this module does not import the identification layer.
 uff55_sets
     The pyuff dicts that :func:`write_uff55` writes (for callers that add their own datasets).
 
@@ -28,10 +29,10 @@ import numpy as np
 from .._atomic import atomic_path
 from ..dof import DOF
 from ..errors import UFFError
-from ..identification.modal import ModalModel
+from ..mode_shapes import ModalShapes, mode_shapes_records
 
 
-def uff55_sets(model: ModalModel, *, reference: DOF | str | None = None, name: str = "") -> list[dict[str, Any]]:
+def uff55_sets(model: ModalShapes, *, reference: DOF | str | None = None, name: str = "") -> list[dict[str, Any]]:
     """pyuff dataset-55 dicts of every mode (complex eigenvalue, analysis type 3).
 
     Parameters
@@ -56,8 +57,6 @@ def uff55_sets(model: ModalModel, *, reference: DOF | str | None = None, name: s
         modes hold three translations per node).
     """
     import pyuff
-
-    from ..mode_shapes import mode_shapes_records
 
     if model.n_modes == 0:
         raise ValueError("the model has no mode to write")
@@ -92,7 +91,7 @@ def uff55_sets(model: ModalModel, *, reference: DOF | str | None = None, name: s
     return sets
 
 
-def write_uff55(path: str | PathLike[str], model: ModalModel, *, reference: DOF | str | None = None,
+def write_uff55(path: str | PathLike[str], model: ModalShapes, *, reference: DOF | str | None = None,
                 name: str = "") -> None:
     """Write the modes of a model as UFF dataset 55 (one dataset per mode), atomically.
 

@@ -137,7 +137,17 @@ class Unit:
 
 
 def is_no_label(label: str) -> bool:
-    """True for an empty label or one that says there is none (``NONE``, ``-``, ``n/a``)."""
+    """True for an empty label or one that says there is none (``NONE``, ``-``, ``n/a``).
+
+    Parameters
+    ----------
+    label : str
+        A unit label as written in a file.
+
+    Returns
+    -------
+    bool
+    """
     return label.strip().lower() in _NO_LABEL
 
 
@@ -294,4 +304,61 @@ def _power(u: tuple[tuple[int, int, int], float], text: str) -> tuple[tuple[int,
     return _checked(dims, factor, f"exponent {p}")
 
 
-__all__ = ["G0", "INCH", "LBF", "MAX_UNIT_POWER", "Unit", "UnitLabelError", "is_no_label", "parse_unit_label"]
+
+#: FRF form of a response unit per force, by its (length, time, mass) exponents.
+FORM_DIMS = {(1, 0, 0): "receptance", (1, -1, 0): "mobility", (1, -2, 0): "accelerance"}
+
+
+def parse_unit(label: str, what: str = "unit label") -> Unit | None:
+    """Parse a unit label with :func:`ema_rig.io.units.parse_unit_label`; None if there is none.
+
+    Parameters
+    ----------
+    label : str
+        The label as stored (``"NONE"`` or blank: no label).
+    what : str, optional
+        What the label belongs to, for the message (``"ordinate unit label"``).
+
+    Raises
+    ------
+    ValueError
+        A label that is given but cannot be read (unknown word, syntax, exponent out of range):
+        never taken as SI.
+    """
+    if is_no_label(label):
+        return None
+    try:
+        return parse_unit_label(label)
+    except UnitLabelError as exc:
+        reason = str(exc).split(": ", 1)[-1]
+        raise ValueError(f"{what} {label.strip()!r} not understood ({reason}); the values are not read "
+                         "rather than taken as SI") from None
+
+
+def response_unit(label: str) -> Unit:
+    """Check a response unit given by the user for files without a unit label (``--units``, ``[units] ordinate``).
+
+    Parameters
+    ----------
+    label : str
+        A displacement, velocity or acceleration unit (``"g"``, ``"m/s^2"``, ``"mm/s"``, ``"um"``),
+        optionally per force (``"g/N"``, ``"(m/s)/lbf"``).
+
+    Returns
+    -------
+    Unit
+
+    Raises
+    ------
+    ValueError
+        Naming the label and what is allowed.
+    """
+    unit = parse_unit(label)
+    dims = None if unit is None else (unit.dims[0], unit.dims[1], 0) if unit.dims[2] in (0, -1) else None
+    if unit is None or dims not in FORM_DIMS:
+        raise ValueError(f"unit {label!r} is not a displacement, velocity or acceleration unit (optionally per "
+                         "force), e.g. g, m/s^2, mm/s, um, g/N")
+    return unit
+
+__all__ = ["FORM_DIMS", "G0", "INCH", "LBF", "MAX_UNIT_POWER", "Unit", "UnitLabelError", "is_no_label", "parse_unit",
+           "parse_unit_label", "response_unit"]

@@ -26,11 +26,15 @@ import hashlib
 import math
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._text import plain
+from .._text import plain
+from ..campaign.schema import BearingInfo
+from ..rig.hertz import ball_bearing_radial_stiffness
+from ..simulate import planted_k_tb
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -110,8 +114,6 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
             ax.plot(fl, coef * fl ** (1 / 3) / _MN, "--", color="0.35",
                     label=f"fit k = c·F^(1/3), c = {coef:.3g} N/m/N^(1/3)")
         if info is not None and info.hertz and info.geometry is not None:
-            from ..rig.hertz import ball_bearing_radial_stiffness
-
             try:  # checked when the campaign was loaded; a failure here must not lose the figure
                 with np.errstate(all="raise"):
                     k_hertz = np.asarray(ball_bearing_radial_stiffness(fl, info.geometry), dtype=float)
@@ -338,10 +340,6 @@ def plot_repeatability(rows: Sequence[Row]) -> Figure | None:
 
 def _planted(rows: Sequence[Row], result: CampaignResult) -> dict[str, float]:
     """Id -> k_TB planted by the simulator, for the rows whose file carries a truth file."""
-    from pathlib import Path
-
-    from ..simulate import planted_k_tb
-
     base = result.config.path.parent if result.config.path is not None else Path.cwd()
     out: dict[str, float] = {}
     for r in rows:
@@ -406,8 +404,6 @@ def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
         ``k_vs_load_<bearing>``, ``rotating_vs_static_<bearing>``, ``speed_<bearing>``,
         ``damping_<bearing>`` where the data exist, and ``repeatability``.
     """
-    from ..campaign.schema import BearingInfo
-
     rows = result.rows
     ok = _ok(rows)
     figs: dict[str, Figure] = {}

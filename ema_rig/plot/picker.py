@@ -41,6 +41,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..identification.stabilization import select_poles
+
 if TYPE_CHECKING:
     from ..identification.stabilization import Selection
     from .stabilization import StabilizationPlot
@@ -205,8 +207,6 @@ class PolePicker:
     @property
     def selection(self) -> Selection:
         """The picked modes (provenance ``"manual"``), sorted by frequency."""
-        from ..identification.stabilization import select_poles
-
         return select_poles(self.plot.stab, self.picks, freq_tol=self.freq_tol, source=self.source)
 
     def disconnect(self) -> None:

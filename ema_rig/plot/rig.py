@@ -18,13 +18,15 @@ RigPlot
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from os import PathLike
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._text import plain
+from .._atomic import atomic_path
+from .._text import plain
+from ..rig.model import HOUSING, SPINDLE, RigModel
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -80,10 +82,6 @@ def _model_parts(result: Any, rig: RigConfig) -> list[tuple[str, Any, np.ndarray
     Always the model with the inverted ``k_TB+MS`` and the identified damping; in addition the
     least-squares fit when the result carries one.
     """
-    from dataclasses import replace
-
-    from ..rig.model import RigModel
-
     k = float(result.k_TB_MS)
     k_ms = getattr(result, "k_MS", None)
     params = rig.model if k_ms is None else replace(rig.model, k_MS=float(k_ms))
@@ -147,13 +145,11 @@ def plot_rig_fit(
     """
     from matplotlib.figure import Figure
 
-    from ..rig.model import HOUSING, SPINDLE
-
     lo, hi = float(band[0]), float(band[1])
     if not hi > lo:
         raise ValueError(f"band must satisfy lo < hi, got {band!r}")
     ref = rig.radial.positive()
-    in_idx = [j for j, d in enumerate(data.in_dofs) if d.node == ref.node and abs(d.direction) == abs(ref.direction)]
+    in_idx = [j for j, d in enumerate(data.in_dofs) if d.same_axis(ref)]
     if not in_idx:
         raise ValueError(f"the data have no radial reference {rig.radial}")
     q = in_idx[0]
@@ -303,7 +299,5 @@ def plot_rig_fit(
 
 def save_figure(fig: Figure, path: str | PathLike[str], *, dpi: int = 150) -> None:
     """Save ``fig`` atomically (format from the suffix: png, svg, pdf)."""
-    from .._atomic import atomic_path
-
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi)

@@ -23,6 +23,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..identification.mac import mac, mpc
+from ..mode_shapes import mode_shapes_records, real_shapes
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -151,9 +154,6 @@ def plot_mode_shape(
     """
     from matplotlib.figure import Figure
 
-    from ..identification.mac import mpc
-    from ..mode_shapes import mode_shapes_records, real_shapes
-
     if not 0 <= mode < model.n_modes:
         raise IndexError(f"mode {mode} out of range: the model has {model.n_modes} mode(s)")
     rec = mode_shapes_records(model, ref=ref)[mode]
@@ -246,9 +246,6 @@ def plot_automac(model: ModalModel, *, ref: DOF | str | None = None, ax: Axes | 
         ``values`` is :func:`ema_rig.identification.mac` of the shapes with themselves.
     """
     from matplotlib.figure import Figure
-
-    from ..identification.mac import mac
-    from ..mode_shapes import mode_shapes_records
 
     if model.n_modes == 0:
         raise ValueError("the model has no mode: nothing to correlate")

@@ -122,13 +122,13 @@ class Candidate:
     @property
     def passes_but_mass(self) -> bool:
         """Passes every housing criterion except, perhaps, the effective modal mass."""
-        return all(f.startswith("effective modal mass") for f in self.failures)
+        return all(getattr(f, "kind", None) in ("mass", "mass units") for f in self.failures)
 
 
 def find_dof(dofs: tuple[DOF, ...], target: DOF) -> int | None:
     """Index of the first DOF with ``target``'s node and axis (sign ignored), or None."""
     for i, d in enumerate(dofs):
-        if d.node == target.node and abs(d.direction) == abs(target.direction):
+        if d.same_axis(target):
             return i
     return None
 

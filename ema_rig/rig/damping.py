@@ -44,6 +44,7 @@ import numpy as np
 
 from ..config import MODEL_KEYS, ModelParams
 from ..errors import InversionError
+from ..literals import DampingModel
 from .model import mass_matrix, stiffness_matrix
 
 __all__ = ["BEARING_DAMPING_MODELS", "BearingDamping", "bearing_damping", "bearing_impedance"]
@@ -152,7 +153,7 @@ def bearing_damping(
     natural_freq_std: float = 0.0,
     damping_ratio_std: float = 0.0,
     rel_unc: Mapping[str, float] | None = None,
-    model: str = "viscous",
+    model: DampingModel = "viscous",
 ) -> BearingDamping:
     """Bearing damping ``c_TB`` and loss factor with standard uncertainties.
 

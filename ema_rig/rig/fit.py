@@ -26,14 +26,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..config import ModelParams
-from ..frf import _FORM_POWER, FRFData
-from .matching import model_mode_at
+from ..frf import FORM_POWER as _FORM_POWER
+from ..frf import FRFData
+from .inversion import k_tb_ms_from_housing_freq, model_mode_at
+from .model import mass_matrix, stiffness_matrix
 
 __all__ = [
     "CrossAxisCorrection",
@@ -163,7 +165,7 @@ def driving_point_mass(
         def vp(x: NDArray[np.float64]) -> NDArray[np.float64]:  # variable projection
             a_real = design(poles_of(x))
             c, *_ = np.linalg.lstsq(a_real, y, rcond=None)
-            return y - a_real @ c
+            return cast("NDArray[np.float64]", y - a_real @ c)
 
         scale = np.concatenate([[1e-3, max(x0[2 * j + 1], 1e-4) * 0.1] for j in range(len(free))])
         sol = least_squares(vp, x0, x_scale=scale, method="lm", xtol=1e-12, ftol=1e-12, max_nfev=400)
@@ -403,8 +405,6 @@ def _split_modes(params: ModelParams, k_c: float, m_a: float, k_a: float) -> tup
     """Natural frequencies [Hz] and driving-point effective masses [kg] of the 4DOF housing model."""
     import scipy.linalg
 
-    from .model import mass_matrix, stiffness_matrix
-
     m = np.zeros((4, 4))
     k = np.zeros((4, 4))
     m[:3, :3] = mass_matrix(replace(params, m_H=params.m_H - m_a))
@@ -448,8 +448,6 @@ def fit_split_housing(params: ModelParams, freqs: tuple[float, float], freq_std:
         None when the fit does not converge to two modes near the measured ones.
     """
     from scipy.optimize import least_squares
-
-    from .inversion import k_tb_ms_from_housing_freq
 
     f = np.asarray(freqs, dtype=float)
     fs = np.maximum(np.asarray(freq_std, dtype=float), 1e-6 * f)

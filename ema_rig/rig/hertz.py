@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -131,7 +132,7 @@ def hertz_contact_constant(rx: float, ry: float, e_eff: float) -> float:
     e_int = 1.0003 + 0.5968 / ratio
     f_int = 1.5277 + 0.6023 * math.log(ratio)
     c = f_int * (9.0 / (2.0 * e_int * r) / (math.pi * k_ell * e_eff) ** 2) ** (1.0 / 3.0)
-    return c**-1.5
+    return cast("float", c**-1.5)
 
 
 def _stribeck_integral() -> float:
@@ -207,12 +208,12 @@ def _stiffness_with_clearance(load: float, k_n: float, g: BallBearingGeometry, b
         def force(delta: float) -> float:
             lim = math.acos(min(1.0, c / delta))
             val = quad(lambda p: (delta * math.cos(p) - c) ** 1.5 * math.cos(p), 0.0, lim)[0]
-            return g.n_balls * k_n * val / math.pi  # 2 x half arc / (2 pi)
+            return cast("float", g.n_balls * k_n * val / math.pi)  # 2 x half arc / (2 pi)
 
         def stiff(delta: float) -> float:
             lim = math.acos(min(1.0, c / delta))
             val = quad(lambda p: 1.5 * (delta * math.cos(p) - c) ** 0.5 * math.cos(p) ** 2, 0.0, lim)[0]
-            return g.n_balls * k_n * val / math.pi
+            return cast("float", g.n_balls * k_n * val / math.pi)
     else:
         cos = np.cos(ball_angle + 2.0 * np.pi * np.arange(g.n_balls) / g.n_balls)
 
@@ -235,7 +236,15 @@ def radial_stiffness(
     radial_load: float | ArrayLike, geometry: BallBearingGeometry = BEARING_6302
 ) -> float | NDArray[np.float64]:
     """Hertzian radial stiffness estimate [N/m] of the 6302 (Stribeck average); see
-    :func:`ball_bearing_radial_stiffness`."""
+    :func:`ball_bearing_radial_stiffness`.
+
+    Parameters
+    ----------
+    radial_load : float or array_like
+        Radial load(s) [N].
+    geometry : BallBearingGeometry, optional
+        The bearing (default the paper's 6302).
+    """
     return ball_bearing_radial_stiffness(radial_load, geometry)
 
 

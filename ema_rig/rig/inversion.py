@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg
@@ -51,8 +51,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..config import ModelParams
 from ..errors import InversionError
+from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS
 from .model import (
+    HOUSING,
     HOUSING_MODE,
+    SPINDLE,
     SPINDLE_MODE,
     RigModel,
     k_tb_from_series,
@@ -62,16 +65,23 @@ from .model import (
 
 _E = np.array([1.0, -1.0, 0.0])
 
-KIND_MEASURED = "measured"
-KIND_RIG = "assumed (rig file)"
-KIND_DEFAULT = "assumed (default)"
-KIND_MODEL = "model form"
-KINDS: tuple[str, ...] = (KIND_MEASURED, KIND_RIG, KIND_DEFAULT, KIND_MODEL)
-"""The labels of :attr:`ema_rig.rig.uncertainty.UncertaintyTerm.kind` (uncertainty kinds)."""
 
 # --------------------------------------------------------------------------- forward / bounds
 def housing_freq_from_k_tb_ms(k_TB_MS: float, params: ModelParams) -> float:
-    """Natural frequency of the housing mode [Hz] for a combined stiffness ``k_TB+MS`` [N/m]."""
+    """Natural frequency of the housing mode [Hz] for a combined stiffness ``k_TB+MS`` [N/m].
+
+    Parameters
+    ----------
+    k_TB_MS : float
+        Bearing and mounting system in series, ``k_TB+MS`` [N/m].
+    params : ModelParams
+        The rig model.
+
+    Returns
+    -------
+    float
+        Housing-mode natural frequency [Hz].
+    """
     return RigModel(params, k_TB_MS).housing_freq
 
 
@@ -82,7 +92,7 @@ def _constrained_freqs(params: ModelParams) -> NDArray[np.float64]:
     ka, ks, kb = params.k_AS, params.k_S, params.k_B
     k = np.array([[ka + ks, -(ka + ks)], [-(ka + ks), ka + ks + kb]])
     lam = scipy.linalg.eigh(k, m, eigvals_only=True)
-    return np.sqrt(lam) / (2.0 * np.pi)
+    return cast("NDArray[np.float64]", np.sqrt(lam) / (2.0 * np.pi))
 
 
 def housing_freq_bounds(params: ModelParams, *, bearing: bool = False) -> tuple[float, float]:
@@ -124,10 +134,30 @@ def _check_freq(f_H: float, params: ModelParams, what: str = "housing-mode frequ
 
 
 # --------------------------------------------------------------------------- inversion
-def _closed_form(f_H: float, params: ModelParams) -> float:
+def k_tb_ms_closed_form(f_H: float, params: ModelParams) -> float:
+    """``k_TB+MS`` [N/m] that puts the housing mode at ``f_H`` [Hz], by the closed form (DESIGN §4).
+
+    ``k_TB+MS = -1 / (e^T (K0 - w^2 M)^-1 e)`` with ``K0`` the stiffness matrix without the
+    bearing spring and ``e = [1, -1, 0]``; no range check (see :func:`k_tb_ms_from_housing_freq`).
+
+    Parameters
+    ----------
+    f_H : float
+        Housing-mode frequency [Hz].
+    params : ModelParams
+        The rig model.
+
+    Returns
+    -------
+    float
+        ``k_TB+MS`` [N/m]; negative outside the model's valid range.
+    """
     w2 = (2.0 * np.pi * f_H) ** 2
     a = stiffness_matrix(params, 0.0) - w2 * mass_matrix(params)
     return float(-1.0 / (_E @ np.linalg.solve(a, _E)))
+
+
+_closed_form = k_tb_ms_closed_form  # the old private name, kept while the branches in flight land
 
 
 def _root_finder(f_H: float, params: ModelParams) -> float:
@@ -180,7 +210,7 @@ def k_tb_ms_from_housing_freq(f_H: float, params: ModelParams, *, method: str = 
     """
     f = _check_freq(f_H, params)
     if method == "closed":
-        k = _closed_form(f, params)
+        k = k_tb_ms_closed_form(f, params)
     elif method == "root":
         k = _root_finder(f, params)
     else:
@@ -235,7 +265,7 @@ def k_tb_from_housing_freq(
 def _dk_df(f_H: float, params: ModelParams) -> float:
     """d k_TB+MS / d f_H [N/m/Hz] by a central difference of the closed form."""
     h = 1e-6 * f_H
-    return (_closed_form(f_H + h, params) - _closed_form(f_H - h, params)) / (2 * h)
+    return (k_tb_ms_closed_form(f_H + h, params) - k_tb_ms_closed_form(f_H - h, params)) / (2 * h)
 
 
 # --------------------------------------------------------------------------- k_MS calibration
@@ -346,7 +376,7 @@ def calibrate_k_ms(
         If ``f_disk`` is outside the valid range, or the disk is not stiffer than ``k_TB+MS``.
     """
     f = _check_freq(f_disk, params, "steel-disk housing-mode frequency")
-    k = _closed_form(f, params)
+    k = k_tb_ms_closed_form(f, params)
     dk = abs(_dk_df(f, params)) * float(f_disk_std)
     if k_disk is None:
         if not disk_ratio > 0:
@@ -624,6 +654,70 @@ def fit_rig(
     )
 
 
+
+@dataclass(frozen=True, slots=True)
+class ModelModeInfo:
+    """The 3DOF model with its housing mode tuned to ``natural_freq``.
+
+    Attributes
+    ----------
+    natural_freq : float
+        Housing-mode frequency [Hz] the model was tuned to.
+    k_tb_ms : float
+        ``k_TB+MS`` [N/m] that puts the housing mode there.
+    modal_mass : float
+        Effective modal mass of the housing mode at the housing DOF, ``1 / phi_H^2`` [kg].
+    spindle_ratio : float
+        ``phi_S / phi_H`` of the housing mode (signed).
+    spindle_freq : float
+        Natural frequency of the model's spindle bending mode [Hz].
+    spindle_mode_ratio : float
+        ``phi_S / phi_H`` of that spindle mode (signed, large and negative).
+    spindle_modal_mass : float
+        Effective modal mass of the spindle mode at the housing DOF [kg].
+    """
+
+    natural_freq: float
+    k_tb_ms: float
+    modal_mass: float
+    spindle_ratio: float
+    spindle_freq: float
+    spindle_mode_ratio: float
+    spindle_modal_mass: float
+
+
+def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | None:
+    """The 3DOF model whose housing mode lies at ``natural_freq``.
+
+    Parameters
+    ----------
+    params : ModelParams
+        Table 1 parameters (``k_MS`` is not used: only ``k_TB+MS`` matters here).
+    natural_freq : float
+        Housing-mode frequency [Hz].
+
+    Returns
+    -------
+    ModelModeInfo or None
+        None when the frequency is outside :func:`housing_freq_bounds` (no positive stiffness).
+    """
+    lo, hi = housing_freq_bounds(params)
+    if not lo < natural_freq < hi:
+        return None
+    k = k_tb_ms_from_housing_freq(natural_freq, params)
+    model = RigModel(params, k)
+    ph, ps = model.mode_shapes[:, HOUSING_MODE], model.mode_shapes[:, SPINDLE_MODE]
+    return ModelModeInfo(
+        natural_freq=float(natural_freq),
+        k_tb_ms=float(k),
+        modal_mass=model.effective_mass(HOUSING_MODE, HOUSING),
+        spindle_ratio=float(ph[SPINDLE] / ph[HOUSING]),
+        spindle_freq=model.spindle_freq,
+        spindle_mode_ratio=float(ps[SPINDLE] / ps[HOUSING]),
+        spindle_modal_mass=model.effective_mass(SPINDLE_MODE, HOUSING),
+    )
+
+
 __all__ = [
     "DISK_STIFFNESS_RATIO",
     "KINDS",
@@ -632,11 +726,14 @@ __all__ = [
     "KIND_MODEL",
     "KIND_RIG",
     "KmsCalibration",
+    "ModelModeInfo",
     "RigFit",
     "calibrate_k_ms",
     "fit_rig",
     "housing_freq_bounds",
     "housing_freq_from_k_tb_ms",
     "k_tb_from_housing_freq",
+    "k_tb_ms_closed_form",
     "k_tb_ms_from_housing_freq",
+    "model_mode_at",
 ]

@@ -13,7 +13,7 @@ match_modes
     Pick the radial housing mode (and the spindle bending mode) from a :class:`ModalModel`.
 model_mode_at
     The 3DOF model's housing-mode shape, modal mass and spindle mode when its housing mode is
-    tuned to a given frequency.
+    tuned to a given frequency (defined in :mod:`ema_rig.rig.inversion`; re-exported here).
 model_valid_range
     Housing-mode frequency range in which the 3DOF model gives ``k_TB+MS > 0``.
 
@@ -48,6 +48,7 @@ mass-normalised at the radial driving point, sign-corrected DOFs):
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -58,6 +59,9 @@ from ..config import ModelParams, RigConfig
 from ..errors import MatchingError
 from ..identification.modal import ModalModel
 from .candidates import Candidate, find_dof, measure_candidates
+from .failures import Failure
+from .inversion import ModelModeInfo, housing_freq_bounds, model_mode_at
+from .matched_mode import MatchedMode
 
 __all__ = [
     "Candidate",
@@ -85,75 +89,7 @@ def model_valid_range(params: ModelParams) -> tuple[float, float]:
     (float, float)
         Lower and upper limit in Hz (both excluded).
     """
-    from .inversion import housing_freq_bounds
-
     return housing_freq_bounds(params)
-
-
-@dataclass(frozen=True, slots=True)
-class ModelModeInfo:
-    """The 3DOF model with its housing mode tuned to ``natural_freq``.
-
-    Attributes
-    ----------
-    natural_freq : float
-        Housing-mode frequency [Hz] the model was tuned to.
-    k_tb_ms : float
-        ``k_TB+MS`` [N/m] that puts the housing mode there.
-    modal_mass : float
-        Effective modal mass of the housing mode at the housing DOF, ``1 / phi_H^2`` [kg].
-    spindle_ratio : float
-        ``phi_S / phi_H`` of the housing mode (signed).
-    spindle_freq : float
-        Natural frequency of the model's spindle bending mode [Hz].
-    spindle_mode_ratio : float
-        ``phi_S / phi_H`` of that spindle mode (signed, large and negative).
-    spindle_modal_mass : float
-        Effective modal mass of the spindle mode at the housing DOF [kg].
-    """
-
-    natural_freq: float
-    k_tb_ms: float
-    modal_mass: float
-    spindle_ratio: float
-    spindle_freq: float
-    spindle_mode_ratio: float
-    spindle_modal_mass: float
-
-
-def model_mode_at(params: ModelParams, natural_freq: float) -> ModelModeInfo | None:
-    """The 3DOF model whose housing mode lies at ``natural_freq``.
-
-    Parameters
-    ----------
-    params : ModelParams
-        Table 1 parameters (``k_MS`` is not used: only ``k_TB+MS`` matters here).
-    natural_freq : float
-        Housing-mode frequency [Hz].
-
-    Returns
-    -------
-    ModelModeInfo or None
-        None when the frequency is outside :func:`model_valid_range` (no positive stiffness).
-    """
-    from .inversion import k_tb_ms_from_housing_freq
-    from .model import HOUSING, HOUSING_MODE, SPINDLE, SPINDLE_MODE, RigModel
-
-    lo, hi = model_valid_range(params)
-    if not lo < natural_freq < hi:
-        return None
-    k = k_tb_ms_from_housing_freq(natural_freq, params)
-    model = RigModel(params, k)
-    ph, ps = model.mode_shapes[:, HOUSING_MODE], model.mode_shapes[:, SPINDLE_MODE]
-    return ModelModeInfo(
-        natural_freq=float(natural_freq),
-        k_tb_ms=float(k),
-        modal_mass=model.effective_mass(HOUSING_MODE, HOUSING),
-        spindle_ratio=float(ph[SPINDLE] / ph[HOUSING]),
-        spindle_freq=model.spindle_freq,
-        spindle_mode_ratio=float(ps[SPINDLE] / ps[HOUSING]),
-        spindle_modal_mass=model.effective_mass(SPINDLE_MODE, HOUSING),
-    )
 
 
 # --------------------------------------------------------------------------- criteria
@@ -295,12 +231,12 @@ class MatchResult:
     ----------
     housing_index : int
         Index of the housing mode in the matched :class:`ModalModel`.
-    housing_mode : dict
+    housing_mode : MatchedMode
         ``natural_freq`` [Hz] (``|lambda| / 2 pi``), ``damping_ratio``, ``natural_freq_std``
         (Hz or None), ``modal_mass`` [kg], ``model_modal_mass`` [kg].
     spindle_index : int or None
         Index of the spindle bending mode in the model it was found in (``spindle_source``).
-    spindle_mode : dict or None
+    spindle_mode : MatchedMode or None
         ``natural_freq``, ``damping_ratio`` of the spindle bending mode, or None when absent.
     spindle_source : str or None
         ``'modes'`` or ``'spindle_modes'``: which ModalModel holds the spindle mode.
@@ -328,9 +264,9 @@ class MatchResult:
     """
 
     housing_index: int
-    housing_mode: dict[str, Any]
+    housing_mode: MatchedMode
     spindle_index: int | None
-    spindle_mode: dict[str, Any] | None
+    spindle_mode: MatchedMode | None
     spindle_source: str | None
     candidates: tuple[Candidate, ...] = ()
     valid_range: tuple[float, float] = (0.0, math.inf)
@@ -341,7 +277,7 @@ class MatchResult:
     warnings: tuple[str, ...] = ()
 
     def __repr__(self) -> str:
-        hm = self.housing_mode or {}
+        hm: Mapping[str, Any] = self.housing_mode or {}
         return (f"MatchResult(housing mode {hm.get('natural_freq', float('nan')):.2f} Hz, "
                 f"{len(self.candidates)} candidates)")
 
@@ -454,7 +390,7 @@ def match_modes(
             cands[c.index] = replace(c, reason=(
                 f"passes the housing criteria but {best.natural_freq:.1f} Hz matches better "
                 f"(score {_score(c):.3f} vs {_score(best):.3f})"))
-    housing = {
+    housing = MatchedMode.from_mapping({
         "natural_freq": float(modes.natural_freq[hi_idx]),
         "damping_ratio": float(modes.damping_ratio[hi_idx]),
         "natural_freq_std": best.natural_freq_std,
@@ -465,7 +401,7 @@ def match_modes(
         "model_spindle_ratio": info.spindle_ratio,
         "axial_ratio": best.axial_ratio,
         "lateral_ratio": best.lateral_ratio,
-    }
+    })
     warns: list[str] = []
     has_dp = find_dof(modes.out_dofs, rig.radial.positive()) is not None
     if not has_dp:
@@ -533,11 +469,11 @@ def match_modes(
     if sbest is not None:
         src = modes if sbest.source == "modes" else spindle_modes
         assert src is not None
-        spindle = {
+        spindle = MatchedMode.from_mapping({
             "natural_freq": float(src.natural_freq[sbest.index]),
             "damping_ratio": float(src.damping_ratio[sbest.index]),
             "model_natural_freq": info.spindle_freq,
-        }
+        })
     return MatchResult(
         housing_index=int(hi_idx),
         housing_mode=housing,
@@ -577,14 +513,14 @@ def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig) -> st
         return _short(f"{head}; no radial driving point ({rig.radial}): without it the shapes do not single "
                       f"out the housing mode; nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}")
     sus = [c for c in inside if c.polarity_suspect]
-    units = [c for c in inside if any("units" in f for f in c.failures)]
+    units = [c for c in inside if any(getattr(f, "kind", None) == "mass units" for f in c.failures)]
     if sus:
         c = sus[0]
         cause = (f"{c.natural_freq:.1f} Hz is a clean translation with {c.polarity_suspect} reversed: "
                  "check its polarity")
     elif units:
         c = units[0]
-        cause = f"{c.natural_freq:.1f} Hz: " + next(f for f in c.failures if "units" in f)
+        cause = f"{c.natural_freq:.1f} Hz: " + next(f for f in c.failures if getattr(f, "kind", None) == "mass units")
     else:
         cause = f"nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}"
     return _short(f"{head}; {cause}")
@@ -592,36 +528,37 @@ def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig) -> st
 
 def _judge_housing(c: Candidate, params: ModelParams, lo: float, hi: float, crit: MatchCriteria) -> Candidate:
     """The candidate with its housing-criteria failures, model comparison and reason."""
-    fails: list[str] = []
+    fails: list[Failure] = []
     fn = c.natural_freq
     info = model_mode_at(params, fn) if lo < fn < hi else None
     if info is None:
-        fails.append(f"outside the housing-mode range {lo:.1f}-{hi:.1f} Hz of the 3DOF model")
+        fails.append(Failure("range", f"outside the housing-mode range {lo:.1f}-{hi:.1f} Hz of the 3DOF model"))
     if c.harmonic is not None:
-        fails.append(f"harmonic line {c.harmonic} x shaft speed (damping {c.damping_ratio:.2e})")
+        fails.append(Failure("harmonic", f"harmonic line {c.harmonic} x shaft speed (damping {c.damping_ratio:.2e})"))
     if not c.radial_sensors:
-        fails.append("no radial housing sensor in the data")
+        fails.append(Failure("no radial sensor", "no radial housing sensor in the data"))
     elif c.radial_phase_cos is None:
-        fails.append("no radial housing motion")
+        fails.append(Failure("no radial motion", "no radial housing motion"))
     else:
         sr = c.spindle_ratio
         if info is not None and sr is not None:
             tol = crit.spindle_ratio_tol + crit.spindle_ratio_rel_tol * abs(info.spindle_ratio)
             if abs(sr - info.spindle_ratio) > tol:
                 kind = "spindle mode: " if abs(sr) > crit.min_spindle_ratio else ""
-                fails.append(f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} (+/- {tol:.2f})")
+                fails.append(Failure("spindle ratio",
+                                     f"{kind}spindle/housing ratio {sr:.2f}, model {info.spindle_ratio:.2f} (+/- {tol:.2f})"))
         lat, ax = c.lateral_ratio, c.axial_ratio
         if lat is not None and lat > crit.max_cross_axis_ratio and lat >= (ax or 0.0):
-            fails.append(f"lateral mode (lateral/radial housing motion {lat:.2f})")
+            fails.append(Failure("lateral", f"lateral mode (lateral/radial housing motion {lat:.2f})"))
         elif ax is not None and ax > crit.max_cross_axis_ratio:
-            fails.append(f"axial mode (axial/radial motion {ax:.2f})")
+            fails.append(Failure("axial", f"axial mode (axial/radial motion {ax:.2f})"))
         if c.radial_phase_cos < crit.min_phase_cos:
-            fails.append(f"tilt: radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f})")
+            fails.append(Failure("tilt", f"tilt: radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f})"))
         if (c.radial_amplitude_ratio or 0.0) < crit.min_amplitude_ratio:
-            fails.append(
+            fails.append(Failure("amplitude",
                 f"radial housing amplitudes differ (min/max {_fmt(c.radial_amplitude_ratio, '.2f')}):"
                 " not a rigid radial translation"
-            )
+            ))
     ratio = None
     if info is not None and c.modal_mass is not None:
         ratio = c.modal_mass / info.modal_mass
@@ -636,14 +573,14 @@ def _judge_housing(c: Candidate, params: ModelParams, lo: float, hi: float, crit
                 hint = ": accelerations in g read as m/s^2? check the file's units"
             elif dp and not fails and abs(math.log(ratio * g)) < crit.units_hint_log_tol:
                 hint = ": off by a factor g? check the file's units"
-            fails.append(
+            fails.append(Failure("mass units" if hint else "mass",
                 f"effective modal mass {c.modal_mass:.3g} kg, model {info.modal_mass:.3g} kg "
                 f"(ratio {ratio:.2g}, allowed {lo_m:g}-{hi_m:g}){hint}"
-            )
+            ))
     sus = c.polarity_suspect
-    if sus and len(fails) == 1 and fails[0].startswith("tilt"):
+    if sus and len(fails) == 1 and fails[0].kind == "tilt":
         # out of phase is the only objection, and one sign flip makes a clean translation
-        fails[0] = (
+        fails[0] = Failure("tilt",
             f"radial housing sensors out of phase (min cos {c.radial_phase_cos:.2f}) but a clean "
             f"translation with {sus} reversed: check the polarity (sign) of {sus}"
         )

@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..config import ModelParams
 from ..dof import DOF
-from ..frf import _FORM_POWER, FRFData, frf_unit
+from ..frf import FORM_POWER, FRFData, frf_unit
 
 DOF_NAMES: tuple[str, ...] = ("H", "S", "F")
 """Names of the model's DOFs: housing, spindle, frame (in matrix order)."""
@@ -96,7 +96,17 @@ def k_tb_from_series(k_TB_MS: float, k_MS: float) -> float:
 
 
 def mass_matrix(params: ModelParams) -> NDArray[np.float64]:
-    """Mass matrix ``diag(m_H, m_S, m_F)`` [kg], shape (3, 3)."""
+    """Mass matrix ``diag(m_H, m_S, m_F)`` [kg], shape (3, 3).
+
+    Parameters
+    ----------
+    params : ModelParams
+        The rig model (masses in kg).
+
+    Returns
+    -------
+    ndarray, shape (3, 3), float64
+    """
     return np.diag([params.m_H, params.m_S, params.m_F]).astype(np.float64)
 
 
@@ -172,7 +182,7 @@ def modal_frf(
     w = 2.0 * np.pi * f
     denom = wr[:, None] ** 2 - w[None, :] ** 2 + 2j * z[:, None] * wr[:, None] * w[None, :]
     h = np.einsum("or,ir,rf->oif", po, pi, 1.0 / denom)
-    p = _FORM_POWER[frf_form]
+    p = FORM_POWER[frf_form]
     if p:
         h = h * (1j * w) ** p
     return np.asarray(h, dtype=np.complex128)

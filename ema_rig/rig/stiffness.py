@@ -67,15 +67,37 @@ from __future__ import annotations
 import logging
 import math
 import re
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError
 from ..frf import FRFData
+from ..identification import Identification, Selection, identify
+from ..literals import DampingModel
 from .candidates import find_dof
-from .matching import MATCH_CRITERIA, MatchResult, match_modes, model_mode_at
-from .uncertainty import assess_housing_mode, defaults_note, measured_freq_std
+from .damping import BearingDamping, bearing_damping
+from .fit import HousingMass, HousingRigidBody, housing_rigid_body
+from .inversion import (
+    KmsCalibration,
+    RigFit,
+    calibrate_k_ms,
+    fit_rig,
+    k_tb_from_housing_freq,
+    model_mode_at,
+)
+from .matched_mode import MatchedMode
+from .matching import MATCH_CRITERIA, MatchResult, match_modes
+from .uncertainty import (
+    DEFAULT_REL_UNCERTAINTY,
+    StiffnessUncertainty,
+    assess_housing_mode,
+    defaults_note,
+    measured_freq_std,
+    stiffness_uncertainty,
+)
 
 __all__ = [
     "CalibrationResult",
@@ -117,8 +139,6 @@ def default_band(data: FRFData, rig: RigConfig, band: tuple[float, float] | None
 
 def _file_of(data: FRFData) -> str | None:
     """The measurement file of ``data``: ``meta['file']``, else ``meta['source']`` if it is a file."""
-    from pathlib import Path
-
     v = data.meta.get("file")
     if isinstance(v, str) and v:
         return v
@@ -131,8 +151,6 @@ def _file_of(data: FRFData) -> str | None:
 def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool,
               rig: RigConfig) -> Any:
     """PolyMAX (and, when the rig file's ``[identification] refine`` is true, the ML refinement)."""
-    from ..identification import identify
-
     cfg = rig.identification
     if cfg.get("n_averages") is not None:
         data = data.with_meta(n_averages=float(cfg["n_averages"]))
@@ -143,14 +161,14 @@ def _max_order(rig: RigConfig, max_order: int | None) -> int | None:
     return max_order if max_order is not None else rig.identification.get("max_order")
 
 
-def _mode_with_std(mode: dict[str, Any], ident: Any, index: int | None) -> dict[str, Any]:
-    """The matched mode's dict with the identification's ``natural_freq_std`` and ``damping_ratio_std``."""
-    out = dict(mode)
+def _mode_with_std(mode: MatchedMode, ident: Any, index: int | None) -> MatchedMode:
+    """The matched mode with the identification's ``natural_freq_std`` and ``damping_ratio_std``."""
+    out: dict[str, float] = {}
     for key in ("natural_freq_std", "damping_ratio_std"):
         arr = getattr(ident, key, None)
-        if out.get(key) is None and arr is not None and index is not None and 0 <= index < len(arr):
+        if mode.get(key) is None and arr is not None and index is not None and 0 <= index < len(arr):
             out[key] = float(arr[index])
-    return out
+    return mode.with_entries(**out)
 
 
 def _identify_and_match(
@@ -241,7 +259,6 @@ def _given_identification(data: FRFData, rig: RigConfig, identification: Any, se
         return identification
     if selection is None:
         return None
-    from ..identification import Selection, identify
 
     if hasattr(selection, "modes") and hasattr(selection, "stabilization"):  # an Identification
         raise TypeError("selection must be a Selection or the path of its JSON file; "
@@ -273,10 +290,10 @@ class StiffnessResult:
     k_MS, k_MS_std : float
         Mounting stiffness used and its std [N/m] (std None when the rig file's relative value
         or the default applies).
-    housing_mode : dict
+    housing_mode : MatchedMode
         ``natural_freq`` [Hz, ``|lambda|/2 pi``], ``damping_ratio``, ``natural_freq_std``,
-        ``modal_mass`` ... of the matched housing mode.
-    spindle_mode : dict or None
+        ``modal_mass`` ... of the matched housing mode (typed; also read as a mapping).
+    spindle_mode : MatchedMode or None
         ``natural_freq``, ``damping_ratio`` of the spindle bending mode, or None.
     uncertainty_budget : dict
         Variance share per input (``f_H`` and the model parameters); shares sum to 1.
@@ -335,27 +352,27 @@ class StiffnessResult:
     k_TB_MS_std: float
     k_MS: float
     k_MS_std: float | None
-    housing_mode: dict[str, Any]
-    spindle_mode: dict[str, Any] | None
+    housing_mode: MatchedMode
+    spindle_mode: MatchedMode | None
     uncertainty_budget: dict[str, float]
-    uncertainty: Any
+    uncertainty: StiffnessUncertainty
     match: MatchResult
-    identification: Any = field(default=None, repr=False)
-    spindle_identification: Any = field(default=None, repr=False)
+    identification: Identification | None = field(default=None, repr=False)
+    spindle_identification: Identification | None = field(default=None, repr=False)
     band: tuple[float, float] | None = None
     spindle_band: tuple[float, float] | None = None
     speed_hz: float | None = None
     file: str | None = None
-    fit: Any = field(default=None, repr=False)
+    fit: RigFit | None = field(default=None, repr=False)
     k_TB_std_measured: float = 0.0
     inverted_freq: float = math.nan
-    damping_model: str = "viscous"
+    damping_model: DampingModel = "viscous"
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
-    damping: Any = None
+    damping: BearingDamping | None = None
     inversion_3dof: dict[str, float] | None = None
-    rigid_body: Any = None
-    housing_mass: Any = None
+    rigid_body: HousingRigidBody | None = None
+    housing_mass: HousingMass | None = None
 
     @property
     def c_TB(self) -> float:
@@ -461,7 +478,7 @@ class CalibrationResult:
         Combined stiffness from the disk frequency [N/m].
     k_disk : float or None
         Disk stiffness put in series [N/m] (None: rigid disk, the paper's assumption).
-    housing_mode : dict
+    housing_mode : MatchedMode
         The matched housing mode with the disk (``natural_freq``, ``damping_ratio``, ...).
     calibration : KmsCalibration
     match : MatchResult
@@ -480,10 +497,10 @@ class CalibrationResult:
     k_MS_std: float
     k_TB_MS: float
     k_disk: float | None
-    housing_mode: dict[str, Any]
-    calibration: Any
+    housing_mode: MatchedMode
+    calibration: KmsCalibration
     match: MatchResult
-    identification: Any = field(default=None, repr=False)
+    identification: Identification | None = field(default=None, repr=False)
     band: tuple[float, float] | None = None
     file: str | None = None
     k_MS_std_measured: float = 0.0
@@ -540,7 +557,7 @@ def estimate_stiffness(
     spindle: bool = True,
     fit: bool = False,
     progress: bool = False,
-    damping_model: str = "viscous",
+    damping_model: DampingModel = "viscous",
     identification: Any = None,
     selection: Any = None,
     speed_rpm: float | None = None,
@@ -600,10 +617,6 @@ def estimate_stiffness(
         The housing frequency gives no positive ``k_TB`` (outside the valid range, or above the
         mode with a rigid bearing for this ``k_MS``).
     """
-    from dataclasses import replace
-
-    from .uncertainty import stiffness_uncertainty
-
     file = _file_of(data)
     speed_hz = _speed_hz(speed_hz, speed_rpm, file)
     ident_in = _given_identification(data, rig, identification, selection, band, max_order, progress, file)
@@ -657,7 +670,7 @@ def estimate_stiffness(
         k_TB_MS_std=float(unc.k_TB_MS_std),
         k_MS=kms,
         k_MS_std=None if k_ms_std is None else float(k_ms_std),
-        housing_mode={**hm_std, "source": source},
+        housing_mode=hm_std.with_entries(source=source),
         spindle_mode=None if m.spindle_mode is None else _mode_with_std(
             m.spindle_mode, ident if m.spindle_source == "modes" else s_ident, m.spindle_index),
         uncertainty_budget=budget,
@@ -715,9 +728,6 @@ def _identification_caveats(ident: Any, m: MatchResult, asm: Any) -> tuple[list[
 
 def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]) -> Any:
     """:func:`ema_rig.rig.fit.housing_rigid_body` of this measurement (None outside the model)."""
-    from .fit import housing_rigid_body
-    from .uncertainty import DEFAULT_REL_UNCERTAINTY
-
     info = model_mode_at(params, asm.inverted_freq)
     if info is None:
         return None
@@ -728,20 +738,15 @@ def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]
 
 def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
     """``k_TB`` of the plain 3DOF inversion at ``f0`` (None outside the model's range)."""
-    from .inversion import k_tb_from_housing_freq
-
     try:
         return {"freq": float(f0), "k_TB": float(k_tb_from_housing_freq(f0, params))}
     except InversionError:
         return None
 
 
-def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
-                     damping_model: str) -> Any:
+def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
+                     damping_model: DampingModel) -> Any:
     """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
-    from .damping import bearing_damping
-    from .uncertainty import DEFAULT_REL_UNCERTAINTY
-
     rel = {**DEFAULT_REL_UNCERTAINTY, **rel_unc}
     if k_ms_std is not None:
         rel["k_MS"] = float(k_ms_std) / params.k_MS
@@ -761,8 +766,6 @@ def _bearing_damping(hm: dict[str, Any], params: Any, rel_unc: dict[str, float],
 
 def _fit(data: FRFData, rig: RigConfig, params: Any, m: MatchResult) -> Any:
     """Fit the 3DOF model to the radial driving-point and mean spindle FRFs (150–700 Hz)."""
-    from .inversion import fit_rig
-
     q = find_dof(data.in_dofs, rig.radial)
     p = find_dof(data.out_dofs, rig.radial)
     if q is None or p is None:
@@ -793,7 +796,7 @@ def calibrate(
     max_order: int | None = None,
     progress: bool = False,
     k_disk_std: float | None = None,
-    damping_model: str = "viscous",
+    damping_model: DampingModel = "viscous",
 ) -> CalibrationResult:
     """Mounting stiffness ``k_MS`` from a steel-disk measurement (paper Sect. 4).
 
@@ -831,8 +834,6 @@ def calibrate(
     ------
     IdentificationError, MatchingError, InversionError
     """
-    from .inversion import calibrate_k_ms
-
     file = _file_of(data)
     if band is None:
         band = rig.identification.get("k_MS_band")

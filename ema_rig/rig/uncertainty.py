@@ -31,16 +31,23 @@ from typing import Any
 
 from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import MatchingError
-from .inversion import (
-    KIND_DEFAULT,
-    KIND_MEASURED,
-    KIND_MODEL,
-    KIND_RIG,
-    KINDS,
-    _closed_form,
-    k_tb_from_housing_freq,
+from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
+from .candidates import find_dof
+from .fit import (
+    HousingMass,
+    cross_axis_correction,
+    driving_point_mass_of,
+    fit_split_housing,
+    measured_housing_mass,
 )
-from .matching import MatchResult, model_mode_at
+from .inversion import (
+    housing_freq_from_k_tb_ms,
+    k_tb_from_housing_freq,
+    k_tb_ms_closed_form,
+    k_tb_ms_from_housing_freq,
+    model_mode_at,
+)
+from .matching import MatchResult
 
 __all__ = [
     "DAMPING_MODELS",
@@ -79,7 +86,7 @@ DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 
 
 # --------------------------------------------------------------------------- damping
-def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: str = "viscous") -> tuple[float, float]:
+def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: DampingModel = "viscous") -> tuple[float, float]:
     """Undamped natural frequency of the (real-stiffness) model from an identified pole.
 
     The identification gives ``|lambda| / 2 pi`` and ``zeta = -Re(lambda) / |lambda|``; the 3DOF
@@ -245,7 +252,7 @@ class StiffnessUncertainty:
 
 
 def _k_tb_raw(f_H: float, p: ModelParams) -> float:
-    k = _closed_form(f_H, p)
+    k = k_tb_ms_closed_form(f_H, p)
     return 1.0 / (1.0 / k - 1.0 / p.k_MS)
 
 
@@ -331,7 +338,7 @@ def stiffness_uncertainty(
     if not (math.isfinite(f_std) and f_std >= 0):
         raise ValueError(f"f_H_std must be a finite non-negative frequency [Hz], got {f_H_std!r}")
     k_tb = k_tb_from_housing_freq(f_H, params)
-    k_c = _closed_form(float(f_H), params)
+    k_c = k_tb_ms_closed_form(float(f_H), params)
     sens = sensitivities(f_H, params)
     rel = dict(DEFAULT_REL_UNCERTAINTY)
     kinds = {n: KIND_DEFAULT for n in rel}
@@ -498,7 +505,7 @@ def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> floa
     return f
 
 
-def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: str = "viscous",
+def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: DampingModel = "viscous",
                         file: str | None = None, data: Any = None) -> Assessment:
     """Frequency to invert and the model-form terms and warnings of one matched housing mode.
 
@@ -593,8 +600,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         n_rad = sum(1 for se in rig.sensors if se.role == "housing" and se.axis == "radial")
         corr = None
         if cands_p:
-            from .fit import cross_axis_correction
-
             trials = [cross_axis_correction(
                 f0, float(rho), c.natural_freq, 1.0 / float(getattr(c, key)), params.m_H,
                 info0.modal_mass, ratio_std=CROSS_AXIS_RATIO_STD,
@@ -648,8 +653,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     p_ref = None if data is None else _find(data.out_dofs, rig.radial)
     dpm0 = None
     if q_ref is not None and p_ref is not None and info0 is not None:
-        from .fit import driving_point_mass_of
-
         dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
         if dpm0 is not None:
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
@@ -674,7 +677,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         split = _fit_split(m, modes, rig, data, p_ref, q_ref, partners, f0 / f_abs)
     if split is not None:
         fit_, j = split
-        from .inversion import housing_freq_from_k_tb_ms, k_tb_ms_from_housing_freq
 
         fu = housing_freq_from_k_tb_ms(fit_.k_TB_MS, params)
         h = 1e-4
@@ -744,8 +746,6 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         dpm = dpm0
     housing_mass = None
     if dpm is not None and info_inv is not None:
-        from .fit import HousingMass, measured_housing_mass
-
         # a clean housing mode: no cross-axis motion beyond 2 sigma of misalignment, no coupling
         # corrected, no close neighbour; only then does its modal mass measure m_H alone (a mode the
         # identification missed beside a close neighbour hides in the housing mode's residue: on
@@ -890,8 +890,6 @@ SPLIT_FIT_CHI2 = 6.63
 def _fit_split(m: MatchResult, modes: Any, rig: RigConfig, data: Any, p: int, q: int | None, partners: list[int],
                undamped: float) -> tuple[Any, int] | None:
     """:func:`ema_rig.rig.fit.fit_split_housing` on the housing mode and its best partner."""
-    from .fit import driving_point_mass_of, fit_split_housing
-
     if q is None:
         return None
     h = m.housing_index
@@ -928,8 +926,6 @@ def _pair_mass(cross: Any, modes: Any, data: Any, p: int, q: int, dpm: Any, u_me
     uncoupled amplitude (plus ``eps sin t``, ``eps cos t`` of the partner's through a misalignment
     ``eps``): the sum of their squares, the pair's compliance, is the uncoupled one times
     ``1 + eps^2``."""
-    from .fit import driving_point_mass_of
-
     fn = [float(f) for f in modes.natural_freq]
     j = min(range(len(fn)), key=lambda i: abs(fn[i] - cross.partner_freq))
     dpj = driving_point_mass_of(data, p, q, modes.poles, j)
@@ -942,8 +938,6 @@ def _pair_mass(cross: Any, modes: Any, data: Any, p: int, q: int, dpm: Any, u_me
 
 
 def _find(dofs: Any, target: Any) -> int | None:
-    from .candidates import find_dof
-
     return find_dof(dofs, target.positive())
 
 
