@@ -32,7 +32,7 @@ _FORM_POWER = FORM_POWER  # the old private name, kept while the branches in fli
 _FORM_UNIT = {"receptance": "m/N", "mobility": "m/s/N", "accelerance": "m/s^2/N"}
 
 
-def frf_unit(frf_form: str) -> str:
+def frf_unit(frf_form: FrfForm) -> str:
     """SI unit string of an FRF form.
 
     Parameters
@@ -114,8 +114,11 @@ class FRFData:
     coherence : array_like, shape (n_out, n_in, n_freq), optional
         Ordinary coherence ``gamma^2`` of each FRF (unit-less, float64, finite, 0 <= value <= 1),
         e.g. from UFF58 function type 6 datasets. None when not known for every FRF.
-    n_averages : int, optional
-        Number of averages behind the FRFs and the coherence (>= 1), None when unknown.
+    n_averages : float, optional
+        Number of averages behind the FRFs and the coherence (>= 1; an effective, non-integer
+        number where overlapped segments are not independent), None when unknown. The one place
+        this number lives: readers, ``--averages`` and the rig file's ``[identification]
+        n_averages`` all set it here.
 
     Notes
     -----
@@ -139,12 +142,12 @@ class FRFData:
     frf: NDArray[np.complex128]
     out_dofs: tuple[DOF, ...]
     in_dofs: tuple[DOF, ...]
-    frf_form: str = "accelerance"
+    frf_form: FrfForm = "accelerance"
     roles: tuple[str | None, ...] = ()
     axes: tuple[str | None, ...] = ()
     meta: Mapping[str, Any] = field(default_factory=dict)
     coherence: NDArray[np.float64] | None = None
-    n_averages: int | None = None
+    n_averages: float | None = None
 
     def __post_init__(self) -> None:
         freq = np.array(self.freq, dtype=np.float64, copy=True)
@@ -182,14 +185,17 @@ class FRFData:
             raise ValueError("roles and axes must have one entry per output DOF")
         coherence = None if self.coherence is None else _check_coherence(self.coherence, frf.shape)
         if self.n_averages is not None and (
-            isinstance(self.n_averages, bool) or not isinstance(self.n_averages, (int, np.integer))
-            or self.n_averages < 1
+            isinstance(self.n_averages, bool) or not isinstance(self.n_averages, (int, float, np.integer, np.floating))
+            or not np.isfinite(self.n_averages) or self.n_averages < 1
         ):
-            raise ValueError(f"n_averages must be an integer >= 1 or None, got {self.n_averages!r}")
+            raise ValueError(f"n_averages must be a number >= 1 or None, got {self.n_averages!r}")
         freq.setflags(write=False)
         frf.setflags(write=False)
         object.__setattr__(self, "coherence", coherence)
-        object.__setattr__(self, "n_averages", None if self.n_averages is None else int(self.n_averages))
+        n_avg = self.n_averages
+        if n_avg is not None:
+            n_avg = int(n_avg) if float(n_avg).is_integer() else float(n_avg)
+        object.__setattr__(self, "n_averages", n_avg)
         object.__setattr__(self, "freq", freq)
         object.__setattr__(self, "frf", frf)
         object.__setattr__(self, "out_dofs", out_dofs)
@@ -341,7 +347,7 @@ class FRFData:
         return data
 
     # ------------------------------------------------------------ conversion
-    def to_form(self, frf_form: str, *, at_zero: Literal["nan", "drop"] = "nan") -> FRFData:
+    def to_form(self, frf_form: FrfForm, *, at_zero: Literal["nan", "drop"] = "nan") -> FRFData:
         """Convert between accelerance, mobility and receptance.
 
         ``accelerance = (j w) mobility = (j w)^2 receptance`` with ``w = 2 pi freq``.

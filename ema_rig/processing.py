@@ -136,7 +136,7 @@ def processing_history(data: Any) -> ProcessingHistory | None:
         freq = getattr(data, "freq", None)
         if freq is not None and len(freq) >= 2:
             fs = float(freq[1] - freq[0]) * seg  # lines k fs / segment
-        navg = meta.get("n_averages")
+        navg = getattr(data, "n_averages", None)
         return ProcessingHistory(
             window=str(meta["window"]), window_code=window_code(str(meta["window"])),
             exp_decay=float(meta["added_damping"]), n_samples=seg,

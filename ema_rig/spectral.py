@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .dof import DOF, as_dof
 from .frf import FRFData
-from .literals import Estimator
+from .literals import Estimator, FrfForm
 
 ESTIMATORS: tuple[str, ...] = ("H1", "H2", "Hv")
 LOW_COHERENCE = 0.8
@@ -195,7 +195,7 @@ def estimate_frf(
     *,
     in_dofs: Sequence[DOF | str],
     out_dofs: Sequence[DOF | str],
-    frf_form: str = "accelerance",
+    frf_form: FrfForm = "accelerance",
     estimator: Estimator = "H1",
     window: str = "hann",
     segment: int | None = None,
@@ -390,10 +390,9 @@ def estimate_frf(
         warn.append(f"exponential window: every pole is {added:.4g} rad/s more damped in this FRF; a "
                     f"damping ratio identified from it is too high by {added:.4g} / (2 pi f_n)")
     info = dict(meta or {})
-    info.update(estimator=estimator, window=window, segment=nseg, overlap=ov, n_averages=n_avg,
-                added_damping=added)
+    info.update(estimator=estimator, window=window, segment=nseg, overlap=ov, added_damping=added)
     data = FRFData(freq, np.asarray(h, dtype=np.complex128), tuple(as_dof(d) for d in out_dofs), tuple(as_dof(d) for d in in_dofs), frf_form,
-                   meta=info)
+                   meta=info, n_averages=n_avg)
     coh.setflags(write=False)
     return FRFEstimate(data, coh, estimator, window, nseg, ov, n_avg, added, tuple(warn))
 

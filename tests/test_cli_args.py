@@ -210,3 +210,22 @@ def test_simulate_leaves_no_measurement_without_its_truth(tmp_path, rig_file, ca
     assert main(argv) == EXIT_ERROR
     assert _one_error_line(capsys) == f"error: {out}.truth.json: No space left on device"
     assert list(tmp_path.iterdir()) == [rig_file]  # the UFF written first was removed again
+
+
+def test_averages_reach_the_default_estimate(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--averages`` and the rig file's ``n_averages`` set ``FRFData.n_averages``, the one place the
+    default ML estimate reads it (issue 21: it used to be a ``meta`` entry only ``--refine`` read)."""
+    import ema_rig.identification as ident_pkg
+    from ema_rig.errors import IdentificationError
+
+    seen: list[object] = []
+
+    def spy(data, **kw):  # type: ignore[no-untyped-def]
+        seen.append(data.n_averages)
+        raise IdentificationError("stop here")
+
+    monkeypatch.setattr(ident_pkg, "identify", spy)
+    uff = str(Path(__file__).resolve().parents[1] / "data" / "b6302_1000N_1200rpm.uff")
+    assert main(["modes", uff, "--averages", "12.5"]) == EXIT_ERROR
+    assert main(["modes", uff, "--averages", "0.5"]) == EXIT_USAGE  # below one average: a usage error
+    assert seen == [12.5]

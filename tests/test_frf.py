@@ -132,6 +132,9 @@ def test_coherence_nan_rejected_and_n_averages_checked(data: FRFData) -> None:
     coh[1, 0, 3] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         data.replace(coherence=coh)
-    for bad in (0, -3, 2.5, True):
+    for bad in (0, -3, 0.5, np.nan, np.inf, True, "10"):
         with pytest.raises(ValueError, match="n_averages"):
             data.replace(n_averages=bad)
+    # an effective (overlapped) number of averages need not be an integer; an integral one stays an int
+    assert data.replace(n_averages=12.5).n_averages == 12.5
+    assert type(data.replace(n_averages=10.0).n_averages) is int

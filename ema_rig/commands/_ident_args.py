@@ -30,8 +30,9 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
                         help="maximum-likelihood refinement after PolyMAX: every mode's +/- from the "
                              "Fisher information (noise only, not model error; slower). Default: the rig "
                              "file's [identification] refine, else off")
-    parser.add_argument("--averages", type=_args.positive_float, default=None, metavar="N",
-                        help="number of averages behind the FRFs and coherence (used by --refine; "
+    parser.add_argument("--averages", type=_args.number(float, lo=1.0), default=None, metavar="N",
+                        help="number of averages behind the FRFs and coherence (weights the coherence-based noise of the "
+                             "default ML estimate and of --refine; "
                              "default: the rig file's [identification] n_averages)")
 
 
@@ -63,7 +64,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
         refine = refine if refine is not None else rig.identification.get("refine")
         n_averages = n_averages if n_averages is not None else rig.identification.get("n_averages")
     if n_averages is not None:
-        data = data.with_meta(n_averages=float(n_averages))
+        data = data.replace(n_averages=float(n_averages))
     selection = Selection.from_json(args.selection) if args.selection else None
     try:
         ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True,

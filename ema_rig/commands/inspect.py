@@ -77,8 +77,8 @@ def _coherence_summary(data: FRFData) -> dict[str, Any]:
     }
 
 
-def _coherence_line(c: dict[str, Any], n_avg: int | None) -> str:
-    avg = f"; {n_avg} averages" if n_avg is not None else "; number of averages not in the file"
+def _coherence_line(c: dict[str, Any], n_avg: float | None) -> str:
+    avg = f"; {n_avg:g} averages" if n_avg is not None else "; number of averages not in the file"
     if not c["attached"]:
         return "coherence: none attached"
     ds = ", ".join(str(i) for i in c["datasets"])

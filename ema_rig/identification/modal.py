@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from ..dof import DOF, as_dof
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
+from ..literals import FrfForm
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -76,7 +77,7 @@ class ModalModel:
     in_dofs: tuple[DOF, ...]
     roles: tuple[str | None, ...] = ()
     axes: tuple[str | None, ...] = ()
-    frf_form: str = "accelerance"
+    frf_form: FrfForm = "accelerance"
     band: tuple[float, float] = (0.0, np.inf)
     fit_error: NDArray[np.float64] | None = None
     meta: Mapping[str, Any] = field(default_factory=dict)
@@ -178,7 +179,7 @@ class ModalModel:
         with np.errstate(divide="ignore"):
             return 1.0 / (2.0 * self.poles.imag * np.abs(self.residues[:, p, q]))
 
-    def synthesize(self, freq: NDArray[np.float64], *, frf_form: str | None = None,
+    def synthesize(self, freq: NDArray[np.float64], *, frf_form: FrfForm | None = None,
                    residuals: bool = True) -> FRFData:
         """Synthesise FRFs from the modal model.
 

@@ -406,7 +406,7 @@ def _input_noise(
     notes += list(cnotes)
     coh = coh[:, :, idx].reshape(n_chan, -1)
     if n_averages is None:
-        n_avg = getattr(data, "n_averages", None) or data.meta.get("n_averages")
+        n_avg = getattr(data, "n_averages", None)
         n_averages = float(n_avg) if n_avg else None
     if n_averages is not None and not n_averages >= 1:
         raise IdentificationError(f"n_averages must be >= 1, got {n_averages!r}", file=src)
@@ -466,8 +466,7 @@ def refine(
     coherence : array_like, shape (n_out, n_in, n_freq), optional
         Ordinary coherence 0..1 of every line (default ``data.coherence`` when present).
     n_averages : float, optional
-        Number of averages of the coherence/H1 estimate (default ``data.n_averages`` or
-        ``data.meta['n_averages']``). Without it the coherence gives the shape of the variance and
+        Number of averages of the coherence/H1 estimate (default ``data.n_averages``). Without it the coherence gives the shape of the variance and
         its level is estimated from the residual.
     residuals : bool, optional
         Fit lower and upper residual terms (default True).

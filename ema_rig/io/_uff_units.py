@@ -13,12 +13,13 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from ..literals import FrfForm
 from .units import FORM_DIMS, MAX_UNIT_POWER, is_no_label, parse_unit
 from .units import G0 as G0  # re-exported: the writer scales by it
 from .units import response_unit as response_unit  # re-exported: read_uff58 checks --units with it
 
 _FORM_DIMS = FORM_DIMS
-_CODE_FORM = {8: "receptance", 11: "mobility", 12: "accelerance"}
+_CODE_FORM: dict[int, FrfForm] = {8: "receptance", 11: "mobility", 12: "accelerance"}
 _CODE_NAMES = {
     0: "unknown", 1: "general", 2: "stress", 3: "strain", 5: "temperature", 6: "heat flux",
     8: "displacement", 9: "reaction force", 11: "velocity", 12: "acceleration", 13: "excitation force",
@@ -34,7 +35,7 @@ class UnitRangeError(ValueError):
 class UnitDecision:
     """How the values of one FRF dataset are turned into SI."""
 
-    frf_form: str
+    frf_form: FrfForm
     factor: float
     text: str
     note: str | None = None
@@ -116,7 +117,7 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
     pd = parse_unit(den_lab, "denominator unit label")
     den_lab_given = pd is not None
     notes: list[str] = []
-    label_form: str | None = None
+    label_form: FrfForm | None = None
     label_factor: float | None = None
     label_text = ""
     if pn is not None:

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..dof import DOF
+from ..literals import FrfForm
 
 _FORM_CODE = {"receptance": (8, "m"), "mobility": (11, "m/s"), "accelerance": (12, "m/s^2")}
 
@@ -75,7 +76,7 @@ def dataset_bytes(
     double: bool,
     response: DOF,
     reference: DOF,
-    frf_form: str,
+    frf_form: FrfForm,
     unit_label: str,
     ids: tuple[str, str, str, str, str],
     force_label: str = "N",

@@ -42,12 +42,13 @@ from numpy.typing import NDArray
 
 from ..dof import DOF
 from ..errors import UFFError, UnitWarning
+from ..literals import FrfForm
 from . import _uff_units
 from .layout import SensorLayout
 from .uff import UFFRecord, read_uff
 
 _FORCE_CODES = (13, 9)
-_RESPONSE_FORM = {12: "accelerance", 11: "mobility", 8: "receptance"}
+_RESPONSE_FORM: dict[int, FrfForm] = {12: "accelerance", 11: "mobility", 8: "receptance"}
 _DIMS = {"force": (0, 0, 1), "accelerance": (1, -2, 0), "mobility": (1, -1, 0), "receptance": (1, 0, 0)}
 
 
@@ -80,7 +81,7 @@ class TimeData:
     fs: float
     in_dofs: tuple[DOF, ...]
     out_dofs: tuple[DOF, ...]
-    frf_form: str
+    frf_form: FrfForm
     source: str
     notes: tuple[str, ...] = ()
     datasets: Mapping[str, Any] = field(default_factory=dict)
@@ -166,7 +167,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
     src = uf.path
     notes: list[str] = []
     chans: dict[tuple[str, DOF], list[tuple[UFFRecord, float, float]]] = {}
-    forms: set[str] = set()
+    forms: set[FrfForm] = set()
     dt0: float | None = None
     n0: int | None = None
     first: UFFRecord | None = None

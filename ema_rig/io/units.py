@@ -41,6 +41,8 @@ import math
 import re
 from dataclasses import dataclass
 
+from ..literals import FrfForm
+
 G0 = 9.80665
 """Standard gravity in m/s^2 (exact, CGPM 1901)."""
 LBF = 4.4482216152605
@@ -306,7 +308,8 @@ def _power(u: tuple[tuple[int, int, int], float], text: str) -> tuple[tuple[int,
 
 
 #: FRF form of a response unit per force, by its (length, time, mass) exponents.
-FORM_DIMS = {(1, 0, 0): "receptance", (1, -1, 0): "mobility", (1, -2, 0): "accelerance"}
+FORM_DIMS: dict[tuple[int, int, int], FrfForm] = {(1, 0, 0): "receptance", (1, -1, 0): "mobility",
+                                                   (1, -2, 0): "accelerance"}
 
 
 def parse_unit(label: str, what: str = "unit label") -> Unit | None:

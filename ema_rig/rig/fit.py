@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from ..config import ModelParams
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
+from ..literals import FrfForm
 from .inversion import k_tb_ms_from_housing_freq, model_mode_at
 from .model import mass_matrix, stiffness_matrix
 
@@ -80,7 +81,7 @@ def driving_point_mass(
     poles: NDArray[np.complex128],
     index: int,
     *,
-    frf_form: str = "accelerance",
+    frf_form: FrfForm = "accelerance",
     window: float = 0.10,
     pole_window: float = 0.40,
     free_pole: bool = False,

@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..config import ModelParams
 from ..errors import InversionError
-from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS
+from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, FrfForm
 from .model import (
     HOUSING,
     HOUSING_MODE,
@@ -503,7 +503,7 @@ def fit_rig(
     k_TB_MS: float | None = None,
     f_housing: float | None = None,
     damping_ratio: float | Sequence[float] = 0.02,
-    frf_form: str = "accelerance",
+    frf_form: FrfForm = "accelerance",
     band: tuple[float, float] = (150.0, 700.0),
     spindle_freq: float | None = None,
     freq_weight: float = 300.0,

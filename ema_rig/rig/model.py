@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..config import ModelParams
 from ..dof import DOF
 from ..frf import FORM_POWER, FRFData, frf_unit
+from ..literals import FrfForm
 
 DOF_NAMES: tuple[str, ...] = ("H", "S", "F")
 """Names of the model's DOFs: housing, spindle, frame (in matrix order)."""
@@ -146,7 +147,7 @@ def modal_frf(
     shapes_in: ArrayLike,
     damping_ratio: float | ArrayLike,
     *,
-    frf_form: str = "receptance",
+    frf_form: FrfForm = "receptance",
 ) -> NDArray[np.complex128]:
     """FRF matrix of a proportionally (modally) damped system by modal superposition.
 
@@ -279,7 +280,7 @@ class RigModel:
         freq: ArrayLike,
         *,
         damping_ratio: float | ArrayLike = 0.0,
-        frf_form: str = "receptance",
+        frf_form: FrfForm = "receptance",
         outputs: Sequence[int] = (HOUSING, SPINDLE, FRAME),
     ) -> NDArray[np.complex128]:
         """FRFs for a force on the housing mass, by modal superposition.
@@ -315,7 +316,7 @@ class RigModel:
         freq: ArrayLike,
         *,
         damping_ratio: float | ArrayLike = 0.0,
-        frf_form: str = "accelerance",
+        frf_form: FrfForm = "accelerance",
         housing_dof: str = "1+Y",
         spindle_dof: str = "2+Y",
     ) -> FRFData:

@@ -153,7 +153,7 @@ def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, p
     """PolyMAX (and, when the rig file's ``[identification] refine`` is true, the ML refinement)."""
     cfg = rig.identification
     if cfg.get("n_averages") is not None:
-        data = data.with_meta(n_averages=float(cfg["n_averages"]))
+        data = data.replace(n_averages=float(cfg["n_averages"]))
     return identify(data, band=band, max_order=max_order, progress=progress, refine=bool(cfg.get("refine", False)))
 
 
@@ -267,7 +267,7 @@ def _given_identification(data: FRFData, rig: RigConfig, identification: Any, se
         selection = Selection.from_json(selection)  # a path; a bad file raises naming it
     cfg = rig.identification
     if cfg.get("n_averages") is not None:
-        data = data.with_meta(n_averages=float(cfg["n_averages"]))
+        data = data.replace(n_averages=float(cfg["n_averages"]))
     try:
         return identify(data, band=band, max_order=max_order, selection=selection, progress=progress,
                         refine=bool(cfg.get("refine", False)))
