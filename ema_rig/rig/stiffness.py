@@ -629,7 +629,10 @@ def estimate_stiffness(
         data, rig, band=band, max_order=max_order, speed_hz=speed_hz, spindle=spindle,
         progress=progress, file=file, ident=ident_in,
     )
-    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file, data=data)
+    # the assessment sees the identification's pole std (the driving-point mass fit held at the
+    # identified pole carries its damping ratio's std)
+    m_std = replace(m, housing_mode=_mode_with_std(m.housing_mode, ident, m.housing_index))
+    asm = assess_housing_mode(m_std, ident.modes, rig, damping_model=damping_model, file=file, data=data)
     source = mode_source(ident, float(m.housing_mode["natural_freq"])) if ident_in is not None else "auto"
     f_h = asm.inverted_freq
     f_std = measured_freq_std(m)
