@@ -740,6 +740,17 @@ def read_regular_file(path: str | PathLike[str], *, max_bytes: int) -> bytes:
         os.close(fd)
 
 
+def _refuse_uff(p: Path, raw: bytes) -> None:
+    """Raise a ConfigError that names a UFF measurement given where a TOML file belongs."""
+    # the UFF reader loads numpy: imported on this error path only, so loading a campaign stays light
+    from .io.uff import starts_like_uff
+
+    if starts_like_uff(raw[:65536]):
+        raise ConfigError("is a UFF file (a measurement), not a TOML file: identify it with "
+                          "'ema-rig modes FILE', or give it to 'ema-rig stiffness FILE --rig RIG.toml'; "
+                          "a campaign file lists such files under [[measurement]]", file=p)
+
+
 def read_toml(path: str | PathLike[str]) -> dict[str, Any]:
     """Read a TOML file, turning IO and syntax errors into :class:`ConfigError`.
 
@@ -763,8 +774,10 @@ def read_toml(path: str | PathLike[str]) -> dict[str, Any]:
     except OSError as exc:
         raise ConfigError(f"cannot read: {exc.strerror or exc}", file=p) from None
     except tomllib.TOMLDecodeError as exc:
+        _refuse_uff(p, raw)
         raise ConfigError(f"invalid TOML: {exc}", file=p) from None
     except UnicodeDecodeError as exc:
+        _refuse_uff(p, raw)
         raise ConfigError(f"not UTF-8 text: {exc.reason}", file=p) from None
     except ValueError as exc:
         raise ConfigError(str(exc), file=p) from None

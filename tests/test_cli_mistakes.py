@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from ema_rig.cli import main
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -37,3 +39,15 @@ def test_toml_files_in_the_wrong_place_are_named(capsys):
         assert main(argv) == 1, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and text in err and err.startswith("error: "), (argv, err)
+
+
+@pytest.mark.parametrize("command", ["campaign", "rig"])
+def test_a_uff_file_given_as_toml_is_named_as_such(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """A measurement given where a campaign or rig file belongs is named a UFF file, with the commands
+    that take it (it read "invalid TOML: Expected '='" before, or "not UTF-8 text" for a binary UFF)."""
+    uff = str(DATA / "b6302_1000N_1200rpm.uff")
+    argv = ["campaign", uff] if command == "campaign" else ["modes", uff, "--rig", uff]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "is a UFF file (a measurement), not a TOML file" in err and "ema-rig modes" in err
+    assert "Traceback" not in err

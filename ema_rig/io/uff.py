@@ -254,6 +254,23 @@ def _toml_hint(head: bytes) -> str | None:
 _HEAD_OK = re.compile(rb"(?:\xef\xbb\xbf)?(?:[ \t]*(?:\r\n|\r|\n))*[ \t]*-1[ \t]*(?:\r|\n|\Z)")
 
 
+def starts_like_uff(head: bytes) -> bool:
+    """Whether the first bytes of a file start like a UFF file.
+
+    Parameters
+    ----------
+    head : bytes
+        The file's first bytes (64 KiB are plenty).
+
+    Returns
+    -------
+    bool
+        True when they open with a ``-1`` dataset delimiter line (a UTF-8 byte-order mark and
+        blank lines before it allowed).
+    """
+    return _HEAD_OK.match(head) is not None
+
+
 def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
     """Read a regular file that starts like a UFF file, refusing everything else early.
 
@@ -288,7 +305,7 @@ def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
             if not stat.S_ISREG(st.st_mode):  # replaced between stat and open
                 raise UFFError(f"is a {_file_kind(st.st_mode)}, not a regular file", file=p)
             head = fh.read(_HEAD_BYTES)
-            if not _HEAD_OK.match(head):
+            if not starts_like_uff(head):
                 if not head.strip():
                     raise UFFError("empty file (no UFF dataset)", file=p)
                 raise UFFError(
