@@ -27,6 +27,7 @@ import numpy as np
 from .._atomic import atomic_path
 from .._text import plain
 from ..rig.model import HOUSING, SPINDLE, RigModel
+from .synthesis import phase_centre, phase_line
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -95,17 +96,6 @@ def _model_parts(result: Any, rig: RigConfig) -> list[tuple[str, Any, np.ndarray
         out.append((f"3DOF model fitted 150–700 Hz (rms log error {fit.residual_rms:.2f})", fit.model,
                     np.asarray(fit.damping_ratio, dtype=float), {"color": "0.35", "lw": 1.4, "ls": "--"}))
     return out
-
-
-def _phase_line(f: np.ndarray, h: np.ndarray, centre: float) -> tuple[np.ndarray, np.ndarray]:
-    """Frequencies [Hz] and phase of ``h`` [deg] wrapped into ``[centre - 180, centre + 180)``.
-
-    A NaN is inserted in both where the phase wraps by a full turn, so the wrap is drawn as the
-    gap it is and not as a vertical stroke across the panel.
-    """
-    ph = np.mod(np.degrees(np.angle(h)) - centre + 180.0, 360.0) - 180.0 + centre
-    jump = np.flatnonzero(np.abs(np.diff(ph)) > 180.0) + 1
-    return np.insert(np.asarray(f, dtype=float), jump, np.nan), np.insert(ph, jump, np.nan)
 
 
 def plot_rig_fit(
@@ -218,13 +208,13 @@ def plot_rig_fit(
             pax = axes[f"{name}_phase"]
             # the window holds a driving point's whole range without a wrap: 180..0 deg for
             # accelerance, 90..-90 for mobility, 0..-180 for receptance
-            c = {"accelerance": 90.0, "mobility": 0.0}.get(data.frf_form, -90.0)
+            c = phase_centre(data.frf_form)
             for i in idx:
                 h = data.frf[i, q, sel]
-                (ln,) = pax.plot(*_phase_line(f, h, c), color=_MEAS, lw=0.9)
+                (ln,) = pax.plot(*phase_line(f, h, c), color=_MEAS, lw=0.9)
                 artists["measured"].append(ln)
             for (_, _, _, style), hm in zip(models, h_models, strict=True):
-                (lm,) = pax.plot(*_phase_line(ff, hm[row], c), zorder=1, **style)
+                (lm,) = pax.plot(*phase_line(ff, hm[row], c), zorder=1, **style)
                 artists["model"].append(lm)
             pax.set_ylim(c - 190.0, c + 190.0)
             pax.set_yticks(c + np.array([-180.0, -90.0, 0.0, 90.0, 180.0]))

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -53,6 +54,48 @@ class SynthesisPlot:
     synthesized: list[Any] = field(default_factory=list)
     channels: list[tuple[int, int]] = field(default_factory=list)
     phase_axes: list[Axes] = field(default_factory=list)
+
+
+def phase_centre(frf_form: str) -> float:
+    """Centre [deg] of a phase window that holds a driving point's whole range without a wrap.
+
+    180..0 deg for accelerance (centre 90), 90..-90 for mobility (0), 0..-180 for receptance (-90).
+
+    Parameters
+    ----------
+    frf_form : {'accelerance', 'mobility', 'receptance'}
+        The FRF's form.
+
+    Returns
+    -------
+    float
+        The window's centre [deg].
+    """
+    return {"accelerance": 90.0, "mobility": 0.0}.get(frf_form, -90.0)
+
+
+def phase_line(f: NDArray[np.float64], h: NDArray[np.complex128],
+               centre: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Frequencies [Hz] and phase of ``h`` [deg] wrapped into ``[centre - 180, centre + 180)``.
+
+    Parameters
+    ----------
+    f : ndarray, shape (n,)
+        Frequencies [Hz].
+    h : ndarray, shape (n,)
+        Complex FRF values.
+    centre : float
+        Centre of the phase window [deg] (:func:`phase_centre`).
+
+    Returns
+    -------
+    f, phase : ndarray, shape (n + n_wraps,)
+        With a NaN inserted in both where the phase wraps by a full turn, so the wrap is drawn as
+        the gap it is and not as a vertical stroke across the panel.
+    """
+    ph = np.mod(np.degrees(np.angle(h)) - centre + 180.0, 360.0) - 180.0 + centre
+    jump = np.flatnonzero(np.abs(np.diff(ph)) > 180.0) + 1
+    return np.insert(np.asarray(f, dtype=float), jump, np.nan), np.insert(ph, jump, np.nan)
 
 
 def plot_synthesis(
@@ -127,11 +170,12 @@ def plot_synthesis(
         ax = axs[k // ncol][k % ncol]
         if paxs is not None:
             pax = paxs[k // ncol][k % ncol]
-            pax.plot(meas.freq, np.degrees(np.angle(meas.frf[i, j])), color="k", lw=0.9)
-            pax.plot(meas.freq, np.degrees(np.angle(syn.frf[i, j])), color="C3", lw=0.9, ls="--")
+            c = phase_centre(meas.frf_form)
+            pax.plot(*phase_line(meas.freq, meas.frf[i, j], c), color="k", lw=0.9)
+            pax.plot(*phase_line(meas.freq, syn.frf[i, j], c), color="C3", lw=0.9, ls="--")
             pax.axvspan(lo, hi, color="C0", alpha=0.06, lw=0)
-            pax.set_ylim(-190, 190)
-            pax.set_yticks([-180, -90, 0, 90, 180])
+            pax.set_ylim(c - 190, c + 190)
+            pax.set_yticks(c + np.array([-180, -90, 0, 90, 180]))
             pax.grid(True, alpha=0.25)
             pax.set_ylabel("phase [deg]", fontsize=8)
             out.phase_axes.append(pax)
@@ -169,4 +213,4 @@ def plot_synthesis(
     return out
 
 
-__all__ = ["SynthesisPlot", "plot_synthesis"]
+__all__ = ["SynthesisPlot", "phase_centre", "phase_line", "plot_synthesis"]
