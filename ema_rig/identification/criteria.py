@@ -174,6 +174,78 @@ class JudgeCriteria(_Sourced):
 
 
 @dataclass(frozen=True, slots=True)
+class MLCriteria:
+    """Thresholds of the default ML stage, each with its source.
+
+    Parameters
+    ----------
+    window_hbw : float
+        Half-width of each mode's line window in half-power half-bandwidths (default 4): the
+        lines within ``+-k`` half-bandwidths carry ``(k/(1+k^2) + atan k) / (pi/2)`` of a single
+        mode's Fisher information on its pole under white noise, 99.4 % for ``k = 4``.
+    min_side_lines : int
+        Lines on each side of a mode at least (default 12), so that a mode lighter than the line
+        spacing keeps enough equations for its residues and the local polynomial.
+    block_lines : int
+        Adjacent lines summed into one score of the sandwich covariance (default 4): the main
+        lobe of the Hann window spans 4 lines (Harris 1978), so errors of lines closer than
+        that are correlated by leakage.
+    max_iter : int
+        Work limit: Levenberg-Marquardt evaluations per segment (default 50).
+    misfit_p, misfit_ratio : float
+        A segment whose leverage-corrected residual exceeds the noise estimate in a chi-square test
+        at ``p < misfit_p`` (default 0.001, dof = its real equations) and by at least
+        ``misfit_ratio`` (default 2, the rule of :func:`~ema_rig.identification.refine.refine` for a
+        residual above the stated noise) is reported as a local misfit.
+    basis_rcond : float
+        Numerical rank of a segment's pole-free columns (local polynomial and the other modes'
+        tails): singular directions below ``basis_rcond`` times the largest are dropped (default
+        1.5e-8 = sqrt of the float64 epsilon). A singular vector is determined only to an angle of
+        about ``eps / gap`` (Golub & Van Loan 2013, sect. 5.4.1 and 8.6): below sqrt(eps) its
+        direction, and so the projection of the data, is set by rounding, not by the data. Of the
+        directions above it, those along which the start model stays below the noise are dropped
+        too (:meth:`_Segment.keep_supported`: truncated SVD at the discrepancy level).
+    background_sigmas : float
+        ... that is, below ``background_sigmas`` (default 1) noise standard deviations in every
+        channel: a term whose squared coefficient is below its variance adds more variance than it
+        removes bias (the break-even of Mallows' Cp, Technometrics 15, 1973; the discrepancy
+        principle, Hansen 1998 sect. 7.2).
+    move_hbw : float
+        A pole may move by this many PolyMAX half-power half-bandwidths, or two line spacings
+        (default 1): further means it left for another feature of the data (the same rule as
+        :func:`~ema_rig.identification.refine.refine`).
+    """
+
+    window_hbw: float = 4.0
+    min_side_lines: int = 12
+    block_lines: int = 4
+    max_iter: int = 400
+    move_hbw: float = 1.0
+    misfit_p: float = 1e-3
+    misfit_ratio: float = 2.0
+    basis_rcond: float = 1.4901161193847656e-08
+    background_sigmas: float = 1.0
+
+    def sources(self) -> dict[str, str]:
+        """The source of every threshold, by field name."""
+        return {
+            "window_hbw": "99.4 % of a single mode's Fisher information on its pole (Lorentzian integral)",
+            "min_side_lines": "residues + degree-2 local polynomial need >= 10 lines per side",
+            "block_lines": "Hann main lobe width, 4 lines (Harris 1978)",
+            "max_iter": "work limit (Levenberg-Marquardt converges in < 10 evaluations from PolyMAX)",
+            "misfit_p": "chi-square test of the residual against the noise estimate, p = 0.001 with its dof",
+            "misfit_ratio": "residual twice the noise: the refinement's bound for a model error (refine.py)",
+            "basis_rcond": "sqrt(float64 eps): numerical rank of the pole-free columns (Golub & Van Loan 5.4.1, 8.6)",
+            "background_sigmas": "1 noise sigma: break-even of bias and variance (Mallows' Cp 1973, discrepancy principle)",
+            "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
+        }
+
+
+#: The default criteria of :func:`local_ml`.
+ML_CRITERIA = MLCriteria()
+
+
+@dataclass(frozen=True, slots=True)
 class CompletenessCriteria(_Sourced):
     """When the mode set is complete: the residual is consistent with the noise estimate.
 
@@ -219,13 +291,13 @@ class CompletenessCriteria(_Sourced):
 
     p_value: float = _src(1e-3, "chi-square test p = 0.001 family-wise (Bonferroni), dof = 2 lines x channels - "
                           "parameters (Pintelon & Schoukens 2012, ch. 19)")
-    misfit_ratio: float = _src(2.0, "refine.py / MLCriteria.misfit_ratio: a residual twice the noise is a model error")
-    segment_hbw: float = _src(4.0, "MLCriteria.window_hbw: 99.4 % of a mode's Fisher information within 4 hbw")
-    min_segment_lines: int = _src(24, "2 x MLCriteria.min_side_lines (residues + local polynomial)")
+    misfit_ratio: float = _src(ML_CRITERIA.misfit_ratio, "refine.py / MLCriteria.misfit_ratio: a residual twice the noise is a model error")
+    segment_hbw: float = _src(ML_CRITERIA.window_hbw, "MLCriteria.window_hbw: 99.4 % of a mode's Fisher information within 4 hbw")
+    min_segment_lines: int = _src(2 * ML_CRITERIA.min_side_lines, "2 x MLCriteria.min_side_lines (residues + local polynomial)")
     poly_degree: int = _src(2, "the ML segments' local polynomial (ml.py, degree 2) for modes outside a segment")
     max_extra_steps: int = _src(1, "work limit (no clock): one more growth span (the count rule's span) while a "
                                 "segment fails and the modes there change")
-    edge_peak_lines: int = _src(4, "Hann main lobe, 4 lines (Harris 1978; MLCriteria.block_lines): a skirt from "
+    edge_peak_lines: int = _src(ML_CRITERIA.block_lines, "Hann main lobe, 4 lines (Harris 1978; MLCriteria.block_lines): a skirt from "
                                 "beyond the band peaks in the outermost lobe, a mode inside peaks further in")
     max_added: int = _src(2, "work limit: two missing modes per segment and step (a close pair)")
     drop_weak: bool = _src(False, "off: on ufffiles_frf (two bands) it dropped modes inconsistently "
@@ -261,6 +333,8 @@ IDENTIFICATION_CRITERIA = IdentificationCriteria()
 
 __all__ = [
     "COMPLETENESS_CRITERIA",
+    "ML_CRITERIA",
+    "MLCriteria",
     "IDENTIFICATION_CRITERIA",
     "JUDGE_CRITERIA",
     "STABILIZATION_CRITERIA",
