@@ -21,11 +21,23 @@ basis factored once by SVD (the minimum-norm solution ``lstsq`` gives, with its 
 the channels are then projected in chunks of outputs, the complex FRFs read as interleaved real
 pairs without a copy, so the work arrays stay a fraction of the data (BLAS on one thread).
 Lines at 0 Hz are skipped when the basis is singular there.
+
+*Weights.* With the noise variance ``v_ci = E|e_ci|^2`` of every channel ``c`` and line ``i``
+given, each channel's rows (Re and Im of a line, each carrying ``v_ci / 2``) are divided by
+``sqrt(v_ci)``: for fixed poles this weighted least-squares fit is the maximum-likelihood
+estimate of the residues and residual terms under independent complex Gaussian noise
+(Pintelon & Schoukens, *System Identification*, 2nd ed. 2012, sect. 7.2 and 9.4). Unweighted,
+the lines near the largest peak, where the noise is largest in absolute terms, set the residues
+of the weak modes and the residual terms. When the variances share one line profile up to a
+scale per channel (a scale does not change a channel's fit), the basis is weighted and factored
+once as above; otherwise each channel gets its own weighted basis, factored in batches of
+channels.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,6 +56,7 @@ def lsfd(
     *,
     band: tuple[float, float] | None = None,
     residuals: bool = True,
+    variance: ArrayLike | None = None,
 ) -> ModalModel:
     """Fit residues (and residual terms) for known poles.
 
@@ -58,6 +71,11 @@ def lsfd(
     residuals : bool, optional
         Fit the lower (``1/(j w)^2``, 1/kg) and upper (constant, m/N) residual terms
         (default True).
+    variance : array_like, shape (n_out, n_in, n_freq) or (n_freq,), optional
+        Noise variance ``E|e|^2`` of every line of ``data`` [FRF unit^2] (before the band is cut),
+        > 0; ``inf`` gives a line no weight. Each line's equations are divided by its noise
+        standard deviation (the maximum-likelihood residues for the given poles, see Notes of the
+        module). Default: unweighted least squares.
 
     Returns
     -------
@@ -68,7 +86,8 @@ def lsfd(
     Raises
     ------
     IdentificationError
-        No pole, a pole with ``Im <= 0``, or fewer equations than unknowns.
+        No pole, a pole with ``Im <= 0``, or fewer equations than unknowns; a ``variance``
+        of the wrong shape, NaN, or not positive.
 
     Examples
     --------
@@ -83,15 +102,83 @@ def lsfd(
     >>> bool(np.isclose(m.residues[0, 0, 0], res))
     True
     """
-    return _lsfd_checked(check_data(data, band), poles, residuals=residuals)
+    cut = check_data(data, band)
+    var = None
+    if variance is not None:
+        var = np.asarray(variance, dtype=np.float64)
+        if var.ndim == 1:
+            var = var[None, None, :]
+        if var.ndim != 3 or var.shape[2] != data.n_freq or var.shape[:2] not in ((1, 1), data.frf.shape[:2]):
+            raise IdentificationError(
+                f"LSFD variance has shape {np.shape(variance)}, expected {data.frf.shape} or ({data.n_freq},)",
+                file=source_of(data))
+        var = var[:, :, np.searchsorted(data.freq, cut.freq)]
+    return _lsfd_checked(cut, poles, residuals=residuals, variance=var)
 
 
-def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) -> ModalModel:
+def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
+                  variance: NDArray[np.float64] | None = None) -> ModalModel:
     """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
 
     For callers that checked the data once for several steps (``identify``); same parameters,
     result and pole errors as :func:`lsfd`, without the band and the second data check.
+    ``variance`` (shape (n_out, n_in, n_freq) or (1, 1, n_freq)) is on the lines of ``data``.
     """
+    return _fit(data, poles, residuals=residuals, variance=variance)[0]
+
+
+def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
+                         residuals: bool = True) -> ModalModel:
+    """The residues ``identify`` reports: per channel the noise-weighted fit unless the model errs.
+
+    Both fits at ``poles`` on data checked as for :func:`_lsfd_checked`, the weighted one (the
+    maximum-likelihood residues when the model holds) and the unweighted one, are scored per
+    channel by the median over the lines of ``|e|^2 / variance`` (the residual in units of the
+    noise; a least-median-of-squares comparison, Rousseeuw, JASA 79, 1984). Each channel keeps the
+    weighted fit unless its typical line lies further from the data in noise units than with the
+    unweighted fit: then the model misses something that the weights spread over the band (the
+    residual terms stand for modes far outside the band, not for one just beyond its edge), and the
+    unweighted fit, set by the resonances, is kept.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs already validated and cut to the band, shape (n_out, n_in, n_freq).
+    poles : array_like, shape (n_modes,), complex
+        Poles [rad/s], ``Im > 0``.
+    variance : ndarray, shape (n_out, n_in, n_freq)
+        Noise variance ``E|e|^2`` of every line [FRF unit^2] (``inf``: no weight, not scored).
+    residuals : bool, optional
+        Fit the residual terms (default True).
+
+    Returns
+    -------
+    ModalModel
+        ``meta["weighted"]`` says how many channels kept the weighted fit.
+    """
+    var = np.asarray(variance, dtype=np.float64)
+    un, s_un = _fit(data, poles, residuals=residuals, score=var)
+    wt, s_wt = _fit(data, poles, residuals=residuals, variance=var, score=var)
+    keep = s_wt <= s_un  # NaN (no line with a finite variance): unweighted
+    n_keep = int(np.sum(keep))
+    if n_keep == keep.size:
+        return replace(wt, meta={**wt.meta, "weighted": f"{n_keep} of {keep.size} channels"})
+    assert un.fit_error is not None and wt.fit_error is not None
+    return replace(
+        un,
+        residues=np.where(keep[None], wt.residues, un.residues),
+        lower_residual=np.where(keep, wt.lower_residual, un.lower_residual),
+        upper_residual=np.where(keep, wt.upper_residual, un.upper_residual),
+        fit_error=np.where(keep, wt.fit_error, un.fit_error),
+        meta={**un.meta, "weighted": f"{n_keep} of {keep.size} channels"},
+    )
+
+
+def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: NDArray[np.float64] | None = None,
+         score: NDArray[np.float64] | None = None) -> tuple[ModalModel, NDArray[np.float64]]:
+    """The fit of :func:`_lsfd_checked` and, with ``score`` (a variance like ``variance``), the median
+    over the lines of ``|e|^2 / score`` per channel, shape (n_out, n_in) (NaN without such a line;
+    empty without ``score``)."""
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
@@ -102,8 +189,12 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) ->
     p = _FORM_POWER[data.frf_form]
     f = data.freq
     h = data.frf
+    weights = None if variance is None else _line_weights(variance, h.shape, src)
+    sv = None if score is None else np.broadcast_to(score, h.shape)
     if residuals and p < 2 and f[0] == 0.0:
         f, h = f[1:], h[:, :, 1:]
+        weights = None if weights is None else weights[:, :, 1:]
+        sv = None if sv is None else sv[:, :, 1:]
     n_modes = lam.size
     n_unk = 2 * n_modes + (2 if residuals else 0)
     n_f = f.size
@@ -116,13 +207,37 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) ->
     x = np.empty((n_out, n_in, n_unk))
     num = np.empty((n_out, n_in))
     den = np.empty((n_out, n_in))
+    med = np.full((n_out, n_in) if sv is not None else (0, 0), np.nan)
+    common = None if weights is None else _common_profile(weights)
+    shared = weights is None or common is not None
+    # unweighted, or one line profile for every channel (a channel's scale does not change its
+    # fit): the basis weighted once, columns to unit norm again, one shared factorization
+    cn = np.ones(n_unk)
+    aw = a
+    if common is not None:
+        aw = a * common[:, None]
+        cn = np.sqrt(np.einsum("kj,kj->j", aw, aw))
+        cn = np.where(cn > 0, cn, 1.0)
+        aw = aw / cn
     with single_threaded():
-        uk, proj = _projector(a)
+        uk, proj = _projector(aw) if shared else (aw[:, :0], aw[:0].T)
         for o0, o1, yv in _output_chunks(h):
-            xs = (yv @ uk) @ proj.T  # scaled unknowns (chunk, n_in, n_unk)
+            if weights is None or common is not None:
+                xs = ((yv if common is None else yv * common) @ uk) @ proj.T / cn  # (chunk, n_in, n_unk)
+            else:
+                xs = _weighted_solve(a, yv, np.repeat(weights[o0:o1], 2, axis=2))
             x[o0:o1] = xs / scale
             res = xs @ a.T
             np.subtract(yv, res, out=res)
+            if sv is not None:
+                e2 = res[:, :, 0::2] ** 2 + res[:, :, 1::2] ** 2
+                v = sv[o0:o1]
+                fin = np.isfinite(v) & (v > 0)
+                with np.errstate(all="ignore"):
+                    q = np.where(fin, e2 / np.where(fin, v, 1.0), np.nan)
+                has = np.asarray(fin.any(axis=2))
+                med[o0:o1] = np.where(has, np.nanmedian(np.where(has[:, :, None], q, 0.0), axis=2), np.nan)
+                del e2, q
             num[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", res, res))
             den[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", yv, yv))
             del res, xs, yv
@@ -146,8 +261,73 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True) ->
         frf_form=data.frf_form,
         band=(float(data.freq[0]), float(data.freq[-1])),
         fit_error=fit_error,
-        meta={"method": "lsfd", "residuals": bool(residuals)},
-    )
+        meta={"method": "lsfd", "residuals": bool(residuals),
+              "weighted": "no" if weights is None else ("line profile" if shared else "per channel")},
+    ), med
+
+
+def _line_weights(variance: NDArray[np.float64], shape: tuple[int, ...], src: str | None) -> NDArray[np.float64]:
+    """``1 / sqrt(variance)`` broadcast to ``shape`` (n_out, n_in, n_freq), each channel scaled to a maximum of 1.
+
+    Raises
+    ------
+    IdentificationError
+        NaN or non-positive variances, or a channel without any finite variance.
+    """
+    var = np.asarray(variance, dtype=np.float64)
+    if np.any(np.isnan(var)) or np.any(var <= 0):
+        raise IdentificationError("LSFD variance must be > 0 (inf for a line without weight), without NaN",
+                                  file=src)
+    w = np.broadcast_to(1.0 / np.sqrt(var), shape)
+    top = np.max(w, axis=2, keepdims=True)
+    if np.any(top <= 0):
+        raise IdentificationError("LSFD variance is inf at every line of a channel: nothing to fit", file=src)
+    return w / top
+
+
+def _common_profile(weights: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """The line profile (2 n_freq,) shared by every channel's weights (each scaled to maximum 1), or None.
+
+    Channels whose weights differ only by a factor have the same profile after the scaling of
+    :func:`_line_weights`; the profile is returned for the real rows (Re, Im interleaved per line).
+    """
+    flat = weights.reshape(-1, weights.shape[-1])
+    first = flat[0]
+    if flat.shape[0] > 1 and not np.allclose(flat, first[None, :], rtol=1e-12, atol=0.0):
+        return None
+    return np.repeat(first, 2)
+
+
+def _weighted_solve(a: NDArray[np.float64], yv: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Per-channel weighted least squares: the unknowns of ``yv`` (chunk, n_in, 2 n_freq) in the basis ``a``.
+
+    Each channel's rows are multiplied by its weights ``w`` (same shape as ``yv``), the weighted
+    basis's columns brought to unit norm and solved through its SVD with the cutoff of
+    :func:`_projector` (the minimum-norm solution), in batches of channels.
+
+    Returns
+    -------
+    ndarray, shape (chunk, n_in, n_unknown)
+        Unknowns of the (unweighted) basis ``a``.
+    """
+    n_o, n_i, n_r = yv.shape
+    n_unk = a.shape[1]
+    yc = yv.reshape(-1, n_r)
+    wc = w.reshape(-1, n_r)
+    out = np.empty((yc.shape[0], n_unk))
+    step = max(1, int((32 << 20) // max(8 * n_r * n_unk, 1)))
+    for c0 in range(0, yc.shape[0], step):
+        c1 = min(c0 + step, yc.shape[0])
+        aw = a[None, :, :] * wc[c0:c1, :, None]  # (batch, 2 n_freq, n_unk)
+        cn = np.sqrt(np.einsum("bkj,bkj->bj", aw, aw))
+        cn = np.where(cn > 0, cn, 1.0)
+        aw /= cn[:, None, :]
+        u, sv, vt = np.linalg.svd(aw, full_matrices=False)
+        keep = sv > np.finfo(float).eps * max(n_r, n_unk) * sv[:, :1]
+        inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
+        uty = np.einsum("bkr,bk->br", u, yc[c0:c1] * wc[c0:c1]) * inv
+        out[c0:c1] = np.einsum("brj,br->bj", vt, uty) / cn
+    return out.reshape(n_o, n_i, n_unk)
 
 
 def _projector(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
