@@ -9,7 +9,7 @@ Per configuration and seed three fits at the same poles:
 
 * ``unweighted``: :func:`ema_rig.identification.lsfd` as before (plain least squares);
 * ``weighted``: the identification's own noise variance
-  (``identification._noise_test``: the completeness test's estimate, coherence when present);
+  (``identification._misfit``: the completeness test's estimate, coherence when present);
 * ``oracle``: weighted by the true variance (the maximum-likelihood residues, for reference).
 
 Two pole sets: the exact poles (LSFD alone) and the poles ``identify`` reports (the pipeline).
@@ -35,7 +35,7 @@ from _mck_truth import BASE_FREQ, SHAPES, make  # noqa: E402
 from ema_rig.frf import FRFData  # noqa: E402
 from ema_rig.identification import identify, lsfd  # noqa: E402
 from ema_rig.identification.criteria import COMPLETENESS_CRITERIA  # noqa: E402
-from ema_rig.identification.identification import _noise_test  # noqa: E402
+from ema_rig.identification.identification import _misfit  # noqa: E402
 
 CONFIGS = {  # name: (relative p, floor relative to the channel RMS, with coherence)
     "proportional 3 %": (0.03, 0.0, False),
@@ -73,7 +73,7 @@ def one(seed: int, p: float, floor: float, coh: bool, with_identify: bool) -> di
             pole_sets.append(("identify", lam))
             ident_model = ident.modes
     for tag, lam in pole_sets:
-        var = _noise_test(data, lam, COMPLETENESS_CRITERIA).variance.reshape(data.frf.shape)
+        var = _misfit(data, lsfd(data, lam), COMPLETENESS_CRITERIA).variance.reshape(data.frf.shape)
         fits = {"unweighted": lsfd(data, lam), "weighted": lsfd(data, lam, variance=var),
                 "oracle": lsfd(data, lam, variance=t.variance)}
         if tag == "identify" and ident_model is not None:

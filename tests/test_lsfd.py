@@ -200,14 +200,14 @@ def test_weighted_residues_against_the_exact_ones():
     weights of the true variance (the ML) to 2 digits (benchmarks/study_lsfd_weights.py).
     """
     from ema_rig.identification.criteria import COMPLETENESS_CRITERIA
-    from ema_rig.identification.identification import _noise_test
+    from ema_rig.identification.identification import _misfit
 
     err = {"unweighted": [], "weighted": [], "oracle": []}
     for seed in range(8):
         t, data = _mck_data(seed, p=0.02, floor=0.01)
         truth = _exact_residues(t)
         fits = {"unweighted": lsfd(data, t.poles),
-                "weighted": lsfd(data, t.poles, variance=_noise_test(data, t.poles, COMPLETENESS_CRITERIA).variance.reshape(data.frf.shape)),
+                "weighted": lsfd(data, t.poles, variance=_misfit(data, lsfd(data, t.poles), COMPLETENESS_CRITERIA).variance.reshape(data.frf.shape)),
                 "oracle": lsfd(data, t.poles, variance=t.variance)}
         for k, m in fits.items():
             err[k].append(np.linalg.norm((m.residues - truth)[:, :, 0], axis=1) / np.linalg.norm(truth[:, :, 0], axis=1))
@@ -225,10 +225,10 @@ def test_weighted_residues_against_the_exact_ones():
 def test_weighted_lsfd_floor_noise_changes_nothing():
     # additive floor only: the noise estimate is one level per channel, plain least squares is the ML
     from ema_rig.identification.criteria import COMPLETENESS_CRITERIA
-    from ema_rig.identification.identification import _noise_test
+    from ema_rig.identification.identification import _misfit
 
     t, data = _mck_data(3, p=0.0, floor=0.02)
-    var = _noise_test(data, t.poles, COMPLETENESS_CRITERIA).variance.reshape(data.frf.shape)
+    var = _misfit(data, lsfd(data, t.poles), COMPLETENESS_CRITERIA).variance.reshape(data.frf.shape)
     m = lsfd(data, t.poles, variance=var)
     # the estimate's proportional part comes out near 0 (not exactly: the residues move by at most
     # 3.5e-4 relative, measured, a fifth of their error against the truth, 0.2 %)

@@ -581,8 +581,9 @@ def identify(
     # one LSFD pole per mode; sorted by |pole| so the spreads align with the modal model
     modes = _unique_modes(sel.modes)
     if fitted is None:
-        fitted = _fit_modes(data, modes, residuals, crit.completeness)
+        fitted = _fit_modes(data, modes, residuals)
     model, ml, polymax = fitted
+    model = _reported_model(data, model, residual_test, crit.completeness, residuals)
     warnings += list(ml.warnings)
     meta = dict(model.meta)
     meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed,
@@ -645,40 +646,42 @@ def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
     return list(unique.values())
 
 
-def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool, cc: CompletenessCriteria) -> _Fitted:
-    """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles weighted by the noise
-    variance of :func:`_noise_test` (with the completeness criteria ``cc``;
-    :func:`~ema_rig.identification.lsfd._lsfd_noise_weighted`); the PolyMAX poles (re, im)."""
+def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) -> _Fitted:
+    """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)."""
     model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked by identify
     # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
     ml = _local_ml(data, model)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
-    # the reported residues: LSFD at the ML poles weighted by the noise variance of every line (the
-    # completeness test's, from local fits: no misfit of the global model in it), the ML residues,
-    # per channel unless the model errs there (_lsfd_noise_weighted). When the test fails inside the
-    # band (a mode missing, or the noise model wrong), weights would spread that misfit over the
-    # band: the unweighted fit, set by the resonances, is kept
-    test = _noise_test(data, ml.poles, cc)
-    if test.passed and test.variance is not None:
-        var = np.where(np.all(~np.isfinite(test.variance), axis=1, keepdims=True), 1.0, test.variance)
-        model = _lsfd_noise_weighted(data, ml.poles, var.reshape(data.frf.shape), residuals=residuals)
-    else:
+    if np.any(ml.poles != model.poles):
         model = _lsfd_checked(data, ml.poles, residuals=residuals)
-        model = replace(model, meta={**model.meta, "weighted": "no (the residual exceeds the noise inside the band)"})
     return model, ml, polymax
 
 
-def _noise_test(data: FRFData, poles: NDArray[np.complex128], cc: CompletenessCriteria) -> MisfitTest:
-    """:func:`~ema_rig.identification.noise.segment_misfit` of ``poles`` on ``data`` (cut to the band):
-    the completeness test, and the noise variance that weights the reported LSFD."""
-    with single_threaded():  # many small factorizations: threads only add hand-off time
-        return segment_misfit(data.freq, data.frf, poles, power=_FORM_POWER[data.frf_form],
-                              coherence=data.coherence, n_averages=data.n_averages, criteria=cc)
+def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, cc: CompletenessCriteria,
+                    residuals: bool) -> ModalModel:
+    """The residues ``identify`` reports: LSFD at the (ML) poles of ``model`` weighted by the noise.
+
+    The noise variance of every line is the completeness test's (``test``, of these poles; formed
+    here when None): from local fits, so no misfit of the global model is in it. Per channel the
+    weighted fit (the maximum-likelihood residues) is kept unless the model errs there
+    (:func:`~ema_rig.identification.lsfd._lsfd_noise_weighted`). When the test fails inside the band
+    (a mode missing, or a noise model that does not hold), weights would spread that misfit over the
+    band: the unweighted fit, set by the resonances, is kept.
+    """
+    if test is None:
+        test = _misfit(data, model, cc)
+    if not test.passed or test.variance is None:
+        return replace(model, meta={**model.meta, "weighted": "no (the residual exceeds the noise inside the band)"})
+    # a channel without a finite variance anywhere (a coherence of 1 everywhere: no estimate) keeps equal weights
+    var = np.where(np.all(~np.isfinite(test.variance), axis=1, keepdims=True), 1.0, test.variance)
+    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals)
 
 
 def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> MisfitTest:
     """:func:`~ema_rig.identification.noise.segment_misfit` of ``model`` on ``data`` (cut to the band)."""
-    return _noise_test(data, model.poles, crit)
+    with single_threaded():  # many small factorizations: threads only add hand-off time
+        return segment_misfit(data.freq, data.frf, model.poles, power=_FORM_POWER[data.frf_form],
+                              coherence=data.coherence, n_averages=data.n_averages, criteria=crit)
 
 
 def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candidate, ...], residuals: bool,
@@ -693,7 +696,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     """
     cc = crit.completeness
     modes = _unique_modes(modes)
-    fitted = _fit_modes(data, modes, residuals, cc)
+    fitted = _fit_modes(data, modes, residuals)
     test = _misfit(data, fitted[0], cc)
     added: list[float] = []
     if test.passed:
@@ -827,7 +830,7 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                 f"not needed by the data: without it the residual near {fk:.6g} Hz stays consistent with the "
                 f"noise estimate (its own term {100 * c.peak_share:.0f} % of the FRF near it)"))
             dropped.append(fk)
-    fitted = _fit_modes(data, modes, residuals, crit.completeness) if dropped or done.added else done.fitted
+    fitted = _fit_modes(data, modes, residuals) if dropped or done.added else done.fitted
     # two modes the ML does not resolve (frequencies within three times their summed ML standard
     # uncertainties and within a half-power half-bandwidth, participation MAC above JudgeCriteria.dup_participation_mac: the judge's
     # duplicate rule, with the ML uncertainty in place of the order spread) are one: the weaker
@@ -856,7 +859,7 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                         f"(within 3 x their summed uncertainty, participation MAC > {crit.judge.dup_participation_mac:g})"))
     if dup:
         modes = [m for m in modes if m.pole not in dup]
-        fitted = _fit_modes(data, modes, residuals, crit.completeness)
+        fitted = _fit_modes(data, modes, residuals)
     elif not dropped and not done.added:
         return done
     # a missing mode is added as a start value: when the ML of the whole band cannot hold it (it
@@ -871,7 +874,7 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                 f"not determined by the data: added as a missing mode, but the ML fit could not hold it "
                 f"(before: {cands[i].reason})"))
         modes = [m for m in modes if m.pole not in {x.pole for x in lost}]
-        fitted = _fit_modes(data, modes, residuals, crit.completeness)
+        fitted = _fit_modes(data, modes, residuals)
         done = replace(done, added=tuple(f for f in done.added if f not in gone))
     return _Completed(modes, tuple(cands), fitted, _misfit(data, fitted[0], crit.completeness), done.added,
                       tuple(dropped))

@@ -220,12 +220,12 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         cn = np.where(cn > 0, cn, 1.0)
         aw = aw / cn
     with single_threaded():
-        uk, proj = _projector(aw) if shared else (aw[:, :0], aw[:0].T)
+        uk, proj = _projector(aw)
         for o0, o1, yv in _output_chunks(h):
             if weights is None or common is not None:
                 xs = ((yv if common is None else yv * common) @ uk) @ proj.T / cn  # (chunk, n_in, n_unk)
             else:
-                xs = _weighted_solve(a, yv, np.repeat(weights[o0:o1], 2, axis=2))
+                xs = _weighted_solve(uk, proj, yv, np.repeat(weights[o0:o1], 2, axis=2))
             x[o0:o1] = xs / scale
             res = xs @ a.T
             np.subtract(yv, res, out=res)
@@ -298,36 +298,40 @@ def _common_profile(weights: NDArray[np.float64]) -> NDArray[np.float64] | None:
     return np.repeat(first, 2)
 
 
-def _weighted_solve(a: NDArray[np.float64], yv: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Per-channel weighted least squares: the unknowns of ``yv`` (chunk, n_in, 2 n_freq) in the basis ``a``.
+def _weighted_solve(uk: NDArray[np.float64], proj: NDArray[np.float64], yv: NDArray[np.float64],
+                    w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Per-channel weighted least squares in the shared basis: the unknowns of ``yv`` (chunk, n_in, 2 n_freq).
 
-    Each channel's rows are multiplied by its weights ``w`` (same shape as ``yv``), the weighted
-    basis's columns brought to unit norm and solved through its SVD with the cutoff of
-    :func:`_projector` (the minimum-norm solution), in batches of channels.
+    With the basis ``a = uk S V^T`` factored once (:func:`_projector`: ``uk`` orthonormal,
+    ``proj = V S^-1``), the unknowns are ``x = proj z`` where ``z`` solves the channel's normal
+    equations ``(uk^T W^2 uk) z = uk^T W^2 y`` (``W`` its weights ``w``, same shape as ``yv``): one
+    matrix product over the lines for all channels, then a small symmetric eigen-solve per channel
+    (Jacobi-scaled, minimum norm below the rank cutoff of :func:`_projector`). ``uk`` is
+    orthonormal, so the normal matrix's condition is at most that of ``W^2`` on the basis's span.
 
     Returns
     -------
     ndarray, shape (chunk, n_in, n_unknown)
-        Unknowns of the (unweighted) basis ``a``.
+        Unknowns of the (unweighted) basis.
     """
     n_o, n_i, n_r = yv.shape
-    n_unk = a.shape[1]
+    r = uk.shape[1]
+    w2 = (w * w).reshape(-1, n_r)
     yc = yv.reshape(-1, n_r)
-    wc = w.reshape(-1, n_r)
-    out = np.empty((yc.shape[0], n_unk))
-    step = max(1, int((32 << 20) // max(8 * n_r * n_unk, 1)))
-    for c0 in range(0, yc.shape[0], step):
-        c1 = min(c0 + step, yc.shape[0])
-        aw = a[None, :, :] * wc[c0:c1, :, None]  # (batch, 2 n_freq, n_unk)
-        cn = np.sqrt(np.einsum("bkj,bkj->bj", aw, aw))
-        cn = np.where(cn > 0, cn, 1.0)
-        aw /= cn[:, None, :]
-        u, sv, vt = np.linalg.svd(aw, full_matrices=False)
-        keep = sv > np.finfo(float).eps * max(n_r, n_unk) * sv[:, :1]
-        inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
-        uty = np.einsum("bkr,bk->br", u, yc[c0:c1] * wc[c0:c1]) * inv
-        out[c0:c1] = np.einsum("brj,br->bj", vt, uty) / cn
-    return out.reshape(n_o, n_i, n_unk)
+    gram = np.zeros((w2.shape[0], r * r))
+    step = max(1, int((32 << 20) // max(8 * r * r, 1)))  # lines per block of outer products (32 MB)
+    for k0 in range(0, n_r, step):
+        u = uk[k0 : k0 + step]
+        gram += w2[:, k0 : k0 + step] @ (u[:, :, None] * u[:, None, :]).reshape(u.shape[0], r * r)
+    gram = gram.reshape(-1, r, r)
+    rhs = (w2 * yc) @ uk  # (channels, r)
+    d = np.sqrt(np.maximum(np.einsum("cii->ci", gram), 0.0))
+    d = np.where(d > 0, d, 1.0)
+    ev, vec = np.linalg.eigh(gram / (d[:, :, None] * d[:, None, :]))
+    keep = ev > np.finfo(float).eps * r * ev[:, -1:]
+    inv = np.where(keep, 1.0 / np.where(keep, ev, 1.0), 0.0)
+    z = np.einsum("crk,ck->cr", vec, inv * np.einsum("crk,cr->ck", vec, rhs / d)) / d
+    return (z @ proj.T).reshape(n_o, n_i, proj.shape[0])
 
 
 def _projector(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
