@@ -97,6 +97,7 @@ PRIVATE_ALLOWED: frozenset[tuple[str, str, str]] = frozenset({
     ("ema_rig.identification.judge", "ema_rig.identification.lsfd", "_projector"),
     ("ema_rig.identification.judge", "ema_rig.identification.stabilization", "_mode_from_rows"),
     ("ema_rig.identification.identification", "ema_rig.identification.lsfd", "_lsfd_checked"),
+    ("ema_rig.identification.identification", "ema_rig.identification.lsfd", "_lsfd_noise_weighted"),
     ("ema_rig.identification.identification", "ema_rig.identification.judge", "_fit"),
 })
 
