@@ -35,6 +35,7 @@ from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS,
 from .candidates import find_dof
 from .fit import (
     HousingMass,
+    centre_mass_factor,
     cross_axis_correction,
     driving_point_mass_of,
     fit_split_housing,
@@ -655,6 +656,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     if q_ref is not None and p_ref is not None and info0 is not None:
         dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
         if dpm0 is not None:
+            dpm0 = _mass_at_centre(dpm0, modes, rig, m.housing_index, hm, notes)
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
     # partners that may carry the housing participation missing from its mode: in-phase radial
     # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
@@ -935,6 +937,28 @@ def _pair_mass(cross: Any, modes: Any, data: Any, p: int, q: int, dpm: Any, u_me
     pair = 1.0 / (1.0 / m1 + 1.0 / m2)
     u = math.hypot(pair / m1 * u_meas, pair / m2 * dpj.modal_mass_std / m2)
     return replace(dpm, modal_mass=pair, modal_mass_std=pair * u), u
+
+
+def _mass_at_centre(dpm: Any, modes: Any, rig: RigConfig, index: int, hm: Any, notes: list[str]) -> Any:
+    """The driving-point modal mass referred to the housing's centre, where the 3DOF model's
+    housing sits (:func:`ema_rig.rig.fit.centre_mass_factor`), when the rig file gives three
+    radial housing sensors' positions off one line and the driving point's; else ``dpm`` as is.
+
+    Each radial residue is uncertain by the mass fit's relative std (same lines, same noise) and
+    by the sensor's misalignment reading the mode's cross-axis motion
+    (:data:`CROSS_AXIS_RATIO_STD` times the larger of its axial and lateral ratios).
+    """
+    rhos = [float(v) for v in (hm.get("axial_ratio"), hm.get("lateral_ratio")) if v is not None]
+    u_res = math.hypot(dpm.modal_mass_std / dpm.modal_mass, CROSS_AXIS_RATIO_STD * max(rhos, default=0.0))
+    got = centre_mass_factor(modes, rig, index, u_res)
+    if got is None:
+        return dpm
+    fac, u_fac = got
+    mass = dpm.modal_mass * fac
+    std = mass * math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_fac)
+    notes.append(f"driving-point modal mass {dpm.modal_mass:.4g} kg referred to the housing's centre from the radial "
+                 f"sensors' positions: x {fac:.4f} +/- {u_fac:.4f} (the housing tilts in the mode) -> {mass:.4g} kg")
+    return replace(dpm, modal_mass=mass, modal_mass_std=std)
 
 
 def _find(dofs: Any, target: Any) -> int | None:
