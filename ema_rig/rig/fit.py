@@ -771,6 +771,13 @@ def housing_inertia(rig: Any, axis: str) -> tuple[float, float] | None:
     The rig file's ``[housing]`` inertia plus ``m r_perp^2`` of every mass on the housing with a
     position (``r_perp^2 = y^2 + z^2`` about x, ``x^2 + y^2`` about z); stds in quadrature.
 
+    Parameters
+    ----------
+    rig : RigConfig
+        ``[housing]`` inertia and the attached masses.
+    axis : {'x', 'z'}
+        The tilt axis.
+
     Returns
     -------
     (float, float) or None
