@@ -52,6 +52,7 @@ __all__ = [
     "SplitHousingFit",
     "TiltStiffness",
     "centre_mass_factor",
+    "radial_spread",
     "fit_split_housing",
     "housing_inertia",
     "housing_tilt",
@@ -876,7 +877,7 @@ def housing_tilt(modes: Any, rig: Any, candidates: list[Any], housing_index: int
             u_meas = 2 * sf / f
             u_tot = math.hypot(u_meas, inert[1] / inert[0])
             t = TiltStiffness(axis=ax, stiffness=k, stiffness_std=k * u_tot, stiffness_std_measured=k * u_meas,
-                              freq=f, freq_std=sf, inertia=inert[0], inertia_std=inert[1], modal_inertia=i_modal,
+                              freq=f, freq_std=sf, inertia=inert[0], inertia_std=inert[1], modal_inertia=float(i_modal),
                               share=share)
             if ax not in best or share > best[ax][0]:
                 best[ax] = (share, t)
@@ -942,3 +943,36 @@ def centre_mass_factor(modes: Any, rig: Any, index: int, rel_std: float) -> tupl
     grad = (lay.driving_point @ pinv) / g[0] - dp * pinv[0] / g[0] ** 2
     u = float(np.sqrt(np.sum((grad * rel_std * np.abs(r)) ** 2))) / abs(ratio)
     return ratio**2, 2 * u
+
+
+def radial_spread(modes: Any, rig: Any, index: int) -> float | None:
+    """Relative spread ``(max - min) / mean`` of the radial housing sensors' readings of mode ``index``.
+
+    The readings are the radial housing residues for the radial reference, projected on the
+    largest one's phase. For a rigid radial translation they agree (to the sensors' misalignment
+    and calibration); a housing that tilts in the mode reads differently at each sensor.
+
+    Parameters
+    ----------
+    modes : ModalModel
+        Identified modes.
+    rig : RigConfig
+        Sensor roles and axes, the radial reference.
+    index : int
+        The mode.
+
+    Returns
+    -------
+    float or None
+        None with fewer than two radial housing sensors or without the radial reference.
+    """
+    idx = [i for i, d in enumerate(modes.out_dofs)
+           if (s := rig.sensor_for(d)) is not None and s.role == "housing" and s.axis == "radial"]
+    q = next((j for j, d in enumerate(modes.in_dofs) if d.same_axis(rig.radial)), None)
+    if len(idx) < 2 or q is None:
+        return None
+    col = np.asarray(modes.residues[index, idx, q], dtype=complex)
+    ref = col[int(np.argmax(np.abs(col)))]
+    r = np.real(col * np.conj(ref) / abs(ref))
+    mean = float(np.mean(r))
+    return float((np.max(r) - np.min(r)) / abs(mean)) if mean != 0 else None

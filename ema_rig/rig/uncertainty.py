@@ -40,6 +40,7 @@ from .fit import (
     driving_point_mass_of,
     fit_split_housing,
     measured_housing_mass,
+    radial_spread,
 )
 from .inversion import (
     housing_freq_from_k_tb_ms,
@@ -942,7 +943,9 @@ def _pair_mass(cross: Any, modes: Any, data: Any, p: int, q: int, dpm: Any, u_me
 def _mass_at_centre(dpm: Any, modes: Any, rig: RigConfig, index: int, hm: Any, notes: list[str]) -> Any:
     """The driving-point modal mass referred to the housing's centre, where the 3DOF model's
     housing sits (:func:`ema_rig.rig.fit.centre_mass_factor`), when the rig file gives three
-    radial housing sensors' positions off one line and the driving point's; else ``dpm`` as is.
+    radial housing sensors' positions and the driving point's; else ``dpm`` with the spread of the
+    radial sensors' readings in its std (:func:`ema_rig.rig.fit.radial_spread`: the centre's
+    reading lies between theirs, uniformly: ``2 spread / sqrt(12)`` on the mass).
 
     Each radial residue is uncertain by the mass fit's relative std (same lines, same noise) and
     by the sensor's misalignment reading the mode's cross-axis motion
@@ -952,7 +955,17 @@ def _mass_at_centre(dpm: Any, modes: Any, rig: RigConfig, index: int, hm: Any, n
     u_res = math.hypot(dpm.modal_mass_std / dpm.modal_mass, CROSS_AXIS_RATIO_STD * max(rhos, default=0.0))
     got = centre_mass_factor(modes, rig, index, u_res)
     if got is None:
-        return dpm
+        # without the sensors' positions the centre's reading is unknown; it lies between the radial
+        # sensors' readings (the centre inside their span): uniform over the spread, std spread / sqrt(12)
+        spread = radial_spread(modes, rig, index)
+        if spread is None:
+            return dpm
+        u_c = 2 * spread / math.sqrt(12)
+        if u_c >= MASS_RESOLUTION:
+            notes.append(f"the radial housing sensors read the housing mode {100 * spread:.2f} % apart (the housing "
+                         f"tilts in it, or their calibrations differ) and their positions are not in the rig file: the "
+                         f"driving-point modal mass is the housing centre's to +/- {100 * u_c:.2f} %")
+        return replace(dpm, modal_mass_std=math.hypot(dpm.modal_mass_std, u_c * dpm.modal_mass))
     fac, u_fac = got
     mass = dpm.modal_mass * fac
     std = mass * math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_fac)
