@@ -45,7 +45,7 @@ def test_tilt_stiffness_within_2_sigma(tmp_path, seed, fx, fz):
         assert t.stiffness_std == pytest.approx(math.hypot(t.stiffness_std_measured, 0.002 * t.stiffness), rel=1e-9)
         assert t.stiffness_std / t.stiffness < 0.003
         # the mode's measured rotary inertia agrees with the declared one (the check that picked it)
-        assert abs(math.log(t.modal_inertia / truth.rotary_inertia())) < math.log(1.5)
+        assert abs(math.log(t.modal_inertia / truth.rotary_inertia())) < math.log(1.4)
     assert not any(r.startswith("tilt") for r in rb.reasons)
     # JSON: per axis, N m/rad
     d = res.to_dict()["housing_rigid_body"]["tilt_stiffness"]
@@ -84,6 +84,11 @@ def test_tilt_unidentifiable_where_the_sensors_see_one_combination(tmp_path):
     rig = load_rig(rig2)
     rb2 = st.estimate_stiffness(read_uff58(uff2, rig=rig), rig, spindle=False).rigid_body
     assert rb2.tilt == () and any("rotary inertia" in r for r in rb2.reasons)
+    # the tilt modes below the band (the paper-like 118 / 141 Hz): no other mode is taken for them
+    truth3 = TiltRigTruth(k_TB=65e6, tilt_x_freq=118.0, tilt_z_freq=141.0, seed=2)
+    rb3 = _estimate(tmp_path, "low", truth3).rigid_body
+    assert rb3.tilt == ()
+    assert sum("no identified mode tilts the housing" in r for r in rb3.reasons) == 2
 
 
 def test_off_centre_sensor_masses_no_longer_silent(tmp_path):

@@ -648,10 +648,12 @@ TILT_MIN_SHARE = 0.5
 rigid-body kinetic energy seen by its radial sensors (translation and both tilts): the axis it
 moves most, by definition."""
 
-TILT_INERTIA_RATIO = 1.5
+TILT_INERTIA_RATIO = 3.0
 """A tilt mode's modal rotary inertia (measured from its rigid-body shape and driving-point residue)
-must lie within this factor of the declared one: on the issue-19 tilt truths the tilt modes give it
-within 15 %, while the flexible housing modes read as 'tilts' of 5-20 times the inertia."""
+must lie within this factor of the declared one. On the issue-19 tilt truths (40 runs, 80 tilt
+modes) the tilt modes give 0.80-1.36 times the declared inertia (the driving point's 2 deg
+misalignment reads the housing's lateral motion in a tilt), while the ovalisation and flexible
+housing modes read as 'tilts' of 6-70 times it: the factor sits near their geometric middle."""
 
 TILT_MIN_SPREAD = 0.1
 """The radial housing sensors' (x, z) offsets must span a plane: the smaller singular value of the
