@@ -30,8 +30,11 @@ estimate of the residues and residual terms under independent complex Gaussian n
 the lines near the largest peak, where the noise is largest in absolute terms, set the residues
 of the weak modes and the residual terms. When the variances share one line profile up to a
 scale per channel (a scale does not change a channel's fit), the basis is weighted and factored
-once as above; otherwise each channel gets its own weighted basis, factored in batches of
-channels.
+once as above; otherwise each channel solves its normal equations in the orthonormal basis of
+the shared factorization (one matrix product over the lines for all channels, then a small
+eigen-solve per channel): on 256 outputs x 1801 lines x 8 modes 0.04 s against 0.01 s unweighted.
+``identify`` reports per channel the weighted fit unless the model errs there (see
+``_lsfd_noise_weighted``).
 """
 
 from __future__ import annotations
