@@ -176,6 +176,14 @@ def test_weighted_lsfd_is_the_weighted_least_squares_solution():
     assert m.meta["weighted"] == "per channel"
     # both solve the same full-rank problem; they differ by rounding only (measured 3e-12)
     np.testing.assert_allclose(m.residues, _direct_weighted_residues(data, t.poles, var), rtol=1e-8)
+    # more channels (18) than unknowns (12): the normal matrices through the lines' outer products
+    from ema_rig.frf import FRFData
+
+    many = FRFData(t.freq, np.concatenate([t.frf, 1.5 * t.frf[::-1], -t.frf]), [f"{k}+Y" for k in range(1, 19)],
+                   t.in_dofs, frf_form="accelerance")
+    var18 = np.concatenate([var, 2.25 * var[::-1] * rng.uniform(0.5, 2.0, var.shape), var[::-1]])
+    np.testing.assert_allclose(lsfd(many, t.poles, variance=var18).residues,
+                               _direct_weighted_residues(many, t.poles, var18), rtol=1e-8)
     # one line profile times a channel scale: the shared factorization, same answer as the lstsq
     prof = t.variance[0, 0] * np.arange(1, 7)[:, None, None]
     m2 = lsfd(data, t.poles, variance=prof)
