@@ -94,36 +94,20 @@ def powers(x: NDArray[Any], n: int) -> NDArray[Any]:
     return out.reshape(-1, x.size)[: n + 1]
 
 
-def _polyvals(coef: NDArray[Any], x: NDArray[Any], n: int) -> NDArray[Any]:
-    """Values of the polynomials in the rows of ``coef`` (shape (r, n + 1), real) at ``x``.
+def _prepare(coef: NDArray[Any], dcoef: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The coefficients of p and p' cut into the blocks of :func:`_block_powers`.
 
-    Shape (r, x.size), same dtype as ``x``. Without forming every power: with the tables of
-    :func:`_block_powers`, ``p(x) = sum_k x^(b k) sum_i c_(b k + i) x^i``, the inner sums for
-    every block ``k`` in one real matrix product (complex ``x`` viewed as pairs of reals), so
-    the work arrays hold ``~2 sqrt(n)`` rows instead of ``n + 1``.
+    Returns ``(blocks, abs_blocks)``: shape (2 K, b), rows ``k`` holding ``c_(b k) .. c_(b k + b - 1)``
+    of p (first K rows) and of p' (last K rows), zero-padded; and the moduli of p's blocks,
+    shape (K, b).
     """
-    base, big = _block_powers(x, n)
-    b, k = base.shape[0], big.shape[0]
-    r = coef.shape[0]
-    blocks = np.zeros((r, k * b))
-    blocks[:, : n + 1] = coef
-    blocks = blocks.reshape(r * k, b)
-    if np.iscomplexobj(x):
-        inner = (blocks @ base.view(np.float64)).view(np.complex128)
-    else:
-        inner = blocks @ base
-    inner = inner.reshape(r, k, x.size)
-    inner *= big
-    return cast("NDArray[Any]", inner.sum(axis=1))
-
-
-def _stack(coef: NDArray[Any], dcoef: NDArray[Any]) -> NDArray[np.float64]:
-    """Coefficients of p and p' as the rows of one (2, N + 1) real matrix (p' padded with 0)."""
     n = coef.size - 1
-    out = np.zeros((2, n + 1))
-    out[0] = coef
-    out[1, :n] = dcoef
-    return out
+    b = max(1, math.isqrt(n) + 1)
+    k = -(-(n + 1) // b)
+    st = np.zeros((2, k * b))
+    st[0, : n + 1] = coef
+    st[1, :n] = dcoef
+    return st.reshape(2 * k, b), np.abs(st[0]).reshape(k, b)
 
 
 def _ratio(c: NDArray[Any], dc: NDArray[Any], cr: NDArray[Any], dcr: NDArray[Any], z: NDArray[Any],
@@ -131,47 +115,55 @@ def _ratio(c: NDArray[Any], dc: NDArray[Any], cr: NDArray[Any], dcr: NDArray[Any
     """Newton ratio p(z) / p'(z) and a flag "p(z) is at rounding level" for every z.
 
     Inside the unit circle p is evaluated directly, outside through the reversed polynomial
-    ``q(y) = y^N p(1/y)``, so no power of z exceeds 1 in modulus. ``p`` and ``p'`` are
-    evaluated together (:func:`_polyvals`).
-    The flag's bound (the polynomial of the coefficients' moduli at ``|z|``) is computed only
-    where the Newton ratio is below :data:`_NEAR` of ``|z|`` (and ``test`` is True): farther
-    from a root (or from a cluster of roots, where ``p'`` is small as well) ``p`` is not at
-    rounding level, and the flag is False.
+    ``q(y) = y^N p(1/y)``, so no power of z exceeds 1 in modulus. ``p`` and ``p'`` are evaluated
+    without forming every power: with the two tables of :func:`_block_powers`,
+    ``p(x) = sum_k x^(b k) sum_i c_(b k + i) x^i``, the inner sums of every block of p and p'
+    in one real matrix product (complex powers viewed as pairs of reals), so the work arrays
+    hold ``~2 sqrt(N)`` rows instead of ``N + 1``. The flag's bound (the polynomial of the
+    coefficients' moduli at ``|z|``, from the moduli of the same tables) is computed only where
+    the Newton ratio is below :data:`_NEAR` of ``|z|`` (and ``test`` is True): farther from a
+    root (or from a cluster of roots, where ``p'`` is small as well) ``p`` is not at rounding
+    level, and the flag is False.
     """
     with np.errstate(divide="ignore", invalid="ignore"):
-        return _ratio_stacked(_stack(c, dc), _stack(cr, dcr), z, test)
+        return _ratio_prepared(_prepare(c, dc), _prepare(cr, dcr), c.size - 1, z, test)
 
 
-def _ratio_stacked(st: NDArray[Any], str_: NDArray[Any], z: NDArray[Any], test: bool) -> tuple[NDArray[Any], NDArray[Any]]:
-    """:func:`_ratio` from the stacked coefficients of p and of the reversed polynomial
-    (:func:`_stack`); the caller silences division warnings (a root may make p' or q zero)."""
-    n = st.shape[1] - 1
+_Prepared = tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
+def _ratio_prepared(pre: _Prepared, pre_rev: _Prepared, n: int, z: NDArray[Any], test: bool) -> tuple[NDArray[Any], NDArray[Any]]:
+    """:func:`_ratio` from the blocked coefficients of p and of the reversed polynomial
+    (:func:`_prepare`); the caller silences division warnings (a root may make p' or q zero)."""
     az = np.abs(z)
     # direct evaluation everywhere while the powers stay far from overflow (one pass);
     # otherwise the roots outside the unit circle go through the reversed polynomial
     if not (az.size and n * np.log10(max(az.max(), 1.0)) > 150):
-        return _ratio_part(st, z, az, False, test)
+        return _ratio_part(pre, n, z, az, False, test)
     r = np.empty(z.size, dtype=np.complex128)
     small = np.zeros(z.size, dtype=bool)
     inside = az <= 1.0
-    for idx, coef, flip in ((np.flatnonzero(inside), st, False), (np.flatnonzero(~inside), str_, True)):
+    for idx, coef, flip in ((np.flatnonzero(inside), pre, False), (np.flatnonzero(~inside), pre_rev, True)):
         if idx.size:
-            r[idx], small[idx] = _ratio_part(coef, z[idx], az[idx], flip, test)
+            r[idx], small[idx] = _ratio_part(coef, n, z[idx], az[idx], flip, test)
     return r, small
 
 
-def _ratio_part(st: NDArray[Any], z: NDArray[Any], az: NDArray[Any], flip: bool, test: bool) -> tuple[NDArray[Any], NDArray[Any]]:
-    n = st.shape[1] - 1
+def _ratio_part(pre: _Prepared, n: int, z: NDArray[Any], az: NDArray[Any], flip: bool,
+                test: bool) -> tuple[NDArray[Any], NDArray[Any]]:
     x = 1.0 / z if flip else z
-    p, dp = _polyvals(st, x, n)  # p and p' (or q and q')
+    base, big = _block_powers(x, n)
+    blocks, abs_blocks = pre
+    inner = (blocks @ base.view(np.float64)).view(np.complex128).reshape(2, big.shape[0], x.size)
+    inner *= big
+    p, dp = inner.sum(axis=1)  # p and p' (or q and q')
     # outside: p'(z) / p(z) = N y - y^2 q'(y) / q(y)
     r = p / dp if not flip else 1.0 / (n * x - x * x * dp / p)
     small = np.zeros(z.size, dtype=bool)
     if test:
         near = np.flatnonzero(~(np.abs(r) > _NEAR * az))  # NaN (p = p' = 0) counts as near
         if near.size:
-            # |x^j| = |x|^j: the bound from real powers (no modulus of the complex powers)
-            bound = _polyvals(np.abs(st[:1]), np.abs(x[near]), n)[0]
+            bound = ((abs_blocks @ np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
             small[near] = np.abs(p[near]) <= 4.0 * n * _EPS * bound
     return r, small
 
@@ -241,9 +233,9 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
         return None
     c = np.asarray(c, dtype=float)
     j = np.arange(1, n + 1)
-    st = _stack(c, c[1:] * j)  # p and p'
-    cr = c[::-1].copy()
-    str_ = _stack(cr, cr[1:] * j)  # q(y) = y^N p(1/y) and q'
+    pre = _prepare(c, c[1:] * j)  # p and p'
+    cr = c[::-1]
+    pre_rev = _prepare(cr, cr[1:] * j)  # q(y) = y^N p(1/y) and q'
     z = np.asarray(z0, dtype=np.complex128).copy()
     act = np.arange(n)  # roots still iterating
     s_prev = np.full(n, np.nan, dtype=np.complex128)  # each root's last repulsion sum
@@ -251,7 +243,7 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
         for it in range(maxiter):
             # the warm start moved with the coefficients: no root is at rounding level before
             # the first correction, so the first sweep skips the test
-            r, small = _ratio_stacked(st, str_, z[act], it > 0)
+            r, small = _ratio_prepared(pre, pre_rev, n, z[act], it > 0)
             # a root whose backward error is at rounding level is done: no correction for it
             if small.any():
                 keep = ~small
