@@ -71,12 +71,12 @@ def _block_powers(x: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any]]:
     base[0] = 1.0
     if b > 1:
         base[1:] = x
-        np.cumprod(base[1:], axis=0, out=base[1:])
+        np.multiply.accumulate(base[1:], axis=0, out=base[1:])
     big = np.empty((k, m), dtype=x.dtype)
     big[0] = 1.0
     if k > 1:
         big[1:] = base[b - 1] * x
-        np.cumprod(big[1:], axis=0, out=big[1:])
+        np.multiply.accumulate(big[1:], axis=0, out=big[1:])
     return base, big
 
 
@@ -138,7 +138,7 @@ def _ratio_prepared(pre: _Prepared, pre_rev: _Prepared, n: int, z: NDArray[Any],
     az = np.abs(z)
     # direct evaluation everywhere while the powers stay far from overflow (one pass);
     # otherwise the roots outside the unit circle go through the reversed polynomial
-    if not (az.size and n * np.log10(max(az.max(), 1.0)) > 150):
+    if not (az.size and n * math.log10(max(float(az.max()), 1.0)) > 150):
         return _ratio_part(pre, n, z, az, False, test)
     r = np.empty(z.size, dtype=np.complex128)
     small = np.zeros(z.size, dtype=bool)
