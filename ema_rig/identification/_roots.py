@@ -172,41 +172,18 @@ def _ratio_part(pre: _Prepared, n: int, z: NDArray[Any], az: NDArray[Any], flip:
 #: repulsion sum of the previous sweep (see :func:`aberth`).
 _STALE = 1e-3
 
-#: Elements of one block of the repulsion sums (64 kB of complex numbers: the block's
-#: temporaries stay small).
-_REPULSION_BLOCK = 4096
+#: Elements of one block of the repulsion sums (256 kB of complex numbers; measured on the
+#: pLSCF denominators of benchmarks/bench_plscf.py: 4x smaller blocks cost 5-15 % more time,
+#: one block for all rows at degree 200 more again).
+_REPULSION_BLOCK = 16384
 
 
-def _repulsion(za: NDArray[Any], zf: NDArray[Any]) -> NDArray[Any]:
-    """``sum_{j != i} 1 / (za[i] - za[j]) + sum_k 1 / (za[i] - zf[k])`` for every ``i``.
+def _repulsion(zr: NDArray[Any], ir: NDArray[Any], z: NDArray[Any]) -> NDArray[Any]:
+    """``sum_{j != ir[i]} 1 / (zr[i] - z[j])`` for the roots ``zr = z[ir]`` (Aberth's correction term).
 
-    Aberth's correction term of the iterating roots ``za`` with respect to each other and to
-    the accepted roots ``zf``. Among the iterating roots each pair is divided once
-    (``1 / (za[j] - za[i]) = -1 / (za[i] - za[j])``), in blocks of rows so that the
-    temporaries stay small. The caller silences division warnings (two coincident
-    approximations give an infinite sum).
+    In blocks of rows, so that the ``(rows, z.size)`` temporaries stay small. The caller
+    silences division warnings (two coincident approximations give an infinite sum).
     """
-    m = za.size
-    out = np.zeros(m, dtype=np.complex128)
-    step = max(1, _REPULSION_BLOCK // max(m + zf.size, 1))
-    for a in range(0, m, step):
-        b = min(a + step, m)
-        k = np.arange(b - a)
-        # row i of the block: columns a..m-1 (its own pairs with later roots and the block)
-        d = np.subtract.outer(za[a:b], za[a:])
-        d[k, k] = 1.0
-        np.reciprocal(d, out=d)
-        out[a:b] += d.sum(axis=1) - 1.0  # without the diagonal's 1/1
-        out[b:] -= d[:, b - a :].sum(axis=0)  # the same pairs seen from the later roots
-        if zf.size:
-            f = np.subtract.outer(za[a:b], zf)
-            np.reciprocal(f, out=f)
-            out[a:b] += f.sum(axis=1)
-    return out
-
-
-def _repulsion_rows(zr: NDArray[Any], ir: NDArray[Any], z: NDArray[Any]) -> NDArray[Any]:
-    """``sum_{j != ir[i]} 1 / (zr[i] - z[j])`` for a few roots ``zr = z[ir]`` (blocks of rows)."""
     m, n = zr.size, z.size
     out = np.empty(m, dtype=np.complex128)
     step = max(1, _REPULSION_BLOCK // max(n, 1))
@@ -255,18 +232,10 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
             # the previous sweep changes the step only at second order (the roots have moved
             # little since): reuse it, and sum afresh only where it matters
             stale = np.abs(r * s_prev[act]) < _STALE  # NaN (no previous sum) compares False
-            if not stale.any():
-                if act.size < n:
-                    done = np.ones(n, dtype=bool)
-                    done[act] = False
-                    s = _repulsion(za, z[done])
-                else:
-                    s = _repulsion(za, z[:0])
-            else:
-                s = s_prev[act]
-                fresh = np.flatnonzero(~stale)
-                if fresh.size:
-                    s[fresh] = _repulsion_rows(za[fresh], act[fresh], z)
+            s = s_prev[act]
+            fresh = np.flatnonzero(~stale)
+            if fresh.size:
+                s[fresh] = _repulsion(za[fresh], act[fresh], z)
             s_prev[act] = s
             w = r / (1.0 - r * s)
             ok = np.isfinite(w)
