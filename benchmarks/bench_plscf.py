@@ -131,15 +131,16 @@ def err_ema(ps: Any, order: int, lam_true: complex) -> tuple[float, float]:
     return ps.natural_freq[k] / fn0 - 1, ps.damping_ratio[k] / z0 - 1
 
 
-def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[float, float, int]:
-    """(seconds in the root step, seconds of one evaluation pass at the final roots, orders).
+def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[float, float, int, float]:
+    """(root step [s], one evaluation pass at the final roots [s], orders, root step's share of the call).
 
     Each order's root step is recorded with its inputs during one ``plscf`` call and then
     replayed ``replays`` times, interleaved with its floor (one evaluation at the final
     roots); per order the fastest replay of each counts. On a shared machine a step of a
     fraction of a millisecond timed once inside the call can absorb a whole time slice of
     another process; the minimum of paired replays is the cost without that interference,
-    for the step and its floor alike.
+    for the step and its floor alike. The share is the root step's wall time inside that
+    ``plscf`` call over the call's wall time (both with the machine's interference).
     """
     import importlib
 
@@ -148,9 +149,12 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
     mod = importlib.import_module("ema_rig.identification.plscf")
     calls: list[tuple[Callable[[], Any], np.ndarray, np.ndarray]] = []
     aberth0, eig0 = mod.aberth, mod._roots_eig
+    in_call = [0.0]
 
     def rec_aberth(c: np.ndarray, z0: np.ndarray) -> Any:
+        t0 = time.perf_counter()
         z = aberth0(c, z0)
+        in_call[0] += time.perf_counter() - t0
         if z is not None:
             calls.append((lambda c=c, z0=z0: aberth0(c, z0), c, z))
         else:  # the fallback that follows is timed as its own call
@@ -158,13 +162,17 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
         return z
 
     def rec_eig(low: np.ndarray) -> Any:
+        t0 = time.perf_counter()
         z = eig0(low)
+        in_call[0] += time.perf_counter() - t0
         calls.append((lambda low=low: eig0(low), det_coefficients(low), z))
         return z
 
     mod.aberth, mod._roots_eig = rec_aberth, rec_eig
     try:
+        t0 = time.perf_counter()
         call_ema(data, max_order)
+        total = time.perf_counter() - t0
     finally:
         mod.aberth, mod._roots_eig = aberth0, eig0
     step = floor = 0.0
@@ -186,7 +194,7 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
         if z.size:
             floor += min(tf)
             orders += 1
-    return step, floor, orders
+    return step, floor, orders, in_call[0] / total
 
 
 def mb(nbytes: int) -> str:
@@ -329,16 +337,17 @@ def main() -> int:
 
     print("\nRoot step against its floor (ema_rig, one reference, BLAS 1 thread): seconds finding the roots of")
     print("every order vs one evaluation of p and p' at the final roots of every order; per order the fastest")
-    print("of 3 paired replays of each, median of 3 such runs; share = step / fastest of 3 plscf calls")
+    print("of 3 paired replays of each, median of 3 such runs; share = the root step's part of the plscf call's")
+    print("wall time, timed inside the call (median of the 3 runs)")
     head = f"{'max order':>9} | {'root step [s]':>13} {'floor [s]':>10} {'step/floor':>10} | {'share of plscf':>14}"
     print(head)
     print("-" * len(head))
     for mo in orders:
         with blas_threads(1):
             runs = [root_step_and_floor(data1, mo) for _ in range(3)]  # each: fastest of 3 replays per order
-            total = min(paired(lambda mo=mo: call_ema(data1, mo), lambda: None, 3)[0])
         step, floor = statistics.median(r[0] for r in runs), statistics.median(r[1] for r in runs)
-        print(f"{mo:>9} | {step:>13.4f} {floor:>10.4f} {step / floor:>10.1f} | {step / total:>13.0%}")
+        share = statistics.median(r[3] for r in runs)
+        print(f"{mo:>9} | {step:>13.4f} {floor:>10.4f} {step / floor:>10.1f} | {share:>13.0%}")
 
     print(f"\nCold: first call in a fresh interpreter, default BLAS threads, median of {n_cold} per tool "
           "(alternating); import apart; peak = RSS the call added")
