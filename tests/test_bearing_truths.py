@@ -193,13 +193,16 @@ def test_driving_point_mass_carries_the_identified_damping_std(tmp_path):
 
 
 def test_off_m_h_untrusted_force_chain_is_measured_with_its_std(tmp_path):
-    # without a stated force chain the measured mass carries the default 2 % of the FRF scale
+    # without a stated force chain the driving-point mass carries the default 2 % of the FRF scale;
+    # the mode's spindle/housing ratio measures m_H a second time without the force chain (k_S 2 %,
+    # relative calibration 0.9 %: ~2.7 %), so the combination lies between ~1.5 % and the 2 %
     truth = RigTruth(k_TB=66.3e6, file_m_H_factor=0.97, seed=2)
     res = _estimate(tmp_path, "mh2", truth)
     hm = res.housing_mass
     assert hm is not None and hm.used == hm.measured and not hm.force_chain_stated
     assert abs(hm.measured - 2.566) <= 2 * hm.measured_std
-    assert 0.02 <= hm.measured_std / hm.measured < 0.025
+    assert 0.012 <= hm.measured_std / hm.measured < 0.02
+    assert any("m_H measured twice" in n for n in res.notes)
     assert res.warnings == () and abs(_z(res, truth)) <= 2.0
     # the 3 % off rig file, inverted as it stands, is 5-6 % off: the measured mass does the work
     assert abs(res.inversion_3dof["k_TB"] / truth.k_TB - 1) > 0.04

@@ -646,11 +646,15 @@ def estimate_stiffness(
     if asm.m_H_rel_std is not None:
         rel_unc["m_H"] = float(asm.m_H_rel_std)
     hmass = asm.housing_mass
+    budget_unc = dict(rel_unc)
+    if asm.m_H_budget is not None:
+        budget_unc["m_H"] = float(asm.m_H_budget[0])
     id_warns, id_notes = _identification_caveats(ident, m, asm)
     try:
-        unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, rel_unc, k_MS_std=k_ms_std,
+        unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, budget_unc, k_MS_std=k_ms_std,
                                     model_form=asm.model_form,
-                                    measured=("m_H",) if hmass is not None and hmass.used is not None else ())
+                                    measured=("m_H",) if hmass is not None and hmass.used is not None else (),
+                                    shared=None if asm.m_H_budget is None else asm.m_H_budget[1])
     except InversionError as exc:
         exc.file = exc.file or file
         raise
