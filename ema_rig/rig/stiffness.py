@@ -51,8 +51,9 @@ resolved silently; it is either covered by a stated model-form term *and* a warn
   viscous/hysteretic difference is always in the budget (no warning);
 * issue 19, what the measured evidence resolves (notes, terms; warnings only where it cannot):
   the driving-point modal mass measured with its std (:mod:`ema_rig.rig.fit`) against the
-  model's — bounding close neighbours, measuring ``m_H`` where ``[uncertainty] force_chain`` is
-  stated, a warning naming both masses outside the tolerance; a cross-axis coupled partner
+  model's — bounding close neighbours, measuring ``m_H`` (with a second, force-chain-free
+  measurement from the housing mode's spindle/housing ratio), a warning naming both masses
+  outside the tolerance; a cross-axis coupled partner
   (two-mode reduction); two modes sharing the housing's radial motion (the 4DOF split-housing
   fit). The plain 3DOF inversion is kept beside the result (``inversion_3dof``); the bearing's
   damping ``c_TB``/loss factor and the housing's axial and cross stiffness are reported with stds;

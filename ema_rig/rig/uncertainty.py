@@ -547,8 +547,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     * **split housing mass**: the housing mode's effective mass is >10 % above the model's and
       modes within +-25 % that look like the housing mode in every respect but the mass carry
       the missing participation (an appendage, a load arm): the uncoupled frequency ``fu`` is
-      recovered from the group's driving-point compliance (:func:`_uncoupled_freq`) when the
-      group's participation matches the model's within 10 %. Modal data cannot tell this from
+      recovered from the 4DOF split-housing fit (:func:`ema_rig.rig.fit.fit_split_housing`; the
+      part is inside ``m_H``, whose tolerance stays the rig file's, when the fitted scale of both
+      modal masses agrees with it at :data:`MASS_AGREE_SIGMAS`; else widened to the discrepancy
+      within the force chain, else by ``m_a / m_H``), or from the group's driving-point compliance
+      (:func:`_uncoupled_freq`) when the group's participation matches the model's within 10 %. Modal data cannot tell this from
       independent close modes whose identified participations leak into each other (reading
       ``f0``), so ``sqrt(fu f0)`` is inverted with a term ``|ln(fu / f0)| / 2``: each reading
       1 sigma away; warning;
@@ -571,7 +574,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       (:class:`ema_rig.rig.fit.HousingMass`): the rig file's value is kept within
       :data:`MASS_AGREE_SIGMAS` of its tolerance and the fit's std (combined with the measurement
       when the force chain is stated); beyond, the rig file's m_H with its tolerance widened to the
-      discrepancy or the measured m_H, whichever std is smaller (a note, no warning). Otherwise
+      discrepancy or the measured m_H, whichever std is smaller (a note, no warning). The measured
+      m_H is the driving-point one combined with a second measurement that needs no force chain,
+      the mode's spindle/housing ratio through the 3DOF model
+      (:func:`ema_rig.rig.fit.housing_mass_from_ratio`; it leans on ``k_S``, ``m_S`` and the frame,
+      whose sensitivities the budget then carries), by the weight minimising ``var(k_TB)``. Otherwise
       (not clean) within :data:`MASS_CHECK_SIGMAS` combined sigma the tolerance is widened (note),
       outside it a warning names both masses;
     * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
