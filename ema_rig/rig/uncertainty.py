@@ -905,6 +905,19 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                     f"driving-point modal mass {dpm.modal_mass:.4g} kg is {100 * (r - 1):+.1f} % off the model's "
                     f"{expected:.4g} kg, within the force chain's {100 * u_fc:.1f} %: m_H tolerance widened to "
                     f"{100 * m_h_rel:.1f} %")
+                # the modal mass cannot tell a leak from an off m_H here; the mode's spindle/housing ratio
+                # (no force chain, no residue shared with the neighbour) reads m_H independently: combined
+                # with the widened rig file's value (no cross coupling: it would mix the shape)
+                shape = _mass_by_shape(hm, f_inv, params, rig) if cross is None else None
+                if shape is not None and abs(math.log(shape.m_H / params.m_H)) <= SHAPE_MASS_CONSISTENT * math.hypot(
+                        shape.rel_std, m_h_rel):
+                    w1, w2 = 1 / m_h_rel**2, 1 / shape.rel_std**2
+                    m_h_new = params.m_H * math.exp(w2 * math.log(shape.m_H / params.m_H) / (w1 + w2))
+                    m_h_rel = 1 / math.sqrt(w1 + w2)
+                    notes.append(
+                        f"housing mass from the mode's spindle/housing ratio {shape.ratio:.4f}: {shape.m_H:.4g} +/- "
+                        f"{shape.m_H * shape.rel_std:.2g} kg; combined with the widened rig file's: m_H "
+                        f"{m_h_new:.4g} kg +/- {100 * m_h_rel:.1f} %")
         else:
             msg = (f"driving-point modal mass {dpm.modal_mass:.4g} +/- {dpm.modal_mass_std:.2g} kg is "
                    f"{100 * (r - 1):+.1f} % off the model's {expected:.4g} kg (tolerance {100 * u_r:.1f} %: "
