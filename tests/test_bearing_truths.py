@@ -211,6 +211,7 @@ def test_off_m_h_untrusted_force_chain_is_measured_with_its_std(tmp_path):
 
     html_ = _comparison(json.loads(json.dumps(res.to_dict())))
     assert "Plain 3DOF inversion" in html_ and "Housing mass from the driving-point modal mass" in html_
+    assert "spindle/housing ratio, which alone gives" in html_
     assert "used: measured" in html_
 
 
@@ -322,6 +323,10 @@ def test_undeclared_sensor_masses_measured_twice(tmp_path):
     assert abs(hm.measured - (2.566 + 5 * 0.012429)) <= 2 * hm.measured_std
     assert hm.measured_std / hm.measured < 0.018
     assert any("m_H measured twice" in n for n in res.notes)
+    # both readings in the JSON; the shape's alone within 2 of its sigma of the truth
+    doc = json.loads(json.dumps(res.to_dict()))["housing_mass"]
+    assert doc["m_H_from_shape"] == pytest.approx(hm.by_shape, rel=1e-12)
+    assert abs(hm.by_shape - (2.566 + 5 * 0.012429)) <= 2 * hm.by_shape_std
     # the shape route leans on k_S: its k_TB sensitivity turns positive (-0.24 direct, +0.9 through m_H)
     assert res.uncertainty.term("k_S").sensitivity > 0.3
 

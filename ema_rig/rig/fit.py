@@ -337,6 +337,10 @@ class HousingMass:
         What the inversion used: ``'rig file'``, ``'combined'`` (rig file and measurement by
         inverse variance, force chain stated), ``'rig file, tolerance widened'`` (the discrepancy
         is smaller than the measurement's std) or ``'measured'``.
+    by_shape, by_shape_std : float or None
+        ``m_H`` [kg] from the housing mode's spindle/housing ratio (:func:`housing_mass_from_ratio`,
+        no force chain) and its std, when it entered ``measured`` (None: not available or not
+        consistent with the modal mass); ``measured`` then combines both.
     """
 
     measured: float
@@ -350,6 +354,8 @@ class HousingMass:
     force_chain_stated: bool
     agrees: bool
     source: str = "rig file"
+    by_shape: float | None = None
+    by_shape_std: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Plain dict for JSON (masses in kg)."""
@@ -360,7 +366,8 @@ class HousingMass:
                 "source": self.source,
                 "relative_difference": self.measured / self.rig_file - 1, "agrees_with_rig_file": self.agrees,
                 "modal_mass": self.modal_mass, "modal_mass_std": self.modal_mass_std,
-                "force_chain": self.force_chain, "force_chain_stated": self.force_chain_stated}
+                "force_chain": self.force_chain, "force_chain_stated": self.force_chain_stated,
+                "m_H_from_shape": self.by_shape, "m_H_from_shape_std": self.by_shape_std}
 
 
 def measured_housing_mass(f_h: float, modal_mass: float, params: ModelParams) -> float | None:

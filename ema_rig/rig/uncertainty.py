@@ -887,7 +887,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             housing_mass = HousingMass(
                 measured=mm, measured_std=mm * u_m, rig_file=params.m_H, used=m_h_new,
                 used_rel_std=m_h_rel, modal_mass=dpm.modal_mass, modal_mass_std=dpm.modal_mass_std,
-                force_chain=u_fc, force_chain_stated=trusted, agrees=agrees, source=source)
+                force_chain=u_fc, force_chain_stated=trusted, agrees=agrees, source=source,
+                by_shape=by_shape.m_H if by_shape is not None else None,
+                by_shape_std=by_shape.m_H * by_shape.rel_std if by_shape is not None else None)
             # all of the discrepancy could be a neighbour's leak: it bounds the neighbour terms below
             leak_bound = d_rig + MASS_CHECK_SIGMAS * u_r
             if source == "measured":
