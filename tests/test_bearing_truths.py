@@ -348,15 +348,18 @@ def test_appendage_inside_the_housing_mass_keeps_its_tolerance(tmp_path):
     assert not any("the appendage is inside m_H" in n for n in res2.notes)
 
 
-def test_viscous_bearing_beside_a_close_frame_mode(tmp_path):
-    # seed 8 of the study's viscous class: the housing mode at 656.5 Hz, 1 % from the 663 Hz frame
-    # mode; the driving-point modal mass (+3.7 %) cannot tell a leak from an off m_H, so m_H's
-    # tolerance was widened to 3.6 % and c_TB (3.1x as sensitive to m_H) had sigma 11.7 %. The mode's
-    # spindle/housing ratio reads m_H without that residue: c_TB sigma 7.7 %
-    truth = RigTruth(k_TB=86.21e6, damping="bearing_viscous", c_TB=2333.3, seed=8)
-    res = _estimate(tmp_path, "visc8", truth)
-    assert res.warnings == ()
-    assert any("spindle/housing ratio" in n and "widened rig file" in n for n in res.notes)
-    assert abs(res.c_TB - 2333.3) <= 2 * res.c_TB_std
-    assert res.c_TB_std / res.c_TB <= 0.09
-    assert abs(_z(res, truth)) <= 2.0 and res.k_TB_std / res.k_TB < 0.055
+def test_shape_mass_not_used_beside_a_neighbour(tmp_path):
+    # the issue-11 truths' 10 % hysteretic damping, seed 5: beside the 690 Hz mode the housing mode's
+    # spindle/housing ratio reads m_H 10.6 % high (the neighbour's shape leaks into it as its residue
+    # into the modal mass); combined with the widened rig file's m_H it gave k_TB +15.7 % at z 2.5,
+    # silently. Beside a neighbour the ratio is not used: within 2 sigma (or warned)
+    truth = RigTruth(zeta=0.10, damping="hysteretic", seed=5)
+    res = _estimate(tmp_path, "hyst5", truth)
+    assert not any("spindle/housing ratio" in n for n in res.notes)
+    assert res.warnings or abs(_z(res, truth)) <= 2.0
+    # the shape route alone, for the record: it is the one that is off
+    from ema_rig.rig.uncertainty import _mass_by_shape
+
+    shape = _mass_by_shape(res.housing_mode, res.inverted_freq, load_rig(tmp_path / "hyst5.toml").model,
+                           load_rig(tmp_path / "hyst5.toml"))
+    assert shape is not None and shape.m_H / 2.566 - 1 > 0.05
