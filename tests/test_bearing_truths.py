@@ -312,16 +312,17 @@ def test_housing_mass_from_the_mode_shape_against_an_eigen_solution():
 
 def test_undeclared_sensor_masses_measured_twice(tmp_path):
     # seed 0 of the study's class: 62 g of undeclared sensors (2.4 % of m_H), force chain not stated
-    # (2 %). The driving-point mass alone measured m_H to 2.0 % (sigma(k_TB) 3.9 %); with the mode's
-    # spindle/housing ratio as a second measurement 1.2 % and sigma(k_TB) 2.9 %
+    # (2 %), no sensor positions (the centre's reading within the radial sensors' spread, 1.5 %). The
+    # driving-point mass alone measured m_H to 2.6 % (sigma(k_TB) 5.0 %); with the mode's
+    # spindle/housing ratio as a second measurement sigma(k_TB) 3.3 %
     truth = RigTruth(k_TB=66.339e6, sensor_mass=0.012429, declare_sensor_masses=False, seed=0)
     res = _estimate(tmp_path, "und", truth)
     assert res.warnings == () and abs(_z(res, truth)) <= 2.0
-    assert res.k_TB_std / res.k_TB < 0.031
+    assert res.k_TB_std / res.k_TB < 0.036
     hm = res.housing_mass
     assert hm is not None and hm.source == "measured"
     assert abs(hm.measured - (2.566 + 5 * 0.012429)) <= 2 * hm.measured_std
-    assert hm.measured_std / hm.measured < 0.018
+    assert hm.measured_std / hm.measured < 0.021
     assert any("m_H measured twice" in n for n in res.notes)
     # both readings in the JSON; the shape's alone within 2 of its sigma of the truth
     doc = json.loads(json.dumps(res.to_dict()))["housing_mass"]
