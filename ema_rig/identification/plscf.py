@@ -474,15 +474,55 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
 
     Returns ``(alpha_low, alpha_high)``, each of shape (n + 1, n_in, n_in) holding
     ``alpha_0 .. alpha_n``: ``alpha_low`` with ``alpha_0 = I``, ``alpha_high`` with
-    ``alpha_n = I``. ``m`` is the reduced normal matrix ``M_n``, shape ((n+1) n_in, (n+1) n_in).
+    ``alpha_n = I``. ``m`` is the reduced normal matrix ``M_n``, shape ((n+1) n_in, (n+1) n_in);
+    only its lower triangle is read.
+
+    Both come from ONE Cholesky factor ``M = G G^T``. With ``alpha_n = I`` the equations are
+    ``M[:k, :k] x = -M[:k, k:]`` (``k = n n_in``), and ``G[:k, :k]`` is the Cholesky factor of the
+    leading block, so ``x = -G[:k, :k]^-T G[k:, :k]^T`` (one triangular solve). With
+    ``alpha_0 = I`` the solution ``theta = [I; x]`` satisfies ``M theta = E_0 Lambda`` (``E_0``
+    the first ``n_in`` columns of I), so ``theta = M^-1 E_0`` normalised to a leading block I:
+    two triangular solves. Both are backward stable for ``M`` as a whole, like the two
+    separate Cholesky solves of the sub-blocks they replace (half the factorisation work).
+    When ``M`` is not numerically positive definite the sub-blocks are solved apart
+    (:func:`_spd_solve`, least squares as the last resort).
     """
+    from scipy.linalg.lapack import dpotrf, dtrtrs
+
     eye = np.eye(n_in)
-    x_low = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in])
     k = n * n_in
-    x_high = _spd_solve(m[:k, :k], -m[:k, k:])
+    g, info = dpotrf(m, lower=1, clean=0)
+    x_low = x_high = None
+    if info == 0:
+        xh, info_h = dtrtrs(g[:k, :k], g[k:, :k].T, lower=1, trans=1)
+        y, info_y = dtrtrs(g, np.eye(k + n_in, n_in), lower=1)
+        u, info_u = dtrtrs(g, y, lower=1, trans=1)
+        if info_h == 0 and info_y == 0 and info_u == 0:
+            # u[:n_in] = (M^-1)[:n_in, :n_in] is symmetric positive definite
+            x_low = np.linalg.solve(u[:n_in], u[n_in:].T).T
+            x_high = -xh
+    if x_low is None or x_high is None or not (np.all(np.isfinite(x_low)) and np.all(np.isfinite(x_high))):
+        m = np.tril(m) + np.tril(m, -1).T  # the least-squares fallback reads the whole matrix
+        x_low = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in])
+        x_high = _spd_solve(m[:k, :k], -m[k:, :k].T)
     low = np.concatenate([eye, x_low]).reshape(n + 1, n_in, n_in)
     high = np.concatenate([x_high, eye]).reshape(n + 1, n_in, n_in)
     return low, high
+
+
+def _add_gram(p: NDArray[Any], q: NDArray[Any]) -> NDArray[Any]:
+    """``p + q^T q`` in the LOWER triangle of ``p`` (in place when ``p`` is C-contiguous), returned.
+
+    ``q`` has shape (m, ncol), ``p`` (ncol, ncol). One symmetric rank-m update (BLAS ``dsyrk``)
+    for a whole block of rows: half the work of ``q.T @ q`` and one pass over ``p`` instead of
+    one per row. The upper triangle of ``p`` is not updated.
+    """
+    from scipy.linalg.blas import dsyrk
+
+    # a C-contiguous (m, ncol) array is the Fortran array q^T; the upper triangle of the
+    # Fortran array p^T is the lower triangle of p
+    out = dsyrk(1.0, np.ascontiguousarray(q).T, beta=1.0, c=p.T, trans=0, lower=0, overwrite_c=1)
+    return cast("NDArray[Any]", out.T)
 
 
 def _spd_solve(a: NDArray[Any], b: NDArray[Any]) -> NDArray[Any]:
@@ -816,10 +856,9 @@ class PlscfEngine:
         self._sp = self._s[:, :, lags]  # lag sums -p..p, (n_out, n_in, 2p+1)
         self._alloc = p
         ncol = (p + 1) * self.n_in
-        self._P = np.zeros((ncol, ncol))
+        self._P = np.zeros((ncol, ncol))  # lower triangle only (_add_gram)
         for _, rows in self._row_blocks(0, self._done - 1):
-            q = rows.reshape(-1, ncol)
-            self._P += q.T @ q
+            self._P = _add_gram(self._P, rows.reshape(-1, ncol))
 
     def _row_blocks(self, a: int, b: int) -> Iterator[tuple[int, NDArray[Any]]]:
         """Rows ``a..b`` of ``Q`` in blocks of at most :data:`_Q_BLOCK_BYTES`: (first row, rows)."""
@@ -853,13 +892,16 @@ class PlscfEngine:
 
         def solvable() -> Iterator[int]:
             # add the rows of Q one block at a time; an order is solved once its rows are in P
+            # (the rows since the last solved order are added together, one rank update)
             for i0, rows in self._row_blocks(self._done, order_list[-1]):
+                a = 0
                 for k in range(rows.shape[0]):
-                    q = rows[k]
-                    self._P += q.T @ q
-                    self._done = i0 + k + 1
-                    if i0 + k in wanted:
-                        yield i0 + k
+                    if i0 + k in wanted or k == rows.shape[0] - 1:
+                        self._P = _add_gram(self._P, rows[a : k + 1].reshape(-1, rows.shape[2]))
+                        a = k + 1
+                        self._done = i0 + k + 1
+                        if i0 + k in wanted:
+                            yield i0 + k
 
         # per order: solve and root; the polish of the stable roots and the participation
         # factors of all these orders follow at once (_poles_of_orders)
