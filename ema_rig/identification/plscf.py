@@ -477,30 +477,30 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
     ``alpha_n = I``. ``m`` is the reduced normal matrix ``M_n``, shape ((n+1) n_in, (n+1) n_in);
     only its lower triangle is read.
 
-    Both come from ONE Cholesky factor ``M = G G^T``. With ``alpha_n = I`` the equations are
-    ``M[:k, :k] x = -M[:k, k:]`` (``k = n n_in``), and ``G[:k, :k]`` is the Cholesky factor of the
-    leading block, so ``x = -G[:k, :k]^-T G[k:, :k]^T`` (one triangular solve). With
-    ``alpha_0 = I`` the solution ``theta = [I; x]`` satisfies ``M theta = E_0 Lambda`` (``E_0``
-    the first ``n_in`` columns of I), so ``theta = M^-1 E_0`` normalised to a leading block I:
-    two triangular solves. Both are backward stable for ``M`` as a whole, like the two
-    separate Cholesky solves of the sub-blocks they replace (half the factorisation work).
-    When ``M`` is not numerically positive definite the sub-blocks are solved apart
-    (:func:`_spd_solve`, least squares as the last resort).
+    Both come from ONE Cholesky factor ``M = G G^T``: the solution ``theta = [I; x]`` of the
+    constraint ``alpha_0 = I`` satisfies ``M theta = E_0 Lambda`` (``E_0`` the first ``n_in``
+    columns of I, ``Lambda`` an ``n_in x n_in`` matrix of multipliers), so ``theta = M^-1 E_0``
+    normalised to a leading block I; likewise ``alpha_n = I`` from ``M^-1 E_n`` (``E_n`` the
+    last ``n_in`` columns). One factorisation and one solve with ``2 n_in`` right-hand sides,
+    backward stable for ``M`` as a whole like the two separate Cholesky solves of the
+    sub-blocks it replaces, at half their work. When ``M`` is not numerically positive definite
+    the sub-blocks are solved apart (:func:`_spd_solve`, least squares as the last resort).
     """
-    from scipy.linalg.lapack import dpotrf, dtrtrs
+    from scipy.linalg.lapack import dpotrf, dpotrs
 
     eye = np.eye(n_in)
     k = n * n_in
     g, info = dpotrf(m, lower=1, clean=0)
     x_low = x_high = None
     if info == 0:
-        xh, info_h = dtrtrs(g[:k, :k], g[k:, :k].T, lower=1, trans=1)
-        y, info_y = dtrtrs(g, np.eye(k + n_in, n_in), lower=1)
-        u, info_u = dtrtrs(g, y, lower=1, trans=1)
-        if info_h == 0 and info_y == 0 and info_u == 0:
-            # u[:n_in] = (M^-1)[:n_in, :n_in] is symmetric positive definite
-            x_low = np.linalg.solve(u[:n_in], u[n_in:].T).T
-            x_high = -xh
+        e = np.zeros((k + n_in, 2 * n_in))
+        e[:n_in, :n_in] = eye
+        e[k:, n_in:] = eye
+        u, info = dpotrs(g, e, lower=1)
+        if info == 0:
+            # the diagonal blocks u[:n_in, :n_in] and u[k:, n_in:] of M^-1 are symmetric positive definite
+            x_low = np.linalg.solve(u[:n_in, :n_in], u[n_in:, :n_in].T).T
+            x_high = np.linalg.solve(u[k:, n_in:], u[:k, n_in:].T).T
     if x_low is None or x_high is None or not (np.all(np.isfinite(x_low)) and np.all(np.isfinite(x_high))):
         m = np.tril(m) + np.tril(m, -1).T  # the least-squares fallback reads the whole matrix
         x_low = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in])
@@ -667,6 +667,11 @@ def _refine_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any], iters
         with np.errstate(all="ignore"):
             if n_in == 1:
                 step = a[:, 0, 0] / da[:, 0, 0]
+            elif n_in == 2:
+                # det A = a00 a11 - a01 a10 and its derivative (product rule), in closed form
+                a00, a01, a10, a11 = a[:, 0, 0], a[:, 0, 1], a[:, 1, 0], a[:, 1, 1]
+                ddet = da[:, 0, 0] * a11 + a00 * da[:, 1, 1] - da[:, 0, 1] * a10 - a01 * da[:, 1, 0]
+                step = (a00 * a11 - a01 * a10) / ddet
             else:
                 ddet = np.zeros(zk.size, dtype=np.complex128)
                 for i in range(n_in):
