@@ -293,18 +293,24 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
 def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any], float]:
     """Weighted lag sums of R, S_o and T for lags -p..p.
 
-    Returns ``r`` (p+1,) real for lags 0..p, ``s`` (n_out, n_in, 2p+1) complex for lags -p..p,
-    ``t`` (n_in, n_in, 2p+1) complex, the output weights (n_out,) and ``dt``.
+    Returns ``r`` (p+1,) for lags 0..p, ``s`` (n_out, n_in, 2p+1) for lags -p..p,
+    ``t`` (n_in, n_in, 2p+1), the output weights (n_out,) and ``dt``: the REAL parts of the
+    sums, all the real-coefficient normal equations use.
 
     The FRF array is never copied whole: the weights are applied to one chunk of outputs at a
     time, and every work array (a chunk of weighted FRFs, its zero-padded FFT, a block of
     exponentials) is held to ``budget`` bytes, an eighth of the data clipped to 8..64 MB, so the
     peak stays near the data size. Equally spaced lines take, per channel, either a zero-padded
-    FFT of length ``2 (n - 1)`` (keeping 2p+1 of its outputs) or the direct sum over the lines
+    inverse real FFT of length ``2 (n - 1)`` (keeping 2p+1 of its outputs; see below) or the direct sum over the lines
     against a table of exponentials, whichever the operation count below makes cheaper (the
     direct sum wins at low orders: about ``(2p+1) n`` multiply-adds against ``nf log2 nf``
     for the FFT); both use the exact angles ``pi k l / (n - 1)``. Unequally spaced lines
     take the direct sum with ``exp(j theta_k l)``.
+
+    Real part by the inverse real FFT: with ``nf = 2 (n - 1)``, ``nf irfft(x, nf)[l]`` is
+    ``Re x_0 + Re x_{n-1} (-1)^l + 2 sum_{k=1}^{n-2} Re(x_k exp(j pi k l / (n - 1)))`` (the
+    transform of the Hermitian extension), so ``Re sum_k x_k exp(j pi k l / (n - 1))`` is its
+    mean with ``Re x_0 + Re x_{n-1} (-1)^l``: half the work of the complex transform.
     """
     f = data.freq
     n = f.size
@@ -332,26 +338,33 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
     even = data.is_even
     n_chan = n_out * n_in + n_in * n_in
     # rough costs in units of one complex multiply-add of a matrix product (measured with one
-    # BLAS thread at 4 001 and 64 001 lines: a table exponential ~ 50, one unit of an FFT's
-    # nf log2 nf ~ 8)
+    # BLAS thread at 4 001 and 64 001 lines: a table exponential ~ 50, one unit of a complex
+    # FFT's nf log2 nf ~ 8)
     cost_direct = n * m * (50.0 + n_chan)
-    cost_fft = 8.0 * n_chan * nf * np.log2(max(nf, 2))
-    s = np.empty((n_out, n_in, m), np.complex128)
+    cost_fft = 4.0 * n_chan * nf * np.log2(max(nf, 2))  # the inverse real FFT: half a complex one
     if even and p < n - 1 and cost_fft < cost_direct:
         idx = lags % nf
+        sign = np.where(lags % 2 == 0, 1.0, -1.0)  # (-1)^l
+
+        def re_sums(x: NDArray[Any]) -> NDArray[Any]:
+            # Re sum_k x_k exp(j pi k l / (n-1)) for l = -p..p along the last axis
+            y = np.fft.irfft(x, n=nf, axis=-1)[..., idx] * nf
+            y += x[..., :1].real + x[..., -1:].real * sign
+            y *= 0.5
+            return y
+
+        s = np.empty((n_out, n_in, m))
         g = np.zeros((n_in, n_in, n), np.complex128)  # sum_o H_o^H H_o per line
         for o0, o1 in chunks(n_in * nf * 16):
             hw = h[o0:o1] * w[o0:o1, None, None]
             g += np.einsum("oak,obk->abk", hw.conj(), hw)
-            # sum_k x_k exp(j pi k l / (n-1)) = nf * ifft(x, nf)[l]
-            s[o0:o1] = np.fft.ifft(hw, n=nf, axis=2)[:, :, idx] * nf
+            s[o0:o1] = re_sums(hw)
             del hw
-        t = np.fft.ifft(g, n=nf, axis=2)[:, :, idx] * nf
-        # lags 0..p of sum_k exp(j theta_k l): real part of a Dirichlet-type sum
-        r = (np.fft.ifft(np.ones(n), n=nf)[idx[p:]] * nf).real
+        t = re_sums(g)
+        r = re_sums(np.ones(n))[p:]  # lags 0..p
         return r, s, t, w, dt
 
-    s[:] = 0.0
+    s = np.zeros((n_out, n_in, m), np.complex128)
     t = np.zeros((n_in, n_in, m), np.complex128)
     r = np.zeros(p + 1)
     if even:
@@ -375,7 +388,7 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
             s[o0:o1] += (hw.reshape(-1, k1 - k0) @ e).reshape(o1 - o0, n_in, m)
             del hw
         t += g @ e
-    return r, s, t, w, dt
+    return r, s.real.copy(), t.real.copy(), w, dt
 
 
 #: Work budget [bytes] of one block of ``Q`` rows (all outputs): half the FRF data, clipped to
