@@ -79,6 +79,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 from collections.abc import Iterable, Iterator, Mapping
@@ -504,22 +505,31 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
     eye = np.eye(n_in)
     k = n * n_in
     g, info = dpotrf(m, lower=1, clean=0)
-    x_low = x_high = None
+    x = None
     if info == 0:
         e = np.zeros((k + n_in, 2 * n_in))
         e[:n_in, :n_in] = eye
         e[k:, n_in:] = eye
         u, info = dpotrs(g, e, lower=1)
         if info == 0:
-            # the diagonal blocks u[:n_in, :n_in] and u[k:, n_in:] of M^-1 are symmetric positive definite
-            x_low = np.linalg.solve(u[:n_in, :n_in], u[n_in:, :n_in].T).T
-            x_high = np.linalg.solve(u[k:, n_in:], u[:k, n_in:].T).T
-    if x_low is None or x_high is None or not (np.all(np.isfinite(x_low)) and np.all(np.isfinite(x_high))):
+            # the diagonal blocks u[:n_in, :n_in] and u[k:, n_in:] of M^-1 are symmetric positive
+            # definite: x_low = u[n_in:, :n_in] u[:n_in, :n_in]^-1, x_high = u[:k, n_in:] u[k:, n_in:]^-1
+            # (both k x n_in; solved together, transposed)
+            piv = np.stack([u[:n_in, :n_in], u[k:, n_in:]])
+            rhs = np.stack([u[n_in:, :n_in].T, u[:k, n_in:].T])
+            with contextlib.suppress(np.linalg.LinAlgError):  # singular pivot block: the fallback below
+                x = np.linalg.solve(piv, rhs)
+    low = np.empty((n + 1, n_in, n_in))
+    high = np.empty((n + 1, n_in, n_in))
+    low[0] = eye
+    high[n] = eye
+    if x is not None and np.all(np.isfinite(x)):
+        low[1:] = x[0].T.reshape(n, n_in, n_in)
+        high[:n] = x[1].T.reshape(n, n_in, n_in)
+    else:
         m = np.tril(m) + np.tril(m, -1).T  # the least-squares fallback reads the whole matrix
-        x_low = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in])
-        x_high = _spd_solve(m[:k, :k], -m[k:, :k].T)
-    low = np.concatenate([eye, x_low]).reshape(n + 1, n_in, n_in)
-    high = np.concatenate([x_high, eye]).reshape(n + 1, n_in, n_in)
+        low[1:] = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in]).reshape(n, n_in, n_in)
+        high[:n] = _spd_solve(m[:k, :k], -m[k:, :k].T).reshape(n, n_in, n_in)
     return low, high
 
 
