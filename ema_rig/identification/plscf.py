@@ -32,8 +32,9 @@ conjugate pair only the root with ``Im s' > 0`` maps into the band and is kept.
 lag ``j - i``; their lag sums come from one FFT per channel (or a vectorised sum on an uneven
 grid). ``R = L L^T`` is factored once at the maximum order. Because ``L`` is lower triangular,
 the leading rows of ``Q_o = L^-1 S_o`` are the same matrices for every lower order, so
-``M_n = T_n - sum_o Q_o[:n+1, :]^T Q_o[:n+1, :]`` is accumulated order by order, one row of
-``Q`` (all outputs) at a time — exactly the reduced matrix of order ``n``, without rebuilding.
+``M_n = T_n - sum_o Q_o[:n+1, :]^T Q_o[:n+1, :]`` is accumulated order by order, the rows of
+``Q`` (all outputs) since the last solved order in one symmetric rank update of the lower
+triangle — exactly the reduced matrix of order ``n``, without rebuilding.
 The rows are made from the lag sums in blocks as they are needed and dropped once added, so
 ``Q`` (``n_out n_in (n+1)^2`` numbers) is never held whole.
 Each output is weighted by the inverse of its RMS over the band.
@@ -50,7 +51,7 @@ price is a noise bias: on noisy data the stable roots of the ``alpha_0 = I`` sol
 about ten times less accurate than those of ``alpha_n = I`` (relative frequency error ~1e-5
 against ~1e-6 for a 1 %-damped mode with 1 % noise), because the model can then represent
 out-of-band and edge dynamics only with unstable poles. Both solutions come from the same
-reduced matrix ``M_n`` (two small Cholesky solves), so each stable root of the
+reduced matrix ``M_n`` (one Cholesky factor, one solve: :func:`_solve_order`), so each stable root of the
 ``alpha_0 = I`` polynomial is polished by a few Newton steps on ``det A(z)`` of the
 ``alpha_n = I`` polynomial: the classification of the first, the accuracy of the second, for
 one root-finding problem per order.
@@ -666,11 +667,18 @@ def _eval_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any]) -> tupl
         if n1 > 1:
             v[:, 1:] = zc[:, None]
             np.cumprod(v[:, 1:], axis=1, out=v[:, 1:])
-        dv = np.zeros_like(v)
-        dv[:, 1:] = v[:, :-1] * j[1:]
-        c = high[owner[r0 : r0 + step]]  # (chunk, n1, n_in, n_in)
-        a[r0 : r0 + step] = np.einsum("rj,rjab->rab", v, c)
-        da[r0 : r0 + step] = np.einsum("rj,rjab->rab", dv, c)
+        # real and imaginary parts of the powers and of their derivatives as four real rows per
+        # root, times the root's real coefficients: one stack of real products (no complex
+        # copy of the gathered coefficients)
+        w = np.empty((zc.size, 4, n1))
+        w[:, 0], w[:, 1] = v.real, v.imag
+        w[:, 2:, 0] = 0.0
+        np.multiply(v.real[:, :-1], j[1:], out=w[:, 2, 1:])
+        np.multiply(v.imag[:, :-1], j[1:], out=w[:, 3, 1:])
+        c = high[owner[r0 : r0 + step]].reshape(zc.size, n1, n_in * n_in)
+        res = np.matmul(w, c)  # (chunk, 4, n_in^2)
+        a[r0 : r0 + step] = (res[:, 0] + 1j * res[:, 1]).reshape(-1, n_in, n_in)
+        da[r0 : r0 + step] = (res[:, 2] + 1j * res[:, 3]).reshape(-1, n_in, n_in)
     return a, da
 
 
