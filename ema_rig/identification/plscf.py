@@ -459,22 +459,30 @@ def _q_rows(s: NDArray[Any], linv: NDArray[Any], p: int, a: int, b: int) -> NDAr
     depends on rows ``0..i`` of ``S``): ``Q`` is never held whole, which would take
     ``n_out n_in (p+1)^2 x 8`` bytes (5x a 4 001-line data set at order 200).
     """
+    from scipy.linalg.blas import dtrmm
+
     n_out, n_in, _ = s.shape
     ncol = (p + 1) * n_in
-    i = np.arange(b + 1)
-    lag = np.arange(p + 1)[None, :] - i[:, None] + p  # rows 0..b, columns 0..p
     out = np.empty((b - a + 1, n_out, ncol))
     w = linv[a : b + 1, : b + 1]
-    sr = s.real
-    c = np.arange(n_in)[None, None, None, :]
+    # S[i, o, (j, c)] = -s[o, c, p + j - i]: a window of p + 1 lags starting at lag p - i, taken as
+    # strided views of the lag sums (no index arrays) and copied once into the (i, o, j, c) layout
+    win = np.lib.stride_tricks.sliding_window_view(s.real.transpose(0, 2, 1), p + 1, axis=1)  # (o, start, c, j)
+    rows = win[:, p - b : p + 1][:, ::-1]  # start p - i for i = 0..b: (o, i, c, j)
     step = max(1, _S_CHUNK_BYTES // ((b + 1) * ncol * 8))
     for o0 in range(0, n_out, step):
         o1 = min(o0 + step, n_out)
-        # gathered straight into the (i, o, j, c) layout: one array, no transposed copy
-        S = sr[np.arange(o0, o1)[None, :, None, None], c, lag[:, None, :, None]]
-        np.negative(S, out=S)
-        out[:, o0:o1] = (w @ S.reshape(b + 1, (o1 - o0) * ncol)).reshape(b - a + 1, o1 - o0, ncol)
-        del S
+        S = np.empty((b + 1, o1 - o0, p + 1, n_in))
+        np.negative(rows[o0:o1].transpose(1, 0, 3, 2), out=S)
+        S2 = S.reshape(b + 1, (o1 - o0) * ncol)
+        if a == 0:
+            # w = L^-1[:b+1, :b+1] is lower triangular: half the products of a general one
+            # (BLAS trmm on the transposes, in place: S2^T w^T = (w S2)^T)
+            prod = dtrmm(1.0, w.T, S2.T, side=1, lower=0, trans_a=0, overwrite_b=1).T
+        else:
+            prod = w @ S2
+        out[:, o0:o1] = prod.reshape(b - a + 1, o1 - o0, ncol)
+        del S, S2, prod
     return out
 
 
