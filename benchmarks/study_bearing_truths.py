@@ -29,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from rig_truth import RigTruth, write_case  # noqa: E402
+from rig_truth import RigTruth, TiltRigTruth, write_case  # noqa: E402
 
 from ema_rig.config import load_rig  # noqa: E402
 from ema_rig.errors import EmaRigError  # noqa: E402
@@ -39,9 +39,12 @@ from ema_rig.rig import stiffness as st  # noqa: E402
 FREQ = np.arange(0.0, 1100.25, 0.5)
 Outcome = tuple[str, float, float, float, str]
 AXIAL: list[bool] = []  # per run with an axial stiffness: within 2 sigma of the truth's
+# per tilt-class run and axis: (class, axis, reported, within 2 sigma, relative sigma, z, z of the measured sigma)
+TILT: list[tuple[str, str, bool, bool, float, float, float]] = []
 
 
-def _run(tmp: Path, name: str, truth: RigTruth, damping_model: str = "viscous") -> tuple[Outcome, object]:
+def _run(tmp: Path, name: str, truth: RigTruth, damping_model: str = "viscous", label: str = ""
+         ) -> tuple[Outcome, object]:
     uff, rig_path = write_case(tmp, name, truth, FREQ)
     try:
         rig = load_rig(rig_path)
@@ -55,6 +58,16 @@ def _run(tmp: Path, name: str, truth: RigTruth, damping_model: str = "viscous") 
         # the truth's axial bearing stiffness: the housing's axial coordinate on its spring
         k_ax = truth.params["m_H"] * (2 * math.pi * truth.axial_freq) ** 2
         AXIAL.append(abs(rb.axial_stiffness - k_ax) <= 2 * rb.axial_stiffness_std)
+    if isinstance(truth, TiltRigTruth):
+        # the truth's tilt stiffness: the diagonal of K for th_X and th_Z
+        for ax, k_true in zip(("x", "z"), truth.tilt_stiffness(), strict=True):
+            ts = None if rb is None else rb.tilt_about(ax)
+            if ts is None:
+                TILT.append((label, ax, False, False, math.nan, math.nan, math.nan))
+            else:
+                zt = (ts.stiffness - k_true) / ts.stiffness_std
+                zm = (ts.stiffness - k_true) / ts.stiffness_std_measured
+                TILT.append((label, ax, True, abs(zt) <= 2, ts.stiffness_std / ts.stiffness, zt, zm))
     bias = res.k_TB / truth.k_TB - 1
     z = (res.k_TB - truth.k_TB) / res.k_TB_std
     out = "warned" if w else ("ok" if abs(z) <= 2 else "SILENT")
@@ -105,7 +118,17 @@ def classes() -> dict[str, Callable[[int], RigTruth]]:
             flex_housing_freq=820.0, flex_frame_freq=600.0, seed=s),
         "695 Hz housing mode strong (5-15 kg)": lambda s: RigTruth(
             k_TB=float(_rng(s).uniform(60e6, 110e6)), flex_housing_mass=float(_rng(s).uniform(5.0, 15.0)), seed=s),
+        "tilt: sensors off one line, tilt modes 170-265 Hz": _tilt,
+        "tilt + sensor masses 4-20 g, declared": lambda s: _tilt(s, sensor_mass=float(_rng(s).uniform(0.004, 0.020))),
     }
+
+
+def _tilt(s: int, sensor_mass: float = 0.0) -> RigTruth:
+    """The tilt class (issue 19): radial housing sensors off one line, both tilt modes in the band,
+    the rig file states every housing sensor's position and the housing's rotary inertia (3 %)."""
+    r = np.random.default_rng(30_000 + s)
+    return TiltRigTruth(k_TB=_k(s), tilt_x_freq=float(r.uniform(170, 210)), tilt_z_freq=float(r.uniform(225, 265)),
+                        sensor_mass=sensor_mass, seed=s)
 
 
 def damping_classes() -> dict[str, Callable[[int], tuple[RigTruth, str, float]]]:
@@ -138,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
         for name, make in classes().items():
             if args.only and args.only not in name:
                 continue
-            rows = [_run(t, "c", _fc(make(s), args.force_chain))[0] for s in range(args.seeds)]
+            rows = [_run(t, "c", _fc(make(s), args.force_chain), label=name)[0] for s in range(args.seeds)]
             cnt = {k: sum(r[0] == k for r in rows) for k in ("ok", "warned", "refused", "SILENT")}
             sig = [r[3] for r in rows if r[0] != "refused"]
             bias = [abs(r[1]) for r in rows if r[0] != "refused"]
@@ -150,6 +173,20 @@ def main(argv: list[str] | None = None) -> int:
         print()
         print(f"axial stiffness (housing's axial rigid-body mode) within 2 sigma of the truth: {sum(AXIAL)} of "
               f"{len(AXIAL)} runs that report one (classes without sensor masses)")
+        if TILT:
+            print()
+            print("| tilt class | axis | runs | reported | within 2 sigma | median sigma % | max |z| | median |bias| % "
+                  "| max |z| of the measured sigma alone |")
+            print("|---|---|---|---|---|---|---|---|---|")
+            for cname in dict.fromkeys(r[0] for r in TILT):
+                for ax in ("x", "z"):
+                    rr = [r for r in TILT if r[0] == cname and r[1] == ax]
+                    rep = [r for r in rr if r[2]]
+                    print(f"| {cname} | {ax} | {len(rr)} | {len(rep)} | {sum(r[3] for r in rep)} "
+                          f"| {100 * np.median([r[4] for r in rep]) if rep else math.nan:.2f} "
+                          f"| {max((abs(r[5]) for r in rep), default=math.nan):.2f} "
+                          f"| {100 * np.median([abs(r[5] * r[4]) for r in rep]) if rep else math.nan:.3f} "
+                          f"| {max((abs(r[6]) for r in rep), default=math.nan):.2f} |")
         print()
         print("| damping class | n | within 2 sigma | median sigma % | max sigma % | median |bias| % | warned |")
         print("|---|---|---|---|---|---|---|")

@@ -31,6 +31,11 @@ Optional tables (extensions, all keys optional):
   z lateral; optional], ``name``.
 - ``[[sensor]]`` optional keys ``mass`` [kg], ``mass_std`` [kg, default 10 % of ``mass``] and
   ``position = [x, y, z]`` [m]: the accelerometer's own mass rides on the body of its ``role``.
+- ``[housing]``: ``inertia_x``, ``inertia_z`` [kg m^2], the bare housing's rotary inertia about the
+  axial (x) and lateral (z) axes through its centre of mass (tilt), and ``inertia_x_std``,
+  ``inertia_z_std`` [kg m^2, default 10 % of the inertia]. With the radial housing sensors'
+  positions, the housing's tilt modes give its tilt stiffness per axis; attached masses with a
+  position add ``m r^2`` about each axis.
 
 Attached masses are carried by the model: ``RigConfig.model`` holds the effective
 ``m_H = [model] m_H + masses on the housing`` (``m_S`` likewise); ``declared_model`` the
@@ -63,7 +68,7 @@ MODEL_KEYS: tuple[str, ...] = ("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B"
 SENSOR_ROLES: tuple[str, ...] = ("housing", "spindle")
 SENSOR_AXES: tuple[str, ...] = ("radial", "lateral", "axial")
 _TOP_KEYS = ("model", "excitation", "sensor", "uncertainty", "identification", "units", "rig", "calibration",
-             "mass")
+             "mass", "housing")
 MASS_BODIES: tuple[str, ...] = ("housing", "spindle")
 DEFAULT_ADDED_MASS_REL_STD = 0.10
 """Relative standard uncertainty of an attached mass without ``mass_std``: a datasheet mass leaves
@@ -181,6 +186,38 @@ class AddedMass:
     position: tuple[float, float, float] | None = None
 
 
+DEFAULT_INERTIA_REL_STD = DEFAULT_ADDED_MASS_REL_STD
+"""Relative standard uncertainty of a ``[housing]`` rotary inertia without its ``_std``: that of a
+datasheet mass (a CAD inertia leaves out bolts, cables and glue alike)."""
+
+MAX_INERTIA_RADIUS = 1.0
+"""A housing's radius of gyration above this [m] is refused as a unit slip (kg mm^2 or g cm^2 typed
+as kg m^2): a test-bearing housing is a few centimetres across."""
+
+
+@dataclass(frozen=True, slots=True)
+class RotaryInertia:
+    """The bare housing's rotary inertia about its centre of mass (``[housing]``), per tilt axis.
+
+    Attributes
+    ----------
+    x, x_std : float or None
+        About the axial (x) axis and its standard uncertainty [kg m^2] (None: not stated).
+    z, z_std : float or None
+        About the lateral (z) axis and its standard uncertainty [kg m^2].
+    """
+
+    x: float | None = None
+    x_std: float | None = None
+    z: float | None = None
+    z_std: float | None = None
+
+    def about(self, axis: str) -> tuple[float, float] | None:
+        """``(inertia, std)`` [kg m^2] about ``'x'`` or ``'z'``, or None when not stated."""
+        v, sd = (self.x, self.x_std) if axis == "x" else (self.z, self.z_std)
+        return None if v is None or sd is None else (v, sd)
+
+
 @dataclass(frozen=True, slots=True)
 class RigConfig:
     """A validated rig configuration.
@@ -216,6 +253,8 @@ class RigConfig:
         ``[uncertainty] force_chain``: relative standard uncertainty of the FRF scale (force
         sensor times accelerometer sensitivity). Given, the force chain is trusted: the
         driving-point modal mass measures ``m_H``. None: not trusted.
+    rotary_inertia : RotaryInertia or None
+        ``[housing]``: the bare housing's rotary inertia per tilt axis (None: the table is absent).
     """
 
     model: ModelParams
@@ -234,6 +273,7 @@ class RigConfig:
     added_masses: tuple[AddedMass, ...] = ()
     declared_model: ModelParams | None = None
     force_chain: float | None = None
+    rotary_inertia: RotaryInertia | None = None
 
     def sensor_for(self, dof: DOF) -> Sensor | None:
         """The sensor whose node and axis match ``dof`` (sign ignored), or None."""
@@ -630,6 +670,7 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         added.append(AddedMass(toml_str(t.get("name", f"mass[{i}]"), f"{where}.name", fname), a_mass, a_std,
                                str(t["on"]), _position(t, where, fname)))
     declared = model
+    inertia = _rotary_inertia(doc, model.m_H, fname)
     if added:
         model, uncertainty = _with_added_masses(model, uncertainty, added)
 
@@ -649,7 +690,34 @@ def parse_rig(doc: Mapping[str, Any], *, file: str | PathLike[str] | None = None
         added_masses=tuple(added),
         declared_model=declared if added else None,
         force_chain=force_chain,
+        rotary_inertia=inertia,
     )
+
+
+def _rotary_inertia(doc: Mapping[str, Any], m_h: float, file: str | None) -> RotaryInertia | None:
+    """The ``[housing]`` table: rotary inertia about x and z [kg m^2] with their stds, or None."""
+    t = toml_table(doc, "housing", file, required=False)
+    check_keys(t, ("inertia_x", "inertia_x_std", "inertia_z", "inertia_z_std"), "housing", file)
+    if not t:
+        return None
+    vals: dict[str, float | None] = {}
+    for ax in ("x", "z"):
+        key = f"inertia_{ax}"
+        if key not in t:
+            if f"{key}_std" in t:
+                raise ConfigError(f"needs {key} (the inertia it is the uncertainty of)", file=file,
+                                  key=f"housing.{key}_std")
+            vals[ax] = vals[f"{ax}_std"] = None
+            continue
+        v = toml_number(t[key], f"housing.{key}", file, lo=0.0, lo_open=True)
+        if v > m_h * MAX_INERTIA_RADIUS**2:
+            raise ConfigError(
+                f"= {v:g} kg m^2 is a radius of gyration of {math.sqrt(v / m_h):.3g} m for the {m_h:g} kg housing: "
+                f"implausible; did you mean {v * 1e-6:g} kg m^2 (from kg mm^2)?", file=file, key=f"housing.{key}")
+        vals[ax] = v
+        vals[f"{ax}_std"] = (toml_number(t[f"{key}_std"], f"housing.{key}_std", file, lo=0.0)
+                             if f"{key}_std" in t else DEFAULT_INERTIA_REL_STD * v)
+    return RotaryInertia(x=vals["x"], x_std=vals["x_std"], z=vals["z"], z_std=vals["z_std"])
 
 
 def _mass_and_std(t: Mapping[str, Any], where: str, file: str | None, *, required: bool) -> tuple[float, float]:
@@ -999,6 +1067,7 @@ __all__ = [
     "MODEL_KEYS",
     "ModelParams",
     "RigConfig",
+    "RotaryInertia",
     "SENSOR_AXES",
     "SENSOR_ROLES",
     "Sensor",

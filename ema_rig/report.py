@@ -207,9 +207,33 @@ def _comparison(detail: Any) -> str:
                    f"{_fmt(float(hmass['m_H_measured']), '.4g')} ± {_fmt(float(hmass['m_H_measured_std']), '.2g')} kg "
                    f"(rig file {_fmt(float(hmass['m_H_rig_file']), '.4g')} kg); used: "
                    f"{html.escape(str(hmass.get('source')))}.</p>")
+    rb = detail.get("housing_rigid_body")
+    if isinstance(rb, Mapping):
+        out.append(_rigid_body_line(rb))
     if notes:
         out.append("<p>Notes:</p><ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in notes) + "</ul>")
     return "\n".join(out)
+
+
+def _rigid_body_line(rb: Mapping[str, Any]) -> str:
+    """The housing's axial and tilt stiffness on its bearing (with ±1 sigma), and what is unidentifiable."""
+    parts = []
+    if rb.get("axial_stiffness") is not None:
+        parts.append(f"axial {_fmt(float(rb['axial_stiffness']), 'N/m')} ± "
+                     f"{_fmt(float(rb.get('axial_stiffness_std') or math.nan), 'N/m')} MN/m")
+    tilt = rb.get("tilt_stiffness")
+    if isinstance(tilt, Mapping):
+        for ax in ("x", "z"):
+            t = tilt.get(ax)
+            if isinstance(t, Mapping):
+                parts.append(f"tilt about {ax} {_fmt(float(t['stiffness']) / 1e3, '.4g')} ± "
+                             f"{_fmt(float(t['stiffness_std']) / 1e3, '.2g')} kN·m/rad "
+                             f"({_fmt(float(t['freq']), '.1f')} Hz)")
+    why = [str(w) for w in (rb.get("unidentifiable") or [])]
+    text = "Housing on its bearing: " + ("; ".join(parts) if parts else "no rigid-body stiffness identified")
+    if why:
+        text += " · not identified: " + "; ".join(html.escape(w) for w in why)
+    return f"<p class='muted'>{text}.</p>"
 
 
 def _measurement_section(i: int, r: Mapping[str, Any],

@@ -110,6 +110,15 @@ class RigTruth:
     def k_TB_MS(self) -> float:
         return 1.0 / (1.0 / self.k_TB + 1.0 / self.params["k_MS"])
 
+    def sensor_positions(self) -> dict[str, tuple[float, float, float]]:
+        """Housing sensor positions [m] from the housing's centre of mass (x axial, y radial, z lateral)."""
+        return _POS
+
+    def rig_file_text(self, params: dict[str, float], drop: tuple[str, ...]) -> str:
+        """The rig file of this truth (:func:`rig_text` with its declared sensor masses and force chain)."""
+        return rig_text(params, drop=drop, sensor_mass=self.sensor_mass if self.declare_sensor_masses else 0.0,
+                        force_chain=self.file_force_chain)
+
     def matrices(self, k_bearing: float | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Mass and stiffness matrices (12 x 12; coordinate 11 inert without an appendage).
 
@@ -155,7 +164,7 @@ class RigTruth:
         else:
             m[11, 11], k[11, 11] = 1.0, 1.0  # inert, unobserved, unforced
         if self.sensor_mass > 0:  # point masses on the rigid housing: M += m T^T T
-            for r in _POS.values():
+            for r in self.sensor_positions().values():
                 t = _rigid_point(r)
                 m += self.sensor_mass * t.T @ t
         if self.cross_axis:
@@ -185,14 +194,15 @@ class RigTruth:
         """Sensor readings per coordinate, shape (8, 12), misaligned directions."""
         rng = np.random.default_rng(1000 + self.seed)
         c = np.zeros((len(OUT), 12))
+        pos = self.sensor_positions()
         for s, name in enumerate(OUT):
             nominal = _AXIS[name[-1]]
             a = np.deg2rad(self.misalign_deg) * rng.standard_normal(2)
             others = [v for v in _AXIS.values() if not np.array_equal(v, nominal)]
             d = nominal + a[0] * others[0] + a[1] * others[1]
             d /= np.linalg.norm(d)
-            if name in _POS:
-                rx, ry, rz = _POS[name]
+            if name in pos:
+                rx, ry, rz = pos[name]
                 # rigid housing: u = [x_H, y_H, z_H] + th x r, th = (th_X, 0, th_Z)
                 c[s, 0] = d[1]  # y_H
                 c[s, 6] = d[0]  # x_H
@@ -306,6 +316,53 @@ class RigTruth:
         return complex(s)
 
 
+# issue 19 (tilt): the three radial housing sensors off any line through the centre (their (x, z)
+# offsets span both tilts) and a driving point off the centre in x and z (it excites both tilts)
+_POS_TILT = {
+    "11+Y": (0.010, 0.045, 0.015),
+    "12+Y": (0.030, 0.045, -0.035),
+    "13+Y": (-0.025, 0.045, -0.030),
+    "14+Z": (0.0, 0.0, 0.05),
+    "15+X": (0.03, 0.02, 0.0),
+}
+
+
+@dataclass
+class TiltRigTruth(RigTruth):
+    """A rig whose housing sensors see both tilts, with the tilt modes inside the analysis band.
+
+    The physics is :class:`RigTruth`'s (same coordinates, matrices and FRFs); only the housing
+    sensors sit elsewhere (:data:`_POS_TILT`: the radial ones not on one line through the centre)
+    and the tilt modes lie at 170-270 Hz instead of below 150 Hz. The rig file states every housing
+    sensor's position and the housing's rotary inertia ``m_H r^2`` about x and z (``[housing]``)
+    with the relative tolerance ``inertia_rel_std`` (the truth's inertia is exact).
+    """
+
+    tilt_x_freq: float = 190.0
+    tilt_z_freq: float = 245.0
+    inertia_rel_std: float = 0.03
+
+    def sensor_positions(self) -> dict[str, tuple[float, float, float]]:
+        """Housing sensor positions [m] (:data:`_POS_TILT`)."""
+        return _POS_TILT
+
+    def rotary_inertia(self) -> float:
+        """The bare housing's rotary inertia about x and about z [kg m^2] (the same for both)."""
+        return self.params["m_H"] * self.tilt_inertia_radius**2
+
+    def tilt_stiffness(self) -> tuple[float, float]:
+        """The truth's tilt stiffness about x and about z [N m/rad]: the diagonal of ``K`` for th_X, th_Z."""
+        i0 = self.rotary_inertia()
+        return i0 * (2 * math.pi * self.tilt_x_freq) ** 2, i0 * (2 * math.pi * self.tilt_z_freq) ** 2
+
+    def rig_file_text(self, params: dict[str, float], drop: tuple[str, ...]) -> str:
+        """The rig file: every housing sensor's position and the ``[housing]`` rotary inertia."""
+        i0 = self.rotary_inertia()
+        u = self.inertia_rel_std * i0
+        return rig_text(params, drop=drop, sensor_mass=self.sensor_mass if self.declare_sensor_masses else 0.0,
+                        force_chain=self.file_force_chain, positions=_POS_TILT, inertia=(i0, u, i0, u))
+
+
 def _rigid_point(r: tuple[float, float, float]) -> NDArray[np.float64]:
     """Displacement (x, y, z) of a point at ``r`` on the rigid housing per coordinate, shape (3, 12)."""
     rx, ry, rz = r
@@ -414,20 +471,29 @@ _SENSORS = (("11+Y", "housing", "radial"), ("12+Y", "housing", "radial"), ("13-Y
 
 
 def rig_text(params: dict[str, float] | None = None, *, drop: tuple[str, ...] = (),
-             sensor_mass: float = 0.0, force_chain: float | None = None) -> str:
+             sensor_mass: float = 0.0, force_chain: float | None = None,
+             positions: dict[str, tuple[float, float, float]] | None = None,
+             inertia: tuple[float, float, float, float] | None = None) -> str:
     """Rig file (TOML) for the truth's nominal parameters, without the sensors in ``drop``;
     ``sensor_mass`` [kg] declared on each housing sensor, with its position; ``force_chain`` the
-    stated relative std of the FRF scale (the truth's scale is exact)."""
+    stated relative std of the FRF scale (the truth's scale is exact); ``positions`` (default the
+    paper-like :data:`_POS`, written only with a sensor mass) written for every housing sensor when
+    given; ``inertia`` = ``(I_x, I_x_std, I_z, I_z_std)`` [kg m^2] the ``[housing]`` rotary inertia."""
     text = RIG_TOML.format(**(params or TABLE1))
     if force_chain is not None:
         text += f"force_chain = {force_chain!r}\n"
+    if inertia is not None:
+        text += (f"\n[housing]\ninertia_x = {inertia[0]!r}\ninertia_x_std = {inertia[1]!r}\n"
+                 f"inertia_z = {inertia[2]!r}\ninertia_z_std = {inertia[3]!r}\n")
     for dof, role, axis in _SENSORS:
         if dof.replace("-", "+") in drop:
             continue
         text += f'\n[[sensor]]\ndof = "{dof}"\nrole = "{role}"\naxis = "{axis}"\n'
-        pos = _POS.get(dof.replace("-", "+"))
+        pos = (positions or _POS).get(dof.replace("-", "+"))
         if sensor_mass > 0 and pos is not None:
-            text += f"mass = {sensor_mass!r}\nposition = [{pos[0]!r}, {pos[1]!r}, {pos[2]!r}]\n"
+            text += f"mass = {sensor_mass!r}\n"
+        if pos is not None and (sensor_mass > 0 or positions is not None):
+            text += f"position = [{pos[0]!r}, {pos[1]!r}, {pos[2]!r}]\n"
     return text
 
 
@@ -472,9 +538,6 @@ def write_case(tmp: Path, name: str, truth: RigTruth, freq: NDArray[np.float64],
     params = dict(truth.params)
     params["m_H"] = params["m_H"] * truth.file_m_H_factor
     rig_path = tmp / f"{name}.toml"
-    rig_path.write_text(rig_text(params, drop=drop,
-                                 sensor_mass=truth.sensor_mass if truth.declare_sensor_masses else 0.0,
-                                 force_chain=truth.file_force_chain),
-                        encoding="utf-8")
+    rig_path.write_text(truth.rig_file_text(params, drop), encoding="utf-8")
     uff = write_uff(tmp / f"{name}.uff", measurement(truth, freq, **kw))  # type: ignore[arg-type]
     return uff, rig_path

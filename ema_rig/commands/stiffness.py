@@ -95,7 +95,7 @@ def _mass(hm: Any) -> str:
 
 
 def _rigid(rb: Any) -> str:
-    """One line: axial and cross stiffness of the housing on its bearing, or why not."""
+    """One line: axial, cross and tilt stiffness of the housing on its bearing, or why not."""
     if rb is None:
         return "-"
     parts = []
@@ -105,7 +105,13 @@ def _rigid(rb: Any) -> str:
     if rb.cross_stiffness is not None:
         parts.append(f"radial-{rb.cross_axis} cross {rb.cross_stiffness / 1e6:.3g}"
                      f"{_args.pm(rb.cross_stiffness_std, 1e-6)} MN/m")
-    parts.append("tilt not identifiable")
+    tilts = getattr(rb, "tilt", ())
+    for t in tilts:
+        parts.append(f"tilt about {t.axis} {t.stiffness / 1e3:.4g}{_args.pm(t.stiffness_std, 1e-3)} kN m/rad "
+                     f"({t.freq:.1f} Hz, I {1e6 * t.inertia:.4g} kg mm^2)")
+    if len(tilts) < 2:
+        parts.append("tilt " + ("not identifiable" if not tilts else
+                                f"about {'z' if tilts[0].axis == 'x' else 'x'} not identifiable"))
     return ", ".join(parts)
 
 

@@ -10,6 +10,11 @@ cross_axis_correction
     radial motion to its axial or lateral rigid-body motion (two-mode reduction).
 housing_rigid_body
     Axial and cross stiffness of the housing on its bearing from the identified modes.
+housing_tilt
+    Tilt stiffness per axis from the identified tilt modes, the sensors' positions and the
+    declared rotary inertia.
+centre_mass_factor
+    Driving-point to housing-centre modal mass of the housing mode (the housing's tilt in it).
 fit_split_housing
     ``k_TB+MS`` and an appendage fitted to the two modes that share the housing's radial motion.
 measured_housing_mass
@@ -43,8 +48,15 @@ __all__ = [
     "DrivingPointMass",
     "HousingMass",
     "HousingRigidBody",
+    "RadialLayout",
     "SplitHousingFit",
+    "TiltStiffness",
+    "centre_mass_factor",
+    "radial_spread",
     "fit_split_housing",
+    "housing_inertia",
+    "housing_tilt",
+    "radial_layout",
     "housing_rigid_body",
     "cross_axis_correction",
     "driving_point_mass",
@@ -523,8 +535,10 @@ class HousingRigidBody:
     cross_axis : str or None
         ``'axial'`` or ``'lateral'``.
     reasons : tuple of str
-        Why a stiffness is not reported (tilt: the rig file gives no rotary inertia, and the tilt
-        modes lie below the band).
+        Why a stiffness is not reported (tilt: no rotary inertia in the rig file, sensors on one
+        line, or the tilt modes below the band).
+    tilt : tuple of TiltStiffness
+        The tilt stiffness about each axis identified (:func:`housing_tilt`).
     """
 
     axial_stiffness: float | None
@@ -534,13 +548,20 @@ class HousingRigidBody:
     cross_stiffness_std: float | None
     cross_axis: str | None
     reasons: tuple[str, ...] = ()
+    tilt: tuple[TiltStiffness, ...] = ()
+
+    def tilt_about(self, axis: str) -> TiltStiffness | None:
+        """The tilt stiffness about ``'x'`` or ``'z'``, or None when not identified."""
+        return next((t for t in self.tilt if t.axis == axis), None)
 
     def to_dict(self) -> dict[str, object]:
-        """Plain dict for JSON."""
+        """Plain dict for JSON (``tilt_stiffness``: None, or per axis ``'x'``/``'z'`` a dict or None)."""
+        tilt = None if not self.tilt else {ax: (None if (t := self.tilt_about(ax)) is None else t.to_dict())
+                                           for ax in ("x", "z")}
         return {"axial_stiffness": self.axial_stiffness, "axial_stiffness_std": self.axial_stiffness_std,
                 "axial_freq": self.axial_freq, "cross_stiffness": self.cross_stiffness,
                 "cross_stiffness_std": self.cross_stiffness_std, "cross_axis": self.cross_axis,
-                "tilt_stiffness": None, "unidentifiable": list(self.reasons)}
+                "tilt_stiffness": tilt, "unidentifiable": list(self.reasons)}
 
 
 AXIAL_MODE_RATIO = 3.0
@@ -549,7 +570,8 @@ the housing's axial rigid-body mode (the radial shaker excites it through misali
 
 
 def housing_rigid_body(candidates: list[Any], m_x: float, m_x_rel_std: float, m_eff: float,
-                       cross: CrossAxisCorrection | None, housing_freq: float) -> HousingRigidBody:
+                       cross: CrossAxisCorrection | None, housing_freq: float, *,
+                       tilt: tuple[dict[str, TiltStiffness], list[str]] | None = None) -> HousingRigidBody:
     """Axial and cross stiffness of the housing on its bearing from the identified modes.
 
     The axial stiffness is ``m_x w_ax^2`` of the mode that moves the housing's axial sensors
@@ -573,13 +595,15 @@ def housing_rigid_body(candidates: list[Any], m_x: float, m_x_rel_std: float, m_
         The corrected coupling, if any.
     housing_freq : float
         Identified housing frequency [Hz].
+    tilt : (dict, list of str), optional
+        :func:`housing_tilt`'s result (None: tilt not attempted, the reason says why).
 
     Returns
     -------
     HousingRigidBody
     """
-    reasons = ["tilt stiffness: the rig file gives no rotary inertia of the housing and the tilt modes lie "
-               "below the identification band"]
+    reasons = (["tilt stiffness: the rig file gives no rotary inertia of the housing and the tilt modes lie "
+                "below the identification band"] if tilt is None else list(tilt[1]))
     ax = [c for c in candidates if getattr(c, "axial_ratio", None) is not None
           and c.axial_ratio >= AXIAL_MODE_RATIO and abs(c.natural_freq - housing_freq) > 1e-9]
     k_ax = k_ax_std = f_ax = None
@@ -615,4 +639,342 @@ def housing_rigid_body(candidates: list[Any], m_x: float, m_x_rel_std: float, m_
         reasons.append("cross stiffness: no radial-axial or radial-lateral coupling beyond sensor misalignment")
     return HousingRigidBody(axial_stiffness=k_ax, axial_stiffness_std=k_ax_std, axial_freq=f_ax,
                             cross_stiffness=k_x, cross_stiffness_std=k_x_std,
-                            cross_axis=None if cross is None else cross.axis, reasons=tuple(reasons))
+                            cross_axis=None if cross is None else cross.axis, reasons=tuple(reasons),
+                            tilt=() if tilt is None else tuple(tilt[0][ax] for ax in ("x", "z") if ax in tilt[0]))
+
+
+TILT_MIN_SHARE = 0.5
+"""A mode is the housing's tilt about an axis when that tilt holds more than half of the housing's
+rigid-body kinetic energy seen by its radial sensors (translation and both tilts): the axis it
+moves most, by definition."""
+
+TILT_INERTIA_RATIO = 3.0
+"""A tilt mode's modal rotary inertia (measured from its rigid-body shape and driving-point residue)
+must lie within this factor of the declared one. On the issue-19 tilt truths (40 runs, 80 tilt
+modes) the tilt modes give 0.80-1.36 times the declared inertia (the driving point's 2 deg
+misalignment reads the housing's lateral motion in a tilt), while the ovalisation and flexible
+housing modes read as 'tilts' of 6-70 times it: the factor sits near their geometric middle."""
+
+TILT_MIN_SPREAD = 0.1
+"""The radial housing sensors' (x, z) offsets must span a plane: the smaller singular value of the
+centred offsets at least this fraction of the larger. Below, a reading error of
+:data:`ema_rig.rig.uncertainty.CROSS_AXIS_RATIO_STD` (3.5 %) moves the tilt ratio by more than 35 %:
+the sensors see one combination of the two tilts."""
+
+
+@dataclass(frozen=True, slots=True)
+class RadialLayout:
+    """The radial housing sensors with declared positions, as a rigid-body observation.
+
+    Attributes
+    ----------
+    outputs : tuple of int
+        Their indices in the modal model's outputs.
+    matrix : ndarray, shape (n_sensors, 3)
+        Reading per rigid-body coordinate ``(y_H, th_X, th_Z)``: ``[1, -z, x]`` [1, m, m].
+    driving_point : ndarray, shape (3,) or None
+        The same row for the radial driving point (None: its position is not declared).
+    spans_plane : bool
+        The sensors' (x, z) offsets span a plane (:data:`TILT_MIN_SPREAD`): both tilts are seen.
+        Otherwise they lie on one line and see one combination of the tilts (the reading of a
+        point on that line, e.g. the centre when the line passes through it, is still estimable).
+    """
+
+    outputs: tuple[int, ...]
+    matrix: NDArray[np.float64]
+    driving_point: NDArray[np.float64] | None
+    spans_plane: bool = True
+
+
+def _row(pos: tuple[float, float, float]) -> NDArray[np.float64]:
+    """Radial (y) reading of a point on the rigid housing per ``(y_H, th_X, th_Z)``: ``y + x th_Z - z th_X``."""
+    return np.array([1.0, -pos[2], pos[0]])
+
+
+def radial_layout(out_dofs: Any, rig: Any) -> tuple[RadialLayout | None, str]:
+    """The rigid-body observation of the radial housing sensors, or None with the reason.
+
+    Parameters
+    ----------
+    out_dofs : sequence of DOF
+        Output DOFs of the modal model.
+    rig : RigConfig
+        Sensor roles, axes and positions; the radial reference.
+
+    Returns
+    -------
+    (RadialLayout or None, str)
+        None when fewer than three radial housing sensors have a position; the reason when they
+        do not see both tilts (``spans_plane`` False) or cannot be used at all, else ``''``.
+    """
+    idx, rows = [], []
+    for i, d in enumerate(out_dofs):
+        s = rig.sensor_for(d)
+        if s is not None and s.role == "housing" and s.axis == "radial" and s.position is not None:
+            idx.append(i)
+            rows.append(_row(s.position))
+    if len(idx) < 3:
+        return None, (f"{len(idx)} radial housing sensor(s) with a declared position (3 needed: [[sensor]] "
+                      "position)")
+    a = np.array(rows)
+    off = a[:, 1:] - a[:, 1:].mean(axis=0)
+    sv = np.linalg.svd(off, compute_uv=False)
+    plane = bool(sv[0] > 0 and sv[1] >= TILT_MIN_SPREAD * sv[0])
+    dp = rig.sensor_for(rig.radial)
+    lay = RadialLayout(tuple(idx), a, None if dp is None or dp.position is None else _row(dp.position), plane)
+    return lay, "" if plane else ("the radial housing sensors lie on one line: they see one combination of the "
+                                  "two tilts")
+
+
+@dataclass(frozen=True, slots=True)
+class TiltStiffness:
+    """The housing's tilt stiffness about one axis from its tilt mode.
+
+    Attributes
+    ----------
+    axis : str
+        ``'x'`` (axial axis) or ``'z'`` (lateral axis).
+    stiffness, stiffness_std : float
+        ``I (2 pi f)^2`` [N m/rad] and its standard uncertainty (measured and assumed).
+    stiffness_std_measured : float
+        The part from the identified frequency alone [N m/rad].
+    freq, freq_std : float
+        The tilt mode's natural frequency and its std [Hz].
+    inertia, inertia_std : float
+        The rotary inertia used [kg m^2]: the rig file's ``[housing]`` value plus ``m r^2`` of the
+        attached masses with a position, and its std.
+    modal_inertia : float
+        The mode's rotary inertia measured from its shape and driving-point residue [kg m^2] (a check).
+    share : float
+        The tilt's share of the housing's rigid-body kinetic energy in the mode.
+    """
+
+    axis: str
+    stiffness: float
+    stiffness_std: float
+    stiffness_std_measured: float
+    freq: float
+    freq_std: float
+    inertia: float
+    inertia_std: float
+    modal_inertia: float
+    share: float
+
+    def to_dict(self) -> dict[str, object]:
+        """Plain dict for JSON (N m/rad, Hz, kg m^2)."""
+        return {"stiffness": self.stiffness, "stiffness_std": self.stiffness_std,
+                "stiffness_std_measured": self.stiffness_std_measured, "freq": self.freq, "freq_std": self.freq_std,
+                "inertia": self.inertia, "inertia_std": self.inertia_std, "modal_inertia": self.modal_inertia,
+                "share": self.share}
+
+
+def housing_inertia(rig: Any, axis: str) -> tuple[float, float] | None:
+    """Rotary inertia of the housing with its attached masses about ``axis`` (``'x'`` or ``'z'``).
+
+    The rig file's ``[housing]`` inertia plus ``m r_perp^2`` of every mass on the housing with a
+    position (``r_perp^2 = y^2 + z^2`` about x, ``x^2 + y^2`` about z); stds in quadrature.
+
+    Parameters
+    ----------
+    rig : RigConfig
+        ``[housing]`` inertia and the attached masses.
+    axis : {'x', 'z'}
+        The tilt axis.
+
+    Returns
+    -------
+    (float, float) or None
+        ``(inertia, std)`` [kg m^2]; None when the rig file states no inertia about ``axis``.
+    """
+    ri = getattr(rig, "rotary_inertia", None)
+    base = None if ri is None else ri.about(axis)
+    if base is None:
+        return None
+    i0, var = base[0], base[1] ** 2
+    for a in getattr(rig, "added_masses", ()):
+        if a.body != "housing" or a.position is None:
+            continue
+        x, y, z = a.position
+        r2 = y * y + z * z if axis == "x" else x * x + y * y
+        i0 += a.mass * r2
+        var += (a.mass_std * r2) ** 2
+    return i0, math.sqrt(var)
+
+
+def _rigid_shape(modes: Any, r: int, q: int, lay: RadialLayout) -> NDArray[np.complex128]:
+    """``(y_H, th_X, th_Z)`` of mode ``r`` times the reference's modal amplitude (least squares)."""
+    wd = abs(float(modes.poles[r].imag))
+    col = 2.0 * wd * np.asarray(modes.residues[r, list(lay.outputs), q], dtype=complex)
+    g, *_ = np.linalg.lstsq(lay.matrix.astype(complex), col, rcond=None)
+    return cast("NDArray[np.complex128]", g)
+
+
+def housing_tilt(modes: Any, rig: Any, candidates: list[Any], housing_index: int, m_h: float
+                 ) -> tuple[dict[str, TiltStiffness], list[str]]:
+    """Tilt stiffness of the housing per axis from its identified tilt modes.
+
+    Each identified mode's radial housing residues (driving-point reference) are fitted by the
+    housing's rigid-body motion ``(y_H, th_X, th_Z)`` at the sensors' declared positions. The tilt
+    mode about an axis is the mode whose tilt holds most of the kinetic energy
+    ``m_H |y|^2 + I_x |th_X|^2 + I_z |th_Z|^2`` (at least :data:`TILT_MIN_SHARE`) and whose modal
+    inertia ``phi_q^2 / th^2`` (from the same fit at the driving point) lies within
+    :data:`TILT_INERTIA_RATIO` of the declared one; its stiffness is ``I (2 pi f_n)^2`` with
+    ``I`` from :func:`housing_inertia`. Std: the identified frequency (measured) and the inertia's
+    tolerance (assumed).
+
+    Parameters
+    ----------
+    modes : ModalModel
+        Identified modes (residues for the radial reference).
+    rig : RigConfig
+        Sensor positions, the radial reference, ``[housing]`` inertia, attached masses.
+    candidates : list of Candidate
+        The same modes' candidates (frequency and its std; ``source == 'modes'``).
+    housing_index : int
+        The radial housing mode (never a tilt mode).
+    m_h : float
+        Housing mass with its attached masses [kg].
+
+    Returns
+    -------
+    (dict, list of str)
+        ``{'x': TiltStiffness, 'z': ...}`` for the axes identified, and the reasons for the others.
+    """
+    out: dict[str, TiltStiffness] = {}
+    inertia = {ax: housing_inertia(rig, ax) for ax in ("x", "z")}
+    lay, why = radial_layout(modes.out_dofs, rig)
+    missing = [ax for ax in ("x", "z") if inertia[ax] is None]
+    reasons: list[str] = []
+    if lay is None or lay.driving_point is None or not lay.spans_plane:
+        why = why or "the radial driving point has no declared position"
+        return out, [f"tilt stiffness: {why}"]
+    if missing:
+        reasons.append(f"tilt stiffness about {' and '.join(missing)}: the rig file gives no rotary inertia of the "
+                       f"housing ([housing] inertia_{missing[0]})")
+    q = next((j for j, d in enumerate(modes.in_dofs) if d.same_axis(rig.radial)), None)
+    if q is None:
+        return out, [*reasons, "tilt stiffness: no radial reference among the identified modes"]
+    best: dict[str, tuple[float, TiltStiffness]] = {}
+    for c in candidates:
+        if c.index == housing_index or not c.natural_freq > 0:
+            continue
+        g = _rigid_shape(modes, c.index, q, lay)
+        phi_q2 = abs(complex(lay.driving_point @ g))
+        ins = {ax: (inertia[ax] or (0.0, 0.0))[0] for ax in ("x", "z")}
+        e = np.array([m_h * abs(g[0]) ** 2, ins["x"] * abs(g[1]) ** 2, ins["z"] * abs(g[2]) ** 2])
+        if not e.sum() > 0 or not phi_q2 > 0:
+            continue
+        for j, ax in ((1, "x"), (2, "z")):
+            inert = inertia[ax]
+            share = float(e[j] / e.sum())
+            if inert is None or share < TILT_MIN_SHARE:
+                continue
+            i_modal = phi_q2 / abs(g[j]) ** 2
+            if abs(math.log(i_modal / inert[0])) > math.log(TILT_INERTIA_RATIO):
+                continue
+            f = float(c.natural_freq)
+            sf = float(c.natural_freq_std) if c.natural_freq_std is not None and math.isfinite(c.natural_freq_std) \
+                else 0.0
+            k = inert[0] * (2 * math.pi * f) ** 2
+            u_meas = 2 * sf / f
+            u_tot = math.hypot(u_meas, inert[1] / inert[0])
+            t = TiltStiffness(axis=ax, stiffness=k, stiffness_std=k * u_tot, stiffness_std_measured=k * u_meas,
+                              freq=f, freq_std=sf, inertia=inert[0], inertia_std=inert[1], modal_inertia=float(i_modal),
+                              share=share)
+            if ax not in best or share > best[ax][0]:
+                best[ax] = (share, t)
+    for ax in ("x", "z"):
+        if ax in best:
+            out[ax] = best[ax][1]
+        elif ax not in missing:
+            reasons.append(
+                f"tilt stiffness about {ax}: no identified mode tilts the housing about {ax} (over "
+                f"{100 * TILT_MIN_SHARE:.0f} % of its rigid-body motion) with a modal inertia within x/"
+                f"{TILT_INERTIA_RATIO:g} of the declared one (the tilt mode outside the band?)")
+    return out, reasons
+
+
+def centre_mass_factor(modes: Any, rig: Any, index: int, rel_std: float) -> tuple[float, float] | None:
+    """``(phi_dp / phi_centre)^2`` of mode ``index`` and its relative std, from the radial sensors.
+
+    The 3DOF model's housing is a point at the housing's centre; a driving point off the centre
+    also reads the housing's tilt in the mode (off-centre attached masses tilt it), so the
+    driving-point modal mass ``1 / phi_dp^2`` is not the centre's ``1 / phi_c^2``. The rigid-body
+    fit of the radial housing residues (:func:`radial_layout`) gives ``phi_c / phi_dp``.
+
+    Parameters
+    ----------
+    modes : ModalModel
+        Identified modes.
+    rig : RigConfig
+        Sensor positions and the radial reference.
+    index : int
+        The housing mode.
+    rel_std : float
+        Relative standard uncertainty of each radial residue [-] (propagated linearly).
+
+    Returns
+    -------
+    (float, float) or None
+        The factor that turns the driving-point modal mass into the centre's, and its relative std;
+        None without three positioned radial housing sensors and the driving point's position,
+        or when the centre's or the driving point's reading is not estimable from them (sensors
+        on one line that misses the centre).
+    """
+    lay, _ = radial_layout(modes.out_dofs, rig)
+    q = next((j for j, d in enumerate(modes.in_dofs) if d.same_axis(rig.radial)), None)
+    if lay is None or lay.driving_point is None or q is None:
+        return None
+    # sensors on one line: the rigid motion is rank 2, and a reading is estimable only on that line
+    pinv = np.linalg.pinv(lay.matrix, rcond=1e-9)
+    proj = pinv @ lay.matrix
+    centre = np.array([1.0, 0.0, 0.0])
+    for row in (centre, lay.driving_point):
+        if np.linalg.norm(row - row @ proj) > 1e-6 * np.linalg.norm(row):
+            return None
+    wd = abs(float(modes.poles[index].imag))
+    col = 2.0 * wd * np.asarray(modes.residues[index, list(lay.outputs), q], dtype=complex)
+    ref = col[int(np.argmax(np.abs(col)))]
+    r = np.real(col * np.conj(ref) / abs(ref))
+    g = pinv @ r
+    dp = float(lay.driving_point @ g)
+    if not (g[0] > 0 and dp > 0) and not (g[0] < 0 and dp < 0):
+        return None
+    ratio = dp / float(g[0])
+    # d ratio / d r_i = (a_dp . P_i) / y - dp P_0i / y^2
+    grad = (lay.driving_point @ pinv) / g[0] - dp * pinv[0] / g[0] ** 2
+    u = float(np.sqrt(np.sum((grad * rel_std * np.abs(r)) ** 2))) / abs(ratio)
+    return ratio**2, 2 * u
+
+
+def radial_spread(modes: Any, rig: Any, index: int) -> float | None:
+    """Relative spread ``(max - min) / mean`` of the radial housing sensors' readings of mode ``index``.
+
+    The readings are the radial housing residues for the radial reference, projected on the
+    largest one's phase. For a rigid radial translation they agree (to the sensors' misalignment
+    and calibration); a housing that tilts in the mode reads differently at each sensor.
+
+    Parameters
+    ----------
+    modes : ModalModel
+        Identified modes.
+    rig : RigConfig
+        Sensor roles and axes, the radial reference.
+    index : int
+        The mode.
+
+    Returns
+    -------
+    float or None
+        None with fewer than two radial housing sensors or without the radial reference.
+    """
+    idx = [i for i, d in enumerate(modes.out_dofs)
+           if (s := rig.sensor_for(d)) is not None and s.role == "housing" and s.axis == "radial"]
+    q = next((j for j, d in enumerate(modes.in_dofs) if d.same_axis(rig.radial)), None)
+    if len(idx) < 2 or q is None:
+        return None
+    col = np.asarray(modes.residues[index, idx, q], dtype=complex)
+    ref = col[int(np.argmax(np.abs(col)))]
+    r = np.real(col * np.conj(ref) / abs(ref))
+    mean = float(np.mean(r))
+    return float((np.max(r) - np.min(r)) / abs(mean)) if mean != 0 else None

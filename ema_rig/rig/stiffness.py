@@ -79,7 +79,7 @@ from ..identification import Identification, Selection, identify
 from ..literals import DampingModel
 from .candidates import find_dof
 from .damping import BearingDamping, bearing_damping
-from .fit import HousingMass, HousingRigidBody, housing_rigid_body
+from .fit import HousingMass, HousingRigidBody, housing_rigid_body, housing_tilt
 from .inversion import (
     KmsCalibration,
     RigFit,
@@ -661,7 +661,7 @@ def estimate_stiffness(
     rig_fit = _fit(data, rig, params, m) if fit else None
     hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
     inv3 = _plain_inversion(asm.undamped_freq, replace(rig.model, k_MS=kms))
-    rigid = _rigid_body(m, asm, params, rel_unc)
+    rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
     damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model)
     return StiffnessResult(
         k_TB=k_tb,
@@ -726,14 +726,18 @@ def _identification_caveats(ident: Any, m: MatchResult, asm: Any) -> tuple[list[
     return warns, notes
 
 
-def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float]) -> Any:
-    """:func:`ema_rig.rig.fit.housing_rigid_body` of this measurement (None outside the model)."""
+def _rigid_body(m: MatchResult, asm: Any, params: Any, rel_unc: dict[str, float], modes: Any, rig: Any) -> Any:
+    """:func:`ema_rig.rig.fit.housing_rigid_body` of this measurement (None outside the model), with
+    the tilt stiffness where the rig file gives the sensors' positions and the rotary inertia."""
     info = model_mode_at(params, asm.inverted_freq)
     if info is None:
         return None
     cands = [c for c in m.candidates if c.source == "modes"]
+    tilt = None
+    if getattr(rig, "rotary_inertia", None) is not None:
+        tilt = housing_tilt(modes, rig, cands, m.housing_index, params.m_H)
     return housing_rigid_body(cands, params.m_H, float(rel_unc.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"])),
-                              info.modal_mass, asm.cross_axis, asm.undamped_freq)
+                              info.modal_mass, asm.cross_axis, asm.undamped_freq, tilt=tilt)
 
 
 def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:

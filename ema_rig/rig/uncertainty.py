@@ -35,10 +35,12 @@ from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS,
 from .candidates import find_dof
 from .fit import (
     HousingMass,
+    centre_mass_factor,
     cross_axis_correction,
     driving_point_mass_of,
     fit_split_housing,
     measured_housing_mass,
+    radial_spread,
 )
 from .inversion import (
     housing_freq_from_k_tb_ms,
@@ -655,6 +657,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     if q_ref is not None and p_ref is not None and info0 is not None:
         dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
         if dpm0 is not None:
+            dpm0 = _mass_at_centre(dpm0, modes, rig, m.housing_index, hm, notes)
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
     # partners that may carry the housing participation missing from its mode: in-phase radial
     # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
@@ -935,6 +938,40 @@ def _pair_mass(cross: Any, modes: Any, data: Any, p: int, q: int, dpm: Any, u_me
     pair = 1.0 / (1.0 / m1 + 1.0 / m2)
     u = math.hypot(pair / m1 * u_meas, pair / m2 * dpj.modal_mass_std / m2)
     return replace(dpm, modal_mass=pair, modal_mass_std=pair * u), u
+
+
+def _mass_at_centre(dpm: Any, modes: Any, rig: RigConfig, index: int, hm: Any, notes: list[str]) -> Any:
+    """The driving-point modal mass referred to the housing's centre, where the 3DOF model's
+    housing sits (:func:`ema_rig.rig.fit.centre_mass_factor`), when the rig file gives three
+    radial housing sensors' positions and the driving point's; else ``dpm`` with the spread of the
+    radial sensors' readings in its std (:func:`ema_rig.rig.fit.radial_spread`: the centre's
+    reading lies between theirs, uniformly: ``2 spread / sqrt(12)`` on the mass).
+
+    Each radial residue is uncertain by the mass fit's relative std (same lines, same noise) and
+    by the sensor's misalignment reading the mode's cross-axis motion
+    (:data:`CROSS_AXIS_RATIO_STD` times the larger of its axial and lateral ratios).
+    """
+    rhos = [float(v) for v in (hm.get("axial_ratio"), hm.get("lateral_ratio")) if v is not None]
+    u_res = math.hypot(dpm.modal_mass_std / dpm.modal_mass, CROSS_AXIS_RATIO_STD * max(rhos, default=0.0))
+    got = centre_mass_factor(modes, rig, index, u_res)
+    if got is None:
+        # without the sensors' positions the centre's reading is unknown; it lies between the radial
+        # sensors' readings (the centre inside their span): uniform over the spread, std spread / sqrt(12)
+        spread = radial_spread(modes, rig, index)
+        if spread is None:
+            return dpm
+        u_c = 2 * spread / math.sqrt(12)
+        if u_c >= MASS_RESOLUTION:
+            notes.append(f"the radial housing sensors read the housing mode {100 * spread:.2f} % apart (the housing "
+                         f"tilts in it, or their calibrations differ) and their positions are not in the rig file: the "
+                         f"driving-point modal mass is the housing centre's to +/- {100 * u_c:.2f} %")
+        return replace(dpm, modal_mass_std=math.hypot(dpm.modal_mass_std, u_c * dpm.modal_mass))
+    fac, u_fac = got
+    mass = dpm.modal_mass * fac
+    std = mass * math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_fac)
+    notes.append(f"driving-point modal mass {dpm.modal_mass:.4g} kg referred to the housing's centre from the radial "
+                 f"sensors' positions: x {fac:.4f} +/- {u_fac:.4f} (the housing tilts in the mode) -> {mass:.4g} kg")
+    return replace(dpm, modal_mass=mass, modal_mass_std=std)
 
 
 def _find(dofs: Any, target: Any) -> int | None:
