@@ -19,6 +19,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -84,6 +85,12 @@ def main() -> None:
             wall, cpu = p.stdout.readline().split()
             return float(wall), float(cpu)
 
+        def commit(tree: Path) -> str:
+            r = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
+            return r.stdout.strip() or "?"
+
+        print(f"# {time.strftime('%Y-%m-%dT%H:%MZ', time.gmtime())}: new = {REPO} @ {commit(REPO)}, "
+              f"old = {args.baseline} @ {commit(args.baseline)}; {os.cpu_count()} cores")
         print(f"baseline {args.baseline}; BLAS threads: {'1' if args.one_thread else 'default'}; "
               f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(default)')}; "
               f"load average at start {os.getloadavg()[0]:.1f}")

@@ -21,6 +21,7 @@ from ema_rig.identification.criteria import (
     CompletenessCriteria,
     IdentificationCriteria,
     JudgeCriteria,
+    ResultCriteria,
     StabilizationCriteria,
 )
 from ema_rig.identification.modal import pole_residue_basis
@@ -30,12 +31,12 @@ FREQ = np.arange(0.0, 1000.5, 0.5)
 
 
 def test_every_criterion_has_a_source():
-    for obj in (StabilizationCriteria(), JudgeCriteria(), CompletenessCriteria()):
+    for obj in (StabilizationCriteria(), JudgeCriteria(), CompletenessCriteria(), ResultCriteria()):
         src = obj.sources()
         assert set(src) == {f.name for f in dataclasses.fields(obj)}
         assert all(len(v) > 10 for v in src.values()), src
     assert len(IdentificationCriteria().sources()) == sum(
-        len(dataclasses.fields(c)) for c in (StabilizationCriteria, JudgeCriteria, CompletenessCriteria))
+        len(dataclasses.fields(c)) for c in (StabilizationCriteria, JudgeCriteria, CompletenessCriteria, ResultCriteria))
     with pytest.raises(dataclasses.FrozenInstanceError):
         JudgeCriteria().support_p = 0.5  # type: ignore[misc]
 

@@ -9,6 +9,8 @@ StabilizationCriteria
 JudgeCriteria
     Rules of the physical-mode judgement of :func:`~ema_rig.identification.judge.judge_clusters`,
     the support of a candidate as an F test with its degrees of freedom.
+ResultCriteria
+    When the final model is warned about (poor fit, a mode at the band edge).
 CompletenessCriteria
     When the mode set of :func:`~ema_rig.identification.identification.identify` is complete:
     a chi-square test of the residual against the noise estimate per band segment and channel.
@@ -62,11 +64,23 @@ class StabilizationCriteria(_Sourced):
         Relative change of damping ratio for ``d`` (default 0.05).
     mac_tol : float
         ``1 - MAC`` of the participation vectors for ``v`` (default 0.02).
+    cluster_freq_tol, cluster_damping_tol, cluster_mac_tol : float
+        Scales of the distance between two stable poles when they are clustered into modes
+        (:func:`~ema_rig.identification.stabilization.cluster_poles`: average linkage cut at
+        distance 1): relative frequency difference (0.005), relative damping difference (0.5),
+        ``1 - MAC`` of the participation vectors (0.1).
     """
 
     freq_tol: float = _src(0.01, "PolyMAX standard tolerance 1 % (Peeters et al. 2004; paper.md, stabilization)")
     damping_tol: float = _src(0.05, "PolyMAX standard tolerance 5 % (Peeters et al. 2004; paper.md)")
     mac_tol: float = _src(0.02, "PolyMAX standard tolerance 2 % on 1 - MAC (Peeters et al. 2004; paper.md)")
+    cluster_freq_tol: float = _src(0.005, "half the stabilization tolerance freq_tol (1 %, Peeters et al. 2004): "
+                                   "the poles of one mode agree within it between orders, and two modes 1 % "
+                                   "apart (issue 18, a close pair) are two linkage distances apart")
+    cluster_damping_tol: float = _src(0.5, "JudgeCriteria.max_damping_spread (0.5): the damping of one mode's poles "
+                                      "may scatter that much across orders, so the linkage must not split it there")
+    cluster_mac_tol: float = _src(0.1, "1 - MAC 0.1: MAC above 0.9 is the same vector (Allemang 2003; "
+                                  "JudgeCriteria.dup_participation_mac)")
 
     def as_kwargs(self) -> dict[str, float]:
         """``freq_tol``, ``damping_tol``, ``mac_tol`` for :func:`stabilize`."""
@@ -305,6 +319,30 @@ class CompletenessCriteria(_Sourced):
 
 
 @dataclass(frozen=True, slots=True)
+class ResultCriteria(_Sourced):
+    """When :func:`~ema_rig.identification.identification.identify` warns about its final model.
+
+    Parameters
+    ----------
+    poor_fit : float
+        Median relative synthesis error over the channels above which the fit is called poor (0.20).
+    edge_hbw : float
+        A mode closer to a band edge than ``edge_hbw`` half-power half-bandwidths ``zeta f_n`` ...
+        (2.0) ...
+    edge_band_share : float
+        ... or than this share of the band's width (0.01) is warned about as sitting at the edge.
+    """
+
+    poor_fit: float = _src(0.20, "twice the largest noise of the project's test configurations (10 %: issue 18, "
+                           "bundled simulator at 2 and 10 %): a model that misses no mode leaves an error near the "
+                           "noise level")
+    edge_hbw: float = _src(2.0, "2 zeta f_n is the half-power bandwidth (Ewins, Modal Testing, 2nd ed. 2000, half-power points): "
+                           "closer to the edge, one half-power point of the peak lies outside the band")
+    edge_band_share: float = _src(0.01, "convention kept from the first version (a89f743), no data set behind it: a "
+                                  "floor for lightly damped modes, whose half-power bandwidth is a line or two")
+
+
+@dataclass(frozen=True, slots=True)
 class IdentificationCriteria:
     """The criteria of every stage of :func:`~ema_rig.identification.identification.identify`.
 
@@ -313,15 +351,17 @@ class IdentificationCriteria:
     stabilization : StabilizationCriteria
     judge : JudgeCriteria
     completeness : CompletenessCriteria
+    result : ResultCriteria
     """
 
     stabilization: StabilizationCriteria = field(default_factory=StabilizationCriteria)
     judge: JudgeCriteria = field(default_factory=JudgeCriteria)
     completeness: CompletenessCriteria = field(default_factory=CompletenessCriteria)
+    result: ResultCriteria = field(default_factory=ResultCriteria)
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by ``stage.field``."""
-        return {f"{stage}.{k}": v for stage in ("stabilization", "judge", "completeness")
+        return {f"{stage}.{k}": v for stage in ("stabilization", "judge", "completeness", "result")
                 for k, v in getattr(self, stage).sources().items()}
 
 
@@ -329,6 +369,7 @@ class IdentificationCriteria:
 STABILIZATION_CRITERIA = StabilizationCriteria()
 JUDGE_CRITERIA = JudgeCriteria()
 COMPLETENESS_CRITERIA = CompletenessCriteria()
+RESULT_CRITERIA = ResultCriteria()
 IDENTIFICATION_CRITERIA = IdentificationCriteria()
 
 __all__ = [
@@ -337,9 +378,11 @@ __all__ = [
     "MLCriteria",
     "IDENTIFICATION_CRITERIA",
     "JUDGE_CRITERIA",
+    "RESULT_CRITERIA",
     "STABILIZATION_CRITERIA",
     "CompletenessCriteria",
     "IdentificationCriteria",
     "JudgeCriteria",
+    "ResultCriteria",
     "StabilizationCriteria",
 ]

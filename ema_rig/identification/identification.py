@@ -33,8 +33,10 @@ from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from .criteria import (
+    RESULT_CRITERIA,
     CompletenessCriteria,
     IdentificationCriteria,
+    ResultCriteria,
     StabilizationCriteria,
 )
 from .diagnose import diagnose_frf
@@ -60,8 +62,9 @@ from .window_damping import processing_band, remove_window_damping
 #: What every printed ± of a mode is (CLI, JSON, notebook, report say the same).
 STD_LABEL = "measured: one standard uncertainty of the ML estimate (robust covariance)"
 
-#: Median synthesis error above which an identification is flagged as a poor fit.
-POOR_FIT = 0.20
+#: Median synthesis error above which an identification is flagged as a poor fit
+#: (:attr:`~ema_rig.identification.criteria.ResultCriteria.poor_fit`, with its source).
+POOR_FIT = RESULT_CRITERIA.poor_fit
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -285,11 +288,11 @@ def _same_modes(a: Sequence[SelectedMode], b: Sequence[SelectedMode]) -> bool:
     return True
 
 
-def _edge_warnings(model: ModalModel, band: tuple[float, float]) -> list[str]:
+def _edge_warnings(model: ModalModel, band: tuple[float, float], crit: ResultCriteria = RESULT_CRITERIA) -> list[str]:
     lo, hi = band
     out = []
     for fn, zeta in zip(model.natural_freq.tolist(), model.damping_ratio.tolist(), strict=True):
-        margin = max(2.0 * zeta * fn, 0.01 * (hi - lo))
+        margin = max(crit.edge_hbw * zeta * fn, crit.edge_band_share * (hi - lo))
         if fn - lo < margin or hi - fn < margin:
             out.append(f"mode at {fn:.6g} Hz sits at the band edge ({lo:g}..{hi:g} Hz): "
                        "its estimate may be biased; widen the band")
@@ -484,7 +487,7 @@ def identify(
         prev_order = prev_n
         while True:
             stab = stabilized(n)
-            clusters = cluster_poles(stab)
+            clusters = cluster_poles(stab, criteria=stab_crit)
             candidates = judge_clusters(stab, data, clusters=clusters, criteria=crit.judge)
             cur = [c.mode for c in candidates if c.accepted]
             history.append(f"{n}: {len(cur)}")
@@ -523,7 +526,7 @@ def identify(
                 step_i += 1
                 n_new = tried = min(n + span, cap)
                 stab_new = stabilized(n_new)
-                clusters = cluster_poles(stab_new)
+                clusters = cluster_poles(stab_new, criteria=stab_crit)
                 cand_new = judge_clusters(stab_new, data, clusters=clusters, criteria=crit.judge)
                 acc = [c.mode for c in cand_new if c.accepted]
                 history.append(f"{n_new}: {len(acc)}")
@@ -590,10 +593,10 @@ def identify(
     model = replace(model, meta=meta)
     fit = model.fit_error if model.fit_error is not None else np.zeros((1, 1))
     med = float(np.median(fit))
-    if med > POOR_FIT:
+    if med > crit.result.poor_fit:
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
-                        f"(above {100 * POOR_FIT:.0f} %); modes may be missing or the data noisy")
-    warnings += _edge_warnings(model, stab.band)
+                        f"(above {100 * crit.result.poor_fit:.0f} %); modes may be missing or the data noisy")
+    warnings += _edge_warnings(model, stab.band, crit.result)
     # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
     # from the API as from the command line
 

@@ -278,19 +278,23 @@ class _Segment:
             cs[2 * j] = sc * aa, sc * bb
             us[2 * j + 1] = du[:, j], su[:, j]
             cs[2 * j + 1] = sc * aa, -sc * bb
-        qu = np.einsum("rl,kir->kil", q, us)  # (k, 2, L): Q^T u
-        uu = np.einsum("kir,mjr->kimj", us, us)
-        cc = np.einsum("kic,mjc->kimj", cs, cs)
-        qq = np.einsum("kil,mjl->kimj", qu, qu)
-        hess = np.einsum("kimj->km", (uu - qq) * cc)
-        ec = np.einsum("rc,kic->kir", e, cs)  # (k, 2, 2n): E c
-        grad = -np.einsum("kir,kir->k", us, ec)  # J^T r with r = model - data
+        # the same sums as matrix products (BLAS 3) of the 2m distinct rows b = (S_j, D_j) of u (the
+        # rows (k, i) of u, flattened, are b[idx])
+        b_u = np.empty((2 * self.m, su.shape[0]))
+        b_u[0::2], b_u[1::2] = su.T, du.T
+        idx = (2 * np.arange(self.m)[:, None] + np.array([0, 1, 1, 0])[None, :]).ravel()
+        c2 = cs.reshape(2 * k, -1)
+        qb = b_u @ q  # (2m, L): Q^T b
+        g_b = (b_u @ b_u.T - qb @ qb.T)[np.ix_(idx, idx)]
+        hess = (g_b * (c2 @ c2.T)).reshape(k, 2, k, 2).sum(axis=(1, 3))
+        # J^T r with r = model - data: sum over lines and channels of u E c
+        grad = -np.sum(c2 * (b_u @ e)[idx], axis=1).reshape(k, 2).sum(axis=1)
         out: dict[str, NDArray[np.float64] | float] = {"cost": cost, "hess": 0.5 * (hess + hess.T), "grad": grad,
                                                           "e": e}
         if scores:
             # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E
-            v = np.einsum("kir,kic->krc", us, cs)
-            jac = v - np.einsum("rl,klc->krc", q, np.einsum("rl,krc->klc", q, v))
+            v = np.swapaxes(us, 1, 2) @ cs  # (k, 2n, C)
+            jac = v - q @ (q.T @ v)
             # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
             # 1985): near a peak the residues take up much of each line's error
             lev = np.minimum(np.sum(q * q, axis=1), 0.9)
@@ -307,9 +311,9 @@ class _Segment:
             et = e / sp
             jac = jac * sp[None, :, :]
             if e.shape[1] <= 2 * n:
-                js = np.einsum("krc,cd->krd", jac, (et.T @ et) / dof)
+                js = jac @ ((et.T @ et) / dof)
             else:
-                js = np.einsum("krs,sd->krd", np.einsum("krc,sc->krs", jac, et), et) / dof
+                js = ((jac @ et.T) @ et) / dof
             jcj = np.einsum("krc,lrc->kl", js, jac)
             for lag, rl in enumerate(rho, start=1):
                 if rl == 0.0 or lag >= n:

@@ -540,16 +540,23 @@ def cluster_poles(
     stab: StabilizationData,
     *,
     statuses: Iterable[str] = ("s",),
-    freq_tol: float = 0.005,
-    damping_tol: float = 0.5,
-    mac_tol: float = 0.1,
+    freq_tol: float | None = None,
+    damping_tol: float | None = None,
+    mac_tol: float | None = None,
     max_damping: float = 0.2,
+    criteria: StabilizationCriteria = STABILIZATION_CRITERIA,
 ) -> list[NDArray[np.intp]]:
     """Every cluster of candidate poles (rows of ``stab``), one pole per order, by frequency.
 
     Candidates are the poles with a status in ``statuses`` and damping in ``(0, max_damping]``;
-    clustering as in :func:`select_modes`, without any size threshold.
+    clustering as in :func:`select_modes`, without any size threshold. The distance scales
+    ``freq_tol``, ``damping_tol``, ``mac_tol`` default to the ``cluster_*`` fields of ``criteria``
+    (:class:`~ema_rig.identification.criteria.StabilizationCriteria`: 0.005, 0.5, 0.1, with their
+    sources); given, they replace them.
     """
+    freq_tol = criteria.cluster_freq_tol if freq_tol is None else freq_tol
+    damping_tol = criteria.cluster_damping_tol if damping_tol is None else damping_tol
+    mac_tol = criteria.cluster_mac_tol if mac_tol is None else mac_tol
     wanted = set(statuses)
     if not wanted <= set(STATUS_LETTERS):
         raise ValueError(f"statuses must be among {STATUS_LETTERS}, got {sorted(wanted)}")
@@ -566,9 +573,9 @@ def select_modes(
     stab: StabilizationData,
     *,
     statuses: Iterable[str] = ("s",),
-    freq_tol: float = 0.005,
-    damping_tol: float = 0.5,
-    mac_tol: float = 0.1,
+    freq_tol: float | None = None,
+    damping_tol: float | None = None,
+    mac_tol: float | None = None,
     min_fraction: float = 0.2,
     min_poles: int = 3,
     max_damping: float = 0.2,
@@ -583,12 +590,14 @@ def select_modes(
     statuses : iterable of str, optional
         Status letters that make a pole a candidate (default only ``s``).
     freq_tol : float, optional
-        Clustering scale for the relative frequency distance (default 0.005).
+        Clustering scale for the relative frequency distance (default
+        ``StabilizationCriteria.cluster_freq_tol``, 0.005).
     damping_tol : float, optional
-        Clustering scale for the relative damping distance (default 0.5).
+        Clustering scale for the relative damping distance (default
+        ``StabilizationCriteria.cluster_damping_tol``, 0.5).
     mac_tol : float, optional
-        Clustering scale for ``1 - MAC`` of the participation vectors (default 0.1; ignored
-        for one reference).
+        Clustering scale for ``1 - MAC`` of the participation vectors (default
+        ``StabilizationCriteria.cluster_mac_tol``, 0.1; ignored for one reference).
     min_fraction : float, optional
         A cluster needs poles at ``min_fraction`` of the computed orders (default 0.2) ...
     min_poles : int, optional
@@ -613,6 +622,10 @@ def select_modes(
     mean and standard deviation over those poles and, as its representative pole, the member
     closest to the cluster median.
     """
+    crit = STABILIZATION_CRITERIA
+    freq_tol = crit.cluster_freq_tol if freq_tol is None else freq_tol
+    damping_tol = crit.cluster_damping_tol if damping_tol is None else damping_tol
+    mac_tol = crit.cluster_mac_tol if mac_tol is None else mac_tol
     tol = {
         **dict(stab.tolerances),
         "cluster_freq_tol": freq_tol,
