@@ -205,8 +205,13 @@ def _comparison(detail: Any) -> str:
     if isinstance(hmass, Mapping) and hmass.get("m_H_measured") is not None:
         out.append(f"<p class='muted'>Housing mass from the driving-point modal mass: "
                    f"{_fmt(float(hmass['m_H_measured']), '.4g')} ± {_fmt(float(hmass['m_H_measured_std']), '.2g')} kg "
-                   f"(rig file {_fmt(float(hmass['m_H_rig_file']), '.4g')} kg); used: "
-                   f"{html.escape(str(hmass.get('source')))}.</p>")
+                   f"(rig file {_fmt(float(hmass['m_H_rig_file']), '.4g')} kg"
+                   + (f"; combined with the mode's spindle/housing ratio, which alone gives "
+                      f"{_fmt(float(hmass['m_H_from_shape']), '.4g')} ± "
+                      f"{_fmt(float(hmass['m_H_from_shape_std']), '.2g')} kg"
+                      if hmass.get("m_H_from_shape") is not None and hmass.get("m_H_from_shape_std") is not None
+                      else "")
+                   + f"); used: {html.escape(str(hmass.get('source')))}.</p>")
     rb = detail.get("housing_rigid_body")
     if isinstance(rb, Mapping):
         out.append(_rigid_body_line(rb))

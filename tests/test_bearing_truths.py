@@ -193,13 +193,16 @@ def test_driving_point_mass_carries_the_identified_damping_std(tmp_path):
 
 
 def test_off_m_h_untrusted_force_chain_is_measured_with_its_std(tmp_path):
-    # without a stated force chain the measured mass carries the default 2 % of the FRF scale
+    # without a stated force chain the driving-point mass carries the default 2 % of the FRF scale;
+    # the mode's spindle/housing ratio measures m_H a second time without the force chain (k_S 2 %,
+    # relative calibration 0.9 %: ~2.7 %), so the combination lies between ~1.5 % and the 2 %
     truth = RigTruth(k_TB=66.3e6, file_m_H_factor=0.97, seed=2)
     res = _estimate(tmp_path, "mh2", truth)
     hm = res.housing_mass
     assert hm is not None and hm.used == hm.measured and not hm.force_chain_stated
     assert abs(hm.measured - 2.566) <= 2 * hm.measured_std
-    assert 0.02 <= hm.measured_std / hm.measured < 0.025
+    assert 0.012 <= hm.measured_std / hm.measured < 0.02
+    assert any("m_H measured twice" in n for n in res.notes)
     assert res.warnings == () and abs(_z(res, truth)) <= 2.0
     # the 3 % off rig file, inverted as it stands, is 5-6 % off: the measured mass does the work
     assert abs(res.inversion_3dof["k_TB"] / truth.k_TB - 1) > 0.04
@@ -208,6 +211,7 @@ def test_off_m_h_untrusted_force_chain_is_measured_with_its_std(tmp_path):
 
     html_ = _comparison(json.loads(json.dumps(res.to_dict())))
     assert "Plain 3DOF inversion" in html_ and "Housing mass from the driving-point modal mass" in html_
+    assert "spindle/housing ratio, which alone gives" in html_
     assert "used: measured" in html_
 
 
@@ -272,3 +276,91 @@ def test_a_held_mode_the_result_does_not_use_is_a_note():
     asm = SimpleNamespace(cross_axis=SimpleNamespace(partner_freq=300.6))
     warns, notes = st._identification_caveats(ident, m, asm)
     assert notes == [] and w_held in warns
+
+
+# ----------------------------------------------------------------------------- m_H without the force chain
+def test_housing_mass_from_the_mode_shape_against_an_eigen_solution():
+    # oracle: the truth's 3DOF chain (rig_truth writes the matrices out; imports nothing from ema_rig)
+    # solved by numpy's eigh: its housing mode's frequency and spindle/housing ratio give back m_H and
+    # k_TB+MS without the force chain (closed form in ema_rig: eigenvector rows)
+    import rig_truth
+
+    from ema_rig.rig.fit import housing_mass_from_ratio
+
+    def mode(params):
+        t = RigTruth(k_TB=70e6, params=params)
+        m, k = t.matrices()
+        ix = np.ix_([0, 1, 2], [0, 1, 2])
+        lam, phi = rig_truth._eigh(k[ix], m[ix])
+        return math.sqrt(lam[1]) / (2 * math.pi), phi[1, 1] / phi[0, 1], t.k_TB_MS
+
+    for m_h in (2.566, 2.566 * 1.03):
+        f, r, k_c = mode(dict(TABLE1, m_H=m_h))
+        res = housing_mass_from_ratio(f, r, TABLE1_PARAMS, {"k_S": 0.02}, 0.01)
+        assert res is not None
+        assert res.m_H == pytest.approx(m_h, rel=1e-9) and res.k_TB_MS == pytest.approx(k_c, rel=1e-9)
+    # its k_S sensitivity against the oracle: a truth with k_S 1 % up read with the nominal k_S
+    f, r, _ = mode(dict(TABLE1, k_S=1.01 * TABLE1["k_S"]))
+    res = housing_mass_from_ratio(f, r, TABLE1_PARAMS, {"k_S": 0.02}, 0.01)
+    s_oracle = -math.log(res.m_H / 2.566) / math.log(1.01)
+    assert res.sensitivity["k_S"] == pytest.approx(s_oracle, rel=0.02)
+    # ~1.2 at 626 Hz: the shape route leans on k_S about as much as the modal mass on the force chain
+    assert 0.8 < res.sensitivity["k_S"] < 1.6
+    assert res.rel_std == pytest.approx(math.hypot(0.02 * res.sensitivity["k_S"], 0.01 * res.sensitivity["ratio"]),
+                                        rel=1e-9)
+
+
+def test_undeclared_sensor_masses_measured_twice(tmp_path):
+    # seed 0 of the study's class: 62 g of undeclared sensors (2.4 % of m_H), force chain not stated
+    # (2 %), no sensor positions (the centre's reading within the radial sensors' spread, 1.5 %). The
+    # driving-point mass alone measured m_H to 2.6 % (sigma(k_TB) 5.0 %); with the mode's
+    # spindle/housing ratio as a second measurement sigma(k_TB) 3.3 %
+    truth = RigTruth(k_TB=66.339e6, sensor_mass=0.012429, declare_sensor_masses=False, seed=0)
+    res = _estimate(tmp_path, "und", truth)
+    assert res.warnings == () and abs(_z(res, truth)) <= 2.0
+    assert res.k_TB_std / res.k_TB < 0.036
+    hm = res.housing_mass
+    assert hm is not None and hm.source == "measured"
+    assert abs(hm.measured - (2.566 + 5 * 0.012429)) <= 2 * hm.measured_std
+    assert hm.measured_std / hm.measured < 0.021
+    assert any("m_H measured twice" in n for n in res.notes)
+    # both readings in the JSON; the shape's alone within 2 of its sigma of the truth
+    doc = json.loads(json.dumps(res.to_dict()))["housing_mass"]
+    assert doc["m_H_from_shape"] == pytest.approx(hm.by_shape, rel=1e-12)
+    assert abs(hm.by_shape - (2.566 + 5 * 0.012429)) <= 2 * hm.by_shape_std
+    # the shape route leans on k_S: its k_TB sensitivity turns positive (-0.24 direct, +0.9 through m_H)
+    assert res.uncertainty.term("k_S").sensitivity > 0.3
+
+
+def test_appendage_inside_the_housing_mass_keeps_its_tolerance(tmp_path):
+    # seed 0 of the study's appendage class: 53 g of the 2.566 kg housing on its own spring. Both
+    # modal masses agree with the rig file's m_H, so the part is inside it: sigma(k_TB) 2.8 % (the
+    # blanket m_a / m_H in the m_H tolerance gave 6.0 %)
+    kw = dict(k_TB=129.24e6, appendage_fraction=0.020536, flex_housing_freq=820.0, flex_frame_freq=600.0, seed=0)
+    truth = RigTruth(**kw)
+    res = _estimate(tmp_path, "app", truth)
+    assert res.warnings == () and abs(_z(res, truth)) <= 2.0
+    assert res.k_TB_std / res.k_TB < 0.031
+    assert any("the appendage is inside m_H" in n for n in res.notes)
+    # the same part added to a housing the rig file weighs without it: never silent
+    added = RigTruth(**kw, file_m_H_factor=1 - 0.020536)
+    res2 = _estimate(tmp_path, "app2", added)
+    assert res2.warnings or abs(_z(res2, added)) <= 2.0
+    assert not any("the appendage is inside m_H" in n for n in res2.notes)
+
+
+def test_shape_mass_not_used_beside_a_neighbour(tmp_path):
+    # the issue-11 truths' 10 % hysteretic damping, seed 5: beside the 690 Hz mode the housing mode's
+    # spindle/housing ratio reads m_H 10.6 % high (the neighbour's shape leaks into it as its residue
+    # into the modal mass); combined with the widened rig file's m_H it gave k_TB +15.7 % at z 2.5,
+    # silently. Beside a neighbour the ratio is not used: within 2 sigma (or warned)
+    truth = RigTruth(zeta=0.10, damping="hysteretic", seed=5)
+    res = _estimate(tmp_path, "hyst5", truth)
+    assert not any("spindle/housing ratio" in n for n in res.notes)
+    assert res.warnings or abs(_z(res, truth)) <= 2.0
+    # the shape route alone, for the record: it is the one that is off
+    from ema_rig.rig.uncertainty import _mass_by_shape
+
+    shape = _mass_by_shape(res.housing_mode, res.inverted_freq, load_rig(tmp_path / "hyst5.toml").model,
+                           load_rig(tmp_path / "hyst5.toml"))
+    assert shape is not None and shape.m_H / 2.566 - 1 > 0.05

@@ -126,3 +126,53 @@ def test_threads_draw_what_one_thread_draws():
     assert len(drawn) == 8
     for png in drawn:
         assert png == want
+
+
+def _stacked(top: float, *, title: bool):
+    """A magnitude panel over a phase panel (labels of the upper x axis hidden), the y range of the
+    magnitude set so that a major tick label sits ``top`` decades below its upper end (0: at it)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(5.0, 4.0), layout="constrained")
+    ax, pax = fig.subplots(2, 1, sharex=True, height_ratios=[2.0, 1.0])
+    f = np.linspace(100.0, 1000.0, 500)
+    ax.semilogy(f, 1.0 + 1e3 / (1.0 + ((f - 400.0) / 5.0) ** 2), color="k", lw=0.9)
+    ax.set_ylim(0.5, 10.0 ** (3.0 + top))
+    pax.plot(f, np.sin(f / 50.0), color="k", lw=0.9)
+    if title:
+        ax.set_title("magnitude", loc="left", fontsize=8)
+    pax.set_xlabel("frequency [Hz]")
+    return fig
+
+
+def _positions_px(fig) -> np.ndarray:
+    w, h = fig.bbox.width, fig.bbox.height
+    return np.array([a.get_position().bounds for a in fig.axes]) * [w, h, w, h]
+
+
+def test_a_label_within_what_a_title_covers_keeps_the_layout():
+    # the upper y tick label sits at the top end of the axes (it sticks out by half its height),
+    # or well inside: with a title above, the title reaches further up either way, so the layout
+    # is the same and is reused; oracle: matplotlib's own constrained layout of that figure
+    render_png(_stacked(0.0, title=True), dpi=64, colors=None)
+    fig = _stacked(0.45, title=True)
+    render_png(fig, dpi=64, colors=None)
+    assert fig.get_layout_engine().__class__.__name__ == "PlaceHolderLayoutEngine"  # reused
+    got = _positions_px(fig)
+    fresh = _stacked(0.45, title=True)
+    render_png(fresh, dpi=64, colors=None, reuse_layout=False)
+    # the layout is solved to a fraction of a pixel; a layout kept for a different one (the label
+    # widening the top margin, ~4 px here) would be off by more than a pixel
+    np.testing.assert_allclose(got, _positions_px(fresh), atol=0.5)
+
+
+def test_a_label_sticking_out_where_nothing_covers_it_is_laid_out_again():
+    # without a title the upper label at the top end widens the top margin: not the same layout
+    render_png(_stacked(0.45, title=False), dpi=64, colors=None)
+    fig = _stacked(0.0, title=False)
+    render_png(fig, dpi=64, colors=None)
+    assert fig.get_layout_engine().__class__.__name__ == "ConstrainedLayoutEngine"  # laid out in full
+    fresh = _stacked(0.45, title=False)
+    render_png(fresh, dpi=64, colors=None, reuse_layout=False)
+    # and the two layouts do differ (the test's premise): by at least a pixel
+    assert np.abs(_positions_px(fig) - _positions_px(fresh)).max() > 1.0

@@ -221,8 +221,10 @@ def _has_identify():
 def test_end_to_end_simulated(rig, k_tb, speed_hz):
     sim = simulate.simulate_measurement(rig, k_tb=k_tb, noise=0.01, seed=3, speed_hz=speed_hz)
     res = st.estimate_stiffness(sim.data, rig, speed_hz=speed_hz, spindle=False)
-    # the simulator's radial dynamics are the 3DOF model's: k_TB within 1 % (issue 4)
-    np.testing.assert_allclose(res.k_TB, sim.truth["k_TB"], rtol=1e-2)
+    # the simulator's radial dynamics are the 3DOF model's: k_TB within 1 % (issue 4); 1.5 % where the
+    # modal mass is ambiguous (the rotating case: cross-axis motion past the misalignment's 2 sigma) and
+    # m_H is read from the mode's shape (issue 19: 0.7 % low there against its 2.7 % std, k_TB -1.0 %)
+    np.testing.assert_allclose(res.k_TB, sim.truth["k_TB"], rtol=1e-2 if speed_hz is None else 1.5e-2)
     np.testing.assert_allclose(res.housing_mode["natural_freq"], sim.truth["f_H"], rtol=2e-3)
     kinds = {c["status"] for c in res.candidates}
     assert "housing" in kinds and "rejected" in kinds

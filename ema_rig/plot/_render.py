@@ -26,6 +26,11 @@ the tick labels each axis will draw and, to the pixel, how far the outermost lab
 axis ends (a label at an end sticks out of the axes), the legends and titles (line counts, and
 whether they fit their axes). A figure with the same key gets the same positions without the
 layout being run again; any other figure is laid out in full and its positions kept for the next.
+How close a y tick label sits to an end of its axis is left out of the key where something the
+layout measures anyway reaches further beyond that end (a title above, x tick labels below): the
+label there cannot move the layout. A title narrower than its axes (centre, left or right) is
+keyed by its line count only. Reused positions are within 0.5 px of a fresh layout of the same
+figure (bundled demo: at most 0.41 px over 36 reused figures).
 """
 
 from __future__ import annotations
@@ -242,8 +247,13 @@ def _text_key(t: Any, room_px: float | None) -> Any:
     return (_fold(s), size, t.get_rotation(), t.get_in_layout())
 
 
-def _axis_key(axis: Any, length_px: float) -> Any:
-    """Tick labels an axis will draw (folded) and where its outermost ones sit, to the pixel."""
+def _axis_key(axis: Any, length_px: float, covered: tuple[bool, bool] = (False, False)) -> Any:
+    """Tick labels an axis will draw (folded) and where its outermost ones sit, to the pixel.
+
+    ``covered`` (low end, high end): something the layout measures anyway reaches further beyond
+    that end than a tick label there can (:func:`_covered`), so how close the label sits to it
+    changes nothing and is left out of the key.
+    """
     if not axis.get_visible():
         return None
     params = axis.get_tick_params(which="major")
@@ -274,7 +284,8 @@ def _axis_key(axis: Any, length_px: float) -> Any:
     if t.size and span > 0:
         frac = (t - ends[0]) / span
         # to 2 px: the constrained layout's pads (3 pt) absorb the rest
-        near = (min(round(float(frac.min()) * length_px / 2), cap), min(round(float(1.0 - frac.max()) * length_px / 2), cap))
+        near: Any = tuple(None if cov else min(round(float(d) * length_px / 2), cap)
+                          for d, cov in zip((frac.min(), 1.0 - frac.max()), covered, strict=True))
     else:
         near = None
     widths = tuple(sorted(set(labels)))  # only the widest matters, and which are at the ends (near)
@@ -292,16 +303,41 @@ def _layout_key(fig: Figure) -> Any:
             keys.append(None)
             continue
         box = ax.get_window_extent()
-        titles = tuple(_text_key(t, box.width * 0.95) for t in (ax.title, *ax.texts) if
-                       t is ax.title or not t.get_clip_on())
-        for loc in ("left", "right"):
-            titles += ((loc, _fold(ax.get_title(loc=loc))),)
+        # the three titles (centre, left, right) and unclipped texts: a title narrower than its
+        # axes changes the layout only by its height
+        heads = _titles(ax)
+        titles = tuple(_text_key(t, box.width * 0.95) for t in (*heads, *ax.texts) if t in heads or not t.get_clip_on())
         leg = ax.get_legend()
         legend = None if leg is None else (tuple(_fold(x.get_text()) for x in leg.get_texts()),
                                            tuple(leg.get_bbox_to_anchor().bounds), leg.get_visible())
         keys.append((ax.get_in_layout(), titles, legend, _axis_key(ax.xaxis, box.width),
-                     _axis_key(ax.yaxis, box.height)))
+                     _axis_key(ax.yaxis, box.height, _covered(fig, ax))))
     return tuple(keys)
+
+
+def _titles(ax: Any) -> tuple[Any, ...]:
+    """The centre, left and right titles of ``ax`` (matplotlib keeps the last two private)."""
+    return (ax.title, *(getattr(ax, name) for name in ("_left_title", "_right_title")))
+
+
+def _covered(fig: Figure, ax: Any) -> tuple[bool, bool]:
+    """Whether the layout measures, below and above ``ax``, something that reaches further out than
+    a y tick label at that end can (half its height): x tick labels below (tick, pad and a whole
+    label height), a title above (pad and its height), on this axes or another in its grid cell
+    (a twin). The layout's margin on a side is the largest extent of everything in the cell.
+    """
+    ss = ax.get_subplotspec()
+    cell = [a for a in fig.axes if a is ax or (ss is not None and a.get_visible() and a.get_subplotspec() == ss)]
+    below = above = False
+    for a in cell:
+        xa = a.xaxis
+        if xa.get_visible() and xa.get_ticks_position() in ("bottom", "default") and xa.get_label_position() == "bottom":
+            labelled = xa.get_tick_params(which="major").get("labelbottom", True)
+            lo, hi = sorted(xa.get_view_interval())
+            ticks = np.asarray(xa.get_majorticklocs(), dtype=float)
+            below |= bool(labelled and np.any((ticks >= lo) & (ticks <= hi)))
+        above |= any(t.get_visible() and t.get_text() for t in _titles(a))
+    return below, above
 
 
 def _reuse_layout(fig: Figure) -> bool:

@@ -274,7 +274,7 @@ def plot_rig_fit(
             f"{c['natural_freq']:.0f} Hz {c['status'] if c['status'] != 'rejected' else short_reason(c['reason'])}"
             for c in outside[:5])
         note += f"; {len(outside)} outside {lo:.0f}–{hi:.0f} Hz:\n{shown}" + (", ..." if len(outside) > 5 else "")
-    ax_c.set_title(note, fontsize=8, loc="left")
+    ax_c.set_title(note, fontsize=8, loc="left", y=1.0)  # pinned where matplotlib puts it: the strip has no y ticks
     ax_c.set_xlabel("Frequency [Hz]")
     for name in names:
         axes[name].tick_params(labelbottom=False)

@@ -20,6 +20,9 @@ fit_split_housing
 measured_housing_mass
     ``m_H`` from the identified housing frequency and driving-point modal mass through the 3DOF
     model (where the force chain is trusted).
+housing_mass_from_ratio
+    ``m_H`` from the identified housing frequency and the housing mode's spindle/housing amplitude
+    ratio through the 3DOF model: no force chain, only relative accelerometer calibration.
 
 Classes
 -------
@@ -60,7 +63,9 @@ __all__ = [
     "housing_rigid_body",
     "cross_axis_correction",
     "driving_point_mass",
+    "housing_mass_from_ratio",
     "measured_housing_mass",
+    "RatioHousingMass",
 ]
 
 
@@ -344,6 +349,10 @@ class HousingMass:
         What the inversion used: ``'rig file'``, ``'combined'`` (rig file and measurement by
         inverse variance, force chain stated), ``'rig file, tolerance widened'`` (the discrepancy
         is smaller than the measurement's std) or ``'measured'``.
+    by_shape, by_shape_std : float or None
+        ``m_H`` [kg] from the housing mode's spindle/housing ratio (:func:`housing_mass_from_ratio`,
+        no force chain) and its std, when it entered ``measured`` (None: not available or not
+        consistent with the modal mass); ``measured`` then combines both.
     """
 
     measured: float
@@ -357,6 +366,8 @@ class HousingMass:
     force_chain_stated: bool
     agrees: bool
     source: str = "rig file"
+    by_shape: float | None = None
+    by_shape_std: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Plain dict for JSON (masses in kg)."""
@@ -367,7 +378,8 @@ class HousingMass:
                 "source": self.source,
                 "relative_difference": self.measured / self.rig_file - 1, "agrees_with_rig_file": self.agrees,
                 "modal_mass": self.modal_mass, "modal_mass_std": self.modal_mass_std,
-                "force_chain": self.force_chain, "force_chain_stated": self.force_chain_stated}
+                "force_chain": self.force_chain, "force_chain_stated": self.force_chain_stated,
+                "m_H_from_shape": self.by_shape, "m_H_from_shape_std": self.by_shape_std}
 
 
 def measured_housing_mass(f_h: float, modal_mass: float, params: ModelParams) -> float | None:
@@ -387,6 +399,93 @@ def measured_housing_mass(f_h: float, modal_mass: float, params: ModelParams) ->
 
 
 @dataclass(frozen=True, slots=True)
+class RatioHousingMass:
+    """``m_H`` measured from the housing mode's shape (:func:`housing_mass_from_ratio`).
+
+    Attributes
+    ----------
+    m_H, rel_std : float
+        Housing mass [kg] and its relative standard uncertainty (the ratio's and the other model
+        parameters' tolerances, linearised).
+    k_TB_MS : float
+        The bearing + mounting stiffness [N/m] the same shape gives.
+    ratio, ratio_rel_std : float
+        The spindle/housing amplitude ratio used and its relative std.
+    sensitivity : dict
+        ``d ln m_H / d ln x`` for the ratio (``'ratio'``) and every model parameter but ``m_H``.
+    """
+
+    m_H: float
+    rel_std: float
+    k_TB_MS: float
+    ratio: float
+    ratio_rel_std: float
+    sensitivity: dict[str, float]
+
+
+def _mass_from_ratio(f_h: float, ratio: float, params: ModelParams) -> tuple[float, float]:
+    """``(m_H, k_TB+MS)`` of the 3DOF model whose housing mode at ``f_h`` has ``x_S / x_H = ratio``.
+
+    The eigenvector ``(1, r, x_F)`` at ``lam = (2 pi f_h)^2``: the frame row gives ``x_F``, the
+    spindle row ``k_TB+MS`` and the housing row ``m_H`` (closed form, no ``m_H`` on the way)."""
+    lam = (2 * math.pi * f_h) ** 2
+    p = params
+    x_f = (p.k_AS + p.k_S * ratio) / (p.k_B + p.k_AS + p.k_S - lam * p.m_F)
+    k_c = ((p.k_S - lam * p.m_S) * ratio - p.k_S * x_f) / (1.0 - ratio)
+    return (p.k_AS * (1.0 - x_f) + k_c * (1.0 - ratio)) / lam, k_c
+
+
+def housing_mass_from_ratio(f_h: float, ratio: float, params: ModelParams, rel_unc: dict[str, float],
+                            ratio_rel_std: float) -> RatioHousingMass | None:
+    """``m_H`` from the housing frequency and the spindle/housing amplitude ratio of its mode.
+
+    In the 3DOF model the housing mode's shape ``x_S / x_H`` at a given frequency depends on
+    ``k_TB+MS``, ``k_S``, ``m_S`` and the frame, not on ``m_H``; with the frequency it fixes both
+    ``k_TB+MS`` and ``m_H`` (:func:`_mass_from_ratio`). Unlike the driving-point modal mass this
+    needs no force chain, only the accelerometers' relative calibration, but it leans on the rig
+    file's ``k_S`` (``d ln m_H / d ln k_S ~ 1.1`` at 626 Hz on Table 1), so the two measurements
+    of ``m_H`` have independent errors of similar size.
+
+    Parameters
+    ----------
+    f_h : float
+        Undamped housing frequency [Hz].
+    ratio : float
+        Signed spindle/housing amplitude ratio of the housing mode (``0 < ratio < 1``).
+    params : ModelParams
+        Rig parameters (``m_H`` and ``k_MS`` are not used).
+    rel_unc : dict
+        Relative standard uncertainty per model parameter (missing: 0).
+    ratio_rel_std : float
+        Relative standard uncertainty of the ratio.
+
+    Returns
+    -------
+    RatioHousingMass or None
+        None outside ``0 < ratio < 1`` or when the model gives no positive mass or stiffness.
+    """
+    if not (0.0 < ratio < 1.0 and f_h > 0):
+        return None
+    m_h, k_c = _mass_from_ratio(f_h, ratio, params)
+    if not (m_h > 0 and k_c > 0 and math.isfinite(m_h)):
+        return None
+    h = 1e-5
+    sens = {"ratio": (math.log(_mass_from_ratio(f_h, ratio * (1 + h), params)[0])
+                      - math.log(_mass_from_ratio(f_h, ratio * (1 - h), params)[0])) / (2 * h)}
+    for name in ("m_S", "m_F", "k_AS", "k_S", "k_B"):
+        v = getattr(params, name)
+        hi = _mass_from_ratio(f_h, ratio, replace(params, **{name: v * (1 + h)}))[0]
+        lo = _mass_from_ratio(f_h, ratio, replace(params, **{name: v * (1 - h)}))[0]
+        if not (hi > 0 and lo > 0):
+            return None
+        sens[name] = (math.log(hi) - math.log(lo)) / (2 * h)
+    var = (sens["ratio"] * ratio_rel_std) ** 2 + sum(
+        (sens[n] * float(rel_unc.get(n, 0.0))) ** 2 for n in sens if n != "ratio")
+    return RatioHousingMass(m_H=float(m_h), rel_std=math.sqrt(var), k_TB_MS=float(k_c), ratio=float(ratio),
+                            ratio_rel_std=float(ratio_rel_std), sensitivity=sens)
+
+
+@dataclass(frozen=True, slots=True)
 class SplitHousingFit:
     """The housing with an appendage (a load arm, a flexible part) fitted to two measured modes.
 
@@ -402,6 +501,9 @@ class SplitHousingFit:
         Fitted scale of the measured modal masses (1 = the force chain as calibrated).
     chi2 : float
         Sum of squared normalised residuals (1 degree of freedom).
+    force_chain_scale_std : float
+        Relative std of the scale from the two modal masses alone (the prior removed; ``inf``
+        when they do not inform it): how well the masses test the rig file's ``m_H``.
     """
 
     k_TB_MS: float
@@ -411,6 +513,7 @@ class SplitHousingFit:
     appendage_freq: float
     force_chain_scale: float
     chi2: float
+    force_chain_scale_std: float = math.inf
 
 
 def _split_modes(params: ModelParams, k_c: float, m_a: float, k_a: float) -> tuple[NDArray[np.float64],
@@ -510,11 +613,14 @@ def fit_split_housing(params: ModelParams, freqs: tuple[float, float], freq_std:
     fr, _ = model(best.x)
     if np.any(np.abs(np.log(fr / f)) > 0.05):
         return None
+    # posterior precision of ln(scale) = the masses' + the prior's: remove the prior's
+    prec_data = 1.0 / max(float(cov[3, 3]), 1e-300) - 1.0 / max(force_chain, 1e-6) ** 2
+    scale_std = 1.0 / math.sqrt(prec_data) if prec_data > 0 else math.inf
     return SplitHousingFit(
         k_TB_MS=float(k_c), k_TB_MS_std=float(k_c * math.sqrt(max(cov[0, 0], 0.0))),
         appendage_mass=float(m_a), appendage_mass_std=float(m_a * math.sqrt(max(cov[1, 1], 0.0))),
         appendage_freq=float(math.sqrt(k_a / m_a) / (2 * math.pi)), force_chain_scale=float(math.exp(best.x[3])),
-        chi2=chi2,
+        chi2=chi2, force_chain_scale_std=scale_std,
     )
 
 

@@ -51,8 +51,9 @@ resolved silently; it is either covered by a stated model-form term *and* a warn
   viscous/hysteretic difference is always in the budget (no warning);
 * issue 19, what the measured evidence resolves (notes, terms; warnings only where it cannot):
   the driving-point modal mass measured with its std (:mod:`ema_rig.rig.fit`) against the
-  model's — bounding close neighbours, measuring ``m_H`` where ``[uncertainty] force_chain`` is
-  stated, a warning naming both masses outside the tolerance; a cross-axis coupled partner
+  model's — bounding close neighbours, measuring ``m_H`` (with a second, force-chain-free
+  measurement from the housing mode's spindle/housing ratio), a warning naming both masses
+  outside the tolerance; a cross-axis coupled partner
   (two-mode reduction); two modes sharing the housing's radial motion (the 4DOF split-housing
   fit). The plain 3DOF inversion is kept beside the result (``inversion_3dof``); the bearing's
   damping ``c_TB``/loss factor and the housing's axial and cross stiffness are reported with stds;
@@ -646,11 +647,15 @@ def estimate_stiffness(
     if asm.m_H_rel_std is not None:
         rel_unc["m_H"] = float(asm.m_H_rel_std)
     hmass = asm.housing_mass
+    budget_unc = dict(rel_unc)
+    if asm.m_H_budget is not None:
+        budget_unc["m_H"] = float(asm.m_H_budget[0])
     id_warns, id_notes = _identification_caveats(ident, m, asm)
     try:
-        unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, rel_unc, k_MS_std=k_ms_std,
+        unc = stiffness_uncertainty(f_h, f_std if not unknown else 0.0, params, budget_unc, k_MS_std=k_ms_std,
                                     model_form=asm.model_form,
-                                    measured=("m_H",) if hmass is not None and hmass.used is not None else ())
+                                    measured=("m_H",) if hmass is not None and hmass.used is not None else (),
+                                    shared=None if asm.m_H_budget is None else asm.m_H_budget[1])
     except InversionError as exc:
         exc.file = exc.file or file
         raise

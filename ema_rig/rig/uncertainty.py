@@ -39,10 +39,12 @@ from .fit import (
     cross_axis_correction,
     driving_point_mass_of,
     fit_split_housing,
+    housing_mass_from_ratio,
     measured_housing_mass,
     radial_spread,
 )
 from .inversion import (
+    housing_freq_bounds,
     housing_freq_from_k_tb_ms,
     k_tb_from_housing_freq,
     k_tb_ms_closed_form,
@@ -292,6 +294,7 @@ def stiffness_uncertainty(
     k_MS: float | None = None,
     model_form: Mapping[str, float] | None = None,
     measured: tuple[str, ...] = (),
+    shared: Mapping[str, float] | None = None,
 ) -> StiffnessUncertainty:
     """Bearing stiffness and its standard uncertainty by linearised error propagation.
 
@@ -324,6 +327,10 @@ def stiffness_uncertainty(
     measured : tuple of str, optional
         Parameters whose ``rel_unc`` entry was measured from these data (``m_H`` from the
         driving-point modal mass): their terms are of kind ``'measured'``.
+    shared : mapping, optional
+        ``d ln m_H / d ln x`` of a measured ``m_H`` that leans on parameter ``x`` (the housing
+        mode's shape route, :class:`Assessment` ``m_H_budget``): ``x``'s sensitivity becomes
+        ``S_x + S_m_H d ln m_H / d ln x`` and ``rel_unc['m_H']`` holds the measurement's own std.
 
     Returns
     -------
@@ -342,6 +349,10 @@ def stiffness_uncertainty(
     k_tb = k_tb_from_housing_freq(f_H, params)
     k_c = k_tb_ms_closed_form(float(f_H), params)
     sens = sensitivities(f_H, params)
+    for name, v in (shared or {}).items():
+        if name not in sens or name in ("m_H", "f_H"):
+            raise ValueError(f"shared[{name!r}]: not a model parameter other than m_H")
+        sens[name] += sens["m_H"] * float(v)
     rel = dict(DEFAULT_REL_UNCERTAINTY)
     kinds = {n: KIND_DEFAULT for n in rel}
     for name, v in (rel_unc or {}).items():
@@ -415,6 +426,17 @@ UNTRUSTED_FORCE_CHAIN = 0.02
 """Relative std of the FRF scale when the rig file states none: force sensor and accelerometer
 calibrations of about 1 % each (typical calibration certificates), combined and rounded up."""
 
+ACCEL_CALIBRATION = 0.01
+"""Relative standard uncertainty of one accelerometer's sensitivity (calibration certificates of
+about 1 %, the same source as :data:`UNTRUSTED_FORCE_CHAIN`); calibrations taken independent, so a
+ratio of the means of ``n_s`` spindle and ``n_h`` housing sensors has
+``ACCEL_CALIBRATION sqrt(1/n_s + 1/n_h)``."""
+
+SHAPE_MASS_CONSISTENT = 3.0
+"""The housing mass from the mode's shape and the one from its driving-point modal mass are combined
+when they agree within this many combined standard uncertainties (p = 0.003 for a normal
+difference); otherwise the 3DOF model does not describe the shape and only the modal mass is used."""
+
 MASS_RESOLUTION = 1e-3
 """Below 0.1 % a modal-mass discrepancy is not evidence about m_H (the best identified modal
 masses of the issue-19 truths scatter by 0.1-1 %)."""
@@ -467,6 +489,11 @@ class Assessment:
     housing_mass : HousingMass or None
         ``m_H`` measured from that modal mass with its std, beside the rig file's, and which one
         the inversion used (None where the housing mode is not clean enough to measure it).
+    m_H_budget : (float, dict) or None
+        Where the measured ``m_H`` leans on other model parameters (the mode's shape route):
+        its relative std from the measurement alone and ``d ln m_H / d ln x`` per parameter, for
+        the k_TB budget (:func:`stiffness_uncertainty` ``shared``); ``m_H_rel_std`` is the
+        marginal std.
     """
 
     abs_freq: float
@@ -481,6 +508,7 @@ class Assessment:
     cross_axis: Any = None
     modal_mass: Any = None
     housing_mass: Any = None
+    m_H_budget: tuple[float, dict[str, float]] | None = None
 
 
 def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> float | None:
@@ -521,8 +549,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     * **split housing mass**: the housing mode's effective mass is >10 % above the model's and
       modes within +-25 % that look like the housing mode in every respect but the mass carry
       the missing participation (an appendage, a load arm): the uncoupled frequency ``fu`` is
-      recovered from the group's driving-point compliance (:func:`_uncoupled_freq`) when the
-      group's participation matches the model's within 10 %. Modal data cannot tell this from
+      recovered from the 4DOF split-housing fit (:func:`ema_rig.rig.fit.fit_split_housing`; the
+      part is inside ``m_H``, whose tolerance stays the rig file's, when the fitted scale of both
+      modal masses agrees with it at :data:`MASS_AGREE_SIGMAS`; else widened to the discrepancy
+      within the force chain, else by ``m_a / m_H``), or from the group's driving-point compliance
+      (:func:`_uncoupled_freq`) when the group's participation matches the model's within 10 %. Modal data cannot tell this from
       independent close modes whose identified participations leak into each other (reading
       ``f0``), so ``sqrt(fu f0)`` is inverted with a term ``|ln(fu / f0)| / 2``: each reading
       1 sigma away; warning;
@@ -545,7 +576,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       (:class:`ema_rig.rig.fit.HousingMass`): the rig file's value is kept within
       :data:`MASS_AGREE_SIGMAS` of its tolerance and the fit's std (combined with the measurement
       when the force chain is stated); beyond, the rig file's m_H with its tolerance widened to the
-      discrepancy or the measured m_H, whichever std is smaller (a note, no warning). Otherwise
+      discrepancy or the measured m_H, whichever std is smaller (a note, no warning). The measured
+      m_H is the driving-point one combined with a second measurement that needs no force chain,
+      the mode's spindle/housing ratio through the 3DOF model
+      (:func:`ema_rig.rig.fit.housing_mass_from_ratio`; it leans on ``k_S``, ``m_S`` and the frame,
+      whose sensitivities the budget then carries), by the weight minimising ``var(k_TB)``. Otherwise
       (not clean) within :data:`MASS_CHECK_SIGMAS` combined sigma the tolerance is widened (note),
       outside it a warning names both masses;
     * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
@@ -694,6 +729,21 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         # the other reading lies one sigma away in m_H
         u_mh0 = float(rig.uncertainty.get("m_H", DEFAULT_REL_UNCERTAINTY["m_H"]))
         m_h_split_rel = math.hypot(u_mh0, fit_.appendage_mass / params.m_H)
+        # unless both modal masses agree with the rig file's m_H (the fitted scale of the measured
+        # masses is 1 within the rig file's tolerance and the masses' own std, the test of a clean
+        # housing mode, MASS_AGREE_SIGMAS): an appendage added to m_H would raise both by m_a / m_H
+        d_scale = abs(math.log(fit_.force_chain_scale))
+        fc_split = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
+        inside = (fit_.force_chain_scale_std < fc_split and d_scale <= MASS_AGREE_SIGMAS * math.hypot(
+            u_mh0, fit_.force_chain_scale_std))
+        widened = (not inside and fit_.force_chain_scale_std < fc_split
+                   and d_scale < math.hypot(fit_.force_chain_scale_std, fc_split))
+        if inside:
+            m_h_split_rel = u_mh0
+        elif widened:
+            # the masses' discrepancy is within the force chain: an added part cannot exceed it by more
+            # than the rig file's tolerance (as for a clean housing mode: widened to the discrepancy)
+            m_h_split_rel = min(m_h_split_rel, math.hypot(u_mh0, d_scale))
         # both masses explained by the fit (chi2 small): a further neighbour cannot have leaked more
         # than the masses' tolerance into the housing mode
         fc_ = UNTRUSTED_FORCE_CHAIN if rig.force_chain is None else float(rig.force_chain)
@@ -703,7 +753,14 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             f"with an appendage fitted to both (appendage {1000 * fit_.appendage_mass:.3g} +/- "
             f"{1000 * fit_.appendage_mass_std:.2g} g at {fit_.appendage_freq:.0f} Hz, chi2 {fit_.chi2:.2f}); "
             f"uncoupled housing frequency {fu:.1f} Hz inverted (+/- {100 * terms['split housing fit']:.2f} %); "
-            f"inside or added to m_H cannot be told: m_H tolerance {100 * m_h_split_rel:.1f} %"
+            + (f"both modal masses agree with the rig file's m_H (scale {fit_.force_chain_scale:.4f} +/- "
+               f"{fit_.force_chain_scale_std:.4f}): the appendage is inside m_H, tolerance {100 * m_h_split_rel:.1f} %"
+               if inside else
+               f"the modal masses' scale {fit_.force_chain_scale:.4f} +/- {fit_.force_chain_scale_std:.4f} lies "
+               f"within the force chain's {100 * fc_split:.1f} %: m_H tolerance widened to the discrepancy, "
+               f"{100 * m_h_split_rel:.1f} %" if widened else
+               f"inside or added to m_H cannot be told (scale of the modal masses {fit_.force_chain_scale:.4f} "
+               f"+/- {fit_.force_chain_scale_std:.4f}): m_H tolerance {100 * m_h_split_rel:.1f} %")
         )
     elif partners and ratio is not None and ratio > MASS_WARN_RATIO:
         # the housing mode lacks part of its participation and in-phase neighbours carry it:
@@ -748,6 +805,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     if not used and (ratio is None or abs(math.log(ratio)) <= math.log(MASS_WARN_RATIO)):
         dpm = dpm0
     housing_mass = None
+    by_shape = None
+    m_h_corr: tuple[float, dict[str, float]] | None = None
+    m_h_budget: tuple[float, dict[str, float]] | None = None
     if dpm is not None and info_inv is not None:
         # a clean housing mode: no cross-axis motion beyond 2 sigma of misalignment, no coupling
         # corrected, no close neighbour; only then does its modal mass measure m_H alone (a mode the
@@ -784,6 +844,21 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         ratio = r
         mm = measured_housing_mass(f_inv, dpm.modal_mass / mix_mass, params)
         u_m = math.hypot(u_meas, u_fc)
+        by_shape = None
+        if clean and mm is not None:
+            # a second measurement of m_H with an independent error: the mode's shape (no force chain)
+            by_shape = _mass_by_shape(hm, f_inv, params, rig)
+            if by_shape is not None and abs(math.log(by_shape.m_H / mm)) <= SHAPE_MASS_CONSISTENT * math.hypot(
+                    by_shape.rel_std, u_m):
+                w_b, u_own, shared = _shape_weight(f_inv, params, rig, u_m, by_shape)
+                mm = math.exp((1 - w_b) * math.log(mm) + w_b * math.log(by_shape.m_H))
+                u_m = math.sqrt((1 - w_b) ** 2 * u_m**2 + w_b**2 * by_shape.rel_std**2)
+                m_h_corr = (u_own, shared)
+            elif by_shape is not None:
+                notes.append(f"housing mass from the mode's spindle/housing ratio {by_shape.m_H:.4g} +/- "
+                             f"{by_shape.m_H * by_shape.rel_std:.2g} kg disagrees with the driving-point one "
+                             f"{mm:.4g} kg: not combined")
+                by_shape = None
         d_rig = abs(math.log(r))
         # the rig file's m_H against the data at the rig file's own tolerance and the fit's std (the
         # force chain scales every measured mass alike, so it cannot tell which is off: its std goes
@@ -810,11 +885,14 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             elif not agrees:
                 # the data measure the housing's mass (with what sits on it): used with its std
                 m_h_new, m_h_rel = mm, u_m
+                m_h_budget = m_h_corr
                 source = "measured"
             housing_mass = HousingMass(
                 measured=mm, measured_std=mm * u_m, rig_file=params.m_H, used=m_h_new,
                 used_rel_std=m_h_rel, modal_mass=dpm.modal_mass, modal_mass_std=dpm.modal_mass_std,
-                force_chain=u_fc, force_chain_stated=trusted, agrees=agrees, source=source)
+                force_chain=u_fc, force_chain_stated=trusted, agrees=agrees, source=source,
+                by_shape=by_shape.m_H if by_shape is not None else None,
+                by_shape_std=by_shape.m_H * by_shape.rel_std if by_shape is not None else None)
             # all of the discrepancy could be a neighbour's leak: it bounds the neighbour terms below
             leak_bound = d_rig + MASS_CHECK_SIGMAS * u_r
             if source == "measured":
@@ -832,6 +910,21 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                     f"driving-point modal mass {dpm.modal_mass:.4g} kg is {100 * (r - 1):+.1f} % off the model's "
                     f"{expected:.4g} kg, within the force chain's {100 * u_fc:.1f} %: m_H tolerance widened to "
                     f"{100 * m_h_rel:.1f} %")
+                # no neighbour, only cross-axis motion past the misalignment's 2 sigma: the modal mass may
+                # hold a leak, the mode's spindle/housing ratio (no force chain) reads m_H independently:
+                # combined with the widened rig file's value. Not beside a neighbour: its shape leaks into
+                # the ratio as its residue into the mass (the issue-11 truths, 10 % hysteretic damping,
+                # seed 5: the ratio read m_H 10.6 % high beside the 690 Hz mode, k_TB +15.7 % at z 2.5)
+                shape = _mass_by_shape(hm, f_inv, params, rig) if cross is None and not m.neighbours else None
+                if shape is not None and abs(math.log(shape.m_H / params.m_H)) <= SHAPE_MASS_CONSISTENT * math.hypot(
+                        shape.rel_std, m_h_rel):
+                    w1, w2 = 1 / m_h_rel**2, 1 / shape.rel_std**2
+                    m_h_new = params.m_H * math.exp(w2 * math.log(shape.m_H / params.m_H) / (w1 + w2))
+                    m_h_rel = 1 / math.sqrt(w1 + w2)
+                    notes.append(
+                        f"housing mass from the mode's spindle/housing ratio {shape.ratio:.4f}: {shape.m_H:.4g} +/- "
+                        f"{shape.m_H * shape.rel_std:.2g} kg; combined with the widened rig file's: m_H "
+                        f"{m_h_new:.4g} kg +/- {100 * m_h_rel:.1f} %")
         else:
             msg = (f"driving-point modal mass {dpm.modal_mass:.4g} +/- {dpm.modal_mass_std:.2g} kg is "
                    f"{100 * (r - 1):+.1f} % off the model's {expected:.4g} kg (tolerance {100 * u_r:.1f} %: "
@@ -847,6 +940,12 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                 warns.append(f"{msg}: a close neighbour or cross-axis motion shares the housing mode, so the "
                              f"mass does not measure m_H alone{extra}; m_H tolerance widened to "
                              f"{100 * m_h_rel:.1f} %")
+    if housing_mass is not None and housing_mass.used is not None and by_shape is not None:
+        notes.append(f"m_H measured twice: driving-point modal mass (force chain {100 * u_fc:.1f} %) and the "
+                     f"housing mode's spindle/housing ratio {by_shape.ratio:.4f} ({by_shape.m_H:.4g} +/- "
+                     f"{by_shape.m_H * by_shape.rel_std:.2g} kg, relative calibration "
+                     f"{100 * by_shape.ratio_rel_std:.2f} %): combined {housing_mass.measured:.4g} +/- "
+                     f"{housing_mass.measured_std:.2g} kg")
     if split_leak is not None:
         leak_bound = split_leak
     if m_h_split_rel is not None and m_h_rel is None:
@@ -882,6 +981,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     return Assessment(
         abs_freq=f_abs, undamped_freq=f0, inverted_freq=f_inv, model_form=terms,
         warnings=tuple(warns), mass_ratio=ratio, notes=tuple(notes), m_H=m_h_new, m_H_rel_std=m_h_rel,
+        m_H_budget=m_h_budget,
         cross_axis=cross, modal_mass=dpm, housing_mass=housing_mass,
     )
 
@@ -938,6 +1038,42 @@ def _pair_mass(cross: Any, modes: Any, data: Any, p: int, q: int, dpm: Any, u_me
     pair = 1.0 / (1.0 / m1 + 1.0 / m2)
     u = math.hypot(pair / m1 * u_meas, pair / m2 * dpj.modal_mass_std / m2)
     return replace(dpm, modal_mass=pair, modal_mass_std=pair * u), u
+
+
+def _shape_weight(f_h: float, params: ModelParams, rig: RigConfig, u_a: float, by_shape: Any
+                  ) -> tuple[float, float, dict[str, float]]:
+    """Weight of the shape route's ``m_H`` beside the driving-point one (std ``u_a``) that minimises
+    the variance of ``ln k_TB``, with the shape route's dependence on ``k_S``, ``m_S``, ... carried:
+    those parameters enter ``k_TB`` directly too (:func:`sensitivities`), with the opposite sign.
+
+    Returns ``(w, u_own, shared)``: the weight, the combined ``m_H``'s relative std from the two
+    measurements alone (force chain, fit, ratio calibration) and ``d ln m_H / d ln x`` per shared
+    parameter."""
+    sens = sensitivities(f_h, params)
+    rel = {**DEFAULT_REL_UNCERTAINTY, **rig.uncertainty}
+    s_m = sens["m_H"]
+    b = {n: v for n, v in by_shape.sensitivity.items() if n != "ratio"}
+    u_r = abs(by_shape.sensitivity["ratio"]) * by_shape.ratio_rel_std
+    num = u_a**2 - sum(sens[n] * b[n] * rel[n] ** 2 for n in b) / s_m
+    den = u_a**2 + u_r**2 + sum((b[n] * rel[n]) ** 2 for n in b)
+    w = min(max(num / den, 0.0), 1.0) if den > 0 else 0.0
+    u_own = math.sqrt((1 - w) ** 2 * u_a**2 + w**2 * u_r**2)
+    return w, u_own, {n: w * b[n] for n in b}
+
+
+def _mass_by_shape(hm: Any, f_h: float, params: ModelParams, rig: RigConfig) -> Any:
+    """:func:`ema_rig.rig.fit.housing_mass_from_ratio` of the housing mode's spindle/housing ratio
+    (None without spindle radial sensors); the ratio's std is the sensors' relative calibration,
+    :data:`ACCEL_CALIBRATION` each, over the means of both groups."""
+    sr = hm.get("spindle_ratio")
+    n_s = sum(1 for se in rig.sensors if se.role == "spindle" and se.axis == "radial")
+    n_h = sum(1 for se in rig.sensors if se.role == "housing" and se.axis == "radial")
+    if sr is None or not math.isfinite(float(sr)) or n_s == 0 or n_h == 0:
+        return None
+    rel = {**DEFAULT_REL_UNCERTAINTY, **rig.uncertainty}
+    if f_h >= housing_freq_bounds(params, bearing=True)[1]:
+        return None  # outside the model's range: the inversion says so with the file's name
+    return housing_mass_from_ratio(f_h, float(sr), params, rel, ACCEL_CALIBRATION * math.sqrt(1 / n_s + 1 / n_h))
 
 
 def _mass_at_centre(dpm: Any, modes: Any, rig: RigConfig, index: int, hm: Any, notes: list[str]) -> Any:
