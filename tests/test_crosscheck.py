@@ -96,9 +96,11 @@ def test_peer_poles_get_the_same_window_correction():
 def test_dam0_flags_follow_the_combined_sigma_and_the_peer_only_modes_are_listed(real_frf_dir: Path):
     """The issue's case: dam0 in 1-12 Hz. At 11.76 Hz the default ML gave zeta 0.48 % against sdypy-EMA's
     1.39 %, unflagged; that estimate came from a rank-deficient ML background (issue 18 item 1, a value
-    that also moved with the BLAS kernel). Now the two tools agree there in zeta, the 10.21 Hz damping
-    (ema_rig 1.64 %, sdypy-EMA 0.96 %, 2.9 combined sigma) is flagged, and the stable clusters only
-    sdypy-EMA has are listed."""
+    that also moved with the BLAS kernel). Now the two tools agree there in zeta, and the stable clusters
+    only sdypy-EMA has are listed. The 10.21 Hz damping (ema_rig 1.64 %, sdypy-EMA 0.96 %, --refine
+    1.47 %) was flagged at 2.9 combined sigma while its sigma (0.07 %) was the noise part alone: the
+    segment's whole background basis gives 1.15 %, and that model-form part is now in its sigma
+    (0.54 %), so the two tools differ by 1.3 combined sigma there (issue 18, e_bands)."""
     pytest.importorskip("sdypy.EMA")
     from ema_rig.io.uff import read_uff58
 
@@ -110,7 +112,11 @@ def test_dam0_flags_follow_the_combined_sigma_and_the_peer_only_modes_are_listed
     # measured 1.377 % vs 1.393 %, combined sigma 0.16 %
     assert abs(row.damping_ratio_peer - row.damping_ratio) < row.damping_sigma and "zeta" not in row.flags
     r10 = min(cc.rows, key=lambda r: abs(r.natural_freq - 10.21))
-    assert abs(r10.damping_ratio_peer - r10.damping_ratio) > 2 * r10.damping_sigma and "zeta" in r10.flags
+    # its damping sigma holds the basis's model-form part: above the peers' spread's half (0.34 %),
+    # below the spread itself (0.68 %)
+    k10 = int(np.argmin(np.abs(ident.natural_freq - 10.21)))
+    assert 0.0034 < ident.damping_ratio_std[k10] < 0.0068
+    assert abs(r10.damping_ratio_peer - r10.damping_ratio) < 2 * r10.damping_sigma
     # every mode whose f or zeta differ by more than the combined sigma carries the flag, and no other
     for r in cc.rows:
         assert r.found

@@ -43,7 +43,6 @@ UNDOCUMENTED: frozenset[str] = frozenset({
     "ema_rig.identification.identification.default_order_cap",
     "ema_rig.identification.identification.transpose_layout",
     "ema_rig.identification.judge.shape_mpc",
-    "ema_rig.identification.ml.LocalML",
     "ema_rig.identification.plscf.check_data",
     "ema_rig.identification.plscf.default_max_order",
     "ema_rig.identification.stabilization.cluster_poles",

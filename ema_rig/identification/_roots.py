@@ -52,12 +52,17 @@ def det_coefficients(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
     Returns
     -------
     ndarray, shape (n * n_in + 1,)
-        ``c_0 .. c_N`` of ``det A(z) = sum_j c_j z^j`` (N = n n_in): interpolated from the
-        values at N + 1 points on the unit circle (two FFTs, well conditioned).
+        ``c_0 .. c_N`` of ``det A(z) = sum_j c_j z^j`` (N = n n_in). Two references: the
+        exact products ``a00 a11 - a01 a10`` of the entry polynomials (two convolutions, each
+        coefficient rounded relative to its own terms); more: interpolated from the values at
+        N + 1 points on the unit circle (two FFTs, well conditioned).
     """
     n1, n_in, _ = alpha.shape
     if n_in == 1:
         return alpha[:, 0, 0].astype(float).copy()
+    if n_in == 2:
+        a = np.asarray(alpha, dtype=float)
+        return cast("NDArray[np.float64]", np.convolve(a[:, 0, 0], a[:, 1, 1]) - np.convolve(a[:, 0, 1], a[:, 1, 0]))
     deg = (n1 - 1) * n_in
     k = deg + 1
     vals = np.fft.fft(alpha, n=k, axis=0)  # A(exp(-2 pi i m / k)), shape (k, n_in, n_in)

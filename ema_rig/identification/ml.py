@@ -49,6 +49,20 @@ natural frequency and damping ratio is reported:
   neighbouring lines (window leakage), when the noise weights are wrong, and when the model
   misses something locally (the residuals then carry it into the scores).
 
+*Model form.* The background directions a segment keeps are decided against the noise estimate
+of the whole band (:meth:`_Segment.keep_supported`), not the segment's own lines alone: two bands
+over the same lines can keep different directions (on ``ufffiles_frf`` the band's misfit far from
+a segment raised that estimate 7-100x above the segment's own residual). Both bases are reasonable
+local models of the same lines, so where the cut dropped directions the poles are estimated on the
+whole basis too (started at the cut estimate). The change of natural frequency and damping ratio
+between the two, less the part the noise explains (two estimates on the same lines differ by noise
+of variance ``var_whole - var_cut`` when the cut model is right: Hausman, Econometrica 46, 1978),
+is added in quadrature to the standard uncertainty (and the pole change's outer product, scaled
+alike, to the pole covariance): the model-form part of the uncertainty (Draper, J. R. Stat. Soc.
+B 57, 1995; the unconditional variance over candidate models of Buckland, Burnham & Augustin,
+Biometrics 53, 1997). The estimate itself stays the cut basis's. When the whole-basis fit cannot hold a pole
+(it leaves its half-power band), that mode gets no model-form term (``basis_std`` NaN).
+
 A mode that the fit cannot hold (it leaves its half-power band, becomes unstable, passes a
 neighbour, or its Fisher information is singular) is held at its PolyMAX pole; its uncertainty
 is the robust covariance of the full problem at that pole, and it is propagated to the other
@@ -100,6 +114,14 @@ class LocalML:
         One line per mode whose estimate or uncertainty needs a caveat.
     n_eval : int
         Evaluations summed over the segments.
+    robust_std, fisher_std : ndarray, shape (n_modes, 2), optional
+        Standard deviations of (natural frequency [Hz], damping ratio [-]) from the robust and
+        the Fisher covariance.
+    basis_std : ndarray, shape (n_modes, 2), optional
+        Model-form part: the change of (natural frequency [Hz], damping ratio [-]) between the
+        segment's cut and whole background basis (0 where the cut dropped nothing, NaN where the
+        whole-basis fit could not hold the mode), included in ``natural_freq_std`` /
+        ``damping_ratio_std``.
     """
 
     poles: NDArray[np.complex128]
@@ -112,6 +134,7 @@ class LocalML:
     n_eval: int
     robust_std: NDArray[np.float64] | None = None
     fisher_std: NDArray[np.float64] | None = None
+    basis_std: NDArray[np.float64] | None = None
 
 
 def _stack(z: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -465,6 +488,7 @@ def local_ml(
     kind = ["none"] * nm
     chi_out = np.full(nm, np.nan)
     both = np.full((nm, 4), np.nan)  # robust (f, zeta) and Fisher (f, zeta) standard deviations
+    basis = np.zeros((nm, 2))  # model-form part (f, zeta): cut vs whole background basis
     n_eval = 0
     jw_all = np.asarray(2j * np.pi * freq, dtype=np.complex128)
     for i0, i1, rs in _windows(fn0, hb0, freq, criteria):
@@ -525,6 +549,26 @@ def local_ml(
             theta, free = th0, np.zeros(m, bool)
         held = ~free
         theta = np.where(np.repeat(held, 2), th0, theta)
+        # errors correlate over a mode's half-power half-bandwidth (leakage of its transient) and
+        # over the window's main lobe: a block spans the larger
+        nb = max(1, criteria.block_lines, int(np.ceil(float(np.min(hb0[rs_arr])) / df)))
+        # model form: the same lines on the whole background basis, when the cut dropped directions
+        d_basis = np.zeros((m, 2), np.complex128)  # (pole on the whole basis, pole on the cut basis)
+        std_w = np.zeros((m, 2))  # its (f, zeta) standard deviations
+        n_cut = full_basis.shape[1] - seg.fixed.shape[1]
+        if free.any() and n_cut > 0:
+            cut_basis = seg.fixed
+            seg.restore_basis(full_basis)
+            th_w, k = _lm(seg, theta, free, criteria.max_iter)
+            bad_w = _check(seg.poles(th_w), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
+                           criteria.move_hbw)
+            std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv), th_w, nb)
+            n_eval += k + 1
+            seg.restore_basis(cut_basis)
+            for j in np.flatnonzero(free).tolist():
+                # a pole the whole-basis fit cannot hold has left for another feature: no alternative
+                # estimate of this mode (basis_std NaN, no model-form part)
+                d_basis[j] = (np.nan, np.nan) if j in bad_w else (seg.poles(th_w)[j], seg.poles(theta)[j])
         # the noise model of every line and channel in the units of the weighted problem: the
         # residual covariance between channels is pooled after standardising by it
         # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
@@ -533,9 +577,6 @@ def local_ml(
         n_eval += 1
         hess = np.asarray(full["hess"])
         sc = np.asarray(full["line_scores"])  # (2m, n)
-        # errors correlate over a mode's half-power half-bandwidth (leakage of its transient) and
-        # over the window's main lobe: a block spans the larger
-        nb = max(1, criteria.block_lines, int(np.ceil(float(np.min(hb0[rs_arr])) / df)))
         blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
         g = blocks.shape[1]
         n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
@@ -582,6 +623,20 @@ def local_ml(
                 poles_out[r] = lam[j]
                 cov_out[r] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
                 both[r] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
+                if not np.isfinite(d_basis[j, 0]):
+                    basis[r] = np.nan
+                elif d_basis[j, 0] != 0:
+                    lw, lc = d_basis[j]
+                    # the change between two estimates on the same lines carries noise of variance
+                    # var_whole - var_cut (Hausman 1978): only the change beyond it is model form
+                    dv = np.array([lw.real - lc.real, lw.imag - lc.imag])
+                    d2 = np.array([(abs(lw) - abs(lc)) / (2 * np.pi), -lw.real / abs(lw) + lc.real / abs(lc)]) ** 2
+                    s_c = np.array([max(both[r, 0], both[r, 2]), max(both[r, 1], both[r, 3])])
+                    noise = np.maximum(std_w[j] ** 2 - s_c**2, 0.0)
+                    b2 = np.maximum(d2 - noise, 0.0) if np.all(np.isfinite(std_w[j])) else d2
+                    basis[r] = np.sqrt(b2)
+                    shrink = float(np.sqrt(b2[0] / d2[0])) if d2[0] > 0 else 0.0
+                    cov_out[r] = cov_out[r] + np.outer(dv, dv) * shrink**2
                 kind[r] = "held" if held[j] else "ml"
                 if held[j]:
                     warns.append(f"mode at {fn0[r]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
@@ -601,12 +656,36 @@ def local_ml(
         if np.all(np.isfinite(both[r])):
             # the larger of the robust and the (correlation-aware) Fisher uncertainty, per quantity
             fstd[r], zstd[r] = max(both[r, 0], both[r, 2]), max(both[r, 1], both[r, 3])
+            # plus the model-form part of the background basis, in quadrature
+            bf, bz = np.nan_to_num(basis[r])
+            fstd[r], zstd[r] = float(np.hypot(fstd[r], bf)), float(np.hypot(zstd[r], bz))
     # the float resolution of the fit is the smallest meaningful uncertainty: never 0
     fn = np.abs(poles_out) / (2 * np.pi)
     fstd = np.where(np.isfinite(fstd), np.maximum(fstd, 1e-10 * fn), fstd)
     zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
     return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
-                   both[:, :2].copy(), both[:, 2:].copy())
+                   both[:, :2].copy(), both[:, 2:].copy(), basis)
+
+
+def _basis_stds(seg: _Segment, ev: dict[str, NDArray[np.float64] | float], theta: NDArray[np.float64],
+                nb: int) -> NDArray[np.float64]:
+    """(f [Hz], zeta) standard deviations per mode of a segment's fit, shape (m, 2): the larger of the
+    robust (blocks of ``nb`` lines) and the Fisher covariance, all poles free; NaN when singular."""
+    sc = np.asarray(ev["line_scores"])
+    blocks = np.add.reduceat(sc, np.arange(0, sc.shape[1], nb), axis=1)
+    g = blocks.shape[1]
+    hinv = _inv(np.asarray(ev["hess"]))
+    out = np.full((seg.m, 2), np.nan)
+    if hinv is None:
+        return out
+    cov_rob = hinv @ ((blocks @ blocks.T) * (g / max(g - 1, 1))) @ hinv
+    cov_fis = hinv @ np.asarray(ev["jcj"]) @ hinv
+    lam = seg.poles(theta)
+    for j in range(seg.m):
+        sl, sj = slice(2 * j, 2 * j + 2), seg.scale[j] ** 2
+        r_, f_ = _delta(lam[j], cov_rob[sl, sl] * sj), _delta(lam[j], cov_fis[sl, sl] * sj)
+        out[j] = max(r_[0], f_[0]), max(r_[1], f_[1])
+    return out
 
 
 def _freq_var(lam: complex, c: NDArray[np.float64]) -> float:

@@ -32,8 +32,9 @@ conjugate pair only the root with ``Im s' > 0`` maps into the band and is kept.
 lag ``j - i``; their lag sums come from one FFT per channel (or a vectorised sum on an uneven
 grid). ``R = L L^T`` is factored once at the maximum order. Because ``L`` is lower triangular,
 the leading rows of ``Q_o = L^-1 S_o`` are the same matrices for every lower order, so
-``M_n = T_n - sum_o Q_o[:n+1, :]^T Q_o[:n+1, :]`` is accumulated order by order, one row of
-``Q`` (all outputs) at a time — exactly the reduced matrix of order ``n``, without rebuilding.
+``M_n = T_n - sum_o Q_o[:n+1, :]^T Q_o[:n+1, :]`` is accumulated order by order, the rows of
+``Q`` (all outputs) since the last solved order in one symmetric rank update of the lower
+triangle — exactly the reduced matrix of order ``n``, without rebuilding.
 The rows are made from the lag sums in blocks as they are needed and dropped once added, so
 ``Q`` (``n_out n_in (n+1)^2`` numbers) is never held whole.
 Each output is weighted by the inverse of its RMS over the band.
@@ -50,7 +51,7 @@ price is a noise bias: on noisy data the stable roots of the ``alpha_0 = I`` sol
 about ten times less accurate than those of ``alpha_n = I`` (relative frequency error ~1e-5
 against ~1e-6 for a 1 %-damped mode with 1 % noise), because the model can then represent
 out-of-band and edge dynamics only with unstable poles. Both solutions come from the same
-reduced matrix ``M_n`` (two small Cholesky solves), so each stable root of the
+reduced matrix ``M_n`` (one Cholesky factor, one solve: :func:`_solve_order`), so each stable root of the
 ``alpha_0 = I`` polynomial is polished by a few Newton steps on ``det A(z)`` of the
 ``alpha_n = I`` polynomial: the classification of the first, the accuracy of the second, for
 one root-finding problem per order.
@@ -79,6 +80,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 from collections.abc import Iterable, Iterator, Mapping
@@ -293,18 +295,24 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
 def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any], float]:
     """Weighted lag sums of R, S_o and T for lags -p..p.
 
-    Returns ``r`` (p+1,) real for lags 0..p, ``s`` (n_out, n_in, 2p+1) complex for lags -p..p,
-    ``t`` (n_in, n_in, 2p+1) complex, the output weights (n_out,) and ``dt``.
+    Returns ``r`` (p+1,) for lags 0..p, ``s`` (n_out, n_in, 2p+1) for lags -p..p,
+    ``t`` (n_in, n_in, 2p+1), the output weights (n_out,) and ``dt``: the REAL parts of the
+    sums, all the real-coefficient normal equations use.
 
     The FRF array is never copied whole: the weights are applied to one chunk of outputs at a
     time, and every work array (a chunk of weighted FRFs, its zero-padded FFT, a block of
     exponentials) is held to ``budget`` bytes, an eighth of the data clipped to 8..64 MB, so the
     peak stays near the data size. Equally spaced lines take, per channel, either a zero-padded
-    FFT of length ``2 (n - 1)`` (keeping 2p+1 of its outputs) or the direct sum over the lines
+    inverse real FFT of length ``2 (n - 1)`` (keeping 2p+1 of its outputs; see below) or the direct sum over the lines
     against a table of exponentials, whichever the operation count below makes cheaper (the
     direct sum wins at low orders: about ``(2p+1) n`` multiply-adds against ``nf log2 nf``
     for the FFT); both use the exact angles ``pi k l / (n - 1)``. Unequally spaced lines
     take the direct sum with ``exp(j theta_k l)``.
+
+    Real part by the inverse real FFT: with ``nf = 2 (n - 1)``, ``nf irfft(x, nf)[l]`` is
+    ``Re x_0 + Re x_{n-1} (-1)^l + 2 sum_{k=1}^{n-2} Re(x_k exp(j pi k l / (n - 1)))`` (the
+    transform of the Hermitian extension), so ``Re sum_k x_k exp(j pi k l / (n - 1))`` is its
+    mean with ``Re x_0 + Re x_{n-1} (-1)^l``: half the work of the complex transform.
     """
     f = data.freq
     n = f.size
@@ -332,26 +340,33 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
     even = data.is_even
     n_chan = n_out * n_in + n_in * n_in
     # rough costs in units of one complex multiply-add of a matrix product (measured with one
-    # BLAS thread at 4 001 and 64 001 lines: a table exponential ~ 50, one unit of an FFT's
-    # nf log2 nf ~ 8)
+    # BLAS thread at 4 001 and 64 001 lines: a table exponential ~ 50, one unit of a complex
+    # FFT's nf log2 nf ~ 8)
     cost_direct = n * m * (50.0 + n_chan)
-    cost_fft = 8.0 * n_chan * nf * np.log2(max(nf, 2))
-    s = np.empty((n_out, n_in, m), np.complex128)
+    cost_fft = 4.0 * n_chan * nf * np.log2(max(nf, 2))  # the inverse real FFT: half a complex one
     if even and p < n - 1 and cost_fft < cost_direct:
         idx = lags % nf
+        sign = np.where(lags % 2 == 0, 1.0, -1.0)  # (-1)^l
+
+        def re_sums(x: NDArray[Any]) -> NDArray[Any]:
+            # Re sum_k x_k exp(j pi k l / (n-1)) for l = -p..p along the last axis
+            y = np.fft.irfft(x, n=nf, axis=-1)[..., idx] * nf
+            y += x[..., :1].real + x[..., -1:].real * sign
+            y *= 0.5
+            return y
+
+        s = np.empty((n_out, n_in, m))
         g = np.zeros((n_in, n_in, n), np.complex128)  # sum_o H_o^H H_o per line
         for o0, o1 in chunks(n_in * nf * 16):
             hw = h[o0:o1] * w[o0:o1, None, None]
             g += np.einsum("oak,obk->abk", hw.conj(), hw)
-            # sum_k x_k exp(j pi k l / (n-1)) = nf * ifft(x, nf)[l]
-            s[o0:o1] = np.fft.ifft(hw, n=nf, axis=2)[:, :, idx] * nf
+            s[o0:o1] = re_sums(hw)
             del hw
-        t = np.fft.ifft(g, n=nf, axis=2)[:, :, idx] * nf
-        # lags 0..p of sum_k exp(j theta_k l): real part of a Dirichlet-type sum
-        r = (np.fft.ifft(np.ones(n), n=nf)[idx[p:]] * nf).real
+        t = re_sums(g)
+        r = re_sums(np.ones(n))[p:]  # lags 0..p
         return r, s, t, w, dt
 
-    s[:] = 0.0
+    s = np.zeros((n_out, n_in, m), np.complex128)
     t = np.zeros((n_in, n_in, m), np.complex128)
     r = np.zeros(p + 1)
     if even:
@@ -375,7 +390,7 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
             s[o0:o1] += (hw.reshape(-1, k1 - k0) @ e).reshape(o1 - o0, n_in, m)
             del hw
         t += g @ e
-    return r, s, t, w, dt
+    return r, s.real.copy(), t.real.copy(), w, dt
 
 
 #: Work budget [bytes] of one block of ``Q`` rows (all outputs): half the FRF data, clipped to
@@ -444,22 +459,30 @@ def _q_rows(s: NDArray[Any], linv: NDArray[Any], p: int, a: int, b: int) -> NDAr
     depends on rows ``0..i`` of ``S``): ``Q`` is never held whole, which would take
     ``n_out n_in (p+1)^2 x 8`` bytes (5x a 4 001-line data set at order 200).
     """
+    from scipy.linalg.blas import dtrmm
+
     n_out, n_in, _ = s.shape
     ncol = (p + 1) * n_in
-    i = np.arange(b + 1)
-    lag = np.arange(p + 1)[None, :] - i[:, None] + p  # rows 0..b, columns 0..p
     out = np.empty((b - a + 1, n_out, ncol))
     w = linv[a : b + 1, : b + 1]
-    sr = s.real
-    c = np.arange(n_in)[None, None, None, :]
+    # S[i, o, (j, c)] = -s[o, c, p + j - i]: a window of p + 1 lags starting at lag p - i, taken as
+    # strided views of the lag sums (no index arrays) and copied once into the (i, o, j, c) layout
+    win = np.lib.stride_tricks.sliding_window_view(s.real.transpose(0, 2, 1), p + 1, axis=1)  # (o, start, c, j)
+    rows = win[:, p - b : p + 1][:, ::-1]  # start p - i for i = 0..b: (o, i, c, j)
     step = max(1, _S_CHUNK_BYTES // ((b + 1) * ncol * 8))
     for o0 in range(0, n_out, step):
         o1 = min(o0 + step, n_out)
-        # gathered straight into the (i, o, j, c) layout: one array, no transposed copy
-        S = sr[np.arange(o0, o1)[None, :, None, None], c, lag[:, None, :, None]]
-        np.negative(S, out=S)
-        out[:, o0:o1] = (w @ S.reshape(b + 1, (o1 - o0) * ncol)).reshape(b - a + 1, o1 - o0, ncol)
-        del S
+        S = np.empty((b + 1, o1 - o0, p + 1, n_in))
+        np.negative(rows[o0:o1].transpose(1, 0, 3, 2), out=S)
+        S2 = S.reshape(b + 1, (o1 - o0) * ncol)
+        if a == 0:
+            # w = L^-1[:b+1, :b+1] is lower triangular: half the products of a general one
+            # (BLAS trmm on the transposes, in place: S2^T w^T = (w S2)^T)
+            prod = dtrmm(1.0, w.T, S2.T, side=1, lower=0, trans_a=0, overwrite_b=1).T
+        else:
+            prod = w @ S2
+        out[:, o0:o1] = prod.reshape(b - a + 1, o1 - o0, ncol)
+        del S, S2, prod
     return out
 
 
@@ -474,15 +497,64 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
 
     Returns ``(alpha_low, alpha_high)``, each of shape (n + 1, n_in, n_in) holding
     ``alpha_0 .. alpha_n``: ``alpha_low`` with ``alpha_0 = I``, ``alpha_high`` with
-    ``alpha_n = I``. ``m`` is the reduced normal matrix ``M_n``, shape ((n+1) n_in, (n+1) n_in).
+    ``alpha_n = I``. ``m`` is the reduced normal matrix ``M_n``, shape ((n+1) n_in, (n+1) n_in);
+    only its lower triangle is read.
+
+    Both come from ONE Cholesky factor ``M = G G^T``: the solution ``theta = [I; x]`` of the
+    constraint ``alpha_0 = I`` satisfies ``M theta = E_0 Lambda`` (``E_0`` the first ``n_in``
+    columns of I, ``Lambda`` an ``n_in x n_in`` matrix of multipliers), so ``theta = M^-1 E_0``
+    normalised to a leading block I; likewise ``alpha_n = I`` from ``M^-1 E_n`` (``E_n`` the
+    last ``n_in`` columns). One factorisation and one solve with ``2 n_in`` right-hand sides,
+    backward stable for ``M`` as a whole like the two separate Cholesky solves of the
+    sub-blocks it replaces, at half their work. When ``M`` is not numerically positive definite
+    the sub-blocks are solved apart (:func:`_spd_solve`, least squares as the last resort).
     """
+    from scipy.linalg.lapack import dpotrf, dpotrs
+
     eye = np.eye(n_in)
-    x_low = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in])
     k = n * n_in
-    x_high = _spd_solve(m[:k, :k], -m[:k, k:])
-    low = np.concatenate([eye, x_low]).reshape(n + 1, n_in, n_in)
-    high = np.concatenate([x_high, eye]).reshape(n + 1, n_in, n_in)
+    g, info = dpotrf(m, lower=1, clean=0)
+    x = None
+    if info == 0:
+        e = np.zeros((k + n_in, 2 * n_in))
+        e[:n_in, :n_in] = eye
+        e[k:, n_in:] = eye
+        u, info = dpotrs(g, e, lower=1)
+        if info == 0:
+            # the diagonal blocks u[:n_in, :n_in] and u[k:, n_in:] of M^-1 are symmetric positive
+            # definite: x_low = u[n_in:, :n_in] u[:n_in, :n_in]^-1, x_high = u[:k, n_in:] u[k:, n_in:]^-1
+            # (both k x n_in; solved together, transposed)
+            piv = np.stack([u[:n_in, :n_in], u[k:, n_in:]])
+            rhs = np.stack([u[n_in:, :n_in].T, u[:k, n_in:].T])
+            with contextlib.suppress(np.linalg.LinAlgError):  # singular pivot block: the fallback below
+                x = np.linalg.solve(piv, rhs)
+    low = np.empty((n + 1, n_in, n_in))
+    high = np.empty((n + 1, n_in, n_in))
+    low[0] = eye
+    high[n] = eye
+    if x is not None and np.all(np.isfinite(x)):
+        low[1:] = x[0].T.reshape(n, n_in, n_in)
+        high[:n] = x[1].T.reshape(n, n_in, n_in)
+    else:
+        m = np.tril(m) + np.tril(m, -1).T  # the least-squares fallback reads the whole matrix
+        low[1:] = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in]).reshape(n, n_in, n_in)
+        high[:n] = _spd_solve(m[:k, :k], -m[k:, :k].T).reshape(n, n_in, n_in)
     return low, high
+
+
+def _add_gram(p: NDArray[Any], q: NDArray[Any]) -> NDArray[Any]:
+    """``p + q^T q`` in the LOWER triangle of ``p`` (in place when ``p`` is C-contiguous), returned.
+
+    ``q`` has shape (m, ncol), ``p`` (ncol, ncol). One symmetric rank-m update (BLAS ``dsyrk``)
+    for a whole block of rows: half the work of ``q.T @ q`` and one pass over ``p`` instead of
+    one per row. The upper triangle of ``p`` is not updated.
+    """
+    from scipy.linalg.blas import dsyrk
+
+    # a C-contiguous (m, ncol) array is the Fortran array q^T; the upper triangle of the
+    # Fortran array p^T is the lower triangle of p
+    out = dsyrk(1.0, np.ascontiguousarray(q).T, beta=1.0, c=p.T, trans=0, lower=0, overwrite_c=1)
+    return cast("NDArray[Any]", out.T)
 
 
 def _spd_solve(a: NDArray[Any], b: NDArray[Any]) -> NDArray[Any]:
@@ -603,11 +675,18 @@ def _eval_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any]) -> tupl
         if n1 > 1:
             v[:, 1:] = zc[:, None]
             np.cumprod(v[:, 1:], axis=1, out=v[:, 1:])
-        dv = np.zeros_like(v)
-        dv[:, 1:] = v[:, :-1] * j[1:]
-        c = high[owner[r0 : r0 + step]]  # (chunk, n1, n_in, n_in)
-        a[r0 : r0 + step] = np.einsum("rj,rjab->rab", v, c)
-        da[r0 : r0 + step] = np.einsum("rj,rjab->rab", dv, c)
+        # real and imaginary parts of the powers and of their derivatives as four real rows per
+        # root, times the root's real coefficients: one stack of real products (no complex
+        # copy of the gathered coefficients)
+        w = np.empty((zc.size, 4, n1))
+        w[:, 0], w[:, 1] = v.real, v.imag
+        w[:, 2:, 0] = 0.0
+        np.multiply(v.real[:, :-1], j[1:], out=w[:, 2, 1:])
+        np.multiply(v.imag[:, :-1], j[1:], out=w[:, 3, 1:])
+        c = high[owner[r0 : r0 + step]].reshape(zc.size, n1, n_in * n_in)
+        res = np.matmul(w, c)  # (chunk, 4, n_in^2)
+        a[r0 : r0 + step] = (res[:, 0] + 1j * res[:, 1]).reshape(-1, n_in, n_in)
+        da[r0 : r0 + step] = (res[:, 2] + 1j * res[:, 3]).reshape(-1, n_in, n_in)
     return a, da
 
 
@@ -627,6 +706,11 @@ def _refine_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any], iters
         with np.errstate(all="ignore"):
             if n_in == 1:
                 step = a[:, 0, 0] / da[:, 0, 0]
+            elif n_in == 2:
+                # det A = a00 a11 - a01 a10 and its derivative (product rule), in closed form
+                a00, a01, a10, a11 = a[:, 0, 0], a[:, 0, 1], a[:, 1, 0], a[:, 1, 1]
+                ddet = da[:, 0, 0] * a11 + a00 * da[:, 1, 1] - da[:, 0, 1] * a10 - a01 * da[:, 1, 0]
+                step = (a00 * a11 - a01 * a10) / ddet
             else:
                 ddet = np.zeros(zk.size, dtype=np.complex128)
                 for i in range(n_in):
@@ -816,10 +900,9 @@ class PlscfEngine:
         self._sp = self._s[:, :, lags]  # lag sums -p..p, (n_out, n_in, 2p+1)
         self._alloc = p
         ncol = (p + 1) * self.n_in
-        self._P = np.zeros((ncol, ncol))
+        self._P = np.zeros((ncol, ncol))  # lower triangle only (_add_gram)
         for _, rows in self._row_blocks(0, self._done - 1):
-            q = rows.reshape(-1, ncol)
-            self._P += q.T @ q
+            self._P = _add_gram(self._P, rows.reshape(-1, ncol))
 
     def _row_blocks(self, a: int, b: int) -> Iterator[tuple[int, NDArray[Any]]]:
         """Rows ``a..b`` of ``Q`` in blocks of at most :data:`_Q_BLOCK_BYTES`: (first row, rows)."""
@@ -853,13 +936,16 @@ class PlscfEngine:
 
         def solvable() -> Iterator[int]:
             # add the rows of Q one block at a time; an order is solved once its rows are in P
+            # (the rows since the last solved order are added together, one rank update)
             for i0, rows in self._row_blocks(self._done, order_list[-1]):
+                a = 0
                 for k in range(rows.shape[0]):
-                    q = rows[k]
-                    self._P += q.T @ q
-                    self._done = i0 + k + 1
-                    if i0 + k in wanted:
-                        yield i0 + k
+                    if i0 + k in wanted or k == rows.shape[0] - 1:
+                        self._P = _add_gram(self._P, rows[a : k + 1].reshape(-1, rows.shape[2]))
+                        a = k + 1
+                        self._done = i0 + k + 1
+                        if i0 + k in wanted:
+                            yield i0 + k
 
         # per order: solve and root; the polish of the stable roots and the participation
         # factors of all these orders follow at once (_poles_of_orders)

@@ -1,0 +1,97 @@
+"""Where the two-reference pLSCF time goes: CPU time per stage of ``plscf`` on the bench data.
+
+Data and call as in ``bench_plscf.py``'s two-reference rows (8 outputs x 2 references x 4000
+lines, every even order 2..N, BLAS limited to one thread). Each stage function of
+``ema_rig.identification.plscf`` is wrapped by a timer for the duration of the run (thread CPU
+time, ``time.thread_time``, which a busy shared machine inflates less than wall time); the
+fastest of ``--repeat`` calls is listed. Nested stages (the Newton polish and the participation
+factors inside the pole assembly) are indented; "other" is the call's time outside the listed
+top-level stages.
+
+Run: ``python benchmarks/profile_plscf_mimo.py [--repeat N] [ORDER ...]`` (default 50 100 200).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import importlib
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+from bench_plscf import blas_threads, call_ema, ema_data, make_arrays  # beside this script
+
+#: (stage, nested) in the order the engine runs them
+STAGES = [
+    ("check_data", False), ("_lag_sums", False), ("_order_limit", False), ("_reduced_factor", False),
+    ("_q_rows", False), ("_add_gram", False), ("_solve_order", False), ("det_coefficients", False),
+    ("warm_start", False), ("aberth", False), ("_roots_eig", False), ("_poles_of_orders", False),
+    ("_refine_many", True), ("_participation_many", True),
+]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("orders", nargs="*", type=int, default=[50, 100, 200])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    mod = importlib.import_module("ema_rig.identification.plscf")
+    spent: dict[str, float] = collections.defaultdict(float)
+
+    def timed(name: str, fn: Callable[..., Any]) -> Callable[..., Any]:
+        def run(*a: Any, **k: Any) -> Any:
+            t0 = time.thread_time()
+            try:
+                return fn(*a, **k)
+            finally:
+                spent[name] += time.thread_time() - t0
+        return run
+
+    names = [n for n, _ in STAGES if hasattr(mod, n)]
+    originals = {n: getattr(mod, n) for n in names}
+    freq, h, _ = make_arrays(2)
+    data = ema_data(freq, h)
+    print(f"two-reference pLSCF, 8 x 2 x {freq.size} lines, even orders 2..N, BLAS 1 thread, "
+          f"CPU ms per stage (fastest of {args.repeat} calls), {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    try:
+        for n in names:
+            setattr(mod, n, timed(n, originals[n]))
+        rows: dict[int, tuple[float, dict[str, float]]] = {}
+        with blas_threads(1):
+            call_ema(data, 10, even=True)
+            for mo in args.orders:
+                best: tuple[float, dict[str, float]] | None = None
+                for _ in range(args.repeat):
+                    spent.clear()
+                    t0 = time.thread_time()
+                    ps = call_ema(data, mo, even=True)
+                    total = time.thread_time() - t0
+                    if best is None or total < best[0]:
+                        best = (total, dict(spent))
+                assert best is not None
+                rows[mo] = best
+                rows[mo][1]["_aberth_orders"] = float(ps.meta["aberth_orders"])
+    finally:
+        for n, fn in originals.items():
+            setattr(mod, n, fn)
+    head = f"{'stage':<22}" + "".join(f"{'N=' + str(mo):>16}" for mo in args.orders)
+    print(head)
+    print("-" * len(head))
+    for n, nested in STAGES:
+        if n not in names:
+            continue
+        label = ("  " if nested else "") + n
+        cells = "".join(f"{rows[mo][1].get(n, 0.0) * 1e3:9.2f} {rows[mo][1].get(n, 0.0) / rows[mo][0]:5.0%}" for mo in args.orders)
+        print(f"{label:<22}{cells}")
+    other = [rows[mo][0] - sum(v for k, v in rows[mo][1].items() if k in names and not dict(STAGES)[k]) for mo in args.orders]
+    print(f"{'other':<22}" + "".join(f"{o * 1e3:9.2f} {o / rows[mo][0]:5.0%}" for o, mo in zip(other, args.orders, strict=True)))
+    print(f"{'total':<22}" + "".join(f"{rows[mo][0] * 1e3:9.2f} {'':>5}" for mo in args.orders))
+    print(f"{'orders by Aberth':<22}" + "".join(f"{int(rows[mo][1]['_aberth_orders']):>9d} {'':>5}" for mo in args.orders))
+    print(f"{'solved orders':<22}" + "".join(f"{mo // 2:>9d} {'':>5}" for mo in args.orders))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
