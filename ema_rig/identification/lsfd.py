@@ -284,7 +284,8 @@ def _line_weights(variance: NDArray[np.float64], shape: tuple[int, ...], src: st
     top = np.max(w, axis=2, keepdims=True)
     if np.any(top <= 0):
         raise IdentificationError("LSFD variance is inf at every line of a channel: nothing to fit", file=src)
-    return w / top
+    out: NDArray[np.float64] = w / top
+    return out
 
 
 def _common_profile(weights: NDArray[np.float64]) -> NDArray[np.float64] | None:
@@ -345,7 +346,8 @@ def _weighted_solve(uk: NDArray[np.float64], proj: NDArray[np.float64], yv: NDAr
     keep = ev > np.finfo(float).eps * r * ev[:, -1:]
     inv = np.where(keep, 1.0 / np.where(keep, ev, 1.0), 0.0)
     z = np.einsum("crk,ck->cr", vec, inv * np.einsum("crk,cr->ck", vec, rhs / d)) / d
-    return (z @ proj.T).reshape(n_o, n_i, proj.shape[0])
+    res: NDArray[np.float64] = (z @ proj.T).reshape(n_o, n_i, proj.shape[0])
+    return res
 
 
 def _projector(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
