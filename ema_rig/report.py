@@ -45,7 +45,7 @@ table{border-collapse:collapse;font-size:.85em;width:100%}th,td{padding:.25em .5
 text-align:right}th{background:#f4f4f4;position:sticky;top:0}td.l,th.l{text-align:left}
 tr.err td{background:#fff0f0}.muted{color:#777}figure{margin:1em 0;text-align:center}
 figure img{max-width:100%;border:1px solid #eee}figcaption{font-size:.9em;color:#555}
-pre{background:#f7f7f7;padding:1em;overflow-x:auto;font-size:.8em}.kpi{display:inline-block;margin:.3em 1.5em .3em 0}
+pre{background:#f7f7f7;padding:1em;overflow-x:auto;font-size:.8em}.wide{overflow-x:auto}.kpi{display:inline-block;margin:.3em 1.5em .3em 0}
 .kpi b{font-size:1.3em}
 section.meas{border-top:2px solid #ddd;margin-top:2em}section.meas h3{margin-bottom:.2em}
 ul.warn li{color:#8a4b00}.cand td.reason{text-align:left;font-size:.95em;max-width:40em}
@@ -158,7 +158,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB [MN/m]",
             "± measured [MN/m]", "± total [MN/m]", "k_TB+MS [MN/m]", "f_H [Hz]", "± f_H [Hz]", "ζ_H [%]",
             "f_spindle [Hz]", "c_TB [N·s/m]", "± c_TB [N·s/m]", "f_H from", "warnings", "status"]
-    parts.append("<table><tr>" + "".join(
+    parts.append("<div class='wide'><table><tr>" + "".join(
         f"<th class='{'l' if i in (0, 1, 16, 18) else ''}'>{_h(h)}</th>" for i, h in enumerate(head))
         + "</tr>")
     for i, r in enumerate(rows):
@@ -177,7 +177,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
             ("l", _h(status)),
         ]
         parts.append(f"<tr{cls}>" + "".join(f"<td class='{c}'>{v}</td>" for c, v in cells) + "</tr>")
-    parts.append("</table>")
+    parts.append("</table></div>")  # 19 columns: the table scrolls in its box, not the page
     parts.append("<h2>Measurements</h2>")
     for i, r in enumerate(rows):
         parts.append(_measurement_section(i, r, (measurements or {}).get(str(r["id"]))))

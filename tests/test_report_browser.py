@@ -152,3 +152,20 @@ def test_synthesis_figure_has_phase(tmp_path: Path, mplcleanup) -> None:
     # the measured phase drawn is the FRF's angle in degrees (noise-free: exactly)
     in_view = (freq >= meas.get_xdata()[0]) & (freq <= meas.get_xdata()[-1])
     np.testing.assert_allclose(meas.get_ydata(), np.degrees(np.angle(data.frf[0, 0, in_view])), atol=1e-9)
+
+
+def test_report_page_does_not_scroll_sideways(report: Path, tmp_path: Path) -> None:
+    """At a laptop's 1280 px the page is no wider than the window: the 19-column results table
+    scrolls inside its own box (before: the page was 189 px too wide on the demo, the table's
+    last columns - warnings, status - off the screen)."""
+    exe = _chromium()
+    probe = tmp_path / "probe.html"
+    js = ("<script>window.addEventListener('load',function(){document.body.setAttribute('data-overflow',"
+          "String(document.documentElement.scrollWidth-document.documentElement.clientWidth));});</script>")
+    probe.write_text(report.read_text(encoding="utf-8").replace("</body>", js + "</body>"), encoding="utf-8")
+    dom = subprocess.run([exe, "--headless", "--no-sandbox", "--disable-gpu", "--window-size=1280,2400",
+                          "--dump-dom", probe.as_uri()], capture_output=True, text=True, timeout=120)
+    assert dom.returncode == 0, dom.stderr[-1000:]
+    m = re.search(r'data-overflow="(-?\d+)"', dom.stdout)
+    assert m is not None, "the probe did not run"
+    assert int(m.group(1)) <= 0, f"page {m.group(1)} px wider than a 1280 px window"
