@@ -152,3 +152,16 @@ def test_undeclared_sensor_masses_no_longer_silent(tmp_path):
     assert abs(z) < 1.5
     assert res.k_TB_std / res.k_TB < 0.05  # the spread widens sigma from 1.9 % to ~4 %, no further
     assert any("read the housing mode" in n for n in res.notes)
+
+
+def test_cli_line_says_why_tilt_is_not_identified(tmp_path, capsys):
+    # the engineer reading `ema-rig stiffness` sees the reason, not only "not identifiable"
+    from ema_rig.cli import main
+
+    truth = RigTruth(k_TB=65e6, tilt_x_freq=190.0, tilt_z_freq=245.0, seed=0)
+    uff, rig_path = write_case(tmp_path, "line", truth, FREQ)
+    i0 = truth.params["m_H"] * truth.tilt_inertia_radius**2
+    rig_path.write_text(rig_text(positions=rig_truth._POS, inertia=(i0, 0.03 * i0, i0, 0.03 * i0)))
+    assert main(["stiffness", str(uff), "--rig", str(rig_path), "--no-spindle"]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("housing body"))
+    assert "tilt not identifiable (" in line and "one line" in line, line

@@ -110,8 +110,10 @@ def _rigid(rb: Any) -> str:
         parts.append(f"tilt about {t.axis} {t.stiffness / 1e3:.4g}{_args.pm(t.stiffness_std, 1e-3)} kN m/rad "
                      f"({t.freq:.1f} Hz, I {1e6 * t.inertia:.4g} kg mm^2)")
     if len(tilts) < 2:
+        why = [r.split(": ", 1)[-1] for r in getattr(rb, "reasons", ()) if r.startswith("tilt stiffness")]
         parts.append("tilt " + ("not identifiable" if not tilts else
-                                f"about {'z' if tilts[0].axis == 'x' else 'x'} not identifiable"))
+                                f"about {'z' if tilts[0].axis == 'x' else 'x'} not identifiable")
+                     + (f" ({'; '.join(why)})" if why else ""))
     return ", ".join(parts)
 
 
