@@ -86,6 +86,13 @@ class StabilizationCriteria(_Sourced):
         """``freq_tol``, ``damping_tol``, ``mac_tol`` for :func:`stabilize`."""
         return {"freq_tol": self.freq_tol, "damping_tol": self.damping_tol, "mac_tol": self.mac_tol}
 
+    def cluster_scales(self, freq_tol: float | None = None, damping_tol: float | None = None,
+                       mac_tol: float | None = None) -> tuple[float, float, float]:
+        """The clustering scales (frequency, damping, ``1 - MAC``): each given value, else its ``cluster_*`` field."""
+        return (self.cluster_freq_tol if freq_tol is None else freq_tol,
+                self.cluster_damping_tol if damping_tol is None else damping_tol,
+                self.cluster_mac_tol if mac_tol is None else mac_tol)
+
 
 @dataclass(frozen=True, slots=True)
 class JudgeCriteria(_Sourced):

@@ -554,9 +554,7 @@ def cluster_poles(
     (:class:`~ema_rig.identification.criteria.StabilizationCriteria`: 0.005, 0.5, 0.1, with their
     sources); given, they replace them.
     """
-    freq_tol = criteria.cluster_freq_tol if freq_tol is None else freq_tol
-    damping_tol = criteria.cluster_damping_tol if damping_tol is None else damping_tol
-    mac_tol = criteria.cluster_mac_tol if mac_tol is None else mac_tol
+    freq_tol, damping_tol, mac_tol = criteria.cluster_scales(freq_tol, damping_tol, mac_tol)
     wanted = set(statuses)
     if not wanted <= set(STATUS_LETTERS):
         raise ValueError(f"statuses must be among {STATUS_LETTERS}, got {sorted(wanted)}")
@@ -622,10 +620,7 @@ def select_modes(
     mean and standard deviation over those poles and, as its representative pole, the member
     closest to the cluster median.
     """
-    crit = STABILIZATION_CRITERIA
-    freq_tol = crit.cluster_freq_tol if freq_tol is None else freq_tol
-    damping_tol = crit.cluster_damping_tol if damping_tol is None else damping_tol
-    mac_tol = crit.cluster_mac_tol if mac_tol is None else mac_tol
+    freq_tol, damping_tol, mac_tol = STABILIZATION_CRITERIA.cluster_scales(freq_tol, damping_tol, mac_tol)
     tol = {
         **dict(stab.tolerances),
         "cluster_freq_tol": freq_tol,
