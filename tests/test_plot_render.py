@@ -41,14 +41,27 @@ def _pixels(png: bytes) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
 
 
-def test_render_matches_savefig_and_reuses_the_layout():
+def _layout_runs(monkeypatch) -> list:
+    """Figures a constrained layout is run for from now on (a reused layout runs none)."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    runs: list = []
+    orig = ConstrainedLayoutEngine.execute
+    monkeypatch.setattr(ConstrainedLayoutEngine, "execute", lambda self, f: runs.append(f) or orig(self, f))
+    return runs
+
+
+def test_render_matches_savefig_and_reuses_the_layout(monkeypatch):
     # oracle: matplotlib's savefig of an identical figure (minor ticks as Tick objects, constrained layout)
     want = _savefig_pixels(_figure(), 64)
     first = _pixels(render_png(_figure(), dpi=64, colors=None))
     fig = _figure()
+    engine = fig.get_layout_engine()
+    runs = _layout_runs(monkeypatch)
     second = _pixels(render_png(fig, dpi=64, colors=None))
-    # the second figure took the kept layout: the layout engine was switched off, not run
-    assert fig.get_layout_engine().__class__.__name__ == "PlaceHolderLayoutEngine"
+    # the second figure took the kept layout: the layout was not run, and the engine is back afterwards
+    assert runs == []
+    assert fig.get_layout_engine() is engine
     for got in (first, second):
         assert got.shape == want.shape
         diff = np.abs(got - want).max(axis=2)
@@ -150,14 +163,15 @@ def _positions_px(fig) -> np.ndarray:
     return np.array([a.get_position().bounds for a in fig.axes]) * [w, h, w, h]
 
 
-def test_a_label_within_what_a_title_covers_keeps_the_layout():
+def test_a_label_within_what_a_title_covers_keeps_the_layout(monkeypatch):
     # the upper y tick label sits at the top end of the axes (it sticks out by half its height),
     # or well inside: with a title above, the title reaches further up either way, so the layout
     # is the same and is reused; oracle: matplotlib's own constrained layout of that figure
     render_png(_stacked(0.0, title=True), dpi=64, colors=None)
     fig = _stacked(0.45, title=True)
+    runs = _layout_runs(monkeypatch)
     render_png(fig, dpi=64, colors=None)
-    assert fig.get_layout_engine().__class__.__name__ == "PlaceHolderLayoutEngine"  # reused
+    assert runs == []  # reused
     got = _positions_px(fig)
     fresh = _stacked(0.45, title=True)
     render_png(fresh, dpi=64, colors=None, reuse_layout=False)
@@ -166,12 +180,13 @@ def test_a_label_within_what_a_title_covers_keeps_the_layout():
     np.testing.assert_allclose(got, _positions_px(fresh), atol=0.5)
 
 
-def test_a_label_sticking_out_where_nothing_covers_it_is_laid_out_again():
+def test_a_label_sticking_out_where_nothing_covers_it_is_laid_out_again(monkeypatch):
     # without a title the upper label at the top end widens the top margin: not the same layout
     render_png(_stacked(0.45, title=False), dpi=64, colors=None)
     fig = _stacked(0.0, title=False)
+    runs = _layout_runs(monkeypatch)
     render_png(fig, dpi=64, colors=None)
-    assert fig.get_layout_engine().__class__.__name__ == "ConstrainedLayoutEngine"  # laid out in full
+    assert runs == [fig]  # laid out in full
     fresh = _stacked(0.45, title=False)
     render_png(fresh, dpi=64, colors=None, reuse_layout=False)
     # and the two layouts do differ (the test's premise): by at least a pixel

@@ -45,7 +45,7 @@ KINDS: dict[str, str] = {
                  "sensor of each kind (housing/spindle, radial/lateral/axial); shaded: the identification band.",
 }
 #: Bump when the drawing changes (size, resolution, content): every per-measurement figure is redrawn.
-_DRAW_VERSION = 5
+_DRAW_VERSION = 6
 #: Pixel density and size of the embedded figures: at least 1000 px wide (readable on screen; issue 20).
 DPI = 80
 _SIZE = (12.8, 5.6)
@@ -131,6 +131,7 @@ def measurement_figures(
     """
     from ..identification import identify
     from ..io.uff import read_uff58
+    from ..plot._render import kept_figure
     from ..plot.rig import plot_rig_fit
     from ..plot.stabilization import plot_stabilization
     from ..plot.synthesis import plot_synthesis
@@ -172,31 +173,29 @@ def measurement_figures(
     lo, hi = ident.band
     width = hi - lo
     view = data.band(max(float(data.freq[0]), lo - 0.05 * width), min(float(data.freq[-1]), hi + 0.05 * width))
+    # one figure per kind per worker thread, its axes and ticks kept from one measurement to the
+    # next (kept_figure): each figure is turned into PNG bytes before the next of its kind is drawn
     drawers: dict[str, Any] = {
         "stabilization": lambda: plot_stabilization(
-            ident.stabilization, view, selection=ident.selection, figsize=_SIZE, markersize=3.5,
-            title=f"{plain(m.id)}: PolyMAX {lo:.0f}–{hi:.0f} Hz").figure,
+            ident.stabilization, view, selection=ident.selection, markersize=3.5,
+            title=f"{plain(m.id)}: PolyMAX {lo:.0f}–{hi:.0f} Hz", figure=kept_figure("stabilization", _SIZE)).figure,
     }
     if result is not None:
         channels = _synthesis_channels(data, ident.modes)
+        n_rows = math.ceil(len(channels) / 2) if len(channels) > 1 else 1
         drawers["model"] = lambda: plot_rig_fit(
-            data, result, cfg.rig, figure=_figure(_SIZE[0], 10.4), phase=True,
+            data, result, cfg.rig, figure=kept_figure("model", (_SIZE[0], 10.4)), phase=True,
             title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
         drawers["synthesis"] = lambda: plot_synthesis(
-            data, ident.modes, channels=channels, phase=True, fig_width=_SIZE[0], title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
+            data, ident.modes, channels=channels, phase=True,
+            figure=kept_figure("synthesis", (_SIZE[0], 1.0 + 3.0 * n_rows)),
+            title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
     for kind, draw in drawers.items():
         try:
             png[kind] = png_bytes(draw())
         except (ValueError, KeyError, EmaRigError) as exc:  # a figure that cannot be drawn: said, not hidden
             warns.append(f"{kind} figure not drawn: {exc}")
     return MeasurementFigures(png, tuple(warns), cands)
-
-
-def _figure(width: float, height: float) -> Figure:
-    """A new figure of this size [inch] (no pyplot state)."""
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width, height), layout="constrained")
 
 
 def _synthesis_channels(data: Any, modes: Any, n: int = 4) -> list[tuple[int, int]]:

@@ -122,7 +122,9 @@ def plot_rig_fit(
     band : (float, float), optional
         Frequency range of the plot [Hz] (paper: 150–700 Hz).
     figure : Figure, optional
-        Figure to draw into (cleared); default a new one (no pyplot state).
+        Figure to draw into; default a new one (no pyplot state). One that holds an earlier fit
+        drawn with the same panels keeps its axes (emptied, :func:`ema_rig.plot._render.reuse_axes`):
+        the same picture, without building axes and ticks again; any other is cleared.
     title : str, optional
         Figure title (default: file name and k_TB).
     phase : bool, optional
@@ -166,21 +168,22 @@ def plot_rig_fit(
     h_models = [m.frf(ff, damping_ratio=z, frf_form=data.frf_form, outputs=(HOUSING, SPINDLE))
                 for _, m, z, _ in models]
 
+    from ._render import reuse_axes
+
     fig = figure if figure is not None else Figure(figsize=(8.0, 7.2), layout="constrained")
-    fig.clear()
     names = ["housing", "spindle"] if s_out else ["housing"]
     if phase:
         names = [n for name in names for n in (name, f"{name}_phase")]
     n_main = len(names)
-    gs = fig.add_gridspec(n_main + 1, 1, height_ratios=[1.2 if n.endswith("_phase") else 3.0 for n in names]
-                          + [1.25])
-    axes: dict[str, Any] = {}
-    ax_h = fig.add_subplot(gs[0])
-    axes["housing"] = ax_h
-    for k, name in enumerate(names[1:], start=1):
-        axes[name] = fig.add_subplot(gs[k], sharex=ax_h)
-    ax_c = fig.add_subplot(gs[n_main], sharex=ax_h)
-    axes["candidates"] = ax_c
+    # a figure that holds an earlier fit with these panels keeps its axes (emptied); else cleared
+    kept = reuse_axes(fig, f"ema_rig.rig_fit {','.join(names)}")
+    if kept is None:
+        gs = fig.add_gridspec(n_main + 1, 1, height_ratios=[1.2 if n.endswith("_phase") else 3.0 for n in names]
+                              + [1.25])
+        ax_h = fig.add_subplot(gs[0])
+        kept = [ax_h, *(fig.add_subplot(gs[k], sharex=ax_h) for k in range(1, n_main + 1))]
+    axes: dict[str, Any] = dict(zip([*names, "candidates"], kept, strict=True))
+    ax_h, ax_c = axes["housing"], axes["candidates"]
     artists: dict[str, list[Any]] = {"measured": [], "model": [], "housing_mode": [], "candidates": []}
     unit = data.unit_str
 
@@ -246,7 +249,8 @@ def plot_rig_fit(
     ax_c.set_yticks([])
     ax_c.set_xlim(lo, hi)
     # label packing: each label occupies [left, right] in axis fraction; take the lowest free row
-    axis_pt = ax_c.get_position().width * fig.get_figwidth() * 72.0
+    # the strip's width before any layout (that of a new figure, also when the figure is reused)
+    axis_pt = ax_c.get_subplotspec().get_position(fig).width * fig.get_figwidth() * 72.0
     rows: list[list[tuple[float, float]]] = [[] for _ in range(4)]
     for c in inside:
         x = c["natural_freq"]

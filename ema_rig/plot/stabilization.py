@@ -195,6 +195,7 @@ def plot_stabilization(
     markersize: float = 5.0,
     candidates: Sequence[Any] = (),
     converged: bool | None = None,
+    figure: Figure | None = None,
 ) -> StabilizationPlot:
     """Draw a stabilization chart.
 
@@ -224,6 +225,10 @@ def plot_stabilization(
         rejected ones stable at four or more orders are drawn as grey dotted lines.
     converged : bool, optional
         Whether the mode set converged over the orders; said in the default title.
+    figure : Figure, optional
+        With ``ax=None``: a figure to draw into instead of a new one. One that holds an earlier
+        chart drawn this way keeps its axes (emptied, :func:`ema_rig.plot._render.reuse_axes`):
+        the same picture, without building axes and ticks again; any other is cleared.
 
     Returns
     -------
@@ -239,11 +244,18 @@ def plot_stabilization(
     if color_scheme not in COLOR_SCHEMES:
         raise ValueError(f"color_scheme must be one of {sorted(COLOR_SCHEMES)}, got {color_scheme!r}")
     colors = COLOR_SCHEMES[color_scheme]
+    kept: list[Any] | None = None
     if ax is None:
         from matplotlib.figure import Figure
 
-        fig = Figure(figsize=figsize, layout="constrained")
-        ax = fig.add_subplot()
+        from ._render import reuse_axes
+
+        if figure is None:
+            fig = Figure(figsize=figsize, layout="constrained")
+        else:
+            fig = figure
+            kept = reuse_axes(fig, f"ema_rig.stabilization frf={frf is not None}")
+        ax = kept[0] if kept else fig.add_subplot()
     else:
         fig = ax.figure  # type: ignore[assignment]
     lo, hi = stab.band
@@ -251,7 +263,7 @@ def plot_stabilization(
 
     # FRF summary on a log twin axis, drawn underneath the poles
     if frf is not None:
-        tw = ax.twinx()
+        tw = kept[1] if kept else ax.twinx()
         data = frf
         if indicator == "sum":
             y = data.sum_frf()[None, :]

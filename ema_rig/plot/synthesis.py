@@ -108,6 +108,7 @@ def plot_synthesis(
     title: str | None = None,
     phase: bool = False,
     fig_width: float | None = None,
+    figure: Figure | None = None,
 ) -> SynthesisPlot:
     """Overlay measured and synthesised FRFs, one panel per channel.
 
@@ -132,6 +133,11 @@ def plot_synthesis(
         Also draw the phase [deg] under each magnitude panel (default False).
     fig_width : float, optional
         Figure width [inch] (default 11 for two columns, 7 for one).
+    figure : Figure, optional
+        A figure to draw into instead of a new one (its size is left as it is). One that holds an
+        earlier synthesis plot with the same panels keeps its axes (emptied,
+        :func:`ema_rig.plot._render.reuse_axes`): the same picture, without building axes and
+        ticks again; any other is cleared.
 
     Returns
     -------
@@ -158,12 +164,22 @@ def plot_synthesis(
     ncol = 2 if n > 1 else 1
     nrow = math.ceil(n / ncol)
     w = fig_width if fig_width is not None else (11.0 if ncol == 2 else 7.0)
-    fig = Figure(figsize=(w, 1.0 + (3.0 if phase else 2.0) * nrow), layout="constrained")
+    kept = None
+    if figure is None:
+        fig = Figure(figsize=(w, 1.0 + (3.0 if phase else 2.0) * nrow), layout="constrained")
+    else:
+        from ._render import reuse_axes
+
+        fig = figure
+        kept = reuse_axes(fig, f"ema_rig.synthesis {n} in {nrow}x{ncol} phase={phase}")
     if phase:
-        grid = fig.subplots(2 * nrow, ncol, sharex=True, squeeze=False, height_ratios=[2.0, 1.0] * nrow)
+        grid = (np.array(kept, dtype=object).reshape(2 * nrow, ncol) if kept else
+                fig.subplots(2 * nrow, ncol, sharex=True, squeeze=False, height_ratios=[2.0, 1.0] * nrow))
         axs, paxs = grid[0::2], grid[1::2]
     else:
-        axs, paxs = fig.subplots(nrow, ncol, sharex=True, squeeze=False), None
+        axs = (np.array(kept, dtype=object).reshape(nrow, ncol) if kept else
+               fig.subplots(nrow, ncol, sharex=True, squeeze=False))
+        paxs = None
     out = SynthesisPlot(figure=fig)
     in_band = (meas.freq >= lo) & (meas.freq <= hi)
     for k, (i, j) in enumerate(channels):
