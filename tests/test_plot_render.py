@@ -191,3 +191,29 @@ def test_a_label_sticking_out_where_nothing_covers_it_is_laid_out_again(monkeypa
     render_png(fresh, dpi=64, colors=None, reuse_layout=False)
     # and the two layouts do differ (the test's premise): by at least a pixel
     assert np.abs(_positions_px(fig) - _positions_px(fresh)).max() > 1.0
+
+
+def _texts_figure():
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(4.0, 3.0), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot([0.0, 1.0], [0.0, 2.0], color="k", label="a line")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("|H| [m/s^2/N]")  # rotated 90 deg
+    ax.set_title("$k_{TB+MS}$ = 1.25 MN/m", fontsize=9)  # mathtext
+    ax.text(0.3, 1.0, "at 30 deg", rotation=30)
+    ax.legend(loc="lower right")
+    return fig
+
+
+def test_texts_drawn_from_kept_glyphs_are_the_pixels_matplotlib_draws():
+    # oracle: matplotlib's savefig (each glyph shaped and rendered by FreeType at every draw); the
+    # renderer keeps the glyph bitmaps of every text and draws the second figure from them
+    want = _savefig_pixels(_texts_figure(), 72)
+    for _ in range(2):  # the first draw renders the glyphs, the second takes them all from the cache
+        got = _pixels(render_png(_texts_figure(), dpi=72, colors=None))
+        assert got.shape == want.shape
+        # the same pixels (no log axis here: nothing else is drawn differently); a glyph off by a
+        # pixel or drawn at another subpixel offset changes dozens of pixels
+        assert np.abs(got - want).max() == 0

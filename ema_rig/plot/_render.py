@@ -133,11 +133,115 @@ def _canvas(fig: Figure, dpi: float, canvas_class: Any) -> Any:
     size = (round(fig.bbox.width), round(fig.bbox.height), dpi)
     canvas = canvases.get(size)
     if canvas is None:
-        canvas = canvases[size] = canvas_class(fig)
+        canvas = canvases[size] = _text_cached(canvas_class)(fig)
     else:
         canvas.figure = fig
         fig.set_canvas(canvas)
     return canvas
+
+
+#: Glyph bitmaps of texts drawn before (:func:`_text_cached`), at most _MAX_TEXTS texts.
+_TEXTS: dict[Any, Any] = {}
+_MAX_TEXTS = 4096
+
+
+def _text_cached(canvas_class: Any) -> Any:
+    """``canvas_class`` (an Agg canvas) whose renderer draws a text seen before from its glyph bitmaps.
+
+    Report figures of one kind draw the same texts at the same places measurement after
+    measurement (tick labels, axis labels, legends): matplotlib lays each text out (shaping) and
+    renders every glyph of it with FreeType at every draw. The renderer here keeps, per text, font,
+    size, angle and position within its pixel, the glyph bitmaps and their offsets, and only
+    blends them onto the canvas when the text comes again: a glyph rendered at an origin whole
+    pixels away is the same bitmap that many pixels away (the same pixels as matplotlib's draw:
+    ``tests/test_plot_render.py``). Texts
+    with rules (mathtext fractions, roots) are drawn by matplotlib. Needs matplotlib's glyph-wise
+    Agg text drawing (3.11); with another the canvas class is returned unchanged.
+    """
+    from matplotlib.backends import backend_agg
+
+    base = backend_agg.RendererAgg
+    if not hasattr(base, "_draw_text_glyphs_and_boxes") or not hasattr(base, "_prepare_font"):
+        return canvas_class
+
+    class Renderer(base):  # type: ignore[misc, valid-type]
+        def draw_text(self, gc: Any, x: float, y: float, s: str, prop: Any, angle: float,
+                      ismath: Any = False, mtext: Any = None) -> None:
+            if ismath == "TeX":
+                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+            up = self.height - y  # FreeType's y is upwards
+            ix, iy = math.floor(x), math.floor(up)
+            fx, fy = x - ix, up - iy  # exact: where the text sits within its pixel
+            features = mtext.get_fontfeatures() if mtext is not None and hasattr(mtext, "get_fontfeatures") else None
+            language = mtext.get_language() if mtext is not None and hasattr(mtext, "get_language") else None
+            key = (s, bool(ismath), _font_key(prop), float(angle), float(self.dpi), bool(gc.get_antialiased()),
+                   backend_agg.get_hinting_flag(), None if features is None else tuple(features), language,
+                   fx, fy)
+            glyphs: Any = _TEXTS.get(key)
+            if glyphs is None:
+                try:
+                    glyphs = self._glyph_bitmaps(s, prop, angle, ismath, features, language, gc.get_antialiased(),
+                                                 fx, fy)
+                except (AttributeError, TypeError):  # another matplotlib's private text API
+                    glyphs = False
+                if len(_TEXTS) >= _MAX_TEXTS:
+                    _TEXTS.clear()
+                _TEXTS[key] = glyphs
+            if glyphs is False:
+                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+            height = int(self.height)
+            draw = self._renderer.draw_text_image
+            for buf, left, top in glyphs:
+                draw(buf, left + ix, height - (top + iy) + buf.shape[0], 0, gc)
+            return None
+
+        def _glyph_bitmaps(self, s: str, prop: Any, angle: float, ismath: Any, features: Any, language: Any,
+                           antialiased: bool, fx: float, fy: float) -> Any:
+            """(bitmap, left [px], top [px, upwards]) of every glyph of ``s`` drawn at (fx, fy) [px]."""
+            from matplotlib.ft2font import RenderMode
+
+            if ismath:
+                parse = self.mathtext_parser.parse(s, self.dpi, prop, antialiased=antialiased)
+                if parse.rects:
+                    return False
+                items = [(font, size, idx, dx, dy) for font, size, _c, idx, dx, dy in parse.glyphs]
+            else:
+                font = self._prepare_font(prop)
+                kw = {} if features is None and language is None else {"features": features, "language": language}
+                size = prop.get_size_in_points()
+                items = [(it.ft_object, size, it.glyph_index, it.x, it.y)
+                         for it in font._layout(s, flags=backend_agg.get_hinting_flag(), **kw)]
+            cos, sin = math.cos(math.radians(angle)), math.sin(math.radians(angle))
+            matrix = (0x10000 * np.array([[cos, -sin], [sin, cos]])).round().astype(int)
+            flags = backend_agg.get_hinting_flag()
+            mode = RenderMode.NORMAL if antialiased else RenderMode.MONO
+            out = []
+            for font, size, idx, dx, dy in items:  # as matplotlib's _draw_text_glyphs_and_boxes
+                font.set_size(size, self.dpi)
+                font._set_transform(matrix, [round(0x40 * (fx + dx * cos - dy * sin)),
+                                             round(0x40 * (fy + dx * sin + dy * cos))])
+                bitmap = font._render_glyph(idx, flags, mode)
+                buf = np.array(bitmap.buffer, copy=True)
+                if not antialiased:
+                    buf *= 0xFF
+                out.append((buf, int(bitmap.left), int(bitmap.top)))
+            return tuple(out)
+
+    class Canvas(canvas_class):  # type: ignore[misc, valid-type]
+        def get_renderer(self) -> Any:
+            w, h = self.get_width_height(physical=True)
+            key = w, h, self.figure.dpi
+            if getattr(self, "_lastKey", None) != key:
+                self.renderer = Renderer(w, h, self.figure.dpi)
+                self._lastKey = key
+            return self.renderer
+
+    return Canvas
+
+
+def _font_key(prop: Any) -> tuple[Any, ...]:
+    return (tuple(prop.get_family()), prop.get_style(), prop.get_variant(), prop.get_weight(), prop.get_stretch(),
+            prop.get_size_in_points(), prop.get_file(), prop.get_math_fontfamily())
 
 
 def _local() -> dict[str, Any]:
