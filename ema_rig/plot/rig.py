@@ -177,6 +177,7 @@ def plot_rig_fit(
     n_main = len(names)
     # a figure that holds an earlier fit with these panels keeps its axes (emptied); else cleared
     kept = reuse_axes(fig, f"ema_rig.rig_fit {','.join(names)}")
+    fresh = kept is None  # kept axes keep their grid and tick styles
     if kept is None:
         gs = fig.add_gridspec(n_main + 1, 1, height_ratios=[1.2 if n.endswith("_phase") else 3.0 for n in names]
                               + [1.25])
@@ -202,8 +203,9 @@ def plot_rig_fit(
         ax.set_ylabel(f"|FRF| [{unit}]")
         y0, y1 = ax.get_ylim()
         ax.set_ylim(y0, y1 * 4.0)  # headroom for the labels above the resonance peak
-        ax.grid(True, which="major", color="0.88", lw=0.6)
-        ax.grid(True, which="minor", axis="y", color="0.94", lw=0.4)
+        if fresh:
+            ax.grid(True, which="major", color="0.88", lw=0.6)
+            ax.grid(True, which="minor", axis="y", color="0.94", lw=0.4)
         dofs = ", ".join(str(data.out_dofs[i]) for i in idx)
         ax.text(0.01, 0.97, f"{label} ({dofs}) / force {data.in_dofs[q]}", transform=ax.transAxes,
                 va="top", ha="left", fontsize=9, bbox={"fc": "white", "ec": "none", "alpha": 0.8})
@@ -222,7 +224,8 @@ def plot_rig_fit(
             pax.set_ylim(c - 190.0, c + 190.0)
             pax.set_yticks(c + np.array([-180.0, -90.0, 0.0, 90.0, 180.0]))
             pax.set_ylabel("phase [deg]")
-            pax.grid(True, color="0.88", lw=0.6)
+            if fresh:
+                pax.grid(True, color="0.88", lw=0.6)
 
     fh = float(result.housing_mode["natural_freq"])
     for name in names:
@@ -281,7 +284,8 @@ def plot_rig_fit(
     ax_c.set_title(note, fontsize=8, loc="left", y=1.0)  # pinned where matplotlib puts it: the strip has no y ticks
     ax_c.set_xlabel("Frequency [Hz]")
     for name in names:
-        axes[name].tick_params(labelbottom=False)
+        if fresh:
+            axes[name].tick_params(labelbottom=False)
         axes[name].set_xlim(lo, hi)
     if title is None:
         fname = getattr(result, "file", None)

@@ -330,7 +330,8 @@ def plot_stabilization(
     ax.set_ylim(0, top)
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("model order")
-    ax.grid(True, which="major", alpha=0.25)
+    if not kept:  # kept axes keep their grid style
+        ax.grid(True, which="major", alpha=0.25)
     rejected = [c for c in candidates if not c.accepted and c.mode.n_poles >= 4]
     plot.mark_modes(selection, rejected)
     handles = [plot.poles[k] for k in plot.poles]

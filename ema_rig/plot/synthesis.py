@@ -192,7 +192,8 @@ def plot_synthesis(
             pax.axvspan(lo, hi, color="C0", alpha=0.06, lw=0)
             pax.set_ylim(c - 190, c + 190)
             pax.set_yticks(c + np.array([-180, -90, 0, 90, 180]))
-            pax.grid(True, alpha=0.25)
+            if not kept:  # kept axes keep their grid style (the ticks' own)
+                pax.grid(True, alpha=0.25)
             pax.set_ylabel("phase [deg]", fontsize=8)
             out.phase_axes.append(pax)
         m = np.abs(meas.frf[i, j])
@@ -200,8 +201,7 @@ def plot_synthesis(
         (lm,) = ax.semilogy(meas.freq, m, color="k", lw=1.0, label="measured")
         (ls,) = ax.semilogy(meas.freq, s, color="C3", lw=1.0, ls="--", label="synthesised (LSFD)")
         ax.axvspan(lo, hi, color="C0", alpha=0.06, lw=0)
-        for fn in modes.natural_freq:
-            ax.axvline(fn, color="0.6", lw=0.6, ls=":")
+        _vlines(ax, modes.natural_freq, color="0.6", lw=0.6, ls=":")
         err = np.linalg.norm(meas.frf[i, j, in_band] - syn.frf[i, j, in_band]) / max(
             np.linalg.norm(meas.frf[i, j, in_band]), np.finfo(float).tiny)
         role = modes.roles[i] or ""
@@ -210,7 +210,8 @@ def plot_synthesis(
                      f" (median per line {100 * per_line[i, j]:.0f} %)",
                      fontsize=8.5, loc="left", y=1.0)  # pinned: where matplotlib puts it (no x ticks on top, a
         # log axis has no offset text), without measuring every tick label of the axes at each draw
-        ax.grid(True, which="both", alpha=0.25)
+        if not kept:
+            ax.grid(True, which="both", alpha=0.25)
         ax.set_ylabel(f"|H| [{meas.unit_str}]", fontsize=8)
         out.axes.append(ax)
         out.measured.append(lm)
@@ -228,6 +229,20 @@ def plot_synthesis(
     fig.suptitle(title or f"{name + ': ' if name else ''}measured vs synthesised FRFs, {len(modes.poles)} modes in "
                  f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies)", fontsize=10)
     return out
+
+
+def _vlines(ax: Axes, x: Any, **style: Any) -> Any:
+    """Vertical lines over the whole height of ``ax`` at ``x`` [data], as ``axvline`` draws them, one artist."""
+    from matplotlib.collections import LineCollection
+
+    x = np.asarray(x, dtype=float).ravel()
+    lc = LineCollection([np.array([[v, 0.0], [v, 1.0]]) for v in x], transform=ax.get_xaxis_transform(which="grid"),
+                        colors=[style.get("color", "k")], linewidths=style.get("lw", 1.0),
+                        linestyles=style.get("ls", "-"))
+    ax.add_collection(lc, autolim=False)
+    if x.size:  # the x data limits take them in, as axvline's do (the curves drawn first asked for an autoscale)
+        ax.update_datalim(np.column_stack([x, np.full(x.size, np.nan)]), updatey=False)
+    return lc
 
 
 __all__ = ["SynthesisPlot", "phase_centre", "phase_line", "plot_synthesis"]
