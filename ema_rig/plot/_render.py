@@ -114,7 +114,9 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
     if constrained:
         assert engine is not None
         if not reused:
+            off = _minor_off(fig)  # nothing the layout measures
             engine.execute(fig)  # what the draw would do first
+            _minor_on(off)
         fig.set_layout_engine("none")
     # the minor ticks where the axes are drawn: a log axis' locator asks how much room it has
     collapse_minor_ticks(fig)
@@ -368,26 +370,57 @@ def collapse_minor_ticks(fig: Figure) -> int:
     return n
 
 
-def _collapse(axis: Axis) -> int:
-    from matplotlib.collections import LineCollection
-    from matplotlib.lines import Line2D
+def _unlabelled_minor(axis: Axis) -> Any:
+    """The minor tick locations a log axis would draw [data], when none carries a label; else None."""
     from matplotlib.ticker import NullLocator
 
     if axis.get_scale() != "log" or isinstance(axis.get_minor_locator(), NullLocator) or not axis.get_visible():
-        return 0
-    ax = axis.axes
+        return None
     locs = np.asarray(axis.get_minorticklocs(), dtype=float)
     # the ticks matplotlib would draw: inside the view interval (its own test, in log space)
     lo, hi = sorted(axis.get_view_interval())
     if not (lo > 0 and np.isfinite(hi)):
-        return 0
+        return None
     a, b = np.log10(lo), np.log10(hi)
     tol = (b - a) * 1e-10
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.log10(locs)
     locs = locs[(t >= a - tol) & (t <= b + tol)]
     if locs.size and any(axis.get_minor_formatter().format_ticks(list(locs))):
-        return 0  # labelled minor ticks: keep matplotlib's own
+        return None  # labelled minor ticks: keep matplotlib's own
+    return locs
+
+
+def _minor_off(fig: Figure) -> list[tuple[Any, Any, bool]]:
+    """Switch off the unlabelled minor ticks of log axes (a layout only measures their empty
+    labels, one ``Tick`` each); returns what :func:`_minor_on` needs to switch them on again."""
+    from matplotlib.ticker import NullLocator
+
+    off = []
+    for ax in fig.axes:
+        if ax.get_visible():
+            for axis in (ax.xaxis, ax.yaxis):
+                if _unlabelled_minor(axis) is not None:
+                    off.append((axis, axis.get_minor_locator(), axis.isDefault_minloc))
+                    axis.set_minor_locator(NullLocator())
+    return off
+
+
+def _minor_on(off: list[tuple[Any, Any, bool]]) -> None:
+    for axis, locator, default in off:
+        axis.set_minor_locator(locator)
+        axis.isDefault_minloc = default
+
+
+def _collapse(axis: Axis) -> int:
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import NullLocator
+
+    locs = _unlabelled_minor(axis)
+    if locs is None:
+        return 0
+    ax = axis.axes
     axis.set_minor_locator(NullLocator())
     if not locs.size:
         return 1
