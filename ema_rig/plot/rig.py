@@ -27,6 +27,7 @@ import numpy as np
 from .._atomic import atomic_path
 from .._text import plain
 from ..rig.model import HOUSING, SPINDLE, RigModel
+from ._render import reuse_axes
 from .synthesis import phase_centre, phase_line
 
 if TYPE_CHECKING:
@@ -167,8 +168,6 @@ def plot_rig_fit(
     ff = np.linspace(lo, hi, 1500)
     h_models = [m.frf(ff, damping_ratio=z, frf_form=data.frf_form, outputs=(HOUSING, SPINDLE))
                 for _, m, z, _ in models]
-
-    from ._render import reuse_axes
 
     fig = figure if figure is not None else Figure(figsize=(8.0, 7.2), layout="constrained")
     names = ["housing", "spindle"] if s_out else ["housing"]

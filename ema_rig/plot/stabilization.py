@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ._render import reuse_axes
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -247,8 +249,6 @@ def plot_stabilization(
     kept: list[Any] | None = None
     if ax is None:
         from matplotlib.figure import Figure
-
-        from ._render import reuse_axes
 
         if figure is None:
             fig = Figure(figsize=figsize, layout="constrained")

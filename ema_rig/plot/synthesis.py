@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ._render import reuse_axes
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -168,8 +170,6 @@ def plot_synthesis(
     if figure is None:
         fig = Figure(figsize=(w, 1.0 + (3.0 if phase else 2.0) * nrow), layout="constrained")
     else:
-        from ._render import reuse_axes
-
         fig = figure
         kept = reuse_axes(fig, f"ema_rig.synthesis {n} in {nrow}x{ncol} phase={phase}")
     if phase:
