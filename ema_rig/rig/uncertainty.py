@@ -608,7 +608,10 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       fitted at the identified poles (:func:`ema_rig.rig.fit.driving_point_mass`; the damping ratio
       std of the identification carried into its std), against
       the model's (times ``1 + t^2`` of a corrected coupling). On a clean housing mode (no close
-      neighbour, no cross-axis motion) it measures ``m_H`` with the std of the fit and the force
+      neighbour, no cross-axis motion beyond 2 sigma of misalignment; up to 3 sigma,
+      :data:`CROSS_AXIS_RATIO`, with the identified cross-axis partner's driving-point compliance
+      added, which a coupling's mixing does not change, and no other pole inside its half-power
+      band) it measures ``m_H`` with the std of the fit and the force
       chain (stated, else :data:`UNTRUSTED_FORCE_CHAIN`), a result
       (:class:`ema_rig.rig.fit.HousingMass`): the rig file's value is kept within
       :data:`MASS_AGREE_SIGMAS` of its tolerance and the fit's std (combined with the measurement
