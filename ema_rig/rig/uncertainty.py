@@ -921,12 +921,16 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         by_shape = None
         if clean and mm is not None:
             # a second measurement of m_H with an independent error: the mode's shape (no force chain)
-            by_shape = _mass_by_shape(hm, f_inv, params, rig)
+            # without the sensors' positions both routes read the housing against an unknown centre (std
+            # s_c of its reading): the modal mass twice (1 / phi^2), the ratio once - a shared error
+            s_c = _centre_reading_std(modes, rig, m.housing_index)
+            by_shape = _mass_by_shape(hm, f_inv, params, rig, centre_std=s_c)
             if by_shape is not None and abs(math.log(by_shape.m_H / mm)) <= SHAPE_MASS_CONSISTENT * math.hypot(
                     by_shape.rel_std, u_m):
-                w_b, u_own, shared = _shape_weight(f_inv, params, rig, u_m, by_shape)
+                cov = 2.0 * abs(by_shape.sensitivity["ratio"]) * s_c**2
+                w_b, u_own, shared = _shape_weight(f_inv, params, rig, u_m, by_shape, cov=cov)
                 mm = math.exp((1 - w_b) * math.log(mm) + w_b * math.log(by_shape.m_H))
-                u_m = math.sqrt((1 - w_b) ** 2 * u_m**2 + w_b**2 * by_shape.rel_std**2)
+                u_m = math.sqrt((1 - w_b) ** 2 * u_m**2 + w_b**2 * by_shape.rel_std**2 + 2 * w_b * (1 - w_b) * cov)
                 m_h_corr = (u_own, shared)
             elif by_shape is not None:
                 # two measurements of m_H beyond 3 combined sigma: the 3DOF model does not describe this
@@ -994,7 +998,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                 # combined with the widened rig file's value. Not beside a neighbour: its shape leaks into
                 # the ratio as its residue into the mass (the issue-11 truths, 10 % hysteretic damping,
                 # seed 5: the ratio read m_H 10.6 % high beside the 690 Hz mode, k_TB +15.7 % at z 2.5)
-                shape = _mass_by_shape(hm, f_inv, params, rig) if cross is None and not m.neighbours else None
+                shape = (_mass_by_shape(hm, f_inv, params, rig,
+                                        centre_std=_centre_reading_std(modes, rig, m.housing_index))
+                         if cross is None and not m.neighbours else None)
                 if shape is not None and abs(math.log(shape.m_H / params.m_H)) <= SHAPE_MASS_CONSISTENT * math.hypot(
                         shape.rel_std, m_h_rel):
                     w1, w2 = 1 / m_h_rel**2, 1 / shape.rel_std**2
@@ -1147,11 +1153,12 @@ def _cross_partner(by_index: dict[int, Any], housing: int, axis: str, rho: float
     return None if best is None else best[1]
 
 
-def _shape_weight(f_h: float, params: ModelParams, rig: RigConfig, u_a: float, by_shape: Any
+def _shape_weight(f_h: float, params: ModelParams, rig: RigConfig, u_a: float, by_shape: Any, cov: float = 0.0
                   ) -> tuple[float, float, dict[str, float]]:
     """Weight of the shape route's ``m_H`` beside the driving-point one (std ``u_a``) that minimises
     the variance of ``ln k_TB``, with the shape route's dependence on ``k_S``, ``m_S``, ... carried:
-    those parameters enter ``k_TB`` directly too (:func:`sensitivities`), with the opposite sign.
+    those parameters enter ``k_TB`` directly too (:func:`sensitivities`), with the opposite sign;
+    ``cov`` is the covariance of the two measurements' own relative errors (the centre's reading).
 
     Returns ``(w, u_own, shared)``: the weight, the combined ``m_H``'s relative std from the two
     measurements alone (force chain, fit, ratio calibration) and ``d ln m_H / d ln x`` per shared
@@ -1161,17 +1168,18 @@ def _shape_weight(f_h: float, params: ModelParams, rig: RigConfig, u_a: float, b
     s_m = sens["m_H"]
     b = {n: v for n, v in by_shape.sensitivity.items() if n != "ratio"}
     u_r = abs(by_shape.sensitivity["ratio"]) * by_shape.ratio_rel_std
-    num = u_a**2 - sum(sens[n] * b[n] * rel[n] ** 2 for n in b) / s_m
-    den = u_a**2 + u_r**2 + sum((b[n] * rel[n]) ** 2 for n in b)
+    num = u_a**2 - cov - sum(sens[n] * b[n] * rel[n] ** 2 for n in b) / s_m
+    den = u_a**2 + u_r**2 - 2 * cov + sum((b[n] * rel[n]) ** 2 for n in b)
     w = min(max(num / den, 0.0), 1.0) if den > 0 else 0.0
-    u_own = math.sqrt((1 - w) ** 2 * u_a**2 + w**2 * u_r**2)
+    u_own = math.sqrt(max((1 - w) ** 2 * u_a**2 + w**2 * u_r**2 + 2 * w * (1 - w) * cov, 0.0))
     return w, u_own, {n: w * b[n] for n in b}
 
 
-def _mass_by_shape(hm: Any, f_h: float, params: ModelParams, rig: RigConfig) -> Any:
+def _mass_by_shape(hm: Any, f_h: float, params: ModelParams, rig: RigConfig, centre_std: float = 0.0) -> Any:
     """:func:`ema_rig.rig.fit.housing_mass_from_ratio` of the housing mode's spindle/housing ratio
     (None without spindle radial sensors); the ratio's std is the sensors' relative calibration,
-    :data:`ACCEL_CALIBRATION` each, over the means of both groups."""
+    :data:`ACCEL_CALIBRATION` each, over the means of both groups, and ``centre_std``, the relative
+    std of the housing centre's reading against the radial sensors' mean (:func:`_centre_reading_std`)."""
     sr = hm.get("spindle_ratio")
     n_s = sum(1 for se in rig.sensors if se.role == "spindle" and se.axis == "radial")
     n_h = sum(1 for se in rig.sensors if se.role == "housing" and se.axis == "radial")
@@ -1180,7 +1188,19 @@ def _mass_by_shape(hm: Any, f_h: float, params: ModelParams, rig: RigConfig) -> 
     rel = {**DEFAULT_REL_UNCERTAINTY, **rig.uncertainty}
     if f_h >= housing_freq_bounds(params, bearing=True)[1]:
         return None  # outside the model's range: the inversion says so with the file's name
-    return housing_mass_from_ratio(f_h, float(sr), params, rel, ACCEL_CALIBRATION * math.sqrt(1 / n_s + 1 / n_h))
+    return housing_mass_from_ratio(f_h, float(sr), params, rel,
+                                   math.hypot(ACCEL_CALIBRATION * math.sqrt(1 / n_s + 1 / n_h), centre_std))
+
+
+def _centre_reading_std(modes: Any, rig: RigConfig, index: int) -> float:
+    """Relative std of the housing centre's radial reading of mode ``index`` against the radial
+    sensors' when the rig file does not give their positions: uniform over their spread
+    (:func:`ema_rig.rig.fit.radial_spread`), ``spread / sqrt(12)`` (:func:`_mass_at_centre`); 0 when
+    the positions refer the driving-point mass to the centre or the spread is not available."""
+    if centre_mass_factor(modes, rig, index, 0.0) is not None:
+        return 0.0
+    spread = radial_spread(modes, rig, index)
+    return 0.0 if spread is None else float(spread) / math.sqrt(12)
 
 
 def _mass_at_centre(dpm: Any, modes: Any, rig: RigConfig, index: int, hm: Any, notes: list[str]) -> Any:
