@@ -6,9 +6,10 @@ declared, ``m_H`` 3 % off; the independent truths of ``tests/rig_truth.py``), pe
 * the k_TB budget (``m_H``, ``k_S`` - with its share through the shape route -, ``k_MS``, ``m_F``,
   the rest, model form), each a standard uncertainty in % of k_TB;
 * the two measurements of ``m_H`` in % of ``m_H``: the driving-point route (force chain; local fit,
-  damping ratio and, without the sensors' positions, the radial sensors' spread) and the shape
-  route (:func:`ema_rig.rig.fit.housing_mass_from_ratio`: the ratio's relative calibration,
-  ``k_S``, ``m_S``, ``m_F``, the rest) and the GLS weight of the shape route;
+  damping ratio and, without the sensors' positions, the radial sensors' spread), the centre's
+  reading's relative std alone (``centre``; shared by both routes), and the shape route
+  (:func:`ema_rig.rig.fit.housing_mass_from_ratio`: the ratio's relative calibration with the
+  centre's reading, ``k_S``, ``m_S``, ``m_F``, the rest) and the GLS weight of the shape route;
 * what-ifs on the same identification (each one tolerance changed, everything else as stated):
   sigma(k_TB) with the force chain stated at 1 %, ``k_S`` at 1 %, ``k_MS`` at 1 % (a calibration),
   ``m_F`` at 2.5 % - which assumed quantity, if measured, would pay.
@@ -71,7 +72,7 @@ def row(data: object, rig: object, res: object) -> dict[str, float]:
     out["model form"] = 100 * unc.std_of("model form") / k
     hm = res.housing_mass  # type: ignore[attr-defined]
     nan = math.nan
-    out.update({"dp fc": nan, "dp fit": nan, "shape ratio": nan, "shape k_S": nan, "shape m_S": nan,
+    out.update({"dp fc": nan, "dp fit": nan, "centre": nan, "shape ratio": nan, "shape k_S": nan, "shape m_S": nan,
                 "shape m_F": nan, "shape rest": nan, "w": nan, "source": nan})
     if hm is None:
         return out
@@ -82,8 +83,10 @@ def row(data: object, rig: object, res: object) -> dict[str, float]:
     sr = res.housing_mode.get("spindle_ratio")  # type: ignore[attr-defined]
     n_s = sum(1 for s in rig.sensors if s.role == "spindle" and s.axis == "radial")  # type: ignore[attr-defined]
     n_h = sum(1 for s in rig.sensors if s.role == "housing" and s.axis == "radial")  # type: ignore[attr-defined]
+    s_c = un._centre_reading_std(res.identification.modes, rig, res.match.housing_index)  # type: ignore[attr-defined]
+    out["centre"] = 100 * s_c
     shape = None if sr is None else housing_mass_from_ratio(
-        unc.f_H, float(sr), params, rel, un.ACCEL_CALIBRATION * math.sqrt(1 / n_s + 1 / n_h))
+        unc.f_H, float(sr), params, rel, math.hypot(un.ACCEL_CALIBRATION * math.sqrt(1 / n_s + 1 / n_h), s_c))
     if shape is not None:
         sens = shape.sensitivity
         out["shape ratio"] = 100 * abs(sens["ratio"]) * shape.ratio_rel_std
@@ -92,7 +95,8 @@ def row(data: object, rig: object, res: object) -> dict[str, float]:
         out["shape rest"] = 100 * math.sqrt(sum((sens[n] * rel[n]) ** 2 for n in ("k_AS", "k_B")))
         if hm.by_shape is not None:
             u_a = math.hypot(hm.force_chain, hm.modal_mass_std / hm.modal_mass)
-            out["w"] = un._shape_weight(unc.f_H, params, rig, u_a, shape)[0]
+            out["w"] = un._shape_weight(unc.f_H, params, rig, u_a, shape,
+                                        cov=2 * abs(sens["ratio"]) * s_c**2)[0]
     mm_dp = measured_housing_mass(unc.f_H, hm.modal_mass, params)
     out["dp m_H"] = nan if mm_dp is None else mm_dp
     return out
@@ -104,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", default=None)
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
-    cols = ("total", "m_H", "k_S", "k_MS", "m_F", "rest", "model form", "dp fc", "dp fit", "shape ratio",
+    cols = ("total", "m_H", "k_S", "k_MS", "m_F", "rest", "model form", "dp fc", "dp fit", "centre", "shape ratio",
             "shape k_S", "shape m_S", "shape m_F", "shape rest", "w")
     print("| class | n | " + " | ".join(f"median {c}" for c in cols) + " | "
           + " | ".join(f"median sigma, {w}" for w in WHAT_IF) + " |")
