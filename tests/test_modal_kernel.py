@@ -146,3 +146,39 @@ def test_lsfd_ml_and_refine_use_the_same_columns():
         sm = sum(k_m * _columns(jw - 1j * n_m, lam, 2)[:, :6] for n_m, k_m in zip(nu, kw, strict=True))
         np.testing.assert_allclose(cols[:, 0::2], sm[:, :3], rtol=1e-12)
         np.testing.assert_allclose(cols[:, 1::2], sm[:, 3:], rtol=1e-12)
+
+
+def test_reported_model_scores_the_given_unweighted_fit_without_refitting(monkeypatch):
+    """``_lsfd_noise_weighted(..., unweighted=)``: the unweighted LSFD ``identify`` already made is scored by
+    its synthesis, not fitted again; the per-channel choice and the result are those of the refit."""
+    import sys
+
+    from ema_rig.frf import FRFData
+    from ema_rig.identification.lsfd import _lsfd_checked, _lsfd_noise_weighted
+
+    lsfd_mod = sys.modules["ema_rig.identification.lsfd"]  # the package's `lsfd` is the function
+
+    rng = np.random.default_rng(11)
+    m, c, k = _mck()
+    lam, phi = _modes(m, c, k)
+    res = (phi * phi[0][None, :]).T[:, :, None] / (2j * lam.imag)[:, None, None]  # driving point 1+X
+    freq = np.linspace(20.0, 500.0, 800)
+    h = synthesize_frf(freq, lam, res, None, None, 2)
+    # channel 0: noise as stated; channels 1, 2: 20x the stated level on the skirts (the weights then
+    # spread a misfit, and the unweighted fit is kept there)
+    var = (0.02 * np.abs(h)) ** 2 + (1e-3 * np.abs(h).max()) ** 2
+    noise = np.sqrt(var / 2) * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape))
+    noise[1:] *= np.where(np.abs(h[1:]) < 0.3 * np.abs(h[1:]).max(axis=-1, keepdims=True), 20.0, 1.0)
+    data = FRFData(freq, h + noise, ["1+X", "2+X", "3+X"], ["1+X"], frf_form="accelerance")
+    un = _lsfd_checked(data, lam)
+    refit = _lsfd_noise_weighted(data, lam, var, unweighted=None)
+    calls = []
+    real_fit = lsfd_mod._fit
+    monkeypatch.setattr(lsfd_mod, "_fit", lambda *a, **kw: calls.append(kw) or real_fit(*a, **kw))
+    reused = _lsfd_noise_weighted(data, lam, var, unweighted=un)
+    assert len(calls) == 1 and calls[0].get("variance") is not None  # the weighted fit only
+    assert reused.meta["weighted"] == refit.meta["weighted"]
+    assert refit.meta["weighted"] not in ("3 of 3 channels", "0 of 3 channels"), refit.meta["weighted"]
+    # the same two fits, chosen alike: equal to round-off of the synthesis (measured 0)
+    np.testing.assert_allclose(reused.residues, refit.residues, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(reused.fit_error, refit.fit_error, rtol=1e-12)

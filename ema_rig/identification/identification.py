@@ -677,7 +677,7 @@ def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, c
         return replace(model, meta={**model.meta, "weighted": "no (the residual exceeds the noise inside the band)"})
     # a channel without a finite variance anywhere (a coherence of 1 everywhere: no estimate) keeps equal weights
     var = np.where(np.all(~np.isfinite(test.variance), axis=1, keepdims=True), 1.0, test.variance)
-    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals)
+    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals, unweighted=model)
 
 
 def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> MisfitTest:
