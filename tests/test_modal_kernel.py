@@ -16,7 +16,7 @@ import scipy.linalg
 from ema_rig.identification.ml import _Segment, window_kernel
 from ema_rig.identification.modal import (
     ModalModel,
-    driving_point_mass,
+    effective_mass,
     modal_basis,
     pole_columns,
     pole_residue_basis,
@@ -71,7 +71,7 @@ def test_shape_products_and_driving_point_mass_against_eigh():
     # 2 j w_d R = phi_p phi_q: real, the products of the mass-normalised shapes (round-off only)
     np.testing.assert_allclose(prod, np.einsum("pr,qr->rpq", phi, phi), rtol=1e-12, atol=1e-15)
     for p in range(3):
-        np.testing.assert_allclose(driving_point_mass(lam, res[:, p, p]), 1.0 / phi[p] ** 2, rtol=1e-12)
+        np.testing.assert_allclose(effective_mass(lam, res[:, p, p]), 1.0 / phi[p] ** 2, rtol=1e-12)
     # the model's mass and shapes are the kernel's
     model = ModalModel(lam, res, np.zeros((3, 3)), np.zeros((3, 3)), ["1+X", "2+X", "3+X"], ["1+X", "2+X", "3+X"],
                        frf_form="receptance")

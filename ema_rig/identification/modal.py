@@ -19,7 +19,7 @@ synthesize_frf
 shape_products
     ``phi_p phi_q = 2 j w_d R_pq`` of every mode and channel: the participation of a mode in a
     channel [1/kg] (mass-normalised shapes).
-driving_point_mass
+effective_mass
     Effective modal mass ``1 / |phi_p|^2`` at a driving point from its residue and pole [kg].
 
 Classes
@@ -191,7 +191,7 @@ class ModalModel:
     def modal_mass(self, dof: DOF | str) -> NDArray[np.float64]:
         """Effective modal mass at a driving point [kg], shape (n_modes,).
 
-        ``m_eff,r = 1 / |phi_r[p]|^2 = 1 / (2 w_d,r |R_r[p, p]|)`` (:func:`driving_point_mass`): the
+        ``m_eff,r = 1 / |phi_r[p]|^2 = 1 / (2 w_d,r |R_r[p, p]|)`` (:func:`effective_mass`): the
         mass of a single-DOF oscillator that gives the same resonance peak at the driving point
         ``dof`` (which must be both a response and a reference DOF).
         """
@@ -199,7 +199,7 @@ class ModalModel:
         if d not in self.out_dofs or d not in self.in_dofs:
             raise KeyError(f"{d} is not a driving point (needs to be a response and a reference DOF)")
         p, q = self.out_dofs.index(d), self.in_dofs.index(d)
-        return driving_point_mass(self.poles, self.residues[:, p, q])
+        return effective_mass(self.poles, self.residues[:, p, q])
 
     def synthesize(self, freq: NDArray[np.float64], *, frf_form: FrfForm | None = None,
                    residuals: bool = True) -> FRFData:
@@ -460,10 +460,11 @@ def shape_products(poles: NDArray[np.complex128], residues: NDArray[np.complex12
     return np.asarray(2j * wd * res, dtype=np.complex128)
 
 
-def driving_point_mass(poles: NDArray[np.complex128], residues_pp: NDArray[np.complex128]) -> NDArray[np.float64]:
+def effective_mass(poles: NDArray[np.complex128], residues_pp: NDArray[np.complex128]) -> NDArray[np.float64]:
     """Effective modal mass at a driving point, ``1 / |phi_p|^2 = 1 / (2 w_d |R_pp|)`` [kg].
 
-    The mass of a single-DOF oscillator with the same resonance peak at that DOF.
+    The mass of a single-DOF oscillator with the same resonance peak at that DOF; the measured
+    counterpart of :meth:`~ema_rig.rig.model.RigModel.effective_mass` of the rig model.
 
     Parameters
     ----------
@@ -521,5 +522,5 @@ def pole_residue_basis(
     return a / scale, scale
 
 
-__all__ = ["ModalModel", "SpectralWindow", "driving_point_mass", "modal_basis", "pole_columns", "pole_residue_basis",
+__all__ = ["ModalModel", "SpectralWindow", "effective_mass", "modal_basis", "pole_columns", "pole_residue_basis",
            "residual_columns", "shape_products", "synthesize_frf"]

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from ..config import RigConfig
 from ..dof import DOF
 from ..errors import MatchingError
-from ..identification.modal import ModalModel, driving_point_mass, shape_products
+from ..identification.modal import ModalModel, effective_mass, shape_products
 
 __all__ = ["Candidate", "find_dof", "measure_candidates"]
 
@@ -277,7 +277,7 @@ def measure_candidates(
         if modes.out_dofs[p] == modes.in_dofs[q]:
             mass = modes.modal_mass(modes.in_dofs[q])
         else:  # written with opposite signs: |R_pp| is sign-free, the same 1 / (2 w_d |R_pp|)
-            mass = driving_point_mass(modes.poles, modes.residues[:, p, q])
+            mass = effective_mass(modes.poles, modes.residues[:, p, q])
         mass_source: str | None = "driving point"
     elif h_rad:
         with np.errstate(divide="ignore"):

@@ -42,8 +42,7 @@ from numpy.typing import NDArray
 from ..config import ModelParams
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
-from ..identification.modal import driving_point_mass as _mass_at_driving_point
-from ..identification.modal import modal_basis, shape_products
+from ..identification.modal import effective_mass, modal_basis, shape_products
 from ..literals import FrfForm
 from .inversion import k_tb_ms_from_housing_freq, model_mode_at
 from .model import mass_matrix, stiffness_matrix
@@ -215,7 +214,7 @@ def driving_point_mass(
     def mass_of(theta: NDArray[np.float64]) -> float:
         re, im = theta[n_x + 2 * k], theta[n_x + 2 * k + 1]
         lam = poles_of(theta[:n_x])[index] if free_pole else p[index]
-        return float(_mass_at_driving_point(np.array([lam]), np.array([complex(re, im)]))[0])
+        return float(effective_mass(np.array([lam]), np.array([complex(re, im)]))[0])
 
     theta = np.concatenate([x_hat[:n_x], coef])
     if not math.hypot(coef[2 * k], coef[2 * k + 1]) > 0:
