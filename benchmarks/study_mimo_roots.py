@@ -19,6 +19,9 @@ the previous order's roots), CPU time per order (fastest of ``--repeat``), BLAS 
    so when a few guesses are left unconverged they are finished as free guesses from the roots
    of the deflated polynomial. Every root is accepted by the library's rounding-level test and
    the roots of an order are checked against the companion eigenvalues.
+4. **The same number of poles.** At order n the two-reference model has 2n poles, sdypy-EMA's
+   stacked scalar model n: the whole call (CPU, median of ``--repeat``) of ema_rig on the even
+   orders 2..N and 2..N/2 (as many poles as sdypy's top order) against sdypy-EMA on 2..N.
 
 Run: ``python benchmarks/study_mimo_roots.py [--max-order N] [--repeat R]`` (default 100, 5).
 """
@@ -33,7 +36,14 @@ from collections.abc import Callable
 from typing import Any, cast
 
 import numpy as np
-from bench_plscf import blas_threads, ema_data, make_arrays  # beside this script
+from bench_plscf import (  # beside this script
+    blas_threads,
+    call_ema,
+    call_sdypy,
+    ema_data,
+    import_sdypy,
+    make_arrays,
+)
 from numpy.typing import NDArray
 
 _roots = importlib.import_module("ema_rig.identification._roots")
@@ -157,6 +167,8 @@ def _deflated_guesses(c: NDArray[Any], fixed: NDArray[Any], z0: NDArray[Any]) ->
     """
     k = z0.size
     fallback = z0 * np.exp(1e-3j)
+    if k == 0:
+        return fallback
     rho = max(2.0, 2.0 * float(np.abs(z0).max()))
     m = k + 1
     e = np.exp(2j * np.pi * (np.arange(m) + 0.5) / m)  # t / rho
@@ -351,6 +363,24 @@ def main() -> int:
                   f"{n_real:>11} {dist:9.1e}")
         print(f"{'sum':>13} {tot[0] * 1e3:8.2f} {tot[1] * 1e3:8.2f} {tot[2] * 1e3:8.2f} {tot[2] / tot[1]:11.2f}"
               f"   (orders of degree >= 64)")
+
+        print("\n4. whole calls [ms CPU, median]: ema_rig two references on 2..N (2N poles at the top) and on 2..N/2 (N poles),"
+              "\n   sdypy-EMA on the 16 FRFs stacked, 2..N (N poles); ratio = sdypy / ema_rig")
+        import_sdypy()
+        freq, h, _ = make_arrays(2)
+        data, h1 = ema_data(freq, h), h.reshape(16, -1)
+        call_ema(data, 10, even=True)
+        call_sdypy(freq, h1, 10)
+        for big_n in (50, 100, 200):
+            if big_n > top:
+                break
+            calls: list[Callable[[], Any]] = [
+                lambda n=big_n: call_ema(data, n, even=True), lambda n=big_n: call_ema(data, n // 2, even=True),
+                lambda n=big_n: call_sdypy(freq, h1, n)]
+            t = [[_cpu(f, 1) for _ in range(rep)] for f in calls]
+            a, b, c = (float(np.median(x)) for x in t)
+            print(f"   N = {big_n:3d}: ema_rig 2..N {a * 1e3:7.1f}, 2..N/2 {b * 1e3:7.1f}, sdypy {c * 1e3:7.1f}; "
+                  f"ratio {c / a:5.2f} (same order) / {c / b:5.2f} (same number of poles)")
     return 0
 
 
