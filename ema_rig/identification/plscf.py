@@ -511,6 +511,10 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
     """
     from scipy.linalg.lapack import dpotrf, dpotrs
 
+    if n_in == 1:
+        solved = _solve_order_one(m, n)
+        if solved is not None:
+            return solved
     eye = np.eye(n_in)
     k = n * n_in
     g, info = dpotrf(m, lower=1, clean=0)
@@ -540,6 +544,36 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
         low[1:] = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in]).reshape(n, n_in, n_in)
         high[:n] = _spd_solve(m[:k, :k], -m[k:, :k].T).reshape(n, n_in, n_in)
     return low, high
+
+
+def _solve_order_one(m: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any]] | None:
+    """:func:`_solve_order` for one reference: the same Cholesky solve, without the block algebra.
+
+    ``u = M^-1 [e_0, e_n]`` from one factor; ``alpha_low = u[:, 0] / u[0, 0]`` and
+    ``alpha_high = u[:, 1] / u[n, 1]`` (the 1 x 1 pivot blocks of the general case are plain
+    divisors). The factor is taken of ``m^T`` (a Fortran-ordered view, its UPPER triangle = the
+    lower triangle of ``m``), so LAPACK reads ``m`` in place. Returns None when ``M`` is not
+    numerically positive definite (the caller's fallback then solves the sub-blocks apart).
+    """
+    from scipy.linalg.lapack import dpotrf, dpotrs
+
+    g, info = dpotrf(m.T, lower=0, clean=0)
+    if info != 0:
+        return None
+    e = np.zeros((n + 1, 2), order="F")
+    e[0, 0] = 1.0
+    e[n, 1] = 1.0
+    u, info = dpotrs(g, e, lower=0, overwrite_b=1)
+    piv_low, piv_high = u[0, 0], u[n, 1]
+    if info != 0 or not (piv_low > 0 and piv_high > 0):
+        return None
+    low = u[:, 0] / piv_low
+    high = u[:, 1] / piv_high
+    low[0] = 1.0
+    high[n] = 1.0
+    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+        return None
+    return low.reshape(n + 1, 1, 1), high.reshape(n + 1, 1, 1)
 
 
 def _add_gram(p: NDArray[Any], q: NDArray[Any]) -> NDArray[Any]:
