@@ -165,3 +165,25 @@ def test_aberth_chain_far_roots_and_non_convergence(monkeypatch):
     # one sweep cannot accept a warm start: every polynomial is reported unconverged (None),
     # which the caller turns into the eigenvalue fallback
     assert _roots.aberth_chain(coefs, _companion_roots(inner[:195]), maxiter=1) == [None, None, None]
+
+
+def test_blocked_evaluation_of_several_polynomials_against_horner():
+    rng = np.random.default_rng(13)
+    degrees = (3, 40, 101)
+    padded = np.zeros((3, 102))
+    for i, d in enumerate(degrees):
+        padded[i, : d + 1] = rng.standard_normal(d + 1)
+    blocks, _ = _roots.coefficient_blocks(padded)
+    owner = np.repeat(np.arange(3), 30)
+    z = np.exp(2j * np.pi * rng.random(90)) * rng.uniform(0.3, 1.0, 90)  # |z| <= 1, as polished
+    p, dp = _roots.eval_blocked(blocks, 101, owner, z)
+    for i, d in enumerate(degrees):
+        c = padded[i, : d + 1]
+        sel = owner == i
+        # each value accurate to a few hundred eps of the sum of moduli (as the ratio test
+        # above); a wrong block, power or padding is O(1)
+        scale = np.polyval(np.abs(c[::-1]), np.abs(z[sel]))
+        np.testing.assert_allclose(p[sel], np.polyval(c[::-1], z[sel]), rtol=0, atol=1e-14 * scale.max())
+        dc = c[1:] * np.arange(1, d + 1)
+        dscale = np.polyval(np.abs(dc[::-1]), np.abs(z[sel])) if d else np.ones(sel.sum())
+        np.testing.assert_allclose(dp[sel], np.polyval(dc[::-1], z[sel]), rtol=0, atol=1e-14 * dscale.max())

@@ -17,6 +17,13 @@ Newton ratio times the repulsion sum is already below :data:`_STALE`, the correc
 the previous sweep's repulsion sum (its change alters the step only at second order), so the
 O(N^2) sums are recomputed only for the roots still far from convergence.
 
+At the degrees where a sweep costs more in fixed per-call work than in arithmetic (one
+reference, degree <= ~130), :func:`aberth_chain` roots a whole run of orders in ONE batch of
+sweeps: each order starts from the iterate of the order below after one sweep (not from its
+converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 relative
+anyway), and each sweep evaluates and corrects the active roots of every started order
+together, so the fixed cost of a sweep is paid once for ~10 orders instead of once per order.
+
 References
 ----------
 .. [1] O. Aberth, "Iteration methods for finding all zeros of a polynomial simultaneously",
@@ -284,21 +291,49 @@ _CHAIN_LAG = 1
 _FAR = 1e300
 
 
-def _chain_blocks(coefs: list[NDArray[np.float64]], n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Blocked coefficients of p and p' of every polynomial (degree <= n), as :func:`_prepare`.
+def coefficient_blocks(coef: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Coefficients of scalar polynomials and of their derivatives in the blocks of :func:`_block_powers`.
 
-    Returns ``(blocks, abs_blocks)``, shape (k, 2 K, b) and (k, K, b) for k polynomials, in the
-    block layout of degree ``n`` (zero blocks above a polynomial's own degree).
+    Parameters
+    ----------
+    coef : ndarray, shape (k, n + 1)
+        ``c_0 .. c_n`` of each of k real polynomials (zero-padded above a lower degree: the
+        padding changes neither p nor p').
+
+    Returns
+    -------
+    blocks : ndarray, shape (k, 2 K, b)
+        Rows ``j < K`` hold ``c_(b j) .. c_(b j + b - 1)`` of p, rows ``K + j`` the same of p'
+        (``b = isqrt(n) + 1``, ``K = ceil((n + 1) / b)``, zero-padded), as :func:`_prepare`.
+    abs_blocks : ndarray, shape (k, K, b)
+        The moduli of p's blocks (the rounding bound of the acceptance test).
     """
-    k = len(coefs)
+    k, n1 = coef.shape
+    n = n1 - 1
     b = max(1, math.isqrt(n) + 1)
-    kb = -(-(n + 1) // b)
+    kb = -(-n1 // b)
     st = np.zeros((k, 2, kb * b))
-    for i, c in enumerate(coefs):
-        d = c.size - 1
-        st[i, 0, : d + 1] = c
-        st[i, 1, :d] = c[1:] * np.arange(1, d + 1)
+    st[:, 0, :n1] = coef
+    st[:, 1, :n] = coef[:, 1:] * np.arange(1, n1)
     return st.reshape(k, 2 * kb, b), np.abs(st[:, 0]).reshape(k, kb, b)
+
+
+def eval_blocked(blocks: NDArray[Any], n: int, owner: NDArray[Any], z: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
+    """``p(z)`` and ``p'(z)`` of polynomial ``owner[r]`` (degree <= n) at each ``z[r]``, directly.
+
+    ``blocks`` from :func:`coefficient_blocks`. Every power is the product of one row of each of
+    the two short tables of :func:`_block_powers` (``~2 sqrt(n)`` rounded factors): the inner
+    sums of all blocks of every root in one stack of real products, no ``(n_z, n + 1)`` table of
+    powers. Meant for ``|z| <= 1`` (no reversed polynomial: powers of larger roots may
+    overflow).
+    """
+    base, big = _block_powers(z, n)  # (b, n_z), (K, n_z)
+    kb = big.shape[0]
+    pairs = np.ascontiguousarray(base.T).view(np.float64).reshape(z.size, base.shape[0], 2)
+    inner = np.matmul(blocks[owner], pairs).view(np.complex128)[:, :, 0]  # (n_z, 2K)
+    inner[:, :kb] *= big.T
+    inner[:, kb:] *= big.T
+    return inner[:, :kb].sum(axis=1), inner[:, kb:].sum(axis=1)
 
 
 def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128], *,
@@ -339,7 +374,10 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
     if np.any(np.diff(deg) <= 0) or deg[0] < 1:
         raise ValueError(f"degrees must rise, got {deg.tolist()}")
     n = int(deg.max())
-    blocks, abs_blocks = _chain_blocks([np.asarray(c, dtype=float) for c in coefs], n)
+    padded = np.zeros((k, n + 1))
+    for i, c in enumerate(coefs):
+        padded[i, : c.size] = c
+    blocks, abs_blocks = coefficient_blocks(padded)
     table = np.full((k, n), _FAR, dtype=np.complex128)  # roots of polynomial i in row i
     flat = table.reshape(-1)
     s_prev = np.full(k * n, np.nan, dtype=np.complex128)
@@ -391,7 +429,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             live = state == 1
             sweeps[live] += 1
             left = np.bincount(act // n, minlength=k)  # roots still iterating per polynomial
-            for i in np.flatnonzero(live & ((left == 0) | (sweeps >= maxiter))):
+            for i in np.flatnonzero(live & ((left == 0) | (sweeps >= maxiter))).tolist():
                 state[i] = 2
                 if left[i] == 0:
                     out[i] = _checked(coefs[i], table[i, : deg[i]].copy())
@@ -431,7 +469,7 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     near = np.flatnonzero(~(np.abs(r) > _NEAR * az) & tested)  # NaN (p = p' = 0) counts as near
     if near.size:
         own = np.repeat(uo, np.diff(cuts))[near]
-        bound = np.einsum("mkb,bm,km->m", abs_blocks[own], np.abs(base[:, near]), np.abs(big[:, near]))
+        bound = (np.einsum("mkb,bm->km", abs_blocks[own], np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
         small[near] = np.abs(p[near]) <= 4.0 * deg[own] * _EPS * bound
     for u in np.flatnonzero(risky).tolist():
         # the roots outside the unit circle of this polynomial on its reversed polynomial
@@ -497,4 +535,4 @@ def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex
     return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * np.exp(1e-3j))
 
 
-__all__ = ["aberth", "aberth_chain", "det_coefficients", "warm_start"]
+__all__ = ["aberth", "aberth_chain", "coefficient_blocks", "det_coefficients", "eval_blocked", "warm_start"]

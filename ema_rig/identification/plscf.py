@@ -61,7 +61,9 @@ eigenvalues of the block companion matrix of the coefficient-reversed, transpose
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
 ``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
 roots (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
-round-off; an order that does not converge falls back to the companion eigenvalues). The
+round-off; one reference up to degree 130: all those orders in one batch of sweeps,
+:func:`~._roots.aberth_chain`; an order that does not converge falls back to the companion
+eigenvalues). The
 participation vector ``l_r`` of pole ``z_r`` is the null vector of ``A(z_r)^T`` (what the last
 ``n_in`` rows of a companion eigenvector hold), computed directly from the ``n_in x n_in``
 matrix, which is cheaper than eigenvectors. All dense algebra runs with single-threaded
@@ -82,7 +84,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import math
 import os
 from collections.abc import Iterable, Iterator, Mapping
 from concurrent.futures import ThreadPoolExecutor
@@ -98,7 +99,14 @@ from .._progress import progress_bar
 from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
-from ._roots import _block_powers, aberth, aberth_chain, det_coefficients, warm_start
+from ._roots import (
+    aberth,
+    aberth_chain,
+    coefficient_blocks,
+    det_coefficients,
+    eval_blocked,
+    warm_start,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -756,41 +764,6 @@ def _eval_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any]) -> tupl
     return a, da
 
 
-def _coef_blocks(coef: NDArray[Any]) -> NDArray[np.float64]:
-    """Coefficients of scalar polynomials and of their derivatives in the blocks of ``_block_powers``.
-
-    ``coef`` has shape (n_poly, n + 1) (``c_0 .. c_n`` per row). Returns shape (n_poly, 2 K, b)
-    (``b = isqrt(n) + 1``, ``K = ceil((n + 1) / b)``): rows ``k < K`` hold ``c_(b k) .. c_(b k + b - 1)``
-    of p, rows ``K + k`` the same of p', zero-padded.
-    """
-    n_poly, n1 = coef.shape
-    n = n1 - 1
-    b = max(1, math.isqrt(n) + 1)
-    k = -(-n1 // b)
-    out = np.zeros((n_poly, 2, k * b))
-    out[:, 0, :n1] = coef
-    out[:, 1, :n] = coef[:, 1:] * np.arange(1, n1)
-    return out.reshape(n_poly, 2 * k, b)
-
-
-def _eval_one(blocks: NDArray[Any], n: int, owner: NDArray[Any], z: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
-    """``p(z)`` and ``p'(z)`` of the scalar polynomial ``owner[r]`` (degree <= n) at each ``z[r]``.
-
-    ``blocks`` from :func:`_coef_blocks`. Every power is the product of one row of each of the
-    two short tables of ``_block_powers`` (``~2 sqrt(n)`` rounded factors, as in
-    :mod:`._roots`): the inner sums of all blocks of each root in one stack of real products,
-    no ``(n_z, n + 1)`` table of powers. For ``|z| <= 1`` (the stable roots polished here).
-    """
-    base, big = _block_powers(z, n)  # (b, n_z), (K, n_z)
-    k = big.shape[0]
-    pairs = np.ascontiguousarray(base.T).view(np.float64).reshape(z.size, base.shape[0], 2)
-    inner = np.matmul(blocks[owner], pairs)  # (n_z, 2K, 2): real and imaginary parts
-    inner_c = inner.view(np.complex128)[:, :, 0]
-    inner_c[:, :k] *= big.T
-    inner_c[:, k:] *= big.T
-    return inner_c[:, :k].sum(axis=1), inner_c[:, k:].sum(axis=1)
-
-
 def _refine_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any], iters: int = 3) -> NDArray[Any]:
     """Newton steps on ``det A(z) = 0`` from the starting roots ``z``, ``A = high[owner[r]]`` for root r.
 
@@ -802,13 +775,13 @@ def _refine_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any], iters
     z0 = z.copy()
     zk = z.copy()
     n_in = high.shape[2]
-    blocks = _coef_blocks(high[:, :, 0, 0]) if n_in == 1 else None
+    blocks = coefficient_blocks(high[:, :, 0, 0])[0] if n_in == 1 else None
     for _ in range(iters):
         if blocks is None:
             a, da = _eval_many(high, owner, zk)
         with np.errstate(all="ignore"):
             if blocks is not None:  # one reference: p / p' from the blocked coefficients
-                p, dp = _eval_one(blocks, high.shape[1] - 1, owner, zk)
+                p, dp = eval_blocked(blocks, high.shape[1] - 1, owner, zk)
                 step = p / dp
             elif n_in == 2:
                 # det A = a00 a11 - a01 a10 and its derivative (product rule), in closed form
