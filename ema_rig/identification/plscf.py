@@ -707,17 +707,17 @@ def _poles_of_orders(
     order, which changes no polynomial.
     """
     nyq = np.pi / dt
-    kept = []
-    for _, _, z in entries:
-        im = np.angle(z) / dt  # = Im(log z) / dt
-        kept.append(z[(im > 1e-9 * nyq) & (im < (1 - 1e-9) * nyq) & (z != 0)])
     n_in = entries[0][1].shape[1] if entries else 1
     top = max((e[1].shape[0] for e in entries), default=1)
     high = np.zeros((len(entries), top, n_in, n_in))
     for k, (_, h, _) in enumerate(entries):
         high[k, : h.shape[0]] = h
-    owner = np.concatenate([np.full(z.size, k) for k, z in enumerate(kept)]) if kept else np.zeros(0, int)
-    z_all = np.concatenate(kept) if kept else np.zeros(0, complex)
+    # the roots of all orders at once: one selection over the concatenated roots
+    z_cat = np.concatenate([np.asarray(e[2], dtype=np.complex128) for e in entries]) if entries else np.zeros(0, complex)
+    o_cat = np.repeat(np.arange(len(entries)), [np.size(e[2]) for e in entries])
+    im = np.angle(z_cat) / dt  # = Im(log z) / dt
+    sel = (im > 1e-9 * nyq) & (im < (1 - 1e-9) * nyq) & (z_cat != 0)
+    z_all, owner = z_cat[sel], o_cat[sel]
     stable = np.abs(z_all) < 1.0
     if stable.any():
         z_all[stable] = _refine_many(high, owner[stable], z_all[stable])
@@ -727,7 +727,7 @@ def _poles_of_orders(
     phys = s_all.real < 0
     if phys.any():
         part[phys] = _participation_many(high, owner[phys], z_all[phys])
-    bounds = np.cumsum([0] + [z.size for z in kept])
+    bounds = np.concatenate([[0], np.cumsum(np.bincount(owner, minlength=len(entries)))])
     return [(s_all[a:b] + 2j * np.pi * f_lo, part[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
@@ -1119,19 +1119,18 @@ class PlscfEngine:
         if self.fallbacks:
             logger.debug("pLSCF: %d orders fell back to companion eigenvalues", self.fallbacks)
         f_lo, f_hi, n_in = self.f_lo, self.f_hi, self.n_in
-        o_rows, p_rows, l_rows = [], [], []
-        for n in order_list:
-            poles, part = self._rows[n]
-            fn = np.abs(poles) / (2 * np.pi)
-            keep = (fn >= f_lo) & (fn <= f_hi)
-            o_rows.append(np.full(int(keep.sum()), n))
-            p_rows.append(poles[keep])
-            l_rows.append(part[keep])
+        rows = [self._rows[n] for n in order_list]
+        # all orders at once: one band test over the concatenated poles
+        order = np.repeat(np.asarray(order_list, dtype=np.int64), [r[0].size for r in rows])
+        pole = np.concatenate([r[0] for r in rows]) if rows else np.zeros(0, complex)
+        part = np.concatenate([r[1] for r in rows]) if rows else np.zeros((0, n_in), complex)
+        fn = np.abs(pole) / (2 * np.pi)
+        keep = (fn >= f_lo) & (fn <= f_hi)
         logger.debug("pLSCF: %d orders up to %d on %d lines", len(order_list), order_list[-1], self.data.n_freq)
         return PoleSet(
-            order=np.concatenate(o_rows) if o_rows else np.zeros(0, int),
-            pole=np.concatenate(p_rows) if p_rows else np.zeros(0, complex),
-            participation=np.concatenate(l_rows) if l_rows else np.zeros((0, n_in), complex),
+            order=order[keep],
+            pole=pole[keep],
+            participation=part[keep],
             band=(f_lo, f_hi),
             in_dofs=self.data.in_dofs,
             orders=tuple(order_list),
