@@ -378,7 +378,8 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
         for o0, o1 in chunks(n_in * nf * 16):
             hw = h[o0:o1] * w[o0:o1, None, None]
             if n_in == 1:  # |H_o|^2 from the real and imaginary parts: no conjugate copy
-                hv = hw.view(np.float64).reshape(o1 - o0, n, 2)
+                hv = np.ascontiguousarray(hw).view(np.float64).reshape(o1 - o0, n, 2)  # a copy only
+                # when the FRF array is not C-ordered (the product keeps the input's layout)
                 g[0, 0] += np.einsum("okt,okt->k", hv, hv)
             else:
                 g += np.einsum("oak,obk->abk", hw.conj(), hw)
