@@ -41,7 +41,7 @@ from .criteria import (
 )
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
-from .lsfd import _lsfd_checked, _lsfd_noise_weighted
+from .lsfd import _lsfd_checked, _lsfd_noise_weighted, _lsfd_synthesized
 from .mac import mac
 from .ml import LocalML, local_ml
 from .modal import ModalModel
@@ -585,8 +585,8 @@ def identify(
     modes = _unique_modes(sel.modes)
     if fitted is None:
         fitted = _fit_modes(data, modes, residuals)
-    model, ml, polymax = fitted
-    model = _reported_model(data, model, residual_test, crit.completeness, residuals)
+    model, ml, polymax, syn = fitted
+    model = _reported_model(data, model, residual_test, crit.completeness, residuals, syn)
     warnings += list(ml.warnings)
     meta = dict(model.meta)
     meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed,
@@ -626,7 +626,8 @@ def identify(
     return cast("Identification", remove_window_damping(ident, data))  # issue 18: an exponential window's damping
 
 
-_Fitted = tuple[ModalModel, LocalML, list[list[float]]]
+#: LSFD at the ML poles, the local ML, the PolyMAX poles (re, im), the LSFD model's FRFs on the data's lines
+_Fitted = tuple[ModalModel, LocalML, list[list[float]], NDArray[np.complex128]]
 
 
 @dataclass(frozen=True, slots=True)
@@ -651,17 +652,17 @@ def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
 
 def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) -> _Fitted:
     """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)."""
-    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked by identify
+    model, syn = _lsfd_synthesized(data, [m.pole for m in modes], residuals=residuals)  # data checked by identify
     # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
-    ml = _local_ml(data, model)
+    ml = _local_ml(data, model, syn)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
     if np.any(ml.poles != model.poles):
-        model = _lsfd_checked(data, ml.poles, residuals=residuals)
-    return model, ml, polymax
+        model, syn = _lsfd_synthesized(data, ml.poles, residuals=residuals)
+    return model, ml, polymax, syn
 
 
 def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, cc: CompletenessCriteria,
-                    residuals: bool) -> ModalModel:
+                    residuals: bool, syn: NDArray[np.complex128] | None = None) -> ModalModel:
     """The residues ``identify`` reports: LSFD at the (ML) poles of ``model`` weighted by the noise.
 
     The noise variance of every line is the completeness test's (``test``, of these poles; formed
@@ -677,7 +678,8 @@ def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, c
         return replace(model, meta={**model.meta, "weighted": "no (the residual exceeds the noise inside the band)"})
     # a channel without a finite variance anywhere (a coherence of 1 everywhere: no estimate) keeps equal weights
     var = np.where(np.all(~np.isfinite(test.variance), axis=1, keepdims=True), 1.0, test.variance)
-    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals)
+    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals,
+                                unweighted=None if syn is None else (model, syn))
 
 
 def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> MisfitTest:
@@ -883,9 +885,11 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                       tuple(dropped))
 
 
-def _local_ml(data: FRFData, model: ModalModel) -> LocalML:
-    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band)."""
-    syn = model.synthesize(data.freq).frf
+def _local_ml(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> LocalML:
+    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band);
+    ``syn`` the model's FRFs on the data's lines when the fit gave them (:func:`_lsfd_synthesized`)."""
+    if syn is None:
+        syn = model.synthesize(data.freq).frf
     syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz
     with single_threaded():  # many small products: threads only add hand-off time
         return local_ml(data, model.poles, syn)

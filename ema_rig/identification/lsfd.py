@@ -129,8 +129,21 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
     return _fit(data, poles, residuals=residuals, variance=variance)[0]
 
 
+def _lsfd_synthesized(data: FRFData, poles: ArrayLike, *, residuals: bool = True
+                      ) -> tuple[ModalModel, NDArray[np.complex128]]:
+    """:func:`_lsfd_checked` and the fitted model's FRFs on the lines of ``data``, shape (n_out, n_in, n_freq).
+
+    The model FRFs are the fit's own product of basis and coefficients (what
+    :meth:`~ema_rig.identification.modal.ModalModel.synthesize` gives, without forming it again); at
+    a line the fit leaves out (0 Hz with a lower residual, where the model is infinite) they are the data.
+    """
+    out = np.empty_like(data.frf, dtype=np.complex128)
+    return _fit(data, poles, residuals=residuals, model_out=out)[0], out
+
+
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
-                         residuals: bool = True) -> ModalModel:
+                         residuals: bool = True,
+                         unweighted: tuple[ModalModel, NDArray[np.complex128]] | None = None) -> ModalModel:
     """The residues ``identify`` reports: per channel the noise-weighted fit unless the model errs.
 
     Both fits at ``poles`` on data checked as for :func:`_lsfd_checked`, the weighted one (the
@@ -152,6 +165,9 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
         Noise variance ``E|e|^2`` of every line [FRF unit^2] (``inf``: no weight, not scored).
     residuals : bool, optional
         Fit the residual terms (default True).
+    unweighted : (ModalModel, ndarray), optional
+        The unweighted fit at these poles and its FRFs on the lines of ``data``, as
+        :func:`_lsfd_synthesized` gave them (not fitted again).
 
     Returns
     -------
@@ -159,7 +175,15 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
         ``meta["weighted"]`` says how many channels kept the weighted fit.
     """
     var = np.asarray(variance, dtype=np.float64)
-    un, s_un = _fit(data, poles, residuals=residuals, score=var)
+    if unweighted is None:
+        un, s_un = _fit(data, poles, residuals=residuals, score=var)
+    else:
+        un, syn = unweighted
+        e = data.frf - syn
+        sv = np.broadcast_to(var, e.shape)
+        if residuals and _FORM_POWER[data.frf_form] < 2 and data.freq[0] == 0.0:  # the line _fit leaves out
+            e, sv = e[:, :, 1:], sv[:, :, 1:]
+        s_un = _median_score(e.real**2 + e.imag**2, sv)
     wt, s_wt = _fit(data, poles, residuals=residuals, variance=var, score=var)
     keep = s_wt <= s_un  # NaN (no line with a finite variance): unweighted
     n_keep = int(np.sum(keep))
@@ -177,10 +201,12 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
 
 
 def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: NDArray[np.float64] | None = None,
-         score: NDArray[np.float64] | None = None) -> tuple[ModalModel, NDArray[np.float64]]:
+         score: NDArray[np.float64] | None = None, model_out: NDArray[np.complex128] | None = None
+         ) -> tuple[ModalModel, NDArray[np.float64]]:
     """The fit of :func:`_lsfd_checked` and, with ``score`` (a variance like ``variance``), the median
     over the lines of ``|e|^2 / score`` per channel, shape (n_out, n_in) (NaN without such a line;
-    empty without ``score``)."""
+    empty without ``score``). With ``model_out`` (shape of ``data.frf``, complex) the fitted model's
+    FRFs are written into it (the data at a line the fit leaves out)."""
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
@@ -193,7 +219,11 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
     h = data.frf
     weights = None if variance is None else _line_weights(variance, h.shape, src)
     sv = None if score is None else np.broadcast_to(score, h.shape)
+    off = 0
     if residuals and p < 2 and f[0] == 0.0:
+        if model_out is not None:
+            model_out[:, :, 0] = h[:, :, 0]
+        off = 1
         f, h = f[1:], h[:, :, 1:]
         weights = None if weights is None else weights[:, :, 1:]
         sv = None if sv is None else sv[:, :, 1:]
@@ -230,16 +260,11 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
                 xs = _weighted_solve(uk, proj, yv, np.repeat(weights[o0:o1], 2, axis=2))
             x[o0:o1] = xs / scale
             res = xs @ a.T
+            if model_out is not None:
+                model_out[o0:o1, :, off:] = res.view(np.complex128)
             np.subtract(yv, res, out=res)
             if sv is not None:
-                e2 = res[:, :, 0::2] ** 2 + res[:, :, 1::2] ** 2
-                v = sv[o0:o1]
-                fin = np.isfinite(v) & (v > 0)
-                with np.errstate(all="ignore"):
-                    q = np.where(fin, e2 / np.where(fin, v, 1.0), np.nan)
-                has = np.asarray(fin.any(axis=2))
-                med[o0:o1] = np.where(has, np.nanmedian(np.where(has[:, :, None], q, 0.0), axis=2), np.nan)
-                del e2, q
+                med[o0:o1] = _median_score(res[:, :, 0::2] ** 2 + res[:, :, 1::2] ** 2, sv[o0:o1])
             num[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", res, res))
             den[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", yv, yv))
             del res, xs, yv
@@ -266,6 +291,17 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         meta={"method": "lsfd", "residuals": bool(residuals),
               "weighted": "no" if weights is None else ("line profile" if shared else "per channel")},
     ), med
+
+
+def _median_score(e2: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Median over the lines of ``e2 / v`` per channel (lines with a finite ``v > 0``), shape (n_out, n_in);
+    NaN for a channel without such a line. ``e2``, ``v``: shape (n_out, n_in, n_freq)."""
+    fin = np.isfinite(v) & (v > 0)
+    with np.errstate(all="ignore"):
+        q = np.where(fin, e2 / np.where(fin, v, 1.0), np.nan)
+    has = np.asarray(fin.any(axis=2))
+    out: NDArray[np.float64] = np.where(has, np.nanmedian(np.where(has[:, :, None], q, 0.0), axis=2), np.nan)
+    return out
 
 
 def _line_weights(variance: NDArray[np.float64], shape: tuple[int, ...], src: str | None) -> NDArray[np.float64]:
