@@ -312,15 +312,25 @@ class _Segment:
             jac = jac * sp[None, :, :]
             if e.shape[1] <= 2 * n:
                 js = jac @ ((et.T @ et) / dof)
+                jcj = np.einsum("krc,lrc->kl", js, jac)
+                for lag, rl in enumerate(rho, start=1):
+                    if rl == 0.0 or lag >= n:
+                        continue
+                    for half in (slice(0, n), slice(n, 2 * n)):
+                        g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
+                        jcj += rl * (g + g.T)
             else:
-                js = ((jac @ et.T) @ et) / dof
-            jcj = np.einsum("krc,lrc->kl", js, jac)
-            for lag, rl in enumerate(rho, start=1):
-                if rl == 0.0 or lag >= n:
-                    continue
-                for half in (slice(0, n), slice(n, 2 * n)):
-                    g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
-                    jcj += rl * (g + g.T)
+                # more channels than rows: the same sums through M_k = J_k E^T (rows x rows), one
+                # product over the channels instead of two: sum_c (J_k E^T E)_rc J_lrc = sum M_k M_l
+                mm = jac @ et.T  # (k, 2n, 2n)
+                jcj = (mm.reshape(k, -1) @ mm.reshape(k, -1).T) / dof
+                for lag, rl in enumerate(rho, start=1):
+                    if rl == 0.0 or lag >= n:
+                        continue
+                    for half in (slice(0, n), slice(n, 2 * n)):
+                        a_l, b_l = mm[:, half][:, :-lag], mm[:, half][:, lag:]
+                        g = (a_l.reshape(k, -1) @ b_l.reshape(k, -1).T) / dof
+                        jcj += rl * (g + g.T)
             out["jcj"] = jcj
             out["chi2_noise"] = float(np.sum(et * et))  # leverage-corrected residual / noise model
         return out
@@ -357,6 +367,10 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], max
             mu = max(mu / 5.0, 1e-12)
             if c0 - c1 <= 1e-12 * c0 or np.max(np.abs(step)) < 1e-12:
                 break
+        elif np.isfinite(c1) and c1 - c0 <= 1e-12 * c0:
+            # the step changes the cost by less than its rounding: theta is the minimum to rounding
+            # (raising the damping up to 1e8 only repeated evaluations of the same point)
+            break
         else:
             mu *= 8.0
             if mu > 1e8:
