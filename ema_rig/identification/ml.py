@@ -254,14 +254,24 @@ class _Segment:
         cols = np.empty((self.jw.size, 2 * self.m), np.complex128)
         cols[:, 0::2] = pos + neg
         cols[:, 1::2] = 1j * (pos - neg)
-        a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
+        a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]  # weighted pole columns (2n, 2m)
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
-        q, r = np.linalg.qr(a / d)
+        # the background basis is orthonormal already: only the pole columns' part orthogonal to it
+        # (projected out twice, "twice is enough": Giraud et al., Numer. Math. 101, 2005) is
+        # factored; its Q and the background are an orthonormal basis of the whole span, its R
+        # gives the poles' coefficients
+        fx = self.fixed
+        a = a / d
+        if fx.shape[1]:
+            a = a - fx @ (fx.T @ a)
+            a -= fx @ (fx.T @ a)
+        q, r = np.linalg.qr(a)
+        q = np.concatenate([q, fx], axis=1)  # (2n, L)
         qty = q.T @ self.yw  # (L, C)
         e = self.yw - q @ qty  # residual (2n, C)
         cost = float(np.sum(e * e))
-        x = np.linalg.solve(r, qty) / d[:, None]  # (L, C) coefficients
+        x = np.linalg.solve(r, qty[: 2 * self.m]) / d[:, None]  # (2m, C) coefficients of the poles
         pos2, neg2 = self._pn(lam, 2)
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
