@@ -302,9 +302,10 @@ class _Segment:
         out: dict[str, NDArray[np.float64] | float] = {"cost": cost, "hess": 0.5 * (hess + hess.T), "grad": grad,
                                                           "e": e}
         if scores:
-            # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E
-            v = np.swapaxes(us, 1, 2) @ cs  # (k, 2n, C)
-            jac = v - q @ (q.T @ v)
+            # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E. V_k = u_k c_k^T
+            # has rank 2: the projection acts on u_k (2n x 2) before the product with c_k
+            ut = np.swapaxes(us, 1, 2)  # (k, 2n, 2)
+            jac = (ut - q @ (q.T @ ut)) @ cs
             # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
             # 1985): near a peak the residues take up much of each line's error
             lev = np.minimum(np.sum(q * q, axis=1), 0.9)
