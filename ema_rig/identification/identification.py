@@ -41,7 +41,7 @@ from .criteria import (
 )
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
-from .lsfd import _lsfd_checked, _lsfd_noise_weighted, _lsfd_synthesized
+from .lsfd import _lsfd_checked, _lsfd_noise_weighted
 from .mac import mac
 from .ml import LocalML, local_ml
 from .modal import ModalModel
@@ -652,12 +652,15 @@ def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
 
 def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) -> _Fitted:
     """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)."""
-    model, syn = _lsfd_synthesized(data, [m.pole for m in modes], residuals=residuals)  # data checked by identify
+    syn = np.empty_like(data.frf, dtype=np.complex128)  # the LSFD model's FRFs on the data's lines
+    # data checked by identify
+    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn)
     # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
     ml = _local_ml(data, model, syn)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
     if np.any(ml.poles != model.poles):
-        model, syn = _lsfd_synthesized(data, ml.poles, residuals=residuals)
+        syn = np.empty_like(syn)
+        model = _lsfd_checked(data, ml.poles, residuals=residuals, model_out=syn)
     return model, ml, polymax, syn
 
 
@@ -887,7 +890,7 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
 
 def _local_ml(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> LocalML:
     """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band);
-    ``syn`` the model's FRFs on the data's lines when the fit gave them (:func:`_lsfd_synthesized`)."""
+    ``syn`` the model's FRFs on the data's lines when the fit gave them (``_lsfd_checked(model_out=...)``)."""
     if syn is None:
         syn = model.synthesize(data.freq).frf
     syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz

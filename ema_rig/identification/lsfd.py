@@ -119,26 +119,19 @@ def lsfd(
 
 
 def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
-                  variance: NDArray[np.float64] | None = None) -> ModalModel:
+                  variance: NDArray[np.float64] | None = None,
+                  model_out: NDArray[np.complex128] | None = None) -> ModalModel:
     """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
 
     For callers that checked the data once for several steps (``identify``); same parameters,
     result and pole errors as :func:`lsfd`, without the band and the second data check.
     ``variance`` (shape (n_out, n_in, n_freq) or (1, 1, n_freq)) is on the lines of ``data``.
+    With ``model_out`` (complex, shape of ``data.frf``) the fitted model's FRFs on the data's lines
+    are written into it: the fit's own product of basis and coefficients (what
+    :meth:`~ema_rig.identification.modal.ModalModel.synthesize` gives, without forming it again),
+    the data at a line the fit leaves out (0 Hz with a lower residual, where the model is infinite).
     """
-    return _fit(data, poles, residuals=residuals, variance=variance)[0]
-
-
-def _lsfd_synthesized(data: FRFData, poles: ArrayLike, *, residuals: bool = True
-                      ) -> tuple[ModalModel, NDArray[np.complex128]]:
-    """:func:`_lsfd_checked` and the fitted model's FRFs on the lines of ``data``, shape (n_out, n_in, n_freq).
-
-    The model FRFs are the fit's own product of basis and coefficients (what
-    :meth:`~ema_rig.identification.modal.ModalModel.synthesize` gives, without forming it again); at
-    a line the fit leaves out (0 Hz with a lower residual, where the model is infinite) they are the data.
-    """
-    out = np.empty_like(data.frf, dtype=np.complex128)
-    return _fit(data, poles, residuals=residuals, model_out=out)[0], out
+    return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out)[0]
 
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
@@ -167,7 +160,7 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
         Fit the residual terms (default True).
     unweighted : (ModalModel, ndarray), optional
         The unweighted fit at these poles and its FRFs on the lines of ``data``, as
-        :func:`_lsfd_synthesized` gave them (not fitted again).
+        :func:`_lsfd_checked` gave them (``model_out``; not fitted again).
 
     Returns
     -------
