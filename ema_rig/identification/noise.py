@@ -226,6 +226,8 @@ def fit_noise_model(
         lev = np.clip(np.asarray(leverage, dtype=np.float64), 0.0, 0.95)
         z = z / (1.0 - lev)
     n_chan = z.shape[0]
+    if mask is not None and np.all(mask):
+        mask = None  # every line: the same sums as without a mask, without forming the weights
     # the channels are independent: a large fit is split into two runs of whole blocks, run in two
     # threads (numpy releases the GIL in its loops; every channel's arithmetic is the same in any
     # split, so the result does not depend on it)
