@@ -135,8 +135,7 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
 
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
-                         residuals: bool = True,
-                         unweighted: tuple[ModalModel, NDArray[np.complex128]] | None = None) -> ModalModel:
+                         residuals: bool = True, unweighted: ModalModel | None = None) -> ModalModel:
     """The residues ``identify`` reports: per channel the noise-weighted fit unless the model errs.
 
     Both fits at ``poles`` on data checked as for :func:`_lsfd_checked`, the weighted one (the
@@ -158,9 +157,9 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
         Noise variance ``E|e|^2`` of every line [FRF unit^2] (``inf``: no weight, not scored).
     residuals : bool, optional
         Fit the residual terms (default True).
-    unweighted : (ModalModel, ndarray), optional
-        The unweighted fit at these poles and its FRFs on the lines of ``data``, as
-        :func:`_lsfd_checked` gave them (``model_out``; not fitted again).
+    unweighted : ModalModel, optional
+        The unweighted fit at the same poles on the same data (:func:`_lsfd_checked`), when the
+        caller has it: it is scored by its synthesis instead of being fitted again.
 
     Returns
     -------
@@ -171,12 +170,7 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
     if unweighted is None:
         un, s_un = _fit(data, poles, residuals=residuals, score=var)
     else:
-        un, syn = unweighted
-        e = data.frf - syn
-        sv = np.broadcast_to(var, e.shape)
-        if residuals and _FORM_POWER[data.frf_form] < 2 and data.freq[0] == 0.0:  # the line _fit leaves out
-            e, sv = e[:, :, 1:], sv[:, :, 1:]
-        s_un = _median_score(e.real**2 + e.imag**2, sv)
+        un, s_un = unweighted, _synthesis_score(data, unweighted, var, residuals)
     wt, s_wt = _fit(data, poles, residuals=residuals, variance=var, score=var)
     keep = s_wt <= s_un  # NaN (no line with a finite variance): unweighted
     n_keep = int(np.sum(keep))
@@ -287,14 +281,48 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
 
 
 def _median_score(e2: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Median over the lines of ``e2 / v`` per channel (lines with a finite ``v > 0``), shape (n_out, n_in);
-    NaN for a channel without such a line. ``e2``, ``v``: shape (n_out, n_in, n_freq)."""
+    """Median over the lines of ``e2 / v`` per channel, lines with a finite ``v > 0`` only (NaN without one).
+
+    ``e2`` and ``v`` have shape (n_out, n_in, n_freq); the result (n_out, n_in).
+    """
     fin = np.isfinite(v) & (v > 0)
+    if fin.all():
+        q = e2 / v
+        if not np.isnan(q).any():  # no line to leave out: the plain median (nanmedian loops per channel)
+            out0: NDArray[np.float64] = np.median(q, axis=2)
+            return out0
     with np.errstate(all="ignore"):
         q = np.where(fin, e2 / np.where(fin, v, 1.0), np.nan)
     has = np.asarray(fin.any(axis=2))
     out: NDArray[np.float64] = np.where(has, np.nanmedian(np.where(has[:, :, None], q, 0.0), axis=2), np.nan)
     return out
+
+
+def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64], residuals: bool
+                     ) -> NDArray[np.float64]:
+    """:func:`_median_score` of ``model``'s synthesis error on the lines :func:`_fit` fits (shape (n_out, n_in)).
+
+    ``model`` is a fit of :func:`_fit` on ``data`` (real residual terms): its synthesis is formed as
+    :func:`_fit` forms its own, the real basis times the unknowns, chunk by chunk (BLAS).
+    """
+    f, h = data.freq, data.frf
+    sv = np.broadcast_to(score, h.shape)
+    p = _FORM_POWER[data.frf_form]
+    if residuals and p < 2 and f[0] == 0.0:
+        f, h, sv = f[1:], h[:, :, 1:], sv[:, :, 1:]
+    a, scale = pole_residue_basis(f, model.poles, p, residuals=residuals)
+    res = np.moveaxis(model.residues, 0, 2)  # (n_out, n_in, n_modes)
+    parts = [res.real, res.imag]
+    if residuals:
+        parts += [model.lower_residual.real[:, :, None], model.upper_residual.real[:, :, None]]
+    xs = np.concatenate(parts, axis=2) * scale  # unknowns of the unit-norm basis
+    med = np.empty(h.shape[:2])
+    with single_threaded():
+        for o0, o1, yv in _output_chunks(h):
+            e = xs[o0:o1] @ a.T
+            np.subtract(yv, e, out=e)
+            med[o0:o1] = _median_score(e[:, :, 0::2] ** 2 + e[:, :, 1::2] ** 2, sv[o0:o1])
+    return med
 
 
 def _line_weights(variance: NDArray[np.float64], shape: tuple[int, ...], src: str | None) -> NDArray[np.float64]:
