@@ -42,8 +42,6 @@ divides by ``1 - h_i`` first, which is how the degrees of freedom spent on the f
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -208,8 +206,7 @@ def fit_noise_model(
     stopped within 1e-7 of it, at a third of the cost). The grid is screened in single precision
     and only the points within the screen's error of the best are evaluated in double precision:
     the best grid point is the one the full double-precision grid gives. Channels are independent
-    and processed in blocks that stay in the processor cache; from 128 channels on, two threads
-    take half the blocks each (the same result as one thread, to the bit).
+    and processed in blocks that stay in the processor cache.
 
     Examples
     --------
@@ -228,25 +225,6 @@ def fit_noise_model(
     n_chan = z.shape[0]
     if mask is not None and np.all(mask):
         mask = None  # every line: the same sums as without a mask, without forming the weights
-    # the channels are independent: a large fit is split into two runs of whole blocks, run in two
-    # threads (numpy releases the GIL in its loops; every channel's arithmetic is the same in any
-    # split, so the result does not depend on it)
-    n_thr = min(2, os.cpu_count() or 1, n_chan // _NOISE_THREAD_CHANNELS)
-    if n_thr > 1:
-        k = -(-n_chan // (2 * _NOISE_BLOCK)) * _NOISE_BLOCK
-        mk = None if mask is None else np.asarray(mask)
-        with ThreadPoolExecutor(max_workers=2) as pool:
-            runs = list(pool.map(lambda sl: _fit_noise_rows(z[sl], u[sl], None if mk is None else mk[sl]),
-                                 (slice(0, k), slice(k, n_chan))))
-        a, b, var = (np.concatenate(x) for x in zip(*runs, strict=True))
-        return a, b, var
-    return _fit_noise_rows(z, u, mask)
-
-
-def _fit_noise_rows(z: NDArray[np.float64], u: NDArray[np.float64], mask: ArrayLike | None
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`fit_noise_model` of the channels ``z``, ``u`` (shape (n_chan, n_freq)) in this thread."""
-    n_chan = z.shape[0]
     if mask is None:  # every line: the weights 1 change no value
         cnt = np.full(n_chan, max(float(z.shape[1]), 1.0))
         um = (np.sum(u, axis=1) / cnt)[:, None]
@@ -281,10 +259,6 @@ def _fit_noise_rows(z: NDArray[np.float64], u: NDArray[np.float64], mask: ArrayL
 
 #: Channels evaluated together by the noise fit's loops: their lines stay in the processor cache.
 _NOISE_BLOCK = 32
-
-#: Channels per thread at least before the noise fit uses a second thread (below it the hand-off costs
-#: more than half the fit).
-_NOISE_THREAD_CHANNELS = 64
 
 
 def _noise_profile(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
