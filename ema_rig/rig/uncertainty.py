@@ -34,10 +34,12 @@ from ..errors import MatchingError
 from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
 from .candidates import find_dof
 from .fit import (
+    DrivingPointMass,
     HousingMass,
     centre_mass_factor,
     cross_axis_correction,
     driving_point_mass_of,
+    fit_housing_pair_of,
     fit_split_housing,
     housing_mass_from_ratio,
     measured_housing_mass,
@@ -51,7 +53,7 @@ from .inversion import (
     k_tb_ms_from_housing_freq,
     model_mode_at,
 )
-from .matching import MatchResult
+from .matching import MATCH_CRITERIA, MatchResult
 
 __all__ = [
     "DAMPING_MODELS",
@@ -689,8 +691,14 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     q_ref = None if data is None else _find(data.in_dofs, rig.radial)
     p_ref = None if data is None else _find(data.out_dofs, rig.radial)
     dpm0 = None
+    pair_fit = None
     if q_ref is not None and p_ref is not None and info0 is not None:
         dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
+        if dpm0 is not None and m.neighbours and cross is None:
+            # beside a close neighbour the one-channel fit trades the pair's residues: the housing
+            # mode and its neighbours fitted jointly on every channel, the neighbours as modal terms
+            pair_fit = fit_housing_pair_of(data, p_ref, q_ref, modes.poles, m.housing_index, m.neighbours)
+            dpm0 = _pair_mass_or(dpm0, pair_fit, modes, notes)
         if dpm0 is not None:
             dpm0 = _mass_at_centre(dpm0, modes, rig, m.housing_index, hm, notes)
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
@@ -815,7 +823,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         # the issue-19 truths the 663 Hz frame mode under a strong 695 Hz mode took 9 % of it)
         rhos = [float(v) for v in (hm.get("axial_ratio"), hm.get("lateral_ratio")) if v is not None]
         radial_only = cross is None and all(v <= 2 * CROSS_AXIS_RATIO_STD for v in rhos)
-        clean = radial_only and not m.neighbours
+        pair_resolved = pair_fit is not None and pair_fit.resolved
+        clean = radial_only and (not m.neighbours or pair_resolved)
         # the fit holds the identified pole (from every channel): the residue and the damping ratio
         # trade at the peak, so the damping ratio's std (the identification's) scales the mass alike.
         # With that std carried, the held pole's mass is calibrated on the issue-19 truths (force chain
@@ -825,6 +834,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         # misalignment bound
         z_std = hm.get("damping_ratio_std")
         u_z = float(z_std) / zeta if z_std is not None and math.isfinite(float(z_std)) and zeta > 0 else 0.0
+        if pair_resolved:
+            u_z = 0.0  # the joint fit's poles are free: their std is in its modal-mass std
         u_meas = math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_z)
         expected = info_inv.modal_mass * (1 + t_mix)
         mix_mass = 1 + t_mix
@@ -845,8 +856,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         mm = measured_housing_mass(f_inv, dpm.modal_mass / mix_mass, params)
         u_m = math.hypot(u_meas, u_fc)
         by_shape = None
-        if clean and mm is not None:
-            # a second measurement of m_H with an independent error: the mode's shape (no force chain)
+        if clean and mm is not None and not m.neighbours:
+            # a second measurement of m_H with an independent error: the mode's shape (no force chain;
+            # not beside a neighbour: its shape leaks into the identified ratio)
             by_shape = _mass_by_shape(hm, f_inv, params, rig)
             if by_shape is not None and abs(math.log(by_shape.m_H / mm)) <= SHAPE_MASS_CONSISTENT * math.hypot(
                     by_shape.rel_std, u_m):
@@ -1074,6 +1086,24 @@ def _mass_by_shape(hm: Any, f_h: float, params: ModelParams, rig: RigConfig) -> 
     if f_h >= housing_freq_bounds(params, bearing=True)[1]:
         return None  # outside the model's range: the inversion says so with the file's name
     return housing_mass_from_ratio(f_h, float(sr), params, rel, ACCEL_CALIBRATION * math.sqrt(1 / n_s + 1 / n_h))
+
+
+def _pair_mass_or(dpm: Any, pair_fit: Any, modes: Any, notes: list[str]) -> Any:
+    """The joint fit's driving-point modal mass (:func:`ema_rig.rig.fit.fit_housing_pair`) in place
+    of the one-channel ``dpm`` where it resolves the pair, else ``dpm``; a note says which."""
+    if pair_fit is None:
+        return dpm
+    fs = ", ".join(f"{abs(s) / (2 * math.pi):.1f}" for s in pair_fit.neighbour_poles)
+    head = (f"housing mode fitted jointly with the close mode(s) at {fs} Hz on {pair_fit.n_channels} channels "
+            f"({pair_fit.n_free} free poles, {pair_fit.n_lines} lines): driving-point modal mass "
+            f"{pair_fit.modal_mass:.4g} +/- {pair_fit.modal_mass_std:.2g} kg (one-channel fit at the identified "
+            f"poles {dpm.modal_mass:.4g} kg; correlation with the neighbour {pair_fit.correlation:.2f})")
+    if not pair_fit.resolved:
+        notes.append(f"{head}: not resolved (std above {100 * MATCH_CRITERIA.pair_max_mass_std:.0f} %), not used")
+        return dpm
+    notes.append(f"{head}: used")
+    return DrivingPointMass(modal_mass=pair_fit.modal_mass, modal_mass_std=pair_fit.modal_mass_std,
+                            n_lines=pair_fit.n_lines, n_poles=pair_fit.n_free, pole=pair_fit.pole)
 
 
 def _mass_at_centre(dpm: Any, modes: Any, rig: RigConfig, index: int, hm: Any, notes: list[str]) -> Any:
