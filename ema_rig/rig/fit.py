@@ -1193,6 +1193,26 @@ def fit_housing_pair(
         None when the band holds too few lines, a free pole leaves its neighbourhood or the housing
         mode's residue vanishes.
     """
+    from .._blas import single_threaded
+
+    with single_threaded():  # many small least-squares solves: BLAS threads only add hand-off time
+        return _fit_housing_pair(freq, frf, poles, index, neighbours, driving_point, frf_form=frf_form,
+                                 window=window, criteria=criteria)
+
+
+def _fit_housing_pair(
+    freq: NDArray[np.float64],
+    frf: NDArray[np.complex128],
+    poles: NDArray[np.complex128],
+    index: int,
+    neighbours: tuple[int, ...] | list[int],
+    driving_point: int,
+    *,
+    frf_form: FrfForm,
+    window: float,
+    criteria: Any,
+) -> NeighbourPairFit | None:
+    """:func:`fit_housing_pair`'s body (run with single-threaded BLAS)."""
     from scipy.optimize import least_squares
 
     if criteria is None:
