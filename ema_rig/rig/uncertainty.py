@@ -823,8 +823,12 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         # the issue-19 truths the 663 Hz frame mode under a strong 695 Hz mode took 9 % of it)
         rhos = [float(v) for v in (hm.get("axial_ratio"), hm.get("lateral_ratio")) if v is not None]
         radial_only = cross is None and all(v <= 2 * CROSS_AXIS_RATIO_STD for v in rhos)
+        # beside a neighbour, even with the pair resolved by the joint fit, not clean: a mode the
+        # identification missed under the housing mode still hides in its residue (the 695 Hz class of
+        # the issue-19 study, seeds 4 and 15: the 663 Hz frame mode 0.4 % from the housing mode, mass
+        # -7.6 %, measured as m_H it gave k_TB -15 % silently); the mass tests the rig file's m_H only
         pair_resolved = pair_fit is not None and pair_fit.resolved
-        clean = radial_only and (not m.neighbours or pair_resolved)
+        clean = radial_only and not m.neighbours
         # the fit holds the identified pole (from every channel): the residue and the damping ratio
         # trade at the peak, so the damping ratio's std (the identification's) scales the mass alike.
         # With that std carried, the held pole's mass is calibrated on the issue-19 truths (force chain
