@@ -39,11 +39,13 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from .._blas import single_threaded
 from ..config import ModelParams
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from ..literals import FrfForm
 from .inversion import k_tb_ms_from_housing_freq, model_mode_at
+from .matching import MATCH_CRITERIA
 from .model import mass_matrix, stiffness_matrix
 
 __all__ = [
@@ -1193,8 +1195,6 @@ def fit_housing_pair(
         None when the band holds too few lines, a free pole leaves its neighbourhood or the housing
         mode's residue vanishes.
     """
-    from .._blas import single_threaded
-
     with single_threaded():  # many small least-squares solves: BLAS threads only add hand-off time
         return _fit_housing_pair(freq, frf, poles, index, neighbours, driving_point, frf_form=frf_form,
                                  window=window, criteria=criteria)
@@ -1216,8 +1216,6 @@ def _fit_housing_pair(
     from scipy.optimize import least_squares
 
     if criteria is None:
-        from .matching import MATCH_CRITERIA
-
         criteria = MATCH_CRITERIA
     p = np.asarray(poles, dtype=complex).copy()
     fn = np.abs(p) / (2 * math.pi)
