@@ -584,7 +584,12 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       (:func:`ema_rig.rig.fit.housing_mass_from_ratio`; it leans on ``k_S``, ``m_S`` and the frame,
       whose sensitivities the budget then carries), by the weight minimising ``var(k_TB)``. Otherwise
       (not clean) within :data:`MASS_CHECK_SIGMAS` combined sigma the tolerance is widened (note),
-      outside it a warning names both masses;
+      outside it a warning names both masses. Beside a close neighbour (a mode the model does not
+      hold) the mass comes from the housing mode fitted jointly with its neighbours on every channel
+      (:func:`ema_rig.rig.fit.fit_housing_pair`, poles free, its std carrying the pair's trade) where
+      that fit resolves the pair (``MatchCriteria.pair_max_mass_std``), else from the one-channel fit;
+      either way it only tests the rig file's ``m_H`` (a mode missed under the housing mode would
+      still hide in it);
     * **effective modal mass** off the model's by more than 10 % (:data:`MASS_WARN_RATIO`; the
       identified mass scatters by a few % under 10 % noise and the model's by the m_H
       tolerance): warning; term ``|ln r| / 4``: if all of the housing's compliance sits in this
