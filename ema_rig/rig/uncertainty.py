@@ -703,7 +703,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             # beside a close neighbour the one-channel fit trades the pair's residues: the housing
             # mode and its neighbours fitted jointly on every channel, the neighbours as modal terms
             pair_fit = fit_housing_pair_of(data, p_ref, q_ref, modes.poles, m.housing_index, m.neighbours)
-            dpm0 = _pair_mass_or(dpm0, pair_fit, modes, notes)
+            dpm0 = _pair_mass_or(dpm0, pair_fit, notes)
         if dpm0 is not None:
             dpm0 = _mass_at_centre(dpm0, modes, rig, m.housing_index, hm, notes)
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
@@ -865,9 +865,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         mm = measured_housing_mass(f_inv, dpm.modal_mass / mix_mass, params)
         u_m = math.hypot(u_meas, u_fc)
         by_shape = None
-        if clean and mm is not None and not m.neighbours:
-            # a second measurement of m_H with an independent error: the mode's shape (no force chain;
-            # not beside a neighbour: its shape leaks into the identified ratio)
+        if clean and mm is not None:
+            # a second measurement of m_H with an independent error: the mode's shape (no force chain)
             by_shape = _mass_by_shape(hm, f_inv, params, rig)
             if by_shape is not None and abs(math.log(by_shape.m_H / mm)) <= SHAPE_MASS_CONSISTENT * math.hypot(
                     by_shape.rel_std, u_m):
@@ -1097,7 +1096,7 @@ def _mass_by_shape(hm: Any, f_h: float, params: ModelParams, rig: RigConfig) -> 
     return housing_mass_from_ratio(f_h, float(sr), params, rel, ACCEL_CALIBRATION * math.sqrt(1 / n_s + 1 / n_h))
 
 
-def _pair_mass_or(dpm: Any, pair_fit: Any, modes: Any, notes: list[str]) -> Any:
+def _pair_mass_or(dpm: Any, pair_fit: Any, notes: list[str]) -> Any:
     """The joint fit's driving-point modal mass (:func:`ema_rig.rig.fit.fit_housing_pair`) in place
     of the one-channel ``dpm`` where it resolves the pair, else ``dpm``; a note says which."""
     if pair_fit is None:
