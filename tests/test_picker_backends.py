@@ -160,10 +160,15 @@ def test_picker_in_a_tk_window(tmp_path: Path) -> None:
     if not os.environ.get("DISPLAY"):
         if shutil.which("xvfb-run") is None:
             _skip("no X display and no xvfb-run (apt-get install xvfb)")
-        cmd = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", *cmd]
+        # -a alone starts its search at display 99 in every process, so two test runs started at once can
+        # race for the same display; starting from a number drawn from the pid spreads them apart, and
+        # -e keeps the X server's own messages for the assertion below
+        cmd = ["xvfb-run", "-a", "-n", str(100 + os.getpid() % 800), "-e", str(tmp_path / "xvfb.log"),
+               "-s", "-screen 0 1280x1024x24", *cmd]
     env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
-    assert r.returncode == 0, r.stderr[-2000:]
+    xlog = tmp_path / "xvfb.log"
+    assert r.returncode == 0, r.stderr[-2000:] + (xlog.read_text()[-1000:] if xlog.exists() else "")
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["backend"] == "FigureCanvasTkAgg"
     assert len(out["after_one"]) == 1 and out["after_one"][0][0] == int(out["order_a"])  # the clicked pole
