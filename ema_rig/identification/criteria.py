@@ -314,6 +314,10 @@ class CompletenessCriteria(_Sourced):
     local_p : float
         Family-wise level of that F test (0.001), Bonferroni over the candidates tested on the same
         lines; dof ``(2 n_chan + 2, dof of the local fit with the mode)``.
+    split_sigmas : float
+        An accepted mode whose ML estimate moved more than this many ML standard uncertainties from
+        its PolyMAX pole towards a rejected cluster on its local lines is tested two modes against
+        one with that cluster (3, the ML duplicate rule's distance; ``identification._split``).
     drop_weak : bool
         Drop an accepted mode whose own term is weak (``JudgeCriteria.weak_peak_share``) when its
         segment passes the test without it (default False: on ufffiles_frf this dropped 5-13 of
@@ -337,6 +341,8 @@ class CompletenessCriteria(_Sourced):
     local_hbw: float = _src(ML_CRITERIA.window_hbw, "MLCriteria.window_hbw: 99.4 % of a mode's Fisher information within 4 hbw")
     local_p: float = _src(1e-3, "F test p = 0.001 family-wise (Bonferroni over the candidates tested on the same lines), "
                           "dof (2 n_chan + 2, residual dof of the local fit) (JudgeCriteria.support_p)")
+    split_sigmas: float = _src(3.0, "three ML standard uncertainties: the ML duplicate rule's distance (identification._unresolved); "
+                               "a pole moved further towards a neighbouring cluster stands for two features")
     drop_weak: bool = _src(False, "off: on ufffiles_frf (two bands) it dropped modes inconsistently "
                            "(benchmarks/study_real_bands.py)")
 

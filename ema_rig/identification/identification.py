@@ -545,6 +545,11 @@ def identify(
                 if not changed:
                     break
                 last_fail = done.test.failing()
+            done = _split(data, done, residuals, crit)
+            cur, candidates, fitted = done.modes, done.candidates, done.fitted
+            if done.split:
+                notes.append("modes the ML had merged into one, split where the lines near them need both (nested F "
+                             "test): " + ", ".join(done.split))
             if done.added:
                 notes.append("missing modes added where the residual exceeded the noise: "
                              + ", ".join(f"{f:.6g} Hz" for f in done.added))
@@ -639,6 +644,7 @@ class _Completed:
     test: MisfitTest
     added: tuple[float, ...]
     dropped: tuple[float, ...] = ()
+    split: tuple[str, ...] = ()
 
 
 def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
@@ -878,6 +884,77 @@ def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl:
     if not (q > 0 and c1 > 0 and np.isfinite(c0) and np.isfinite(c1)):
         return None
     return ((c0 - c1) / q) / (c1 / d1), q, d1
+
+
+def _split(data: FRFData, done: _Completed, residuals: bool, crit: IdentificationCriteria) -> _Completed:
+    """Two modes where the ML put one between them: a nested F test of 2 modes against 1 on the same lines.
+
+    An accepted mode whose ML estimate moved from its PolyMAX pole towards a rejected candidate
+    cluster within its local lines (``CompletenessCriteria.local_hbw`` half-power half-bandwidths,
+    the candidate stable at ``JudgeCriteria.min_poles`` orders at least, rejected for its support in
+    the global fit or as a duplicate) by more than ``split_sigmas`` of its ML standard uncertainty
+    stands for two features of the data: the candidate is tested on its own lines, the model's
+    poles there with it against without it (:func:`_local_f`, the test of a missing mode). The
+    global F test had judged it with the band's noise estimate and candidate count; this decision
+    uses the lines near the two only, so two bands holding them decide alike.
+    """
+    cc, jc = crit.completeness, crit.judge
+    if not cc.local_evidence or done.test.variance is None or not done.modes:
+        return done
+    from scipy.stats import f as f_dist
+
+    f = data.freq
+    ml = done.fitted[1]
+    modes = list(done.modes)
+    cands = list(done.candidates)
+    current = [complex(p) for p in ml.poles]
+    model = list(current)
+    added: list[str] = []
+    pool = [i for i, c in enumerate(cands) if not c.accepted and c.mode.n_poles >= jc.min_poles
+            and 0 < c.damping_ratio <= jc.max_damping and f[0] < c.natural_freq < f[-1]
+            and c.reason.startswith(("negligible contribution", "duplicate of"))]
+    by_pole = {m.pole: m for m in modes}
+    for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
+        m = by_pole.get(p_start)  # type: ignore[assignment]
+        if m is None or ml.kind[k] != "ml" or not np.isfinite(ml.natural_freq_std[k]) or ml.natural_freq_std[k] <= 0:
+            continue
+        f_pm, f_ml = m.natural_freq, abs(current[k]) / (2 * np.pi)
+        moved = f_ml - f_pm
+        if abs(moved) <= cc.split_sigmas * float(ml.natural_freq_std[k]):
+            continue
+        half = cc.local_hbw * m.damping_ratio * m.natural_freq
+        near = [i for i in pool if abs(cands[i].natural_freq - f_pm) <= half
+                and np.sign(cands[i].natural_freq - f_pm) == np.sign(moved)]
+        if not near:
+            continue
+        i = max(near, key=lambda j: (cands[j].mode.n_poles, -abs(cands[j].natural_freq - f_pm)))
+        c = cands[i]
+        sl = _local_lines(f, c, cc)
+        if int(sl.sum()) < cc.min_segment_lines:
+            continue
+        n_looks = sum(1 for j in pool if f[sl][0] <= cands[j].natural_freq <= f[sl][-1])
+        res = _local_f(data, model, [*model, c.mode.pole], sl, done.test.variance, cc)
+        if res is None:
+            continue
+        stat, q, dof_l = res
+        need = float(f_dist.isf(cc.local_p / max(n_looks, 1), q, dof_l))
+        if not stat >= need:
+            continue
+        model.append(c.mode.pole)
+        pool.remove(i)
+        cands[i] = replace(c, accepted=True, support=stat, reason=(
+            f"physical: the ML moved {m.natural_freq:.6g} Hz by {moved:+.3g} Hz towards it ({abs(moved) / float(ml.natural_freq_std[k]):.1f} "
+            f"sigma), and the lines near it need both (nested F test on {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz: "
+            f"F = {stat:.3g} >= {need:.3g} with {q:.0f}, {dof_l:.0f} dof, {n_looks} candidate(s) tested there; "
+            f"before: {c.reason})"))
+        added.append(f"{c.natural_freq:.6g} Hz beside {m.natural_freq:.6g} Hz")
+        modes.append(c.mode)
+    if not added:
+        return done
+    modes = _unique_modes(modes)
+    fitted = _fit_modes(data, modes, residuals)
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
+                   split=tuple(added))
 
 
 def _unresolved(modes: Sequence[SelectedMode], ml: LocalML, f: NDArray[np.float64],
