@@ -890,7 +890,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     """Two modes where the ML put one between them: a nested F test of 2 modes against 1 on the same lines.
 
     An accepted mode whose ML estimate moved from its PolyMAX pole towards a rejected candidate
-    cluster within its local lines (``CompletenessCriteria.local_hbw`` half-power half-bandwidths,
+    cluster, to between the two, within its local lines (``CompletenessCriteria.local_hbw`` half-power half-bandwidths,
     the candidate stable at ``JudgeCriteria.min_poles`` orders at least, rejected for its support in
     the global fit or as a duplicate) by more than ``split_sigmas`` of its ML standard uncertainty
     stands for two features of the data: the candidate is tested on its own lines, the model's
@@ -923,8 +923,9 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
         if abs(moved) <= cc.split_sigmas * float(ml.natural_freq_std[k]):
             continue
         half = cc.local_hbw * m.damping_ratio * m.natural_freq
+        # the ML estimate lies between the PolyMAX pole and the cluster: one pole for two features
         near = [i for i in pool if abs(cands[i].natural_freq - f_pm) <= half
-                and np.sign(cands[i].natural_freq - f_pm) == np.sign(moved)]
+                and min(f_pm, cands[i].natural_freq) < f_ml < max(f_pm, cands[i].natural_freq)]
         if not near:
             continue
         i = max(near, key=lambda j: (cands[j].mode.n_poles, -abs(cands[j].natural_freq - f_pm)))
