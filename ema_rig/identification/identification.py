@@ -325,8 +325,11 @@ def identify(
     complete when the residual of its model (LSFD at the ML poles) is consistent with the noise
     estimate in every band segment and channel (:func:`~ema_rig.identification.noise.segment_misfit`,
     a chi-square test with its degrees of freedom). Where a segment fails, a rejected candidate
-    in it is added when its F test passes and the segment then passes (a local misfit around a
-    peak is a missing mode). A failing segment without any candidate cluster makes the order grow
+    in it is added when the lines near it need it (a local misfit around a peak is a missing mode:
+    a nested F test on those lines, the model re-estimated there with and without it, so two
+    bands holding the lines decide alike). An accepted mode whose ML estimate moved to between
+    its PolyMAX pole and a rejected cluster beside it is tested the same way, 2 modes against 1
+    (``CompletenessCriteria.split_sigmas``). A failing segment without any candidate cluster makes the order grow
     by one more span (``CompletenessCriteria.max_extra_steps``) when that changes the modes in the
     failing segments. Segments that still fail are named: in a warning when the order cap stopped
     the growth, else in a note (a higher order changed nothing there). Only work limits (orders, evaluations) stop a loop, never the clock:
