@@ -134,9 +134,10 @@ def err_ema(ps: Any, order: int, lam_true: complex) -> tuple[float, float]:
 def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[float, float, int, float]:
     """(root step [s], one evaluation pass at the final roots [s], orders, root step's share of the call).
 
-    Each order's root step is recorded with its inputs during one ``plscf`` call and then
-    replayed ``replays`` times, interleaved with its floor (one evaluation at the final
-    roots); per order the fastest replay of each counts. On a shared machine a step of a
+    Each root-finding call (one order, or one batched chain of orders, ``aberth_chain``, whose
+    floor is the sum of its orders' floors) is recorded with its inputs during one ``plscf``
+    call and then replayed ``replays`` times, interleaved with its floor (one evaluation at
+    the final roots of each of its orders); per call the fastest replay of each counts. On a shared machine a step of a
     fraction of a millisecond timed once inside the call can absorb a whole time slice of
     another process; the minimum of paired replays is the cost without that interference,
     for the step and its floor alike. The share is the root step's wall time inside that
@@ -147,53 +148,68 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
     from ema_rig.identification._roots import _ratio, det_coefficients
 
     mod = importlib.import_module("ema_rig.identification.plscf")
-    calls: list[tuple[Callable[[], Any], np.ndarray, np.ndarray]] = []
+    # each root-finding call: (replay, [(coefficients, final roots) per order it roots])
+    calls: list[tuple[Callable[[], Any], list[tuple[np.ndarray, np.ndarray]]]] = []
     aberth0, eig0 = mod.aberth, mod._roots_eig
+    chain0 = getattr(mod, "aberth_chain", None)  # the batched chain of orders (newer trees)
     in_call = [0.0]
+    empty = np.zeros(0, complex)
 
     def rec_aberth(c: np.ndarray, z0: np.ndarray) -> Any:
         t0 = time.perf_counter()
         z = aberth0(c, z0)
         in_call[0] += time.perf_counter() - t0
-        if z is not None:
-            calls.append((lambda c=c, z0=z0: aberth0(c, z0), c, z))
-        else:  # the fallback that follows is timed as its own call
-            calls.append((lambda c=c, z0=z0: aberth0(c, z0), c, np.zeros(0, complex)))
+        # a failed call (None): the fallback that follows is timed as its own call
+        calls.append((lambda c=c, z0=z0: aberth0(c, z0), [(c, z if z is not None else empty)]))
         return z
+
+    def rec_chain(coefs: list[np.ndarray], start: np.ndarray) -> Any:
+        t0 = time.perf_counter()
+        found = chain0(coefs, start)
+        in_call[0] += time.perf_counter() - t0
+        calls.append((lambda coefs=coefs, start=start: chain0(coefs, start),
+                      [(c, z if z is not None else empty) for c, z in zip(coefs, found, strict=True)]))
+        return found
 
     def rec_eig(low: np.ndarray) -> Any:
         t0 = time.perf_counter()
         z = eig0(low)
         in_call[0] += time.perf_counter() - t0
-        calls.append((lambda low=low: eig0(low), det_coefficients(low), z))
+        calls.append((lambda low=low: eig0(low), [(det_coefficients(low), z)]))
         return z
 
     mod.aberth, mod._roots_eig = rec_aberth, rec_eig
+    if chain0 is not None:
+        mod.aberth_chain = rec_chain
     try:
         t0 = time.perf_counter()
         call_ema(data, max_order)
         total = time.perf_counter() - t0
     finally:
         mod.aberth, mod._roots_eig = aberth0, eig0
+        if chain0 is not None:
+            mod.aberth_chain = chain0
     step = floor = 0.0
     orders = 0
-    for run, c, z in calls:
-        j = np.arange(1, c.size)
-        dc, cr = c[1:] * j, c[::-1].copy()
-        dcr = cr[1:] * j
+    for run, found in calls:
         ts, tf = [], []
         for _ in range(replays):
             t0 = time.perf_counter()
             run()
             ts.append(time.perf_counter() - t0)
-            if z.size:
-                t0 = time.perf_counter()
-                _ratio(c, dc, cr, dcr, z)
-                tf.append(time.perf_counter() - t0)
+            t_floor = 0.0
+            for c, z in found:
+                if z.size:
+                    j = np.arange(1, c.size)
+                    dc, cr = c[1:] * j, c[::-1].copy()
+                    dcr = cr[1:] * j
+                    t0 = time.perf_counter()
+                    _ratio(c, dc, cr, dcr, z)
+                    t_floor += time.perf_counter() - t0
+            tf.append(t_floor)
         step += min(ts)
-        if z.size:
-            floor += min(tf)
-            orders += 1
+        floor += min(tf)
+        orders += sum(1 for _, z in found if z.size)
     return step, floor, orders, in_call[0] / total
 
 

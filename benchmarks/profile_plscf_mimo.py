@@ -8,7 +8,11 @@ fastest of ``--repeat`` calls is listed. Nested stages (the Newton polish and th
 factors inside the pole assembly) are indented; "other" is the call's time outside the listed
 top-level stages.
 
-Run: ``python benchmarks/profile_plscf_mimo.py [--repeat N] [ORDER ...]`` (default 50 100 200).
+``--per-order`` adds, for the fastest call at the highest N, the CPU time of the stages that run
+once per order (the solve and the root step), as microseconds per order over bands of orders:
+where each millisecond of an order goes as the order grows.
+
+Run: ``python benchmarks/profile_plscf_mimo.py [--repeat N] [--per-order] [ORDER ...]`` (default 50 100 200).
 """
 
 from __future__ import annotations
@@ -31,14 +35,27 @@ STAGES = [
     ("_refine_many", True), ("_participation_many", True),
 ]
 
+#: stages run once per order, with the model order each call is for (from its arguments; two references)
+PER_ORDER: dict[str, Callable[..., int]] = {
+    "_solve_order": lambda m, n, n_in: int(n),
+    "det_coefficients": lambda alpha: int(alpha.shape[0]) - 1,
+    "warm_start": lambda prev, n_roots: int(n_roots) // 2,
+    "aberth": lambda c, z0, **k: (int(c.size) - 1) // 2,
+    "_roots_eig": lambda low: int(low.shape[0]) - 1,
+}
+#: bands of orders for the per-order table (degree 2n < 64: companion eigenvalues; above: Aberth)
+BANDS = [(2, 30), (32, 50), (52, 100), (102, 150), (152, 200)]
+
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("orders", nargs="*", type=int, default=[50, 100, 200])
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--per-order", action="store_true", help="microseconds per order of the per-order stages")
     args = ap.parse_args()
     mod = importlib.import_module("ema_rig.identification.plscf")
     spent: dict[str, float] = collections.defaultdict(float)
+    by_order: dict[tuple[str, int], float] = collections.defaultdict(float)
 
     def timed(name: str, fn: Callable[..., Any]) -> Callable[..., Any]:
         def run(*a: Any, **k: Any) -> Any:
@@ -46,7 +63,10 @@ def main() -> int:
             try:
                 return fn(*a, **k)
             finally:
-                spent[name] += time.thread_time() - t0
+                dt = time.thread_time() - t0
+                spent[name] += dt
+                if name in PER_ORDER:
+                    by_order[name, PER_ORDER[name](*a, **k)] += dt
         return run
 
     names = [n for n, _ in STAGES if hasattr(mod, n)]
@@ -59,17 +79,21 @@ def main() -> int:
         for n in names:
             setattr(mod, n, timed(n, originals[n]))
         rows: dict[int, tuple[float, dict[str, float]]] = {}
+        per_order: dict[tuple[str, int], float] = {}
         with blas_threads(1):
             call_ema(data, 10, even=True)
             for mo in args.orders:
                 best: tuple[float, dict[str, float]] | None = None
                 for _ in range(args.repeat):
                     spent.clear()
+                    by_order.clear()
                     t0 = time.thread_time()
                     ps = call_ema(data, mo, even=True)
                     total = time.thread_time() - t0
                     if best is None or total < best[0]:
                         best = (total, dict(spent))
+                        if mo == max(args.orders):
+                            per_order = dict(by_order)
                 assert best is not None
                 rows[mo] = best
                 rows[mo][1]["_aberth_orders"] = float(ps.meta["aberth_orders"])
@@ -90,6 +114,25 @@ def main() -> int:
     print(f"{'total':<22}" + "".join(f"{rows[mo][0] * 1e3:9.2f} {'':>5}" for mo in args.orders))
     print(f"{'orders by Aberth':<22}" + "".join(f"{int(rows[mo][1]['_aberth_orders']):>9d} {'':>5}" for mo in args.orders))
     print(f"{'solved orders':<22}" + "".join(f"{mo // 2:>9d} {'':>5}" for mo in args.orders))
+    if args.per_order:
+        top = max(args.orders)
+        bands = [(a, min(b, top)) for a, b in BANDS if a <= top]
+        print(f"\nper order at N={top}: CPU microseconds per order (mean over the band's even orders; same call)")
+        head = f"{'stage':<22}" + "".join(f"{f'{a}-{b}':>12}" for a, b in bands)
+        print(head)
+        print("-" * len(head))
+        for name in PER_ORDER:
+            cells = []
+            for a, b in bands:
+                n_ord = len(range(a, b + 1, 2))
+                tot = sum(v for (st, o), v in per_order.items() if st == name and a <= o <= b)
+                cells.append(f"{tot / n_ord * 1e6:12.0f}")
+            print(f"{name:<22}" + "".join(cells))
+        sums = []
+        for a, b in bands:
+            n_ord = len(range(a, b + 1, 2))
+            sums.append(sum(v for (_, o), v in per_order.items() if a <= o <= b) / n_ord * 1e6)
+        print(f"{'sum':<22}" + "".join(f"{v:12.0f}" for v in sums))
     return 0
 
 

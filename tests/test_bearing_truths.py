@@ -314,15 +314,16 @@ def test_undeclared_sensor_masses_measured_twice(tmp_path):
     # seed 0 of the study's class: 62 g of undeclared sensors (2.4 % of m_H), force chain not stated
     # (2 %), no sensor positions (the centre's reading within the radial sensors' spread, 1.5 %). The
     # driving-point mass alone measured m_H to 2.6 % (sigma(k_TB) 5.0 %); with the mode's
-    # spindle/housing ratio as a second measurement sigma(k_TB) 3.3 %
+    # spindle/housing ratio as a second measurement sigma(k_TB) 3.3 %, 3.7 % with the centre's unknown
+    # reading shared by both routes (the ratio is read against it once, the modal mass twice: 2.1 % on m_H)
     truth = RigTruth(k_TB=66.339e6, sensor_mass=0.012429, declare_sensor_masses=False, seed=0)
     res = _estimate(tmp_path, "und", truth)
     assert res.warnings == () and abs(_z(res, truth)) <= 2.0
-    assert res.k_TB_std / res.k_TB < 0.036
+    assert res.k_TB_std / res.k_TB < 0.04
     hm = res.housing_mass
     assert hm is not None and hm.source == "measured"
     assert abs(hm.measured - (2.566 + 5 * 0.012429)) <= 2 * hm.measured_std
-    assert hm.measured_std / hm.measured < 0.021
+    assert hm.measured_std / hm.measured < 0.023
     assert any("m_H measured twice" in n for n in res.notes)
     # both readings in the JSON; the shape's alone within 2 of its sigma of the truth
     doc = json.loads(json.dumps(res.to_dict()))["housing_mass"]
@@ -367,3 +368,91 @@ def test_shape_mass_not_used_beside_a_neighbour(tmp_path):
     shape = _mass_by_shape(res.housing_mode, res.inverted_freq, load_rig(tmp_path / "hyst5.toml").model,
                            load_rig(tmp_path / "hyst5.toml"))
     assert shape is not None and abs(shape.m_H / 2.566 - 1) < 0.05
+
+
+def test_misaligned_sensors_alone_leave_the_housing_mode_clean(tmp_path):
+    # seed 5 of the study's m_H-off class at a stated 0.5 % force chain: no cross stiffness in the truth,
+    # but its axial and lateral sensors (2 degrees of misalignment) read 0.070 / 0.069 of the radial
+    # motion, past a 2-sigma bound: the mode was called not clean, the rig file's 3 % error blamed on a
+    # neighbour (warning, sigma 5.1 %). Up to 3 sigma of misalignment the mass measures m_H, with the
+    # largest coupling's effect in its std
+    truth = RigTruth(k_TB=59.19995e6, file_m_H_factor=1.03, file_force_chain=0.005, seed=5)
+    res = _estimate(tmp_path, "mis", truth)
+    rho = max(res.housing_mode["axial_ratio"], res.housing_mode["lateral_ratio"])
+    assert 0.07 < rho <= 0.105
+    assert res.warnings == () and abs(_z(res, truth)) <= 2.0
+    hm = res.housing_mass
+    assert hm is not None and hm.source == "measured"
+    assert abs(hm.measured - 2.566) <= 2 * hm.measured_std
+    # sigma(k_TB) from the measured m_H (force chain 0.5 %): ~1.5 % (5.1 % before)
+    assert res.k_TB_std / res.k_TB < 0.025
+
+
+def test_coupling_mass_bound_against_the_truths_coupled_mode():
+    # oracle: the truth's eigenvectors (numpy, nothing from ema_rig) with and without a bearing cross
+    # stiffness, sensors aligned: the driving-point modal mass rises by t^2 = ratio^2 m_H / m_eff
+    # (two-mode mixing) within the second-order terms (2.5 % of t^2 here)
+    import rig_truth
+
+    from ema_rig.rig.uncertainty import coupling_mass_std
+
+    for axis, f_p in (("axial", 400.0), ("lateral", 800.0)):
+        kw = dict(k_TB=70e6, misalign_deg=0.0, axial_freq=f_p, lateral_freq=f_p)
+        got = []
+        for truth in (RigTruth(**kw), RigTruth(cross_axis=axis, cross_leak=0.01, **kw)):
+            m, k = truth.matrices()
+            lam, phi = rig_truth._eigh(k, m)
+            i = rig_truth._housing_index(lam, phi, m)
+            c = truth.observation()
+            cross = c[4 if axis == "axial" else 3] @ phi[:, i]
+            got.append((1.0 / float(c[0] @ phi[:, i]) ** 2, abs(float(cross / np.mean(c[:3] @ phi[:, i])))))
+        (m0, _), (m1, rho) = got
+        t2 = math.sqrt(3.0) * coupling_mass_std(rho, 2.566, m0)
+        assert 0.09 < rho < 0.11  # 1 % of the mode's energy in the partner
+        assert m1 / m0 - 1 == pytest.approx(t2, rel=0.05)
+
+
+def test_mass_routes_that_disagree_are_never_silent(tmp_path):
+    # issue 11's frame mode 4 Hz below the housing mode at the driving point (seed 4): the identification
+    # merges the two, the modal mass reads m_H -8.4 % and the mode's spindle/housing ratio +34 %; the
+    # modal mass alone gave k_TB -17 % at z -4.7 without a warning. Two measurements of m_H that
+    # disagree beyond 3 sigma say the 3DOF model does not describe the mode alone: warned (or within 2 sigma)
+    truth = RigTruth(k_TB=93e6, flex_frame_freq=663.3940264871381, seed=4)
+    res = _estimate(tmp_path, "merged", truth)
+    assert any("neither measures m_H alone" in n for n in res.notes)
+    assert res.housing_mass is None or res.housing_mass.used is None
+    assert res.warnings and abs(_z(res, truth)) <= 2.0
+
+
+def test_shape_weight_with_a_shared_centre_error_against_a_grid():
+    # oracle: the variance of ln k_TB written out source by source (numpy, independent of the closed
+    # form) and minimised over a grid of weights. Both m_H routes read the housing against the same
+    # unknown centre (relative std s of its reading): the modal mass twice, the ratio once
+    from types import SimpleNamespace
+
+    from ema_rig.rig.fit import housing_mass_from_ratio
+    from ema_rig.rig.uncertainty import DEFAULT_REL_UNCERTAINTY, _shape_weight, sensitivities
+
+    f_h, a_own, s, cal = 626.0, 0.02, 0.009, 0.0091
+    rel = dict(DEFAULT_REL_UNCERTAINTY)
+    shape = housing_mass_from_ratio(f_h, 0.1, TABLE1_PARAMS, rel, math.hypot(cal, s))
+    assert shape is not None
+    sens = sensitivities(f_h, TABLE1_PARAMS)
+    b = {n: v for n, v in shape.sensitivity.items() if n != "ratio"}
+    s_r = shape.sensitivity["ratio"]
+    names = ["dp", "centre", "cal", *b]
+    dp = np.array([a_own, 2 * s, 0.0] + [0.0] * len(b))  # d ln m_H (driving point) per unit source
+    sh = np.array([0.0, s_r * s, s_r * cal] + [b[n] * rel[n] for n in b])  # d ln m_H (shape)
+    direct = np.array([0.0, 0.0, 0.0] + [sens[n] * rel[n] for n in b])  # d ln k_TB, the parameters' own path
+    ws = np.linspace(0.0, 1.0, 1001)
+    var = [float(np.sum((sens["m_H"] * ((1 - w) * dp + w * sh) + direct) ** 2)) for w in ws]
+    w_grid = ws[int(np.argmin(var))]
+    w, u_own, _ = _shape_weight(f_h, TABLE1_PARAMS, SimpleNamespace(uncertainty=rel), math.hypot(a_own, 2 * s),
+                                shape, cov=2 * s_r * s**2)
+    assert len(names) == dp.size
+    assert abs(w - w_grid) <= 1.5e-3  # the grid's step is 1e-3
+    own = (1 - w) * dp[:3] + w * sh[:3]
+    assert u_own == pytest.approx(float(np.sqrt(np.sum(own**2))), rel=1e-9)
+    # carried, the shared centre raises the combined m_H's own std above the independent reading's
+    _, u_ind, _ = _shape_weight(f_h, TABLE1_PARAMS, SimpleNamespace(uncertainty=rel), math.hypot(a_own, 2 * s), shape)
+    assert u_own > 1.05 * u_ind

@@ -372,3 +372,13 @@ def test_crosscheck_sdypy_lscf(system):
         # the same noise-free physical poles from an independent implementation
         np.testing.assert_allclose(fn[k], f0, rtol=1e-6)
         np.testing.assert_allclose(zeta[k], z0, rtol=1e-4)
+
+
+def test_frf_memory_layout_does_not_matter(system):
+    # an FRF array in Fortran order (as a transposed or sliced array arrives): the lag sums read
+    # it in place; the same poles as the C-ordered copy, to round-off
+    data = system.frf(FREQ, inputs=(0,), noise=0.01, rng=np.random.default_rng(5))
+    fortran = FRFData(data.freq, np.asfortranarray(data.frf), data.out_dofs, data.in_dofs, frf_form=data.frf_form)
+    a = plscf(data, max_order=20, orders=[20])
+    b = plscf(fortran, max_order=20, orders=[20])
+    np.testing.assert_allclose(np.sort_complex(a.pole), np.sort_complex(b.pole), rtol=1e-12)

@@ -114,3 +114,76 @@ def test_repulsion_sums_against_the_definition(monkeypatch):
             monkeypatch.setattr(_roots, "_REPULSION_BLOCK", block)
             # a sum of 56 terms: round-off
             np.testing.assert_allclose(_roots._repulsion(z[ia], ia, z), want, rtol=1e-13)
+
+
+def _chain(degrees, seed):
+    """Polynomials of rising degree whose roots move between neighbours as a pLSCF denominator's
+    do: truncations of one random series, each perturbed by 1 %."""
+    rng = np.random.default_rng(seed)
+    series = rng.standard_normal(max(degrees) + 1)
+    return [series[: d + 1] * (1 + 0.01 * rng.standard_normal(d + 1)) for d in degrees]
+
+
+def test_aberth_chain_finds_the_companion_roots_of_every_polynomial():
+    degrees = list(range(64, 101, 2))
+    coefs = _chain(degrees, seed=21)
+    start = _companion_roots(coefs[0][:-2])  # the roots below the first, as pLSCF passes them
+    found = _roots.aberth_chain(coefs, start)
+    for c, z in zip(coefs, found, strict=True):
+        assert z is not None
+        # the same set to round-off as the companion eigenvalues (as for aberth above: measured
+        # 1e-14 to 5e-14; a lost root or a 10x loss of accuracy fails)
+        assert _set_distance(z, _companion_roots(c)).max() < 5e-13
+        n = c.size - 1
+        j = np.arange(1, n + 1)
+        cr = c[::-1].copy()
+        _, small = _roots._ratio(c, c[1:] * j, cr, cr[1:] * j, z)
+        assert small.all()  # every root accepted on the backward-error test
+
+
+def test_aberth_chain_far_roots_and_non_convergence(monkeypatch):
+    # the last polynomial has a conjugate pair of modulus 8 (8^200 overflows): its roots go
+    # through the reversed polynomial, the others' stay direct, in the same sweeps
+    inner = _kac(198, seed=5)
+    far = 8.0 * np.exp(1j * np.pi / 3)
+    last = np.convolve(inner, [abs(far) ** 2, -2 * far.real, 1.0])
+    coefs = [inner[:197] * 1.01, inner, last]
+    reversed_calls = []
+    ratio = _roots._ratio_prepared
+
+    def counted(*args):
+        reversed_calls.append(args[2])
+        return ratio(*args)
+
+    monkeypatch.setattr(_roots, "_ratio_prepared", counted)
+    found = _roots.aberth_chain(coefs, _companion_roots(inner[:195]))
+    assert 200 in reversed_calls  # the polynomial with the far pair took that path
+    for c, z in zip(coefs, found, strict=True):
+        assert z is not None
+        assert _set_distance(z, _companion_roots(c)).max() < 5e-13  # round-off, as above
+    assert np.sum(np.abs(found[-1]) > 7) == 2
+    # one sweep cannot accept a warm start: every polynomial is reported unconverged (None),
+    # which the caller turns into the eigenvalue fallback
+    assert _roots.aberth_chain(coefs, _companion_roots(inner[:195]), maxiter=1) == [None, None, None]
+
+
+def test_blocked_evaluation_of_several_polynomials_against_horner():
+    rng = np.random.default_rng(13)
+    degrees = (3, 40, 101)
+    padded = np.zeros((3, 102))
+    for i, d in enumerate(degrees):
+        padded[i, : d + 1] = rng.standard_normal(d + 1)
+    blocks, _ = _roots.coefficient_blocks(padded)
+    owner = np.repeat(np.arange(3), 30)
+    z = np.exp(2j * np.pi * rng.random(90)) * rng.uniform(0.3, 1.0, 90)  # |z| <= 1, as polished
+    p, dp = _roots.eval_blocked(blocks, 101, owner, z)
+    for i, d in enumerate(degrees):
+        c = padded[i, : d + 1]
+        sel = owner == i
+        # each value accurate to a few hundred eps of the sum of moduli (as the ratio test
+        # above); a wrong block, power or padding is O(1)
+        scale = np.polyval(np.abs(c[::-1]), np.abs(z[sel]))
+        np.testing.assert_allclose(p[sel], np.polyval(c[::-1], z[sel]), rtol=0, atol=1e-14 * scale.max())
+        dc = c[1:] * np.arange(1, d + 1)
+        dscale = np.polyval(np.abs(dc[::-1]), np.abs(z[sel])) if d else np.ones(sel.sum())
+        np.testing.assert_allclose(dp[sel], np.polyval(dc[::-1], z[sel]), rtol=0, atol=1e-14 * dscale.max())

@@ -17,6 +17,13 @@ Newton ratio times the repulsion sum is already below :data:`_STALE`, the correc
 the previous sweep's repulsion sum (its change alters the step only at second order), so the
 O(N^2) sums are recomputed only for the roots still far from convergence.
 
+At the degrees where a sweep costs more in fixed per-call work than in arithmetic (one
+reference, degree <= ~130), :func:`aberth_chain` roots a whole run of orders in ONE batch of
+sweeps: each order starts from the iterate of the order below after one sweep (not from its
+converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 relative
+anyway), and each sweep evaluates and corrects the active roots of every started order
+together, so the fixed cost of a sweep is paid once for ~10 orders instead of once per order.
+
 References
 ----------
 .. [1] O. Aberth, "Iteration methods for finding all zeros of a polynomial simultaneously",
@@ -272,6 +279,247 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
     return z
 
 
+#: Sweeps an order of :func:`aberth_chain` runs alone before the next order starts from its
+#: iterate. The roots of consecutive pLSCF orders differ by ~3e-2 relative (the unstable,
+#: noise-fitting roots re-arrange; measured on the denominators of benchmarks/bench_plscf.py,
+#: orders 64-100), while one sweep already brings the iterate within ~1e-2 of its own roots: a
+#: later start gains nothing, and every sweep of delay adds one to the batch's sweep count.
+_CHAIN_LAG = 1
+
+#: Padding of the root table of :func:`aberth_chain` beyond an order's degree: its reciprocal
+#: distance to any root (~1e-300) vanishes from every repulsion sum, and stays finite.
+_FAR = 1e300
+
+
+def coefficient_blocks(coef: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Coefficients of scalar polynomials and of their derivatives in the blocks of :func:`_block_powers`.
+
+    Parameters
+    ----------
+    coef : ndarray, shape (k, n + 1)
+        ``c_0 .. c_n`` of each of k real polynomials (zero-padded above a lower degree: the
+        padding changes neither p nor p').
+
+    Returns
+    -------
+    blocks : ndarray, shape (k, 2 K, b)
+        Rows ``j < K`` hold ``c_(b j) .. c_(b j + b - 1)`` of p, rows ``K + j`` the same of p'
+        (``b = isqrt(n) + 1``, ``K = ceil((n + 1) / b)``, zero-padded), as :func:`_prepare`.
+    abs_blocks : ndarray, shape (k, K, b)
+        The moduli of p's blocks (the rounding bound of the acceptance test).
+    """
+    k, n1 = coef.shape
+    n = n1 - 1
+    b = max(1, math.isqrt(n) + 1)
+    kb = -(-n1 // b)
+    st = np.zeros((k, 2, kb * b))
+    st[:, 0, :n1] = coef
+    st[:, 1, :n] = coef[:, 1:] * np.arange(1, n1)
+    return st.reshape(k, 2 * kb, b), np.abs(st[:, 0]).reshape(k, kb, b)
+
+
+def eval_blocked(blocks: NDArray[Any], n: int, owner: NDArray[Any], z: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
+    """``p(z)`` and ``p'(z)`` of polynomial ``owner[r]`` (degree <= n) at each ``z[r]``, directly.
+
+    ``blocks`` from :func:`coefficient_blocks`. Every power is the product of one row of each of
+    the two short tables of :func:`_block_powers` (``~2 sqrt(n)`` rounded factors): the inner
+    sums of all blocks of every root in one stack of real products, no ``(n_z, n + 1)`` table of
+    powers. Meant for ``|z| <= 1`` (no reversed polynomial: powers of larger roots may
+    overflow).
+    """
+    base, big = _block_powers(z, n)  # (b, n_z), (K, n_z)
+    kb = big.shape[0]
+    pairs = np.ascontiguousarray(base.T).view(np.float64).reshape(z.size, base.shape[0], 2)
+    inner = np.matmul(blocks[owner], pairs).view(np.complex128)[:, :, 0]  # (n_z, 2K)
+    inner[:, :kb] *= big.T
+    inner[:, kb:] *= big.T
+    return inner[:, :kb].sum(axis=1), inner[:, kb:].sum(axis=1)
+
+
+def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128], *,
+                 maxiter: int = 60) -> list[NDArray[np.complex128] | None]:
+    """All roots of a sequence of polynomials of rising degree, each warm-started from the last.
+
+    Parameters
+    ----------
+    coefs : list of ndarray, each shape (d_i + 1,)
+        Real coefficients ``c_0 .. c_d`` of each polynomial, ``d_0 < d_1 < ...``.
+    start : ndarray, shape (<= d_0,), complex
+        Roots of a polynomial below the first (its warm start, :func:`warm_start`).
+    maxiter : int, optional
+        Sweeps allowed per polynomial.
+
+    Returns
+    -------
+    list
+        Per polynomial its ``d_i`` roots, or None where the iteration did not converge (the
+        caller then uses an eigenvalue method).
+
+    Notes
+    -----
+    The same iteration and acceptance rule as :func:`aberth` (a root is accepted when its
+    backward error is at rounding level, then frozen and kept in the repulsion sums; the
+    set passes the checks of :func:`aberth`), run on all polynomials at once: polynomial
+    ``i + 1`` starts from the iterate of polynomial ``i`` after :data:`_CHAIN_LAG` sweeps
+    (plus the new roots of :func:`warm_start`), and every sweep evaluates the active roots of
+    every started polynomial in one batch, so the fixed cost of a sweep is paid once for
+    several orders (:func:`_chain_ratio`); the repulsion sums run over the roots of the same
+    polynomial (a padded table, :data:`_FAR` beyond each degree).
+    """
+    k = len(coefs)
+    deg = np.array([c.size - 1 for c in coefs])
+    out: list[NDArray[np.complex128] | None] = [None] * k
+    if k == 0:
+        return out
+    if np.any(np.diff(deg) <= 0) or deg[0] < 1:
+        raise ValueError(f"degrees must rise, got {deg.tolist()}")
+    n = int(deg.max())
+    padded = np.zeros((k, n + 1))
+    for i, c in enumerate(coefs):
+        padded[i, : c.size] = c
+    blocks, abs_blocks = coefficient_blocks(padded)
+    table = np.full((k, n), _FAR, dtype=np.complex128)  # roots of polynomial i in row i
+    flat = table.reshape(-1)
+    s_prev = np.full(k * n, np.nan, dtype=np.complex128)
+    sweeps = np.zeros(k, dtype=int)
+    state = np.zeros(k, dtype=int)  # 0 waiting, 1 iterating, 2 finished
+    pending = np.zeros(k * n, dtype=bool)  # roots still iterating (flat index)
+    bad = ~np.array([c[-1] != 0 and bool(np.all(np.isfinite(c))) for c in coefs])
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        while True:
+            # start the next polynomial from the iterate of the one before
+            nxt = int(np.argmax(state == 0)) if np.any(state == 0) else -1
+            if nxt >= 0 and (nxt == 0 or state[nxt - 1] == 2 or sweeps[nxt - 1] >= _CHAIN_LAG):
+                if bad[nxt]:
+                    state[nxt] = 2
+                else:
+                    if nxt == 0 or bad[nxt - 1]:
+                        z0 = warm_start(start, int(deg[nxt]))
+                    else:
+                        z0 = _extend(table[nxt - 1, : deg[nxt - 1]], int(deg[nxt]), nxt)
+                    table[nxt, : deg[nxt]] = z0
+                    pending[nxt * n : nxt * n + deg[nxt]] = True
+                    state[nxt] = 1
+            act = np.flatnonzero(pending)
+            if act.size == 0:
+                if np.all(state == 2):
+                    break
+                continue  # only polynomials not yet started remain: start the next
+            own = act // n
+            z = flat[act]
+            # the active roots are grouped by polynomial (flat order): slices of each
+            cuts = np.concatenate([[0], np.flatnonzero(own[1:] != own[:-1]) + 1, [act.size]])
+            uo = own[cuts[:-1]]
+            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, n, uo, cuts, z, sweeps[uo] > 0)
+            if small.any():
+                pending[act[small]] = False
+                keep = ~small
+                act, own, r, z = act[keep], own[keep], r[keep], z[keep]
+            if act.size:
+                stale = np.abs(r * s_prev[act]) < _STALE
+                s = s_prev[act]
+                fresh = np.flatnonzero(~stale)
+                if fresh.size:
+                    width = int(deg[own].max())  # no root of these polynomials beyond this column
+                    s[fresh] = _chain_repulsion(z[fresh], act[fresh] % n, table[:, :width], own[fresh])
+                s_prev[act] = s
+                w = r / (1.0 - r * s)
+                ok = np.isfinite(w)
+                flat[act[ok]] = z[ok] - w[ok]
+            live = state == 1
+            sweeps[live] += 1
+            left = np.bincount(act // n, minlength=k)  # roots still iterating per polynomial
+            for i in np.flatnonzero(live & ((left == 0) | (sweeps >= maxiter))).tolist():
+                state[i] = 2
+                if left[i] == 0:
+                    out[i] = _checked(coefs[i], table[i, : deg[i]].copy())
+                else:  # not converged: None (the caller's eigenvalue fallback)
+                    pending[i * n : i * n + deg[i]] = False
+    return out
+
+
+def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDArray[Any]], deg: NDArray[Any],
+                 n: int, uo: NDArray[Any], cuts: NDArray[Any], z: NDArray[Any],
+                 test: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
+    """Newton ratio and rounding flag (as :func:`_ratio`) of the roots ``z``, grouped by polynomial.
+
+    ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``. The
+    two power tables are formed once for all roots; each polynomial's blocks multiply its own
+    slice (one small real matrix product per polynomial). Direct evaluation while no power can
+    overflow (as :func:`_ratio_prepared`); otherwise each polynomial goes through
+    :func:`_ratio_prepared`, which evaluates the roots outside the unit circle on the reversed
+    polynomial.
+    """
+    az = np.abs(z)
+    zmax = np.maximum.reduceat(az, cuts[:-1])
+    risky = deg[uo] * np.log10(np.maximum(zmax, 1.0)) > 150  # a power of some root may overflow
+    base, big = _block_powers(z, n)
+    kb = big.shape[0]
+    basef = base.view(np.float64)  # (b, 2 m): real and imaginary parts side by side
+    inner = np.empty((2 * kb, z.size), dtype=np.complex128)
+    for t, i in enumerate(uo):
+        a, b = cuts[t], cuts[t + 1]
+        inner[:, a:b] = (blocks[i] @ basef[:, 2 * a : 2 * b]).view(np.complex128)
+    inner[:kb] *= big
+    inner[kb:] *= big
+    p = inner[:kb].sum(axis=0)
+    r = p / inner[kb:].sum(axis=0)
+    small = np.zeros(z.size, dtype=bool)
+    tested = np.repeat(test & ~risky, np.diff(cuts))
+    near = np.flatnonzero(~(np.abs(r) > _NEAR * az) & tested)  # NaN (p = p' = 0) counts as near
+    if near.size:
+        own = np.repeat(uo, np.diff(cuts))[near]
+        bound = (np.einsum("mkb,bm->km", abs_blocks[own], np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
+        small[near] = np.abs(p[near]) <= 4.0 * deg[own] * _EPS * bound
+    for u in np.flatnonzero(risky).tolist():
+        # the roots outside the unit circle of this polynomial on its reversed polynomial
+        a, b = cuts[u], cuts[u + 1]
+        c = coefs[uo[u]]
+        j = np.arange(1, c.size)
+        cr = c[::-1]
+        r[a:b], small[a:b] = _ratio_prepared(_prepare(c, c[1:] * j), _prepare(cr, cr[1:] * j),
+                                             c.size - 1, z[a:b], bool(test[u]))
+    return r, small
+
+
+def _chain_repulsion(zr: NDArray[Any], pos: NDArray[Any], table: NDArray[Any], own: NDArray[Any]) -> NDArray[Any]:
+    """``sum_{j != pos[i]} 1 / (zr[i] - table[own[i], j])``, in blocks of rows (see :func:`_repulsion`)."""
+    m, n = zr.size, table.shape[1]
+    out = np.empty(m, dtype=np.complex128)
+    step = max(1, _REPULSION_BLOCK // max(n, 1))
+    for a in range(0, m, step):
+        b = min(a + step, m)
+        d = zr[a:b, None] - table[own[a:b]]
+        d[np.arange(b - a), pos[a:b]] = 1.0
+        np.reciprocal(d, out=d)
+        out[a:b] = d.sum(axis=1) - 1.0
+    return out
+
+
+def _extend(prev: NDArray[np.complex128], n_roots: int, turn: int) -> NDArray[np.complex128]:
+    """Start of polynomial ``turn`` of a chain: the iterate ``prev`` of the one before (already not
+    conjugate-symmetric) and new points spread on a circle as in :func:`warm_start`, turned by
+    the golden angle per polynomial (the previous polynomial's new roots may not have left
+    their own start points yet: two start points must not coincide)."""
+    m = n_roots - prev.size
+    k = np.arange(m)
+    new = 1.1 * np.exp(1j * (0.4 + 2.399963 * turn + 2 * np.pi * (k + 0.5) / max(m, 1)))
+    return cast("NDArray[np.complex128]", np.concatenate([prev, new]))
+
+
+def _checked(c: NDArray[Any], z: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
+    """``z`` if finite, with the sum of the roots of ``c`` (Vieta) and no two coincident; else None."""
+    if not np.all(np.isfinite(z)):
+        return None
+    vieta = -c[-2] / c[-1]
+    if abs(z.sum() - vieta) > 1e-8 * (np.abs(z).sum() + abs(vieta)):
+        return None
+    zs = np.sort_complex(z)
+    if np.any(np.abs(np.diff(zs)) <= 1e-12 * np.abs(zs[1:])):
+        return None
+    return z
+
+
 def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex128]:
     """Initial guesses: the previous order's roots plus new points spread on a circle.
 
@@ -287,4 +535,4 @@ def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex
     return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * np.exp(1e-3j))
 
 
-__all__ = ["aberth", "det_coefficients", "warm_start"]
+__all__ = ["aberth", "aberth_chain", "coefficient_blocks", "det_coefficients", "eval_blocked", "warm_start"]

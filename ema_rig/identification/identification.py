@@ -32,6 +32,7 @@ from .._blas import single_threaded
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
+from ..processing import processing_history, usable_band
 from .criteria import (
     RESULT_CRITERIA,
     CompletenessCriteria,
@@ -299,6 +300,54 @@ def _edge_warnings(model: ModalModel, band: tuple[float, float], crit: ResultCri
     return out
 
 
+def _beyond_the_band(data: FRFData, band: tuple[float, float] | None) -> str:
+    """What lies above the band's upper end: the end of the usable (analyser) band, of the data, or more data."""
+    hi = float(data.freq[-1]) if band is None else min(float(band[1]), float(data.freq[-1]))
+    df = float(np.median(np.diff(data.freq))) if data.freq.size > 1 else 0.0
+    hist = processing_history(data)
+    top = usable_band(hist)
+    if top is not None and hist is not None and hi >= top - df:
+        return f"above the analyser band ({top:g} Hz, {hist.source}): these FRFs cannot resolve it"
+    if hi >= float(data.freq[-1]) - df:
+        return f"above the last line of the data ({float(data.freq[-1]):g} Hz)"
+    return "widen the band to include it"
+
+
+def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyond: str) -> list[str]:
+    """A warning when the FRFs rise towards the upper band edge as the skirt of a mode above the band does.
+
+    Above the highest mode (beyond ``edge_hbw`` half-power half-bandwidths), the lines from the minimum
+    of the magnitude (rms over the channels, running median of ``skirt_lines``) to the band's end are
+    tested: a rise more than ``skirt_rise`` times the upper residual's ``(f_edge / f_min)^p`` with a
+    median relative synthesis error above ``poor_fit`` there. ``data`` are cut to the band.
+    """
+    from scipy.ndimage import median_filter
+
+    f = data.freq
+    n_s = int(crit.skirt_lines)
+    if model.n_modes == 0 or f.size < 2 * n_s:
+        return []
+    r = int(np.argmax(model.natural_freq))
+    start = int(np.searchsorted(f, model.natural_freq[r] * (1 + crit.edge_hbw * model.damping_ratio[r])))
+    if start > f.size - n_s:
+        return []
+    mag = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))), size=n_s, mode="nearest")
+    i = start + int(np.argmin(mag[start:]))
+    if f.size - i < n_s or not mag[i] > 0 or not f[i] > 0:
+        return []
+    rise = float(mag[-1] / mag[i])
+    ur_rise = float((f[-1] / f[i]) ** _FORM_POWER[data.frf_form])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.abs(data.frf[:, :, i:] - model.synthesize(f[i:]).frf) / np.abs(data.frf[:, :, i:])
+    err = float(np.nanmedian(np.where(np.isfinite(rel), rel, np.nan))) if np.any(np.isfinite(rel)) else 0.0
+    if rise <= crit.skirt_rise * ur_rise or not err > crit.poor_fit:
+        return []
+    return [f"the FRFs rise {rise:.3g}x from {f[i]:.6g} Hz to the band's end at {f[-1]:.6g} Hz (the upper residual "
+            f"only {ur_rise:.3g}x) and the modal model misses them by {100 * err:.0f} % there (median over the lines): "
+            f"the skirt of a mode above the band, not reported ({beyond}); the residual terms stand only for modes "
+            "far from the band, so the synthesis and the residues near that edge are biased"]
+
+
 def identify(
     data: FRFData,
     *,
@@ -420,6 +469,7 @@ def identify(
     band, hist_notes = processing_band(data, band)  # issue 18: the usable (anti-alias) band
     band, notes = _clip_band(data, band)
     notes = hist_notes + notes
+    beyond = _beyond_the_band(data, band)
     data = check_data(data, band)
     # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result
     warnings: list[str] = [f"data: {w}" for w in data.meta.get("warnings", ()) if isinstance(w, str)]
@@ -606,6 +656,7 @@ def identify(
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
                         f"(above {100 * crit.result.poor_fit:.0f} %); modes may be missing or the data noisy")
     warnings += _edge_warnings(model, stab.band, crit.result)
+    warnings += _skirt_warnings(data, model, crit.result, beyond)
     # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
     # from the API as from the command line
 
@@ -686,7 +737,7 @@ def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, c
         return replace(model, meta={**model.meta, "weighted": "no (the residual exceeds the noise inside the band)"})
     # a channel without a finite variance anywhere (a coherence of 1 everywhere: no estimate) keeps equal weights
     var = np.where(np.all(~np.isfinite(test.variance), axis=1, keepdims=True), 1.0, test.variance)
-    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals)
+    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals, unweighted=model)
 
 
 def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> MisfitTest:

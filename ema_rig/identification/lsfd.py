@@ -130,7 +130,7 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
 
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
-                         residuals: bool = True) -> ModalModel:
+                         residuals: bool = True, unweighted: ModalModel | None = None) -> ModalModel:
     """The residues ``identify`` reports: per channel the noise-weighted fit unless the model errs.
 
     Both fits at ``poles`` on data checked as for :func:`_lsfd_checked`, the weighted one (the
@@ -152,6 +152,9 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
         Noise variance ``E|e|^2`` of every line [FRF unit^2] (``inf``: no weight, not scored).
     residuals : bool, optional
         Fit the residual terms (default True).
+    unweighted : ModalModel, optional
+        The unweighted fit at the same poles on the same data (:func:`_lsfd_checked`), when the
+        caller has it: it is scored by its synthesis instead of being fitted again.
 
     Returns
     -------
@@ -159,7 +162,10 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
         ``meta["weighted"]`` says how many channels kept the weighted fit.
     """
     var = np.asarray(variance, dtype=np.float64)
-    un, s_un = _fit(data, poles, residuals=residuals, score=var)
+    if unweighted is None:
+        un, s_un = _fit(data, poles, residuals=residuals, score=var)
+    else:
+        un, s_un = unweighted, _synthesis_score(data, unweighted, var, residuals)
     wt, s_wt = _fit(data, poles, residuals=residuals, variance=var, score=var)
     keep = s_wt <= s_un  # NaN (no line with a finite variance): unweighted
     n_keep = int(np.sum(keep))
@@ -232,14 +238,7 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
             res = xs @ a.T
             np.subtract(yv, res, out=res)
             if sv is not None:
-                e2 = res[:, :, 0::2] ** 2 + res[:, :, 1::2] ** 2
-                v = sv[o0:o1]
-                fin = np.isfinite(v) & (v > 0)
-                with np.errstate(all="ignore"):
-                    q = np.where(fin, e2 / np.where(fin, v, 1.0), np.nan)
-                has = np.asarray(fin.any(axis=2))
-                med[o0:o1] = np.where(has, np.nanmedian(np.where(has[:, :, None], q, 0.0), axis=2), np.nan)
-                del e2, q
+                med[o0:o1] = _median_score(res[:, :, 0::2] ** 2 + res[:, :, 1::2] ** 2, sv[o0:o1])
             num[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", res, res))
             den[o0:o1] = np.sqrt(np.einsum("oik,oik->oi", yv, yv))
             del res, xs, yv
@@ -266,6 +265,51 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         meta={"method": "lsfd", "residuals": bool(residuals),
               "weighted": "no" if weights is None else ("line profile" if shared else "per channel")},
     ), med
+
+
+def _median_score(e2: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Median over the lines of ``e2 / v`` per channel, lines with a finite ``v > 0`` only (NaN without one).
+
+    ``e2`` and ``v`` have shape (n_out, n_in, n_freq); the result (n_out, n_in).
+    """
+    fin = np.isfinite(v) & (v > 0)
+    if fin.all():
+        q = e2 / v
+        if not np.isnan(q).any():  # no line to leave out: the plain median (nanmedian loops per channel)
+            out0: NDArray[np.float64] = np.median(q, axis=2)
+            return out0
+    with np.errstate(all="ignore"):
+        q = np.where(fin, e2 / np.where(fin, v, 1.0), np.nan)
+    has = np.asarray(fin.any(axis=2))
+    out: NDArray[np.float64] = np.where(has, np.nanmedian(np.where(has[:, :, None], q, 0.0), axis=2), np.nan)
+    return out
+
+
+def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64], residuals: bool
+                     ) -> NDArray[np.float64]:
+    """:func:`_median_score` of ``model``'s synthesis error on the lines :func:`_fit` fits (shape (n_out, n_in)).
+
+    ``model`` is a fit of :func:`_fit` on ``data`` (real residual terms): its synthesis is formed as
+    :func:`_fit` forms its own, the real basis times the unknowns, chunk by chunk (BLAS).
+    """
+    f, h = data.freq, data.frf
+    sv = np.broadcast_to(score, h.shape)
+    p = _FORM_POWER[data.frf_form]
+    if residuals and p < 2 and f[0] == 0.0:
+        f, h, sv = f[1:], h[:, :, 1:], sv[:, :, 1:]
+    a, scale = pole_residue_basis(f, model.poles, p, residuals=residuals)
+    res = np.moveaxis(model.residues, 0, 2)  # (n_out, n_in, n_modes)
+    parts = [res.real, res.imag]
+    if residuals:
+        parts += [model.lower_residual.real[:, :, None], model.upper_residual.real[:, :, None]]
+    xs = np.concatenate(parts, axis=2) * scale  # unknowns of the unit-norm basis
+    med = np.empty(h.shape[:2])
+    with single_threaded():
+        for o0, o1, yv in _output_chunks(h):
+            e = xs[o0:o1] @ a.T
+            np.subtract(yv, e, out=e)
+            med[o0:o1] = _median_score(e[:, :, 0::2] ** 2 + e[:, :, 1::2] ** 2, sv[o0:o1])
+    return med
 
 
 def _line_weights(variance: NDArray[np.float64], shape: tuple[int, ...], src: str | None) -> NDArray[np.float64]:

@@ -87,6 +87,7 @@ from numpy.typing import NDArray
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from .criteria import ML_CRITERIA, MLCriteria
+from .modal import SpectralWindow, modal_basis, pole_columns
 from .noise import coherence_variance, fit_noise_model
 from .refine import inv_psd
 
@@ -161,12 +162,11 @@ class _Segment:
 
     def __init__(self, jw: NDArray[np.complex128], power: int, yw: NDArray[np.float64], w: NDArray[np.float64],
                  lam0: NDArray[np.complex128], n_poly: int, others: NDArray[np.complex128],
-                 kernel: tuple[NDArray[np.float64], NDArray[np.float64]], rcond: float) -> None:
-        # quadrature of the spectral window: the model is sum_m K_m H(w - nu_m) (lines x nodes)
-        nu, kw = kernel
-        self.jwn = jw[:, None] - 1j * nu[None, :]  # (n, n_nodes)
-        self.kw = kw
-        self.facn = self.jwn**power
+                 kernel: SpectralWindow, rcond: float) -> None:
+        # quadrature of the spectral window: the model is sum_m K_m H(w - nu_m) (the modal kernel's
+        # window, :func:`~ema_rig.identification.modal.pole_columns`)
+        self.window = kernel
+        self.power = power
         self.jw = jw
         self.yw = yw  # (2n, C) weighted stacked data
         self.w = w  # (n,) line weights
@@ -181,8 +181,8 @@ class _Segment:
             poly += [u**d + 0j, 1j * u**d]
         # the band's other modes at their (fixed) poles, residues free: their tails are no polynomial
         for lam in others.tolist():
-            p1, n1 = self._pn(np.array([lam]), 1)
-            poly += [(p1 + n1)[:, 0], 1j * (p1 - n1)[:, 0]]
+            b1 = self._cols(np.array([lam]))
+            poly += [b1[:, 0], b1[:, 1]]
         # the pole-free columns do not depend on the poles: one orthonormal basis of their weighted
         # span, cut at its numerical rank. Over a few dozen lines the tails of far modes and the
         # polynomial are nearly collinear (condition 1e16 on dam0): a basis of that rank projects the
@@ -218,9 +218,7 @@ class _Segment:
         n_t = self.fixed.shape[1]
         if n_t == 0:
             return
-        pos, neg = self._pn(self.lam0, 1)
-        cols = np.empty((self.jw.size, 2 * self.m), np.complex128)
-        cols[:, 0::2], cols[:, 1::2] = pos + neg, 1j * (pos - neg)
+        cols = self._cols(self.lam0)
         a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
         coef = np.linalg.lstsq(a, model_w, rcond=None)[0][a.shape[1] - n_t :]  # (n_t, C)
         keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
@@ -232,11 +230,13 @@ class _Segment:
         self.fixed = fixed
         self.L = 2 * self.m + self.fixed.shape[1]
 
-    def _pn(self, lam: NDArray[np.complex128], k: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
-        """Window-averaged ``(jw)^p / (jw - l)^k`` and ``(jw)^p / (jw - conj l)^k``, shape (n, n_poles)."""
-        pos = np.einsum("in,inr->ir", self.facn * self.kw[None, :], 1.0 / (self.jwn[:, :, None] - lam) ** k)
-        neg = np.einsum("in,inr->ir", self.facn * self.kw[None, :], 1.0 / (self.jwn[:, :, None] - lam.conj()) ** k)
-        return pos, neg
+    def _cols(self, lam: NDArray[np.complex128]) -> NDArray[np.complex128]:
+        """Window-averaged modal basis without residual terms, columns ``Re R_r``, ``Im R_r`` interleaved per pole,
+        shape (n, 2 n_poles)."""
+        b = modal_basis(self.jw, lam, self.power, residuals=False, window=self.window)
+        cols = np.empty_like(b)
+        cols[:, 0::2], cols[:, 1::2] = b[:, : lam.size], b[:, lam.size :]
+        return cols
 
     def poles(self, theta: NDArray[np.float64]) -> NDArray[np.complex128]:
         return self.scale * (theta[0::2] + 1j * theta[1::2])
@@ -250,10 +250,7 @@ class _Segment:
                  noise_var: NDArray[np.float64] | None = None) -> dict[str, NDArray[np.float64] | float]:
         """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores)."""
         lam = self.poles(theta)
-        pos, neg = self._pn(lam, 1)
-        cols = np.empty((self.jw.size, 2 * self.m), np.complex128)
-        cols[:, 0::2] = pos + neg
-        cols[:, 1::2] = 1j * (pos - neg)
+        cols = self._cols(lam)
         a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
@@ -262,7 +259,7 @@ class _Segment:
         e = self.yw - q @ qty  # residual (2n, C)
         cost = float(np.sum(e * e))
         x = np.linalg.solve(r, qty) / d[:, None]  # (L, C) coefficients
-        pos2, neg2 = self._pn(lam, 2)
+        pos2, neg2 = pole_columns(self.jw, lam, self.power, order=2, window=self.window)
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
         ww = np.concatenate([self.w, self.w])[:, None]

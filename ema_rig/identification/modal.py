@@ -1,10 +1,26 @@
-"""The modal model: poles, residues, residual terms and derived mode shapes.
+"""The modal model and the one modal kernel: pole-residue columns, synthesis, modal mass, participation.
 
 Functions
 ---------
+pole_columns
+    ``(j w)^p / (j w - lambda)^k`` and its conjugate-pole partner, optionally averaged over the
+    spectral window an averaged FRF estimate is smoothed with: the pole terms (``k = 1``) and
+    their derivatives w.r.t. the pole (``k = 2``) of every fit (LSFD, judgement, completeness,
+    local ML, refinement, the rig's driving-point mass).
+residual_columns
+    The lower- and upper-residual columns ``(j w)^(p-2)`` and ``(j w)^p``.
+modal_basis
+    The complex basis of the modal model (``Re R_r``, ``Im R_r`` columns, residual terms).
 pole_residue_basis
-    The real pole-residue basis (with residual terms) that LSFD, the judgement and the
-    completeness test fit the FRFs with: one definition of the modal kernel.
+    The same basis, real, with unit-norm columns, as LSFD, the judgement and the completeness
+    test solve it.
+synthesize_frf
+    FRFs of poles, residues and residual terms (what :meth:`ModalModel.synthesize` returns).
+shape_products
+    ``phi_p phi_q = 2 j w_d R_pq`` of every mode and channel: the participation of a mode in a
+    channel [1/kg] (mass-normalised shapes).
+effective_mass
+    Effective modal mass ``1 / |phi_p|^2`` at a driving point from its residue and pole [kg].
 
 Classes
 -------
@@ -23,6 +39,16 @@ and ``H_form(w) = (j w)^p H_rec(w)`` with p = 0, 1, 2 for receptance, mobility, 
 ``LR`` (lower residual, 1/kg) stands for modes below the band, ``UR`` (upper residual, m/N) for
 modes above it. For a viscously damped, proportionally damped structure
 ``R_r = phi_r phi_r^T / (2 j w_d,r)`` with ``phi_r`` mass-normalised and ``w_d,r = Im(lambda_r)``.
+
+*Spectral window.* An FRF estimated by averaging windowed segments (Welch, H1) is, for a flat force
+spectrum, the true FRF smoothed by the power spectral window of the time window:
+``E[H1](w) = integral K(nu) H(w - nu) dnu`` (Schmidt 1985; Bendat & Piersol, *Random Data*, 4th ed.
+2010, sect. 8.5). This is a physical difference, not a numerical one: near a lightly damped peak the
+smoothed FRF is lower and wider than the FRF (leakage), so a model fitted without it reports too
+much damping. :func:`pole_columns` takes the window as a quadrature ``(nu, weights)``
+(:func:`ema_rig.identification.ml.window_kernel`): every column, the factor ``(j w)^p`` included, is
+then the weighted sum of its values at ``w - nu_m``. Without a window (``None``) the columns are the
+FRF's own; a one-node window at 0 gives the same numbers.
 """
 
 from __future__ import annotations
@@ -155,12 +181,9 @@ class ModalModel:
         ref = self.in_dofs[q]
         if ref in self.out_dofs:
             p = self.out_dofs.index(ref)
-            wd = self.poles.imag
-            a = col[:, p] * 2j * wd  # = phi_p^2
+            a = shape_products(self.poles, col[:, p])  # = phi_p^2
             with np.errstate(divide="ignore", invalid="ignore"):
-                phi_p = np.sqrt(a)
-                scale = 2j * wd / phi_p
-            return col * scale[:, None]
+                return shape_products(self.poles, col) / np.sqrt(a)[:, None]
         peak = np.max(np.abs(col), axis=1, keepdims=True)
         with np.errstate(divide="ignore", invalid="ignore"):
             return col / np.where(peak > 0, peak, 1.0)
@@ -168,16 +191,15 @@ class ModalModel:
     def modal_mass(self, dof: DOF | str) -> NDArray[np.float64]:
         """Effective modal mass at a driving point [kg], shape (n_modes,).
 
-        ``m_eff,r = 1 / |phi_r[p]|^2 = 1 / (2 w_d,r |R_r[p, p]|)``: the mass of a single-DOF
-        oscillator that gives the same resonance peak at the driving point ``dof`` (which must
-        be both a response and a reference DOF).
+        ``m_eff,r = 1 / |phi_r[p]|^2 = 1 / (2 w_d,r |R_r[p, p]|)`` (:func:`effective_mass`): the
+        mass of a single-DOF oscillator that gives the same resonance peak at the driving point
+        ``dof`` (which must be both a response and a reference DOF).
         """
         d = as_dof(dof)
         if d not in self.out_dofs or d not in self.in_dofs:
             raise KeyError(f"{d} is not a driving point (needs to be a response and a reference DOF)")
         p, q = self.out_dofs.index(d), self.in_dofs.index(d)
-        with np.errstate(divide="ignore"):
-            return 1.0 / (2.0 * self.poles.imag * np.abs(self.residues[:, p, q]))
+        return effective_mass(self.poles, self.residues[:, p, q])
 
     def synthesize(self, freq: NDArray[np.float64], *, frf_form: FrfForm | None = None,
                    residuals: bool = True) -> FRFData:
@@ -198,25 +220,8 @@ class ModalModel:
         """
         form = frf_form or self.frf_form
         f = np.asarray(freq, dtype=np.float64)
-        jw = 1j * 2 * np.pi * f
-        lam = self.poles[:, None]
-        basis = 1.0 / (jw[None, :] - lam)  # (n_modes, n_freq)
-        basis_c = 1.0 / (jw[None, :] - lam.conj())
-        h = np.einsum("rij,rk->ijk", self.residues, basis) + np.einsum(
-            "rij,rk->ijk", self.residues.conj(), basis_c
-        )
-        p = _FORM_POWER[form]
-        fac = np.ones_like(jw)
-        for _ in range(p):
-            fac = fac * jw
-        h = h * fac
-        if residuals:
-            # LR (j w)^(p-2): finite at 0 Hz for accelerance (p = 2), a true pole there otherwise
-            with np.errstate(divide="ignore", invalid="ignore"):
-                lr = np.ones_like(jw) if p == 2 else fac / (jw * jw)
-                lr_term = self.lower_residual[:, :, None] * lr  # inf x residual at 0 Hz: not a number
-            lr_term = np.where(self.lower_residual[:, :, None] == 0, 0.0, lr_term)
-            h = h + lr_term + self.upper_residual[:, :, None] * fac
+        h = synthesize_frf(f, self.poles, self.residues, self.lower_residual if residuals else None,
+                           self.upper_residual if residuals else None, _FORM_POWER[form])
         return FRFData(f, h, self.out_dofs, self.in_dofs, frf_form=form, roles=self.roles, axes=self.axes)
 
     def line_error(self, data: FRFData) -> NDArray[np.float64]:
@@ -262,6 +267,221 @@ class ModalModel:
         ]
 
 
+#: A spectral window as a quadrature: offsets ``nu`` [rad/s] and weights (sum 1), each shape (n_nodes,).
+SpectralWindow = tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
+def _inverse_powers(jw: NDArray[np.complex128], lam: NDArray[np.complex128], order: int
+                    ) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """``1 / (jw - lam)^order`` and ``1 / (jw - conj(lam))^order``, shape (n_freq, n_poles)."""
+    pos = 1.0 / (jw[:, None] - lam[None, :])
+    neg = 1.0 / (jw[:, None] - lam.conj()[None, :])
+    if order != 1:
+        pos, neg = pos**order, neg**order
+    return pos, neg
+
+
+def pole_columns(
+    jw: NDArray[np.complex128],
+    lam: NDArray[np.complex128],
+    power: int,
+    *,
+    order: int = 1,
+    window: SpectralWindow | None = None,
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """The pole terms of the modal model: ``(j w)^p / (j w - lambda)^k`` and ``(j w)^p / (j w - conj(lambda))^k``.
+
+    ``k = 1`` gives the columns a residue multiplies; ``k = 2`` their derivative w.r.t. the pole
+    (``d/d lambda [1 / (j w - lambda)] = 1 / (j w - lambda)^2``), which the ML estimates iterate with.
+
+    Parameters
+    ----------
+    jw : ndarray, shape (n_freq,), complex
+        ``j w`` of the lines [rad/s].
+    lam : ndarray, shape (n_poles,), complex
+        Poles [rad/s], one of each conjugate pair.
+    power : int
+        Form power ``p`` of the data (0 receptance, 1 mobility, 2 accelerance).
+    order : int, optional
+        Power ``k`` of the pole factor (1, default; 2 for the derivative).
+    window : (ndarray, ndarray) or None, optional
+        Spectral window quadrature ``(nu [rad/s], weights)`` (see the module notes): the columns
+        are ``sum_m weights_m f(w - nu_m)``; None for the FRF's own columns.
+
+    Returns
+    -------
+    pos, neg : ndarray, shape (n_freq, n_poles), complex
+        Columns of ``lambda`` and of ``conj(lambda)``.
+    """
+    if window is None:
+        fac = jw**power
+        pos, neg = _inverse_powers(jw, lam, order)
+        return fac[:, None] * pos, fac[:, None] * neg
+    nu, kw = window
+    jwn = jw[:, None] - 1j * nu[None, :]  # (n_freq, n_nodes)
+    facn = (jwn**power) * kw[None, :]
+    pos = np.einsum("in,inr->ir", facn, 1.0 / (jwn[:, :, None] - lam) ** order)
+    neg = np.einsum("in,inr->ir", facn, 1.0 / (jwn[:, :, None] - lam.conj()) ** order)
+    return pos, neg
+
+
+def residual_columns(jw: NDArray[np.complex128], power: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Lower- and upper-residual columns ``(j w)^(p-2)`` and ``(j w)^p``.
+
+    Parameters
+    ----------
+    jw : ndarray, shape (n_freq,), complex
+        ``j w`` of the lines [rad/s].
+    power : int
+        Form power ``p`` of the data (0 receptance, 1 mobility, 2 accelerance).
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (n_freq,), complex
+        The lower one is infinite at 0 Hz unless ``p = 2`` (a true pole of the receptance there).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lr = jw ** (power - 2) if power >= 2 else 1.0 / jw ** (2 - power)
+    return lr, jw**power
+
+
+def modal_basis(
+    jw: NDArray[np.complex128],
+    lam: NDArray[np.complex128],
+    power: int,
+    *,
+    residuals: bool = True,
+    window: SpectralWindow | None = None,
+) -> NDArray[np.complex128]:
+    """The complex basis of the modal model, one column per real unknown.
+
+    Column ``r`` is ``P_r + N_r`` (the real part of ``R_r`` multiplies it), column ``n_poles + r``
+    ``j (P_r - N_r)`` (its imaginary part), with ``(P_r, N_r)`` of :func:`pole_columns`; then the
+    lower- and upper-residual columns of :func:`residual_columns` (real unknowns).
+
+    Parameters
+    ----------
+    jw : ndarray, shape (n_freq,), complex
+        ``j w`` [rad/s].
+    lam : ndarray, shape (n_poles,), complex
+        Poles [rad/s], ``Im > 0``, in the column order wanted.
+    power : int
+        Form power of the data.
+    residuals : bool, optional
+        Append the two residual columns (default True).
+    window : (ndarray, ndarray) or None, optional
+        Spectral window quadrature (:func:`pole_columns`); the residual columns are the FRF's own.
+
+    Returns
+    -------
+    ndarray, shape (n_freq, 2 n_poles [+ 2]), complex
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if window is None:
+            # (j w)^p factored out of the pair: the same columns, one rounding fewer
+            fac = (jw**power)[:, None]
+            pos, neg = _inverse_powers(jw, lam, 1)
+            cols: list[NDArray[Any]] = [fac * (pos + neg), fac * (1j * pos - 1j * neg)]
+        else:
+            pos, neg = pole_columns(jw, lam, power, window=window)
+            cols = [pos + neg, 1j * (pos - neg)]
+        if residuals:
+            lr, ur = residual_columns(jw, power)
+            cols += [lr[:, None], ur[:, None]]
+    return np.concatenate(cols, axis=1)
+
+
+def synthesize_frf(
+    freq: NDArray[np.float64],
+    poles: NDArray[np.complex128],
+    residues: NDArray[np.complex128],
+    lower_residual: NDArray[np.complex128] | None,
+    upper_residual: NDArray[np.complex128] | None,
+    power: int,
+) -> NDArray[np.complex128]:
+    """FRFs of a modal model (the convention of the module notes).
+
+    Parameters
+    ----------
+    freq : ndarray, shape (n_freq,)
+        Lines [Hz].
+    poles : ndarray, shape (n_modes,), complex
+        Poles [rad/s], ``Im > 0``.
+    residues : ndarray, shape (n_modes, n_out, n_in), complex
+        Receptance residues [m/N rad/s].
+    lower_residual, upper_residual : ndarray, shape (n_out, n_in), or None
+        ``LR`` [1/kg] and ``UR`` [m/N]; None leaves the term out.
+    power : int
+        Form power of the result (0 receptance, 1 mobility, 2 accelerance).
+
+    Returns
+    -------
+    ndarray, shape (n_out, n_in, n_freq), complex
+        SI units of the form. A zero lower residual adds nothing, also at 0 Hz.
+    """
+    jw = np.asarray(1j * 2 * np.pi * np.asarray(freq, dtype=np.float64), dtype=np.complex128)
+    lam = np.asarray(poles, dtype=np.complex128)
+    res = np.asarray(residues, dtype=np.complex128)
+    pos, neg = _inverse_powers(jw, lam, 1)
+    pos, neg = np.ascontiguousarray(pos.T), np.ascontiguousarray(neg.T)  # (n_modes, n_freq)
+    h = np.einsum("rij,rk->ijk", res, pos) + np.einsum("rij,rk->ijk", res.conj(), neg)
+    lr, fac = residual_columns(jw, power)
+    h = h * fac
+    if lower_residual is not None:
+        low = np.asarray(lower_residual, dtype=np.complex128)[:, :, None]
+        with np.errstate(invalid="ignore"):
+            lr_term = low * lr  # inf x residual at 0 Hz: not a number
+        h = h + np.where(low == 0, 0.0, lr_term)
+    if upper_residual is not None:
+        h = h + np.asarray(upper_residual, dtype=np.complex128)[:, :, None] * fac
+    return np.asarray(h, dtype=np.complex128)
+
+
+def shape_products(poles: NDArray[np.complex128], residues: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """``phi_p phi_q = 2 j w_d R_pq``: the participation of every mode in every channel [1/kg].
+
+    For mass-normalised shapes of a proportionally damped structure ``R_r = phi_r phi_r^T / (2 j w_d,r)``
+    (module notes), so this is the product of the two DOFs' modal amplitudes; its modulus is the
+    channel's participation whatever the sign convention of the DOFs.
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n_modes,), complex
+        Poles [rad/s]; ``w_d = |Im lambda|``.
+    residues : ndarray, shape (n_modes, ...), complex
+        Receptance residues [m/N rad/s] (any trailing channel axes).
+
+    Returns
+    -------
+    ndarray, same shape as ``residues``, complex
+    """
+    res = np.asarray(residues, dtype=np.complex128)
+    wd = np.abs(np.asarray(poles, dtype=np.complex128).imag).reshape((-1,) + (1,) * (res.ndim - 1))
+    return np.asarray(2j * wd * res, dtype=np.complex128)
+
+
+def effective_mass(poles: NDArray[np.complex128], residues_pp: NDArray[np.complex128]) -> NDArray[np.float64]:
+    """Effective modal mass at a driving point, ``1 / |phi_p|^2 = 1 / (2 w_d |R_pp|)`` [kg].
+
+    The mass of a single-DOF oscillator with the same resonance peak at that DOF; the measured
+    counterpart of :meth:`~ema_rig.rig.model.RigModel.effective_mass` of the rig model.
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n_modes,), complex
+        Poles [rad/s].
+    residues_pp : ndarray, shape (n_modes,), complex
+        Driving-point receptance residues [m/N rad/s].
+
+    Returns
+    -------
+    ndarray, shape (n_modes,)
+        inf where the residue is 0.
+    """
+    with np.errstate(divide="ignore"):
+        return np.asarray(1.0 / np.abs(shape_products(poles, residues_pp)), dtype=np.float64)
+
+
 def pole_residue_basis(
     f: NDArray[np.float64], lam: NDArray[np.complex128], p: int, *, residuals: bool = True
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -294,16 +514,7 @@ def pole_residue_basis(
         Column norms (1 for an all-zero column): unknowns of ``a`` divided by ``scale`` are
         the physical ones.
     """
-    jw = 2j * np.pi * f
-    with np.errstate(divide="ignore", invalid="ignore"):
-        fac = jw**p
-        pos = 1.0 / (jw[:, None] - lam[None, :])
-        neg = 1.0 / (jw[:, None] - lam.conj()[None, :])
-        cols: list[NDArray[Any]] = [fac[:, None] * (pos + neg), fac[:, None] * (1j * pos - 1j * neg)]
-        if residuals:
-            lr = jw ** (p - 2) if p >= 2 else 1.0 / jw ** (2 - p)
-            cols += [lr[:, None], fac[:, None]]
-    basis = np.concatenate(cols, axis=1)  # (n_freq, n_unknown) complex
+    basis = modal_basis(np.asarray(2j * np.pi * f, dtype=np.complex128), lam, p, residuals=residuals)  # (n_freq, n_unknown) complex
     n_f, n_unk = basis.shape
     a = basis.view(np.float64).reshape(n_f, n_unk, 2).transpose(0, 2, 1).reshape(2 * n_f, n_unk)
     scale = np.sqrt(np.einsum("kj,kj->j", a, a))
@@ -311,4 +522,5 @@ def pole_residue_basis(
     return a / scale, scale
 
 
-__all__ = ["ModalModel", "pole_residue_basis"]
+__all__ = ["ModalModel", "SpectralWindow", "effective_mass", "modal_basis", "pole_columns", "pole_residue_basis",
+           "residual_columns", "shape_products", "synthesize_frf"]

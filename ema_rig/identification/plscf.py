@@ -61,7 +61,9 @@ eigenvalues of the block companion matrix of the coefficient-reversed, transpose
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
 ``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
 roots (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
-round-off; an order that does not converge falls back to the companion eigenvalues). The
+round-off; one reference up to degree 130: all those orders in one batch of sweeps,
+:func:`~._roots.aberth_chain`; an order that does not converge falls back to the companion
+eigenvalues). The
 participation vector ``l_r`` of pole ``z_r`` is the null vector of ``A(z_r)^T`` (what the last
 ``n_in`` rows of a companion eigenvector hold), computed directly from the ``n_in x n_in``
 matrix, which is cheaper than eigenvectors. All dense algebra runs with single-threaded
@@ -97,12 +99,29 @@ from .._progress import progress_bar
 from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
-from ._roots import aberth, det_coefficients, warm_start
+from ._roots import (
+    aberth,
+    aberth_chain,
+    coefficient_blocks,
+    det_coefficients,
+    eval_blocked,
+    warm_start,
+)
 
 logger = logging.getLogger(__name__)
 
 #: Below this polynomial degree the companion QR is cheaper than the warm-started iteration.
 _ABERTH_MIN_DEGREE = 64
+
+#: Up to this degree (of det A: n_in x order) the orders from :data:`_ABERTH_MIN_DEGREE` on are rooted
+#: together (:func:`~._roots.aberth_chain`: one batch of sweeps for all orders, each started from
+#: the iterate of the order below), above it one order after the other (:func:`~._roots.aberth`).
+#: Measured on the denominators of benchmarks/bench_plscf.py (CPU time, both warm-started the
+#: same way): orders 64-100 10.1 against 12.8 ms, 100-130 11.8 against 12.7 ms, 130-160 17.7
+#: against 16.6 ms (the fixed cost per sweep that the batch shares matters less as the
+#: O(N^2) work per order grows). Two references, the bench's data, the same CPU-time pairing:
+#: 16.3 -> 14.0 ms at order 50, 56.2 -> 52.3 ms at order 100, poles the same to 3e-13 as sets.
+_CHAIN_MAX_DEGREE = 130
 
 #: Default maximum model order for one reference / for several (denominator degree).
 DEFAULT_MAX_ORDER = {1: 64}
@@ -359,11 +378,21 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
         g = np.zeros((n_in, n_in, n), np.complex128)  # sum_o H_o^H H_o per line
         for o0, o1 in chunks(n_in * nf * 16):
             hw = h[o0:o1] * w[o0:o1, None, None]
-            g += np.einsum("oak,obk->abk", hw.conj(), hw)
+            if n_in == 1:  # |H_o|^2 from the real and imaginary parts: no conjugate copy
+                hv = np.ascontiguousarray(hw).view(np.float64).reshape(o1 - o0, n, 2)  # a copy only
+                # when the FRF array is not C-ordered (the product keeps the input's layout)
+                g[0, 0] += np.einsum("okt,okt->k", hv, hv)
+            else:
+                g += np.einsum("oak,obk->abk", hw.conj(), hw)
             s[o0:o1] = re_sums(hw)
             del hw
         t = re_sums(g)
-        r = re_sums(np.ones(n))[p:]  # lags 0..p
+        # R's lags 0..p in closed form: the sum over the lines of cos(pi k l / (n - 1)) is n at
+        # l = 0, and for 0 < l < 2 (n - 1) it is (1 + (-1)^l) / 2 (the full period of the
+        # Hermitian extension sums to zero; the two end lines remain)
+        r = np.zeros(p + 1)
+        r[0] = n
+        r[2::2] = 1.0
         return r, s, t, w, dt
 
     s = np.zeros((n_out, n_in, m), np.complex128)
@@ -511,6 +540,10 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
     """
     from scipy.linalg.lapack import dpotrf, dpotrs
 
+    if n_in == 1:
+        solved = _solve_order_one(m, n)
+        if solved is not None:
+            return solved
     eye = np.eye(n_in)
     k = n * n_in
     g, info = dpotrf(m, lower=1, clean=0)
@@ -540,6 +573,36 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
         low[1:] = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in]).reshape(n, n_in, n_in)
         high[:n] = _spd_solve(m[:k, :k], -m[k:, :k].T).reshape(n, n_in, n_in)
     return low, high
+
+
+def _solve_order_one(m: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any]] | None:
+    """:func:`_solve_order` for one reference: the same Cholesky solve, without the block algebra.
+
+    ``u = M^-1 [e_0, e_n]`` from one factor; ``alpha_low = u[:, 0] / u[0, 0]`` and
+    ``alpha_high = u[:, 1] / u[n, 1]`` (the 1 x 1 pivot blocks of the general case are plain
+    divisors). The factor is taken of ``m^T`` (a Fortran-ordered view, its UPPER triangle = the
+    lower triangle of ``m``), so LAPACK reads ``m`` in place. Returns None when ``M`` is not
+    numerically positive definite (the caller's fallback then solves the sub-blocks apart).
+    """
+    from scipy.linalg.lapack import dpotrf, dpotrs
+
+    g, info = dpotrf(m.T, lower=0, clean=0)
+    if info != 0:
+        return None
+    e = np.zeros((n + 1, 2), order="F")
+    e[0, 0] = 1.0
+    e[n, 1] = 1.0
+    u, info = dpotrs(g, e, lower=0, overwrite_b=1)
+    piv_low, piv_high = u[0, 0], u[n, 1]
+    if info != 0 or not (piv_low > 0 and piv_high > 0):
+        return None
+    low = u[:, 0] / piv_low
+    high = u[:, 1] / piv_high
+    low[0] = 1.0
+    high[n] = 1.0
+    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+        return None
+    return low.reshape(n + 1, 1, 1), high.reshape(n + 1, 1, 1)
 
 
 def _add_gram(p: NDArray[Any], q: NDArray[Any]) -> NDArray[Any]:
@@ -577,14 +640,27 @@ def _companion(beta: NDArray[Any]) -> NDArray[Any]:
     n = beta.shape[0] - 1
     n_in = beta.shape[1]
     k = n * n_in
-    c = np.zeros((k, k))
+    c = np.zeros((k, k), order="F")  # LAPACK's layout (no copy in _eigvals)
     c[:n_in, :] = -beta[n - 1 :: -1].transpose(1, 0, 2).reshape(n_in, k)
     c[np.arange(n_in, k), np.arange(0, k - n_in)] = 1.0
     return c
 
 
 def _eigvals(c: NDArray[Any]) -> NDArray[Any]:
-    return np.linalg.eigvals(c)
+    """Eigenvalues of a real square matrix: LAPACK ``dgeev`` without eigenvectors.
+
+    The routine ``numpy.linalg.eigvals`` calls, with less wrapping (~5 us a call) and the same
+    errors (:class:`numpy.linalg.LinAlgError`). The input array is overwritten when it is
+    Fortran-ordered.
+    """
+    from scipy.linalg.lapack import dgeev
+
+    if not np.isfinite(c).all():
+        raise np.linalg.LinAlgError("Array must not contain infs or NaNs")
+    wr, wi, _, _, info = dgeev(c, compute_vl=0, compute_vr=0, overwrite_a=1)
+    if info != 0:
+        raise np.linalg.LinAlgError("Eigenvalues did not converge")
+    return cast("NDArray[Any]", wr + 1j * wi)
 
 
 def _null_vectors(a: NDArray[Any]) -> NDArray[Any]:
@@ -633,17 +709,17 @@ def _poles_of_orders(
     order, which changes no polynomial.
     """
     nyq = np.pi / dt
-    kept = []
-    for _, _, z in entries:
-        im = np.angle(z) / dt  # = Im(log z) / dt
-        kept.append(z[(im > 1e-9 * nyq) & (im < (1 - 1e-9) * nyq) & (z != 0)])
     n_in = entries[0][1].shape[1] if entries else 1
     top = max((e[1].shape[0] for e in entries), default=1)
     high = np.zeros((len(entries), top, n_in, n_in))
     for k, (_, h, _) in enumerate(entries):
         high[k, : h.shape[0]] = h
-    owner = np.concatenate([np.full(z.size, k) for k, z in enumerate(kept)]) if kept else np.zeros(0, int)
-    z_all = np.concatenate(kept) if kept else np.zeros(0, complex)
+    # the roots of all orders at once: one selection over the concatenated roots
+    z_cat = np.concatenate([np.asarray(e[2], dtype=np.complex128) for e in entries]) if entries else np.zeros(0, complex)
+    o_cat = np.repeat(np.arange(len(entries)), [np.size(e[2]) for e in entries])
+    im = np.angle(z_cat) / dt  # = Im(log z) / dt
+    sel = (im > 1e-9 * nyq) & (im < (1 - 1e-9) * nyq) & (z_cat != 0)
+    z_all, owner = z_cat[sel], o_cat[sel]
     stable = np.abs(z_all) < 1.0
     if stable.any():
         z_all[stable] = _refine_many(high, owner[stable], z_all[stable])
@@ -653,7 +729,7 @@ def _poles_of_orders(
     phys = s_all.real < 0
     if phys.any():
         part[phys] = _participation_many(high, owner[phys], z_all[phys])
-    bounds = np.cumsum([0] + [z.size for z in kept])
+    bounds = np.concatenate([[0], np.cumsum(np.bincount(owner, minlength=len(entries)))])
     return [(s_all[a:b] + 2j * np.pi * f_lo, part[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
@@ -701,11 +777,14 @@ def _refine_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any], iters
     z0 = z.copy()
     zk = z.copy()
     n_in = high.shape[2]
+    blocks = coefficient_blocks(high[:, :, 0, 0])[0] if n_in == 1 else None
     for _ in range(iters):
-        a, da = _eval_many(high, owner, zk)
+        if blocks is None:
+            a, da = _eval_many(high, owner, zk)
         with np.errstate(all="ignore"):
-            if n_in == 1:
-                step = a[:, 0, 0] / da[:, 0, 0]
+            if blocks is not None:  # one reference: p / p' from the blocked coefficients
+                p, dp = eval_blocked(blocks, high.shape[1] - 1, owner, zk)
+                step = p / dp
             elif n_in == 2:
                 # det A = a00 a11 - a01 a10 and its derivative (product rule), in closed form
                 a00, a01, a10, a11 = a[:, 0, 0], a[:, 0, 1], a[:, 1, 0], a[:, 1, 1]
@@ -820,8 +899,9 @@ def plscf(
         raise ValueError(f"max_order must be >= 1, got {max_order}")
     data = check_data(data, band)
     order_list = _normalise_orders(orders, max_order, data.n_in)
-    engine = PlscfEngine(data, order_list[-1], root_finder=root_finder, threads=threads)
-    return engine.poles(order_list, progress=progress)
+    with single_threaded():  # one BLAS limit for the whole call; the engine's own blocks nest in it
+        engine = PlscfEngine(data, order_list[-1], root_finder=root_finder, threads=threads)
+        return engine.poles(order_list, progress=progress)
 
 
 class PlscfEngine:
@@ -950,6 +1030,7 @@ class PlscfEngine:
         # per order: solve and root; the polish of the stable roots and the participation
         # factors of all these orders follow at once (_poles_of_orders)
         entries: list[tuple[int, NDArray[Any], Any]] = []
+        chain: list[tuple[int, NDArray[Any], NDArray[Any]]] = []
         try:
             with single_threaded():
                 for n in solvable():
@@ -963,6 +1044,11 @@ class PlscfEngine:
                     big = self.root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
                     if big and self._prev is not None:
                         coef = det_coefficients(low)
+                        if coef.size - 1 <= _CHAIN_MAX_DEGREE:
+                            chain.append((len(entries), coef, low))  # rooted together (_root_chain)
+                            entries.append((n, high, None))
+                            continue
+                        self._root_chain(chain, entries, bar)
                         z = aberth(coef, warm_start(self._prev, coef.size - 1))
                         self.n_aberth += z is not None
                         self.fallbacks += z is None
@@ -972,6 +1058,7 @@ class PlscfEngine:
                     entries.append((n, high, z))
                     if bar is not None:
                         bar.update()
+                self._root_chain(chain, entries, bar)
             if pool is not None:
                 entries = [(n, high, fut.result()) for n, high, fut in entries]
                 if bar is not None:
@@ -983,6 +1070,26 @@ class PlscfEngine:
             done = _poles_of_orders(entries, dt, f_lo)
         for (n, _, _), row in zip(entries, done, strict=True):
             self._rows[n] = row
+
+    def _root_chain(self, chain: list[tuple[int, NDArray[Any], NDArray[Any]]],
+                    entries: list[tuple[int, NDArray[Any], Any]], bar: Any) -> None:
+        """Roots of the orders deferred in ``chain`` ((entry index, det coefficients, alpha_low) each),
+        all at once by :func:`~._roots.aberth_chain` from the roots before them; an order that does
+        not converge falls back to the companion eigenvalues. Fills ``entries`` and empties ``chain``.
+        """
+        if not chain:
+            return
+        assert self._prev is not None
+        found = aberth_chain([coef for _, coef, _ in chain], self._prev)
+        for (k, _, low), z in zip(chain, found, strict=True):
+            self.n_aberth += z is not None
+            self.fallbacks += z is None
+            n, high, _ = entries[k]
+            entries[k] = (n, high, z if z is not None else _roots_eig(low))
+            if bar is not None:
+                bar.update()
+        self._prev = entries[chain[-1][0]][2]
+        chain.clear()
 
     def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
         """Poles of the given orders (computing those not yet computed).
@@ -1014,19 +1121,18 @@ class PlscfEngine:
         if self.fallbacks:
             logger.debug("pLSCF: %d orders fell back to companion eigenvalues", self.fallbacks)
         f_lo, f_hi, n_in = self.f_lo, self.f_hi, self.n_in
-        o_rows, p_rows, l_rows = [], [], []
-        for n in order_list:
-            poles, part = self._rows[n]
-            fn = np.abs(poles) / (2 * np.pi)
-            keep = (fn >= f_lo) & (fn <= f_hi)
-            o_rows.append(np.full(int(keep.sum()), n))
-            p_rows.append(poles[keep])
-            l_rows.append(part[keep])
+        rows = [self._rows[n] for n in order_list]
+        # all orders at once: one band test over the concatenated poles
+        order = np.repeat(np.asarray(order_list, dtype=np.int64), [r[0].size for r in rows])
+        pole = np.concatenate([r[0] for r in rows]) if rows else np.zeros(0, complex)
+        part = np.concatenate([r[1] for r in rows]) if rows else np.zeros((0, n_in), complex)
+        fn = np.abs(pole) / (2 * np.pi)
+        keep = (fn >= f_lo) & (fn <= f_hi)
         logger.debug("pLSCF: %d orders up to %d on %d lines", len(order_list), order_list[-1], self.data.n_freq)
         return PoleSet(
-            order=np.concatenate(o_rows) if o_rows else np.zeros(0, int),
-            pole=np.concatenate(p_rows) if p_rows else np.zeros(0, complex),
-            participation=np.concatenate(l_rows) if l_rows else np.zeros((0, n_in), complex),
+            order=order[keep],
+            pole=pole[keep],
+            participation=part[keep],
             band=(f_lo, f_hi),
             in_dofs=self.data.in_dofs,
             orders=tuple(order_list),

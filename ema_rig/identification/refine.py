@@ -71,7 +71,7 @@ from .._blas import single_threaded
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
-from .modal import ModalModel
+from .modal import ModalModel, modal_basis, pole_columns
 from .noise import NoiseModel, check_coherence, coherence_variance, fit_noise_model
 from .plscf import check_data, source_of
 
@@ -189,7 +189,7 @@ class _Problem:
         residuals: bool,
     ) -> None:
         self.jw = jw
-        self.fac = jw**power
+        self.power = power
         self.y = y  # (n_chan, n_freq)
         self.yr = np.concatenate([y.real, y.imag], axis=1)  # (n_chan, 2 n_freq)
         self.lam0 = lam0  # (n_modes,) start poles; the frozen ones stay there
@@ -219,16 +219,15 @@ class _Problem:
         return lam
 
     def _basis(self, theta: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
-        """LSFD basis (n_freq, n_lin) and pole-derivative functions of the free modes (n_freq, 2 n_free)."""
+        """LSFD basis (n_freq, n_lin) and pole-derivative functions of the free modes (n_freq, 2 n_free).
+
+        Both from the modal kernel (:func:`~ema_rig.identification.modal.modal_basis`,
+        :func:`~ema_rig.identification.modal.pole_columns` with ``order=2``).
+        """
         lam = self.poles(theta)
-        pos = 1.0 / (self.jw[:, None] - lam[None, :])
-        neg = 1.0 / (self.jw[:, None] - lam.conj()[None, :])
-        fac = self.fac[:, None]
-        cols = [fac * (pos + neg), fac * (1j * (pos - neg))]
-        if self.residuals:
-            cols += [(self.fac / self.jw**2)[:, None], fac]
-        fr = self.free
-        return np.concatenate(cols, axis=1), np.concatenate([fac * pos[:, fr] ** 2, fac * neg[:, fr] ** 2], axis=1)
+        basis = modal_basis(self.jw, lam, self.power, residuals=self.residuals)
+        pos2, neg2 = pole_columns(self.jw, lam[self.free], self.power, order=2)
+        return basis, np.concatenate([pos2, neg2], axis=1)
 
     @staticmethod
     def _stack(z: NDArray[np.complex128]) -> NDArray[np.float64]:

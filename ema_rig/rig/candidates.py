@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from ..config import RigConfig
 from ..dof import DOF
 from ..errors import MatchingError
-from ..identification.modal import ModalModel
+from ..identification.modal import ModalModel, effective_mass, shape_products
 
 __all__ = ["Candidate", "find_dof", "measure_candidates"]
 
@@ -270,16 +270,14 @@ def measure_candidates(
     groups = _sensor_groups(modes, rig)
     h_rad = groups.get(("housing", "radial"), [])
     shapes = modes.mode_shapes(modes.in_dofs[q])
-    wd = np.abs(modes.poles.imag)
-    part = (np.mean(np.abs(2.0 * wd[:, None] * modes.residues[:, h_rad, q]), axis=1) if h_rad
+    part = (np.mean(np.abs(shape_products(modes.poles, modes.residues[:, h_rad, q])), axis=1) if h_rad
             else np.zeros(modes.n_modes))
     mass: NDArray[np.float64] | None
     if p is not None:
         if modes.out_dofs[p] == modes.in_dofs[q]:
             mass = modes.modal_mass(modes.in_dofs[q])
         else:  # written with opposite signs: |R_pp| is sign-free, the same 1 / (2 w_d |R_pp|)
-            with np.errstate(divide="ignore"):
-                mass = 1.0 / (2.0 * wd * np.abs(modes.residues[:, p, q]))
+            mass = effective_mass(modes.poles, modes.residues[:, p, q])
         mass_source: str | None = "driving point"
     elif h_rad:
         with np.errstate(divide="ignore"):

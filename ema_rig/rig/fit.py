@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 from ..config import ModelParams
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
+from ..identification.modal import effective_mass, modal_basis, shape_products
 from ..literals import FrfForm
 from .inversion import k_tb_ms_from_housing_freq, model_mode_at
 from .model import mass_matrix, stiffness_matrix
@@ -158,14 +159,14 @@ def driving_point_mass(
     free = [index]
 
     def design(sv: dict[int, complex]) -> NDArray[np.float64]:
-        cols = []
-        for r in near:
-            s = sv.get(r, p[r])
-            a = 1 / (jw - s) + 1 / (jw - np.conj(s))
-            b = 1j / (jw - s) - 1j / (jw - np.conj(s))
-            cols += [a, b]
-        cols += [np.ones_like(jw), 1j * np.ones_like(jw), 1 / w**2 + 0j, 1j / w**2]
-        a_mat = np.stack(cols, axis=1) * wt[:, None]
+        # the modal kernel's receptance columns (Re R_r, Im R_r of each pole), interleaved per pole
+        lam = np.array([sv.get(r, p[r]) for r in near], dtype=complex)
+        pc = modal_basis(jw, lam, 0, residuals=False)
+        cols = np.empty((jw.size, 2 * lam.size + 4), dtype=complex)
+        cols[:, 0 : 2 * lam.size : 2], cols[:, 1 : 2 * lam.size : 2] = pc[:, : lam.size], pc[:, lam.size :]
+        # modes outside: a complex constant and a complex 1 / w^2 term
+        cols[:, 2 * lam.size :] = np.stack([np.ones_like(jw), 1j * np.ones_like(jw), 1 / w**2 + 0j, 1j / w**2], axis=1)
+        a_mat = cols * wt[:, None]
         return np.concatenate([a_mat.real, a_mat.imag])
 
     def poles_of(x: NDArray[np.float64]) -> dict[int, complex]:  # x = (ln w_n, damping ratio) per free pole
@@ -212,8 +213,8 @@ def driving_point_mass(
 
     def mass_of(theta: NDArray[np.float64]) -> float:
         re, im = theta[n_x + 2 * k], theta[n_x + 2 * k + 1]
-        wd = poles_of(theta[:n_x])[index].imag if free_pole else float(p[index].imag)
-        return 1.0 / (2 * wd * math.hypot(re, im))
+        lam = poles_of(theta[:n_x])[index] if free_pole else p[index]
+        return float(effective_mass(np.array([lam]), np.array([complex(re, im)]))[0])
 
     theta = np.concatenate([x_hat[:n_x], coef])
     if not math.hypot(coef[2 * k], coef[2 * k + 1]) > 0:
@@ -909,8 +910,8 @@ def housing_inertia(rig: Any, axis: str) -> tuple[float, float] | None:
 
 def _rigid_shape(modes: Any, r: int, q: int, lay: RadialLayout) -> NDArray[np.complex128]:
     """``(y_H, th_X, th_Z)`` of mode ``r`` times the reference's modal amplitude (least squares)."""
-    wd = abs(float(modes.poles[r].imag))
-    col = 2.0 * wd * np.asarray(modes.residues[r, list(lay.outputs), q], dtype=complex)
+    # phi_p phi_q (the modal kernel's shape products): only moduli and relative phases are used
+    col = shape_products(modes.poles[r:r + 1], modes.residues[r:r + 1, list(lay.outputs), q])[0]
     g, *_ = np.linalg.lstsq(lay.matrix.astype(complex), col, rcond=None)
     return cast("NDArray[np.complex128]", g)
 
@@ -1038,8 +1039,8 @@ def centre_mass_factor(modes: Any, rig: Any, index: int, rel_std: float) -> tupl
     for row in (centre, lay.driving_point):
         if np.linalg.norm(row - row @ proj) > 1e-6 * np.linalg.norm(row):
             return None
-    wd = abs(float(modes.poles[index].imag))
-    col = 2.0 * wd * np.asarray(modes.residues[index, list(lay.outputs), q], dtype=complex)
+    # phi_p phi_q (the modal kernel's shape products): only moduli and relative phases are used
+    col = shape_products(modes.poles[index:index + 1], modes.residues[index:index + 1, list(lay.outputs), q])[0]
     ref = col[int(np.argmax(np.abs(col)))]
     r = np.real(col * np.conj(ref) / abs(ref))
     g = pinv @ r
