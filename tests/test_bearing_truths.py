@@ -370,6 +370,101 @@ def test_shape_mass_not_used_beside_a_neighbour(tmp_path):
     assert shape is not None and abs(shape.m_H / 2.566 - 1) < 0.05
 
 
+def _truth_driving_point_mass(truth: RigTruth, start: complex) -> float:
+    """Oracle: the driving-point modal mass ``1 / (2 w_d |R|)`` of a bearing-damped truth's mode near
+    ``start``, from its own matrices: the pole by a secant on the dynamic stiffness's smallest
+    eigenvalue, the residue by a contour integral of the driving-point receptance around it."""
+    m0, k0 = truth.matrices(k_bearing=0.0)
+    damp = np.zeros_like(m0)
+    for i in range(3, 12):
+        damp[i, i] = 2 * truth.zeta * math.sqrt(k0[i, i] * m0[i, i]) if k0[i, i] > 0 else 0.0
+    damp[2, 2] += 2 * 0.05 * math.sqrt(truth.params["k_B"] * truth.params["m_F"])
+    e = np.zeros(12)
+    e[0], e[1] = 1.0, -1.0
+    c = truth.observation()[0]
+
+    def dyn(s: complex) -> np.ndarray:
+        return k0 + truth.bearing_impedance(complex(s / 1j)) * np.outer(e, e) + s * damp + s * s * m0
+
+    def smallest(s: complex) -> complex:
+        ev = np.linalg.eigvals(np.linalg.solve(m0, dyn(s)))
+        return complex(ev[np.argmin(np.abs(ev))])
+
+    s = start
+    for _ in range(60):
+        d = 1e-6 * abs(s)
+        f0, f1 = smallest(s), smallest(s + d)
+        step = f0 * d / (f1 - f0)
+        s -= step
+        if abs(step) < 1e-12 * abs(s):
+            break
+    r = 1e-3 * abs(s)
+    pts = s + r * np.exp(2j * np.pi * np.arange(64) / 64)
+    res = np.mean([(c @ np.linalg.solve(dyn(z), c)) * (z - s) for z in pts])
+    return 1.0 / (2 * s.imag * abs(res))
+
+
+def test_frame_mode_one_percent_away_is_fitted_as_a_modal_term(tmp_path):
+    # issue 19, study seed 8 of the viscous class: the truth's 663 Hz flexible frame mode (a mode the
+    # 3DOF model does not hold) sits 1 % above the housing mode (656.7 Hz, c_TB 2333 N s/m, zeta
+    # 2.6 %: the pair 0.2 half-power bandwidths apart). The one-channel driving-point fit at the
+    # identified poles read the modal mass +3.9 % off the truth's (z 3.2), m_H's tolerance was widened
+    # to 3.6 % and sigma(c_TB) was 11.7 %. Fitted jointly with the frame mode on every channel
+    # (poles free, residues per channel) the mass is measured (1.7 % here) and the rig file's m_H
+    # holds: c_TB within 2 sigma with sigma <= 10 %, k_TB within 2 sigma, no warning.
+    truth = RigTruth(k_TB=86.21e6, damping="bearing_viscous", c_TB=2333.3, seed=8)
+    res = _estimate(tmp_path, "frame1", truth)
+    fn = [float(f) for f in res.identification.modes.natural_freq]
+    f_h = res.housing_mode["natural_freq"]
+    assert any(0.005 < f / f_h - 1 < 0.015 for f in fn)  # the frame mode identified 1 % above
+    assert any("fitted jointly" in n and n.endswith(": used") for n in res.notes)
+    assert res.warnings == ()
+    assert abs(res.c_TB - 2333.3) <= 2 * res.c_TB_std
+    assert res.c_TB_std / res.c_TB <= 0.10
+    assert abs(_z(res, truth)) <= 2.0
+    # the joint fit's modal mass against the truth's own (oracle: its matrices' pole and residue,
+    # 2.648 kg); the one-channel fit at the identified poles read 2.750 +/- 0.032 kg (z 3.2)
+    from ema_rig.rig.fit import fit_housing_pair_of
+
+    data = read_uff58(tmp_path / "frame1.uff", rig=load_rig(tmp_path / "frame1.toml"))
+    poles = res.identification.modes.poles
+    pair = fit_housing_pair_of(data, 0, 0, poles, res.match.housing_index, res.match.neighbours)
+    true_mass = _truth_driving_point_mass(truth, complex(poles[res.match.housing_index]))
+    assert pair is not None and pair.resolved
+    assert abs(pair.modal_mass - true_mass) <= 2 * pair.modal_mass_std
+    assert pair.modal_mass_std / pair.modal_mass <= 0.03
+
+
+@pytest.mark.parametrize("sep_hz, resolved", [(6.5, True), (1.3, False)])
+def test_joint_pair_fit_resolves_a_pair_one_percent_apart_not_a_fifth(sep_hz, resolved):
+    # oracle: two analytic real modes (650 Hz and 650 + sep_hz, zeta 2 %, half-power bandwidth 26 Hz)
+    # with different shapes over six channels, driving-point modal mass of the first 2.6 kg, 2 % noise.
+    # 1 % apart (a quarter bandwidth) the joint fit measures the mass (std ~1.3 %, within 2 sigma);
+    # 0.2 % apart the split of the pair's residue is not measured (std 5-110 % over seeds 1-5): not
+    # resolved (MatchCriteria.pair_max_mass_std)
+    from ema_rig.rig.fit import fit_housing_pair
+    from ema_rig.rig.matching import MATCH_CRITERIA
+
+    rng = np.random.default_rng(1)
+    freq = np.arange(400.0, 900.0, 0.5)
+    jw = 2j * np.pi * freq
+    poles = np.array([2 * np.pi * 650 * (-0.02 + 1j), 2 * np.pi * (650 + sep_hz) * (-0.02 + 1j)])
+    phi = np.array([[1.0, 0.95, 1.05, 0.2, 0.1, 0.3], [0.3, 0.3, 0.3, 0.1, 0.3, 0.2]])  # per mode, per channel
+    h = np.zeros((6, freq.size), complex)
+    for r in range(2):
+        res = phi[r] * phi[r, 0] / (2j * poles[r].imag) / 2.6
+        h += res[:, None] / (jw - poles[r]) + np.conj(res)[:, None] / (jw - np.conj(poles[r]))
+    h *= jw**2
+    h *= 1 + 0.02 * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape)) / np.sqrt(2)
+    fit = fit_housing_pair(freq, h, poles, 0, [1], 0)
+    assert fit is not None and fit.resolved is resolved
+    rel = fit.modal_mass_std / fit.modal_mass
+    if resolved:
+        assert abs(fit.modal_mass - 2.6) <= 2 * fit.modal_mass_std and rel <= 0.02
+    else:
+        assert rel > MATCH_CRITERIA.pair_max_mass_std
+
+
 def test_misaligned_sensors_alone_leave_the_housing_mode_clean(tmp_path):
     # seed 5 of the study's m_H-off class at a stated 0.5 % force chain: no cross stiffness in the truth,
     # but its axial and lateral sensors (2 degrees of misalignment) read 0.070 / 0.069 of the radial

@@ -56,7 +56,13 @@ def test_engine_grown_in_steps_equals_one_shot():
     grown = eng.poles(range(1, 61))
     ref = plscf(d, max_order=60)
     assert np.array_equal(grown.order, ref.order)
-    np.testing.assert_allclose(grown.pole, ref.pole, rtol=1e-9)
+    # compared as sets per order: orders rooted in one batch (aberth_chain) or in several may list
+    # the same roots in another sequence; each pole must have its twin within round-off both ways
+    # (measured 3.3e-11 relative; 1e-9 leaves the margin of the BLAS kernels, a lost root fails)
+    for n in np.unique(ref.order):
+        a, b = grown.pole[grown.order == n], ref.pole[ref.order == n]
+        d = np.abs(a[:, None] - b[None, :]) / np.abs(b)[None, :]
+        assert d.min(axis=1).max() < 1e-9 and d.min(axis=0).max() < 1e-9, n
 
 
 # --------------------------------------------------------------------------- synthetic truth

@@ -61,3 +61,21 @@ def test_noise_fit_reaches_the_likelihood_minimum():
         v_o = a_o + b_o * u[c]
         np.testing.assert_allclose(var[c], v_o, rtol=1e-4, err_msg=f"channel {c}")
     assert np.all(var > 0)
+
+
+def test_noise_fit_of_many_channels_is_the_fit_of_each_channel_alone():
+    """The fit processes channels in blocks (issue 18: speed); every channel's result is the one
+    its own fit gives, to the bit (oracle: the channel fitted alone), with and without a mask."""
+    rng = np.random.default_rng(3)
+    n_chan, n = 160, 400
+    u = np.exp(rng.uniform(-6.0, 4.0, (n_chan, n)))
+    a_true = 10.0 ** rng.uniform(-4, -2, n_chan)
+    b_true = 10.0 ** rng.uniform(-3, -1, n_chan)
+    z = (a_true[:, None] + b_true[:, None] * u) * rng.exponential(size=u.shape)
+    mask = rng.uniform(size=u.shape) > 0.1
+    for m in (None, mask):
+        a, b, var = fit_noise_model(z, u, mask=m)
+        for c in (0, 31, 32, 95, 96, 127, 128, 159):  # both sides of block edges
+            a1, b1, v1 = fit_noise_model(z[c:c + 1], u[c:c + 1], mask=None if m is None else m[c:c + 1])
+            assert a[c] == a1[0] and b[c] == b1[0], (c, a[c], a1[0], b[c], b1[0])
+            assert np.array_equal(var[c], v1[0])

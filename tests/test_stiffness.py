@@ -298,9 +298,10 @@ def test_mass_off_the_model_warns_and_widens(rig, monkeypatch):
     _fake_identify(monkeypatch, mm, 0.1)
     res = st.estimate_stiffness(_data_from(mm), _zero_unc(rig), spindle=False)
     assert any("1.30x the model's" in w for w in res.warnings)
-    # the mass ratio now comes from the local driving-point fit at the identified poles (issue 19):
-    # exact to ~1e-5 on these synthesised FRFs (the fit's residual terms are approximate)
-    assert res.uncertainty.term("effective mass").rel_input == pytest.approx(math.log(1.3) / 4, rel=1e-4)
+    # the mass ratio comes from the fit of the housing mode with its 663 Hz neighbour on every channel
+    # over +-30 % (issue 19): exact to ~3e-4 on these synthesised FRFs (its residual terms stand for
+    # the modes outside those lines only approximately; the one-channel fit over +-10 % gave ~1e-5)
+    assert res.uncertainty.term("effective mass").rel_input == pytest.approx(math.log(1.3) / 4, rel=1e-3)
     # the value itself is untouched (the identified frequency is inverted)
     assert res.inverted_freq == pytest.approx(626.0, rel=1e-12)
     assert res.to_dict()["warnings"] == list(res.warnings)

@@ -711,9 +711,11 @@ def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
 
 def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) -> _Fitted:
     """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)."""
-    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals)  # data checked by identify
+    syn = np.empty_like(data.frf, dtype=np.complex128)  # the LSFD model's FRFs on the data's lines
+    # data checked by identify
+    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn)
     # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
-    ml = _local_ml(data, model)
+    ml = _local_ml(data, model, syn)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
     if np.any(ml.poles != model.poles):
         model = _lsfd_checked(data, ml.poles, residuals=residuals)
@@ -1115,9 +1117,11 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                       tuple(dropped))
 
 
-def _local_ml(data: FRFData, model: ModalModel) -> LocalML:
-    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band)."""
-    syn = model.synthesize(data.freq).frf
+def _local_ml(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> LocalML:
+    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band);
+    ``syn`` the model's FRFs on the data's lines when the fit gave them (``_lsfd_checked(model_out=...)``)."""
+    if syn is None:
+        syn = model.synthesize(data.freq).frf
     syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz
     with single_threaded():  # many small products: threads only add hand-off time
         return local_ml(data, model.poles, syn)

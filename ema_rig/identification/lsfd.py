@@ -119,14 +119,19 @@ def lsfd(
 
 
 def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
-                  variance: NDArray[np.float64] | None = None) -> ModalModel:
+                  variance: NDArray[np.float64] | None = None,
+                  model_out: NDArray[np.complex128] | None = None) -> ModalModel:
     """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
 
     For callers that checked the data once for several steps (``identify``); same parameters,
     result and pole errors as :func:`lsfd`, without the band and the second data check.
     ``variance`` (shape (n_out, n_in, n_freq) or (1, 1, n_freq)) is on the lines of ``data``.
+    With ``model_out`` (complex, shape of ``data.frf``) the fitted model's FRFs on the data's lines
+    are written into it: the fit's own product of basis and coefficients (what
+    :meth:`~ema_rig.identification.modal.ModalModel.synthesize` gives, without forming it again),
+    the data at a line the fit leaves out (0 Hz with a lower residual, where the model is infinite).
     """
-    return _fit(data, poles, residuals=residuals, variance=variance)[0]
+    return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out)[0]
 
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
@@ -183,10 +188,12 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
 
 
 def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: NDArray[np.float64] | None = None,
-         score: NDArray[np.float64] | None = None) -> tuple[ModalModel, NDArray[np.float64]]:
+         score: NDArray[np.float64] | None = None, model_out: NDArray[np.complex128] | None = None
+         ) -> tuple[ModalModel, NDArray[np.float64]]:
     """The fit of :func:`_lsfd_checked` and, with ``score`` (a variance like ``variance``), the median
     over the lines of ``|e|^2 / score`` per channel, shape (n_out, n_in) (NaN without such a line;
-    empty without ``score``)."""
+    empty without ``score``). With ``model_out`` (shape of ``data.frf``, complex) the fitted model's
+    FRFs are written into it (the data at a line the fit leaves out)."""
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
@@ -199,7 +206,11 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
     h = data.frf
     weights = None if variance is None else _line_weights(variance, h.shape, src)
     sv = None if score is None else np.broadcast_to(score, h.shape)
+    off = 0
     if residuals and p < 2 and f[0] == 0.0:
+        if model_out is not None:
+            model_out[:, :, 0] = h[:, :, 0]
+        off = 1
         f, h = f[1:], h[:, :, 1:]
         weights = None if weights is None else weights[:, :, 1:]
         sv = None if sv is None else sv[:, :, 1:]
@@ -236,6 +247,8 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
                 xs = _weighted_solve(uk, proj, yv, np.repeat(weights[o0:o1], 2, axis=2))
             x[o0:o1] = xs / scale
             res = xs @ a.T
+            if model_out is not None:
+                model_out[o0:o1, :, off:] = res.view(np.complex128)
             np.subtract(yv, res, out=res)
             if sv is not None:
                 med[o0:o1] = _median_score(res[:, :, 0::2] ** 2 + res[:, :, 1::2] ** 2, sv[o0:o1])

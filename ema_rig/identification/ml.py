@@ -251,14 +251,24 @@ class _Segment:
         """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores)."""
         lam = self.poles(theta)
         cols = self._cols(lam)
-        a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
+        a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]  # weighted pole columns (2n, 2m)
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
-        q, r = np.linalg.qr(a / d)
+        # the background basis is orthonormal already: only the pole columns' part orthogonal to it
+        # (projected out twice, "twice is enough": Giraud et al., Numer. Math. 101, 2005) is
+        # factored; its Q and the background are an orthonormal basis of the whole span, its R
+        # gives the poles' coefficients
+        fx = self.fixed
+        a = a / d
+        if fx.shape[1]:
+            a = a - fx @ (fx.T @ a)
+            a -= fx @ (fx.T @ a)
+        q, r = np.linalg.qr(a)
+        q = np.concatenate([q, fx], axis=1)  # (2n, L)
         qty = q.T @ self.yw  # (L, C)
         e = self.yw - q @ qty  # residual (2n, C)
         cost = float(np.sum(e * e))
-        x = np.linalg.solve(r, qty) / d[:, None]  # (L, C) coefficients
+        x = np.linalg.solve(r, qty[: 2 * self.m]) / d[:, None]  # (2m, C) coefficients of the poles
         pos2, neg2 = pole_columns(self.jw, lam, self.power, order=2, window=self.window)
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
@@ -289,9 +299,10 @@ class _Segment:
         out: dict[str, NDArray[np.float64] | float] = {"cost": cost, "hess": 0.5 * (hess + hess.T), "grad": grad,
                                                           "e": e}
         if scores:
-            # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E
-            v = np.swapaxes(us, 1, 2) @ cs  # (k, 2n, C)
-            jac = v - q @ (q.T @ v)
+            # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E. V_k = u_k c_k^T
+            # has rank 2: the projection acts on u_k (2n x 2) before the product with c_k
+            ut = np.swapaxes(us, 1, 2)  # (k, 2n, 2)
+            jac = (ut - q @ (q.T @ ut)) @ cs
             # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
             # 1985): near a peak the residues take up much of each line's error
             lev = np.minimum(np.sum(q * q, axis=1), 0.9)
@@ -309,15 +320,25 @@ class _Segment:
             jac = jac * sp[None, :, :]
             if e.shape[1] <= 2 * n:
                 js = jac @ ((et.T @ et) / dof)
+                jcj = np.einsum("krc,lrc->kl", js, jac)
+                for lag, rl in enumerate(rho, start=1):
+                    if rl == 0.0 or lag >= n:
+                        continue
+                    for half in (slice(0, n), slice(n, 2 * n)):
+                        g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
+                        jcj += rl * (g + g.T)
             else:
-                js = ((jac @ et.T) @ et) / dof
-            jcj = np.einsum("krc,lrc->kl", js, jac)
-            for lag, rl in enumerate(rho, start=1):
-                if rl == 0.0 or lag >= n:
-                    continue
-                for half in (slice(0, n), slice(n, 2 * n)):
-                    g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
-                    jcj += rl * (g + g.T)
+                # more channels than rows: the same sums through M_k = J_k E^T (rows x rows), one
+                # product over the channels instead of two: sum_c (J_k E^T E)_rc J_lrc = sum M_k M_l
+                mm = jac @ et.T  # (k, 2n, 2n)
+                jcj = (mm.reshape(k, -1) @ mm.reshape(k, -1).T) / dof
+                for lag, rl in enumerate(rho, start=1):
+                    if rl == 0.0 or lag >= n:
+                        continue
+                    for half in (slice(0, n), slice(n, 2 * n)):
+                        a_l, b_l = mm[:, half][:, :-lag], mm[:, half][:, lag:]
+                        g = (a_l.reshape(k, -1) @ b_l.reshape(k, -1).T) / dof
+                        jcj += rl * (g + g.T)
             out["jcj"] = jcj
             out["chi2_noise"] = float(np.sum(et * et))  # leverage-corrected residual / noise model
         return out
@@ -354,6 +375,10 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], max
             mu = max(mu / 5.0, 1e-12)
             if c0 - c1 <= 1e-12 * c0 or np.max(np.abs(step)) < 1e-12:
                 break
+        elif np.isfinite(c1) and c1 - c0 <= 1e-12 * c0:
+            # the step changes the cost by less than its rounding: theta is the minimum to rounding
+            # (raising the damping up to 1e8 only repeated evaluations of the same point)
+            break
         else:
             mu *= 8.0
             if mu > 1e8:

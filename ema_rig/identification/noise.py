@@ -223,6 +223,8 @@ def fit_noise_model(
         lev = np.clip(np.asarray(leverage, dtype=np.float64), 0.0, 0.95)
         z = z / (1.0 - lev)
     n_chan = z.shape[0]
+    if mask is not None and np.all(mask):
+        mask = None  # every line: the same sums as without a mask, without forming the weights
     if mask is None:  # every line: the weights 1 change no value
         cnt = np.full(n_chan, max(float(z.shape[1]), 1.0))
         um = (np.sum(u, axis=1) / cnt)[:, None]
@@ -696,11 +698,13 @@ def segment_misfit(
     # a failing segment at a band edge without a mode of its own, or whose excess lies mostly in its
     # outer half, comes from a mode outside the band (the polynomial of the local fit stands only
     # for modes far from the segment, not for the steep skirt of one just beyond the edge)
-    w = np.where(ok & np.isfinite(var), 2.0 * resid2 / np.where(np.isfinite(var), var, 1.0), 0.0).sum(axis=0)
     edge = np.zeros(n_seg, bool)
+    w = np.zeros(0)
     for s_i in (0, n_seg - 1):
         if not fail[s_i]:
             continue
+        if w.size == 0:  # formed only for a failing edge segment
+            w = np.where(ok & np.isfinite(var), 2.0 * resid2 / np.where(np.isfinite(var), var, 1.0), 0.0).sum(axis=0)
         i0, i1 = int(edges[s_i]), int(edges[s_i + 1])
         mid = (i0 + i1) // 2
         outer, inner = (w[i0:mid], w[mid:i1]) if s_i == 0 else (w[mid:i1], w[i0:mid])

@@ -169,6 +169,14 @@ class MatchCriteria:
     neighbour_participation : float
         ... when its radial housing participation is at least this fraction of the housing
         mode's. Convention (0.1).
+    pair_max_mass_std : float
+        The housing mode fitted jointly with its close neighbours on every channel
+        (:func:`ema_rig.rig.fit.fit_housing_pair`) resolves the pair when the relative std of its
+        driving-point modal mass is at most this (0.03). Source: the mass is ``1 / |R|``, whose
+        linearised std holds while the second-order bias ``(std / m)^2`` stays below the 0.1 %
+        the modal mass can resolve (:data:`ema_rig.rig.uncertainty.MASS_RESOLUTION`):
+        ``sqrt(1e-3) = 0.032``. Beyond, the pair is not resolved and the one-channel mass with the
+        widened m_H tolerance (or a warning) stays.
     """
 
     min_phase_cos: float = 0.2
@@ -190,6 +198,7 @@ class MatchCriteria:
     max_spindle_axial_ratio: float = 1.0
     spindle_search_margin: float = 0.02
     spindle_search_min_fraction: float = 0.5
+    pair_max_mass_std: float = 0.03
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name (see the class docstring)."""
@@ -215,6 +224,8 @@ class MatchCriteria:
             "spindle_search_min_fraction": conv,
             "neighbour_bandwidths": conv,
             "neighbour_participation": conv,
+            "pair_max_mass_std": "linearised std of 1 / |R| valid while its bias (std / m)^2 <= MASS_RESOLUTION "
+                                 "(0.1 %): sqrt(1e-3) = 0.032",
         }
 
 
