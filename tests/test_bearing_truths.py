@@ -359,12 +359,15 @@ def test_shape_mass_not_used_beside_a_neighbour(tmp_path):
     res = _estimate(tmp_path, "hyst5", truth)
     assert not any("spindle/housing ratio" in n for n in res.notes)
     assert res.warnings or abs(_z(res, truth)) <= 2.0
-    # the shape route alone, for the record: it is the one that is off
+    # the shape route alone, for the record. It read m_H 10.6 % high while the identification held one
+    # mode at 310 Hz where the truth has two (channels 6-8 peak at 290 Hz, channel 5 at 320 Hz); since
+    # a missing mode is decided by the lines near it (issue 18, e_bands3) the 290 Hz mode is found and
+    # the shape route reads 2.6 % high: within 5 % (the old 10.6 % fails)
     from ema_rig.rig.uncertainty import _mass_by_shape
 
     shape = _mass_by_shape(res.housing_mode, res.inverted_freq, load_rig(tmp_path / "hyst5.toml").model,
                            load_rig(tmp_path / "hyst5.toml"))
-    assert shape is not None and shape.m_H / 2.566 - 1 > 0.05
+    assert shape is not None and abs(shape.m_H / 2.566 - 1) < 0.05
 
 
 def _truth_driving_point_mass(truth: RigTruth, start: complex) -> float:

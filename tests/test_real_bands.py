@@ -40,3 +40,27 @@ def test_vt_case1_161_hz_same_in_two_bands(real_frf_dir):
     # no blanket: the combined sigma stays below the mode's half-power half-bandwidth (zeta 3 %:
     # 4.9 Hz), the distance over which the lines themselves locate the peak
     assert sf < 0.03 * 161.6
+
+
+def test_ufffiles_frf_206_hz_in_both_bands(corpus_dir):
+    # issue 18, "the same data in two overlapping bands give the same mode set on the overlap". In
+    # 150-300 Hz the 206.8 Hz mode (a cluster stable at 20+ orders, a residual 10 x the noise around
+    # it) was left out: its support was judged in the fit of the whole band, with a Bonferroni count
+    # over all the band's candidates, and failed; in 120-260 Hz the same lines gave it. The missing
+    # mode is now decided by a nested F test on the lines near it alone. Oracle: the other band (the
+    # same lines, its own order growth and selection); measured 206.6 and 206.8 Hz (before: absent
+    # from 150-300 Hz).
+    from ema_rig.io.uff import read_uff58
+
+    d = read_uff58(corpus_dir / "ufffiles_frf.unv")
+    found = []
+    for band in ((150.0, 300.0), (120.0, 260.0)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            x = identify(d, band=band)
+        near = x.natural_freq[np.abs(x.natural_freq - 206.8) <= 0.01 * 206.8]
+        assert near.size == 1, (band, x.natural_freq)
+        found.append(float(near[0]))
+    # the two estimates of the one mode agree within their combined 2 sigma-scale (its half-power
+    # half-bandwidth, zeta 1 %: 2 Hz, bounds the distance over which the lines locate the peak)
+    assert abs(found[0] - found[1]) < 0.01 * 206.8

@@ -304,6 +304,20 @@ class CompletenessCriteria(_Sourced):
         the data) has its largest excess at its own lines, and is a missing mode.
     max_added : int
         Work limit: missing modes added per failing segment and step (2).
+    local_evidence : bool
+        Decide a missing mode (a candidate in a failing segment) by a nested F test on the lines
+        near it (default True; ``identification._complete``); False: the global F test of the judge
+        and the segment passing with it.
+    local_hbw : float
+        Half-width of those lines in half-power half-bandwidths of the candidate (4, the ML window),
+        at least ``min_segment_lines / 2`` lines.
+    local_p : float
+        Family-wise level of that F test (0.001), Bonferroni over the candidates tested on the same
+        lines; dof ``(2 n_chan + 2, dof of the local fit with the mode)``.
+    split_sigmas : float
+        An accepted mode whose ML estimate moved more than this many ML standard uncertainties from
+        its PolyMAX pole towards a rejected cluster on its local lines is tested two modes against
+        one with that cluster (3, the ML duplicate rule's distance; ``identification._split``).
     drop_weak : bool
         Drop an accepted mode whose own term is weak (``JudgeCriteria.weak_peak_share``) when its
         segment passes the test without it (default False: on ufffiles_frf this dropped 5-13 of
@@ -321,6 +335,14 @@ class CompletenessCriteria(_Sourced):
     edge_peak_lines: int = _src(ML_CRITERIA.block_lines, "Hann main lobe, 4 lines (Harris 1978; MLCriteria.block_lines): a skirt from "
                                 "beyond the band peaks in the outermost lobe, a mode inside peaks further in")
     max_added: int = _src(2, "work limit: two missing modes per segment and step (a close pair)")
+    local_evidence: bool = _src(True, "issue 18: the same data in two overlapping bands must give the same modes on the "
+                                "overlap; a decision from the lines near a mode is the same in any band "
+                                "(benchmarks/study_real_bands.py, ufffiles_frf 206.9 Hz)")
+    local_hbw: float = _src(ML_CRITERIA.window_hbw, "MLCriteria.window_hbw: 99.4 % of a mode's Fisher information within 4 hbw")
+    local_p: float = _src(1e-3, "F test p = 0.001 family-wise (Bonferroni over the candidates tested on the same lines), "
+                          "dof (2 n_chan + 2, residual dof of the local fit) (JudgeCriteria.support_p)")
+    split_sigmas: float = _src(3.0, "three ML standard uncertainties: the ML duplicate rule's distance (identification._unresolved); "
+                               "a pole moved further towards a neighbouring cluster stands for two features")
     drop_weak: bool = _src(False, "off: on ufffiles_frf (two bands) it dropped modes inconsistently "
                            "(benchmarks/study_real_bands.py)")
 

@@ -374,8 +374,11 @@ def identify(
     complete when the residual of its model (LSFD at the ML poles) is consistent with the noise
     estimate in every band segment and channel (:func:`~ema_rig.identification.noise.segment_misfit`,
     a chi-square test with its degrees of freedom). Where a segment fails, a rejected candidate
-    in it is added when its F test passes and the segment then passes (a local misfit around a
-    peak is a missing mode). A failing segment without any candidate cluster makes the order grow
+    in it is added when the lines near it need it (a local misfit around a peak is a missing mode:
+    a nested F test on those lines, the model re-estimated there with and without it, so two
+    bands holding the lines decide alike). An accepted mode whose ML estimate moved to between
+    its PolyMAX pole and a rejected cluster beside it is tested the same way, 2 modes against 1
+    (``CompletenessCriteria.split_sigmas``). A failing segment without any candidate cluster makes the order grow
     by one more span (``CompletenessCriteria.max_extra_steps``) when that changes the modes in the
     failing segments. Segments that still fail are named: in a warning when the order cap stopped
     the growth, else in a note (a higher order changed nothing there). Only work limits (orders, evaluations) stop a loop, never the clock:
@@ -595,6 +598,11 @@ def identify(
                 if not changed:
                     break
                 last_fail = done.test.failing()
+            done = _split(data, done, residuals, crit)
+            cur, candidates, fitted = done.modes, done.candidates, done.fitted
+            if done.split:
+                notes.append("modes the ML had merged into one, split where the lines near them need both (nested F "
+                             "test): " + ", ".join(done.split))
             if done.added:
                 notes.append("missing modes added where the residual exceeded the noise: "
                              + ", ".join(f"{f:.6g} Hz" for f in done.added))
@@ -690,6 +698,7 @@ class _Completed:
     test: MisfitTest
     added: tuple[float, ...]
     dropped: tuple[float, ...] = ()
+    split: tuple[str, ...] = ()
 
 
 def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
@@ -745,10 +754,15 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     """Test the accepted modes' residual per segment; in a failing segment add a rejected candidate.
 
     A candidate lying in a failing segment (a cluster stable at ``min_poles`` orders at least,
-    rejected for anything but its damping or the band) is added when, fitted with the accepted modes, its F test passes
-    (:meth:`~ema_rig.identification.criteria.JudgeCriteria.support_threshold`, dof of the local
-    noise estimate) and the segment then passes the residual test; the strongest candidates
-    (most poles) are tried first, at most ``max_added`` per segment.
+    rejected for anything but its damping or the band) is added when the lines near it support
+    it: a nested F test of the model's poles there with it against without it, both re-estimated
+    by the local ML (:func:`_local_f`, ``CompletenessCriteria.local_p``, Bonferroni over the
+    candidates tested on those lines). The evidence is that of the lines near the candidate only,
+    so two bands that hold them decide alike (the global F test of the judge divides by a noise
+    estimate and a candidate count of the whole band). With ``local_evidence=False`` the old rule:
+    the global F test (:meth:`~ema_rig.identification.criteria.JudgeCriteria.support_threshold`)
+    and the segment passing the residual test with it. The strongest candidates (most poles) are
+    tried first, at most ``max_added`` per segment.
     """
     cc = crit.completeness
     modes = _unique_modes(modes)
@@ -762,7 +776,10 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     accepted_poles = {m.pole for m in modes}
     model_poles = list(fitted[0].poles)
     n_chan = data.n_out * data.n_in
-    df = float(np.median(np.diff(data.freq))) if data.freq.size > 1 else 0.0
+    f = data.freq
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    from scipy.stats import f as f_dist
+
     for lo, hi in test.failing():
         pool = [i for i, c in enumerate(cands) if not c.accepted and lo <= c.natural_freq <= hi
                 and c.mode.pole not in accepted_poles and 0 < c.damping_ratio <= crit.judge.max_damping
@@ -781,23 +798,40 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
             if np.any(np.abs(c.natural_freq - f_m) < 0.1 * np.maximum(2 * np.maximum(z_m, 1e-4) * f_m, df)):
                 continue
             trial = _unique_modes([*modes, c.mode])
-            poles = np.array([m.pole for m in trial])
-            k = int(np.flatnonzero(poles == c.mode.pole)[0])
-            with single_threaded():
-                _res, sup, _shr, dof = _fit(data, poles)
-            need = float(crit.judge.support_threshold(n_chan, float(dof[k]), len(pool)))
-            if not sup[k] >= need:
-                continue
-            # does the segment pass with it? the local test around it, against the same noise
-            if not _passes_with(data, [*model_poles, c.mode.pole], lo, hi, test, cc, refine=True):
-                continue
+            if cc.local_evidence:
+                # the evidence of the lines near it alone (the same in any band that holds them)
+                sl = _local_lines(f, c, cc)
+                n_looks = sum(1 for j in pool if f[sl][0] <= cands[j].natural_freq <= f[sl][-1])
+                res = (_local_f(data, model_poles, [*model_poles, c.mode.pole], sl, test.variance, cc)
+                       if int(sl.sum()) >= cc.min_segment_lines and test.variance is not None else None)
+                if res is None:
+                    continue
+                stat, q, dof_l = res
+                need = float(f_dist.isf(cc.local_p / max(n_looks, 1), q, dof_l))
+                if not stat >= need:
+                    continue
+                why = (f"nested F test on the lines {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz: F = {stat:.3g} >= {need:.3g} "
+                       f"with {q:.0f}, {dof_l:.0f} dof, {n_looks} candidate(s) tested there")
+                sup_k = stat
+            else:
+                poles = np.array([m.pole for m in trial])
+                k = int(np.flatnonzero(poles == c.mode.pole)[0])
+                with single_threaded():
+                    _res, sup, _shr, dof = _fit(data, poles)
+                need = float(crit.judge.support_threshold(n_chan, float(dof[k]), len(pool)))
+                if not sup[k] >= need:
+                    continue
+                # does the segment pass with it? the local test around it, against the same noise
+                if not _passes_with(data, [*model_poles, c.mode.pole], lo, hi, test, cc, refine=True):
+                    continue
+                why = f"F = {sup[k]:.3g} >= {need:.3g} with {2 * n_chan}, {dof[k]:.0f} dof"
+                sup_k = float(sup[k])
             modes = trial
             model_poles.append(c.mode.pole)
             accepted_poles.add(c.mode.pole)
-            cands[i] = replace(c, accepted=True, support=float(sup[k]),
+            cands[i] = replace(c, accepted=True, support=sup_k,
                                reason=(f"physical: a missing mode (the residual near it was above the noise; "
-                                       f"F = {sup[k]:.3g} >= {need:.3g} with {2 * n_chan}, {dof[k]:.0f} dof; "
-                                       f"before: {c.reason})"))
+                                       f"{why}; before: {c.reason})"))
             added.append(c.natural_freq)
             n_added += 1
     return _parsimonious(data, _Completed(modes, tuple(cands), fitted, test, tuple(added)), model_poles,
@@ -821,20 +855,10 @@ def _passes_with(data: FRFData, poles: Sequence[complex], lo: float, hi: float, 
     n_chan = data.n_out * data.n_in
     lam = np.asarray(poles, dtype=np.complex128)
     if refine:
-        fn = np.abs(lam) / (2 * np.pi)
-        inside = (fn >= f[sl][0]) & (fn <= f[sl][-1])
-        idx = np.flatnonzero(sl)
-        part = data.replace(freq=f[sl], frf=data.frf[:, :, sl],
-                            coherence=None if data.coherence is None else data.coherence[:, :, sl])
-        if inside.any() and 2 * idx.size > 2 * int(inside.sum()) + 2:
-            try:
-                model = _lsfd_checked(part, lam[inside], residuals=True)
-                ml = _local_ml(part, model)
-            except (IdentificationError, np.linalg.LinAlgError, ValueError):
-                return False
-            if np.all(np.isfinite(ml.poles)) and np.all(ml.poles.imag > 0):
-                lam = lam.copy()
-                lam[np.flatnonzero(inside)] = ml.poles
+        refit = _refit_on(data, lam, sl)
+        if refit is None:
+            return False
+        lam = refit
     coh = None if data.coherence is None else data.coherence.reshape(n_chan, -1)[:, sl]
     with single_threaded():
         t = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], lam,
@@ -844,6 +868,180 @@ def _passes_with(data: FRFData, poles: Sequence[complex], lo: float, hi: float, 
     # the slice's ends are no band edges: an "edge" failure there is a failure
     bad = t.failed | t.edge
     return not bool(np.any(bad & (t.freq_lower <= mid) & (mid <= t.freq_upper)))
+
+
+def _refit_on(data: FRFData, poles: NDArray[np.complex128], sl: NDArray[np.bool_]) -> NDArray[np.complex128] | None:
+    """``poles`` with those inside the lines ``sl`` re-estimated there by the local ML (LSFD start);
+    None when the fit fails. A pole's PolyMAX value is a start value, not its estimate."""
+    f = data.freq
+    lam = np.asarray(poles, dtype=np.complex128)
+    fn = np.abs(lam) / (2 * np.pi)
+    inside = (fn >= f[sl][0]) & (fn <= f[sl][-1])
+    idx = np.flatnonzero(sl)
+    part = data.replace(freq=f[sl], frf=data.frf[:, :, sl],
+                        coherence=None if data.coherence is None else data.coherence[:, :, sl])
+    if inside.any() and 2 * idx.size > 2 * int(inside.sum()) + 2:
+        try:
+            model = _lsfd_checked(part, lam[inside], residuals=True)
+            ml = _local_ml(part, model)
+        except (IdentificationError, np.linalg.LinAlgError, ValueError):
+            return None
+        if np.all(np.isfinite(ml.poles)) and np.all(ml.poles.imag > 0):
+            lam = lam.copy()
+            lam[np.flatnonzero(inside)] = ml.poles
+    return lam
+
+
+def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria) -> NDArray[np.bool_]:
+    """The lines of candidate ``c``'s own evidence: within ``local_hbw`` half-power half-bandwidths of
+    it, at least ``min_segment_lines / 2`` lines each side (set by the candidate, not by the band)."""
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    half = max(cc.local_hbw * c.damping_ratio * c.natural_freq, 0.5 * cc.min_segment_lines * df)
+    return cast("NDArray[np.bool_]", (f >= c.natural_freq - half) & (f <= c.natural_freq + half))
+
+
+def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl: NDArray[np.bool_],
+             variance: NDArray[np.float64], cc: CompletenessCriteria) -> tuple[float, float, float] | None:
+    """The F statistic of the extra mode of ``alt`` over ``null`` on the lines ``sl``: (F, q, dof).
+
+    Each pole set is re-estimated on the lines by the local ML (:func:`_refit_on`), then fitted
+    there with residues free per channel and the local polynomial
+    (:func:`~ema_rig.identification.noise.segment_misfit`, the lines as one segment, weighted by
+    ``variance``). ``F = ((chi2_0 - chi2_1) / q) / (chi2_1 / dof)`` with ``q = dof_0 - dof``
+    (the extra mode's pole and residues) and ``dof`` the alternative's residual degrees of freedom:
+    a scale error of the noise estimate cancels. None when a fit fails.
+    """
+    f = data.freq
+    n_chan = data.n_out * data.n_in
+    n = int(sl.sum())
+    coh = None if data.coherence is None else data.coherence.reshape(n_chan, -1)[:, sl]
+
+    def chi2(lam: NDArray[np.complex128]) -> tuple[float, float]:
+        with single_threaded():
+            t = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], lam, power=_FORM_POWER[data.frf_form],
+                               variance=variance[:, sl], coherence=coh, edges=[0, n], criteria=cc)
+        return float(t.ratio[0] * t.dof[0]), float(t.dof[0])
+
+    lam0 = np.asarray(null, dtype=np.complex128)
+    ref0 = _refit_on(data, lam0, sl)
+    (c0, d0), best0 = chi2(lam0), lam0
+    if ref0 is not None:
+        c_r, d_r = chi2(ref0)
+        if c_r <= c0:
+            (c0, d0), best0 = (c_r, d_r), ref0
+    # the alternative re-estimated from its start, or the null's best poles with the extra pole at its
+    # start (nested: never worse than the null), whichever fits better
+    lam1 = np.asarray(alt, dtype=np.complex128)
+    extra = np.asarray([p for p in alt if p not in set(null)], dtype=np.complex128)
+    ref1 = _refit_on(data, lam1, sl)
+    tries = [np.concatenate([best0, extra])] + ([ref1] if ref1 is not None else [])
+    c1, d1 = min(chi2(lam) for lam in tries)
+    q = d0 - d1
+    if not (q > 0 and c1 > 0 and np.isfinite(c0) and np.isfinite(c1)):
+        return None
+    return ((c0 - c1) / q) / (c1 / d1), q, d1
+
+
+def _split(data: FRFData, done: _Completed, residuals: bool, crit: IdentificationCriteria) -> _Completed:
+    """Two modes where the ML put one between them: a nested F test of 2 modes against 1 on the same lines.
+
+    An accepted mode whose ML estimate moved from its PolyMAX pole towards a rejected candidate
+    cluster, to between the two, within its local lines (``CompletenessCriteria.local_hbw`` half-power half-bandwidths,
+    the candidate stable at ``JudgeCriteria.min_poles`` orders at least, rejected for its support in
+    the global fit or as a duplicate) by more than ``split_sigmas`` of its ML standard uncertainty
+    stands for two features of the data: the candidate is tested on its own lines, the model's
+    poles there with it against without it (:func:`_local_f`, the test of a missing mode). The
+    global F test had judged it with the band's noise estimate and candidate count; this decision
+    uses the lines near the two only, so two bands holding them decide alike.
+    """
+    cc, jc = crit.completeness, crit.judge
+    if not cc.local_evidence or done.test.variance is None or not done.modes:
+        return done
+    from scipy.stats import f as f_dist
+
+    f = data.freq
+    ml = done.fitted[1]
+    modes = list(done.modes)
+    cands = list(done.candidates)
+    current = [complex(p) for p in ml.poles]
+    model = list(current)
+    added: list[str] = []
+    pool = [i for i, c in enumerate(cands) if not c.accepted and c.mode.n_poles >= jc.min_poles
+            and 0 < c.damping_ratio <= jc.max_damping and f[0] < c.natural_freq < f[-1]
+            and c.reason.startswith(("negligible contribution", "duplicate of"))]
+    by_pole = {m.pole: m for m in modes}
+    for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
+        m = by_pole.get(p_start)  # type: ignore[assignment]
+        if m is None or ml.kind[k] != "ml" or not np.isfinite(ml.natural_freq_std[k]) or ml.natural_freq_std[k] <= 0:
+            continue
+        f_pm, f_ml = m.natural_freq, abs(current[k]) / (2 * np.pi)
+        moved = f_ml - f_pm
+        if abs(moved) <= cc.split_sigmas * float(ml.natural_freq_std[k]):
+            continue
+        half = cc.local_hbw * m.damping_ratio * m.natural_freq
+        # the ML estimate lies between the PolyMAX pole and the cluster: one pole for two features
+        near = [i for i in pool if abs(cands[i].natural_freq - f_pm) <= half
+                and min(f_pm, cands[i].natural_freq) < f_ml < max(f_pm, cands[i].natural_freq)]
+        if not near:
+            continue
+        i = max(near, key=lambda j: (cands[j].mode.n_poles, -abs(cands[j].natural_freq - f_pm)))
+        c = cands[i]
+        sl = _local_lines(f, c, cc)
+        if int(sl.sum()) < cc.min_segment_lines:
+            continue
+        n_looks = sum(1 for j in pool if f[sl][0] <= cands[j].natural_freq <= f[sl][-1])
+        res = _local_f(data, model, [*model, c.mode.pole], sl, done.test.variance, cc)
+        if res is None:
+            continue
+        stat, q, dof_l = res
+        need = float(f_dist.isf(cc.local_p / max(n_looks, 1), q, dof_l))
+        if not stat >= need:
+            continue
+        model.append(c.mode.pole)
+        pool.remove(i)
+        cands[i] = replace(c, accepted=True, support=stat, reason=(
+            f"physical: the ML moved {m.natural_freq:.6g} Hz by {moved:+.3g} Hz towards it ({abs(moved) / float(ml.natural_freq_std[k]):.1f} "
+            f"sigma), and the lines near it need both (nested F test on {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz: "
+            f"F = {stat:.3g} >= {need:.3g} with {q:.0f}, {dof_l:.0f} dof, {n_looks} candidate(s) tested there; "
+            f"before: {c.reason})"))
+        added.append(f"{c.natural_freq:.6g} Hz beside {m.natural_freq:.6g} Hz")
+        modes.append(c.mode)
+    if not added:
+        return done
+    modes = _unique_modes(modes)
+    fitted = _fit_modes(data, modes, residuals)
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
+                   split=tuple(added))
+
+
+def _unresolved(modes: Sequence[SelectedMode], ml: LocalML, f: NDArray[np.float64],
+                crit: IdentificationCriteria) -> list[tuple[SelectedMode, SelectedMode]]:
+    """Pairs (lesser, stronger) of ``modes`` (aligned with ``ml``) that the ML does not resolve.
+
+    Two ML estimates (neither held at its PolyMAX pole: a held pole is no ML estimate, and its
+    propagated uncertainty says nothing about resolution) within three times their summed ML
+    standard uncertainties and within the stronger's half-power half-bandwidth (at least a line
+    spacing: modes further apart are resolved by the lines themselves), participation MAC above
+    ``JudgeCriteria.dup_participation_mac`` (the judge's duplicate rule, with the ML uncertainty in
+    place of the order spread), are one: the weaker cluster (fewer poles) is the lesser.
+    """
+    fn_ml = np.abs(ml.poles) / (2 * np.pi)
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    dup: set[complex] = set()
+    out = []
+    for a in range(len(modes)):
+        for b in range(a + 1, len(modes)):
+            ma, mb = modes[a], modes[b]
+            s_ab = float(ml.natural_freq_std[a] + ml.natural_freq_std[b])
+            if ma.pole in dup or mb.pole in dup or not np.isfinite(s_ab) or ml.kind[a] == "held" or ml.kind[b] == "held":
+                continue
+            hb = max(float(-ml.poles[a].real if ma.n_poles >= mb.n_poles else -ml.poles[b].real) / (2 * np.pi), df)
+            if abs(fn_ml[a] - fn_ml[b]) <= min(3 * s_ab, hb) and float(
+                    mac(np.array(ma.participation), np.array(mb.participation))[0, 0]) > crit.judge.dup_participation_mac:
+                lesser, stronger = (mb, ma) if ma.n_poles >= mb.n_poles else (ma, mb)
+                dup.add(lesser.pole)
+                out.append((lesser, stronger))
+    return out
 
 
 def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residuals: bool,
@@ -887,32 +1085,15 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                 f"noise estimate (its own term {100 * c.peak_share:.0f} % of the FRF near it)"))
             dropped.append(fk)
     fitted = _fit_modes(data, modes, residuals) if dropped or done.added else done.fitted
-    # two modes the ML does not resolve (frequencies within three times their summed ML standard
-    # uncertainties and within a half-power half-bandwidth, participation MAC above JudgeCriteria.dup_participation_mac: the judge's
-    # duplicate rule, with the ML uncertainty in place of the order spread) are one: the weaker
-    # cluster (fewer poles) goes
     ml = fitted[1]
-    fn_ml = np.abs(ml.poles) / (2 * np.pi)
-    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
     dup: set[complex] = set()
-    for a in range(len(modes)):
-        for b in range(a + 1, len(modes)):
-            ma, mb = modes[a], modes[b]
-            s_ab = float(ml.natural_freq_std[a] + ml.natural_freq_std[b])
-            if ma.pole in dup or mb.pole in dup or not np.isfinite(s_ab):
-                continue
-            # ... and within the stronger's half-power half-bandwidth (at least a line spacing): modes
-            # further apart are resolved by the lines themselves, whatever their uncertainty
-            hb = max(float(-ml.poles[a].real if ma.n_poles >= mb.n_poles else -ml.poles[b].real) / (2 * np.pi), df)
-            if abs(fn_ml[a] - fn_ml[b]) <= min(3 * s_ab, hb) and float(
-                    mac(np.array(ma.participation), np.array(mb.participation))[0, 0]) > crit.judge.dup_participation_mac:
-                lesser, stronger = (mb, ma) if ma.n_poles >= mb.n_poles else (ma, mb)
-                dup.add(lesser.pole)
-                i = by_pole.get(lesser.pole)
-                if i is not None:
-                    cands[i] = replace(cands[i], accepted=False, reason=(
-                        f"duplicate of {stronger.natural_freq:.6g} Hz: the ML does not resolve the two "
-                        f"(within 3 x their summed uncertainty, participation MAC > {crit.judge.dup_participation_mac:g})"))
+    for lesser, stronger in _unresolved(modes, ml, f, crit):
+        dup.add(lesser.pole)
+        i = by_pole.get(lesser.pole)
+        if i is not None:
+            cands[i] = replace(cands[i], accepted=False, reason=(
+                f"duplicate of {stronger.natural_freq:.6g} Hz: the ML does not resolve the two "
+                f"(within 3 x their summed uncertainty, participation MAC > {crit.judge.dup_participation_mac:g})"))
     if dup:
         modes = [m for m in modes if m.pole not in dup]
         fitted = _fit_modes(data, modes, residuals)

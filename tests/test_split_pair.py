@@ -1,0 +1,78 @@
+"""Two modes where the ML put one pole between them: a test of 2 modes against 1 on the same lines (issue 18).
+
+ufffiles_frf (one FRF, ``benchmarks/study_real_bands.py``): in 0-800 Hz the clusters at 402 and
+413.6 Hz were both accepted, in 80-720 Hz only 402 Hz, its ML estimate then moved to 406.6 Hz,
+between the two peaks, and the 415 Hz cluster was "negligible" in the global fit. Now an accepted
+mode whose ML estimate moved more than 3 sigma towards a rejected cluster, to between the two, is
+tested against that cluster on the lines near it (nested F test, both models re-estimated there).
+Oracle: the simulated modes' true poles; a single true mode with a spurious cluster beside it is
+the control (the F test must reject it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ema_rig.frf import FRFData
+from ema_rig.identification.criteria import IdentificationCriteria
+from ema_rig.identification.identification import _Completed, _fit_modes, _misfit, _split
+from ema_rig.identification.judge import Candidate
+from ema_rig.identification.stabilization import SelectedMode
+
+
+def _pole(fn: float, z: float) -> complex:
+    w = 2 * np.pi * fn
+    return complex(-z * w, w * np.sqrt(1 - z * z))
+
+
+def _data(modes, seed):
+    """One mobility FRF of the given (f_n [Hz], zeta, amplitude) modes, 1 % complex noise."""
+    f = np.arange(300.0, 520.0, 0.5)
+    jw = 2j * np.pi * f
+    h = np.zeros(f.size, complex)
+    for fn, z, a in modes:
+        lam = _pole(fn, z)
+        r = a / (2j * lam.imag)
+        h += r / (jw - lam) + np.conj(r) / (jw - np.conj(lam))
+    h = jw * h
+    rng = np.random.default_rng(seed)
+    h = h + 0.01 * np.median(np.abs(h)) * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size))
+    return FRFData(f, h[None, None], ["1+Y"], ["1+Y"], frf_form="mobility")
+
+
+def _mode(fn: float, z: float, n_poles: int) -> SelectedMode:
+    return SelectedMode(order=40, index=0, pole=_pole(fn, z), natural_freq=fn, damping_ratio=z,
+                        natural_freq_std=0.01, damping_ratio_std=1e-4, n_poles=n_poles, participation=(1 + 0j,))
+
+
+def _split_from(d: FRFData, f_cand: float) -> tuple[_Completed, _Completed]:
+    # the state of ufffiles_frf's inner band: 402.1 Hz accepted (PolyMAX pole), a cluster beside it
+    # rejected by the global F test
+    kept, cand = _mode(402.1, 0.0215, 24), _mode(f_cand, 0.0135, 19)
+    cands = (Candidate(kept, True, "physical"), Candidate(cand, False, "negligible contribution to the fit"))
+    crit = IdentificationCriteria()
+    fitted = _fit_modes(d, [kept], True)
+    done = _Completed([kept], cands, fitted, _misfit(d, fitted[0], crit.completeness), ())
+    return done, _split(d, done, True, crit)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_two_modes_one_pole_between_split(seed):
+    true = [(402.0, 0.02, 1.0), (413.5, 0.015, 0.7)]
+    done, out = _split_from(_data(true, seed), 415.0)
+    # the one-pole ML lands between the peaks (measured 408.2 Hz, sigma 1.25 Hz): the situation
+    assert 403.0 < abs(done.fitted[1].poles[0]) / (2 * np.pi) < 412.0
+    assert len(out.split) == 1 and out.candidates[1].accepted
+    # both true modes recovered within their half-power half-bandwidth / 10 (measured within 0.05 Hz)
+    fn = np.sort(out.fitted[0].natural_freq)
+    assert fn.size == 2
+    np.testing.assert_allclose(fn, [402.0, 413.5], atol=0.1 * 0.015 * 402)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_one_mode_spurious_cluster_not_added(seed):
+    # one true mode; a cluster at 390 Hz on the side the ML moves to (402.1 -> 402.0 Hz, > 3 sigma):
+    # the nested F test on its lines must reject it
+    done, out = _split_from(_data([(402.0, 0.02, 1.0)], seed), 390.0)
+    assert out is done and not out.split
