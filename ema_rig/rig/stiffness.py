@@ -31,7 +31,8 @@ Steps of :func:`estimate_stiffness`:
    ``k_MS`` std, and the model-form terms.
 
 The uncertainty is a standard uncertainty (1 sigma); ``k_TB +- 2 k_TB_std`` is the ~95 %
-interval under a normal assumption. ``k_TB_std_measured`` is the identification term alone.
+interval under a normal assumption. ``k_TB_std_measured`` holds the terms the data measured: the
+identified frequency, and ``m_H`` where the inversion used the measured housing mass.
 
 The rule
 --------
@@ -314,8 +315,10 @@ class StiffnessResult:
         The 3DOF model fitted to the measured FRFs in 150–700 Hz (``fit=True``); reported
         beside, not used for, ``k_TB``.
     k_TB_std_measured : float
-        The part of ``k_TB_std`` from the identified housing frequency alone [N/m] (kind
-        ``'measured'``); ``k_TB_std`` adds the rig-file tolerances and model-form terms.
+        The part of ``k_TB_std`` from the terms of kind ``'measured'`` [N/m]: the identified
+        housing frequency, and ``m_H`` where the measured housing mass was used
+        (``housing_mass.source == 'measured'``); ``k_TB_std`` adds the rig-file tolerances and
+        model-form terms.
     inverted_freq : float
         The frequency inverted [Hz]: the undamped frequency for ``damping_model`` (and, with
         coupled neighbours, the recovered uncoupled one); ``housing_mode['natural_freq']`` stays
