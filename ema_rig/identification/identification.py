@@ -897,7 +897,8 @@ def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria)
     it, at least ``min_segment_lines / 2`` lines each side (set by the candidate, not by the band)."""
     df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
     half = max(cc.local_hbw * c.damping_ratio * c.natural_freq, 0.5 * cc.min_segment_lines * df)
-    return cast("NDArray[np.bool_]", (f >= c.natural_freq - half) & (f <= c.natural_freq + half))
+    sel: NDArray[np.bool_] = (f >= c.natural_freq - half) & (f <= c.natural_freq + half)
+    return sel
 
 
 def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl: NDArray[np.bool_],
@@ -971,7 +972,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
             and c.reason.startswith(("negligible contribution", "duplicate of"))]
     by_pole = {m.pole: m for m in modes}
     for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
-        m = by_pole.get(p_start)  # type: ignore[assignment]
+        m = by_pole.get(p_start)
         if m is None or ml.kind[k] != "ml" or not np.isfinite(ml.natural_freq_std[k]) or ml.natural_freq_std[k] <= 0:
             continue
         f_pm, f_ml = m.natural_freq, abs(current[k]) / (2 * np.pi)

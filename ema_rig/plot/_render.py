@@ -181,6 +181,8 @@ def _text_cached(canvas_class: Any) -> Any:
     """
     from matplotlib.backends import backend_agg
 
+    hinting_flag: Any = backend_agg.get_hinting_flag  # untyped in matplotlib
+
     base = backend_agg.RendererAgg
     if not hasattr(base, "_draw_text_glyphs_and_boxes") or not hasattr(base, "_prepare_font"):
         return canvas_class
@@ -189,14 +191,15 @@ def _text_cached(canvas_class: Any) -> Any:
         def draw_text(self, gc: Any, x: float, y: float, s: str, prop: Any, angle: float,
                       ismath: Any = False, mtext: Any = None) -> None:
             if ismath == "TeX":
-                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+                super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+                return None
             up = self.height - y  # FreeType's y is upwards
             ix, iy = math.floor(x), math.floor(up)
             fx, fy = x - ix, up - iy  # exact: where the text sits within its pixel
             features = mtext.get_fontfeatures() if mtext is not None and hasattr(mtext, "get_fontfeatures") else None
             language = mtext.get_language() if mtext is not None and hasattr(mtext, "get_language") else None
             key = (s, bool(ismath), _font_key(prop), float(angle), float(self.dpi), bool(gc.get_antialiased()),
-                   backend_agg.get_hinting_flag(), None if features is None else tuple(features), language,
+                   hinting_flag(), None if features is None else tuple(features), language,
                    fx, fy)
             glyphs: Any = _TEXTS.get(key)
             if glyphs is None:
@@ -209,7 +212,8 @@ def _text_cached(canvas_class: Any) -> Any:
                     _TEXTS.clear()
                 _TEXTS[key] = glyphs
             if glyphs is False:
-                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+                super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+                return None
             height = int(self.height)
             draw = self._renderer.draw_text_image
             for buf, left, top in glyphs:
@@ -231,10 +235,10 @@ def _text_cached(canvas_class: Any) -> Any:
                 kw = {} if features is None and language is None else {"features": features, "language": language}
                 size = prop.get_size_in_points()
                 items = [(it.ft_object, size, it.glyph_index, it.x, it.y)
-                         for it in font._layout(s, flags=backend_agg.get_hinting_flag(), **kw)]
+                         for it in font._layout(s, flags=hinting_flag(), **kw)]
             cos, sin = math.cos(math.radians(angle)), math.sin(math.radians(angle))
             matrix = (0x10000 * np.array([[cos, -sin], [sin, cos]])).round().astype(int)
-            flags = backend_agg.get_hinting_flag()
+            flags = hinting_flag()
             mode = RenderMode.NORMAL if antialiased else RenderMode.MONO
             out = []
             for font, size, idx, dx, dy in items:  # as matplotlib's _draw_text_glyphs_and_boxes
@@ -248,7 +252,7 @@ def _text_cached(canvas_class: Any) -> Any:
                 out.append((buf, int(bitmap.left), int(bitmap.top)))
             return tuple(out)
 
-    class Canvas(canvas_class):  # type: ignore[misc, valid-type]
+    class Canvas(canvas_class):  # type: ignore[misc]
         def get_renderer(self) -> Any:
             w, h = self.get_width_height(physical=True)
             key = w, h, self.figure.dpi
