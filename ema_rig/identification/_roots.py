@@ -266,17 +266,9 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
             z[act[ok]] = za[ok] - w[ok]
     if act.size:
         return None
-    if not np.all(np.isfinite(z)):
-        return None
-    # two approximations on one root would leave another root unfound: check the sum of the
-    # roots (Vieta) and that no two coincide
-    vieta = -c[-2] / c[-1]
-    if abs(z.sum() - vieta) > 1e-8 * (np.abs(z).sum() + abs(vieta)):
-        return None
-    zs = np.sort_complex(z)
-    if np.any(np.abs(np.diff(zs)) <= 1e-12 * np.abs(zs[1:])):
-        return None
-    return z
+    # two approximations on one root would leave another root unfound: _checked tests the sum of
+    # the roots (Vieta) and that no two coincide
+    return _checked(c, z)
 
 
 #: Sweeps an order of :func:`aberth_chain` runs alone before the next order starts from its

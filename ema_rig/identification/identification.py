@@ -778,7 +778,6 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     n_chan = data.n_out * data.n_in
     f = data.freq
     df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
-    from scipy.stats import f as f_dist
 
     for lo, hi in test.failing():
         pool = [i for i, c in enumerate(cands) if not c.accepted and lo <= c.natural_freq <= hi
@@ -801,13 +800,12 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
             if cc.local_evidence:
                 # the evidence of the lines near it alone (the same in any band that holds them)
                 sl = _local_lines(f, c, cc)
-                n_looks = sum(1 for j in pool if f[sl][0] <= cands[j].natural_freq <= f[sl][-1])
-                res = (_local_f(data, model_poles, [*model_poles, c.mode.pole], sl, test.variance, cc)
+                res = (_nested_test(data, model_poles, c.mode.pole, sl, test.variance, cc,
+                                    [cands[j].natural_freq for j in pool])
                        if int(sl.sum()) >= cc.min_segment_lines and test.variance is not None else None)
                 if res is None:
                     continue
-                stat, q, dof_l = res
-                need = float(f_dist.isf(cc.local_p / max(n_looks, 1), q, dof_l))
+                stat, need, q, dof_l, n_looks = res
                 if not stat >= need:
                     continue
                 why = (f"nested F test on the lines {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz: F = {stat:.3g} >= {need:.3g} "
@@ -901,6 +899,26 @@ def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria)
     return sel
 
 
+def _nested_test(data: FRFData, null: Sequence[complex], pole: complex, sl: NDArray[np.bool_],
+                 variance: NDArray[np.float64], cc: CompletenessCriteria,
+                 looks: Sequence[float]) -> tuple[float, float, float, float, int] | None:
+    """The local test of one more mode ``pole`` over the poles ``null`` on the lines ``sl``.
+
+    Returns ``(F, threshold, q, dof, n_looks)``: :func:`_local_f`'s statistic and the F quantile at
+    ``cc.local_p`` Bonferroni-corrected over the ``n_looks`` candidate frequencies of ``looks``
+    [Hz] that lie on those lines (the candidates tested there); None when a fit fails.
+    """
+    from scipy.stats import f as f_dist
+
+    fl = data.freq[sl]
+    n_looks = sum(1 for fc in looks if fl[0] <= fc <= fl[-1])
+    res = _local_f(data, null, [*null, pole], sl, variance, cc)
+    if res is None:
+        return None
+    stat, q, dof = res
+    return stat, float(f_dist.isf(cc.local_p / max(n_looks, 1), q, dof)), q, dof, n_looks
+
+
 def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl: NDArray[np.bool_],
              variance: NDArray[np.float64], cc: CompletenessCriteria) -> tuple[float, float, float] | None:
     """The F statistic of the extra mode of ``alt`` over ``null`` on the lines ``sl``: (F, q, dof).
@@ -958,7 +976,6 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     cc, jc = crit.completeness, crit.judge
     if not cc.local_evidence or done.test.variance is None or not done.modes:
         return done
-    from scipy.stats import f as f_dist
 
     f = data.freq
     ml = done.fitted[1]
@@ -990,12 +1007,10 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
         sl = _local_lines(f, c, cc)
         if int(sl.sum()) < cc.min_segment_lines:
             continue
-        n_looks = sum(1 for j in pool if f[sl][0] <= cands[j].natural_freq <= f[sl][-1])
-        res = _local_f(data, model, [*model, c.mode.pole], sl, done.test.variance, cc)
+        res = _nested_test(data, model, c.mode.pole, sl, done.test.variance, cc, [cands[j].natural_freq for j in pool])
         if res is None:
             continue
-        stat, q, dof_l = res
-        need = float(f_dist.isf(cc.local_p / max(n_looks, 1), q, dof_l))
+        stat, need, q, dof_l, n_looks = res
         if not stat >= need:
             continue
         model.append(c.mode.pole)
