@@ -97,6 +97,21 @@ class DrivingPointMass:
     pole: complex | None = None
 
 
+def _local_columns(jw: NDArray[np.complex128], w: NDArray[np.float64], lam: NDArray[np.complex128]
+                   ) -> NDArray[np.complex128]:
+    """Receptance columns of a local modal fit, shape (n_freq, 2 n_poles + 4).
+
+    The modal kernel's columns (:func:`~ema_rig.identification.modal.modal_basis`) interleaved per
+    pole (``Re R_r``, ``Im R_r``), then the modes outside the lines: a complex constant and a complex
+    ``1 / w^2`` term. ``jw`` = ``1j * w`` [rad/s], ``lam`` the poles [rad/s].
+    """
+    pc = modal_basis(jw, lam, 0, residuals=False)
+    cols = np.empty((jw.size, 2 * lam.size + 4), dtype=complex)
+    cols[:, 0 : 2 * lam.size : 2], cols[:, 1 : 2 * lam.size : 2] = pc[:, : lam.size], pc[:, lam.size :]
+    cols[:, 2 * lam.size :] = np.stack([np.ones_like(jw), 1j * np.ones_like(jw), 1 / w**2 + 0j, 1j / w**2], axis=1)
+    return cols
+
+
 def driving_point_mass(
     freq: NDArray[np.float64],
     frf: NDArray[np.complex128],
@@ -165,12 +180,7 @@ def driving_point_mass(
     def design(sv: dict[int, complex]) -> NDArray[np.float64]:
         # the modal kernel's receptance columns (Re R_r, Im R_r of each pole), interleaved per pole
         lam = np.array([sv.get(r, p[r]) for r in near], dtype=complex)
-        pc = modal_basis(jw, lam, 0, residuals=False)
-        cols = np.empty((jw.size, 2 * lam.size + 4), dtype=complex)
-        cols[:, 0 : 2 * lam.size : 2], cols[:, 1 : 2 * lam.size : 2] = pc[:, : lam.size], pc[:, lam.size :]
-        # modes outside: a complex constant and a complex 1 / w^2 term
-        cols[:, 2 * lam.size :] = np.stack([np.ones_like(jw), 1j * np.ones_like(jw), 1 / w**2 + 0j, 1j / w**2], axis=1)
-        a_mat = cols * wt[:, None]
+        a_mat = _local_columns(jw, w, lam) * wt[:, None]
         return np.concatenate([a_mat.real, a_mat.imag])
 
     def poles_of(x: NDArray[np.float64]) -> dict[int, complex]:  # x = (ln w_n, damping ratio) per free pole
@@ -1231,7 +1241,7 @@ def _fit_housing_pair(
     w = 2 * math.pi * fq[sel]
     if w.size < 20:
         return None
-    jw = 1j * w
+    jw = np.asarray(1j * w, dtype=np.complex128)
     h = np.asarray(frf)[:, sel] / jw[None, :] ** _FORM_POWER[frf_form]
     n_out = h.shape[0]
     free = [index, *nb, *[r for r in range(p.size) if r != index and r not in nb and lo < fn[r] < hi]]
@@ -1240,12 +1250,7 @@ def _fit_housing_pair(
     n_lin = 2 * len(near) + 4
 
     def basis(sv: dict[int, complex]) -> NDArray[np.complex128]:
-        cols = []
-        for r in near:
-            s = sv.get(r, p[r])
-            cols += [1 / (jw - s) + 1 / (jw - np.conj(s)), 1j / (jw - s) - 1j / (jw - np.conj(s))]
-        cols += [np.ones_like(jw), 1j * np.ones_like(jw), 1 / w**2 + 0j, 1j / w**2]
-        return np.stack(cols, axis=1)
+        return _local_columns(jw, w, np.array([sv.get(r, p[r]) for r in near], dtype=complex))
 
     def poles_of(x: NDArray[np.float64]) -> dict[int, complex]:  # x = (ln w_n, damping ratio) per free pole
         out = {}
