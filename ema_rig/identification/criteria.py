@@ -235,6 +235,13 @@ class MLCriteria:
         A pole may move by this many PolyMAX half-power half-bandwidths, or two line spacings
         (default 1): further means it left for another feature of the data (the same rule as
         :func:`~ema_rig.identification.refine.refine`).
+    lm_rtol : float
+        Levenberg-Marquardt has converged when an accepted step lowers the cost by at most this
+        fraction of it (default 1e-12, a few thousand float epsilons of the cost).
+    lm_pred_rtol : float
+        ... or when the Gauss-Newton model predicts at most this fraction for the next step
+        (default 1e-15, ~5 float epsilons: the cost's own rounding, so the evaluation could not
+        tell the step from rounding; the predicted reduction of Dennis & Schnabel 1996, sect. 6.4).
     """
 
     window_hbw: float = 4.0
@@ -246,6 +253,8 @@ class MLCriteria:
     misfit_ratio: float = 2.0
     basis_rcond: float = 1.4901161193847656e-08
     background_sigmas: float = 1.0
+    lm_rtol: float = 1e-12
+    lm_pred_rtol: float = 1e-15
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name."""
@@ -259,6 +268,8 @@ class MLCriteria:
             "basis_rcond": "sqrt(float64 eps): numerical rank of the pole-free columns (Golub & Van Loan 5.4.1, 8.6)",
             "background_sigmas": "1 noise sigma: break-even of bias and variance (Mallows' Cp 1973, discrepancy principle)",
             "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
+            "lm_rtol": "cost change of a few thousand float64 eps: converged (unchanged stop test)",
+            "lm_pred_rtol": "predicted reduction (Dennis & Schnabel 1996, 6.4) at the cost's rounding, ~5 float64 eps",
         }
 
 

@@ -164,8 +164,10 @@ class _Segment:
                  lam0: NDArray[np.complex128], n_poly: int, others: NDArray[np.complex128],
                  kernel: SpectralWindow, rcond: float) -> None:
         # quadrature of the spectral window: the model is sum_m K_m H(w - nu_m) (the modal kernel's
-        # window, :func:`~ema_rig.identification.modal.pole_columns`)
-        self.window = kernel
+        # window, :func:`~ema_rig.identification.modal.pole_columns`); the identity (one node at 0,
+        # weight 1: no window known) is the FRF's own columns, formed without the quadrature's sums
+        identity = kernel[0].size == 1 and float(kernel[0][0]) == 0.0 and float(kernel[1][0]) == 1.0
+        self.window: SpectralWindow | None = None if identity else kernel
         self.power = power
         self.jw = jw
         self.yw = yw  # (2n, C) weighted stacked data
@@ -247,8 +249,21 @@ class _Segment:
         return t
 
     def evaluate(self, theta: NDArray[np.float64], scores: bool = False, rho: tuple[float, ...] = (),
-                 noise_var: NDArray[np.float64] | None = None) -> dict[str, NDArray[np.float64] | float]:
-        """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores)."""
+                 noise_var: NDArray[np.float64] | None = None,
+                 prev: dict[str, NDArray[np.float64] | float] | None = None) -> dict[str, NDArray[np.float64] | float]:
+        """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores).
+
+        ``prev`` is an earlier result of this segment (e.g. the last of :func:`_lm`): when it was
+        formed at the same ``theta`` on the same background basis, its projection, residual and
+        derivative columns are taken over and only the scores are formed (the same numbers).
+        """
+        if (prev is not None and prev.get("_fixed") is self.fixed
+                and np.array_equal(np.asarray(prev["theta"]), theta)):
+            kept = {key: v for key, v in prev.items() if not key.startswith("_")}
+            if scores:
+                self._scores(kept, np.asarray(prev["_q"]), np.asarray(prev["e"]), np.asarray(prev["_us"]),
+                             np.asarray(prev["_cs"]), rho, noise_var)
+            return kept
         lam = self.poles(theta)
         cols = self._cols(lam)
         a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]  # weighted pole columns (2n, 2m)
@@ -278,13 +293,11 @@ class _Segment:
         k = 2 * self.m
         us = np.empty((k, 2, su.shape[0]))
         cs = np.empty((k, 2, x.shape[1]))
-        for j in range(self.m):
-            aa, bb = x[2 * j], x[2 * j + 1]
-            sc = self.scale[j]
-            us[2 * j] = su[:, j], du[:, j]
-            cs[2 * j] = sc * aa, sc * bb
-            us[2 * j + 1] = du[:, j], su[:, j]
-            cs[2 * j + 1] = sc * aa, -sc * bb
+        sx = x * np.repeat(self.scale, 2)[:, None]  # (2m, C): s_j a_j, s_j b_j
+        us[0::2, 0], us[0::2, 1] = su.T, du.T
+        us[1::2, 0], us[1::2, 1] = du.T, su.T
+        cs[0::2, 0], cs[0::2, 1] = sx[0::2], sx[1::2]
+        cs[1::2, 0], cs[1::2, 1] = sx[0::2], -sx[1::2]
         # the same sums as matrix products (BLAS 3) of the 2m distinct rows b = (S_j, D_j) of u (the
         # rows (k, i) of u, flattened, are b[idx])
         b_u = np.empty((2 * self.m, su.shape[0]))
@@ -297,64 +310,85 @@ class _Segment:
         # J^T r with r = model - data: sum over lines and channels of u E c
         grad = -np.sum(c2 * (b_u @ e)[idx], axis=1).reshape(k, 2).sum(axis=1)
         out: dict[str, NDArray[np.float64] | float] = {"cost": cost, "hess": 0.5 * (hess + hess.T), "grad": grad,
-                                                          "e": e}
+                                                          "e": e, "theta": theta.copy(), "_q": q, "_us": us,
+                                                          "_cs": cs}
+        out["_fixed"] = self.fixed  # identity of the basis (see prev)
         if scores:
-            # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E. V_k = u_k c_k^T
-            # has rank 2: the projection acts on u_k (2n x 2) before the product with c_k
-            ut = np.swapaxes(us, 1, 2)  # (k, 2n, 2)
-            jac = (ut - q @ (q.T @ ut)) @ cs
-            # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
-            # 1985): near a peak the residues take up much of each line's error
-            lev = np.minimum(np.sum(q * q, axis=1), 0.9)
-            e = e / np.sqrt(1.0 - lev)[:, None]
-            row = np.einsum("krc,rc->kr", jac, e)
-            n = self.jw.size
-            out["line_scores"] = row[:, :n] + row[:, n:]  # (k, n)
-            # J^T S J with S the error covariance: between channels as the residuals show it (pooled
-            # over the segment's lines: the common part of H1 errors, force noise and leakage of the
-            # same modal transients), between lines as the window makes it (lag l: rho[l-1])
-            # a variance profile over the lines that the weights do not remove scales rows
-            dof = 2 * n  # the residuals are leverage-corrected
-            sp = np.ones((2 * n, 1)) if noise_var is None else np.sqrt(np.concatenate([noise_var, noise_var]))
-            et = e / sp
-            jac = jac * sp[None, :, :]
-            if e.shape[1] <= 2 * n:
-                js = jac @ ((et.T @ et) / dof)
-                jcj = np.einsum("krc,lrc->kl", js, jac)
-                for lag, rl in enumerate(rho, start=1):
-                    if rl == 0.0 or lag >= n:
-                        continue
-                    for half in (slice(0, n), slice(n, 2 * n)):
-                        g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
-                        jcj += rl * (g + g.T)
-            else:
-                # more channels than rows: the same sums through M_k = J_k E^T (rows x rows), one
-                # product over the channels instead of two: sum_c (J_k E^T E)_rc J_lrc = sum M_k M_l
-                mm = jac @ et.T  # (k, 2n, 2n)
-                jcj = (mm.reshape(k, -1) @ mm.reshape(k, -1).T) / dof
-                for lag, rl in enumerate(rho, start=1):
-                    if rl == 0.0 or lag >= n:
-                        continue
-                    for half in (slice(0, n), slice(n, 2 * n)):
-                        a_l, b_l = mm[:, half][:, :-lag], mm[:, half][:, lag:]
-                        g = (a_l.reshape(k, -1) @ b_l.reshape(k, -1).T) / dof
-                        jcj += rl * (g + g.T)
-            out["jcj"] = jcj
-            out["chi2_noise"] = float(np.sum(et * et))  # leverage-corrected residual / noise model
+            self._scores(out, q, e, us, cs, rho, noise_var)
         return out
 
+    def _scores(self, out: dict[str, NDArray[np.float64] | float], q: NDArray[np.float64], e: NDArray[np.float64],
+                us: NDArray[np.float64], cs: NDArray[np.float64], rho: tuple[float, ...],
+                noise_var: NDArray[np.float64] | None) -> None:
+        """Per-line scores, ``J^T S J`` and the noise chi-square into ``out`` (see :meth:`evaluate`)."""
+        k = 2 * self.m
+        # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E. V_k = u_k c_k^T
+        # has rank 2: the projection acts on u_k (2n x 2) before the product with c_k
+        ut = np.swapaxes(us, 1, 2)  # (k, 2n, 2)
+        jac = (ut - q @ (q.T @ ut)) @ cs
+        # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
+        # 1985): near a peak the residues take up much of each line's error
+        lev = np.minimum(np.sum(q * q, axis=1), 0.9)
+        e = e / np.sqrt(1.0 - lev)[:, None]
+        row = np.einsum("krc,rc->kr", jac, e)
+        n = self.jw.size
+        out["line_scores"] = row[:, :n] + row[:, n:]  # (k, n)
+        # J^T S J with S the error covariance: between channels as the residuals show it (pooled
+        # over the segment's lines: the common part of H1 errors, force noise and leakage of the
+        # same modal transients), between lines as the window makes it (lag l: rho[l-1])
+        # a variance profile over the lines that the weights do not remove scales rows
+        dof = 2 * n  # the residuals are leverage-corrected
+        sp = np.ones((2 * n, 1)) if noise_var is None else np.sqrt(np.concatenate([noise_var, noise_var]))
+        et = e / sp
+        jac = jac * sp[None, :, :]
+        if e.shape[1] <= 2 * n:
+            js = jac @ ((et.T @ et) / dof)
+            jcj = np.einsum("krc,lrc->kl", js, jac)
+            for lag, rl in enumerate(rho, start=1):
+                if rl == 0.0 or lag >= n:
+                    continue
+                for half in (slice(0, n), slice(n, 2 * n)):
+                    g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
+                    jcj += rl * (g + g.T)
+        else:
+            # more channels than rows: the same sums through M_k = J_k E^T (rows x rows), one
+            # product over the channels instead of two: sum_c (J_k E^T E)_rc J_lrc = sum M_k M_l
+            mm = jac @ et.T  # (k, 2n, 2n)
+            jcj = (mm.reshape(k, -1) @ mm.reshape(k, -1).T) / dof
+            for lag, rl in enumerate(rho, start=1):
+                if rl == 0.0 or lag >= n:
+                    continue
+                for half in (slice(0, n), slice(n, 2 * n)):
+                    a_l, b_l = mm[:, half][:, :-lag], mm[:, half][:, lag:]
+                    g = (a_l.reshape(k, -1) @ b_l.reshape(k, -1).T) / dof
+                    jcj += rl * (g + g.T)
+        out["jcj"] = jcj
+        out["chi2_noise"] = float(np.sum(et * et))  # leverage-corrected residual / noise model
 
-def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], max_iter: int
-        ) -> tuple[NDArray[np.float64], int]:
-    """Levenberg-Marquardt on the free parameters (Gauss-Newton matrix, Marquardt scaling)."""
+
+def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], crit: MLCriteria
+        ) -> tuple[NDArray[np.float64], int, dict[str, NDArray[np.float64] | float] | None]:
+    """Levenberg-Marquardt on the free parameters (Gauss-Newton matrix, Marquardt scaling).
+
+    Returns the parameters, the evaluations spent and the last evaluation at them (None when no
+    parameter is free), which :meth:`_Segment.evaluate` takes over (``prev``).
+
+    Convergence: the iterations stop when an accepted step lowers the cost by at most
+    ``crit.lm_rtol`` of it, or when the Gauss-Newton model predicts a reduction of at most
+    ``crit.lm_pred_rtol`` of it for the next step (the predicted reduction ``-(2 g^T s + s^T H s)`` of the
+    cost ``r^T r``: Dennis & Schnabel, *Numerical Methods for Unconstrained Optimization and
+    Nonlinear Equations*, SIAM 1996, sect. 6.4 and 7.2; Moré, LNM 630, 1978). Such a step is below
+    the float resolution of the cost, so its evaluation is not spent (it saves one evaluation of
+    the usual 4-5; the estimates move by rounding only).
+    """
     idx = np.flatnonzero(np.repeat(free, 2))
     theta = theta0.copy()
     if idx.size == 0:
-        return theta, 0
+        return theta, 0, None
     cur = seg.evaluate(theta)
     n_eval = 1
     mu = 1e-4
-    while n_eval < max_iter:
+    while n_eval < crit.max_iter:
         h = np.asarray(cur["hess"])[np.ix_(idx, idx)]
         g = np.asarray(cur["grad"])[idx]
         dg = np.diag(h).copy()
@@ -365,17 +399,23 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], max
             mu *= 10.0
             n_eval += 1
             continue
+        c0 = float(cur["cost"])
+        # the cost is half the squared residual's gradient scale: cost(theta + s) ~ cost + 2 g^T s + s^T H s
+        # with grad = J^T r and hess = J^T J of the residual r (cost = r^T r)
+        pred = -(2.0 * float(g @ step) + float(step @ h @ step))
+        if mu <= 1e-4 and 0.0 <= pred <= crit.lm_pred_rtol * c0:
+            break
         trial = theta.copy()
         trial[idx] += step
         new = seg.evaluate(trial)
         n_eval += 1
-        c0, c1 = float(cur["cost"]), float(new["cost"])
+        c1 = float(new["cost"])
         if np.isfinite(c1) and c1 <= c0:
             theta, cur = trial, new
             mu = max(mu / 5.0, 1e-12)
-            if c0 - c1 <= 1e-12 * c0 or np.max(np.abs(step)) < 1e-12:
+            if c0 - c1 <= crit.lm_rtol * c0 or np.max(np.abs(step)) < 1e-12:
                 break
-        elif np.isfinite(c1) and c1 - c0 <= 1e-12 * c0:
+        elif np.isfinite(c1) and c1 - c0 <= crit.lm_rtol * c0:
             # the step changes the cost by less than its rounding: theta is the minimum to rounding
             # (raising the damping up to 1e8 only repeated evaluations of the same point)
             break
@@ -383,7 +423,7 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], max
             mu *= 8.0
             if mu > 1e8:
                 break
-    return theta, n_eval
+    return theta, n_eval, cur
 
 
 def _inv(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
@@ -549,8 +589,9 @@ def local_ml(
         free = np.ones(m, bool)
         why: dict[int, str] = {}
         theta = th0
+        last: dict[str, NDArray[np.float64] | float] | None = None  # the LM's last evaluation
         for _attempt in range(m + 2):
-            theta, k = _lm(seg, th0, free, criteria.max_iter)
+            theta, k, last = _lm(seg, th0, free, criteria)
             n_eval += k
             bad = _check(seg.poles(theta), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
                          criteria.move_hbw)
@@ -581,10 +622,10 @@ def local_ml(
         if free.any() and n_cut > 0:
             cut_basis = seg.fixed
             seg.restore_basis(full_basis)
-            th_w, k = _lm(seg, theta, free, criteria.max_iter)
+            th_w, k, last_w = _lm(seg, theta, free, criteria)
             bad_w = _check(seg.poles(th_w), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
                            criteria.move_hbw)
-            std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv), th_w, nb)
+            std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv, prev=last_w), th_w, nb)
             n_eval += k + 1
             seg.restore_basis(cut_basis)
             for j in np.flatnonzero(free).tolist():
@@ -595,7 +636,7 @@ def local_ml(
         # residual covariance between channels is pooled after standardising by it
         # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
         # at the peaks, which is no random error of the lines)
-        full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv)
+        full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
         n_eval += 1
         hess = np.asarray(full["hess"])
         sc = np.asarray(full["line_scores"])  # (2m, n)
