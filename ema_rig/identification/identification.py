@@ -42,7 +42,7 @@ from .criteria import (
 )
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
-from .lsfd import _lsfd_checked, _lsfd_noise_weighted
+from .lsfd import _Basis, _lsfd_checked, _lsfd_noise_weighted
 from .mac import mac
 from .ml import LocalML, local_ml
 from .modal import ModalModel
@@ -643,8 +643,8 @@ def identify(
     modes = _unique_modes(sel.modes)
     if fitted is None:
         fitted = _fit_modes(data, modes, residuals)
-    model, ml, polymax = fitted
-    model = _reported_model(data, model, residual_test, crit.completeness, residuals)
+    model, ml, polymax, basis = fitted
+    model = _reported_model(data, model, residual_test, crit.completeness, residuals, basis)
     warnings += list(ml.warnings)
     meta = dict(model.meta)
     meta.update({"max_order": int(max(stab.orders)), "selection": sel.to_dict(), "transposed": transposed,
@@ -685,7 +685,9 @@ def identify(
     return cast("Identification", remove_window_damping(ident, data))  # issue 18: an exponential window's damping
 
 
-_Fitted = tuple[ModalModel, LocalML, list[list[float]]]
+#: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im) and the LSFD basis of the
+#: model (:class:`~ema_rig.identification.lsfd._Basis`, for the weighted residues at the same poles).
+_Fitted = tuple[ModalModel, LocalML, list[list[float]], _Basis | None]
 
 
 @dataclass(frozen=True, slots=True)
@@ -710,20 +712,23 @@ def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
 
 
 def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) -> _Fitted:
-    """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)."""
+    """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)
+    and the basis of the returned LSFD model (for the weighted residues at its poles)."""
     syn = np.empty_like(data.frf, dtype=np.complex128)  # the LSFD model's FRFs on the data's lines
     # data checked by identify
-    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn)
+    bases: list[_Basis] = []
+    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn, basis_out=bases)
     # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
     ml = _local_ml(data, model, syn)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
     if np.any(ml.poles != model.poles):
-        model = _lsfd_checked(data, ml.poles, residuals=residuals)
-    return model, ml, polymax
+        bases = []
+        model = _lsfd_checked(data, ml.poles, residuals=residuals, basis_out=bases)
+    return model, ml, polymax, (bases[0] if bases else None)
 
 
 def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, cc: CompletenessCriteria,
-                    residuals: bool) -> ModalModel:
+                    residuals: bool, basis: _Basis | None = None) -> ModalModel:
     """The residues ``identify`` reports: LSFD at the (ML) poles of ``model`` weighted by the noise.
 
     The noise variance of every line is the completeness test's (``test``, of these poles; formed
@@ -739,7 +744,8 @@ def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, c
         return replace(model, meta={**model.meta, "weighted": "no (the residual exceeds the noise inside the band)"})
     # a channel without a finite variance anywhere (a coherence of 1 everywhere: no estimate) keeps equal weights
     var = np.where(np.all(~np.isfinite(test.variance), axis=1, keepdims=True), 1.0, test.variance)
-    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals, unweighted=model)
+    return _lsfd_noise_weighted(data, model.poles, var.reshape(data.frf.shape), residuals=residuals, unweighted=model,
+                                basis=basis)
 
 
 def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> MisfitTest:

@@ -39,7 +39,7 @@ the shared factorization (batched matrix products, then a small eigen-solve per 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -118,9 +118,36 @@ def lsfd(
     return _lsfd_checked(cut, poles, residuals=residuals, variance=var)
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class _Basis:
+    """The pole-residue basis of one fit (:func:`_fit`) and its SVD factor, for a later fit at the same
+    poles on the same lines (the noise-weighted residues of ``identify``), which then forms neither again.
+
+    ``freq`` the lines fitted (0 Hz already left out where the basis is singular), ``poles`` sorted
+    as in the fit, ``a`` / ``scale`` of :func:`~ema_rig.identification.modal.pole_residue_basis`,
+    ``uk`` / ``proj`` of :func:`_projector` of ``a`` (the unweighted basis, which the per-channel
+    weighted fit factors too).
+    """
+
+    freq: NDArray[np.float64]
+    poles: NDArray[np.complex128]
+    power: int
+    residuals: bool
+    a: NDArray[np.float64]
+    scale: NDArray[np.float64]
+    uk: NDArray[np.float64]
+    proj: NDArray[np.float64]
+
+    def matches(self, freq: NDArray[np.float64], poles: NDArray[np.complex128], power: int, residuals: bool) -> bool:
+        """Whether this is the basis of ``poles`` (sorted as :func:`_fit` sorts them) on the lines ``freq``."""
+        return (self.power == power and self.residuals == residuals and np.array_equal(self.poles, poles)
+                and np.array_equal(self.freq, freq))
+
+
 def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
                   variance: NDArray[np.float64] | None = None,
-                  model_out: NDArray[np.complex128] | None = None) -> ModalModel:
+                  model_out: NDArray[np.complex128] | None = None,
+                  basis_out: list[_Basis] | None = None) -> ModalModel:
     """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
 
     For callers that checked the data once for several steps (``identify``); same parameters,
@@ -130,12 +157,15 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
     are written into it: the fit's own product of basis and coefficients (what
     :meth:`~ema_rig.identification.modal.ModalModel.synthesize` gives, without forming it again),
     the data at a line the fit leaves out (0 Hz with a lower residual, where the model is infinite).
+    With ``basis_out`` (a list) the fit's basis and factor are appended to it (:class:`_Basis`; not
+    when a common line profile of the weights changed the factor).
     """
-    return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out)[0]
+    return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out, basis_out=basis_out)[0]
 
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
-                         residuals: bool = True, unweighted: ModalModel | None = None) -> ModalModel:
+                         residuals: bool = True, unweighted: ModalModel | None = None,
+                         basis: _Basis | None = None) -> ModalModel:
     """The residues ``identify`` reports: per channel the noise-weighted fit unless the model errs.
 
     Both fits at ``poles`` on data checked as for :func:`_lsfd_checked`, the weighted one (the
@@ -160,6 +190,9 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
     unweighted : ModalModel, optional
         The unweighted fit at the same poles on the same data (:func:`_lsfd_checked`), when the
         caller has it: it is scored by its synthesis instead of being fitted again.
+    basis : _Basis, optional
+        The basis and factor of that fit (``_lsfd_checked(basis_out=...)``): used by both instead of
+        forming them again when it belongs to these poles and lines (the same numbers).
 
     Returns
     -------
@@ -168,10 +201,10 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
     """
     var = np.asarray(variance, dtype=np.float64)
     if unweighted is None:
-        un, s_un = _fit(data, poles, residuals=residuals, score=var)
+        un, s_un = _fit(data, poles, residuals=residuals, score=var, basis=basis)
     else:
-        un, s_un = unweighted, _synthesis_score(data, unweighted, var, residuals)
-    wt, s_wt = _fit(data, poles, residuals=residuals, variance=var, score=var)
+        un, s_un = unweighted, _synthesis_score(data, unweighted, var, residuals, basis)
+    wt, s_wt = _fit(data, poles, residuals=residuals, variance=var, score=var, basis=basis)
     keep = s_wt <= s_un  # NaN (no line with a finite variance): unweighted
     n_keep = int(np.sum(keep))
     if n_keep == keep.size:
@@ -188,12 +221,15 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
 
 
 def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: NDArray[np.float64] | None = None,
-         score: NDArray[np.float64] | None = None, model_out: NDArray[np.complex128] | None = None
+         score: NDArray[np.float64] | None = None, model_out: NDArray[np.complex128] | None = None,
+         basis: _Basis | None = None, basis_out: list[_Basis] | None = None
          ) -> tuple[ModalModel, NDArray[np.float64]]:
     """The fit of :func:`_lsfd_checked` and, with ``score`` (a variance like ``variance``), the median
     over the lines of ``|e|^2 / score`` per channel, shape (n_out, n_in) (NaN without such a line;
     empty without ``score``). With ``model_out`` (shape of ``data.frf``, complex) the fitted model's
-    FRFs are written into it (the data at a line the fit leaves out)."""
+    FRFs are written into it (the data at a line the fit leaves out). ``basis`` an earlier fit's
+    basis and factor, used when it belongs to these poles and lines; ``basis_out`` (a list) receives
+    this fit's (:class:`_Basis`)."""
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
@@ -221,7 +257,12 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         raise IdentificationError(
             f"LSFD: {n_f} lines cannot determine {n_unk} real unknowns ({n_modes} modes)", file=src
         )
-    a, scale = pole_residue_basis(f, lam, p, residuals=residuals)
+    reuse = basis is not None and basis.matches(f, lam, p, residuals)
+    if reuse:
+        assert basis is not None
+        a, scale = basis.a, basis.scale
+    else:
+        a, scale = pole_residue_basis(f, lam, p, residuals=residuals)
     n_out, n_in, _ = h.shape
     x = np.empty((n_out, n_in, n_unk))
     num = np.empty((n_out, n_in))
@@ -239,7 +280,13 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         cn = np.where(cn > 0, cn, 1.0)
         aw = aw / cn
     with single_threaded():
-        uk, proj = _projector(aw)
+        if reuse and common is None:
+            assert basis is not None
+            uk, proj = basis.uk, basis.proj  # the factor of the unweighted basis ``a``
+        else:
+            uk, proj = _projector(aw)
+        if basis_out is not None and common is None:
+            basis_out.append(_Basis(f, lam, p, bool(residuals), a, scale, uk, proj))
         for o0, o1, yv in _output_chunks(h):
             if weights is None or common is not None:
                 xs = ((yv if common is None else yv * common) @ uk) @ proj.T / cn  # (chunk, n_in, n_unk)
@@ -298,8 +345,8 @@ def _median_score(e2: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np
     return out
 
 
-def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64], residuals: bool
-                     ) -> NDArray[np.float64]:
+def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64], residuals: bool,
+                     basis: _Basis | None = None) -> NDArray[np.float64]:
     """:func:`_median_score` of ``model``'s synthesis error on the lines :func:`_fit` fits (shape (n_out, n_in)).
 
     ``model`` is a fit of :func:`_fit` on ``data`` (real residual terms): its synthesis is formed as
@@ -310,7 +357,10 @@ def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64
     p = _FORM_POWER[data.frf_form]
     if residuals and p < 2 and f[0] == 0.0:
         f, h, sv = f[1:], h[:, :, 1:], sv[:, :, 1:]
-    a, scale = pole_residue_basis(f, model.poles, p, residuals=residuals)
+    if basis is not None and basis.matches(f, model.poles, p, residuals):
+        a, scale = basis.a, basis.scale  # the basis of the fit that gave ``model``
+    else:
+        a, scale = pole_residue_basis(f, model.poles, p, residuals=residuals)
     res = np.moveaxis(model.residues, 0, 2)  # (n_out, n_in, n_modes)
     parts = [res.real, res.imag]
     if residuals:
