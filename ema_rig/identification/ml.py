@@ -82,12 +82,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import NDArray
 
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from .criteria import ML_CRITERIA, MLCriteria
-from .modal import SpectralWindow, modal_basis, pole_columns
+from .modal import SpectralWindow, modal_basis, pole_basis_with_derivative
 from .noise import coherence_variance, fit_noise_model
 from .refine import inv_psd
 
@@ -136,6 +137,12 @@ class LocalML:
     robust_std: NDArray[np.float64] | None = None
     fisher_std: NDArray[np.float64] | None = None
     basis_std: NDArray[np.float64] | None = None
+
+
+def _qr(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Reduced QR factors of ``a`` (LAPACK geqrf/orgqr, as ``numpy.linalg.qr``; SciPy's call has less overhead)."""
+    q, r = scipy.linalg.qr(a, mode="economic", check_finite=False)
+    return q, r
 
 
 def _stack(z: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -265,7 +272,9 @@ class _Segment:
                              np.asarray(prev["_cs"]), rho, noise_var)
             return kept
         lam = self.poles(theta)
-        cols = self._cols(lam)
+        b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
+        cols = np.empty_like(b1)
+        cols[:, 0::2], cols[:, 1::2] = b1[:, : lam.size], b1[:, lam.size :]
         a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]  # weighted pole columns (2n, 2m)
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
@@ -278,13 +287,12 @@ class _Segment:
         if fx.shape[1]:
             a = a - fx @ (fx.T @ a)
             a -= fx @ (fx.T @ a)
-        q, r = np.linalg.qr(a)
+        q, r = _qr(a)
         q = np.concatenate([q, fx], axis=1)  # (2n, L)
         qty = q.T @ self.yw  # (L, C)
         e = self.yw - q @ qty  # residual (2n, C)
         cost = float(np.sum(e * e))
         x = np.linalg.solve(r, qty[: 2 * self.m]) / d[:, None]  # (2m, C) coefficients of the poles
-        pos2, neg2 = pole_columns(self.jw, lam, self.power, order=2, window=self.window)
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
         ww = np.concatenate([self.w, self.w])[:, None]

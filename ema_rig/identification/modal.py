@@ -391,6 +391,40 @@ def modal_basis(
     return np.concatenate(cols, axis=1)
 
 
+def pole_basis_with_derivative(
+    jw: NDArray[np.complex128],
+    lam: NDArray[np.complex128],
+    power: int,
+    *,
+    window: SpectralWindow | None = None,
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
+    """:func:`modal_basis` without residual terms and the ``k = 2`` :func:`pole_columns` of the same poles.
+
+    The same numbers as the two calls; without a window the inverse powers are formed once (an
+    iterative estimate of the poles needs both at every evaluation).
+
+    Parameters
+    ----------
+    jw, lam, power, window
+        As for :func:`pole_columns`.
+
+    Returns
+    -------
+    basis : ndarray, shape (n_freq, 2 n_poles), complex
+        ``modal_basis(jw, lam, power, residuals=False, window=window)``.
+    pos2, neg2 : ndarray, shape (n_freq, n_poles), complex
+        ``pole_columns(jw, lam, power, order=2, window=window)``.
+    """
+    if window is not None:
+        pos2, neg2 = pole_columns(jw, lam, power, order=2, window=window)
+        return modal_basis(jw, lam, power, residuals=False, window=window), pos2, neg2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fac = (jw**power)[:, None]
+        pos, neg = _inverse_powers(jw, lam, 1)
+        basis = np.concatenate([fac * (pos + neg), fac * (1j * pos - 1j * neg)], axis=1)
+        return basis, fac * pos**2, fac * neg**2
+
+
 def synthesize_frf(
     freq: NDArray[np.float64],
     poles: NDArray[np.complex128],
@@ -522,5 +556,5 @@ def pole_residue_basis(
     return a / scale, scale
 
 
-__all__ = ["ModalModel", "SpectralWindow", "effective_mass", "modal_basis", "pole_columns", "pole_residue_basis",
-           "residual_columns", "shape_products", "synthesize_frf"]
+__all__ = ["ModalModel", "SpectralWindow", "effective_mass", "modal_basis", "pole_basis_with_derivative", "pole_columns",
+           "pole_residue_basis", "residual_columns", "shape_products", "synthesize_frf"]
