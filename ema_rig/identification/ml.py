@@ -79,7 +79,11 @@ Harris, Proc. IEEE 66 (1978) (window main lobes); Golub & Van Loan, *Matrix Comp
 
 from __future__ import annotations
 
+import contextlib
+import copy
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import scipy.linalg
@@ -561,139 +565,164 @@ def local_ml(
     basis = np.zeros((nm, 2))  # model-form part (f, zeta): cut vs whole background basis
     n_eval = 0
     jw_all = np.asarray(2j * np.pi * freq, dtype=np.complex128)
-    for i0, i1, rs in _windows(fn0, hb0, freq, criteria):
-        rs_arr = np.asarray(rs)
-        m = rs_arr.size
-        n = i1 - i0
-        # the other modes nearest the segment first; drop the farthest, then polynomial terms,
-        # while the lines cannot carry them (2n real equations >= 2 L + 8 per channel)
-        others = np.delete(np.arange(nm), rs_arr)
-        mid = 0.5 * (freq[i0] + freq[i1 - 1])
-        others = others[np.argsort(np.abs(fn0[others] - mid), kind="stable")]
-        n_poly = 6
-        while others.size and 2 * n < 2 * (2 * m + n_poly + 2 * others.size) + 8:
-            others = others[:-1]
-        while n_poly > 0 and 2 * n < 2 * (2 * m + n_poly) + 8:
-            n_poly -= 2
-        if 2 * n < 2 * (2 * m + n_poly) + 8:
-            for r in rs:
-                warns.append(f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML estimate; "
-                             "its uncertainty is unknown (NaN)")
-            continue
-        s_c, v_i = _separable(var[:, i0:i1])
-        if not weighted_lines:
-            v_i = np.ones_like(v_i)
-        w = 1.0 / np.sqrt(v_i)
-        ww = np.concatenate([w, w])[:, None]
-        yw = _stack(y[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :]
-        seg = _Segment(jw_all[i0:i1], power, yw, w, lam0[rs_arr], n_poly, np.asarray(poles_out[np.sort(others)], dtype=np.complex128), kernel,
-                       criteria.basis_rcond)
-        # the background directions the start model uses above the noise (the rest only fit noise)
-        nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
-        full_basis = seg.fixed
-        seg.keep_supported(_stack(mod[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :],
-                           np.sqrt(np.maximum(np.mean(nv, axis=0) / 2.0, 1e-300)), criteria.background_sigmas)
-        th0 = seg.theta(lam0[rs_arr])
-        free = np.ones(m, bool)
-        why: dict[int, str] = {}
-        theta = th0
-        last: dict[str, NDArray[np.float64] | float] | None = None  # the LM's last evaluation
-        for _attempt in range(m + 2):
-            theta, k, last = _lm(seg, th0, free, criteria)
-            n_eval += k
-            bad = _check(seg.poles(theta), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
-                         criteria.move_hbw)
-            if not bad:
-                break
-            if seg.fixed.shape[1] < full_basis.shape[1]:
-                # the cut is a variance saving that holds only when the dropped directions bias
-                # nothing: a pole leaving its half-bandwidth shows that the data need them (the
-                # start model's background misses part of a heavily damped mode's neighbourhood),
-                # so the segment is fitted again on its whole background before any pole is held
-                seg.restore_basis(full_basis)
+    windows = _windows(fn0, hb0, freq, criteria)
+    # a second thread for the segments' whole-basis fits where they are large enough to gain from it
+    # (numpy releases the GIL in BLAS and ufunc loops); a work-size rule, so the same on any machine
+    two = any(2 * (i1 - i0) * n_chan >= _THREAD_MIN_EQUATIONS for i0, i1, _ in windows)
+    pending: list[tuple[Future[tuple[NDArray[np.complex128], NDArray[np.float64], int]], list[tuple[int, int]]]] = []
+    with ThreadPoolExecutor(max_workers=1) if two else contextlib.nullcontext() as pool:
+        for i0, i1, rs in windows:
+            rs_arr = np.asarray(rs)
+            m = rs_arr.size
+            n = i1 - i0
+            # the other modes nearest the segment first; drop the farthest, then polynomial terms,
+            # while the lines cannot carry them (2n real equations >= 2 L + 8 per channel)
+            others = np.delete(np.arange(nm), rs_arr)
+            mid = 0.5 * (freq[i0] + freq[i1 - 1])
+            others = others[np.argsort(np.abs(fn0[others] - mid), kind="stable")]
+            n_poly = 6
+            while others.size and 2 * n < 2 * (2 * m + n_poly + 2 * others.size) + 8:
+                others = others[:-1]
+            while n_poly > 0 and 2 * n < 2 * (2 * m + n_poly) + 8:
+                n_poly -= 2
+            if 2 * n < 2 * (2 * m + n_poly) + 8:
+                for r in rs:
+                    warns.append(f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML estimate; "
+                                 "its uncertainty is unknown (NaN)")
                 continue
-            worst = max(bad, key=lambda j: bad[j][0])
-            why[worst] = bad[worst][1]
-            free[worst] = False
+            s_c, v_i = _separable(var[:, i0:i1])
+            if not weighted_lines:
+                v_i = np.ones_like(v_i)
+            w = 1.0 / np.sqrt(v_i)
+            ww = np.concatenate([w, w])[:, None]
+            yw = _stack(y[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :]
+            seg = _Segment(jw_all[i0:i1], power, yw, w, lam0[rs_arr], n_poly, np.asarray(poles_out[np.sort(others)], dtype=np.complex128), kernel,
+                           criteria.basis_rcond)
+            # the background directions the start model uses above the noise (the rest only fit noise)
+            nv = (var_cov[:, i0:i1] / s_c[:, None]).T * (w**2)[:, None]
+            full_basis = seg.fixed
+            seg.keep_supported(_stack(mod[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :],
+                               np.sqrt(np.maximum(np.mean(nv, axis=0) / 2.0, 1e-300)), criteria.background_sigmas)
+            th0 = seg.theta(lam0[rs_arr])
+            free = np.ones(m, bool)
+            why: dict[int, str] = {}
             theta = th0
-        else:
-            theta, free = th0, np.zeros(m, bool)
-        held = ~free
-        theta = np.where(np.repeat(held, 2), th0, theta)
-        # errors correlate over a mode's half-power half-bandwidth (leakage of its transient) and
-        # over the window's main lobe: a block spans the larger
-        nb = max(1, criteria.block_lines, int(np.ceil(float(np.min(hb0[rs_arr])) / df)))
-        # model form: the same lines on the whole background basis, when the cut dropped directions
-        d_basis = np.zeros((m, 2), np.complex128)  # (pole on the whole basis, pole on the cut basis)
-        std_w = np.zeros((m, 2))  # its (f, zeta) standard deviations
-        n_cut = full_basis.shape[1] - seg.fixed.shape[1]
-        if free.any() and n_cut > 0:
-            cut_basis = seg.fixed
-            seg.restore_basis(full_basis)
-            th_w, k, last_w = _lm(seg, theta, free, criteria)
-            bad_w = _check(seg.poles(th_w), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
-                           criteria.move_hbw)
-            std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv, prev=last_w), th_w, nb)
-            n_eval += k + 1
-            seg.restore_basis(cut_basis)
-            for j in np.flatnonzero(free).tolist():
-                # a pole the whole-basis fit cannot hold has left for another feature: no alternative
-                # estimate of this mode (basis_std NaN, no model-form part)
-                d_basis[j] = (np.nan, np.nan) if j in bad_w else (seg.poles(th_w)[j], seg.poles(theta)[j])
-        # the noise model of every line and channel in the units of the weighted problem: the
-        # residual covariance between channels is pooled after standardising by it
-        # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
-        # at the peaks, which is no random error of the lines)
-        full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
-        n_eval += 1
-        hess = np.asarray(full["hess"])
-        sc = np.asarray(full["line_scores"])  # (2m, n)
-        blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
-        g = blocks.shape[1]
-        n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
-        s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
-        chi_out[rs_arr] = s2
-        # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
-        chi2 = float(full["chi2_noise"])
-        dof_t = 2 * n * n_chan
-        ratio = chi2 / dof_t
-        if ratio >= criteria.misfit_ratio:
-            from scipy.stats import chi2 as chi2_dist
+            last: dict[str, NDArray[np.float64] | float] | None = None  # the LM's last evaluation
+            for _attempt in range(m + 2):
+                theta, k, last = _lm(seg, th0, free, criteria)
+                n_eval += k
+                bad = _check(seg.poles(theta), lam0[rs_arr], free, (float(freq[i0]), float(freq[i1 - 1])), df,
+                             criteria.move_hbw)
+                if not bad:
+                    break
+                if seg.fixed.shape[1] < full_basis.shape[1]:
+                    # the cut is a variance saving that holds only when the dropped directions bias
+                    # nothing: a pole leaving its half-bandwidth shows that the data need them (the
+                    # start model's background misses part of a heavily damped mode's neighbourhood),
+                    # so the segment is fitted again on its whole background before any pole is held
+                    seg.restore_basis(full_basis)
+                    continue
+                worst = max(bad, key=lambda j: bad[j][0])
+                why[worst] = bad[worst][1]
+                free[worst] = False
+                theta = th0
+            else:
+                theta, free = th0, np.zeros(m, bool)
+            held = ~free
+            theta = np.where(np.repeat(held, 2), th0, theta)
+            # errors correlate over a mode's half-power half-bandwidth (leakage of its transient) and
+            # over the window's main lobe: a block spans the larger
+            nb = max(1, criteria.block_lines, int(np.ceil(float(np.min(hb0[rs_arr])) / df)))
+            # model form: the same lines on the whole background basis, when the cut dropped directions
+            n_cut = full_basis.shape[1] - seg.fixed.shape[1]
+            # its own problem (a copy of the segment on the whole basis, started at the cut estimate): the next
+            # segments need only the cut estimate, so a second thread may fit it meanwhile (fixed work, joined
+            # in segment order below: the same numbers whichever thread runs it, and when)
+            whole: Future[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
+            if free.any() and n_cut > 0:
+                task = partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
+                               (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb)
+                if pool is not None and 2 * n * n_chan >= _THREAD_MIN_EQUATIONS:
+                    whole = pool.submit(task)
+                else:
+                    whole = Future()
+                    whole.set_result(task())
+            model_form: list[tuple[int, int]] = []  # (j, r) of the modes whose model-form part is added below
+            # the noise model of every line and channel in the units of the weighted problem: the
+            # residual covariance between channels is pooled after standardising by it
+            # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
+            # at the peaks, which is no random error of the lines)
+            full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
+            n_eval += 1
+            hess = np.asarray(full["hess"])
+            sc = np.asarray(full["line_scores"])  # (2m, n)
+            blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
+            g = blocks.shape[1]
+            n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
+            s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
+            chi_out[rs_arr] = s2
+            # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
+            chi2 = float(full["chi2_noise"])
+            dof_t = 2 * n * n_chan
+            ratio = chi2 / dof_t
+            if ratio >= criteria.misfit_ratio:
+                from scipy.stats import chi2 as chi2_dist
 
-            p = float(chi2_dist.sf(chi2, dof_t))
-            if p < criteria.misfit_p:
-                warns.append(
-                    f"the model misses the data near {', '.join(f'{fn0[r]:.6g}' for r in rs)} Hz "
-                    f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
-                    f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
-                    "the misfit (robust covariance)")
-        # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
-        meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
-        hinv = _inv(hess)
-        cov_theta: NDArray[np.float64] | None
-        if hinv is not None:
-            cov_rob = hinv @ meat @ hinv
-            jcj = np.asarray(full["jcj"])
-            cov_fis = hinv @ jcj @ hinv
-            if held.any() and free.any():
-                # free poles: conditional on the held ones, plus the held poles' uncertainty propagated
-                fi, hi = np.flatnonzero(np.repeat(free, 2)), np.flatnonzero(np.repeat(held, 2))
-                hff = _inv(hess[np.ix_(fi, fi)])
-                if hff is not None:
-                    kmat = -hff @ hess[np.ix_(fi, hi)]
-                    for cov in (cov_rob, cov_fis):
-                        mid = meat if cov is cov_rob else jcj
-                        cond = hff @ mid[np.ix_(fi, fi)] @ hff
-                        cov[np.ix_(fi, fi)] = cond + kmat @ cov[np.ix_(hi, hi)] @ kmat.T
-            cov_theta = None
-            lam = seg.poles(theta)
-            for j, r in enumerate(rs):
-                sl = slice(2 * j, 2 * j + 2)
-                sj = seg.scale[j] ** 2
-                c_r, c_f = cov_rob[sl, sl] * sj, cov_fis[sl, sl] * sj
-                poles_out[r] = lam[j]
-                cov_out[r] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
-                both[r] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
+                p = float(chi2_dist.sf(chi2, dof_t))
+                if p < criteria.misfit_p:
+                    warns.append(
+                        f"the model misses the data near {', '.join(f'{fn0[r]:.6g}' for r in rs)} Hz "
+                        f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
+                        f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
+                        "the misfit (robust covariance)")
+            # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
+            meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
+            hinv = _inv(hess)
+            cov_theta: NDArray[np.float64] | None
+            if hinv is not None:
+                cov_rob = hinv @ meat @ hinv
+                jcj = np.asarray(full["jcj"])
+                cov_fis = hinv @ jcj @ hinv
+                if held.any() and free.any():
+                    # free poles: conditional on the held ones, plus the held poles' uncertainty propagated
+                    fi, hi = np.flatnonzero(np.repeat(free, 2)), np.flatnonzero(np.repeat(held, 2))
+                    hff = _inv(hess[np.ix_(fi, fi)])
+                    if hff is not None:
+                        kmat = -hff @ hess[np.ix_(fi, hi)]
+                        for cov in (cov_rob, cov_fis):
+                            mid = meat if cov is cov_rob else jcj
+                            cond = hff @ mid[np.ix_(fi, fi)] @ hff
+                            cov[np.ix_(fi, fi)] = cond + kmat @ cov[np.ix_(hi, hi)] @ kmat.T
+                cov_theta = None
+                lam = seg.poles(theta)
+                for j, r in enumerate(rs):
+                    sl = slice(2 * j, 2 * j + 2)
+                    sj = seg.scale[j] ** 2
+                    c_r, c_f = cov_rob[sl, sl] * sj, cov_fis[sl, sl] * sj
+                    poles_out[r] = lam[j]
+                    cov_out[r] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
+                    both[r] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
+                    model_form.append((j, r))
+                    kind[r] = "held" if held[j] else "ml"
+                    if held[j]:
+                        warns.append(f"mode at {fn0[r]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
+                                     "its ± is the ML uncertainty at that pole, propagated to its neighbours")
+            else:
+                cov_theta = None
+                for j, r in enumerate(rs):
+                    poles_out[r] = seg.poles(theta)[j]
+                    kind[r] = "held" if held[j] else "ml"
+                    warns.append(f"mode at {fn0[r]:.6g} Hz: the Fisher information of its segment "
+                                 f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz) is singular, so its uncertainty is unknown "
+                                 "(NaN): the data do not determine the pole")
+            del cov_theta
+            if whole is not None:
+                pending.append((whole, model_form))
+        # ---- the model-form part of each segment (its whole-basis fit), in segment order ----
+        for whole, model_form in pending:
+            d_basis, std_w, k = whole.result()
+            n_eval += k
+            for j, r in model_form:
                 if not np.isfinite(d_basis[j, 0]):
                     basis[r] = np.nan
                 elif d_basis[j, 0] != 0:
@@ -708,19 +737,6 @@ def local_ml(
                     basis[r] = np.sqrt(b2)
                     shrink = float(np.sqrt(b2[0] / d2[0])) if d2[0] > 0 else 0.0
                     cov_out[r] = cov_out[r] + np.outer(dv, dv) * shrink**2
-                kind[r] = "held" if held[j] else "ml"
-                if held[j]:
-                    warns.append(f"mode at {fn0[r]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
-                                 "its ± is the ML uncertainty at that pole, propagated to its neighbours")
-        else:
-            cov_theta = None
-            for j, r in enumerate(rs):
-                poles_out[r] = seg.poles(theta)[j]
-                kind[r] = "held" if held[j] else "ml"
-                warns.append(f"mode at {fn0[r]:.6g} Hz: the Fisher information of its segment "
-                             f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz) is singular, so its uncertainty is unknown "
-                             "(NaN): the data do not determine the pole")
-        del cov_theta
     fstd = np.full(nm, np.nan)
     zstd = np.full(nm, np.nan)
     for r in range(nm):
@@ -736,6 +752,32 @@ def local_ml(
     zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
     return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
                    both[:, :2].copy(), both[:, 2:].copy(), basis)
+
+
+def _whole_basis(seg: _Segment, full_basis: NDArray[np.float64], theta: NDArray[np.float64], free: NDArray[np.bool_],
+                 lam0: NDArray[np.complex128], lines: tuple[float, float], df: float, crit: MLCriteria,
+                 rho: tuple[float, ...], nv: NDArray[np.float64], nb: int
+                 ) -> tuple[NDArray[np.complex128], NDArray[np.float64], int]:
+    """The segment ``seg`` (a copy, changed here) fitted again on its whole background basis ``full_basis``,
+    started at its cut estimate ``theta``: per mode (pole on the whole basis, pole on the cut basis),
+    NaN where the whole-basis fit cannot hold it (``_check`` against ``lam0``, the lines ``lines`` [Hz]);
+    the (f, zeta) standard deviations of that fit (:func:`_basis_stds`, blocks of ``nb`` lines); the
+    evaluations spent. Shape (m, 2) each."""
+    seg.restore_basis(full_basis)
+    th_w, k, last_w = _lm(seg, theta, free, crit)
+    bad_w = _check(seg.poles(th_w), lam0, free, lines, df, crit.move_hbw)
+    std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv, prev=last_w), th_w, nb)
+    d_basis = np.zeros((seg.m, 2), np.complex128)
+    for j in np.flatnonzero(free).tolist():
+        # a pole the whole-basis fit cannot hold has left for another feature: no alternative
+        # estimate of this mode (basis_std NaN, no model-form part)
+        d_basis[j] = (np.nan, np.nan) if j in bad_w else (seg.poles(th_w)[j], seg.poles(theta)[j])
+    return d_basis, std_w, k + 1
+
+
+#: Real equations (lines x 2 x channels) of a segment from which its whole-basis fit runs in a second
+#: thread: below, the evaluations are mostly Python overhead, which holds the GIL.
+_THREAD_MIN_EQUATIONS = 20_000
 
 
 def _basis_stds(seg: _Segment, ev: dict[str, NDArray[np.float64] | float], theta: NDArray[np.float64],
