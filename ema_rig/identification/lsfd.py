@@ -289,11 +289,11 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
             basis_out.append(_Basis(f, lam, p, bool(residuals), a, scale, uk, proj))
         for o0, o1, yv in _output_chunks(h):
             if weights is None or common is not None:
-                xs = ((yv if common is None else yv * common) @ uk) @ proj.T / cn  # (chunk, n_in, n_unk)
+                xs = _rows_times(_rows_times(yv if common is None else yv * common, uk), proj.T) / cn  # (chunk, n_in, n_unk)
             else:
                 xs = _weighted_solve(uk, proj, yv, np.repeat(weights[o0:o1], 2, axis=2))
             x[o0:o1] = xs / scale
-            res = xs @ a.T
+            res = _rows_times(xs, a.T)
             if model_out is not None:
                 model_out[o0:o1, :, off:] = res.view(np.complex128)
             np.subtract(yv, res, out=res)
@@ -369,7 +369,7 @@ def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64
     med = np.empty(h.shape[:2])
     with single_threaded():
         for o0, o1, yv in _output_chunks(h):
-            e = xs[o0:o1] @ a.T
+            e = _rows_times(xs[o0:o1], a.T)
             np.subtract(yv, e, out=e)
             med[o0:o1] = _median_score(e[:, :, 0::2] ** 2 + e[:, :, 1::2] ** 2, sv[o0:o1])
     return med
@@ -455,6 +455,13 @@ def _weighted_solve(uk: NDArray[np.float64], proj: NDArray[np.float64], yv: NDAr
     z = np.einsum("crk,ck->cr", vec, inv * np.einsum("crk,cr->ck", vec, rhs / d)) / d
     res: NDArray[np.float64] = (z @ proj.T).reshape(n_o, n_i, proj.shape[0])
     return res
+
+
+def _rows_times(x: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x @ b`` for ``x`` of shape (..., k) and ``b`` (k, m) as one matrix product of the rows of ``x``
+    (one BLAS call; ``x @ b`` on a stack calls it once per (1, k) row block of the stack)."""
+    out: NDArray[np.float64] = (np.ascontiguousarray(x).reshape(-1, x.shape[-1]) @ b).reshape(*x.shape[:-1], b.shape[1])
+    return out
 
 
 def _projector(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
