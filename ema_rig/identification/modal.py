@@ -318,11 +318,72 @@ def pole_columns(
         pos, neg = _inverse_powers(jw, lam, order)
         return fac[:, None] * pos, fac[:, None] * neg
     nu, kw = window
+    grid = _common_grid(jw, nu)
+    if grid is not None:
+        return _windowed_on_grid(jw, lam, power, order, kw, *grid)
     jwn = jw[:, None] - 1j * nu[None, :]  # (n_freq, n_nodes)
     facn = (jwn**power) * kw[None, :]
     pos = np.einsum("in,inr->ir", facn, 1.0 / (jwn[:, :, None] - lam) ** order)
     neg = np.einsum("in,inr->ir", facn, 1.0 / (jwn[:, :, None] - lam.conj()) ** order)
     return pos, neg
+
+
+#: Relative tolerance of :func:`_common_grid`: line spacings and node offsets on one grid to this.
+_GRID_RTOL = 1e-9
+
+
+def _common_grid(jw: NDArray[np.complex128], nu: NDArray[np.float64]) -> tuple[int, NDArray[np.intp]] | None:
+    """``(q, k)`` when every ``w_i - nu_m`` lies on one grid of step ``dw / q`` (``dw`` the uniform line
+    step, node ``m`` at ``k_m`` fine steps: ``nu_m = k_m dw / q``, ``k`` consecutive), else None.
+
+    A spectral window's quadrature on a grid of ``1/q`` line steps
+    (:func:`~ema_rig.identification.ml.window_kernel`: ``q = 8``) over uniformly spaced lines has
+    ``q (n_freq - 1) + n_nodes`` distinct points instead of ``n_freq n_nodes``.
+    """
+    n = jw.size
+    if n < 2 or nu.size < 2:
+        return None
+    w = jw.imag
+    dw = (w[-1] - w[0]) / (n - 1)
+    if not dw > 0 or np.any(np.abs(np.diff(w) - dw) > _GRID_RTOL * dw):
+        return None
+    step = (nu[1] - nu[0]) / dw  # consecutive nodes: 1 / q line steps apart
+    if not step > 0:
+        return None
+    q = int(round(1.0 / step))
+    if q < 1 or abs(q * step - 1.0) > _GRID_RTOL:
+        return None
+    k = nu * (q / dw)
+    kk = np.round(k).astype(np.intp)
+    if (np.all(np.abs(k - kk) <= _GRID_RTOL * max(float(np.max(np.abs(k))), 1.0))
+            and np.array_equal(kk, np.arange(kk[0], kk[0] + kk.size))):
+        return q, kk
+    return None
+
+
+def _windowed_on_grid(jw: NDArray[np.complex128], lam: NDArray[np.complex128], power: int, order: int,
+                      kw: NDArray[np.float64], q: int, k: NDArray[np.intp]
+                      ) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """The window-averaged columns of :func:`pole_columns` on the common grid of :func:`_common_grid`.
+
+    Line ``i`` minus node ``m`` is fine point ``q i - k_m``: the column is a correlation of the weights
+    with the values on the fine grid, taken at every ``q``-th point (the same sums, formed once per point).
+    """
+    n = jw.size
+    w0, dw = jw[0].imag, (jw[-1].imag - jw[0].imag) / (n - 1)
+    k0, k1 = int(k[0]), int(k[-1])
+    # fine points j = q i - k_m, from -k1 (i = 0, last node) to q (n - 1) - k0
+    xf = 1j * (w0 + np.arange(-k1, q * (n - 1) - k0 + 1) * (dw / q))
+    fac = xf**power
+    out = []
+    for pole in (lam, lam.conj()):
+        g = fac[:, None] * (1.0 / (xf[:, None] - pole[None, :]) ** order)  # (n_fine, n_poles)
+        gv = g.view(np.float64).reshape(g.shape[0], -1)  # (n_fine, 2 n_poles): Re, Im interleaved
+        # window of line i: fine points q i - k1 .. q i - k0, i.e. offsets 0 .. k1 - k0 from q i - k1
+        win = np.lib.stride_tricks.sliding_window_view(gv, k1 - k0 + 1, axis=0)[::q]  # (n, 2 n_poles, n_nodes)
+        col = np.einsum("irl,l->ir", win, kw[::-1])  # node m at offset k1 - k_m
+        out.append(np.ascontiguousarray(col).view(np.complex128))
+    return out[0], out[1]
 
 
 def residual_columns(jw: NDArray[np.complex128], power: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
