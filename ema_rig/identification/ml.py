@@ -355,12 +355,14 @@ class _Segment:
         jac = jac * sp[None, :, :]
         if e.shape[1] <= 2 * n:
             js = jac @ ((et.T @ et) / dof)
-            jcj = np.einsum("krc,lrc->kl", js, jac)
+            # the sums over lines and channels as one matrix product (BLAS 3) of the flattened (k, 2n C)
+            jcj = js.reshape(k, -1) @ jac.reshape(k, -1).T
             for lag, rl in enumerate(rho, start=1):
                 if rl == 0.0 or lag >= n:
                     continue
                 for half in (slice(0, n), slice(n, 2 * n)):
-                    g = np.einsum("krc,lrc->kl", js[:, half][:, :-lag], jac[:, half][:, lag:])
+                    a_l, b_l = js[:, half][:, :-lag], jac[:, half][:, lag:]
+                    g = a_l.reshape(k, -1) @ b_l.reshape(k, -1).T
                     jcj += rl * (g + g.T)
         else:
             # more channels than rows: the same sums through M_k = J_k E^T (rows x rows), one
