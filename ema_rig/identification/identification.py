@@ -42,7 +42,7 @@ from .criteria import (
 )
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
-from .lsfd import _Basis, _lsfd_checked, _lsfd_noise_weighted
+from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted
 from .mac import mac
 from .ml import LocalML, local_ml
 from .modal import ModalModel
@@ -686,8 +686,8 @@ def identify(
 
 
 #: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im) and the LSFD basis of the
-#: model (:class:`~ema_rig.identification.lsfd._Basis`, for the weighted residues at the same poles).
-_Fitted = tuple[ModalModel, LocalML, list[list[float]], _Basis | None]
+#: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles).
+_Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None]
 
 
 @dataclass(frozen=True, slots=True)
@@ -716,7 +716,7 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) ->
     and the basis of the returned LSFD model (for the weighted residues at its poles)."""
     syn = np.empty_like(data.frf, dtype=np.complex128)  # the LSFD model's FRFs on the data's lines
     # data checked by identify
-    bases: list[_Basis] = []
+    bases: list[LsfdBasis] = []
     model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn, basis_out=bases)
     # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
     ml = _local_ml(data, model, syn)
@@ -728,7 +728,7 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) ->
 
 
 def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, cc: CompletenessCriteria,
-                    residuals: bool, basis: _Basis | None = None) -> ModalModel:
+                    residuals: bool, basis: LsfdBasis | None = None) -> ModalModel:
     """The residues ``identify`` reports: LSFD at the (ML) poles of ``model`` weighted by the noise.
 
     The noise variance of every line is the completeness test's (``test``, of these poles; formed

@@ -62,7 +62,7 @@ from .._blas import single_threaded
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from .criteria import JUDGE_CRITERIA, JudgeCriteria
-from .lsfd import _output_chunks, _projector, _rows_times
+from .lsfd import _output_chunks, _projector, rows_times
 from .mac import mac, mpc
 from .modal import pole_residue_basis
 from .stabilization import (
@@ -170,9 +170,9 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], ND
     t2 = np.zeros(n)  # energy of each mode's own term on its near lines, all channels
     uk, proj = _projector(a)
     for o0, o1, yv in _output_chunks(h):
-        xs = _rows_times(_rows_times(yv, uk), proj.T)  # scaled unknowns (chunk, n_in, n_unk)
+        xs = rows_times(rows_times(yv, uk), proj.T)  # scaled unknowns (chunk, n_in, n_unk)
         x[o0:o1] = xs
-        e = _rows_times(xs, a.T)
+        e = rows_times(xs, a.T)
         np.subtract(yv, e, out=e)
         e2 = e.reshape(-1, n_f, 2)
         line += np.einsum("cfk,cfk->f", e2, e2)

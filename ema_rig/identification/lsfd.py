@@ -119,14 +119,27 @@ def lsfd(
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class _Basis:
-    """The pole-residue basis of one fit (:func:`_fit`) and its SVD factor, for a later fit at the same
-    poles on the same lines (the noise-weighted residues of ``identify``), which then forms neither again.
+class LsfdBasis:
+    """The pole-residue basis of one LSFD fit and its SVD factor, for a later fit at the same poles.
 
-    ``freq`` the lines fitted (0 Hz already left out where the basis is singular), ``poles`` sorted
-    as in the fit, ``a`` / ``scale`` of :func:`~ema_rig.identification.modal.pole_residue_basis`,
-    ``uk`` / ``proj`` of :func:`_projector` of ``a`` (the unweighted basis, which the per-channel
-    weighted fit factors too).
+    ``identify`` fits the residues unweighted at the ML poles, then weighted by the noise at the
+    same poles on the same lines: with this the second fit forms neither the basis nor its factor
+    again (the per-channel weighted fit factors the unweighted basis too).
+
+    Parameters
+    ----------
+    freq : ndarray, shape (n_freq,)
+        Lines fitted [Hz] (0 Hz already left out where the basis is singular there).
+    poles : ndarray, shape (n_modes,), complex
+        Poles [rad/s], sorted by modulus as the fit sorts them.
+    power : int
+        Form power of the data (0 receptance, 1 mobility, 2 accelerance).
+    residuals : bool
+        Whether the basis holds the two residual columns.
+    a, scale : ndarray, shapes (2 n_freq, n_unknown) and (n_unknown,)
+        :func:`~ema_rig.identification.modal.pole_residue_basis` of ``poles`` on ``freq``.
+    uk, proj : ndarray, shapes (2 n_freq, rank) and (n_unknown, rank)
+        The factor of ``a`` (:func:`_projector`).
     """
 
     freq: NDArray[np.float64]
@@ -147,7 +160,7 @@ class _Basis:
 def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
                   variance: NDArray[np.float64] | None = None,
                   model_out: NDArray[np.complex128] | None = None,
-                  basis_out: list[_Basis] | None = None) -> ModalModel:
+                  basis_out: list[LsfdBasis] | None = None) -> ModalModel:
     """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
 
     For callers that checked the data once for several steps (``identify``); same parameters,
@@ -157,7 +170,7 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
     are written into it: the fit's own product of basis and coefficients (what
     :meth:`~ema_rig.identification.modal.ModalModel.synthesize` gives, without forming it again),
     the data at a line the fit leaves out (0 Hz with a lower residual, where the model is infinite).
-    With ``basis_out`` (a list) the fit's basis and factor are appended to it (:class:`_Basis`; not
+    With ``basis_out`` (a list) the fit's basis and factor are appended to it (:class:`LsfdBasis`; not
     when a common line profile of the weights changed the factor).
     """
     return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out, basis_out=basis_out)[0]
@@ -165,7 +178,7 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
                          residuals: bool = True, unweighted: ModalModel | None = None,
-                         basis: _Basis | None = None) -> ModalModel:
+                         basis: LsfdBasis | None = None) -> ModalModel:
     """The residues ``identify`` reports: per channel the noise-weighted fit unless the model errs.
 
     Both fits at ``poles`` on data checked as for :func:`_lsfd_checked`, the weighted one (the
@@ -190,7 +203,7 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
     unweighted : ModalModel, optional
         The unweighted fit at the same poles on the same data (:func:`_lsfd_checked`), when the
         caller has it: it is scored by its synthesis instead of being fitted again.
-    basis : _Basis, optional
+    basis : LsfdBasis, optional
         The basis and factor of that fit (``_lsfd_checked(basis_out=...)``): used by both instead of
         forming them again when it belongs to these poles and lines (the same numbers).
 
@@ -222,14 +235,14 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
 
 def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: NDArray[np.float64] | None = None,
          score: NDArray[np.float64] | None = None, model_out: NDArray[np.complex128] | None = None,
-         basis: _Basis | None = None, basis_out: list[_Basis] | None = None
+         basis: LsfdBasis | None = None, basis_out: list[LsfdBasis] | None = None
          ) -> tuple[ModalModel, NDArray[np.float64]]:
     """The fit of :func:`_lsfd_checked` and, with ``score`` (a variance like ``variance``), the median
     over the lines of ``|e|^2 / score`` per channel, shape (n_out, n_in) (NaN without such a line;
     empty without ``score``). With ``model_out`` (shape of ``data.frf``, complex) the fitted model's
     FRFs are written into it (the data at a line the fit leaves out). ``basis`` an earlier fit's
     basis and factor, used when it belongs to these poles and lines; ``basis_out`` (a list) receives
-    this fit's (:class:`_Basis`)."""
+    this fit's (:class:`LsfdBasis`)."""
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
@@ -286,14 +299,14 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         else:
             uk, proj = _projector(aw)
         if basis_out is not None and common is None:
-            basis_out.append(_Basis(f, lam, p, bool(residuals), a, scale, uk, proj))
+            basis_out.append(LsfdBasis(f, lam, p, bool(residuals), a, scale, uk, proj))
         for o0, o1, yv in _output_chunks(h):
             if weights is None or common is not None:
-                xs = _rows_times(_rows_times(yv if common is None else yv * common, uk), proj.T) / cn  # (chunk, n_in, n_unk)
+                xs = rows_times(rows_times(yv if common is None else yv * common, uk), proj.T) / cn  # (chunk, n_in, n_unk)
             else:
                 xs = _weighted_solve(uk, proj, yv, np.repeat(weights[o0:o1], 2, axis=2))
             x[o0:o1] = xs / scale
-            res = _rows_times(xs, a.T)
+            res = rows_times(xs, a.T)
             if model_out is not None:
                 model_out[o0:o1, :, off:] = res.view(np.complex128)
             np.subtract(yv, res, out=res)
@@ -346,7 +359,7 @@ def _median_score(e2: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np
 
 
 def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64], residuals: bool,
-                     basis: _Basis | None = None) -> NDArray[np.float64]:
+                     basis: LsfdBasis | None = None) -> NDArray[np.float64]:
     """:func:`_median_score` of ``model``'s synthesis error on the lines :func:`_fit` fits (shape (n_out, n_in)).
 
     ``model`` is a fit of :func:`_fit` on ``data`` (real residual terms): its synthesis is formed as
@@ -369,7 +382,7 @@ def _synthesis_score(data: FRFData, model: ModalModel, score: NDArray[np.float64
     med = np.empty(h.shape[:2])
     with single_threaded():
         for o0, o1, yv in _output_chunks(h):
-            e = _rows_times(xs[o0:o1], a.T)
+            e = rows_times(xs[o0:o1], a.T)
             np.subtract(yv, e, out=e)
             med[o0:o1] = _median_score(e[:, :, 0::2] ** 2 + e[:, :, 1::2] ** 2, sv[o0:o1])
     return med
@@ -457,9 +470,23 @@ def _weighted_solve(uk: NDArray[np.float64], proj: NDArray[np.float64], yv: NDAr
     return res
 
 
-def _rows_times(x: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``x @ b`` for ``x`` of shape (..., k) and ``b`` (k, m) as one matrix product of the rows of ``x``
-    (one BLAS call; ``x @ b`` on a stack calls it once per (1, k) row block of the stack)."""
+def rows_times(x: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x @ b`` as one matrix product of all the rows of ``x`` (one BLAS call).
+
+    ``x @ b`` on a stack of shape (chunk, n_in, k) calls BLAS once per (n_in, k) block of the stack:
+    with one reference that is one matrix-vector product per channel.
+
+    Parameters
+    ----------
+    x : ndarray, shape (..., k)
+        Rows (e.g. FRFs as interleaved real pairs, or unknowns per channel).
+    b : ndarray, shape (k, m)
+
+    Returns
+    -------
+    ndarray, shape (..., m)
+        Equal to ``x @ b`` to rounding.
+    """
     out: NDArray[np.float64] = (np.ascontiguousarray(x).reshape(-1, x.shape[-1]) @ b).reshape(*x.shape[:-1], b.shape[1])
     return out
 

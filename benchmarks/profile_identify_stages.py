@@ -1,0 +1,96 @@
+"""Profile: CPU per stage of the default ``identify`` (ms per call), without cProfile's overhead.
+
+The stages of :func:`ema_rig.identification.identify` (PolyMAX poles, stabilization, judgement, the
+completeness test with LSFD and the local ML, the reported residues) are wrapped with
+``time.process_time`` counters (inclusive: a stage's time holds its sub-stages'), on the two files of
+``bench_default_ml.py``: the bundled rig file (150-1000 Hz) and the 256-output synthetic file of
+``bench_refine.py`` (100-1000 Hz). Run it with one BLAS thread for numbers that do not depend on
+the machine's other load:
+
+``OPENBLAS_NUM_THREADS=1 PYTHONPATH=. python benchmarks/profile_identify_stages.py [rig|256] [--repeat 10]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+import tempfile
+import time
+import warnings
+from collections import defaultdict
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parent.parent
+
+STAGES = {
+    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_misfit", "_lsfd_checked",
+                                              "_reported_model", "judge_clusters", "stabilize", "cluster_poles",
+                                              "diagnose_frf", "_split", "_parsimonious", "_skirt_warnings"],
+    "ema_rig.identification.noise": ["fit_noise_model"],
+}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("case", choices=["rig", "256"])
+    ap.add_argument("--repeat", type=int, default=10)
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import ema_rig.identification.identification  # noqa: F401  (the module, not the package's function)
+    import ema_rig.identification.noise  # noqa: F401
+    import ema_rig.identification.plscf  # noqa: F401
+    from ema_rig.config import load_rig
+    from ema_rig.io.uff import read_uff58
+
+    acc: dict[str, float] = defaultdict(float)
+    cnt: dict[str, int] = defaultdict(int)
+
+    def wrap(owner: Any, name: str, label: str) -> None:
+        f: Callable[..., Any] = getattr(owner, name)
+
+        @functools.wraps(f)
+        def timed(*a: Any, **k: Any) -> Any:
+            t = time.process_time()
+            try:
+                return f(*a, **k)
+            finally:
+                acc[label] += time.process_time() - t
+                cnt[label] += 1
+
+        setattr(owner, name, timed)
+
+    for mod, names in STAGES.items():
+        for n in names:
+            wrap(sys.modules[mod], n, n)
+    plscf = sys.modules["ema_rig.identification.plscf"]
+    wrap(plscf.PlscfEngine, "poles", "PolyMAX poles")
+    wrap(plscf.PlscfEngine, "__init__", "PolyMAX setup")
+    ident = sys.modules["ema_rig.identification.identification"]
+    if args.case == "256":
+        from bench_refine import synthetic_256
+
+        path = Path(tempfile.mkdtemp()) / "synthetic_256.uff"
+        synthetic_256(path)
+        data, band = read_uff58(path), (100.0, 1000.0)
+    else:
+        data = read_uff58(REPO / "data" / "b6302_1000N_1200rpm.uff", rig=load_rig(REPO / "data" / "rig.toml"))
+        band = (150.0, 1000.0)
+    ident.identify(data, band=band)
+    acc.clear()
+    cnt.clear()
+    t0, c0 = time.perf_counter(), time.process_time()
+    for _ in range(args.repeat):
+        ident.identify(data, band=band)
+    wall = (time.perf_counter() - t0) / args.repeat * 1e3
+    cpu = (time.process_time() - c0) / args.repeat * 1e3
+    print(f"{args.case}: identify {cpu:.1f} ms CPU ({wall:.1f} ms wall) per call; stages, CPU ms per identify (inclusive):")
+    for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
+        print(f"  {k:20s} {v / args.repeat * 1e3:8.1f}  ({cnt[k] / args.repeat:.1f} calls)")
+
+
+if __name__ == "__main__":
+    main()
