@@ -465,26 +465,41 @@ def _newton_block(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
                   a: NDArray[np.float64], b: NDArray[np.float64], max_iter: int) -> NDArray[np.float64]:
     """:func:`_noise_refine` of a block of channels, in ``x = ln q`` (bracket ``a``..``b``)."""
 
-    def derivs(x: NDArray[np.float64], rows: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    n_b, n_l = wz.shape
+    r_buf, t_buf, w_buf, u_buf = (np.empty((n_b, n_l)) for _ in range(4))
+
+    def derivs(x: NDArray[np.float64], rows: NDArray[np.intp], second: bool = True
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         # f = ln S + T with S = sum wz r, r = 1 / (1 + q u), T = mean ln(1 + q u); t = 1 - r = dT_i/dx
-        r = np.exp(x)[:, None] * unw[rows]
+        # (the arithmetic of every line as before, in buffers reused from call to call)
+        k = rows.size
+        full = k == n_b
+        r, t, wr = r_buf[:k], t_buf[:k], w_buf[:k]
+        np.multiply(np.exp(x)[:, None], unw if full else unw[rows], out=r)
         r += 1.0
         np.reciprocal(r, out=r)
-        t = 1.0 - r
-        wr = wz[rows] * r
+        np.subtract(1.0, r, out=t)
+        np.multiply(wz if full else wz[rows], r, out=wr)
+        c = cnt if full else cnt[rows]
         s0 = np.sum(wr, axis=1)
         wr *= t
         s1 = -np.sum(wr, axis=1)
-        s2 = np.sum(wr * (2.0 * t - 1.0), axis=1)
-        t1 = np.sum(t, axis=1) / cnt[rows]
-        t *= r
-        t2 = np.sum(t, axis=1) / cnt[rows]
+        t1 = np.sum(t, axis=1) / c
         s0 = np.where(s0 > 0, s0, 1e-300)
+        if not second:
+            return s1 / s0 + t1, np.zeros(0)
+        v = u_buf[:k]
+        np.multiply(2.0, t, out=v)
+        v -= 1.0
+        np.multiply(wr, v, out=v)
+        s2 = np.sum(v, axis=1)
+        t *= r
+        t2 = np.sum(t, axis=1) / c
         return s1 / s0 + t1, s2 / s0 - (s1 / s0) ** 2 + t2
 
     rows = np.arange(wz.shape[0])
-    g_a, _ = derivs(a, rows)
-    g_b, _ = derivs(b, rows)
+    g_a, _ = derivs(a, rows, False)
+    g_b, _ = derivs(b, rows, False)
     ok = (g_a < 0) & (g_b > 0)
     x = np.where(ok, 0.5 * (a + b), np.where(g_a < 0, b, a))
     act = np.flatnonzero(ok)
@@ -705,21 +720,23 @@ def segment_misfit(
     edges = (segment_edges(f, fn, -lam.real / np.maximum(np.abs(lam), 1e-300), criteria=criteria)
              if edges is None else np.asarray(edges, dtype=np.intp))
     n_seg = edges.size - 1
-    e = np.zeros_like(y)
-    mod = np.zeros_like(y)
+    # |residual|^2 and |model|^2 of every line (0 on lines left out), formed segment by segment
+    resid2 = np.zeros(y.shape)
+    model2 = np.zeros(y.shape)
     n_par = np.zeros(n_seg)  # real parameters per channel of each segment's local fit
     lines = np.zeros(n_seg)
     m_seg = np.zeros(n_seg)
     for s_i in range(n_seg):
         i0, i1 = int(edges[s_i]), int(edges[s_i + 1])
-        idx = np.arange(i0, i1)[ok[i0:i1]]
-        n_l = idx.size
+        sel = np.arange(i0, i1)[ok[i0:i1]]
+        n_l = sel.size
+        idx: NDArray[np.intp] | slice = slice(i0, i1) if n_l == i1 - i0 else sel
         lines[s_i] = n_l
         if n_l == 0:
             continue
         # the modes of the segment and of its neighbourhood (one segment width each side), nearest
         # first, as many as the lines carry with the polynomial; the rest the polynomial stands for
-        lo, hi = f[idx[0]], f[idx[-1]]
+        lo, hi = f[sel[0]], f[sel[-1]]
         width = max(hi - lo, 0.0)
         near = np.flatnonzero((fn >= lo - width) & (fn <= hi + width))
         near = near[np.argsort(np.abs(fn[near] - 0.5 * (lo + hi)), kind="stable")]
@@ -748,10 +765,9 @@ def segment_misfit(
             n_par[s_i] = int(keep.sum())
         else:
             fit = np.zeros_like(yv)
-        mod[:, idx] = fit.view(np.complex128)
-        e[:, idx] = (yv - fit).view(np.complex128)
-    resid2 = np.abs(e) ** 2
-    model2 = np.abs(mod) ** 2
+        model2[:, idx] = np.abs(fit.view(np.complex128)) ** 2
+        fit -= yv
+        resid2[:, idx] = np.abs(fit.view(np.complex128)) ** 2  # |y - fit| = |fit - y|
     dof_c = np.maximum(2 * lines - n_par, 1.0)  # per channel
     alpha = criteria.p_value / max(n_seg * (n_chan + 1), 1)
 
