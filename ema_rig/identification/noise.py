@@ -245,8 +245,7 @@ def fit_noise_model(
     lg = np.log10(np.where(grid > 0, grid, 1e-5))
     lo = lg[np.maximum(best - 1, 0)]
     hi = lg[np.minimum(best + 1, grid.size - 1)]
-    q_m = _noise_refine(wz, unw, cnt, lo, hi)
-    s_m, t_m = _noise_profile(wz, unw, cnt, q_m)
+    q_m, s_m, t_m = _noise_refine(wz, unw, cnt, lo, hi)
     f_m = np.log(s_m) + t_m
     rows = np.arange(n_chan)
     better = f_m < nll[rows, best]
@@ -254,8 +253,9 @@ def fit_noise_model(
     s = np.where(better, s_m, s_g[rows, best])
     a = s
     b = s * q / np.where(um[:, 0] > 0, um[:, 0], 1.0)
-    var = a[:, None] + b[:, None] * u
-    return a, b, np.maximum(var, 1e-300)
+    var = b[:, None] * u
+    var += a[:, None]
+    return a, b, np.maximum(var, 1e-300, out=var)
 
 
 #: Channels evaluated together by the noise fit's loops: their lines stay in the processor cache.
@@ -443,8 +443,11 @@ def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
 
 
 def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
-                  lo: NDArray[np.float64], hi: NDArray[np.float64], max_iter: int = 60) -> NDArray[np.float64]:
-    """The ratio ``q`` of a local minimum of the profile between ``10**lo`` and ``10**hi``, shape (n_chan,).
+                  lo: NDArray[np.float64], hi: NDArray[np.float64], max_iter: int = 60
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The ratio ``q`` of a local minimum of the profile between ``10**lo`` and ``10**hi``, shape (n_chan,),
+    and the level ``s`` and log term ``t`` there (:func:`_noise_profile`, block by block while the
+    lines are in the cache).
 
     Newton's method on the profile's derivative in ``x = ln q`` (first and second derivative in
     closed form, no logarithms), kept inside a bracket where the derivative changes sign from
@@ -454,11 +457,13 @@ def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     bracket narrower than 1e-12 in ``x``, after ``max_iter`` steps at most (a work limit).
     """
     ln10 = np.log(10.0)
-    x = np.empty(wz.shape[0])
+    q, s, t = np.empty(wz.shape[0]), np.empty(wz.shape[0]), np.empty(wz.shape[0])
     for i0 in range(0, wz.shape[0], _NOISE_BLOCK):
         i1 = min(i0 + _NOISE_BLOCK, wz.shape[0])
-        x[i0:i1] = _newton_block(wz[i0:i1], unw[i0:i1], cnt[i0:i1], lo[i0:i1] * ln10, hi[i0:i1] * ln10, max_iter)
-    return np.exp(x)
+        x = _newton_block(wz[i0:i1], unw[i0:i1], cnt[i0:i1], lo[i0:i1] * ln10, hi[i0:i1] * ln10, max_iter)
+        q[i0:i1] = np.exp(x)
+        s[i0:i1], t[i0:i1] = _noise_profile(wz[i0:i1], unw[i0:i1], cnt[i0:i1], q[i0:i1])
+    return q, s, t
 
 
 def _newton_block(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
