@@ -125,3 +125,22 @@ def test_bound_screen_keeps_the_best_grid_point():
             assert f[c, best[c]] <= f[c, j] + 1e-12, (masked, c, best[c], j)
         # the screen leaves few points: 1-2 per channel here (all 50 would be a screen that does nothing)
         assert alive.sum(axis=1).mean() <= 4.0, alive.sum(axis=1)
+
+
+def test_noise_fit_in_threads_is_the_fit_in_one_thread(monkeypatch):
+    """Blocks of channels run in a pool of two threads (issue 18: speed); the answer is the
+    one-thread answer to the bit (oracle: the same fit with the pool switched off), for the noise
+    fit and for the completeness test that calls it, so no load or scheduling changes a result."""
+    import ema_rig.identification.noise as noise
+
+    rng = np.random.default_rng(5)
+    n_chan, n = 100, 600
+    u = np.exp(rng.uniform(-8.0, 4.0, (n_chan, n)))
+    z = (1e-3 + 0.02 * u) * rng.exponential(size=u.shape)
+    mask = rng.uniform(size=u.shape) > 0.15
+    two = [noise.fit_noise_model(z, u, mask=m) for m in (None, mask)]
+    monkeypatch.setattr(noise, "_NOISE_THREADS", 1)
+    one = [noise.fit_noise_model(z, u, mask=m) for m in (None, mask)]
+    for r2, r1 in zip(two, one, strict=True):
+        for x2, x1 in zip(r2, r1, strict=True):
+            assert np.array_equal(x2, x1)

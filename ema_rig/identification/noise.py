@@ -42,6 +42,7 @@ divides by ``1 - h_i`` first, which is how the degrees of freedom spent on the f
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -261,6 +262,29 @@ def fit_noise_model(
 #: Channels evaluated together by the noise fit's loops: their lines stay in the processor cache.
 _NOISE_BLOCK = 32
 
+#: Threads of :func:`_blocks` (fixed: the partition into blocks, not the machine, decides the work).
+_NOISE_THREADS = 2
+
+
+def _blocks(fn: Callable[[int, int], None], n: int) -> None:
+    """Call ``fn(i0, i1)`` for the blocks ``[i0, i1)`` of ``_NOISE_BLOCK`` items of ``0..n``.
+
+    With more than one block they run in a pool of ``_NOISE_THREADS`` threads (numpy releases the
+    interpreter lock in its loops over the lines). The partition is fixed and every block writes
+    only its own rows, computed by the same operations as in one thread, so the result does not
+    depend on the number of threads, their scheduling or the load of the machine, to the bit.
+    """
+    spans = [(i0, min(i0 + _NOISE_BLOCK, n)) for i0 in range(0, n, _NOISE_BLOCK)]
+    if len(spans) < 2 or _NOISE_THREADS < 2:
+        for i0, i1 in spans:
+            fn(i0, i1)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(_NOISE_THREADS, thread_name_prefix="ema-rig-noise") as pool:
+        for done in [pool.submit(fn, i0, i1) for i0, i1 in spans]:
+            done.result()  # re-raises an error of the block
+
 
 def _noise_profile(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
                    q: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -297,9 +321,12 @@ def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[
     s_g = np.full((n_chan, n_g), np.nan)
     t_g = np.full((n_chan, n_g), np.nan)
     rows, cols = np.nonzero(cand)
-    for k0 in range(0, rows.size, _NOISE_BLOCK):
-        r, c = rows[k0:k0 + _NOISE_BLOCK], cols[k0:k0 + _NOISE_BLOCK]
+
+    def one(k0: int, k1: int) -> None:
+        r, c = rows[k0:k1], cols[k0:k1]
         s_g[r, c], t_g[r, c] = _noise_profile(wz[r], unw[r], cnt[r], grid[c])
+
+    _blocks(one, rows.size)
     nll = np.log(s_g) + t_g
     best = np.argmin(np.where(np.isfinite(nll), nll, np.inf), axis=1)
     return s_g, t_g, nll, best
@@ -385,9 +412,10 @@ def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     n_b = 2 + (e_hi - e_lo + 1) * kb  # bin 0: u = 0, bin 1: 0 < u < 2**(e_lo - 1), then kb per octave
     st_s = np.empty((n_chan, 3 * n_b))
     st_t = np.empty((n_chan, 4 * n_b))
-    for i0 in range(0, n_chan, _NOISE_BLOCK):  # blocks of channels: the temporaries stay in the cache
-        i1 = min(i0 + _NOISE_BLOCK, n_chan)
+    def sums(i0: int, i1: int) -> None:
         st_s[i0:i1], st_t[i0:i1] = _bin_sums(wz[i0:i1], unw[i0:i1], e_lo, n_b)
+
+    _blocks(sums, n_chan)
     frac = np.arange(kb) / (2 * kb) + 0.5
     octs = np.arange(e_lo, e_hi + 1)
     lo = np.concatenate([[0.0, 0.0], np.ldexp(np.tile(frac, octs.size), np.repeat(octs, kb))])
@@ -458,11 +486,13 @@ def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     """
     ln10 = np.log(10.0)
     q, s, t = np.empty(wz.shape[0]), np.empty(wz.shape[0]), np.empty(wz.shape[0])
-    for i0 in range(0, wz.shape[0], _NOISE_BLOCK):
-        i1 = min(i0 + _NOISE_BLOCK, wz.shape[0])
+
+    def one(i0: int, i1: int) -> None:
         x = _newton_block(wz[i0:i1], unw[i0:i1], cnt[i0:i1], lo[i0:i1] * ln10, hi[i0:i1] * ln10, max_iter)
         q[i0:i1] = np.exp(x)
         s[i0:i1], t[i0:i1] = _noise_profile(wz[i0:i1], unw[i0:i1], cnt[i0:i1], q[i0:i1])
+
+    _blocks(one, wz.shape[0])
     return q, s, t
 
 
