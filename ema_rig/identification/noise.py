@@ -806,17 +806,25 @@ def segment_misfit(
     dof_c = np.maximum(2 * lines - n_par, 1.0)  # per channel
     alpha = criteria.p_value / max(n_seg * (n_chan + 1), 1)
 
-    def test(var: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        # lines with an infinite variance carry no information: neither statistic nor dof
-        use = ok & np.isfinite(var)
-        z = np.where(use, 2.0 * resid2 / np.where(use, var, 1.0), 0.0)
-        chi_c = np.add.reduceat(z, edges[:-1], axis=1)  # (n_chan, n_seg)
-        n_l = np.add.reduceat(use.astype(np.float64), edges[:-1], axis=1)
-        d_c = np.maximum(2 * n_l - n_par, 1.0)
+    def test(var: NDArray[np.float64], known: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+             ) -> tuple[NDArray[np.float64], ...]:
+        # lines with an infinite variance carry no information: neither statistic nor dof;
+        # known: chi2 and p-value per channel and segment already formed with every ok line
+        if known is None:
+            use = ok & np.isfinite(var)
+            z = np.where(use, 2.0 * resid2 / np.where(use, var, 1.0), 0.0)
+            chi_c = np.add.reduceat(z, edges[:-1], axis=1)  # (n_chan, n_seg)
+            n_l = np.add.reduceat(use.astype(np.float64), edges[:-1], axis=1)
+            d_c = np.maximum(2 * n_l - n_par, 1.0)
+            p_c = chi2_dist.sf(chi_c, d_c)
+        else:
+            chi_c, p_c = known
+            n_l = np.broadcast_to(lines, chi_c.shape)
+            d_c = np.broadcast_to(dof_c, chi_c.shape)
         d_p = np.maximum(np.sum(2 * n_l - n_par, axis=0) - 2 * m_seg, 1.0)
         chi_p = chi_c.sum(axis=0)
         r_c, r_p = chi_c / d_c, chi_p / d_p
-        p_c, p_p = chi2_dist.sf(chi_c, d_c), chi2_dist.sf(chi_p, d_p)
+        p_p = chi2_dist.sf(chi_p, d_p)
         fail = ((p_p < alpha) & (r_p >= criteria.misfit_ratio)) | np.any(
             (p_c < alpha) & (r_c >= criteria.misfit_ratio), axis=0)
         return (r_p, r_c.max(axis=0), np.minimum(p_p, p_c.min(axis=0)), np.asarray(fail, dtype=bool), d_p)
@@ -843,20 +851,24 @@ def segment_misfit(
         source = "estimated"
         use = np.broadcast_to(ok, resid2.shape).copy()
         a, b = np.zeros(n_chan), np.zeros(n_chan)
+        var = np.empty(resid2.shape)
+        chi_c, p_c = np.empty((n_chan, n_seg)), np.empty((n_chan, n_seg))
         redo = np.arange(n_chan)
         for _ in range(3):
-            # the fit is per channel: only the channels whose lines changed are fitted again
-            a[redo], b[redo], _v = fit_noise_model(resid2[redo], model2[redo], mask=use[redo])
-            var = np.maximum(a[:, None] + b[:, None] * model2, 1e-300)
-            z = np.where(ok, 2.0 * resid2 / var, 0.0)
-            chi_c = np.add.reduceat(z, edges[:-1], axis=1)
-            bad = (chi2_dist.sf(chi_c, dof_c) < alpha) & (chi_c / dof_c >= criteria.misfit_ratio)
+            # the fit is per channel: only the channels whose lines changed are fitted again, and
+            # only their variance (a + b |H|^2, floored at 1e-300), chi2 and p-values are formed anew
+            rows: NDArray[np.intp] | slice = slice(None) if redo.size == n_chan else redo
+            a[redo], b[redo], var[rows] = fit_noise_model(resid2[rows], model2[rows], mask=use[rows])
+            z = np.where(ok, 2.0 * resid2[rows] / var[rows], 0.0)
+            chi_c[rows] = np.add.reduceat(z, edges[:-1], axis=1)
+            p_c[rows] = chi2_dist.sf(chi_c[rows], dof_c)
+            bad = (p_c < alpha) & (chi_c / dof_c >= criteria.misfit_ratio)
             keep = ok & np.logical_not(np.repeat(bad, np.diff(edges), axis=1))
             if np.array_equal(keep, use) or keep.sum(axis=1).min() < 8:
                 break
             redo = np.flatnonzero(np.any(keep != use, axis=1))
             use = keep
-        r_p, r_w, p, fail, dof_p = test(var)
+        r_p, r_w, p, fail, dof_p = test(var, (chi_c, p_c) if bool(np.all(np.isfinite(var))) else None)
     # a failing segment at a band edge without a mode of its own, or whose excess lies mostly in its
     # outer half, comes from a mode outside the band (the polynomial of the local fit stands only
     # for modes far from the segment, not for the steep skirt of one just beyond the edge)
