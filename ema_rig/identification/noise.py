@@ -43,6 +43,7 @@ divides by ``1 - h_i`` first, which is how the degrees of freedom spent on the f
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -208,7 +209,8 @@ def fit_noise_model(
     of ``|H|^2`` (convexity: tangent and chord per bin) exclude the grid points that cannot be the
     minimum, and only the others (one or two per channel, typically) are evaluated in double
     precision: the best grid point is the one the full double-precision grid gives. Channels are
-    independent and processed in blocks that stay in the processor cache.
+    independent and processed in blocks that stay in the processor cache, two blocks at a time in
+    threads (a fixed partition: the result is the one-thread result to the bit).
 
     Examples
     --------
@@ -279,8 +281,6 @@ def _blocks(fn: Callable[[int, int], None], n: int) -> None:
         for i0, i1 in spans:
             fn(i0, i1)
         return
-    from concurrent.futures import ThreadPoolExecutor
-
     with ThreadPoolExecutor(_NOISE_THREADS, thread_name_prefix="ema-rig-noise") as pool:
         for done in [pool.submit(fn, i0, i1) for i0, i1 in spans]:
             done.result()  # re-raises an error of the block
@@ -387,18 +387,23 @@ def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     """The grid points at which a channel's profile can be smallest, shape (n_chan, n_grid), bool.
 
     The lines of each channel are binned by ``u = |H|^2 / m`` (``_BOUND_BINS`` bins per octave,
-    edges exact binary fractions); per bin the sums of ``z``, ``z u``, ``1`` and ``u`` are formed
-    once. ``1 / (1 + q u)`` is convex in ``u`` and ``ln(1 + q u)`` concave, so on a bin
-    ``[lo, hi]`` each lies between its tangent at the bin's centre and its chord: linear in ``u``,
-    the binned sums give a lower and an upper bound of the profile ``ln s + t`` at every grid
-    point (two matrix products, no pass over the lines). The bounds differ by second order in the
-    bin width (about 1e-2 of the profile). A point whose lower bound exceeds the smallest upper
-    bound of its channel (plus 1e-9 for rounding) cannot be the minimum of the profile evaluated
-    in double precision, which is off by less than 1e-12; lines with ``u = 0`` enter exactly.
+    edges exact binary fractions); per bin the sums of ``z``, ``z u``, ``z / u`` and of ``1``,
+    ``u``, ``1 / u``, ``ln u`` are formed once (:func:`_bin_sums`). Where ``q u <= 1`` at the
+    bin's centre, ``1 / (1 + q u)`` is convex in ``u`` and ``ln(1 + q u)`` concave; where
+    ``q u > 1``, ``1 / (1 + q u) = v / (q + v)`` and ``ln(1 + q u) - ln u = ln(q + v)`` are
+    concave in ``v = 1 / u``. On a bin each function lies between its tangent at the bin's centre
+    and its chord, both linear in ``u`` (or ``v``), so the binned sums give a lower and an upper
+    bound of the profile ``ln s + t`` at every grid point (two matrix products, no pass over the
+    lines). The bounds differ by second order in the bin width, most where ``q u ~ 1`` (of order
+    1e-4 of the profile where the lines lie far from it, e.g. the flat profile of proportional
+    noise at large ``q``). A point whose lower bound exceeds the smallest upper bound of its
+    channel (plus 1e-9 for rounding) cannot be the minimum of the profile evaluated in double
+    precision, which is off by less than 1e-12; lines with ``u = 0`` enter exactly.
 
-    Rounding: the terms of the upper sums are positive, those of the tangent lower bound of
-    ``s`` are at most four times their (positive) sum per bin, so the products are exact to
-    1e-12 relative; the bounds are widened by 1e-10 relative.
+    Rounding: the terms of the sums for ``s`` are positive or (the tangent in ``u``) at most four
+    times their positive sum per bin, so the products are exact to 1e-12 relative and the bounds
+    of ``s`` are widened by 1e-10 relative; the terms for ``t`` (logarithms below 100 in
+    magnitude) are exact to 1e-13 per line and the bounds of the mean ``t`` widened by 1e-10.
     """
     n_chan, n_l = wz.shape
     n_g = grid.size
