@@ -368,17 +368,17 @@ def _bin_sums(wz: NDArray[np.float64], unw: NDArray[np.float64], e_lo: int, n_b:
     def binned(w: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.asarray(np.bincount(flat, w.ravel(), m), dtype=np.float64).reshape(n_chan, n_b)
 
-    # v = 1 / u and ln u of the positive u (0 where u = 0: those lines are in bin 0)
+    # v = 1 / u and ln u of the positive u (0 where u = 0: those lines are in bin 0, whose sums for
+    # t, the line count included, the bounds do not use)
     if all_pos:
         inv = 1.0 / unw
         lnu = np.log(unw)
-        cnt_w = np.ones_like(unw)
     else:
         inv = 1.0 / np.where(pos, unw, np.inf)
         lnu = np.log(np.where(pos, unw, 1.0))
-        cnt_w = pos.astype(np.float64)
+    count = np.bincount(flat, minlength=m).astype(np.float64).reshape(n_chan, n_b)
     st_s = np.concatenate([binned(wz), binned(wz * unw), binned(wz * inv)], axis=1)
-    st_t = np.concatenate([binned(cnt_w), binned(unw), binned(inv), binned(lnu)], axis=1)
+    st_t = np.concatenate([count, binned(unw), binned(inv), binned(lnu)], axis=1)
     return st_s, st_t
 
 
