@@ -409,7 +409,8 @@ def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     n_g = grid.size
     kb = _BOUND_BINS
     u_max = float(np.max(unw)) if unw.size else 0.0
-    if not n_l or u_max <= 0 or not np.isfinite(u_max):
+    # the bounds need z >= 0 and finite |H|^2 (else every point stays: the full grid, as before)
+    if not n_l or u_max <= 0 or not np.isfinite(u_max) or not bool(np.all(wz >= 0)):
         return np.ones((n_chan, n_g), bool)
     e_hi = int(np.frexp(u_max)[1])
     e_min = int(np.frexp(np.min(unw, where=unw > 0, initial=u_max))[1])
