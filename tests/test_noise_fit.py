@@ -144,3 +144,19 @@ def test_noise_fit_in_threads_is_the_fit_in_one_thread(monkeypatch):
     for r2, r1 in zip(two, one, strict=True):
         for x2, x1 in zip(r2, r1, strict=True):
             assert np.array_equal(x2, x1)
+
+
+def test_noise_fit_of_a_channel_with_a_nan_line_is_nan_and_leaves_the_others():
+    """A NaN or inf squared residual makes that channel's fit NaN (it is not hidden as a tiny
+    variance); every other channel keeps the fit it has alone (oracle: each channel fitted alone)."""
+    rng = np.random.default_rng(8)
+    u = np.exp(rng.uniform(-6.0, 3.0, (40, 500)))
+    z = (1e-3 + 0.01 * u) * rng.exponential(size=u.shape)
+    z[3, 5] = np.nan
+    z[13, 3] = np.inf
+    with np.errstate(invalid="ignore"):
+        a, b, var = fit_noise_model(z, u)
+    assert np.isnan(a[3]) and np.isnan(b[3]) and np.isnan(a[13]) and np.isnan(b[13])
+    for c in (0, 2, 4, 12, 14, 39):
+        a1, b1, _ = fit_noise_model(z[c:c + 1], u[c:c + 1])
+        assert a[c] == a1[0] and b[c] == b1[0]

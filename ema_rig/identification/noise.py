@@ -274,15 +274,22 @@ def _blocks(fn: Callable[[int, int], None], n: int) -> None:
     With more than one block they run in a pool of ``_NOISE_THREADS`` threads (numpy releases the
     interpreter lock in its loops over the lines). The partition is fixed and every block writes
     only its own rows, computed by the same operations as in one thread, so the result does not
-    depend on the number of threads, their scheduling or the load of the machine, to the bit.
+    depend on the number of threads, their scheduling or the load of the machine, to the bit. The
+    caller's ``np.errstate`` applies in the threads.
     """
     spans = [(i0, min(i0 + _NOISE_BLOCK, n)) for i0 in range(0, n, _NOISE_BLOCK)]
     if len(spans) < 2 or _NOISE_THREADS < 2:
         for i0, i1 in spans:
             fn(i0, i1)
         return
+    err = np.geterr()  # the caller's floating-point error handling holds in the threads too
+
+    def run(i0: int, i1: int) -> None:
+        with np.errstate(**err):
+            fn(i0, i1)
+
     with ThreadPoolExecutor(_NOISE_THREADS, thread_name_prefix="ema-rig-noise") as pool:
-        for done in [pool.submit(fn, i0, i1) for i0, i1 in spans]:
+        for done in [pool.submit(run, i0, i1) for i0, i1 in spans]:
             done.result()  # re-raises an error of the block
 
 
@@ -317,7 +324,9 @@ def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[
         Index of the smallest profile value (the first of equal ones).
     """
     n_chan, n_g = wz.shape[0], grid.size
-    cand = _noise_bounds(wz, unw, cnt, grid)
+    # a channel with a NaN or inf line has no best point (its fit is NaN, as a full grid gives)
+    finite = np.isfinite(np.sum(wz, axis=1)) & np.isfinite(np.sum(unw, axis=1))
+    cand = _noise_bounds(wz, unw, cnt, grid) & finite[:, None]
     s_g = np.full((n_chan, n_g), np.nan)
     t_g = np.full((n_chan, n_g), np.nan)
     rows, cols = np.nonzero(cand)
