@@ -808,7 +808,8 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
                 stat, need, q, dof_l, n_looks = res
                 if not stat >= need:
                     continue
-                out = _peak_line_out(data, model_poles, c, sl, test.variance, cc, [cands[j].natural_freq for j in pool])
+                out = (None if test.variance is None else  # checked above: res is None without it
+                       _peak_line_out(data, model_poles, c, sl, test.variance, cc, [cands[j].natural_freq for j in pool]))
                 if out is not None:
                     cands[i] = replace(c, reason=(f"{c.reason}; not a missing mode: its local evidence (F = {stat:.3g} >= "
                                                   f"{need:.3g}) rests on one line, {out}"))
