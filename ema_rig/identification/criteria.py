@@ -323,9 +323,10 @@ class CompletenessCriteria(_Sourced):
         segment passes the test without it (default False: on ufffiles_frf this dropped 5-13 of
         ~40 modes, differently in two overlapping bands, and made the band study worse).
     peak_line_out : bool
-        A missing mode must pass the local F test also without the line nearest to it (default
-        True): a pole can zero any one line, so a misfit of one line (a glitch, leakage, a
-        distorted peak) is no mode; a real one shows on the lines of its skirt as well, however light.
+        A missing mode (or the second mode of a split) must pass the local F test also without the
+        line nearest to it (default True): a pole can zero any one line, so a misfit of one line (a
+        glitch, leakage, a distorted peak) is no mode; a real one shows on the lines of its skirt as
+        well, however light.
     """
 
     p_value: float = _src(1e-3, "chi-square test p = 0.001 family-wise (Bonferroni), dof = 2 lines x channels - "

@@ -996,7 +996,8 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     the candidate stable at ``JudgeCriteria.min_poles`` orders at least, rejected for its support in
     the global fit or as a duplicate) by more than ``split_sigmas`` of its ML standard uncertainty
     stands for two features of the data: the candidate is tested on its own lines, the model's
-    poles there with it against without it (:func:`_local_f`, the test of a missing mode). The
+    poles there with it against without it (:func:`_local_f`, the test of a missing mode, also
+    without its peak line: :func:`_peak_line_out`). The
     global F test had judged it with the band's noise estimate and candidate count; this decision
     uses the lines near the two only, so two bands holding them decide alike.
     """
@@ -1038,7 +1039,8 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
         if res is None:
             continue
         stat, need, q, dof_l, n_looks = res
-        if not stat >= need:
+        if not stat >= need or _peak_line_out(data, model, c, sl, done.test.variance, cc,
+                                              [cands[j].natural_freq for j in pool]) is not None:
             continue
         model.append(c.mode.pole)
         pool.remove(i)
