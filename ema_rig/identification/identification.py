@@ -598,7 +598,7 @@ def identify(
                 if not changed:
                     break
                 last_fail = done.test.failing()
-            done = _split(data, done, residuals, crit)
+            done = _one_line(data, _split(data, done, residuals, crit), residuals, crit)
             cur, candidates, fitted = done.modes, done.candidates, done.fitted
             if done.split:
                 notes.append("modes the ML had merged into one, split where the lines near them need both (nested F "
@@ -1057,6 +1057,53 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     fitted = _fit_modes(data, modes, residuals)
     return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
                    split=tuple(added))
+
+
+def _one_line(data: FRFData, done: _Completed, residuals: bool, crit: IdentificationCriteria) -> _Completed:
+    """``done`` without the accepted modes whose evidence rests on one line (``CompletenessCriteria.peak_line_out``).
+
+    Only a mode whose ML half-power band ``2 zeta f_n`` is narrower than a line spacing can rest on
+    one line; such a mode is tested on the lines near it (:func:`_local_lines`), the model's other
+    poles with it against without it (:func:`_nested_test`), once without the line nearest to it
+    (:func:`_peak_line_out`): when the lines without that one do not need it, it is dropped.
+    """
+    cc = crit.completeness
+    var = done.test.variance
+    f = data.freq
+    if not cc.peak_line_out or var is None or f.size < 2 or not done.modes:
+        return done
+    df = float(np.median(np.diff(f)))
+    ml = done.fitted[1]
+    by_pole = {c.mode.pole: i for i, c in enumerate(done.candidates)}
+    cands = list(done.candidates)
+    drop: set[complex] = set()
+    for k, m in enumerate(done.modes):
+        lam = complex(ml.poles[k])
+        i = by_pole.get(m.pole)
+        if i is None or ml.kind[k] != "ml" or not -lam.real / np.pi < df:
+            continue
+        c = cands[i]
+        c_ml = replace(c, mode=replace(c.mode, pole=lam, natural_freq=abs(lam) / (2 * np.pi),
+                                       damping_ratio=-lam.real / abs(lam)))
+        sl = _local_lines(f, c_ml, cc)
+        if int(sl.sum()) < cc.min_segment_lines:
+            continue
+        others = [complex(p) for j, p in enumerate(ml.poles) if j != k]
+        out = _peak_line_out(data, others, c_ml, sl, var, cc, [c_ml.mode.natural_freq])
+        if out is None:
+            continue
+        drop.add(m.pole)
+        cands[i] = replace(c, accepted=False, reason=(
+            f"not resolved by the lines: its ML half-power band ({-lam.real / np.pi:.3g} Hz) is narrower than a line "
+            f"spacing ({df:g} Hz) and the lines near it need it only with the line nearest to it ({out}); before: "
+            f"{c.reason}"))
+    if not drop:
+        return done
+    modes = [m for m in done.modes if m.pole not in drop]
+    fitted = _fit_modes(data, modes, residuals)
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
+                   added=tuple(a for a in done.added if not any(abs(a - cands[by_pole[p]].natural_freq) < 1e-9
+                                                                  for p in drop)))
 
 
 def _unresolved(modes: Sequence[SelectedMode], ml: LocalML, f: NDArray[np.float64],
