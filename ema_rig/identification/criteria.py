@@ -333,6 +333,11 @@ class CompletenessCriteria(_Sourced):
         Drop an accepted mode whose own term is weak (``JudgeCriteria.weak_peak_share``) when its
         segment passes the test without it (default False: on ufffiles_frf this dropped 5-13 of
         ~40 modes, differently in two overlapping bands, and made the band study worse).
+    peak_line_out : bool
+        A missing mode (or the second mode of a split) must pass the local F test also without the
+        line nearest to it (default True): a pole can zero any one line, so a misfit of one line (a
+        glitch, leakage, a distorted peak) is no mode; a real one shows on the lines of its skirt as
+        well, however light.
     """
 
     p_value: float = _src(1e-3, "chi-square test p = 0.001 family-wise (Bonferroni), dof = 2 lines x channels - "
@@ -356,6 +361,9 @@ class CompletenessCriteria(_Sourced):
                                "a pole moved further towards a neighbouring cluster stands for two features")
     drop_weak: bool = _src(False, "off: on ufffiles_frf (two bands) it dropped modes inconsistently "
                            "(benchmarks/study_real_bands.py)")
+    peak_line_out: bool = _src(True, "a jackknife of the peak line (Efron & Tibshirani 1993, ch. 11): ufffiles_frf 94.99 Hz "
+                               "(zeta 0.19 %, beside the 96.1 Hz mode) zeroes the 95.0 Hz line alone; vt_case1's 34.06 Hz "
+                               "(zeta 0.02 %, half-power band below a line) stands on its skirt (benchmarks/study_real_bands.py)")
 
 
 @dataclass(frozen=True, slots=True)

@@ -598,7 +598,7 @@ def identify(
                 if not changed:
                     break
                 last_fail = done.test.failing()
-            done = _split(data, done, residuals, crit)
+            done = _one_line(data, _split(data, done, residuals, crit), residuals, crit)
             cur, candidates, fitted = done.modes, done.candidates, done.fitted
             if done.split:
                 notes.append("modes the ML had merged into one, split where the lines near them need both (nested F "
@@ -814,6 +814,12 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
                 stat, need, q, dof_l, n_looks = res
                 if not stat >= need:
                     continue
+                out = (None if test.variance is None else  # checked above: res is None without it
+                       _peak_line_out(data, model_poles, c, sl, test.variance, cc, [cands[j].natural_freq for j in pool]))
+                if out is not None:
+                    cands[i] = replace(c, reason=(f"{c.reason}; not a missing mode: its local evidence (F = {stat:.3g} >= "
+                                                  f"{need:.3g}) rests on one line, {out}"))
+                    continue
                 why = (f"nested F test on the lines {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz: F = {stat:.3g} >= {need:.3g} "
                        f"with {q:.0f}, {dof_l:.0f} dof, {n_looks} candidate(s) tested there")
                 sup_k = stat
@@ -905,6 +911,27 @@ def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria)
     return sel
 
 
+def _peak_line_out(data: FRFData, null: Sequence[complex], c: Candidate, sl: NDArray[np.bool_],
+                   variance: NDArray[np.float64], cc: CompletenessCriteria, looks: Sequence[float]) -> str | None:
+    """Why candidate ``c``'s local evidence on the lines ``sl`` rests on the line nearest to it alone, or None.
+
+    The nested test of :func:`_nested_test` again without that line
+    (``CompletenessCriteria.peak_line_out``): a pole and its residues can zero any one line, so a
+    misfit of one line is no evidence of a mode; a real mode, however light, shows on its skirt too.
+    """
+    if not cc.peak_line_out:
+        return None
+    idx = np.flatnonzero(sl)
+    j = int(idx[np.argmin(np.abs(data.freq[idx] - c.natural_freq))])
+    sl_out = sl.copy()
+    sl_out[j] = False
+    res = _nested_test(data, null, c.mode.pole, sl_out, variance, cc, looks)
+    if res is not None and res[0] >= res[1]:
+        return None
+    tail = "the fit failed" if res is None else f"F = {res[0]:.3g} < {res[1]:.3g} with {res[2]:.0f}, {res[3]:.0f} dof"
+    return f"without the line at {data.freq[j]:.6g} Hz {tail}"
+
+
 def _nested_test(data: FRFData, null: Sequence[complex], pole: complex, sl: NDArray[np.bool_],
                  variance: NDArray[np.float64], cc: CompletenessCriteria,
                  looks: Sequence[float]) -> tuple[float, float, float, float, int] | None:
@@ -975,7 +1002,8 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     the candidate stable at ``JudgeCriteria.min_poles`` orders at least, rejected for its support in
     the global fit or as a duplicate) by more than ``split_sigmas`` of its ML standard uncertainty
     stands for two features of the data: the candidate is tested on its own lines, the model's
-    poles there with it against without it (:func:`_local_f`, the test of a missing mode). The
+    poles there with it against without it (:func:`_local_f`, the test of a missing mode, also
+    without its peak line: :func:`_peak_line_out`). The
     global F test had judged it with the band's noise estimate and candidate count; this decision
     uses the lines near the two only, so two bands holding them decide alike.
     """
@@ -1017,7 +1045,8 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
         if res is None:
             continue
         stat, need, q, dof_l, n_looks = res
-        if not stat >= need:
+        if not stat >= need or _peak_line_out(data, model, c, sl, done.test.variance, cc,
+                                              [cands[j].natural_freq for j in pool]) is not None:
             continue
         model.append(c.mode.pole)
         pool.remove(i)
@@ -1034,6 +1063,53 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     fitted = _fit_modes(data, modes, residuals)
     return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
                    split=tuple(added))
+
+
+def _one_line(data: FRFData, done: _Completed, residuals: bool, crit: IdentificationCriteria) -> _Completed:
+    """``done`` without the accepted modes whose evidence rests on one line (``CompletenessCriteria.peak_line_out``).
+
+    Only a mode whose ML half-power band ``2 zeta f_n`` is narrower than a line spacing can rest on
+    one line; such a mode is tested on the lines near it (:func:`_local_lines`), the model's other
+    poles with it against without it (:func:`_nested_test`), once without the line nearest to it
+    (:func:`_peak_line_out`): when the lines without that one do not need it, it is dropped.
+    """
+    cc = crit.completeness
+    var = done.test.variance
+    f = data.freq
+    if not cc.peak_line_out or var is None or f.size < 2 or not done.modes:
+        return done
+    df = float(np.median(np.diff(f)))
+    ml = done.fitted[1]
+    by_pole = {c.mode.pole: i for i, c in enumerate(done.candidates)}
+    cands = list(done.candidates)
+    drop: set[complex] = set()
+    for k, m in enumerate(done.modes):
+        lam = complex(ml.poles[k])
+        i = by_pole.get(m.pole)
+        if i is None or ml.kind[k] != "ml" or not -lam.real / np.pi < df:
+            continue
+        c = cands[i]
+        c_ml = replace(c, mode=replace(c.mode, pole=lam, natural_freq=abs(lam) / (2 * np.pi),
+                                       damping_ratio=-lam.real / abs(lam)))
+        sl = _local_lines(f, c_ml, cc)
+        if int(sl.sum()) < cc.min_segment_lines:
+            continue
+        others = [complex(p) for j, p in enumerate(ml.poles) if j != k]
+        out = _peak_line_out(data, others, c_ml, sl, var, cc, [c_ml.mode.natural_freq])
+        if out is None:
+            continue
+        drop.add(m.pole)
+        cands[i] = replace(c, accepted=False, reason=(
+            f"not resolved by the lines: its ML half-power band ({-lam.real / np.pi:.3g} Hz) is narrower than a line "
+            f"spacing ({df:g} Hz) and the lines near it need it only with the line nearest to it ({out}); before: "
+            f"{c.reason}"))
+    if not drop:
+        return done
+    modes = [m for m in done.modes if m.pole not in drop]
+    fitted = _fit_modes(data, modes, residuals)
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
+                   added=tuple(a for a in done.added if not any(abs(a - cands[by_pole[p]].natural_freq) < 1e-9
+                                                                  for p in drop)))
 
 
 def _unresolved(modes: Sequence[SelectedMode], ml: LocalML, f: NDArray[np.float64],
