@@ -220,14 +220,17 @@ def _repulsion(zr: NDArray[Any], ir: NDArray[Any], z: NDArray[Any]) -> NDArray[A
     return out
 
 
-def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int = 60) -> NDArray[np.complex128] | None:
+def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int = 60,
+           s0: NDArray[np.complex128] | None = None) -> NDArray[np.complex128] | None:
     """All roots of ``sum_j c_j z^j`` from initial guesses ``z0`` (one per root).
 
     Only the roots not yet accepted are iterated (their sweeps vectorised over that active set);
     an accepted root stays where it is and keeps its part in the others' repulsion sums. A
     root is accepted when its backward error is at rounding level (the test of
     :func:`_ratio`), and only then. Returns None when the iteration does not converge within
-    ``maxiter`` sweeps (the caller then uses an eigenvalue method).
+    ``maxiter`` sweeps (the caller then uses an eigenvalue method). ``s0`` (shape (N,)), when
+    given, holds the repulsion sums ``sum_{j != i} 1 / (z0_i - z0_j)`` of the start, used by
+    the first sweep instead of summing them (:func:`aberth_warm`).
     """
     n = c.size - 1
     if n < 1 or z0.size != n or c[-1] == 0 or not np.all(np.isfinite(c)):
@@ -255,11 +258,14 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
             # Aberth's correction r / (1 - r s): where r s is already small, the repulsion s of
             # the previous sweep changes the step only at second order (the roots have moved
             # little since): reuse it, and sum afresh only where it matters
-            stale = np.abs(r * s_prev[act]) < _STALE  # NaN (no previous sum) compares False
-            s = s_prev[act]
-            fresh = np.flatnonzero(~stale)
-            if fresh.size:
-                s[fresh] = _repulsion(za[fresh], act[fresh], z)
+            if it == 0 and s0 is not None:
+                s = s0[act]  # the start's sums, given
+            else:
+                stale = np.abs(r * s_prev[act]) < _STALE  # NaN (no previous sum) compares False
+                s = s_prev[act]
+                fresh = np.flatnonzero(~stale)
+                if fresh.size:
+                    s[fresh] = _repulsion(za[fresh], act[fresh], z)
             s_prev[act] = s
             w = r / (1.0 - r * s)
             ok = np.isfinite(w)
@@ -269,6 +275,55 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
     # two approximations on one root would leave another root unfound: _checked tests the sum of
     # the roots (Vieta) and that no two coincide
     return _checked(c, z)
+
+
+def self_repulsion(coef: NDArray[np.float64], roots: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """``sum_{j != i} 1 / (z_i - z_j)`` over ALL the roots ``z`` of ``sum_j c_j z^j``, at each root.
+
+    At a simple root of p, ``p(z) = p'(z_i) (z - z_i) + p''(z_i) (z - z_i)^2 / 2 + ...`` and the
+    sum equals ``p''(z_i) / (2 p'(z_i))``: one evaluation of p' and p'' per root (the blocked
+    kernel of :func:`_ratio`, on the reversed polynomial outside the unit circle) instead of
+    N - 1 reciprocals. ``roots`` must be all N roots, to the accuracy the caller needs.
+    """
+    n = coef.size - 1
+    d1 = coef[1:] * np.arange(1, n + 1)  # p'
+    if n < 2:
+        return np.zeros(roots.size, dtype=np.complex128)
+    j = np.arange(1, n)
+    d1r = d1[::-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r, _ = _ratio_prepared(_prepare(d1, d1[1:] * j), _prepare(d1r, d1r[1:] * j), n - 1, roots, False)
+        return cast("NDArray[np.complex128]", 0.5 / r)  # p'' / (2 p')
+
+
+def aberth_warm(c: NDArray[np.float64], prev_coef: NDArray[np.float64], prev: NDArray[np.complex128], *,
+                maxiter: int = 60) -> NDArray[np.complex128] | None:
+    """:func:`aberth` of ``c`` started from :func:`warm_start` of ``prev``, all roots of ``prev_coef``.
+
+    The first sweep's repulsion sums come from the previous polynomial: among the previous
+    roots (turned by the warm start's angle, which scales every difference alike) they are
+    :func:`self_repulsion` of ``prev_coef``; only the terms of the new start points are summed
+    (``m (N - m)`` and ``m N`` reciprocals for ``m`` new points instead of ``N^2``). The
+    iteration and its acceptance are those of :func:`aberth`; the first sweep's sums differ from
+    summed ones by the accuracy of ``prev`` (their round-off), which changes a step only at
+    second order. When ``prev`` is not the whole root set of ``prev_coef`` the sums are formed
+    as in :func:`aberth`.
+    """
+    n = c.size - 1
+    z0 = warm_start(prev, n)
+    k = prev.size
+    if k != prev_coef.size - 1 or k > n or k == 0:
+        return aberth(c, z0, maxiter=maxiter)
+    s0 = np.empty(n, dtype=np.complex128)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s0[:k] = self_repulsion(prev_coef, prev) / _TURN
+        if k < n:
+            new = z0[k:]
+            s0[:k] += (1.0 / (z0[:k, None] - new[None, :])).sum(axis=1)
+            s0[k:] = _repulsion(new, np.arange(k, n), z0)
+    if not np.all(np.isfinite(s0)):
+        return aberth(c, z0, maxiter=maxiter)
+    return aberth(c, z0, maxiter=maxiter, s0=s0)
 
 
 #: Sweeps an order of :func:`aberth_chain` runs alone before the next order starts from its
@@ -512,6 +567,10 @@ def _checked(c: NDArray[Any], z: NDArray[np.complex128]) -> NDArray[np.complex12
     return z
 
 
+#: The turn of :func:`warm_start`'s guesses off conjugate symmetry.
+_TURN = np.exp(1e-3j)
+
+
 def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex128]:
     """Initial guesses: the previous order's roots plus new points spread on a circle.
 
@@ -524,7 +583,7 @@ def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex
         m = 0
     k = np.arange(m)
     new = 1.1 * np.exp(1j * (0.4 + 2 * np.pi * (k + 0.5) / max(m, 1)))
-    return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * np.exp(1e-3j))
+    return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * _TURN)
 
 
-__all__ = ["aberth", "aberth_chain", "coefficient_blocks", "det_coefficients", "eval_blocked", "warm_start"]
+__all__ = ["aberth", "aberth_chain", "aberth_warm", "coefficient_blocks", "det_coefficients", "eval_blocked", "self_repulsion", "warm_start"]

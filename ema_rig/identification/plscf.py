@@ -100,12 +100,11 @@ from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
 from ._roots import (
-    aberth,
     aberth_chain,
+    aberth_warm,
     coefficient_blocks,
     det_coefficients,
     eval_blocked,
-    warm_start,
 )
 
 logger = logging.getLogger(__name__)
@@ -999,7 +998,8 @@ class PlscfEngine:
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
-        self._prev: NDArray[Any] | None = None
+        self._prev: NDArray[Any] | None = None  # roots of the last order rooted
+        self._prev_low: NDArray[Any] | None = None  # and its alpha_low
         self._rows: dict[int, tuple[NDArray[Any], NDArray[Any]]] = {}
         self.n_aberth = 0
         self.fallbacks = 0
@@ -1090,12 +1090,14 @@ class PlscfEngine:
                             entries.append((n, high, None))
                             continue
                         self._root_chain(chain, entries, bar)
-                        z = aberth(coef, warm_start(self._prev, coef.size - 1))
+                        # the first sweep's repulsion sums from the previous order's polynomial
+                        assert self._prev_low is not None
+                        z = aberth_warm(coef, det_coefficients(self._prev_low), self._prev)
                         self.n_aberth += z is not None
                         self.fallbacks += z is None
                     if z is None:
                         z = _roots_eig(low)
-                    self._prev = z
+                    self._prev, self._prev_low = z, low
                     entries.append((n, high, z))
                     if bar is not None:
                         bar.update()
@@ -1129,7 +1131,7 @@ class PlscfEngine:
             entries[k] = (n, high, z if z is not None else _roots_eig(low))
             if bar is not None:
                 bar.update()
-        self._prev = entries[chain[-1][0]][2]
+        self._prev, self._prev_low = entries[chain[-1][0]][2], chain[-1][2]
         chain.clear()
 
     def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
