@@ -436,6 +436,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
         while True:
             # start the next polynomial from the iterate of the one before
             nxt = int(np.argmax(state == 0)) if np.any(state == 0) else -1
+            copied = -1  # a polynomial started in this sweep at the iterate of the one before
             if nxt >= 0 and (nxt == 0 or state[nxt - 1] == 2 or sweeps[nxt - 1] >= _CHAIN_LAG):
                 if bad[nxt]:
                     state[nxt] = 2
@@ -444,6 +445,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                         z0 = warm_start(start, int(deg[nxt]))
                     else:
                         z0 = _extend(table[nxt - 1, : deg[nxt - 1]], int(deg[nxt]), nxt)
+                        copied = nxt
                     table[nxt, : deg[nxt]] = z0
                     pending[nxt * n : nxt * n + deg[nxt]] = True
                     state[nxt] = 1
@@ -468,7 +470,19 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                 fresh = np.flatnonzero(~stale)
                 if fresh.size:
                     width = int(deg[own].max())  # no root of these polynomials beyond this column
-                    s[fresh] = _chain_repulsion(z[fresh], act[fresh] % n, table[:, :width], own[fresh])
+                    fa = act[fresh]
+                    # a polynomial started in this sweep holds the iterate of the one before: where
+                    # that one's sum is formed in this sweep (same points, same set of others), the
+                    # new one's is it plus the terms of the new start points (_chain_reuse)
+                    same, src = _chain_reuse(fa, n, copied, int(deg[copied - 1]) if copied > 0 else 0)
+                    direct = np.ones(fresh.size, dtype=bool)
+                    direct[same] = False
+                    fd = fresh[direct]
+                    s[fd] = _chain_repulsion(z[fd], act[fd] % n, table[:, :width], own[fd])
+                    if same.size:
+                        zc = z[fresh[same]]
+                        new = table[copied, int(deg[copied - 1]) : int(deg[copied])]
+                        s[fresh[same]] = s[fresh[src]] + (1.0 / (zc[:, None] - new[None, :])).sum(axis=1)
                 s_prev[act] = s
                 w = r / (1.0 - r * s)
                 ok = np.isfinite(w)
@@ -483,6 +497,24 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                 else:  # not converged: None (the caller's eigenvalue fallback)
                     pending[i * n : i * n + deg[i]] = False
     return out
+
+
+def _chain_reuse(fa: NDArray[Any], n: int, copied: int, d_old: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Which repulsion sums of a chain sweep can be taken from the polynomial before.
+
+    ``fa`` (ascending flat indices ``polynomial * n + position``) are the roots whose sums the
+    sweep forms; polynomial ``copied`` (or none, -1) started in this sweep with its first
+    ``d_old`` roots at the iterate of polynomial ``copied - 1``. Returns ``(same, src)``: the
+    entries of ``fa`` of those roots whose counterpart (index ``- n``) is in ``fa`` too, and
+    the entries of the counterparts.
+    """
+    if copied < 1:
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    cand = np.flatnonzero((fa // n == copied) & (fa % n < d_old))
+    src = fa[cand] - n
+    at = np.minimum(np.searchsorted(fa, src), fa.size - 1)
+    ok = fa[at] == src
+    return cand[ok], at[ok]
 
 
 def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDArray[Any]], deg: NDArray[Any],
