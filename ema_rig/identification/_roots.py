@@ -24,6 +24,13 @@ converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 
 anyway), and each sweep evaluates and corrects the active roots of every started order
 together, so the fixed cost of a sweep is paid once for ~10 orders instead of once per order.
 
+The first sweep's repulsion sums, the largest of the O(N^2) work (every root is far from
+converged, none can reuse an old sum), are not summed where they are already known: an order
+rooted on its own starts from the previous order's roots, whose sums among themselves are
+``p''/(2 p')`` of the previous polynomial (:func:`aberth_warm`, one evaluation per root); in a
+chain, an order that starts at the iterate of the order below takes that order's sums of the
+same sweep (:func:`_chain_reuse`). Only the new start points' terms are added.
+
 References
 ----------
 .. [1] O. Aberth, "Iteration methods for finding all zeros of a polynomial simultaneously",

@@ -61,9 +61,10 @@ eigenvalues of the block companion matrix of the coefficient-reversed, transpose
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
 ``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
 roots (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
-round-off; one reference up to degree 130: all those orders in one batch of sweeps,
-:func:`~._roots.aberth_chain`; an order that does not converge falls back to the companion
-eigenvalues). The
+round-off; up to degree 130: all those orders in one batch of sweeps,
+:func:`~._roots.aberth_chain`; above it one order at a time, the first sweep's repulsion sums
+from the previous order's polynomial, :func:`~._roots.aberth_warm`; an order that does not
+converge falls back to the companion eigenvalues). The
 participation vector ``l_r`` of pole ``z_r`` is the null vector of ``A(z_r)^T`` (what the last
 ``n_in`` rows of a companion eigenvector hold), computed directly from the ``n_in x n_in``
 matrix, which is cheaper than eigenvectors. All dense algebra runs with single-threaded
