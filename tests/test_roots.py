@@ -217,3 +217,28 @@ def test_aberth_warm_finds_the_companion_roots(n):
         found = _roots.aberth_warm(c, lower, p)
         assert found is not None
         assert _set_distance(found, want).max() < 5e-13
+
+
+def test_warm_started_roots_of_a_clustered_polynomial():
+    # a rig-like cluster: two lightly damped pairs 1e-3 rad apart (|z| = 0.995) on a random
+    # polynomial of degree 156, started from the roots of a perturbed lower neighbour (one
+    # pair moved by 1e-4): aberth_warm (first sweep from the neighbour's p''/2p') and a chain
+    # of the neighbour and the polynomial against numpy.roots, as sets: measured 2.4e-11 and
+    # 6.6e-10 relative (the worst-conditioned roots of a random degree-160 polynomial, both
+    # methods within their condition numbers). The cluster's four roots themselves (measured
+    # <= 1.2e-11 from the exact ones): 1e-9 fails on a lost or doubled root of it (O(1e-3))
+    def pair(z):
+        return np.array([abs(z) ** 2, -2 * z.real, 1.0])
+
+    n = 160
+    rng = np.random.default_rng(n)
+    base = rng.standard_normal(n - 3)
+    a, b = 0.995 * np.exp(0.9j), 0.995 * np.exp(0.901j)
+    c = np.convolve(np.convolve(base, pair(a)), pair(b))
+    lower = np.convolve(base[:-2] * (1 + 0.01 * rng.standard_normal(n - 5)), pair(a * 1.0001))
+    prev = _companion_roots(lower)
+    want = _companion_roots(c)
+    for found in (_roots.aberth_warm(c, lower, prev), _roots.aberth_chain([lower, c], prev[:-2])[1]):
+        assert found is not None
+        assert _set_distance(found, want).max() < 1e-8
+        assert np.abs(found - a).min() < 1e-9 and np.abs(found - b).min() < 1e-9
