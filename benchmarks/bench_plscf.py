@@ -150,17 +150,21 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
     mod = importlib.import_module("ema_rig.identification.plscf")
     # each root-finding call: (replay, [(coefficients, final roots) per order it roots])
     calls: list[tuple[Callable[[], Any], list[tuple[np.ndarray, np.ndarray]]]] = []
-    aberth0, eig0 = mod.aberth, mod._roots_eig
+    eig0 = mod._roots_eig
+    # one order at a time: aberth(c, z0) on older trees, aberth_warm(c, prev_coef, prev) (the
+    # first sweep's repulsion from the previous order's polynomial) on newer ones
+    one_name = "aberth_warm" if hasattr(mod, "aberth_warm") else "aberth"
+    aberth0 = getattr(mod, one_name)
     chain0 = getattr(mod, "aberth_chain", None)  # the batched chain of orders (newer trees)
     in_call = [0.0]
     empty = np.zeros(0, complex)
 
-    def rec_aberth(c: np.ndarray, z0: np.ndarray) -> Any:
+    def rec_aberth(c: np.ndarray, *args: Any) -> Any:
         t0 = time.perf_counter()
-        z = aberth0(c, z0)
+        z = aberth0(c, *args)
         in_call[0] += time.perf_counter() - t0
         # a failed call (None): the fallback that follows is timed as its own call
-        calls.append((lambda c=c, z0=z0: aberth0(c, z0), [(c, z if z is not None else empty)]))
+        calls.append((lambda c=c, args=args: aberth0(c, *args), [(c, z if z is not None else empty)]))
         return z
 
     def rec_chain(coefs: list[np.ndarray], start: np.ndarray) -> Any:
@@ -178,7 +182,8 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
         calls.append((lambda low=low: eig0(low), [(det_coefficients(low), z)]))
         return z
 
-    mod.aberth, mod._roots_eig = rec_aberth, rec_eig
+    setattr(mod, one_name, rec_aberth)
+    mod._roots_eig = rec_eig
     if chain0 is not None:
         mod.aberth_chain = rec_chain
     try:
@@ -186,7 +191,8 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
         call_ema(data, max_order)
         total = time.perf_counter() - t0
     finally:
-        mod.aberth, mod._roots_eig = aberth0, eig0
+        setattr(mod, one_name, aberth0)
+        mod._roots_eig = eig0
         if chain0 is not None:
             mod.aberth_chain = chain0
     step = floor = 0.0

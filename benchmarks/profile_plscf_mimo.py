@@ -31,7 +31,7 @@ from bench_plscf import blas_threads, call_ema, ema_data, make_arrays  # beside 
 STAGES = [
     ("check_data", False), ("_lag_sums", False), ("_order_limit", False), ("_reduced_factor", False),
     ("_q_rows", False), ("_add_gram", False), ("_solve_order", False), ("det_coefficients", False),
-    ("warm_start", False), ("aberth", False), ("_roots_eig", False), ("_poles_of_orders", False),
+    ("warm_start", False), ("aberth", False), ("aberth_warm", False), ("_roots_eig", False), ("_poles_of_orders", False),
     ("_refine_many", True), ("_participation_many", True),
 ]
 
@@ -41,6 +41,7 @@ PER_ORDER: dict[str, Callable[..., int]] = {
     "det_coefficients": lambda alpha: int(alpha.shape[0]) - 1,
     "warm_start": lambda prev, n_roots: int(n_roots) // 2,
     "aberth": lambda c, z0, **k: (int(c.size) - 1) // 2,
+    "aberth_warm": lambda c, *a, **k: (int(c.size) - 1) // 2,
     "_roots_eig": lambda low: int(low.shape[0]) - 1,
 }
 #: bands of orders for the per-order table (degree 2n < 64: companion eigenvalues; above: Aberth)

@@ -24,6 +24,13 @@ converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 
 anyway), and each sweep evaluates and corrects the active roots of every started order
 together, so the fixed cost of a sweep is paid once for ~10 orders instead of once per order.
 
+The first sweep's repulsion sums, the largest of the O(N^2) work (every root is far from
+converged, none can reuse an old sum), are not summed where they are already known: an order
+rooted on its own starts from the previous order's roots, whose sums among themselves are
+``p''/(2 p')`` of the previous polynomial (:func:`aberth_warm`, one evaluation per root); in a
+chain, an order that starts at the iterate of the order below takes that order's sums of the
+same sweep (:func:`_chain_reuse`). Only the new start points' terms are added.
+
 References
 ----------
 .. [1] O. Aberth, "Iteration methods for finding all zeros of a polynomial simultaneously",
@@ -220,14 +227,17 @@ def _repulsion(zr: NDArray[Any], ir: NDArray[Any], z: NDArray[Any]) -> NDArray[A
     return out
 
 
-def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int = 60) -> NDArray[np.complex128] | None:
+def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int = 60,
+           s0: NDArray[np.complex128] | None = None) -> NDArray[np.complex128] | None:
     """All roots of ``sum_j c_j z^j`` from initial guesses ``z0`` (one per root).
 
     Only the roots not yet accepted are iterated (their sweeps vectorised over that active set);
     an accepted root stays where it is and keeps its part in the others' repulsion sums. A
     root is accepted when its backward error is at rounding level (the test of
     :func:`_ratio`), and only then. Returns None when the iteration does not converge within
-    ``maxiter`` sweeps (the caller then uses an eigenvalue method).
+    ``maxiter`` sweeps (the caller then uses an eigenvalue method). ``s0`` (shape (N,)), when
+    given, holds the repulsion sums ``sum_{j != i} 1 / (z0_i - z0_j)`` of the start, used by
+    the first sweep instead of summing them (:func:`aberth_warm`).
     """
     n = c.size - 1
     if n < 1 or z0.size != n or c[-1] == 0 or not np.all(np.isfinite(c)):
@@ -255,11 +265,14 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
             # Aberth's correction r / (1 - r s): where r s is already small, the repulsion s of
             # the previous sweep changes the step only at second order (the roots have moved
             # little since): reuse it, and sum afresh only where it matters
-            stale = np.abs(r * s_prev[act]) < _STALE  # NaN (no previous sum) compares False
-            s = s_prev[act]
-            fresh = np.flatnonzero(~stale)
-            if fresh.size:
-                s[fresh] = _repulsion(za[fresh], act[fresh], z)
+            if it == 0 and s0 is not None:
+                s = s0[act]  # the start's sums, given
+            else:
+                stale = np.abs(r * s_prev[act]) < _STALE  # NaN (no previous sum) compares False
+                s = s_prev[act]
+                fresh = np.flatnonzero(~stale)
+                if fresh.size:
+                    s[fresh] = _repulsion(za[fresh], act[fresh], z)
             s_prev[act] = s
             w = r / (1.0 - r * s)
             ok = np.isfinite(w)
@@ -269,6 +282,55 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
     # two approximations on one root would leave another root unfound: _checked tests the sum of
     # the roots (Vieta) and that no two coincide
     return _checked(c, z)
+
+
+def self_repulsion(coef: NDArray[np.float64], roots: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """``sum_{j != i} 1 / (z_i - z_j)`` over ALL the roots ``z`` of ``sum_j c_j z^j``, at each root.
+
+    At a simple root of p, ``p(z) = p'(z_i) (z - z_i) + p''(z_i) (z - z_i)^2 / 2 + ...`` and the
+    sum equals ``p''(z_i) / (2 p'(z_i))``: one evaluation of p' and p'' per root (the blocked
+    kernel of :func:`_ratio`, on the reversed polynomial outside the unit circle) instead of
+    N - 1 reciprocals. ``roots`` must be all N roots, to the accuracy the caller needs.
+    """
+    n = coef.size - 1
+    d1 = coef[1:] * np.arange(1, n + 1)  # p'
+    if n < 2:
+        return np.zeros(roots.size, dtype=np.complex128)
+    j = np.arange(1, n)
+    d1r = d1[::-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r, _ = _ratio_prepared(_prepare(d1, d1[1:] * j), _prepare(d1r, d1r[1:] * j), n - 1, roots, False)
+        return cast("NDArray[np.complex128]", 0.5 / r)  # p'' / (2 p')
+
+
+def aberth_warm(c: NDArray[np.float64], prev_coef: NDArray[np.float64], prev: NDArray[np.complex128], *,
+                maxiter: int = 60) -> NDArray[np.complex128] | None:
+    """:func:`aberth` of ``c`` started from :func:`warm_start` of ``prev``, all roots of ``prev_coef``.
+
+    The first sweep's repulsion sums come from the previous polynomial: among the previous
+    roots (turned by the warm start's angle, which scales every difference alike) they are
+    :func:`self_repulsion` of ``prev_coef``; only the terms of the new start points are summed
+    (``m (N - m)`` and ``m N`` reciprocals for ``m`` new points instead of ``N^2``). The
+    iteration and its acceptance are those of :func:`aberth`; the first sweep's sums differ from
+    summed ones by the accuracy of ``prev`` (their round-off), which changes a step only at
+    second order. When ``prev`` is not the whole root set of ``prev_coef`` the sums are formed
+    as in :func:`aberth`.
+    """
+    n = c.size - 1
+    z0 = warm_start(prev, n)
+    k = prev.size
+    if k != prev_coef.size - 1 or k > n or k == 0:
+        return aberth(c, z0, maxiter=maxiter)
+    s0 = np.empty(n, dtype=np.complex128)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s0[:k] = self_repulsion(prev_coef, prev) / _TURN
+        if k < n:
+            new = z0[k:]
+            s0[:k] += (1.0 / (z0[:k, None] - new[None, :])).sum(axis=1)
+            s0[k:] = _repulsion(new, np.arange(k, n), z0)
+    if not np.all(np.isfinite(s0)):
+        return aberth(c, z0, maxiter=maxiter)
+    return aberth(c, z0, maxiter=maxiter, s0=s0)
 
 
 #: Sweeps an order of :func:`aberth_chain` runs alone before the next order starts from its
@@ -381,6 +443,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
         while True:
             # start the next polynomial from the iterate of the one before
             nxt = int(np.argmax(state == 0)) if np.any(state == 0) else -1
+            copied = -1  # a polynomial started in this sweep at the iterate of the one before
             if nxt >= 0 and (nxt == 0 or state[nxt - 1] == 2 or sweeps[nxt - 1] >= _CHAIN_LAG):
                 if bad[nxt]:
                     state[nxt] = 2
@@ -389,6 +452,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                         z0 = warm_start(start, int(deg[nxt]))
                     else:
                         z0 = _extend(table[nxt - 1, : deg[nxt - 1]], int(deg[nxt]), nxt)
+                        copied = nxt
                     table[nxt, : deg[nxt]] = z0
                     pending[nxt * n : nxt * n + deg[nxt]] = True
                     state[nxt] = 1
@@ -413,7 +477,19 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                 fresh = np.flatnonzero(~stale)
                 if fresh.size:
                     width = int(deg[own].max())  # no root of these polynomials beyond this column
-                    s[fresh] = _chain_repulsion(z[fresh], act[fresh] % n, table[:, :width], own[fresh])
+                    fa = act[fresh]
+                    # a polynomial started in this sweep holds the iterate of the one before: where
+                    # that one's sum is formed in this sweep (same points, same set of others), the
+                    # new one's is it plus the terms of the new start points (_chain_reuse)
+                    same, src = _chain_reuse(fa, n, copied, int(deg[copied - 1]) if copied > 0 else 0)
+                    direct = np.ones(fresh.size, dtype=bool)
+                    direct[same] = False
+                    fd = fresh[direct]
+                    s[fd] = _chain_repulsion(z[fd], act[fd] % n, table[:, :width], own[fd])
+                    if same.size:
+                        zc = z[fresh[same]]
+                        new = table[copied, int(deg[copied - 1]) : int(deg[copied])]
+                        s[fresh[same]] = s[fresh[src]] + (1.0 / (zc[:, None] - new[None, :])).sum(axis=1)
                 s_prev[act] = s
                 w = r / (1.0 - r * s)
                 ok = np.isfinite(w)
@@ -428,6 +504,24 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                 else:  # not converged: None (the caller's eigenvalue fallback)
                     pending[i * n : i * n + deg[i]] = False
     return out
+
+
+def _chain_reuse(fa: NDArray[Any], n: int, copied: int, d_old: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Which repulsion sums of a chain sweep can be taken from the polynomial before.
+
+    ``fa`` (ascending flat indices ``polynomial * n + position``) are the roots whose sums the
+    sweep forms; polynomial ``copied`` (or none, -1) started in this sweep with its first
+    ``d_old`` roots at the iterate of polynomial ``copied - 1``. Returns ``(same, src)``: the
+    entries of ``fa`` of those roots whose counterpart (index ``- n``) is in ``fa`` too, and
+    the entries of the counterparts.
+    """
+    if copied < 1:
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    cand = np.flatnonzero((fa // n == copied) & (fa % n < d_old))
+    src = fa[cand] - n
+    at = np.minimum(np.searchsorted(fa, src), fa.size - 1)
+    ok = fa[at] == src
+    return cand[ok], at[ok]
 
 
 def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDArray[Any]], deg: NDArray[Any],
@@ -512,6 +606,10 @@ def _checked(c: NDArray[Any], z: NDArray[np.complex128]) -> NDArray[np.complex12
     return z
 
 
+#: The turn of :func:`warm_start`'s guesses off conjugate symmetry.
+_TURN = np.exp(1e-3j)
+
+
 def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex128]:
     """Initial guesses: the previous order's roots plus new points spread on a circle.
 
@@ -524,7 +622,7 @@ def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex
         m = 0
     k = np.arange(m)
     new = 1.1 * np.exp(1j * (0.4 + 2 * np.pi * (k + 0.5) / max(m, 1)))
-    return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * np.exp(1e-3j))
+    return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * _TURN)
 
 
-__all__ = ["aberth", "aberth_chain", "coefficient_blocks", "det_coefficients", "eval_blocked", "warm_start"]
+__all__ = ["aberth", "aberth_chain", "aberth_warm", "coefficient_blocks", "det_coefficients", "eval_blocked", "self_repulsion", "warm_start"]

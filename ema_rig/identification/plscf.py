@@ -61,9 +61,10 @@ eigenvalues of the block companion matrix of the coefficient-reversed, transpose
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
 ``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
 roots (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
-round-off; one reference up to degree 130: all those orders in one batch of sweeps,
-:func:`~._roots.aberth_chain`; an order that does not converge falls back to the companion
-eigenvalues). The
+round-off; up to degree 130: all those orders in one batch of sweeps,
+:func:`~._roots.aberth_chain`; above it one order at a time, the first sweep's repulsion sums
+from the previous order's polynomial, :func:`~._roots.aberth_warm`; an order that does not
+converge falls back to the companion eigenvalues). The
 participation vector ``l_r`` of pole ``z_r`` is the null vector of ``A(z_r)^T`` (what the last
 ``n_in`` rows of a companion eigenvector hold), computed directly from the ``n_in x n_in``
 matrix, which is cheaper than eigenvectors. All dense algebra runs with single-threaded
@@ -100,12 +101,11 @@ from ..dof import DOF
 from ..errors import IdentificationError
 from ..frf import FRFData
 from ._roots import (
-    aberth,
     aberth_chain,
+    aberth_warm,
     coefficient_blocks,
     det_coefficients,
     eval_blocked,
-    warm_start,
 )
 
 logger = logging.getLogger(__name__)
@@ -299,7 +299,7 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
                 f"input {data.in_dofs[i]}, {data.freq[k]:g} Hz)",
                 file=src,
             )
-        power[o0 : o0 + step] = np.sum(blk.real**2 + blk.imag**2, axis=2)
+        power[o0 : o0 + step] = _sum_sq(blk)
     if np.all(power == 0):
         raise IdentificationError("the FRF is zero everywhere in the band", file=src)
     zero_in = np.flatnonzero(np.all(power == 0, axis=0))
@@ -311,6 +311,16 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
 
 
 # --------------------------------------------------------------------------- kernels
+def _sum_sq(h: NDArray[Any]) -> NDArray[np.float64]:
+    """``sum_k |h[..., k]|^2`` over the last axis of a complex array, shape ``h.shape[:-1]``.
+
+    Two real contractions over the real and imaginary views: no temporary of the array's size
+    (the squares of the parts would be three), any memory layout.
+    """
+    return cast("NDArray[np.float64]", np.einsum("...k,...k->...", h.real, h.real)
+                + np.einsum("...k,...k->...", h.imag, h.imag))
+
+
 def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any], float]:
     """Weighted lag sums of R, S_o and T for lags -p..p.
 
@@ -352,7 +362,7 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
     ms = np.empty(n_out)
     for o0, o1 in chunks(n_in * n * 8):
         blk = h[o0:o1]
-        ms[o0:o1] = np.einsum("oik,oik->o", blk.real, blk.real) + np.einsum("oik,oik->o", blk.imag, blk.imag)
+        ms[o0:o1] = _sum_sq(blk).sum(axis=1)
     rms = np.sqrt(ms / (n_in * n))
     w = 1.0 / np.where(rms > 0, rms, 1.0)
 
@@ -375,18 +385,30 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
             return y
 
         s = np.empty((n_out, n_in, m))
-        g = np.zeros((n_in, n_in, n), np.complex128)  # sum_o H_o^H H_o per line
+        # sum_o H_o^H H_o per line, its entries a <= b only (the matrix is Hermitian), each from
+        # the real and imaginary parts of the weighted FRFs: no conjugate copy, no temporaries
+        ia, ib = np.triu_indices(n_in)
+        g = np.zeros((ia.size, n), np.complex128)
         for o0, o1 in chunks(n_in * nf * 16):
             hw = h[o0:o1] * w[o0:o1, None, None]
-            if n_in == 1:  # |H_o|^2 from the real and imaginary parts: no conjugate copy
+            if n_in == 1:  # |H_o|^2 in one contraction over the (re, im) pairs
                 hv = np.ascontiguousarray(hw).view(np.float64).reshape(o1 - o0, n, 2)  # a copy only
                 # when the FRF array is not C-ordered (the product keeps the input's layout)
-                g[0, 0] += np.einsum("okt,okt->k", hv, hv)
+                g[0].real += np.einsum("okt,okt->k", hv, hv)
             else:
-                g += np.einsum("oak,obk->abk", hw.conj(), hw)
+                hr, hi = hw.real, hw.imag
+                for q, (a, b) in enumerate(zip(ia.tolist(), ib.tolist(), strict=True)):
+                    # conj(x) y = (xr yr + xi yi) + j (xr yi - xi yr)
+                    g[q].real += np.einsum("ok,ok->k", hr[:, a], hr[:, b]) + np.einsum("ok,ok->k", hi[:, a], hi[:, b])
+                    if a != b:
+                        g[q].imag += np.einsum("ok,ok->k", hr[:, a], hi[:, b]) - np.einsum("ok,ok->k", hi[:, a], hr[:, b])
             s[o0:o1] = re_sums(hw)
             del hw
-        t = re_sums(g)
+        tu = re_sums(g)  # (pairs, 2p + 1)
+        # Re t_ba(l) = Re t_ab(-l): the lower triangle is the upper one with the lags reversed
+        t = np.empty((n_in, n_in, m))
+        t[ia, ib] = tu
+        t[ib, ia] = tu[:, ::-1]
         # R's lags 0..p in closed form: the sum over the lines of cos(pi k l / (n - 1)) is n at
         # l = 0, and for 0 < l < 2 (n - 1) it is (1 + (-1)^l) / 2 (the full period of the
         # Hermitian extension sums to zero; the two end lines remain)
@@ -556,23 +578,40 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
         if info == 0:
             # the diagonal blocks u[:n_in, :n_in] and u[k:, n_in:] of M^-1 are symmetric positive
             # definite: x_low = u[n_in:, :n_in] u[:n_in, :n_in]^-1, x_high = u[:k, n_in:] u[k:, n_in:]^-1
-            # (both k x n_in; solved together, transposed)
-            piv = np.stack([u[:n_in, :n_in], u[k:, n_in:]])
-            rhs = np.stack([u[n_in:, :n_in].T, u[:k, n_in:].T])
+            # (both k x n_in), from the inverses of the two small pivot blocks
             with contextlib.suppress(np.linalg.LinAlgError):  # singular pivot block: the fallback below
-                x = np.linalg.solve(piv, rhs)
+                inv0 = _inv_small(u[:n_in, :n_in])
+                inv1 = _inv_small(u[k:, n_in:])
+                x = (u[n_in:, :n_in] @ inv0, u[:k, n_in:] @ inv1)
     low = np.empty((n + 1, n_in, n_in))
     high = np.empty((n + 1, n_in, n_in))
     low[0] = eye
     high[n] = eye
-    if x is not None and np.all(np.isfinite(x)):
-        low[1:] = x[0].T.reshape(n, n_in, n_in)
-        high[:n] = x[1].T.reshape(n, n_in, n_in)
+    if x is not None and np.isfinite(x[0]).all() and np.isfinite(x[1]).all():
+        low[1:] = x[0].reshape(n, n_in, n_in)
+        high[:n] = x[1].reshape(n, n_in, n_in)
     else:
         m = np.tril(m) + np.tril(m, -1).T  # the least-squares fallback reads the whole matrix
         low[1:] = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in]).reshape(n, n_in, n_in)
         high[:n] = _spd_solve(m[:k, :k], -m[k:, :k].T).reshape(n, n_in, n_in)
     return low, high
+
+
+def _inv_small(a: NDArray[Any]) -> NDArray[Any]:
+    """Inverse of a small square matrix; 2 x 2 in closed form (no LAPACK call).
+
+    A singular 2 x 2 matrix gives non-finite entries (the caller tests them); larger ones raise
+    :class:`numpy.linalg.LinAlgError` as :func:`numpy.linalg.inv`.
+    """
+    if a.shape == (2, 2):
+        (p, q), (r, t) = a.tolist()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = 1.0 / np.float64(p * t - q * r)
+        return np.array([[t * d, -q * d], [-r * d, p * d]])
+    if a.shape == (1, 1):
+        with np.errstate(divide="ignore"):
+            return 1.0 / a
+    return np.linalg.inv(a)
 
 
 def _solve_order_one(m: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any]] | None:
@@ -596,13 +635,14 @@ def _solve_order_one(m: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any
     piv_low, piv_high = u[0, 0], u[n, 1]
     if info != 0 or not (piv_low > 0 and piv_high > 0):
         return None
-    low = u[:, 0] / piv_low
-    high = u[:, 1] / piv_high
-    low[0] = 1.0
-    high[n] = 1.0
-    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+    u[:, 0] /= piv_low
+    u[:, 1] /= piv_high
+    if not np.isfinite(u).all():  # both columns in one test
         return None
-    return low.reshape(n + 1, 1, 1), high.reshape(n + 1, 1, 1)
+    u[0, 0] = 1.0
+    u[n, 1] = 1.0
+    # u is Fortran-ordered: each column is a contiguous (n + 1, 1, 1) view
+    return u[:, 0].reshape(n + 1, 1, 1), u[:, 1].reshape(n + 1, 1, 1)
 
 
 def _add_gram(p: NDArray[Any], q: NDArray[Any]) -> NDArray[Any]:
@@ -642,7 +682,8 @@ def _companion(beta: NDArray[Any]) -> NDArray[Any]:
     k = n * n_in
     c = np.zeros((k, k), order="F")  # LAPACK's layout (no copy in _eigvals)
     c[:n_in, :] = -beta[n - 1 :: -1].transpose(1, 0, 2).reshape(n_in, k)
-    c[np.arange(n_in, k), np.arange(0, k - n_in)] = 1.0
+    # the ones at (n_in + i, i): flat index i (k + 1) + n_in of the column-major storage
+    c.T.reshape(-1)[n_in : (k - n_in) * (k + 1) : k + 1] = 1.0
     return c
 
 
@@ -958,7 +999,8 @@ class PlscfEngine:
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
-        self._prev: NDArray[Any] | None = None
+        self._prev: NDArray[Any] | None = None  # roots of the last order rooted
+        self._prev_low: NDArray[Any] | None = None  # and its alpha_low
         self._rows: dict[int, tuple[NDArray[Any], NDArray[Any]]] = {}
         self.n_aberth = 0
         self.fallbacks = 0
@@ -1049,12 +1091,14 @@ class PlscfEngine:
                             entries.append((n, high, None))
                             continue
                         self._root_chain(chain, entries, bar)
-                        z = aberth(coef, warm_start(self._prev, coef.size - 1))
+                        # the first sweep's repulsion sums from the previous order's polynomial
+                        assert self._prev_low is not None
+                        z = aberth_warm(coef, det_coefficients(self._prev_low), self._prev)
                         self.n_aberth += z is not None
                         self.fallbacks += z is None
                     if z is None:
                         z = _roots_eig(low)
-                    self._prev = z
+                    self._prev, self._prev_low = z, low
                     entries.append((n, high, z))
                     if bar is not None:
                         bar.update()
@@ -1088,7 +1132,7 @@ class PlscfEngine:
             entries[k] = (n, high, z if z is not None else _roots_eig(low))
             if bar is not None:
                 bar.update()
-        self._prev = entries[chain[-1][0]][2]
+        self._prev, self._prev_low = entries[chain[-1][0]][2], chain[-1][2]
         chain.clear()
 
     def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
