@@ -678,7 +678,8 @@ def _replaying(axis: Any, draw: Any) -> Any:
                     axis.stale = False
                     return None
         if key is None:
-            draw(axis, renderer)
+            with _ticks_once(axis):
+                draw(axis, renderer)
             return None
         rec = _Recorder(real)
         renderer._renderer = rec
@@ -686,7 +687,8 @@ def _replaying(axis: Any, draw: Any) -> Any:
             if name in renderer.__dict__:
                 setattr(renderer, name, getattr(rec, name))
         try:
-            draw(axis, renderer)
+            with _ticks_once(axis):
+                draw(axis, renderer)
         finally:
             renderer._renderer = real
             for name in _AGG_DRAWS:
@@ -698,6 +700,36 @@ def _replaying(axis: Any, draw: Any) -> Any:
         return None
 
     return replay
+
+
+@contextlib.contextmanager
+def _ticks_once(axis: Any) -> Iterator[None]:
+    """The axis' ticks and tick label boxes worked out once for one draw of it.
+
+    matplotlib's ``Axis.draw`` updates the ticks and measures their labels, then, to place the
+    axis label clear of the tick labels of every axes aligned with it (``_get_tick_boxes_siblings``;
+    this axis alone unless ``align_labels``), updates and measures them all again: the same ticks
+    and boxes, nothing changed between. Within the block the second time takes the first's.
+    """
+    update, boxes = axis._update_ticks, axis._get_ticklabel_bboxes
+    memo: dict[Any, Any] = {}
+
+    def update_ticks() -> Any:
+        if "ticks" not in memo:
+            memo["ticks"] = update()
+        return memo["ticks"]
+
+    def ticklabel_bboxes(ticks: Any, renderer: Any = None) -> Any:
+        k = (id(ticks), id(renderer))
+        if k not in memo:
+            memo[k] = boxes(ticks, renderer)
+        return memo[k]
+
+    axis._update_ticks, axis._get_ticklabel_bboxes = update_ticks, ticklabel_bboxes
+    try:
+        yield
+    finally:
+        del axis._update_ticks, axis._get_ticklabel_bboxes
 
 
 # ----------------------------------------------------------------------------- layout reuse
