@@ -122,10 +122,13 @@ def _gc_paused() -> Iterator[None]:
     """Python's cyclic garbage collector held off for the block (as it was before, afterwards).
 
     Drawing a report figure allocates tens of thousands of short-lived objects (transforms, paths,
-    text layouts) beside the long-lived ones of the kept figures, canvases and caches: the
-    collector's passes over those, set off by the allocation count alone, were 10-15 % of a figure's
-    CPU time (bundled demo, stabilization chart). The objects a draw leaves behind are collected
-    at the collector's next pass after the block; nothing drawn depends on it.
+    text layouts) beside the long-lived ones of the kept figures, canvases and caches, and the
+    collector's passes, set off by the allocation count alone, walk those again and again: held off
+    while drawing, the figures of a measurement took 2-7 % less CPU (bundled demo,
+    ``benchmarks/profile_figures.py``, paired). The objects a draw leaves behind are collected at
+    the collector's next pass after the block; nothing drawn depends on it. The collector is one
+    per process: another thread drawing at the same time finds it off, and whichever finishes
+    last turns it on again.
     """
     enabled = gc.isenabled()
     gc.disable()
