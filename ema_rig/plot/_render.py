@@ -127,8 +127,8 @@ def _gc_paused() -> Iterator[None]:
     while drawing, the figures of a measurement took 2-7 % less CPU (bundled demo,
     ``benchmarks/profile_figures.py``, paired). The objects a draw leaves behind are collected at
     the collector's next pass after the block; nothing drawn depends on it. The collector is one
-    per process: another thread drawing at the same time finds it off, and whichever finishes
-    last turns it on again.
+    per process: the thread that turned it off turns it on again when it is done, another thread
+    may still be drawing then (only slower for it, nothing else).
     """
     enabled = gc.isenabled()
     gc.disable()
