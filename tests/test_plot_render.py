@@ -217,3 +217,85 @@ def test_texts_drawn_from_kept_glyphs_are_the_pixels_matplotlib_draws():
         # the same pixels (no log axis here: nothing else is drawn differently); a glyph off by a
         # pixel or drawn at another subpixel offset changes dozens of pixels
         assert np.abs(got - want).max() == 0
+
+
+def _panels(fig, seed: int, ylim: tuple[float, float] = (-50.0, 50.0)):
+    """Two linear panels of one kept-figure kind: the same axes and limits, other data and texts."""
+    from matplotlib.ticker import MultipleLocator
+
+    from ema_rig.plot._render import reuse_axes
+
+    axs = reuse_axes(fig, "ema_rig.test_panels") or fig.subplots(2, 1)
+    rng = np.random.default_rng(seed)
+    f = np.linspace(100.0, 1000.0, 400)
+    for ax in axs:
+        ax.plot(f, rng.normal(size=f.size).cumsum(), color="k", lw=0.8, label=f"run {seed}")
+        ax.set_xlim(100.0, 1000.0)
+        ax.set_ylim(*ylim)
+        ax.yaxis.set_major_locator(MultipleLocator(20.0))  # no tick at an end of these limits
+        ax.grid(True, alpha=0.3)
+        ax.set_ylabel("displacement [um]")
+        ax.legend(loc="upper right", fontsize=7)
+    axs[1].set_xlabel("frequency [Hz]")
+    axs[0].set_title(f"measurement {seed}", fontsize=9)
+    return fig
+
+
+def _fresh_panels(seed: int, ylim: tuple[float, float] = (-50.0, 50.0)):
+    from matplotlib.figure import Figure
+
+    return _panels(Figure(figsize=(4.0, 6.0), layout="constrained"), seed, ylim)
+
+
+def test_axes_replayed_from_their_recorded_calls_are_the_pixels_matplotlib_draws(monkeypatch):
+    # a kept figure drawn again with the same axes limits draws its axes (ticks, gridlines, tick
+    # labels, axis labels) from the calls it made into Agg the first time; oracle: matplotlib's
+    # savefig of the same panels built anew, which draws every axis itself
+    from matplotlib.axis import Axis
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(4.0, 6.0), layout="constrained")
+    render_png(_panels(fig, 1), dpi=72, colors=None)  # draws and records the axes
+    drawn: list = []
+    orig = Axis.draw
+    monkeypatch.setattr(Axis, "draw", lambda self, r: drawn.append(self) or orig(self, r))
+    got = _pixels(render_png(_panels(fig, 2), dpi=72, colors=None))
+    assert drawn == []  # every axis came from its recording (the limits, ticks and boxes are the same)
+    monkeypatch.setattr(Axis, "draw", orig)
+    want = _savefig_pixels(_fresh_panels(2), 72)
+    assert got.shape == want.shape
+    # the same pixels (linear axes: nothing drawn as a collection); a tick, gridline or label of
+    # the recording drawn elsewhere, or one missing, changes dozens of pixels
+    assert np.abs(got - want).max() == 0
+
+
+def test_an_axis_with_other_limits_is_drawn_anew():
+    # the premise of the key: other limits, other ticks at other places in the same axes boxes (tick
+    # labels as wide: the layout is the same); oracle: savefig of those panels built anew
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(4.0, 6.0), layout="constrained")
+    render_png(_panels(fig, 1), dpi=72, colors=None)
+    got = _pixels(render_png(_panels(fig, 1, ylim=(-54.0, 46.0)), dpi=72, colors=None))
+    want = _savefig_pixels(_fresh_panels(1, ylim=(-54.0, 46.0)), 72)
+    assert got.shape == want.shape
+    assert np.abs(got - want).max() == 0
+    old = _savefig_pixels(_fresh_panels(1), 72)
+    assert (np.abs(old - want).max(axis=2) > 64).sum() > 100  # the two y axes do differ
+
+
+def test_new_texts_drawn_from_kept_glyphs_are_the_pixels_matplotlib_draws(monkeypatch):
+    # texts not drawn before (the text cache emptied) whose glyphs were: each glyph's bitmap is
+    # taken by font, size, rotation and its position within the pixel; oracle: matplotlib's savefig
+    from ema_rig.plot import _render
+
+    want = _savefig_pixels(_texts_figure(), 72)
+    render_png(_texts_figure(), dpi=72, colors=None)  # renders every glyph once
+    monkeypatch.setattr(_render, "_TEXTS", {})
+    glyphs = dict(_render._GLYPHS)
+    got = _pixels(render_png(_texts_figure(), dpi=72, colors=None))
+    assert set(_render._GLYPHS) == set(glyphs)  # no glyph rendered again: all came from the glyph cache
+    assert got.shape == want.shape
+    # the same pixels; a glyph taken for another position within its pixel, or placed a pixel
+    # off, changes dozens of pixels
+    assert np.abs(got - want).max() == 0

@@ -48,16 +48,27 @@ simulated measurements drawn in sequence).
 Most texts of a figure come again figure after figure (tick labels, axis labels, legends), and
 matplotlib shapes each and renders its glyphs with FreeType at every draw: the canvases here
 keep the glyph bitmaps of every text (:func:`_text_cached`) and blend them again, the same
-pixels. The palette is chosen by maximum coverage (about half the time of the default median
-cut, and closer to the drawn colours).
+pixels. A text not drawn before is mostly glyphs drawn before: each glyph's bitmap is kept by
+font, size, rotation and its position within the pixel (1/64 px, as FreeType takes it), and each
+text's shaping by its string and font. The palette is chosen by maximum coverage (about half the
+time of the default median cut, and closer to the drawn colours).
+
+An axis of a kept figure (ticks, gridlines, tick labels, its label) is mostly drawn as it was for
+the previous measurement (a campaign's band is the same for all its measurements): its calls into
+Agg's C renderer are recorded and made again when nothing the axis' drawing reads changed
+(:func:`_axes_replayed`), the same pixels without matplotlib's few hundred Python calls per tick.
 """
 
 from __future__ import annotations
 
+import contextlib
+import copy
+import gc
 import io
 import math
 import os
 import threading
+from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -102,6 +113,33 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
         The PNG image, the same pixels ``fig.savefig(format="png", dpi=dpi)`` gives (before the
         palette).
     """
+    with _gc_paused():
+        return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout)
+
+
+@contextlib.contextmanager
+def _gc_paused() -> Iterator[None]:
+    """Python's cyclic garbage collector held off for the block (as it was before, afterwards).
+
+    Drawing a report figure allocates tens of thousands of short-lived objects (transforms, paths,
+    text layouts) beside the long-lived ones of the kept figures, canvases and caches, and the
+    collector's passes, set off by the allocation count alone, walk those again and again: held off
+    while drawing, the figures of a measurement took 2-7 % less CPU (bundled demo,
+    ``benchmarks/profile_figures.py``, paired). The objects a draw leaves behind are collected at
+    the collector's next pass after the block; nothing drawn depends on it. The collector is one
+    per process: the thread that turned it off turns it on again when it is done, another thread
+    may still be drawing then (only slower for it, nothing else).
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.layout_engine import ConstrainedLayoutEngine
     from PIL import Image  # a matplotlib dependency
@@ -120,7 +158,8 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
         fig.set_layout_engine("none")
     # the minor ticks where the axes are drawn: a log axis' locator asks how much room it has
     collapse_minor_ticks(fig)
-    canvas.draw()
+    with _axes_replayed(fig):
+        canvas.draw()
     if constrained:
         fig.set_layout_engine(engine)  # switched off for this draw only: laid out again if drawn again
         if reuse_layout and not reused:
@@ -164,6 +203,12 @@ def _canvas(fig: Figure, dpi: float, canvas_class: Any) -> Any:
 #: Glyph bitmaps of texts drawn before (:func:`_text_cached`), at most _MAX_TEXTS texts.
 _TEXTS: dict[Any, Any] = {}
 _MAX_TEXTS = 4096
+#: Each glyph's bitmap by font, size, rotation and position within its pixel [1/64 px], and the
+#: glyphs of each text shaped before (:func:`_text_cached`): a text not drawn before at this
+#: place is mostly glyphs drawn before at the same position within a pixel.
+_GLYPHS: dict[Any, Any] = {}
+_MAX_GLYPHS = 32768
+_SHAPES: dict[Any, Any] = {}
 
 
 def _text_cached(canvas_class: Any) -> Any:
@@ -179,6 +224,7 @@ def _text_cached(canvas_class: Any) -> Any:
     with rules (mathtext fractions, roots) are drawn by matplotlib. Needs matplotlib's glyph-wise
     Agg text drawing (3.11); with another the canvas class is returned unchanged.
     """
+    from matplotlib import rcParams
     from matplotlib.backends import backend_agg
 
     hinting_flag: Any = backend_agg.get_hinting_flag  # untyped in matplotlib
@@ -223,33 +269,62 @@ def _text_cached(canvas_class: Any) -> Any:
         def _glyph_bitmaps(self, s: str, prop: Any, angle: float, ismath: Any, features: Any, language: Any,
                            antialiased: bool, fx: float, fy: float) -> Any:
             """(bitmap, left [px], top [px, upwards]) of every glyph of ``s`` drawn at (fx, fy) [px]."""
+            from matplotlib.font_manager import get_font
             from matplotlib.ft2font import RenderMode
 
+            items: Any
             if ismath:
                 parse = self.mathtext_parser.parse(s, self.dpi, prop, antialiased=antialiased)
                 if parse.rects:
                     return False
                 items = [(font, size, idx, dx, dy) for font, size, _c, idx, dx, dy in parse.glyphs]
             else:
-                font = self._prepare_font(prop)
-                kw = {} if features is None and language is None else {"features": features, "language": language}
                 size = prop.get_size_in_points()
-                items = [(it.ft_object, size, it.glyph_index, it.x, it.y)
-                         for it in font._layout(s, flags=hinting_flag(), **kw)]
+                shape_key = (s, _font_key(prop), float(self.dpi), hinting_flag(),
+                             None if features is None else tuple(features), language)
+                items = _SHAPES.get(shape_key)
+                if items is None:
+                    font = self._prepare_font(prop)
+                    kw = {} if features is None and language is None else {"features": features, "language": language}
+                    items = [(it.ft_object, size, it.glyph_index, it.x, it.y)
+                             for it in font._layout(s, flags=hinting_flag(), **kw)]
+                    # kept by font file, not font object: a font object is this thread's and
+                    # this process' (:func:`_canvas`); one of the first face of its file only
+                    if all(getattr(f, "face_index", 0) == 0 for f, *_ in items):
+                        if len(_SHAPES) >= _MAX_TEXTS:
+                            _SHAPES.clear()
+                        _SHAPES[shape_key] = [(f.fname, *rest) for f, *rest in items]
             cos, sin = math.cos(math.radians(angle)), math.sin(math.radians(angle))
             matrix = (0x10000 * np.array([[cos, -sin], [sin, cos]])).round().astype(int)
             flags = hinting_flag()
             mode = RenderMode.NORMAL if antialiased else RenderMode.MONO
+            common = (float(self.dpi), tuple(matrix.ravel().tolist()), flags, bool(antialiased),
+                      rcParams["text.hinting_factor"])
             out = []
             for font, size, idx, dx, dy in items:  # as matplotlib's _draw_text_glyphs_and_boxes
-                font.set_size(size, self.dpi)
-                font._set_transform(matrix, [round(0x40 * (fx + dx * cos - dy * sin)),
-                                             round(0x40 * (fy + dx * sin + dy * cos))])
-                bitmap = font._render_glyph(idx, flags, mode)
-                buf = np.array(bitmap.buffer, copy=True)
-                if not antialiased:
-                    buf *= 0xFF
-                out.append((buf, int(bitmap.left), int(bitmap.top)))
+                fname = font if isinstance(font, str) else font.fname
+                # where the glyph's origin falls [1/64 px, as FreeType takes it]: its bitmap depends
+                # on the position within the pixel only, whole pixels move it
+                gx = round(0x40 * (fx + dx * cos - dy * sin))
+                gy = round(0x40 * (fy + dx * sin + dy * cos))
+                gkey = (fname, 0 if isinstance(font, str) else getattr(font, "face_index", 0), float(size), int(idx),
+                        gx & 0x3F, gy & 0x3F, common)
+                glyph = _GLYPHS.get(gkey)
+                if glyph is None:
+                    if isinstance(font, str):
+                        font = get_font(font)  # this thread's
+                    font.set_size(size, self.dpi)
+                    font._set_transform(matrix, [gx & 0x3F, gy & 0x3F])
+                    bitmap = font._render_glyph(idx, flags, mode)
+                    buf = np.array(bitmap.buffer, copy=True)
+                    if not antialiased:
+                        buf *= 0xFF
+                    glyph = (buf, int(bitmap.left), int(bitmap.top))
+                    if len(_GLYPHS) >= _MAX_GLYPHS:
+                        _GLYPHS.clear()
+                    _GLYPHS[gkey] = glyph
+                buf, left, top = glyph
+                out.append((buf, left + (gx >> 6), top + (gy >> 6)))
             return tuple(out)
 
     class Canvas(canvas_class):  # type: ignore[misc]
@@ -456,6 +531,208 @@ def _collapse(axis: Axis) -> int:
         grid.set_capstyle(g.get_solid_capstyle())
         ax.add_collection(grid, autolim=False)
     return 1
+
+
+# ----------------------------------------------------------------------------- axis replay
+#: What Agg's C renderer is asked to draw (:func:`_axes_replayed`): these calls are recorded.
+_AGG_DRAWS = ("draw_path", "draw_markers", "draw_path_collection", "draw_text_image", "draw_image",
+              "draw_quad_mesh", "draw_gouraud_triangles")
+#: Recordings kept per axis (the newest last): the few limits an axis of a report figure takes.
+_MAX_RECORDINGS = 4
+
+
+class _Recorder:
+    """Stands in for Agg's C renderer while an axis draws: passes every call on and records it.
+
+    A graphics context is copied as it is at the call (matplotlib changes one between the calls of
+    one artist, a line and then its markers); everything else is kept by reference (paths,
+    frozen transforms, glyph bitmaps: made for the call, never changed afterwards). Any other use
+    of the renderer than drawing (reading pixels back, filters) marks the recording unusable.
+    """
+
+    def __init__(self, target: Any) -> None:
+        self._target = target
+        self.calls: list[tuple[str, tuple[Any, ...]]] = []
+        self.usable = True
+        for name in _AGG_DRAWS:
+            setattr(self, name, self._recording(name))
+
+    def _recording(self, name: str) -> Any:
+        from matplotlib.backend_bases import GraphicsContextBase
+
+        method = getattr(self._target, name)
+
+        def call(*args: Any) -> Any:
+            if not all(isinstance(a, GraphicsContextBase) or not hasattr(a, "__dict__") or _immutable(a)
+                       for a in args):
+                self.usable = False
+            self.calls.append((name, tuple(_snapshot(a) for a in args)))
+            return method(*args)
+
+        return call
+
+    def __getattr__(self, name: str) -> Any:  # anything but a draw: pass it on, do not replay
+        self.usable = False
+        return getattr(self._target, name)
+
+
+def _immutable(a: Any) -> bool:
+    """Objects a recorded call may keep by reference: matplotlib makes them for the call."""
+    from matplotlib.path import Path
+    from matplotlib.transforms import Affine2DBase, IdentityTransform
+
+    return isinstance(a, (Path, Affine2DBase, IdentityTransform))
+
+
+def _snapshot(a: Any) -> Any:
+    from matplotlib.backend_bases import GraphicsContextBase
+
+    if isinstance(a, GraphicsContextBase):
+        g: Any = copy.copy(a)
+        box = g.get_clip_rectangle()
+        if box is not None:
+            g.set_clip_rectangle(box.frozen())
+        return g
+    return a
+
+
+def _replay_key(renderer: Any, axis: Any) -> Any:
+    """Everything an axis' drawing depends on (report figures: see :func:`_axes_replayed`); None: draw it."""
+    from matplotlib import rcParams
+
+    ax = axis.axes
+    fig = ax.get_figure(root=True)
+    try:
+        groups = fig._align_label_groups  # axes whose labels are aligned with this one's
+        alone = all(list(g.get_siblings(ax)) == [ax] for g in groups.values())
+    except (AttributeError, KeyError, TypeError):
+        return None
+    if not alone:
+        return None
+    lo, hi = axis.get_view_interval()
+    major = np.asarray(axis.get_majorticklocs(), dtype=float)
+    minor = np.asarray(axis.get_minorticklocs(), dtype=float)
+    labels = tuple(axis.get_major_formatter().format_ticks(list(major)))
+    offset = axis.get_major_formatter().get_offset()
+    minor_labels = tuple(axis.get_minor_formatter().format_ticks(list(minor))) if minor.size else ()
+    lab = axis.label
+    scale = axis._scale
+    return (int(renderer.width), int(renderer.height), float(renderer.dpi), tuple(ax.bbox.bounds),
+            float(lo), float(hi), type(scale).__name__, getattr(scale, "base", None),
+            major.tobytes(), minor.tobytes(), labels, minor_labels, offset,
+            repr(sorted(axis._major_tick_kw.items())), repr(sorted(axis._minor_tick_kw.items())),
+            lab.get_text(), lab.get_visible(), lab.get_fontsize(), str(lab.get_color()), lab.get_rotation(),
+            axis.get_label_position(), axis.labelpad, axis._autolabelpos,
+            None if axis._autolabelpos else tuple(lab.get_position()),
+            axis.offsetText.get_visible(), tuple(str(sp.get_position()) for sp in ax.spines.values()),
+            tuple(rcParams[k] for k in ("text.hinting", "text.hinting_factor", "text.antialiased", "path.snap",
+                                        "path.simplify", "path.simplify_threshold", "agg.path.chunksize")))
+
+
+@contextlib.contextmanager
+def _axes_replayed(fig: Figure) -> Iterator[None]:
+    """Draw each axis of a report figure from the renderer calls it made before, when nothing it
+    depends on changed.
+
+    The axes of a figure kept per worker (:func:`kept_figure`, marked ``ema_rig.`` by
+    :func:`reuse_axes`) are the same objects measurement after measurement, and most of them show
+    the same ticks at the same place (a campaign's band is the same for all its measurements). An
+    axis (ticks, gridlines, tick labels, label, offset text) drawn by matplotlib is a few hundred
+    Python calls per tick for a few calls into Agg's C renderer: those calls are recorded
+    (:class:`_Recorder`) with the key of everything the drawing reads (:func:`_replay_key`: canvas,
+    axes box, view limits, scale, tick locations and labels, tick styles, label, spine positions,
+    the rcParams of text and path rendering) and made again, the same calls with the same
+    arguments, when an axis comes with the same key: the same pixels. An axis whose label is
+    aligned with other axes' (``align_labels``), any figure not kept, and a recording that used
+    the renderer otherwise are drawn by matplotlib.
+    """
+    from matplotlib.axis import Axis
+
+    label = fig.get_label()
+    if not (isinstance(label, str) and label.startswith("ema_rig.")):
+        yield
+        return
+    patched = []
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if axis.get_visible():
+                axis.draw = _replaying(axis, Axis.draw)  # type: ignore[method-assign]
+                patched.append(axis)
+    try:
+        yield
+    finally:
+        for axis in patched:
+            del axis.draw
+
+
+def _replaying(axis: Any, draw: Any) -> Any:
+    def replay(renderer: Any) -> None:
+        try:
+            key = _replay_key(renderer, axis)
+        except (ValueError, TypeError, AttributeError):
+            key = None
+        kept: list[tuple[Any, Any]] = axis.__dict__.setdefault("_ema_rig_recorded", [])
+        real = renderer._renderer
+        if key is not None:
+            for k, calls in kept:
+                if k == key:
+                    for name, args in calls:
+                        getattr(real, name)(*args)
+                    axis.stale = False
+                    return None
+        if key is None:
+            with _ticks_once(axis):
+                draw(axis, renderer)
+            return None
+        rec = _Recorder(real)
+        renderer._renderer = rec
+        for name in _AGG_DRAWS:  # Agg binds these to its C renderer at creation
+            if name in renderer.__dict__:
+                setattr(renderer, name, getattr(rec, name))
+        try:
+            with _ticks_once(axis):
+                draw(axis, renderer)
+        finally:
+            renderer._renderer = real
+            for name in _AGG_DRAWS:
+                if name in renderer.__dict__:
+                    setattr(renderer, name, getattr(real, name))
+        if rec.usable:
+            kept.append((key, rec.calls))
+            del kept[:-_MAX_RECORDINGS]
+        return None
+
+    return replay
+
+
+@contextlib.contextmanager
+def _ticks_once(axis: Any) -> Iterator[None]:
+    """The axis' ticks and tick label boxes worked out once for one draw of it.
+
+    matplotlib's ``Axis.draw`` updates the ticks and measures their labels, then, to place the
+    axis label clear of the tick labels of every axes aligned with it (``_get_tick_boxes_siblings``;
+    this axis alone unless ``align_labels``), updates and measures them all again: the same ticks
+    and boxes, nothing changed between. Within the block the second time takes the first's.
+    """
+    update, boxes = axis._update_ticks, axis._get_ticklabel_bboxes
+    memo: dict[Any, Any] = {}
+
+    def update_ticks() -> Any:
+        if "ticks" not in memo:
+            memo["ticks"] = update()
+        return memo["ticks"]
+
+    def ticklabel_bboxes(ticks: Any, renderer: Any = None) -> Any:
+        k = (id(ticks), id(renderer))
+        if k not in memo:
+            memo[k] = boxes(ticks, renderer)
+        return memo[k]
+
+    axis._update_ticks, axis._get_ticklabel_bboxes = update_ticks, ticklabel_bboxes
+    try:
+        yield
+    finally:
+        del axis._update_ticks, axis._get_ticklabel_bboxes
 
 
 # ----------------------------------------------------------------------------- layout reuse
