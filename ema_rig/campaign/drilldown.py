@@ -188,7 +188,7 @@ def measurement_figures(
             title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
         drawers["synthesis"] = lambda: plot_synthesis(
             data, ident.modes, channels=channels, phase=True,
-            figure=kept_figure("synthesis", (_SIZE[0], 1.0 + 3.0 * n_rows)),
+            figure=kept_figure("synthesis", (_SIZE[0], 1.0 + 3.0 * n_rows)), dpi=DPI,
             title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
     for kind, draw in drawers.items():
         try:

@@ -624,3 +624,153 @@ def _keep_layout(fig: Figure) -> None:
     kept = _LAYOUTS.setdefault(key[0], [])
     kept.append((key, _positions(fig)))
     del kept[:-_MAX_LAYOUTS]
+
+
+# ----------------------------------------------------------------------------- fixed layouts
+#: Layouts of :func:`fixed_layout` per process (structure -> [(key, positions)]), newest last.
+_FIXED: dict[Any, list[tuple[Any, Any]]] = {}
+
+
+def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
+    """Place the axes of ``fig`` as a constrained layout would, the ends of ``reserve`` held free.
+
+    A constrained layout makes room for a tick label that sticks out beyond an end of its axis
+    (one within half its height of the end): where the lowest label of a log axis lands changes
+    the layout from one measurement to the next, and :func:`render_png` lays such figures out
+    again each time (its key holds that distance). Here the layout is computed with the tick
+    labels of every axis in ``reserve`` replaced by the widest of its own labels at both ends of
+    the axis: the room for a label sticking out there is always kept, and the positions depend
+    on what the layout measures (figure size and dpi, texts, legends, the widest tick label of
+    each axis, the others' labels as :func:`render_png` keys them) but not on where those labels
+    land. Layouts are kept per process under that key: a figure with the same key is placed
+    without running the layout. The figure's layout engine is switched off (the positions are
+    for its current size and dpi: set the dpi it will be drawn at first).
+
+    Parameters
+    ----------
+    fig : Figure
+        A finished figure (texts, limits and ticks final) on a gridspec.
+    reserve : list of Axis
+        Axes' axes whose outermost tick labels must not move the layout (log magnitude axes).
+
+    Returns
+    -------
+    bool
+        True when a kept layout was applied, False when the layout was computed.
+    """
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    engine = fig.get_layout_engine()
+    ids = {id(a) for a in reserve}
+    structure = _structure(fig)
+    for key, positions in reversed(_FIXED.get(structure, [])):
+        _apply(fig, positions)
+        if _fixed_key(fig, ids) == key:
+            fig.set_layout_engine("none")
+            return True
+    layout = engine if isinstance(engine, ConstrainedLayoutEngine) else ConstrainedLayoutEngine()
+    proxies = [p for p in (_proxy_ends(a) for a in reserve) if p is not None]
+    off = _minor_off(fig)  # nothing the layout measures
+    try:
+        layout.execute(fig)
+    finally:
+        _minor_on(off)
+        for axis, saved in proxies:
+            axis.set_major_locator(saved[0])
+            axis.set_major_formatter(saved[1])
+            axis.isDefault_majloc, axis.isDefault_majfmt = saved[2], saved[3]
+    fig.set_layout_engine("none")
+    kept = _FIXED.setdefault(structure, [])
+    kept.append((_fixed_key(fig, ids), _positions(fig)))
+    del kept[:-_MAX_LAYOUTS]
+    return False
+
+
+def _fixed_key(fig: Figure, reserve: set[int]) -> Any:
+    """What :func:`fixed_layout` measures: :func:`_layout_key` without where the labels of
+    ``reserve`` (ids of Axis objects) sit (their ends counted as covered)."""
+    keys: list[Any] = [_structure(fig)]
+    keys.append(tuple(_text_key(t, fig.bbox.width * 0.9) for t in fig.texts))
+    for ax in fig.axes:
+        if not ax.get_visible():
+            keys.append(None)
+            continue
+        box = ax.get_window_extent()
+        heads = _titles(ax)
+        titles = tuple(_text_key(t, box.width * 0.95) for t in (*heads, *ax.texts) if t in heads or not t.get_clip_on())
+        leg = ax.get_legend()
+        legend = None if leg is None else (tuple(_fold(x.get_text()) for x in leg.get_texts()),
+                                           tuple(leg.get_bbox_to_anchor().bounds), leg.get_visible())
+        cov_y = (True, True) if id(ax.yaxis) in reserve else _covered(fig, ax)
+        cov_x = (True, True) if id(ax.xaxis) in reserve else (False, False)
+        keys.append((ax.get_in_layout(), titles, legend, _axis_key(ax.xaxis, box.width, cov_x),
+                     _axis_key(ax.yaxis, box.height, cov_y)))
+    return tuple(keys)
+
+
+def _proxy_ends(axis: Axis) -> tuple[Axis, tuple[Any, Any, bool, bool]] | None:
+    """Put the widest of ``axis``' tick labels at both ends of it (for a layout); what to restore."""
+    from matplotlib.ticker import FixedFormatter, FixedLocator
+
+    if not axis.get_visible():
+        return None
+    lo, hi = sorted(axis.get_view_interval())
+    locs = [x for x in np.asarray(axis.get_majorticklocs(), dtype=float) if lo <= x <= hi]
+    labels = axis.get_major_formatter().format_ticks(locs) if locs else []
+    if not any(labels):
+        return None
+    widest = max(labels, key=lambda s: len(_fold(s)))
+    saved = (axis.get_major_locator(), axis.get_major_formatter(), axis.isDefault_majloc, axis.isDefault_majfmt)
+    axis.set_major_locator(FixedLocator([lo, hi]))
+    axis.set_major_formatter(FixedFormatter([widest, widest]))
+    return axis, saved
+
+
+def decimate_to_pixels(x: Any, y: Any, x0: float, x1: float, width_px: float,
+                       offset_px: float = 0.0) -> tuple[Any, Any]:
+    """The points of a polyline a raster of ``width_px`` columns shows: first, lowest, highest and last per column.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Abscissae [data units], increasing (a frequency axis), on a linear axis.
+    y : ndarray, shape (n,)
+        Ordinates; NaN breaks the line (kept, and no column spans it).
+    x0, x1 : float
+        The x view limits [data units].
+    width_px : float
+        Width of the axes [px].
+    offset_px : float, optional
+        Display x of the axes' left edge [px] (the column boundaries are whole display pixels).
+
+    Returns
+    -------
+    x, y : ndarray, shape (m,)
+        The kept points, in their order (m <= 4 per pixel column and segment, plus the NaNs):
+        within a column the line runs from its first point through its extremes to its last, which
+        is what the column's pixels show; ordering by y is the same on a log axis.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n = x.size
+    if n < 8 or not (x1 > x0) or width_px <= 0:
+        return x, y
+    col = np.floor(offset_px + (x - x0) * (width_px / (x1 - x0)))
+    bad = ~np.isfinite(y)
+    seg = np.cumsum(bad)  # a NaN starts a segment of its own
+    group = np.empty(n, dtype=np.int64)
+    change = np.empty(n, dtype=bool)
+    change[0] = True
+    change[1:] = (col[1:] != col[:-1]) | (seg[1:] != seg[:-1]) | bad[1:] | bad[:-1]
+    group[:] = np.cumsum(change) - 1
+    starts = np.flatnonzero(change)
+    ends = np.append(starts[1:], n) - 1
+    yk = np.where(bad, 0.0, y)
+    order = np.lexsort((yk, group))  # by group, then by y: first of a group its lowest, last its highest
+    first_sorted = starts  # groups are contiguous: group g occupies sorted slots starts[g]..ends[g]
+    keep = np.zeros(n, dtype=bool)
+    keep[starts] = True
+    keep[ends] = True
+    keep[order[first_sorted]] = True
+    keep[order[ends]] = True
+    return x[keep], y[keep]
