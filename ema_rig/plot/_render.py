@@ -670,6 +670,9 @@ def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
             return True
     layout = engine if isinstance(engine, ConstrainedLayoutEngine) else ConstrainedLayoutEngine()
     proxies = [p for p in (_proxy_ends(a) for a in reserve) if p is not None]
+    # an axis whose ends cannot be held free (no major label, labelled minor ticks): laid out as
+    # it is, and not kept (its key does not say where its labels sit)
+    keep = len(proxies) == sum(1 for a in reserve if a.get_visible() and a.axes.get_visible())
     off = _minor_off(fig)  # nothing the layout measures
     try:
         layout.execute(fig)
@@ -680,9 +683,10 @@ def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
             axis.set_major_formatter(saved[1])
             axis.isDefault_majloc, axis.isDefault_majfmt = saved[2], saved[3]
     fig.set_layout_engine("none")
-    kept = _FIXED.setdefault(structure, [])
-    kept.append((_fixed_key(fig, ids), _positions(fig)))
-    del kept[:-_MAX_LAYOUTS]
+    if keep:
+        kept = _FIXED.setdefault(structure, [])
+        kept.append((_fixed_key(fig, ids), _positions(fig)))
+        del kept[:-_MAX_LAYOUTS]
     return False
 
 
@@ -712,8 +716,10 @@ def _proxy_ends(axis: Axis) -> tuple[Axis, tuple[Any, Any, bool, bool]] | None:
     """Put the widest of ``axis``' tick labels at both ends of it (for a layout); what to restore."""
     from matplotlib.ticker import FixedFormatter, FixedLocator
 
-    if not axis.get_visible():
+    if not axis.get_visible() or not axis.axes.get_visible():
         return None
+    if axis.get_scale() == "log" and _unlabelled_minor(axis) is None and axis.get_minorticklocs().size:
+        return None  # labelled minor ticks (a decade or less): they can stick out too
     lo, hi = sorted(axis.get_view_interval())
     locs = [x for x in np.asarray(axis.get_majorticklocs(), dtype=float) if lo <= x <= hi]
     labels = axis.get_major_formatter().format_ticks(locs) if locs else []
@@ -725,52 +731,3 @@ def _proxy_ends(axis: Axis) -> tuple[Axis, tuple[Any, Any, bool, bool]] | None:
     axis.set_major_formatter(FixedFormatter([widest, widest]))
     return axis, saved
 
-
-def decimate_to_pixels(x: Any, y: Any, x0: float, x1: float, width_px: float,
-                       offset_px: float = 0.0) -> tuple[Any, Any]:
-    """The points of a polyline a raster of ``width_px`` columns shows: first, lowest, highest and last per column.
-
-    Parameters
-    ----------
-    x : ndarray, shape (n,)
-        Abscissae [data units], increasing (a frequency axis), on a linear axis.
-    y : ndarray, shape (n,)
-        Ordinates; NaN breaks the line (kept, and no column spans it).
-    x0, x1 : float
-        The x view limits [data units].
-    width_px : float
-        Width of the axes [px].
-    offset_px : float, optional
-        Display x of the axes' left edge [px] (the column boundaries are whole display pixels).
-
-    Returns
-    -------
-    x, y : ndarray, shape (m,)
-        The kept points, in their order (m <= 4 per pixel column and segment, plus the NaNs):
-        within a column the line runs from its first point through its extremes to its last, which
-        is what the column's pixels show; ordering by y is the same on a log axis.
-    """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    n = x.size
-    if n < 8 or not (x1 > x0) or width_px <= 0:
-        return x, y
-    col = np.floor(offset_px + (x - x0) * (width_px / (x1 - x0)))
-    bad = ~np.isfinite(y)
-    seg = np.cumsum(bad)  # a NaN starts a segment of its own
-    group = np.empty(n, dtype=np.int64)
-    change = np.empty(n, dtype=bool)
-    change[0] = True
-    change[1:] = (col[1:] != col[:-1]) | (seg[1:] != seg[:-1]) | bad[1:] | bad[:-1]
-    group[:] = np.cumsum(change) - 1
-    starts = np.flatnonzero(change)
-    ends = np.append(starts[1:], n) - 1
-    yk = np.where(bad, 0.0, y)
-    order = np.lexsort((yk, group))  # by group, then by y: first of a group its lowest, last its highest
-    first_sorted = starts  # groups are contiguous: group g occupies sorted slots starts[g]..ends[g]
-    keep = np.zeros(n, dtype=bool)
-    keep[starts] = True
-    keep[ends] = True
-    keep[order[first_sorted]] = True
-    keep[order[ends]] = True
-    return x[keep], y[keep]

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._render import decimate_to_pixels, fixed_layout, reuse_axes
+from ._render import fixed_layout, reuse_axes
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -146,11 +146,8 @@ def plot_synthesis(
         report's PNG). Given, the figure is laid out here for that density instead of by a
         constrained layout at every draw (:func:`ema_rig.plot._render.fixed_layout`: the room
         for the lowest and highest magnitude tick labels is always kept, so the layout is the same
-        for every measurement with the same texts, and is computed once for them; its layout
-        engine is switched off) and the curves are reduced to the points that raster shows (the
-        first, lowest, highest and last per pixel column,
-        :func:`ema_rig.plot._render.decimate_to_pixels`): the lines then hold those points, not
-        every line of the data. Default: neither (a constrained layout, every point).
+        for every measurement with the same texts and is computed once for them; the figure's
+        layout engine is switched off). Default: a constrained layout at every draw.
 
     Returns
     -------
@@ -243,11 +240,6 @@ def plot_synthesis(
                  f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies)", fontsize=10)
     if dpi is not None:
         fixed_layout(fig, [ax.yaxis for ax in out.axes])
-        for ax in (*out.axes, *out.phase_axes):
-            x0, x1 = ax.get_xlim()
-            box = ax.bbox
-            for line in ax.get_lines():
-                line.set_data(*decimate_to_pixels(line.get_xdata(), line.get_ydata(), x0, x1, box.width, box.x0))
     return out
 
 
