@@ -8,6 +8,10 @@ render_png
 kept_figure, reuse_axes
     One figure per kind per worker thread, its axes and tick objects kept from one measurement
     to the next: only the data, limits and texts are drawn anew.
+fixed_layout
+    A constrained layout that keeps the room for the outermost tick labels of chosen axes (log
+    magnitudes), so that where those land does not change it: computed once per key and process,
+    the figure's layout engine then switched off.
 
 Notes
 -----
@@ -67,7 +71,7 @@ if TYPE_CHECKING:
     from matplotlib.axis import Axis
     from matplotlib.figure import Figure
 
-__all__ = ["collapse_minor_ticks", "kept_figure", "render_png", "reuse_axes"]
+__all__ = ["collapse_minor_ticks", "fixed_layout", "kept_figure", "render_png", "reuse_axes"]
 
 #: Layouts kept per process (structure -> [(key, positions)]), newest last; a few per figure kind.
 _LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
@@ -707,9 +711,16 @@ def _fixed_key(fig: Figure, reserve: set[int]) -> Any:
                                            tuple(leg.get_bbox_to_anchor().bounds), leg.get_visible())
         cov_y = (True, True) if id(ax.yaxis) in reserve else _covered(fig, ax)
         cov_x = (True, True) if id(ax.xaxis) in reserve else (False, False)
+        # a reserved axis with labelled minor ticks is laid out as it is (:func:`_proxy_ends`)
+        minor = tuple(_minor_labelled(a) for a in (ax.xaxis, ax.yaxis) if id(a) in reserve)
         keys.append((ax.get_in_layout(), titles, legend, _axis_key(ax.xaxis, box.width, cov_x),
-                     _axis_key(ax.yaxis, box.height, cov_y)))
+                     _axis_key(ax.yaxis, box.height, cov_y), minor))
     return tuple(keys)
+
+
+def _minor_labelled(axis: Axis) -> bool:
+    """Whether a log axis draws labelled minor ticks (a span of about a decade or less)."""
+    return bool(axis.get_scale() == "log" and _unlabelled_minor(axis) is None and axis.get_minorticklocs().size)
 
 
 def _proxy_ends(axis: Axis) -> tuple[Axis, tuple[Any, Any, bool, bool]] | None:
@@ -718,8 +729,8 @@ def _proxy_ends(axis: Axis) -> tuple[Axis, tuple[Any, Any, bool, bool]] | None:
 
     if not axis.get_visible() or not axis.axes.get_visible():
         return None
-    if axis.get_scale() == "log" and _unlabelled_minor(axis) is None and axis.get_minorticklocs().size:
-        return None  # labelled minor ticks (a decade or less): they can stick out too
+    if _minor_labelled(axis):
+        return None  # they can stick out too, and be wider
     lo, hi = sorted(axis.get_view_interval())
     locs = [x for x in np.asarray(axis.get_majorticklocs(), dtype=float) if lo <= x <= hi]
     labels = axis.get_major_formatter().format_ticks(locs) if locs else []
