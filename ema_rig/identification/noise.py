@@ -42,6 +42,8 @@ divides by ``1 - h_i`` first, which is how the degrees of freedom spent on the f
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -203,10 +205,12 @@ def fit_noise_model(
     a logarithmic grid (the profile is not convex in general: the grid picks the basin), then by a
     bracketed Newton iteration between the grid neighbours of the best point (derivatives in
     closed form; it reaches the minimum to rounding, where the golden-section search it replaced
-    stopped within 1e-7 of it, at a third of the cost). The grid is screened in single precision
-    and only the points within the screen's error of the best are evaluated in double precision:
-    the best grid point is the one the full double-precision grid gives. Channels are independent
-    and processed in blocks that stay in the processor cache.
+    stopped within 1e-7 of it, at a third of the cost). Bounds of the profile from sums over bins
+    of ``|H|^2`` (convexity: tangent and chord per bin) exclude the grid points that cannot be the
+    minimum, and only the others (one or two per channel, typically) are evaluated in double
+    precision: the best grid point is the one the full double-precision grid gives. Channels are
+    independent and processed in blocks that stay in the processor cache, two blocks at a time in
+    threads (a fixed partition: the result is the one-thread result to the bit).
 
     Examples
     --------
@@ -244,8 +248,7 @@ def fit_noise_model(
     lg = np.log10(np.where(grid > 0, grid, 1e-5))
     lo = lg[np.maximum(best - 1, 0)]
     hi = lg[np.minimum(best + 1, grid.size - 1)]
-    q_m = _noise_refine(wz, unw, cnt, lo, hi)
-    s_m, t_m = _noise_profile(wz, unw, cnt, q_m)
+    q_m, s_m, t_m = _noise_refine(wz, unw, cnt, lo, hi)
     f_m = np.log(s_m) + t_m
     rows = np.arange(n_chan)
     better = f_m < nll[rows, best]
@@ -253,12 +256,41 @@ def fit_noise_model(
     s = np.where(better, s_m, s_g[rows, best])
     a = s
     b = s * q / np.where(um[:, 0] > 0, um[:, 0], 1.0)
-    var = a[:, None] + b[:, None] * u
-    return a, b, np.maximum(var, 1e-300)
+    var = b[:, None] * u
+    var += a[:, None]
+    return a, b, np.maximum(var, 1e-300, out=var)
 
 
 #: Channels evaluated together by the noise fit's loops: their lines stay in the processor cache.
 _NOISE_BLOCK = 32
+
+#: Threads of :func:`_blocks` (fixed: the partition into blocks, not the machine, decides the work).
+_NOISE_THREADS = 2
+
+
+def _blocks(fn: Callable[[int, int], None], n: int) -> None:
+    """Call ``fn(i0, i1)`` for the blocks ``[i0, i1)`` of ``_NOISE_BLOCK`` items of ``0..n``.
+
+    With more than one block they run in a pool of ``_NOISE_THREADS`` threads (numpy releases the
+    interpreter lock in its loops over the lines). The partition is fixed and every block writes
+    only its own rows, computed by the same operations as in one thread, so the result does not
+    depend on the number of threads, their scheduling or the load of the machine, to the bit. The
+    caller's ``np.errstate`` applies in the threads.
+    """
+    spans = [(i0, min(i0 + _NOISE_BLOCK, n)) for i0 in range(0, n, _NOISE_BLOCK)]
+    if len(spans) < 2 or _NOISE_THREADS < 2:
+        for i0, i1 in spans:
+            fn(i0, i1)
+        return
+    err = np.geterr()  # the caller's floating-point error handling holds in the threads too
+
+    def run(i0: int, i1: int) -> None:
+        with np.errstate(**err):
+            fn(i0, i1)
+
+    with ThreadPoolExecutor(_NOISE_THREADS, thread_name_prefix="ema-rig-noise") as pool:
+        for done in [pool.submit(run, i0, i1) for i0, i1 in spans]:
+            done.result()  # re-raises an error of the block
 
 
 def _noise_profile(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
@@ -279,10 +311,10 @@ def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[
                 grid: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
     """The best point of the profile on ``grid`` per channel, and the profile there.
 
-    The whole grid is screened in single precision; every point whose screened value lies within
-    twice the screen's error bound of the channel's smallest one is evaluated in double precision
-    exactly as a full evaluation would, and the best of those is the best grid point (the others
-    are larger than the minimum by more than the screen's error).
+    Lower and upper bounds of the profile at every grid point from binned sums
+    (:func:`_noise_bounds`) leave the points where the minimum can lie; those are evaluated in
+    double precision exactly as a full evaluation would, and the best of them is the best grid
+    point (every other point's lower bound exceeds a value the profile reaches).
 
     Returns
     -------
@@ -292,48 +324,173 @@ def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[
         Index of the smallest profile value (the first of equal ones).
     """
     n_chan, n_g = wz.shape[0], grid.size
-    # the screen: z scaled to mean 1 per channel (single precision's range), sums of a block's
-    # lines in single precision; the profile's shift by ln(scale) is the same at every point
-    scale = np.sum(wz, axis=1) / cnt
-    scale = np.where(scale > 0, scale, 1.0)
-    wz32 = (wz / scale[:, None]).astype(np.float32)
-    un32 = unw.astype(np.float32)
-    ls32 = np.empty((n_chan, n_g))
-    t32 = np.empty((n_chan, n_g))
-    buf = np.empty((min(_NOISE_BLOCK, n_chan), wz.shape[1]), np.float32)
-    for i0 in range(0, n_chan, _NOISE_BLOCK):
-        i1 = min(i0 + _NOISE_BLOCK, n_chan)
-        sh, u_b, w_b = buf[: i1 - i0], un32[i0:i1], wz32[i0:i1]
-        for j, q in enumerate(grid.tolist()):
-            np.multiply(u_b, np.float32(q), out=sh)
-            sh += np.float32(1.0)
-            ls32[i0:i1, j] = np.sum(w_b / sh, axis=1)
-            np.log(sh, out=sh)
-            t32[i0:i1, j] = np.sum(sh, axis=1)
-    ls32 = np.log(np.maximum(ls32 / cnt[:, None], 1e-300))
-    t32 /= cnt[:, None]
-    screen = ls32 + t32
-    # error of the screen: every term rounded a few times to single precision (relative 2**-24 each),
-    # pairwise sums of positive terms (relative error below 1e-6 for 1e5 lines): below 1e-5 of
-    # |ln s| + t, plus 1e-5 absolute, is a wide bound
-    err = 1e-5 * (1.0 + np.abs(ls32) + np.abs(t32))
-    k = np.argmin(screen, axis=1)
-    rows_all = np.arange(n_chan)
-    cand = screen - err <= (screen[rows_all, k] + err[rows_all, k])[:, None]
+    # a channel with a NaN or inf line has no best point (its fit is NaN, as a full grid gives)
+    finite = np.isfinite(np.sum(wz, axis=1)) & np.isfinite(np.sum(unw, axis=1))
+    cand = _noise_bounds(wz, unw, cnt, grid) & finite[:, None]
     s_g = np.full((n_chan, n_g), np.nan)
     t_g = np.full((n_chan, n_g), np.nan)
     rows, cols = np.nonzero(cand)
-    for k0 in range(0, rows.size, _NOISE_BLOCK):
-        r, c = rows[k0:k0 + _NOISE_BLOCK], cols[k0:k0 + _NOISE_BLOCK]
+
+    def one(k0: int, k1: int) -> None:
+        r, c = rows[k0:k1], cols[k0:k1]
         s_g[r, c], t_g[r, c] = _noise_profile(wz[r], unw[r], cnt[r], grid[c])
+
+    _blocks(one, rows.size)
     nll = np.log(s_g) + t_g
     best = np.argmin(np.where(np.isfinite(nll), nll, np.inf), axis=1)
     return s_g, t_g, nll, best
 
 
+#: Sub-bins per octave of ``|H|^2 / m`` in :func:`_noise_bounds` (a power of 2: exact bin edges).
+_BOUND_BINS = 4
+
+#: Octaves below the largest ``|H|^2 / m`` that :func:`_noise_bounds` bins; smaller values share one
+#: bin from 0 (there ``q |H|^2 / m < 1e8 * 2**-60``: the bounds are exact to rounding).
+_BOUND_OCTAVES = 60
+
+
+def _bin_sums(wz: NDArray[np.float64], unw: NDArray[np.float64], e_lo: int, n_b: int
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per-bin sums of :func:`_noise_bounds`: ``(z, z u, z / u)`` and ``(1, u, 1 / u, ln u)``.
+
+    Returns arrays of shape (n_chan, 3 n_b) and (n_chan, 4 n_b), the sums side by side; bin 0 holds
+    the lines with ``u = 0`` (only ``z`` summed), bin 1 those below ``2**(e_lo - 1)``.
+    """
+    n_chan = wz.shape[0]
+    kb = _BOUND_BINS
+    pos = unw > 0
+    all_pos = bool(np.all(pos))
+    mant, ex = np.frexp(unw)  # unw = mant 2**ex, mant in [0.5, 1); 0 gives mant 0, ex 0
+    # bin of a positive u: kb (ex - e_lo) + floor(2 kb mant) - kb + 2 (floor(2 kb mant) in kb..2kb-1)
+    mant *= 2 * kb
+    idx = mant.astype(np.intp)
+    ex *= kb
+    idx += ex
+    first = np.arange(n_chan, dtype=np.intp) * n_b
+    idx += (first - (kb * e_lo + kb - 2))[:, None]
+    np.maximum(idx, (first + 1)[:, None], out=idx)  # values below the binned octaves: bin 1
+    if not all_pos:
+        np.copyto(idx, np.broadcast_to(first[:, None], idx.shape), where=~pos)
+    flat = idx.ravel()
+    m = n_chan * n_b
+
+    def binned(w: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(np.bincount(flat, w.ravel(), m), dtype=np.float64).reshape(n_chan, n_b)
+
+    # v = 1 / u and ln u of the positive u (0 where u = 0: those lines are in bin 0, whose sums for
+    # t, the line count included, the bounds do not use)
+    if all_pos:
+        inv = 1.0 / unw
+        lnu = np.log(unw)
+    else:
+        inv = 1.0 / np.where(pos, unw, np.inf)
+        lnu = np.log(np.where(pos, unw, 1.0))
+    count = np.bincount(flat, minlength=m).astype(np.float64).reshape(n_chan, n_b)
+    st_s = np.concatenate([binned(wz), binned(wz * unw), binned(wz * inv)], axis=1)
+    st_t = np.concatenate([count, binned(unw), binned(inv), binned(lnu)], axis=1)
+    return st_s, st_t
+
+
+def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
+                  grid: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """The grid points at which a channel's profile can be smallest, shape (n_chan, n_grid), bool.
+
+    The lines of each channel are binned by ``u = |H|^2 / m`` (``_BOUND_BINS`` bins per octave,
+    edges exact binary fractions); per bin the sums of ``z``, ``z u``, ``z / u`` and of ``1``,
+    ``u``, ``1 / u``, ``ln u`` are formed once (:func:`_bin_sums`). Where ``q u <= 1`` at the
+    bin's centre, ``1 / (1 + q u)`` is convex in ``u`` and ``ln(1 + q u)`` concave; where
+    ``q u > 1``, ``1 / (1 + q u) = v / (q + v)`` and ``ln(1 + q u) - ln u = ln(q + v)`` are
+    concave in ``v = 1 / u``. On a bin each function lies between its tangent at the bin's centre
+    and its chord, both linear in ``u`` (or ``v``), so the binned sums give a lower and an upper
+    bound of the profile ``ln s + t`` at every grid point (two matrix products, no pass over the
+    lines). The bounds differ by second order in the bin width, most where ``q u ~ 1`` (of order
+    1e-4 of the profile where the lines lie far from it, e.g. the flat profile of proportional
+    noise at large ``q``). A point whose lower bound exceeds the smallest upper bound of its
+    channel (plus 1e-9 for rounding) cannot be the minimum of the profile evaluated in double
+    precision, which is off by less than 1e-12; lines with ``u = 0`` enter exactly.
+
+    Rounding: the terms of the sums for ``s`` are positive or (the tangent in ``u``) at most four
+    times their positive sum per bin, so the products are exact to 1e-12 relative and the bounds
+    of ``s`` are widened by 1e-10 relative; the terms for ``t`` (logarithms below 100 in
+    magnitude) are exact to 1e-13 per line and the bounds of the mean ``t`` widened by 1e-10.
+    """
+    n_chan, n_l = wz.shape
+    n_g = grid.size
+    kb = _BOUND_BINS
+    u_max = float(np.max(unw)) if unw.size else 0.0
+    # the bounds need z >= 0 and finite |H|^2 (else every point stays: the full grid, as before)
+    if not n_l or u_max <= 0 or not np.isfinite(u_max) or not bool(np.all(wz >= 0)):
+        return np.ones((n_chan, n_g), bool)
+    e_hi = int(np.frexp(u_max)[1])
+    e_min = int(np.frexp(np.min(unw, where=unw > 0, initial=u_max))[1])
+    e_lo = max(e_min, e_hi - _BOUND_OCTAVES)
+    n_b = 2 + (e_hi - e_lo + 1) * kb  # bin 0: u = 0, bin 1: 0 < u < 2**(e_lo - 1), then kb per octave
+    st_s = np.empty((n_chan, 3 * n_b))
+    st_t = np.empty((n_chan, 4 * n_b))
+    def sums(i0: int, i1: int) -> None:
+        st_s[i0:i1], st_t[i0:i1] = _bin_sums(wz[i0:i1], unw[i0:i1], e_lo, n_b)
+
+    _blocks(sums, n_chan)
+    frac = np.arange(kb) / (2 * kb) + 0.5
+    octs = np.arange(e_lo, e_hi + 1)
+    lo = np.concatenate([[0.0, 0.0], np.ldexp(np.tile(frac, octs.size), np.repeat(octs, kb))])
+    hi = np.concatenate([[0.0, np.ldexp(0.5, e_lo)], np.ldexp(np.tile(frac + 0.5 / kb, octs.size), np.repeat(octs, kb))])
+    lo_, hi_, q = lo[:, None], hi[:, None], grid[None, :]
+    mid = 0.5 * (lo_ + hi_)
+    qm = 1.0 + q * mid
+    den = (1.0 + q * lo_) * (1.0 + q * hi_)
+    wdt = np.where(hi_ > lo_, hi_ - lo_, 1.0)
+    zero = np.zeros((n_b, n_g))
+    # in u (where q u <= 1 at the bin's centre): 1 / (1 + q u) convex, ln(1 + q u) concave; lower
+    # bound of s the tangent at the centre, upper the chord; of t the chord, upper the tangent
+    su_lo = ((1.0 + 2.0 * q * mid) / qm**2, -q / qm**2)
+    su_hi = ((1.0 + q * lo_ + q * hi_) / den, -q / den)
+    h_sl = (np.log1p(q * hi_) - np.log1p(q * lo_)) / wdt
+    tu_lo = (np.log1p(q * lo_) - lo_ * h_sl, h_sl)
+    tu_hi = (np.log1p(q * mid) - mid * (q / qm), q / qm)
+    # in v = 1 / u (where q u > 1): 1 / (1 + q u) = v / (q + v) and ln(1 + q u) = ln u + ln(q + v),
+    # both concave in v: lower bounds the chord on [1 / hi, 1 / lo], upper the tangent at the centre
+    va, vb = 1.0 / np.where(hi_ > 0, hi_, 1.0), 1.0 / np.where(lo_ > 0, lo_, 1.0)
+    vm = 0.5 * (va + vb)
+    dq = (q + va) * (q + vb)
+    sv_lo = (va * vb / dq, q / dq)
+    sv_hi = (vm**2 / (q + vm) ** 2, q / (q + vm) ** 2)
+    p_sl = (np.log(q + vb) - np.log(q + va)) / np.where(vb > va, vb - va, 1.0)
+    tv_lo = (np.log(q + va) - va * p_sl, p_sl)
+    tv_hi = (np.log(q + vm) - vm / (q + vm), 1.0 / (q + vm))
+    use_v = (q * mid > 1.0) & (lo_ > 0)
+    one = np.ones((n_b, n_g))
+
+    def coef(c_u: tuple[NDArray[np.float64], ...], c_v: tuple[NDArray[np.float64], ...], with_log: bool
+             ) -> NDArray[np.float64]:
+        rows_ = [np.where(use_v, c_v[0], c_u[0]), np.where(use_v, zero, c_u[1]), np.where(use_v, c_v[1], zero)]
+        if with_log:
+            rows_.append(np.where(use_v, one, zero))
+        return np.concatenate(rows_, axis=0)
+
+    c_s = np.concatenate([coef(su_lo, sv_lo, False), coef(su_hi, sv_hi, False)], axis=1)
+    c_t = np.concatenate([coef(tu_lo, tv_lo, True), coef(tu_hi, tv_hi, True)], axis=1)
+    c_s[0], c_s[n_b], c_s[2 * n_b] = 1.0, 0.0, 0.0  # bin 0 (u = 0): exactly z; no line in t
+    c_t[[0, n_b, 2 * n_b, 3 * n_b]] = 0.0
+    s_b = st_s @ c_s  # (n_chan, 2 n_g): lower | upper
+    t_b = st_t @ c_t
+    tol = 1e-10
+    cn = cnt[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f_lo = np.log(s_b[:, :n_g] * (1.0 - tol) / cn) + t_b[:, :n_g] / cn - tol
+        f_hi = np.log(s_b[:, n_g:] * (1.0 + tol) / cn) + t_b[:, n_g:] / cn + tol
+    f_hi = np.where(np.isnan(f_hi), np.inf, f_hi)
+    top = np.min(f_hi, axis=1)
+    alive = np.logical_not(f_lo > (top + 1e-9 * (1.0 + np.abs(top)))[:, None])  # NaN stays alive
+    return np.asarray(alive, dtype=bool)
+
+
 def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
-                  lo: NDArray[np.float64], hi: NDArray[np.float64], max_iter: int = 60) -> NDArray[np.float64]:
-    """The ratio ``q`` of a local minimum of the profile between ``10**lo`` and ``10**hi``, shape (n_chan,).
+                  lo: NDArray[np.float64], hi: NDArray[np.float64], max_iter: int = 60
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The ratio ``q`` of a local minimum of the profile between ``10**lo`` and ``10**hi``, shape (n_chan,),
+    and the level ``s`` and log term ``t`` there (:func:`_noise_profile`, block by block while the
+    lines are in the cache).
 
     Newton's method on the profile's derivative in ``x = ln q`` (first and second derivative in
     closed form, no logarithms), kept inside a bracket where the derivative changes sign from
@@ -343,37 +500,56 @@ def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     bracket narrower than 1e-12 in ``x``, after ``max_iter`` steps at most (a work limit).
     """
     ln10 = np.log(10.0)
-    x = np.empty(wz.shape[0])
-    for i0 in range(0, wz.shape[0], _NOISE_BLOCK):
-        i1 = min(i0 + _NOISE_BLOCK, wz.shape[0])
-        x[i0:i1] = _newton_block(wz[i0:i1], unw[i0:i1], cnt[i0:i1], lo[i0:i1] * ln10, hi[i0:i1] * ln10, max_iter)
-    return np.exp(x)
+    q, s, t = np.empty(wz.shape[0]), np.empty(wz.shape[0]), np.empty(wz.shape[0])
+
+    def one(i0: int, i1: int) -> None:
+        x = _newton_block(wz[i0:i1], unw[i0:i1], cnt[i0:i1], lo[i0:i1] * ln10, hi[i0:i1] * ln10, max_iter)
+        q[i0:i1] = np.exp(x)
+        s[i0:i1], t[i0:i1] = _noise_profile(wz[i0:i1], unw[i0:i1], cnt[i0:i1], q[i0:i1])
+
+    _blocks(one, wz.shape[0])
+    return q, s, t
 
 
 def _newton_block(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
                   a: NDArray[np.float64], b: NDArray[np.float64], max_iter: int) -> NDArray[np.float64]:
     """:func:`_noise_refine` of a block of channels, in ``x = ln q`` (bracket ``a``..``b``)."""
 
-    def derivs(x: NDArray[np.float64], rows: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    n_b, n_l = wz.shape
+    r_buf, t_buf, w_buf, u_buf = (np.empty((n_b, n_l)) for _ in range(4))
+
+    def derivs(x: NDArray[np.float64], rows: NDArray[np.intp], second: bool = True
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         # f = ln S + T with S = sum wz r, r = 1 / (1 + q u), T = mean ln(1 + q u); t = 1 - r = dT_i/dx
-        r = np.exp(x)[:, None] * unw[rows]
+        # (the arithmetic of every line as before, in buffers reused from call to call)
+        k = rows.size
+        full = k == n_b
+        r, t, wr = r_buf[:k], t_buf[:k], w_buf[:k]
+        np.multiply(np.exp(x)[:, None], unw if full else unw[rows], out=r)
         r += 1.0
         np.reciprocal(r, out=r)
-        t = 1.0 - r
-        wr = wz[rows] * r
+        np.subtract(1.0, r, out=t)
+        np.multiply(wz if full else wz[rows], r, out=wr)
+        c = cnt if full else cnt[rows]
         s0 = np.sum(wr, axis=1)
         wr *= t
         s1 = -np.sum(wr, axis=1)
-        s2 = np.sum(wr * (2.0 * t - 1.0), axis=1)
-        t1 = np.sum(t, axis=1) / cnt[rows]
-        t *= r
-        t2 = np.sum(t, axis=1) / cnt[rows]
+        t1 = np.sum(t, axis=1) / c
         s0 = np.where(s0 > 0, s0, 1e-300)
+        if not second:
+            return s1 / s0 + t1, np.zeros(0)
+        v = u_buf[:k]
+        np.multiply(2.0, t, out=v)
+        v -= 1.0
+        np.multiply(wr, v, out=v)
+        s2 = np.sum(v, axis=1)
+        t *= r
+        t2 = np.sum(t, axis=1) / c
         return s1 / s0 + t1, s2 / s0 - (s1 / s0) ** 2 + t2
 
     rows = np.arange(wz.shape[0])
-    g_a, _ = derivs(a, rows)
-    g_b, _ = derivs(b, rows)
+    g_a, _ = derivs(a, rows, False)
+    g_b, _ = derivs(b, rows, False)
     ok = (g_a < 0) & (g_b > 0)
     x = np.where(ok, 0.5 * (a + b), np.where(g_a < 0, b, a))
     act = np.flatnonzero(ok)
@@ -594,21 +770,23 @@ def segment_misfit(
     edges = (segment_edges(f, fn, -lam.real / np.maximum(np.abs(lam), 1e-300), criteria=criteria)
              if edges is None else np.asarray(edges, dtype=np.intp))
     n_seg = edges.size - 1
-    e = np.zeros_like(y)
-    mod = np.zeros_like(y)
+    # |residual|^2 and |model|^2 of every line (0 on lines left out), formed segment by segment
+    resid2 = np.zeros(y.shape)
+    model2 = np.zeros(y.shape)
     n_par = np.zeros(n_seg)  # real parameters per channel of each segment's local fit
     lines = np.zeros(n_seg)
     m_seg = np.zeros(n_seg)
     for s_i in range(n_seg):
         i0, i1 = int(edges[s_i]), int(edges[s_i + 1])
-        idx = np.arange(i0, i1)[ok[i0:i1]]
-        n_l = idx.size
+        sel = np.arange(i0, i1)[ok[i0:i1]]
+        n_l = sel.size
+        idx: NDArray[np.intp] | slice = slice(i0, i1) if n_l == i1 - i0 else sel
         lines[s_i] = n_l
         if n_l == 0:
             continue
         # the modes of the segment and of its neighbourhood (one segment width each side), nearest
         # first, as many as the lines carry with the polynomial; the rest the polynomial stands for
-        lo, hi = f[idx[0]], f[idx[-1]]
+        lo, hi = f[sel[0]], f[sel[-1]]
         width = max(hi - lo, 0.0)
         near = np.flatnonzero((fn >= lo - width) & (fn <= hi + width))
         near = near[np.argsort(np.abs(fn[near] - 0.5 * (lo + hi)), kind="stable")]
@@ -637,24 +815,31 @@ def segment_misfit(
             n_par[s_i] = int(keep.sum())
         else:
             fit = np.zeros_like(yv)
-        mod[:, idx] = fit.view(np.complex128)
-        e[:, idx] = (yv - fit).view(np.complex128)
-    resid2 = np.abs(e) ** 2
-    model2 = np.abs(mod) ** 2
+        model2[:, idx] = np.abs(fit.view(np.complex128)) ** 2
+        fit -= yv
+        resid2[:, idx] = np.abs(fit.view(np.complex128)) ** 2  # |y - fit| = |fit - y|
     dof_c = np.maximum(2 * lines - n_par, 1.0)  # per channel
     alpha = criteria.p_value / max(n_seg * (n_chan + 1), 1)
 
-    def test(var: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        # lines with an infinite variance carry no information: neither statistic nor dof
-        use = ok & np.isfinite(var)
-        z = np.where(use, 2.0 * resid2 / np.where(use, var, 1.0), 0.0)
-        chi_c = np.add.reduceat(z, edges[:-1], axis=1)  # (n_chan, n_seg)
-        n_l = np.add.reduceat(use.astype(np.float64), edges[:-1], axis=1)
-        d_c = np.maximum(2 * n_l - n_par, 1.0)
+    def test(var: NDArray[np.float64], known: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+             ) -> tuple[NDArray[np.float64], ...]:
+        # lines with an infinite variance carry no information: neither statistic nor dof;
+        # known: chi2 and p-value per channel and segment already formed with every ok line
+        if known is None:
+            use = ok & np.isfinite(var)
+            z = np.where(use, 2.0 * resid2 / np.where(use, var, 1.0), 0.0)
+            chi_c = np.add.reduceat(z, edges[:-1], axis=1)  # (n_chan, n_seg)
+            n_l = np.add.reduceat(use.astype(np.float64), edges[:-1], axis=1)
+            d_c = np.maximum(2 * n_l - n_par, 1.0)
+            p_c = chi2_dist.sf(chi_c, d_c)
+        else:
+            chi_c, p_c = known
+            n_l = np.broadcast_to(lines, chi_c.shape)
+            d_c = np.broadcast_to(dof_c, chi_c.shape)
         d_p = np.maximum(np.sum(2 * n_l - n_par, axis=0) - 2 * m_seg, 1.0)
         chi_p = chi_c.sum(axis=0)
         r_c, r_p = chi_c / d_c, chi_p / d_p
-        p_c, p_p = chi2_dist.sf(chi_c, d_c), chi2_dist.sf(chi_p, d_p)
+        p_p = chi2_dist.sf(chi_p, d_p)
         fail = ((p_p < alpha) & (r_p >= criteria.misfit_ratio)) | np.any(
             (p_c < alpha) & (r_c >= criteria.misfit_ratio), axis=0)
         return (r_p, r_c.max(axis=0), np.minimum(p_p, p_c.min(axis=0)), np.asarray(fail, dtype=bool), d_p)
@@ -681,20 +866,24 @@ def segment_misfit(
         source = "estimated"
         use = np.broadcast_to(ok, resid2.shape).copy()
         a, b = np.zeros(n_chan), np.zeros(n_chan)
+        var = np.empty(resid2.shape)
+        chi_c, p_c = np.empty((n_chan, n_seg)), np.empty((n_chan, n_seg))
         redo = np.arange(n_chan)
         for _ in range(3):
-            # the fit is per channel: only the channels whose lines changed are fitted again
-            a[redo], b[redo], _v = fit_noise_model(resid2[redo], model2[redo], mask=use[redo])
-            var = np.maximum(a[:, None] + b[:, None] * model2, 1e-300)
-            z = np.where(ok, 2.0 * resid2 / var, 0.0)
-            chi_c = np.add.reduceat(z, edges[:-1], axis=1)
-            bad = (chi2_dist.sf(chi_c, dof_c) < alpha) & (chi_c / dof_c >= criteria.misfit_ratio)
+            # the fit is per channel: only the channels whose lines changed are fitted again, and
+            # only their variance (a + b |H|^2, floored at 1e-300), chi2 and p-values are formed anew
+            rows: NDArray[np.intp] | slice = slice(None) if redo.size == n_chan else redo
+            a[redo], b[redo], var[rows] = fit_noise_model(resid2[rows], model2[rows], mask=use[rows])
+            z = np.where(ok, 2.0 * resid2[rows] / var[rows], 0.0)
+            chi_c[rows] = np.add.reduceat(z, edges[:-1], axis=1)
+            p_c[rows] = chi2_dist.sf(chi_c[rows], dof_c)
+            bad = (p_c < alpha) & (chi_c / dof_c >= criteria.misfit_ratio)
             keep = ok & np.logical_not(np.repeat(bad, np.diff(edges), axis=1))
             if np.array_equal(keep, use) or keep.sum(axis=1).min() < 8:
                 break
             redo = np.flatnonzero(np.any(keep != use, axis=1))
             use = keep
-        r_p, r_w, p, fail, dof_p = test(var)
+        r_p, r_w, p, fail, dof_p = test(var, (chi_c, p_c) if bool(np.all(np.isfinite(var))) else None)
     # a failing segment at a band edge without a mode of its own, or whose excess lies mostly in its
     # outer half, comes from a mode outside the band (the polynomial of the local fit stands only
     # for modes far from the segment, not for the steep skirt of one just beyond the edge)
