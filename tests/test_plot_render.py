@@ -299,3 +299,33 @@ def test_new_texts_drawn_from_kept_glyphs_are_the_pixels_matplotlib_draws(monkey
     # the same pixels; a glyph taken for another position within its pixel, or placed a pixel
     # off, changes dozens of pixels
     assert np.abs(got - want).max() == 0
+
+def test_fixed_layout_of_an_axis_with_labelled_minor_ticks_is_matplotlibs(monkeypatch):
+    """A log axis spanning under a decade labels its minor ticks (wider than the major ones, and
+    anywhere along the axis): fixed_layout cannot hold its ends free, so it lays the figure out as it
+    is, where matplotlib's constrained layout puts it, and keeps nothing for it.
+    Oracle: matplotlib's constrained layout of the same figure."""
+    import ema_rig.plot._render as render
+    from ema_rig.plot._render import fixed_layout
+
+    monkeypatch.setattr(render, "_FIXED", {})
+
+    def figure():
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(5.0, 3.2), layout="constrained", dpi=64)
+        ax = fig.subplots()
+        f = np.linspace(100.0, 1000.0, 200)
+        ax.semilogy(f, 0.5 + 2.5 * (f - 100.0) / 900.0)  # 0.5 .. 3: one decade tick, labelled minor ticks
+        ax.set_title("t", loc="left")
+        return fig, ax
+
+    fig, ax = figure()
+    # premise: a major label to hold at the ends, and labelled minor ticks
+    assert any(ax.yaxis.get_major_formatter().format_ticks([1.0]))
+    assert any(ax.yaxis.get_minor_formatter().format_ticks(list(ax.yaxis.get_minorticklocs())))
+    assert fixed_layout(fig, [ax.yaxis]) is False
+    assert render._FIXED == {}
+    want, ref = figure()
+    want.get_layout_engine().execute(want)
+    assert np.allclose(ax.get_position().bounds, ref.get_position().bounds, atol=1e-9)

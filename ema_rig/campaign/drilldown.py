@@ -45,7 +45,7 @@ KINDS: dict[str, str] = {
                  "sensor of each kind (housing/spindle, radial/lateral/axial); shaded: the identification band.",
 }
 #: Bump when the drawing changes (size, resolution, content): every per-measurement figure is redrawn.
-_DRAW_VERSION = 6
+_DRAW_VERSION = 7
 #: Pixel density and size of the embedded figures: at least 1000 px wide (readable on screen; issue 20).
 DPI = 80
 _SIZE = (12.8, 5.6)
@@ -188,7 +188,7 @@ def measurement_figures(
             title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
         drawers["synthesis"] = lambda: plot_synthesis(
             data, ident.modes, channels=channels, phase=True,
-            figure=kept_figure("synthesis", (_SIZE[0], 1.0 + 3.0 * n_rows)),
+            figure=kept_figure("synthesis", (_SIZE[0], 1.0 + 3.0 * n_rows)), dpi=DPI,
             title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
     for kind, draw in drawers.items():
         try:

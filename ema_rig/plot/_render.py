@@ -8,6 +8,10 @@ render_png
 kept_figure, reuse_axes
     One figure per kind per worker thread, its axes and tick objects kept from one measurement
     to the next: only the data, limits and texts are drawn anew.
+fixed_layout
+    A constrained layout that keeps the room for the outermost tick labels of chosen axes (log
+    magnitudes), so that where those land does not change it: computed once per key and process,
+    the figure's layout engine then switched off.
 
 Notes
 -----
@@ -78,7 +82,7 @@ if TYPE_CHECKING:
     from matplotlib.axis import Axis
     from matplotlib.figure import Figure
 
-__all__ = ["collapse_minor_ticks", "kept_figure", "render_png", "reuse_axes"]
+__all__ = ["collapse_minor_ticks", "fixed_layout", "kept_figure", "render_png", "reuse_axes"]
 
 #: Layouts kept per process (structure -> [(key, positions)]), newest last; a few per figure kind.
 _LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
@@ -901,3 +905,117 @@ def _keep_layout(fig: Figure) -> None:
     kept = _LAYOUTS.setdefault(key[0], [])
     kept.append((key, _positions(fig)))
     del kept[:-_MAX_LAYOUTS]
+
+
+# ----------------------------------------------------------------------------- fixed layouts
+#: Layouts of :func:`fixed_layout` per process (structure -> [(key, positions)]), newest last.
+_FIXED: dict[Any, list[tuple[Any, Any]]] = {}
+
+
+def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
+    """Place the axes of ``fig`` as a constrained layout would, the ends of ``reserve`` held free.
+
+    A constrained layout makes room for a tick label that sticks out beyond an end of its axis
+    (one within half its height of the end): where the lowest label of a log axis lands changes
+    the layout from one measurement to the next, and :func:`render_png` lays such figures out
+    again each time (its key holds that distance). Here the layout is computed with the tick
+    labels of every axis in ``reserve`` replaced by the widest of its own labels at both ends of
+    the axis: the room for a label sticking out there is always kept, and the positions depend
+    on what the layout measures (figure size and dpi, texts, legends, the widest tick label of
+    each axis, the others' labels as :func:`render_png` keys them) but not on where those labels
+    land. Layouts are kept per process under that key: a figure with the same key is placed
+    without running the layout. The figure's layout engine is switched off (the positions are
+    for its current size and dpi: set the dpi it will be drawn at first).
+
+    Parameters
+    ----------
+    fig : Figure
+        A finished figure (texts, limits and ticks final) on a gridspec.
+    reserve : list of Axis
+        Axes' axes whose outermost tick labels must not move the layout (log magnitude axes).
+
+    Returns
+    -------
+    bool
+        True when a kept layout was applied, False when the layout was computed.
+    """
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    engine = fig.get_layout_engine()
+    ids = {id(a) for a in reserve}
+    structure = _structure(fig)
+    for key, positions in reversed(_FIXED.get(structure, [])):
+        _apply(fig, positions)
+        if _fixed_key(fig, ids) == key:
+            fig.set_layout_engine("none")
+            return True
+    layout = engine if isinstance(engine, ConstrainedLayoutEngine) else ConstrainedLayoutEngine()
+    proxies = [p for p in (_proxy_ends(a) for a in reserve) if p is not None]
+    # an axis whose ends cannot be held free (no major label, labelled minor ticks): laid out as
+    # it is, and not kept (its key does not say where its labels sit)
+    keep = len(proxies) == sum(1 for a in reserve if a.get_visible() and a.axes.get_visible())
+    off = _minor_off(fig)  # nothing the layout measures
+    try:
+        layout.execute(fig)
+    finally:
+        _minor_on(off)
+        for axis, saved in proxies:
+            axis.set_major_locator(saved[0])
+            axis.set_major_formatter(saved[1])
+            axis.isDefault_majloc, axis.isDefault_majfmt = saved[2], saved[3]
+    fig.set_layout_engine("none")
+    if keep:
+        kept = _FIXED.setdefault(structure, [])
+        kept.append((_fixed_key(fig, ids), _positions(fig)))
+        del kept[:-_MAX_LAYOUTS]
+    return False
+
+
+def _fixed_key(fig: Figure, reserve: set[int]) -> Any:
+    """What :func:`fixed_layout` measures: :func:`_layout_key` without where the labels of
+    ``reserve`` (ids of Axis objects) sit (their ends counted as covered)."""
+    keys: list[Any] = [_structure(fig)]
+    keys.append(tuple(_text_key(t, fig.bbox.width * 0.9) for t in fig.texts))
+    for ax in fig.axes:
+        if not ax.get_visible():
+            keys.append(None)
+            continue
+        box = ax.get_window_extent()
+        heads = _titles(ax)
+        titles = tuple(_text_key(t, box.width * 0.95) for t in (*heads, *ax.texts) if t in heads or not t.get_clip_on())
+        leg = ax.get_legend()
+        legend = None if leg is None else (tuple(_fold(x.get_text()) for x in leg.get_texts()),
+                                           tuple(leg.get_bbox_to_anchor().bounds), leg.get_visible())
+        cov_y = (True, True) if id(ax.yaxis) in reserve else _covered(fig, ax)
+        cov_x = (True, True) if id(ax.xaxis) in reserve else (False, False)
+        # a reserved axis with labelled minor ticks is laid out as it is (:func:`_proxy_ends`)
+        minor = tuple(_minor_labelled(a) for a in (ax.xaxis, ax.yaxis) if id(a) in reserve)
+        keys.append((ax.get_in_layout(), titles, legend, _axis_key(ax.xaxis, box.width, cov_x),
+                     _axis_key(ax.yaxis, box.height, cov_y), minor))
+    return tuple(keys)
+
+
+def _minor_labelled(axis: Axis) -> bool:
+    """Whether a log axis draws labelled minor ticks (a span of about a decade or less)."""
+    return bool(axis.get_scale() == "log" and _unlabelled_minor(axis) is None and axis.get_minorticklocs().size)
+
+
+def _proxy_ends(axis: Axis) -> tuple[Axis, tuple[Any, Any, bool, bool]] | None:
+    """Put the widest of ``axis``' tick labels at both ends of it (for a layout); what to restore."""
+    from matplotlib.ticker import FixedFormatter, FixedLocator
+
+    if not axis.get_visible() or not axis.axes.get_visible():
+        return None
+    if _minor_labelled(axis):
+        return None  # they can stick out too, and be wider
+    lo, hi = sorted(axis.get_view_interval())
+    locs = [x for x in np.asarray(axis.get_majorticklocs(), dtype=float) if lo <= x <= hi]
+    labels = axis.get_major_formatter().format_ticks(locs) if locs else []
+    if not any(labels):
+        return None
+    widest = max(labels, key=lambda s: len(_fold(s)))
+    saved = (axis.get_major_locator(), axis.get_major_formatter(), axis.isDefault_majloc, axis.isDefault_majfmt)
+    axis.set_major_locator(FixedLocator([lo, hi]))
+    axis.set_major_formatter(FixedFormatter([widest, widest]))
+    return axis, saved
+

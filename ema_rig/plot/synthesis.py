@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._render import reuse_axes
+from ._render import fixed_layout, reuse_axes
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -111,6 +111,7 @@ def plot_synthesis(
     phase: bool = False,
     fig_width: float | None = None,
     figure: Figure | None = None,
+    dpi: float | None = None,
 ) -> SynthesisPlot:
     """Overlay measured and synthesised FRFs, one panel per channel.
 
@@ -140,6 +141,13 @@ def plot_synthesis(
         earlier synthesis plot with the same panels keeps its axes (emptied,
         :func:`ema_rig.plot._render.reuse_axes`): the same picture, without building axes and
         ticks again; any other is cleared.
+    dpi : float, optional
+        The pixel density [dots per inch] the figure will be drawn at, once, to a raster (a
+        report's PNG). Given, the figure is laid out here for that density instead of by a
+        constrained layout at every draw (:func:`ema_rig.plot._render.fixed_layout`: the room
+        for the lowest and highest magnitude tick labels is always kept, so the layout is the same
+        for every measurement with the same texts and is computed once for them; the figure's
+        layout engine is switched off). Default: a constrained layout at every draw.
 
     Returns
     -------
@@ -172,6 +180,8 @@ def plot_synthesis(
     else:
         fig = figure
         kept = reuse_axes(fig, f"ema_rig.synthesis {n} in {nrow}x{ncol} phase={phase}")
+    if dpi is not None:
+        fig.set_dpi(dpi)
     if phase:
         grid = (np.array(kept, dtype=object).reshape(2 * nrow, ncol) if kept else
                 fig.subplots(2 * nrow, ncol, sharex=True, squeeze=False, height_ratios=[2.0, 1.0] * nrow))
@@ -228,6 +238,8 @@ def plot_synthesis(
     name = src.replace("\\", "/").rsplit("/", 1)[-1]
     fig.suptitle(title or f"{name + ': ' if name else ''}measured vs synthesised FRFs, {len(modes.poles)} modes in "
                  f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies)", fontsize=10)
+    if dpi is not None:
+        fixed_layout(fig, [ax.yaxis for ax in out.axes])
     return out
 
 
