@@ -836,25 +836,11 @@ def _axis_key(axis: Any, length_px: float, covered: tuple[bool, bool] = (False, 
 
 
 def _layout_key(fig: Figure) -> Any:
-    """Everything a constrained layout reads, at the current axes positions; None: do not reuse."""
-    keys: list[Any] = [_structure(fig)]
-    fw = fig.bbox.width
-    keys.append(tuple(_text_key(t, fw * 0.9) for t in fig.texts))
-    for ax in fig.axes:
-        if not ax.get_visible():
-            keys.append(None)
-            continue
-        box = ax.get_window_extent()
-        # the three titles (centre, left, right) and unclipped texts: a title narrower than its
-        # axes changes the layout only by its height
-        heads = _titles(ax)
-        titles = tuple(_text_key(t, box.width * 0.95) for t in (*heads, *ax.texts) if t in heads or not t.get_clip_on())
-        leg = ax.get_legend()
-        legend = None if leg is None else (tuple(_fold(x.get_text()) for x in leg.get_texts()),
-                                           tuple(leg.get_bbox_to_anchor().bounds), leg.get_visible())
-        keys.append((ax.get_in_layout(), titles, legend, _axis_key(ax.xaxis, box.width),
-                     _axis_key(ax.yaxis, box.height, _covered(fig, ax))))
-    return tuple(keys)
+    """Everything a constrained layout reads, at the current axes positions; None: do not reuse.
+
+    :func:`_fixed_key` with no axis reserved: every tick label's position counts.
+    """
+    return _fixed_key(fig, set())
 
 
 def _titles(ax: Any) -> tuple[Any, ...]:
