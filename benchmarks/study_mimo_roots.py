@@ -51,6 +51,7 @@ _plscf = importlib.import_module("ema_rig.identification.plscf")
 _Prepared = tuple[NDArray[np.float64], NDArray[np.float64]]
 _prepare, _ratio_prepared, _repulsion = _roots._prepare, _roots._ratio_prepared, _roots._repulsion
 _STALE = _roots._STALE
+_checked = _roots._checked
 
 # ----------------------------------------------------------------- conjugate-symmetric Aberth (study)
 def warm_start_conj(prev: NDArray[np.complex128], n_roots: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]] | None:
@@ -133,16 +134,7 @@ def aberth_conj(c: NDArray[np.float64], upper: NDArray[np.complex128], real: NDA
         rest = _free_sweeps(pre, pre_rev, n, fixed, rest, maxiter - used)
         if rest is None:
             return None
-    z = np.concatenate([fixed, rest])
-    if not np.all(np.isfinite(z)):
-        return None
-    vieta = -c[-2] / c[-1]
-    if abs(z.sum() - vieta) > 1e-8 * (np.abs(z).sum() + abs(vieta)):
-        return None
-    zs = np.sort_complex(z)
-    if np.any(np.abs(np.diff(zs)) <= 1e-12 * np.abs(zs[1:])):
-        return None
-    return z
+    return cast("NDArray[np.complex128] | None", _checked(c, np.concatenate([fixed, rest])))
 
 
 #: :func:`aberth_conj` ends its symmetric sweeps once at most ``_STALL_LEFT`` guesses are left, or
