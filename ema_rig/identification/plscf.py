@@ -390,18 +390,24 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
         ia, ib = np.triu_indices(n_in)
         g = np.zeros((ia.size, n), np.complex128)
         for o0, o1 in chunks(n_in * nf * 16):
+            if n_in > 1:
+                # several references: the weights enter the products and scale the transforms
+                # (the lag sums are linear in each output), no weighted copy of the chunk
+                hr, hi, w2 = h[o0:o1].real, h[o0:o1].imag, w[o0:o1] ** 2
+                for q, (a, b) in enumerate(zip(ia.tolist(), ib.tolist(), strict=True)):
+                    # conj(x) y = (xr yr + xi yi) + j (xr yi - xi yr), weighted by w_o^2 over the outputs
+                    g[q].real += np.einsum("o,ok,ok->k", w2, hr[:, a], hr[:, b]) + np.einsum("o,ok,ok->k", w2, hi[:, a], hi[:, b])
+                    if a != b:
+                        g[q].imag += (np.einsum("o,ok,ok->k", w2, hr[:, a], hi[:, b])
+                                      - np.einsum("o,ok,ok->k", w2, hi[:, a], hr[:, b]))
+                s[o0:o1] = re_sums(h[o0:o1])
+                s[o0:o1] *= w[o0:o1, None, None]
+                continue
             hw = h[o0:o1] * w[o0:o1, None, None]
             if n_in == 1:  # |H_o|^2 in one contraction over the (re, im) pairs
                 hv = np.ascontiguousarray(hw).view(np.float64).reshape(o1 - o0, n, 2)  # a copy only
                 # when the FRF array is not C-ordered (the product keeps the input's layout)
                 g[0].real += np.einsum("okt,okt->k", hv, hv)
-            else:
-                hr, hi = hw.real, hw.imag
-                for q, (a, b) in enumerate(zip(ia.tolist(), ib.tolist(), strict=True)):
-                    # conj(x) y = (xr yr + xi yi) + j (xr yi - xi yr)
-                    g[q].real += np.einsum("ok,ok->k", hr[:, a], hr[:, b]) + np.einsum("ok,ok->k", hi[:, a], hi[:, b])
-                    if a != b:
-                        g[q].imag += np.einsum("ok,ok->k", hr[:, a], hi[:, b]) - np.einsum("ok,ok->k", hi[:, a], hr[:, b])
             s[o0:o1] = re_sums(hw)
             del hw
         tu = re_sums(g)  # (pairs, 2p + 1)
