@@ -106,6 +106,7 @@ from ._roots import (
     coefficient_blocks,
     det_coefficients,
     eval_blocked,
+    powers,
 )
 
 logger = logging.getLogger(__name__)
@@ -780,36 +781,38 @@ def _poles_of_orders(
     return [(s_all[a:b] + 2j * np.pi * f_lo, part[a:b]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
-def _eval_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
+def _eval_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any],
+               derivative: bool = True) -> tuple[NDArray[Any], NDArray[Any] | None]:
     """``A(z)`` and ``A'(z)`` of the polynomial ``high[owner[r]]`` at each ``z[r]``: (n_z, n_in, n_in).
 
-    In chunks of roots of about half a megabyte of powers and gathered coefficients: the roots of
-    every order are many, and their powers are never held all at once.
+    ``A'`` is None when ``derivative`` is False (half the products). In chunks of roots of about
+    half a megabyte of powers and gathered coefficients: the roots of every order are many, and
+    their powers are never held all at once. The powers come from the blocked tables of
+    :func:`~._roots.powers` (vectorised over the roots, at most ``2 sqrt(n)`` rounded factors each).
     """
     n1, n_in = high.shape[1], high.shape[2]
     j = np.arange(n1)
+    rows = 4 if derivative else 2
     a = np.empty((z.size, n_in, n_in), dtype=np.complex128)
-    da = np.empty_like(a)
+    da = np.empty_like(a) if derivative else None
     step = max(1, (1 << 19) // (n1 * (n_in * n_in + 4) * 8))
     for r0 in range(0, z.size, step):
         zc = z[r0 : r0 + step]
-        v = np.empty((zc.size, n1), dtype=np.complex128)
-        v[:, 0] = 1.0
-        if n1 > 1:
-            v[:, 1:] = zc[:, None]
-            np.cumprod(v[:, 1:], axis=1, out=v[:, 1:])
-        # real and imaginary parts of the powers and of their derivatives as four real rows per
-        # root, times the root's real coefficients: one stack of real products (no complex
-        # copy of the gathered coefficients)
-        w = np.empty((zc.size, 4, n1))
-        w[:, 0], w[:, 1] = v.real, v.imag
-        w[:, 2:, 0] = 0.0
-        np.multiply(v.real[:, :-1], j[1:], out=w[:, 2, 1:])
-        np.multiply(v.imag[:, :-1], j[1:], out=w[:, 3, 1:])
+        v = powers(zc, n1 - 1)  # (n1, chunk)
+        # real and imaginary parts of the powers (and of their derivatives) as two (four) real
+        # rows per root, times the root's real coefficients: one stack of real products (no
+        # complex copy of the gathered coefficients)
+        w = np.empty((zc.size, rows, n1))
+        w[:, 0], w[:, 1] = v.real.T, v.imag.T
+        if da is not None:
+            w[:, 2:, 0] = 0.0
+            np.multiply(v.real[:-1].T, j[1:], out=w[:, 2, 1:])
+            np.multiply(v.imag[:-1].T, j[1:], out=w[:, 3, 1:])
         c = high[owner[r0 : r0 + step]].reshape(zc.size, n1, n_in * n_in)
-        res = np.matmul(w, c)  # (chunk, 4, n_in^2)
+        res = np.matmul(w, c)  # (chunk, rows, n_in^2)
         a[r0 : r0 + step] = (res[:, 0] + 1j * res[:, 1]).reshape(-1, n_in, n_in)
-        da[r0 : r0 + step] = (res[:, 2] + 1j * res[:, 3]).reshape(-1, n_in, n_in)
+        if da is not None:
+            da[r0 : r0 + step] = (res[:, 2] + 1j * res[:, 3]).reshape(-1, n_in, n_in)
     return a, da
 
 
@@ -827,7 +830,8 @@ def _refine_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any], iters
     blocks = coefficient_blocks(high[:, :, 0, 0])[0] if n_in == 1 else None
     for _ in range(iters):
         if blocks is None:
-            a, da = _eval_many(high, owner, zk)
+            a, da_ = _eval_many(high, owner, zk)
+            da = cast("NDArray[Any]", da_)
         with np.errstate(all="ignore"):
             if blocks is not None:  # one reference: p / p' from the blocked coefficients
                 p, dp = eval_blocked(blocks, high.shape[1] - 1, owner, zk)
@@ -859,7 +863,7 @@ def _participation_many(high: NDArray[Any], owner: NDArray[Any], z: NDArray[Any]
     n_in = high.shape[2]
     if n_in == 1:
         return np.ones((z.size, 1), dtype=np.complex128)
-    a, _ = _eval_many(high, owner, z)
+    a, _ = _eval_many(high, owner, z, derivative=False)
     return _null_vectors(a)
 
 
