@@ -30,7 +30,7 @@ from bench_plscf import blas_threads, call_ema, ema_data, make_arrays  # beside 
 #: (stage, nested) in the order the engine runs them
 STAGES = [
     ("check_data", False), ("_lag_sums", False), ("_order_limit", False), ("_reduced_factor", False),
-    ("_q_rows", False), ("_add_gram", False), ("_solve_order", False), ("_solve_order_multi", False), ("det_coefficients", False),
+    ("_q_rows", False), ("_add_gram", False), ("_solve_order", False), ("det_coefficients", False),
     ("warm_start", False), ("aberth", False), ("aberth_warm", False), ("aberth_chain", False), ("_roots_eig", False), ("_poles_of_orders", False),
     ("_refine_many", True), ("_participation_many", True),
 ]
@@ -38,7 +38,6 @@ STAGES = [
 #: stages run once per order, with the model order each call is for (from its arguments; two references)
 PER_ORDER: dict[str, Callable[..., int]] = {
     "_solve_order": lambda m, n, n_in: int(n),
-    "_solve_order_multi": lambda m, n, n_in: int(n),
     "det_coefficients": lambda alpha: int(alpha.shape[0]) - 1,
     "warm_start": lambda prev, n_roots: int(n_roots) // 2,
     "aberth": lambda c, z0, **k: (int(c.size) - 1) // 2,
