@@ -317,8 +317,12 @@ def _sum_sq(h: NDArray[Any]) -> NDArray[np.float64]:
     """``sum_k |h[..., k]|^2`` over the last axis of a complex array, shape ``h.shape[:-1]``.
 
     Two real contractions over the real and imaginary views: no temporary of the array's size
-    (the squares of the parts would be three), any memory layout.
+    (the squares of the parts would be three), any memory layout; a C-ordered array in ONE
+    contraction over its (re, im) pairs (contiguous, half the time of the two strided ones).
     """
+    if h.flags.c_contiguous and h.dtype == np.complex128:
+        v = h.view(np.float64)
+        return cast("NDArray[np.float64]", np.einsum("...k,...k->...", v, v))
     return cast("NDArray[np.float64]", np.einsum("...k,...k->...", h.real, h.real)
                 + np.einsum("...k,...k->...", h.imag, h.imag))
 
@@ -484,7 +488,8 @@ def _lag_sums_one(h: NDArray[Any], p: int, budget: int, dt: float) -> tuple[NDAr
         blk = h[o0:o1, 0]
         hv = np.ascontiguousarray(blk).view(np.float64).reshape(o1 - o0, n, 2)  # a copy only when
         # the FRF array is not C-ordered
-        sq = np.einsum("okt,okt->ok", hv, hv)  # |H_o|^2, (outputs, lines)
+        sq = np.square(hv)
+        sq = sq[..., 0] + sq[..., 1]  # |H_o|^2, (outputs, lines)
         rms = np.sqrt(sq.sum(axis=1) / n)
         wc = 1.0 / np.where(rms > 0, rms, 1.0)
         w[o0:o1] = wc
