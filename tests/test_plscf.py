@@ -89,20 +89,42 @@ def test_warm_started_roots():
     assert aberth(c, warm_start(np.zeros(0), 10), maxiter=1) is None
 
 
+@pytest.mark.parametrize("m", [9, 150], ids=["accumulate", "row-products"])
 @pytest.mark.parametrize("n", [0, 1, 7, 64, 200])
-def test_block_powers_match_numpy_power(n):
-    from ema_rig.identification._roots import powers
+def test_block_powers_match_numpy_power(n, m):
+    import math
 
+    from ema_rig.identification._roots import _ROW_PRODUCTS, powers
+
+    assert (m < _ROW_PRODUCTS) == (m == 9)  # both ways of forming the power rows are tested
     rng = np.random.default_rng(n)
-    x = np.exp(2j * np.pi * rng.random(9)) * (1.0 + 0.02 * rng.standard_normal(9))
+    x = np.exp(2j * np.pi * rng.random(m)) * (1.0 + 0.02 * rng.standard_normal(m))
     x[0] = 0.0  # 0**0 = 1
     got = powers(x, n)
-    assert got.shape == (n + 1, 9)
-    want = x[None, :] ** np.arange(n + 1)[:, None]  # numpy's own power, independent of the blocks
-    # rounding grows with the number of rounded factors (at most 2 sqrt(n) products here, n in
-    # a running product; measured 6e-14 at n = 200): 2n eps bounds both
-    np.testing.assert_allclose(got, want, rtol=2 * max(n, 1) * np.finfo(float).eps, atol=0)
-    np.testing.assert_allclose(powers(np.abs(x), n), np.abs(want), rtol=2 * max(n, 1) * np.finfo(float).eps, atol=0)
+    assert got.shape == (n + 1, m)
+    eps = np.finfo(float).eps
+    j = np.arange(n + 1)[:, None]
+    if np.finfo(np.longdouble).eps < eps / 100:
+        # a plain running product in extended precision (x86: 64-bit mantissa), independent of the
+        # blocks: its error (~n 1e-19) is negligible (numpy's long double power is not: 4e-14 at
+        # n = 200). Each power is a product of two rows, each row a chain of at most isqrt(n) + 1
+        # and ceil((n + 1) / b) rounded products: ~2 sqrt(n) + 2 rounded factors (measured
+        # 1e-14 = 45 eps at n = 200), 4 eps per factor bounds them
+        def exact(v: np.ndarray) -> np.ndarray:
+            run = np.ones((n + 1, m), dtype=np.clongdouble if v.dtype.kind == "c" else np.longdouble)
+            run[1:] = v
+            return np.multiply.accumulate(run, axis=0).astype(v.dtype)
+
+        rtol = 4 * (2 * math.isqrt(max(n, 1)) + 4) * eps
+    else:  # no extended precision: numpy's double power errs itself by up to ~2 n eps
+
+        def exact(v: np.ndarray) -> np.ndarray:
+            return v[None, :] ** j
+
+        rtol = 4 * max(n, 1) * eps
+    np.testing.assert_allclose(got, exact(x), rtol=rtol, atol=0)
+    np.testing.assert_allclose(powers(np.abs(x), n), exact(np.abs(x)), rtol=rtol, atol=0)
+
 
 def test_reduced_normal_equations_match_explicit_least_squares(system):
     from ema_rig.identification.plscf import _lag_sums, _reduced_blocks
