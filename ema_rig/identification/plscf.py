@@ -466,7 +466,7 @@ def _re_lag_sums(x: NDArray[Any], p: int) -> NDArray[Any]:
     y = np.fft.irfft(x, n=nf, axis=-1)[..., lags % nf] * nf
     y += x[..., :1].real + x[..., -1:].real * sign
     y *= 0.5
-    return y
+    return cast("NDArray[Any]", y)
 
 
 def _lag_sums_one(h: NDArray[Any], p: int, budget: int, dt: float) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any], float]:
