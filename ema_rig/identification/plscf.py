@@ -60,7 +60,7 @@ one root-finding problem per order.
 eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
 ``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
-roots (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
+roots (one reference: from degree 48 when the orders go on to 64 or beyond) (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
 round-off; up to degree 130: all those orders in one batch of sweeps,
 :func:`~._roots.aberth_chain`; above it one order at a time, the first sweep's repulsion sums
 from the previous order's polynomial, :func:`~._roots.aberth_warm`; an order that does not
@@ -112,6 +112,16 @@ logger = logging.getLogger(__name__)
 
 #: Below this polynomial degree the companion QR is cheaper than the warm-started iteration.
 _ABERTH_MIN_DEGREE = 64
+
+#: One reference: when the computed orders reach :data:`_ABERTH_MIN_DEGREE`, the batched chain
+#: (:func:`~._roots.aberth_chain`) starts at this degree instead. Alone, the chain of degrees
+#: 48-62 costs more than their companion QR (CPU min of 25 alternating runs on the denominators
+#: of benchmarks/bench_plscf.py: 3.75 against 3.39 ms up to degree 62, 1.37 against 0.65 ms up
+#: to 50), but within a chain that goes on past degree 64 the sweeps it shares pay for it: up
+#: to degree 64 3.51 against 4.45 ms (QR to 62, the chain from 64), up to 72 5.19 against
+#: 6.16, up to 80 6.38 against 7.60, up to 100 11.3 against 12.5 ms (from 40: 12.5, from 56:
+#: 11.5 against 12.1 ms at 100).
+_CHAIN_FROM_DEGREE_ONE = 48
 
 #: Up to this degree (of det A: n_in x order) the orders from :data:`_ABERTH_MIN_DEGREE` on are rooted
 #: together (:func:`~._roots.aberth_chain`: one batch of sweeps for all orders, each started from
@@ -961,7 +971,8 @@ def plscf(
     progress : bool, optional
         Show a tqdm progress bar over the orders.
     root_finder : {'aberth', 'eig'}, optional
-        ``'aberth'`` (default): roots of each order of degree >= 64 by the Aberth-Ehrlich
+        ``'aberth'`` (default): roots of each order of degree >= 64 (one reference: >= 48
+        when the orders reach 64) by the Aberth-Ehrlich
         iteration started from the previous order's roots (several times faster; an order
         that does not converge falls back to the companion eigenvalues), smaller orders by
         the companion eigenvalues. ``'eig'``: companion eigenvalues
@@ -1139,6 +1150,9 @@ class PlscfEngine:
         # factors of all these orders follow at once (_poles_of_orders)
         entries: list[tuple[int, NDArray[Any], Any]] = []
         chain: list[tuple[int, NDArray[Any], NDArray[Any]]] = []
+        aberth_from = _ABERTH_MIN_DEGREE
+        if n_in == 1 and order_list[-1] >= _ABERTH_MIN_DEGREE:
+            aberth_from = _CHAIN_FROM_DEGREE_ONE  # the chain goes on past _ABERTH_MIN_DEGREE
         try:
             with single_threaded():
                 for n in solvable():
@@ -1149,7 +1163,7 @@ class PlscfEngine:
                         entries.append((n, high, pool.submit(work, low)))
                         continue
                     z = None
-                    big = self.root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
+                    big = self.root_finder == "aberth" and n * n_in >= aberth_from
                     if big and self._prev is not None:
                         coef = det_coefficients(low)
                         if coef.size - 1 <= _CHAIN_MAX_DEGREE:
