@@ -61,7 +61,7 @@ eigenvalues of the block companion matrix of the coefficient-reversed, transpose
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
 ``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
 roots (one reference: from degree 48 when the orders go on to 64 or beyond) (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
-round-off; up to degree 130: all those orders in one batch of sweeps,
+round-off; up to degree 130 (one reference: 200): all those orders in one batch of sweeps,
 :func:`~._roots.aberth_chain`; above it one order at a time, the first sweep's repulsion sums
 from the previous order's polynomial, :func:`~._roots.aberth_warm`; an order that does not
 converge falls back to the companion eigenvalues). The
@@ -132,6 +132,13 @@ _CHAIN_FROM_DEGREE_ONE = 48
 #: O(N^2) work per order grows). Two references, the bench's data, the same CPU-time pairing:
 #: 16.3 -> 14.0 ms at order 50, 56.2 -> 52.3 ms at order 100, poles the same to 3e-13 as sets.
 _CHAIN_MAX_DEGREE = 130
+
+#: :data:`_CHAIN_MAX_DEGREE` of one reference, since the power rows of an evaluation are formed
+#: by one product each (:func:`~._roots._block_powers`; the sweeps' arithmetic cheaper, the batch's
+#: shared fixed cost counts longer). Measured as above (CPU min of 5 alternating runs, both
+#: started from the companion roots of the order below): degrees 132-160 12.3 against 15.1 ms,
+#: 160-200 20.0 against 21.4 ms, 200-260 39.9 against 38.2 ms (the one-by-one iteration ahead).
+_CHAIN_MAX_DEGREE_ONE = 200
 
 #: Default maximum model order for one reference / for several (denominator degree).
 DEFAULT_MAX_ORDER = {1: 64}
@@ -1150,9 +1157,11 @@ class PlscfEngine:
         # factors of all these orders follow at once (_poles_of_orders)
         entries: list[tuple[int, NDArray[Any], Any]] = []
         chain: list[tuple[int, NDArray[Any], NDArray[Any]]] = []
-        aberth_from = _ABERTH_MIN_DEGREE
-        if n_in == 1 and order_list[-1] >= _ABERTH_MIN_DEGREE:
-            aberth_from = _CHAIN_FROM_DEGREE_ONE  # the chain goes on past _ABERTH_MIN_DEGREE
+        aberth_from, chain_max = _ABERTH_MIN_DEGREE, _CHAIN_MAX_DEGREE
+        if n_in == 1:
+            chain_max = _CHAIN_MAX_DEGREE_ONE
+            if order_list[-1] >= _ABERTH_MIN_DEGREE:
+                aberth_from = _CHAIN_FROM_DEGREE_ONE  # the chain goes on past _ABERTH_MIN_DEGREE
         try:
             with single_threaded():
                 for n in solvable():
@@ -1166,7 +1175,7 @@ class PlscfEngine:
                     big = self.root_finder == "aberth" and n * n_in >= aberth_from
                     if big and self._prev is not None:
                         coef = det_coefficients(low)
-                        if coef.size - 1 <= _CHAIN_MAX_DEGREE:
+                        if coef.size - 1 <= chain_max:
                             chain.append((len(entries), coef, low))  # rooted together (_root_chain)
                             entries.append((n, high, None))
                             continue
