@@ -17,8 +17,9 @@ Newton ratio times the repulsion sum is already below :data:`_STALE`, the correc
 the previous sweep's repulsion sum (its change alters the step only at second order), so the
 O(N^2) sums are recomputed only for the roots still far from convergence.
 
-At the degrees where a sweep costs more in fixed per-call work than in arithmetic (one
-reference, degree <= ~130), :func:`aberth_chain` roots a whole run of orders in ONE batch of
+At the degrees where a sweep costs more in fixed per-call work than in arithmetic (pLSCF: one
+reference, degrees 48-200 when the orders reach 64; two references up to 130),
+:func:`aberth_chain` roots a whole run of orders in ONE batch of
 sweeps: each order starts from the iterate of the order below after one sweep (not from its
 converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 relative
 anyway), and each sweep evaluates and corrects the active roots of every started order
