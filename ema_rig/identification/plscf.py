@@ -59,9 +59,10 @@ one root-finding problem per order.
 **Poles and participation factors.** The roots of order ``n`` are those of ``det A(z)``:
 eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
-``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
-roots (one reference: from degree 48 when the orders go on to 64 or beyond) (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
-round-off; up to degree 130 (one reference: 200): all those orders in one batch of sweeps,
+``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond) by
+default the Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`:
+O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to round-off; up to degree
+130 (one reference: 200): all those orders in one batch of sweeps,
 :func:`~._roots.aberth_chain`; above it one order at a time, the first sweep's repulsion sums
 from the previous order's polynomial, :func:`~._roots.aberth_warm`; an order that does not
 converge falls back to the companion eigenvalues). The
