@@ -252,6 +252,23 @@ def default_threads() -> str:
 
 
 
+def paired_cpu(fa: Callable[[], Any], fb: Callable[[], Any], repeat: int) -> tuple[list[float], list[float], list[float], list[float]]:
+    """:func:`_timing.paired` that also records each call's CPU time (``time.process_time``, every
+    thread of the process): (wall A, wall B, CPU A, CPU B) [s]. With one BLAS thread the CPU time
+    is the work a call does, without the time slices other processes take on a shared machine."""
+    ta: list[float] = []
+    tb: list[float] = []
+    ca: list[float] = []
+    cb: list[float] = []
+    for i in range(repeat):
+        for which in ((0, 1) if i % 2 == 0 else (1, 0)):
+            t0, c0 = time.perf_counter(), time.process_time()
+            (fa if which == 0 else fb)()
+            (ta if which == 0 else tb).append(time.perf_counter() - t0)
+            (ca if which == 0 else cb).append(time.process_time() - c0)
+    return ta, tb, ca, cb
+
+
 def spread(ts: list[float]) -> str:
     return f"{statistics.median(ts):7.3f} ({min(ts):.3f}-{max(ts):.3f})"
 
@@ -331,9 +348,10 @@ def main() -> int:
     call_sdypy(freq, h1, 10)
 
     print(f"Warm, paired and alternating ({repeat} pairs): median (min-max) seconds; ratio = sdypy / ema_rig per pair;")
-    print("peak = resident memory one call adds [MB]")
+    print("peak = resident memory one call adds [MB]; CPU ratio = the same ratio of the calls' CPU times")
+    print("(process_time, all threads: with one BLAS thread the work of each call, without other processes' time slices)")
     head = (f"{'max order':>9} {'BLAS thr':>8} | {'ema_rig [s]':>22} {'peak':>6} | {'sdypy [s]':>22} {'peak':>6} | "
-            f"{'sdypy/ema_rig':>18}")
+            f"{'sdypy/ema_rig':>18} | {'CPU ratio':>18}")
     print(head)
     print("-" * len(head))
     results: dict[int, tuple[Any, Any]] = {}
@@ -342,10 +360,10 @@ def main() -> int:
             with blas_threads(threads):
                 _, pa, ps = measure_call(lambda mo=mo: call_ema(data1, mo))
                 _, pb, model = measure_call(lambda mo=mo: call_sdypy(freq, h1, mo))
-                ta, tb = paired(lambda mo=mo: call_ema(data1, mo), lambda mo=mo: call_sdypy(freq, h1, mo), repeat)
+                ta, tb, ca, cb = paired_cpu(lambda mo=mo: call_ema(data1, mo), lambda mo=mo: call_sdypy(freq, h1, mo), repeat)
             results[mo] = (ps, model)
             print(f"{mo:>9} {threads or 'default':>8} | {spread(ta):>22} {mb(pa)} | {spread(tb):>22} {mb(pb)} | "
-                  f"{ratio_spread(ta, tb):>18}")
+                  f"{ratio_spread(ta, tb):>18} | {ratio_spread(ca, cb):>18}")
 
     print("\nAccuracy of the 626 Hz mode against the truth (same data, same order)")
     head = f"{'max order':>9} {'order':>5} | {'ema_rig df/f':>12} {'dz/z':>9} | {'sdypy df/f':>10} {'dz/z':>9}"

@@ -86,15 +86,31 @@ def test_lag_sums_match_direct_sum_in_chunks(big, p):
 
 @pytest.mark.parametrize(
     ("n_out", "n_in", "n", "p", "even"),
-    [(7, 2, 501, 4, True), (7, 2, 501, 40, True), (5, 1, 300, 20, False), (3, 2, 20, 30, True)],
-    ids=["direct", "fft", "uneven", "order-above-lines"],
+    [(7, 2, 501, 4, True), (7, 2, 501, 40, True), (5, 1, 300, 20, False), (3, 2, 20, 30, True),
+     (6, 1, 501, 40, True)],
+    ids=["direct", "fft", "uneven", "order-above-lines", "fft-one-reference"],
 )
 def test_lag_sums_small_cases(n_out, n_in, n, p, even):
     rng = np.random.default_rng(n + p)
     freq = np.linspace(10.0, 500.0, n) if even else np.sort(rng.uniform(10.0, 500.0, n))
     h = rng.standard_normal((n_out, n_in, n)) + 1j * rng.standard_normal((n_out, n_in, n))
+    h[0] *= 1e3  # unequal output levels: the weights matter
     outs = [f"{o + 1}+Y" for o in range(n_out)]
     _check_lag_sums(FRFData(freq, h, outs, outs[:n_in]), p)
+
+
+def test_lag_sums_one_reference_in_chunks_any_layout():
+    """One reference on even lines (the one-pass FFT path) against the direct sums: several chunks of
+    outputs (2 001 lines: 64 kB per output, 8 MB chunks of 128 outputs, 300 outputs) and a
+    Fortran-ordered FRF array (the path copies a chunk only then)."""
+    rng = np.random.default_rng(5)
+    n_out, n = 300, 2001
+    freq = np.linspace(10.0, 1010.0, n)
+    h = rng.standard_normal((n_out, 1, n)) + 1j * rng.standard_normal((n_out, 1, n))
+    h *= rng.uniform(0.1, 10.0, (n_out, 1, 1))
+    outs = [f"{o + 1}+Y" for o in range(n_out)]
+    for arr in (h, np.asfortranarray(h)):
+        _check_lag_sums(FRFData(freq, arr, outs, outs[:1]), 60)
 
 
 def _lstsq_lsfd(freq, h, lam):

@@ -69,6 +69,33 @@ def test_root_finders_agree(system):
         plscf(data, max_order=4, root_finder="roots")
 
 
+def test_one_reference_root_finders_agree_at_every_order(system):
+    """One reference up to order 210: orders below degree 48 by the companion QR, 48-200 by the
+    batched chain, 202-210 one by one (both Aberth paths and every power-row kernel); every order
+    against the companion eigenvalues of the same denominators (``root_finder='eig'``, the
+    numpy.roots method), as sets."""
+    data = system.frf(FREQ, inputs=(0,), noise=0.01, rng=np.random.default_rng(4))
+    warm = plscf(data, max_order=210)
+    eig = plscf(data, max_order=210, root_finder="eig", threads=1)
+    assert warm.meta["aberth_orders"] == 82 and warm.meta["fallbacks"] == 0
+    np.testing.assert_array_equal(warm.order, eig.order)
+    worst = {True: 0.0, False: 0.0}
+    for n in warm.orders:
+        a, b = warm.pole[warm.at_order(n)], eig.pole[eig.at_order(n)]
+        d = np.abs(a[:, None] - b[None, :])
+        j = d.argmin(axis=1)
+        assert np.unique(j).size == a.size  # one to one
+        rel = d[np.arange(a.size), j] / np.abs(b[j])
+        for stable in (True, False):
+            sel = (b[j].real < 0) == stable
+            worst[stable] = max(worst[stable], float(rel[sel].max(initial=0.0)))
+    # the same roots to round-off times their condition: the stable (physical) poles are well
+    # conditioned (measured 2.0e-14), the unstable noise poles less (measured 1.1e-12); the
+    # chain's acceptance test 1e5 times looser than rounding level gives 3e-9 and 4e-7
+    assert worst[True] < 1e-12, worst
+    assert worst[False] < 1e-11, worst
+
+
 def test_warm_started_roots():
     from ema_rig.identification._roots import aberth, det_coefficients, warm_start
 
@@ -89,20 +116,42 @@ def test_warm_started_roots():
     assert aberth(c, warm_start(np.zeros(0), 10), maxiter=1) is None
 
 
+@pytest.mark.parametrize("m", [9, 150], ids=["accumulate", "row-products"])
 @pytest.mark.parametrize("n", [0, 1, 7, 64, 200])
-def test_block_powers_match_numpy_power(n):
-    from ema_rig.identification._roots import powers
+def test_block_powers_match_numpy_power(n, m):
+    import math
 
+    from ema_rig.identification._roots import _ROW_PRODUCTS, powers
+
+    assert (m < _ROW_PRODUCTS) == (m == 9)  # both ways of forming the power rows are tested
     rng = np.random.default_rng(n)
-    x = np.exp(2j * np.pi * rng.random(9)) * (1.0 + 0.02 * rng.standard_normal(9))
+    x = np.exp(2j * np.pi * rng.random(m)) * (1.0 + 0.02 * rng.standard_normal(m))
     x[0] = 0.0  # 0**0 = 1
     got = powers(x, n)
-    assert got.shape == (n + 1, 9)
-    want = x[None, :] ** np.arange(n + 1)[:, None]  # numpy's own power, independent of the blocks
-    # rounding grows with the number of rounded factors (at most 2 sqrt(n) products here, n in
-    # a running product; measured 6e-14 at n = 200): 2n eps bounds both
-    np.testing.assert_allclose(got, want, rtol=2 * max(n, 1) * np.finfo(float).eps, atol=0)
-    np.testing.assert_allclose(powers(np.abs(x), n), np.abs(want), rtol=2 * max(n, 1) * np.finfo(float).eps, atol=0)
+    assert got.shape == (n + 1, m)
+    eps = np.finfo(float).eps
+    j = np.arange(n + 1)[:, None]
+    if np.finfo(np.longdouble).eps < eps / 100:
+        # a plain running product in extended precision (x86: 64-bit mantissa), independent of the
+        # blocks: its error (~n 1e-19) is negligible (numpy's long double power is not: 4e-14 at
+        # n = 200). Each power is a product of two rows, each row a chain of at most isqrt(n) + 1
+        # and ceil((n + 1) / b) rounded products: ~2 sqrt(n) + 2 rounded factors (measured
+        # 1e-14 = 45 eps at n = 200), 4 eps per factor bounds them
+        def exact(v: np.ndarray) -> np.ndarray:
+            run = np.ones((n + 1, m), dtype=np.clongdouble if v.dtype.kind == "c" else np.longdouble)
+            run[1:] = v
+            return np.multiply.accumulate(run, axis=0).astype(v.dtype)
+
+        rtol = 4 * (2 * math.isqrt(max(n, 1)) + 4) * eps
+    else:  # no extended precision: numpy's double power errs itself by up to ~2 n eps
+
+        def exact(v: np.ndarray) -> np.ndarray:
+            return v[None, :] ** j
+
+        rtol = 4 * max(n, 1) * eps
+    np.testing.assert_allclose(got, exact(x), rtol=rtol, atol=0)
+    np.testing.assert_allclose(powers(np.abs(x), n), exact(np.abs(x)), rtol=rtol, atol=0)
+
 
 def test_reduced_normal_equations_match_explicit_least_squares(system):
     from ema_rig.identification.plscf import _lag_sums, _reduced_blocks

@@ -17,8 +17,9 @@ Newton ratio times the repulsion sum is already below :data:`_STALE`, the correc
 the previous sweep's repulsion sum (its change alters the step only at second order), so the
 O(N^2) sums are recomputed only for the roots still far from convergence.
 
-At the degrees where a sweep costs more in fixed per-call work than in arithmetic (one
-reference, degree <= ~130), :func:`aberth_chain` roots a whole run of orders in ONE batch of
+At the degrees where a sweep costs more in fixed per-call work than in arithmetic (pLSCF: one
+reference, degrees 48-200 when the orders reach 64; two references up to 130),
+:func:`aberth_chain` roots a whole run of orders in ONE batch of
 sweeps: each order starts from the iterate of the order below after one sweep (not from its
 converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 relative
 anyway), and each sweep evaluates and corrects the active roots of every started order
@@ -84,27 +85,50 @@ def det_coefficients(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.fft.ifft(d).real * 1.0
 
 
+#: Points from which :func:`_block_powers` forms each power row by one vectorised product
+#: instead of one ``multiply.accumulate`` call (crossover measured with complex points at
+#: degrees 64, 130 and 200: 64-110 points).
+_ROW_PRODUCTS = 80
+
+
 def _block_powers(x: NDArray[Any], n: int) -> tuple[NDArray[Any], NDArray[Any]]:
     """``x**i`` for ``i < b`` (shape (b, x.size)) and ``x**(b k)`` for ``k < K`` (shape (K, x.size)).
 
     ``b = isqrt(n) + 1`` and ``K = ceil((n + 1) / b)``: every power ``x**j``, ``j <= n``, is
     the product of one row of each, so each has at most ``b + K ~ 2 sqrt(n)`` rounded factors
     (instead of ``n`` in a running product). Both come from short running products, one row
-    per power, vectorised over ``x``.
+    per power, vectorised over ``x``. From :data:`_ROW_PRODUCTS` points on, one multiplication of
+    two rows per power (``~2 sqrt(n)`` vectorised products): numpy's ``multiply.accumulate``
+    along the rows of a complex array takes 2.5-6x longer for the same products at 150-1000
+    points of degree 50-200, but less below ~100 points (one call instead of ``2 sqrt(n)``).
     """
     m = x.size
     b = max(1, math.isqrt(n) + 1)
     k = -(-(n + 1) // b)
+    if m < _ROW_PRODUCTS:
+        base = np.empty((b, m), dtype=x.dtype)
+        base[0] = 1.0
+        if b > 1:
+            base[1:] = x
+            np.multiply.accumulate(base[1:], axis=0, out=base[1:])
+        big = np.empty((k, m), dtype=x.dtype)
+        big[0] = 1.0
+        if k > 1:
+            big[1:] = base[b - 1] * x
+            np.multiply.accumulate(big[1:], axis=0, out=big[1:])
+        return base, big
     base = np.empty((b, m), dtype=x.dtype)
     base[0] = 1.0
     if b > 1:
-        base[1:] = x
-        np.multiply.accumulate(base[1:], axis=0, out=base[1:])
+        base[1] = x
+        for i in range(2, b):
+            np.multiply(base[i - 1], x, out=base[i])
     big = np.empty((k, m), dtype=x.dtype)
     big[0] = 1.0
     if k > 1:
-        big[1:] = base[b - 1] * x
-        np.multiply.accumulate(big[1:], axis=0, out=big[1:])
+        np.multiply(base[b - 1], x, out=big[1])
+        for i in range(2, k):
+            np.multiply(big[i - 1], big[1], out=big[i])
     return base, big
 
 

@@ -59,9 +59,10 @@ one root-finding problem per order.
 **Poles and participation factors.** The roots of order ``n`` are those of ``det A(z)``:
 eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
-``n n_in >= 64`` by default the Aberth-Ehrlich iteration started from the previous order's
-roots (:mod:`._roots`: O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to
-round-off; up to degree 130: all those orders in one batch of sweeps,
+``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond) by
+default the Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`:
+O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to round-off; up to degree
+130 (one reference: 200): all those orders in one batch of sweeps,
 :func:`~._roots.aberth_chain`; above it one order at a time, the first sweep's repulsion sums
 from the previous order's polynomial, :func:`~._roots.aberth_warm`; an order that does not
 converge falls back to the companion eigenvalues). The
@@ -114,6 +115,16 @@ logger = logging.getLogger(__name__)
 #: Below this polynomial degree the companion QR is cheaper than the warm-started iteration.
 _ABERTH_MIN_DEGREE = 64
 
+#: One reference: when the computed orders reach :data:`_ABERTH_MIN_DEGREE`, the batched chain
+#: (:func:`~._roots.aberth_chain`) starts at this degree instead. Alone, the chain of degrees
+#: 48-62 costs more than their companion QR (CPU min of 25 alternating runs on the denominators
+#: of benchmarks/bench_plscf.py: 3.75 against 3.39 ms up to degree 62, 1.37 against 0.65 ms up
+#: to 50), but within a chain that goes on past degree 64 the sweeps it shares pay for it: up
+#: to degree 64 3.51 against 4.45 ms (QR to 62, the chain from 64), up to 72 5.19 against
+#: 6.16, up to 80 6.38 against 7.60, up to 100 11.3 against 12.5 ms (from 40: 12.5, from 56:
+#: 11.5 against 12.1 ms at 100).
+_CHAIN_FROM_DEGREE_ONE = 48
+
 #: Up to this degree (of det A: n_in x order) the orders from :data:`_ABERTH_MIN_DEGREE` on are rooted
 #: together (:func:`~._roots.aberth_chain`: one batch of sweeps for all orders, each started from
 #: the iterate of the order below), above it one order after the other (:func:`~._roots.aberth`).
@@ -123,6 +134,13 @@ _ABERTH_MIN_DEGREE = 64
 #: O(N^2) work per order grows). Two references, the bench's data, the same CPU-time pairing:
 #: 16.3 -> 14.0 ms at order 50, 56.2 -> 52.3 ms at order 100, poles the same to 3e-13 as sets.
 _CHAIN_MAX_DEGREE = 130
+
+#: :data:`_CHAIN_MAX_DEGREE` of one reference, since the power rows of an evaluation are formed
+#: by one product each (:func:`~._roots._block_powers`; the sweeps' arithmetic cheaper, the batch's
+#: shared fixed cost counts longer). Measured as above (CPU min of 5 alternating runs, both
+#: started from the companion roots of the order below): degrees 132-160 12.3 against 15.1 ms,
+#: 160-200 20.0 against 21.4 ms, 200-260 39.9 against 38.2 ms (the one-by-one iteration ahead).
+_CHAIN_MAX_DEGREE_ONE = 200
 
 #: Default maximum model order for one reference / for several (denominator degree).
 DEFAULT_MAX_ORDER = {1: 64}
@@ -292,7 +310,10 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
     step = max(1, (8 << 20) // max(frf[0].nbytes, 1))
     for o0 in range(0, frf.shape[0], step):
         blk = frf[o0 : o0 + step]
-        if not np.all(np.isfinite(blk)):
+        power[o0 : o0 + step] = _sum_sq(blk)
+        # a NaN or inf value makes its sum non-finite: the values are tested one by one only then
+        # (a sum can also overflow from finite values)
+        if not np.isfinite(power[o0 : o0 + step]).all() and not np.all(np.isfinite(blk)):
             bad = np.argwhere(~np.isfinite(frf))
             o, i, k = bad[0]
             raise IdentificationError(
@@ -300,7 +321,6 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
                 f"input {data.in_dofs[i]}, {data.freq[k]:g} Hz)",
                 file=src,
             )
-        power[o0 : o0 + step] = _sum_sq(blk)
     if np.all(power == 0):
         raise IdentificationError("the FRF is zero everywhere in the band", file=src)
     zero_in = np.flatnonzero(np.all(power == 0, axis=0))
@@ -316,8 +336,12 @@ def _sum_sq(h: NDArray[Any]) -> NDArray[np.float64]:
     """``sum_k |h[..., k]|^2`` over the last axis of a complex array, shape ``h.shape[:-1]``.
 
     Two real contractions over the real and imaginary views: no temporary of the array's size
-    (the squares of the parts would be three), any memory layout.
+    (the squares of the parts would be three), any memory layout; a C-ordered array in ONE
+    contraction over its (re, im) pairs (contiguous, half the time of the two strided ones).
     """
+    if h.flags.c_contiguous and h.dtype == np.complex128:
+        v = h.view(np.float64)
+        return cast("NDArray[np.float64]", np.einsum("...k,...k->...", v, v))
     return cast("NDArray[np.float64]", np.einsum("...k,...k->...", h.real, h.real)
                 + np.einsum("...k,...k->...", h.imag, h.imag))
 
@@ -359,6 +383,9 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
         step = max(1, budget // max(row_bytes, 1))
         return [(o, min(o + step, n_out)) for o in range(0, n_out, step)]
 
+    even = data.is_even
+    if n_in == 1 and even and _fft_cheaper(n, p, n_out + 1):
+        return _lag_sums_one(h, p, budget, dt)
     # output weights 1 / rms over inputs and lines, without |h|^2 of the whole array
     ms = np.empty(n_out)
     for o0, o1 in chunks(n_in * n * 8):
@@ -367,23 +394,10 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
     rms = np.sqrt(ms / (n_in * n))
     w = 1.0 / np.where(rms > 0, rms, 1.0)
 
-    even = data.is_even
-    n_chan = n_out * n_in + n_in * n_in
-    # rough costs in units of one complex multiply-add of a matrix product (measured with one
-    # BLAS thread at 4 001 and 64 001 lines: a table exponential ~ 50, one unit of a complex
-    # FFT's nf log2 nf ~ 8)
-    cost_direct = n * m * (50.0 + n_chan)
-    cost_fft = 4.0 * n_chan * nf * np.log2(max(nf, 2))  # the inverse real FFT: half a complex one
-    if even and p < n - 1 and cost_fft < cost_direct:
-        idx = lags % nf
-        sign = np.where(lags % 2 == 0, 1.0, -1.0)  # (-1)^l
+    if even and p < n - 1 and _fft_cheaper(n, p, n_out * n_in + n_in * n_in):
 
         def re_sums(x: NDArray[Any]) -> NDArray[Any]:
-            # Re sum_k x_k exp(j pi k l / (n-1)) for l = -p..p along the last axis
-            y = np.fft.irfft(x, n=nf, axis=-1)[..., idx] * nf
-            y += x[..., :1].real + x[..., -1:].real * sign
-            y *= 0.5
-            return y
+            return _re_lag_sums(x, p)
 
         s = np.empty((n_out, n_in, m))
         # sum_o H_o^H H_o per line, its entries a <= b only (the matrix is Hermitian), each from
@@ -451,6 +465,71 @@ def _lag_sums(data: FRFData, p: int) -> tuple[NDArray[Any], NDArray[Any], NDArra
     return r, s.real.copy(), t.real.copy(), w, dt
 
 
+def _fft_cheaper(n: int, p: int, n_chan: int) -> bool:
+    """Whether the lag sums of ``n_chan`` channels on ``n`` even lines are cheaper by FFT than directly.
+
+    Rough costs in units of one complex multiply-add of a matrix product (measured with one
+    BLAS thread at 4 001 and 64 001 lines: a table exponential ~ 50, one unit of a complex
+    FFT's nf log2 nf ~ 8), ``nf = 2 (n - 1)``; the inverse real FFT is half a complex one.
+    """
+    nf = 2 * (n - 1)
+    cost_direct = n * (2 * p + 1) * (50.0 + n_chan)
+    cost_fft = 4.0 * n_chan * nf * np.log2(max(nf, 2))
+    return bool(cost_fft < cost_direct)
+
+
+def _re_lag_sums(x: NDArray[Any], p: int) -> NDArray[Any]:
+    """``Re sum_k x_k exp(j pi k l / (n - 1))`` for ``l = -p..p`` along the last axis (n lines).
+
+    One zero-padded inverse real FFT of length ``nf = 2 (n - 1)`` (see :func:`_lag_sums`),
+    shape ``x.shape[:-1] + (2 p + 1,)``; ``x`` may be real or complex.
+    """
+    n = x.shape[-1]
+    nf = 2 * (n - 1)
+    lags = np.arange(-p, p + 1)
+    sign = np.where(lags % 2 == 0, 1.0, -1.0)  # (-1)^l
+    y = np.fft.irfft(x, n=nf, axis=-1)[..., lags % nf] * nf
+    y += x[..., :1].real + x[..., -1:].real * sign
+    y *= 0.5
+    return cast("NDArray[Any]", y)
+
+
+def _lag_sums_one(h: NDArray[Any], p: int, budget: int, dt: float) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any], float]:
+    """:func:`_lag_sums` of one reference on evenly spaced lines, by FFT, in ONE pass over the data.
+
+    Per chunk of outputs: ``|H_o|^2`` per line (one contraction over the (re, im) pairs), from it
+    the output weight ``w_o = 1 / rms_o`` and ``T``'s sums ``sum_o w_o^2 |H_o|^2``; ``S_o``'s lag
+    sums are those of the UNWEIGHTED FRF times ``w_o`` (the sums are linear), so no weighted
+    copy of the data is made. Same results as the general path to round-off.
+    """
+    n_out, _, n = h.shape
+    nf = 2 * (n - 1)
+    s = np.empty((n_out, 1, 2 * p + 1))
+    w = np.empty(n_out)
+    g = np.zeros(n)
+    step = max(1, budget // (nf * 16))
+    for o0 in range(0, n_out, step):
+        o1 = min(o0 + step, n_out)
+        blk = h[o0:o1, 0]
+        hv = np.ascontiguousarray(blk).view(np.float64).reshape(o1 - o0, n, 2)  # a copy only when
+        # the FRF array is not C-ordered
+        sq = np.square(hv)
+        sq = sq[..., 0] + sq[..., 1]  # |H_o|^2, (outputs, lines)
+        rms = np.sqrt(sq.sum(axis=1) / n)
+        wc = 1.0 / np.where(rms > 0, rms, 1.0)
+        w[o0:o1] = wc
+        g += (wc * wc) @ sq
+        s[o0:o1, 0] = _re_lag_sums(blk, p)
+        s[o0:o1, 0] *= wc[:, None]
+    # T's lag sums: the real g gives sums even in the lag (the reversal keeps the general path's)
+    t = _re_lag_sums(g, p)[None, None, ::-1].copy()
+    # R's lags 0..p in closed form (see _lag_sums)
+    r = np.zeros(p + 1)
+    r[0] = n
+    r[2::2] = 1.0
+    return r, s, t, w, dt
+
+
 #: Work budget [bytes] of one block of ``Q`` rows (all outputs): half the FRF data, clipped to
 #: 8..64 MB (fewer blocks would hold more; more blocks rebuild rows of ``S`` more often); and of
 #: one chunk of ``S``.
@@ -497,13 +576,18 @@ def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int) -> tuple[NDArray[A
     triangular solve to round-off; on lines with a gap (cond(R) up to ~1e8 below the order
     limit) the two differ by ~1e-11 relative, far below the noise of any measured FRF.
     """
-    from scipy.linalg import cholesky, solve_triangular
+    from scipy.linalg.lapack import dpotrf, dtrtri
 
     n_in = t.shape[0]
     i = np.arange(p + 1)
     lag = i[None, :] - i[:, None] + p  # (i, j) -> (j - i) + p
-    L = cholesky(r[np.abs(lag - p)], lower=True, check_finite=False)
-    linv = solve_triangular(L, np.eye(p + 1), lower=True, check_finite=False)
+    # LAPACK directly (the factor and its triangular inverse), without scipy.linalg's wrappers
+    L, info = dpotrf(r[np.abs(lag - p)], lower=1, clean=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"R is not positive definite (leading minor {info})")
+    linv, info = dtrtri(L, lower=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"R's Cholesky factor is singular (pivot {info})")
     # T[(i, a), (j, b)] = Re t_ab(j - i)
     T = t.real[:, :, lag].transpose(2, 0, 3, 1).reshape((p + 1) * n_in, (p + 1) * n_in)
     return T, linv
@@ -905,7 +989,8 @@ def plscf(
     progress : bool, optional
         Show a tqdm progress bar over the orders.
     root_finder : {'aberth', 'eig'}, optional
-        ``'aberth'`` (default): roots of each order of degree >= 64 by the Aberth-Ehrlich
+        ``'aberth'`` (default): roots of each order of degree >= 64 (one reference: >= 48
+        when the orders reach 64) by the Aberth-Ehrlich
         iteration started from the previous order's roots (several times faster; an order
         that does not converge falls back to the companion eigenvalues), smaller orders by
         the companion eigenvalues. ``'eig'``: companion eigenvalues
@@ -1083,6 +1168,11 @@ class PlscfEngine:
         # factors of all these orders follow at once (_poles_of_orders)
         entries: list[tuple[int, NDArray[Any], Any]] = []
         chain: list[tuple[int, NDArray[Any], NDArray[Any]]] = []
+        aberth_from, chain_max = _ABERTH_MIN_DEGREE, _CHAIN_MAX_DEGREE
+        if n_in == 1:
+            chain_max = _CHAIN_MAX_DEGREE_ONE
+            if order_list[-1] >= _ABERTH_MIN_DEGREE:
+                aberth_from = _CHAIN_FROM_DEGREE_ONE  # the chain goes on past _ABERTH_MIN_DEGREE
         try:
             with single_threaded():
                 for n in solvable():
@@ -1093,10 +1183,10 @@ class PlscfEngine:
                         entries.append((n, high, pool.submit(work, low)))
                         continue
                     z = None
-                    big = self.root_finder == "aberth" and n * n_in >= _ABERTH_MIN_DEGREE
+                    big = self.root_finder == "aberth" and n * n_in >= aberth_from
                     if big and self._prev is not None:
                         coef = det_coefficients(low)
-                        if coef.size - 1 <= _CHAIN_MAX_DEGREE:
+                        if coef.size - 1 <= chain_max:
                             chain.append((len(entries), coef, low))  # rooted together (_root_chain)
                             entries.append((n, high, None))
                             continue
