@@ -343,6 +343,33 @@ def test_an_axis_with_other_limits_is_drawn_anew():
     assert (np.abs(old - want).max(axis=2) > 64).sum() > 100  # the two y axes do differ
 
 
+def test_an_axis_whose_limits_keep_changing_is_recorded_less_and_draws_the_same(monkeypatch):
+    # y limits that follow the data (a log magnitude axis): no recording is ever replayed, so after
+    # _VOLATILE misses in a row an axis is recorded at every _VOLATILE-th draw only; the x axes,
+    # whose limits stay, are replayed. Oracle for the pixels: savefig of the last panels built anew
+    from matplotlib.figure import Figure
+
+    import ema_rig.plot._render as render
+
+    made: list = []
+    orig = render._Recorder.__init__
+
+    def counting(self, target):
+        made.append(1)
+        orig(self, target)
+
+    monkeypatch.setattr(render._Recorder, "__init__", counting)
+    fig = Figure(figsize=(4.0, 6.0), layout="constrained")
+    for k in range(7):
+        got = _pixels(render_png(_panels(fig, 1, ylim=(-50.0 - k, 50.0 - k)), dpi=72, colors=None))
+    # 2 x axes recorded at their first draw, then replayed; 2 y axes recorded at draws 1, 2, 3 and 6
+    # (recording at every draw: 14)
+    assert len(made) == 2 + 2 * 4
+    want = _savefig_pixels(_fresh_panels(1, ylim=(-56.0, 44.0)), 72)
+    assert got.shape == want.shape
+    assert np.abs(got - want).max() == 0
+
+
 def test_new_texts_drawn_from_kept_glyphs_are_the_pixels_matplotlib_draws(monkeypatch):
     # texts not drawn before (the text cache emptied) whose glyphs were: each glyph's bitmap is
     # taken by font, size, rotation and its position within the pixel; oracle: matplotlib's savefig

@@ -670,6 +670,10 @@ _AGG_DRAWS = ("draw_path", "draw_markers", "draw_path_collection", "draw_text_im
               "draw_quad_mesh", "draw_gouraud_triangles")
 #: Recordings kept per axis (the newest last): the few limits an axis of a report figure takes.
 _MAX_RECORDINGS = 4
+#: An axis that found no recording to replay this many draws in a row (a log magnitude axis whose
+#: limits follow the data) is recorded at every _VOLATILE-th draw only: recording costs about a
+#: fifth of such an axis' drawing (bundled demo, synthesis figure) and is then rarely replayed.
+_VOLATILE = 3
 
 
 class _Recorder:
@@ -775,7 +779,8 @@ def _axes_replayed(fig: Figure) -> Iterator[None]:
     the rcParams of text and path rendering) and made again, the same calls with the same
     arguments, when an axis comes with the same key: the same pixels. An axis whose label is
     aligned with other axes' (``align_labels``), any figure not kept, and a recording that used
-    the renderer otherwise are drawn by matplotlib.
+    the renderer otherwise are drawn by matplotlib. An axis that missed its recordings _VOLATILE
+    draws in a row (limits that follow the data) is recorded at every _VOLATILE-th draw only.
     """
     from matplotlib.axis import Axis
 
@@ -810,8 +815,11 @@ def _replaying(axis: Any, draw: Any) -> Any:
                     for name, args in calls:
                         getattr(real, name)(*args)
                     axis.stale = False
+                    axis._ema_rig_misses = 0
                     return None
-        if key is None:
+        misses = axis.__dict__.get("_ema_rig_misses", 0) + 1
+        axis._ema_rig_misses = misses
+        if key is None or (misses >= _VOLATILE and misses % _VOLATILE):
             with _ticks_once(axis):
                 draw(axis, renderer)
             return None
