@@ -186,7 +186,7 @@ def measurement_figures(
         channels = _synthesis_channels(data, ident.modes)
         n_rows = math.ceil(len(channels) / 2) if len(channels) > 1 else 1
         drawers["model"] = lambda: plot_rig_fit(
-            data, result, cfg.rig, figure=kept_figure("model", (_SIZE[0], 10.4)), phase=True,
+            data, result, cfg.rig, figure=kept_figure("model", (_SIZE[0], 10.4)), phase=True, dpi=DPI,
             title=f"{plain(m.id)}: measured FRFs (black) and 3DOF model (grey)").figure
         drawers["synthesis"] = lambda: plot_synthesis(
             data, ident.modes, channels=channels, phase=True,
