@@ -415,3 +415,28 @@ def test_fixed_layout_of_an_axis_with_labelled_minor_ticks_is_matplotlibs(monkey
     want, ref = figure()
     want.get_layout_engine().execute(want)
     assert np.allclose(ax.get_position().bounds, ref.get_position().bounds, atol=1e-9)
+
+
+def test_glyphs_are_merged_only_where_none_overlaps():
+    # a text's glyph bitmaps drawn as one: Agg leaves the pixels of zero coverage alone, so glyphs
+    # that cover no common pixel draw the same pixels together; overlapping ones (Agg blends twice
+    # there) must stay apart. Oracle: the bitmaps painted one by one at their (left, top) by hand
+    from ema_rig.plot._render import _merged
+
+    rng = np.random.default_rng(3)
+    a = rng.integers(1, 256, (5, 3), dtype=np.uint8)
+    b = rng.integers(1, 256, (4, 2), dtype=np.uint8)
+    b[0] = 0  # a glyph's bitmap box has empty rows
+    apart = ((a, 10, 20), (b, 13, 22))  # b's box starts right of a's, two rows higher
+
+    def paint(glyphs):
+        canvas = np.zeros((40, 40), dtype=int)
+        for buf, left, top in glyphs:
+            canvas[30 - top:30 - top + buf.shape[0], left:left + buf.shape[1]] += buf
+        return canvas
+
+    one = _merged(apart)
+    assert len(one) == 1
+    np.testing.assert_array_equal(paint(one), paint(apart))
+    overlapping = ((a, 10, 20), (b, 11, 20))  # b's covered pixels fall on a's
+    assert _merged(overlapping) == overlapping
