@@ -27,7 +27,7 @@ import numpy as np
 from .._atomic import atomic_path
 from .._text import plain
 from ..rig.model import HOUSING, SPINDLE, RigModel
-from ._render import reuse_axes
+from ._render import fixed_layout, reuse_axes
 from .synthesis import phase_centre, phase_line
 
 if TYPE_CHECKING:
@@ -108,6 +108,7 @@ def plot_rig_fit(
     figure: Figure | None = None,
     title: str | None = None,
     phase: bool = False,
+    dpi: float | None = None,
 ) -> RigPlot:
     """Measured radial FRFs against the 3DOF model (paper Fig. 7).
 
@@ -131,6 +132,13 @@ def plot_rig_fit(
     phase : bool, optional
         Also draw the phase [deg] of the measured and model FRFs under each magnitude panel
         (default False: the paper's Fig. 7 shows magnitudes only).
+    dpi : float, optional
+        The pixel density [dots per inch] the figure will be drawn at, once, to a raster (a
+        report's PNG). Given, the figure is laid out here for that density instead of by a
+        constrained layout at every draw (:func:`ema_rig.plot._render.fixed_layout`: the room for
+        the lowest and highest magnitude tick labels is always kept, so the layout is the same for
+        every measurement with the same texts and is computed once for them; the figure's layout
+        engine is switched off). Default: a constrained layout at every draw.
 
     Returns
     -------
@@ -176,6 +184,8 @@ def plot_rig_fit(
     n_main = len(names)
     # a figure that holds an earlier fit with these panels keeps its axes (emptied); else cleared
     kept = reuse_axes(fig, f"ema_rig.rig_fit {','.join(names)}")
+    if dpi is not None:
+        fig.set_dpi(dpi)
     fresh = kept is None  # kept axes keep their grid and tick styles
     if kept is None:
         gs = fig.add_gridspec(n_main + 1, 1, height_ratios=[1.2 if n.endswith("_phase") else 3.0 for n in names]
@@ -291,6 +301,8 @@ def plot_rig_fit(
         base = str(fname).replace("\\", "/").rsplit("/", 1)[-1] if fname else "measurement"
         title = f"{plain(base)}: measured FRFs (black) and 3DOF model (grey), {lo:.0f}–{hi:.0f} Hz"
     fig.suptitle(title, fontsize=10)
+    if dpi is not None:
+        fixed_layout(fig, [axes[name].yaxis for name in names if not name.endswith("_phase")])
     return RigPlot(figure=fig, axes=axes, artists=artists, model_k_tb_ms=float(model.k_TB_MS))
 
 
