@@ -171,3 +171,26 @@ def test_a_fixed_layout_is_computed_once_and_draws_what_matplotlib_draws(monkeyp
     # the collapsed minor ticks and kept glyphs are drawn by other calls). A shifted panel, a missing tick
     # or label changes hundreds of pixels by far more
     assert (diff > 2).sum() == 0, int((diff > 2).sum())
+
+
+@pytest.mark.usefixtures("mplcleanup")
+@pytest.mark.parametrize("phase", [False, True])
+def test_an_odd_channel_count_keeps_frequency_labels_under_each_column(phase: bool) -> None:
+    """Three channels in two columns leave the last panel of the right column unused: the panel above
+    it is then the lowest of its column and must show the frequencies (it showed none before)."""
+    system = five_mode_system(close_pair=False)
+    freq = np.linspace(0.0, 1000.0, 2001)
+    data = system.frf(freq, inputs=(0,))
+    model = lsfd(data, system.poles, band=(50.0, 950.0))
+    chart = plot_synthesis(data, model, max_channels=3, phase=phase)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(chart.figure).draw()  # tick labels get their text at a draw
+    panels = chart.phase_axes if phase else chart.axes
+    # panels 0 | 1 in the first row, 2 | (hidden) in the second: 1 and 2 are the lowest of their columns
+    for ax in (panels[1], panels[2]):
+        assert ax.get_xlabel() == "frequency [Hz]"
+        labels = [t for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
+        assert len(labels) >= 3, "no frequency tick labels under the column"
+    # the first row's left panel is not the lowest of its column: no labels there
+    assert panels[0].get_xlabel() == ""

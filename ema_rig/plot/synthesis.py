@@ -227,11 +227,17 @@ def plot_synthesis(
         out.measured.append(lm)
         out.synthesized.append(ls)
         out.channels.append((i, j))
+    lowest = axs if paxs is None else paxs  # the panels that carry the frequency axis of each row
     for k in range(n, nrow * ncol):  # unused panels of the last row
         axs[k // ncol][k % ncol].set_visible(False)
         if paxs is not None:
             paxs[k // ncol][k % ncol].set_visible(False)
-    for ax in (axs if paxs is None else paxs)[-1]:
+        # the panel above a hidden one is the lowest of its column: it shows the frequencies
+        # (sharex gave its tick labels to the hidden bottom row only)
+        above = lowest[k // ncol - 1][k % ncol]
+        above.xaxis.set_tick_params(labelbottom=True)
+        above.set_xlabel("frequency [Hz]")
+    for ax in lowest[-1]:
         ax.set_xlabel("frequency [Hz]")
     axs[0][0].legend(fontsize=8, loc="lower right")
     src = str(modes.meta.get("file") or data.meta.get("file") or data.meta.get("source") or "")
