@@ -571,7 +571,8 @@ def local_ml(
     # a second thread for the segments' whole-basis fits where they are large enough to gain from it
     # (numpy releases the GIL in BLAS and ufunc loops); a work-size rule, so the same on any machine
     two = any(2 * (i1 - i0) * n_chan >= _THREAD_MIN_EQUATIONS for i0, i1, _ in windows)
-    pending: list[tuple[Future[tuple[NDArray[np.complex128], NDArray[np.float64], int]], list[tuple[int, int]]]] = []
+    pending: list[tuple[list[int], Future[_Tail],
+                        Future[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None]] = []
     with ThreadPoolExecutor(max_workers=1) if two else contextlib.nullcontext() as pool:
         for i0, i1, rs in windows:
             rs_arr = np.asarray(rs)
@@ -588,9 +589,10 @@ def local_ml(
             while n_poly > 0 and 2 * n < 2 * (2 * m + n_poly) + 8:
                 n_poly -= 2
             if 2 * n < 2 * (2 * m + n_poly) + 8:
-                for r in rs:
-                    warns.append(f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML estimate; "
-                                 "its uncertainty is unknown (NaN)")
+                few: Future[_Tail] = Future()
+                few.set_result(_Tail(np.nan, [f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML "
+                                              "estimate; its uncertainty is unknown (NaN)" for r in rs]))
+                pending.append((rs, few, None))
                 continue
             s_c, v_i = _separable(var[:, i0:i1])
             if not weighted_lines:
@@ -649,82 +651,34 @@ def local_ml(
                 else:
                     whole = Future()
                     whole.set_result(task())
-            model_form: list[tuple[int, int]] = []  # (j, r) of the modes whose model-form part is added below
-            # the noise model of every line and channel in the units of the weighted problem: the
-            # residual covariance between channels is pooled after standardising by it
-            # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
-            # at the peaks, which is no random error of the lines)
-            full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
-            n_eval += 1
-            hess = np.asarray(full["hess"])
-            sc = np.asarray(full["line_scores"])  # (2m, n)
-            blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
-            g = blocks.shape[1]
-            n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
-            s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
-            chi_out[rs_arr] = s2
-            # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
-            chi2 = float(full["chi2_noise"])
-            dof_t = 2 * n * n_chan
-            ratio = chi2 / dof_t
-            if ratio >= criteria.misfit_ratio:
-                from scipy.stats import chi2 as chi2_dist
-
-                p = float(chi2_dist.sf(chi2, dof_t))
-                if p < criteria.misfit_p:
-                    warns.append(
-                        f"the model misses the data near {', '.join(f'{fn0[r]:.6g}' for r in rs)} Hz "
-                        f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
-                        f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
-                        "the misfit (robust covariance)")
-            # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
-            meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
-            hinv = _inv(hess)
-            cov_theta: NDArray[np.float64] | None
-            if hinv is not None:
-                cov_rob = hinv @ meat @ hinv
-                jcj = np.asarray(full["jcj"])
-                cov_fis = hinv @ jcj @ hinv
-                if held.any() and free.any():
-                    # free poles: conditional on the held ones, plus the held poles' uncertainty propagated
-                    fi, hi = np.flatnonzero(np.repeat(free, 2)), np.flatnonzero(np.repeat(held, 2))
-                    hff = _inv(hess[np.ix_(fi, fi)])
-                    if hff is not None:
-                        kmat = -hff @ hess[np.ix_(fi, hi)]
-                        for cov in (cov_rob, cov_fis):
-                            mid = meat if cov is cov_rob else jcj
-                            cond = hff @ mid[np.ix_(fi, fi)] @ hff
-                            cov[np.ix_(fi, fi)] = cond + kmat @ cov[np.ix_(hi, hi)] @ kmat.T
-                cov_theta = None
-                lam = seg.poles(theta)
-                for j, r in enumerate(rs):
-                    sl = slice(2 * j, 2 * j + 2)
-                    sj = seg.scale[j] ** 2
-                    c_r, c_f = cov_rob[sl, sl] * sj, cov_fis[sl, sl] * sj
-                    poles_out[r] = lam[j]
-                    cov_out[r] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
-                    both[r] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
-                    model_form.append((j, r))
-                    kind[r] = "held" if held[j] else "ml"
-                    if held[j]:
-                        warns.append(f"mode at {fn0[r]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
-                                     "its ± is the ML uncertainty at that pole, propagated to its neighbours")
+            # the poles are final here (the next segments take them as their fixed neighbours); the
+            # scores, covariances and warnings of the segment follow from them alone, so a second
+            # thread may form them while the next segment is fitted (joined in segment order below)
+            lam = seg.poles(theta)
+            for j, r in enumerate(rs):
+                poles_out[r] = lam[j]
+                kind[r] = "held" if held[j] else "ml"
+            tail_task = partial(_segment_tail, seg, theta, last, held, why, [fn0[r] for r in rs],
+                                (float(freq[i0]), float(freq[i1 - 1])), n_chan, nb, rho, nv, criteria)
+            if pool is not None and 2 * n * n_chan >= _THREAD_MIN_EQUATIONS:
+                tail: Future[_Tail] = pool.submit(tail_task)
             else:
-                cov_theta = None
-                for j, r in enumerate(rs):
-                    poles_out[r] = seg.poles(theta)[j]
-                    kind[r] = "held" if held[j] else "ml"
-                    warns.append(f"mode at {fn0[r]:.6g} Hz: the Fisher information of its segment "
-                                 f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz) is singular, so its uncertainty is unknown "
-                                 "(NaN): the data do not determine the pole")
-            del cov_theta
-            if whole is not None:
-                pending.append((whole, model_form))
+                tail = Future()
+                tail.set_result(tail_task())
+            n_eval += 1
+            pending.append((rs, tail, whole))
         # ---- the model-form part of each segment (its whole-basis fit), in segment order ----
-        for whole, model_form in pending:
+        for rs, tail, whole in pending:
+            seg_out = tail.result()
+            warns += seg_out.warnings
+            chi_out[rs] = seg_out.chi2_red
+            if seg_out.cov is not None:
+                cov_out[rs], both[rs] = seg_out.cov, seg_out.stds
+            if whole is None:
+                continue
             d_basis, std_w, k = whole.result()
             n_eval += k
-            for j, r in model_form:
+            for j, r in enumerate(rs if seg_out.cov is not None else ()):
                 if not np.isfinite(d_basis[j, 0]):
                     basis[r] = np.nan
                 elif d_basis[j, 0] != 0:
@@ -754,6 +708,95 @@ def local_ml(
     zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
     return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
                    both[:, :2].copy(), both[:, 2:].copy(), basis)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _Tail:
+    """What a segment adds to :class:`LocalML` once its poles are fitted (:func:`_segment_tail`).
+
+    ``chi2_red`` the segment's ``chi2 / (N - P)``; ``warnings`` its lines, in order; ``cov``
+    (m, 2, 2) the covariance of (Re, Im) of each pole and ``stds`` (m, 4) the robust and Fisher
+    standard deviations of (f [Hz], zeta), None when the Fisher information is singular.
+    """
+
+    chi2_red: float
+    warnings: list[str]
+    cov: NDArray[np.float64] | None = None
+    stds: NDArray[np.float64] | None = None
+
+
+def _segment_tail(seg: _Segment, theta: NDArray[np.float64], last: dict[str, NDArray[np.float64] | float] | None,
+                  held: NDArray[np.bool_], why: dict[int, str], fn0: list[float], lines: tuple[float, float],
+                  n_chan: int, nb: int, rho: tuple[float, ...], nv: NDArray[np.float64], criteria: MLCriteria
+                  ) -> _Tail:
+    """Scores, covariances and warnings of a fitted segment ``seg`` at its poles ``theta`` (``last`` the
+    LM's last evaluation, ``held`` the modes kept at their start, ``why`` the reasons, ``fn0`` their
+    start natural frequencies [Hz], ``lines`` the segment's first and last line [Hz], blocks of ``nb``
+    lines for the robust covariance, ``rho`` the line correlation, ``nv`` the noise variance of the
+    weighted problem, shape (n, C))."""
+    n, m = seg.jw.size, seg.m
+    free = ~held
+    warns: list[str] = []
+    # the noise model of every line and channel in the units of the weighted problem: the
+    # residual covariance between channels is pooled after standardising by it
+    # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
+    # at the peaks, which is no random error of the lines)
+    full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
+    hess = np.asarray(full["hess"])
+    sc = np.asarray(full["line_scores"])  # (2m, n)
+    blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
+    g = blocks.shape[1]
+    n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
+    s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
+    # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
+    chi2 = float(full["chi2_noise"])
+    dof_t = 2 * n * n_chan
+    ratio = chi2 / dof_t
+    if ratio >= criteria.misfit_ratio:
+        from scipy.stats import chi2 as chi2_dist
+
+        p = float(chi2_dist.sf(chi2, dof_t))
+        if p < criteria.misfit_p:
+            warns.append(
+                f"the model misses the data near {', '.join(f'{f:.6g}' for f in fn0)} Hz "
+                f"({lines[0]:.6g}..{lines[1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
+                f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
+                "the misfit (robust covariance)")
+    # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
+    meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
+    hinv = _inv(hess)
+    if hinv is None:
+        for f in fn0:
+            warns.append(f"mode at {f:.6g} Hz: the Fisher information of its segment "
+                         f"({lines[0]:.6g}..{lines[1]:.6g} Hz) is singular, so its uncertainty is unknown "
+                         "(NaN): the data do not determine the pole")
+        return _Tail(s2, warns)
+    cov_rob = hinv @ meat @ hinv
+    jcj = np.asarray(full["jcj"])
+    cov_fis = hinv @ jcj @ hinv
+    if held.any() and free.any():
+        # free poles: conditional on the held ones, plus the held poles' uncertainty propagated
+        fi, hi = np.flatnonzero(np.repeat(free, 2)), np.flatnonzero(np.repeat(held, 2))
+        hff = _inv(hess[np.ix_(fi, fi)])
+        if hff is not None:
+            kmat = -hff @ hess[np.ix_(fi, hi)]
+            for cov in (cov_rob, cov_fis):
+                mid = meat if cov is cov_rob else jcj
+                cond = hff @ mid[np.ix_(fi, fi)] @ hff
+                cov[np.ix_(fi, fi)] = cond + kmat @ cov[np.ix_(hi, hi)] @ kmat.T
+    lam = seg.poles(theta)
+    cov_out = np.empty((m, 2, 2))
+    stds = np.empty((m, 4))
+    for j in range(m):
+        sl = slice(2 * j, 2 * j + 2)
+        sj = seg.scale[j] ** 2
+        c_r, c_f = cov_rob[sl, sl] * sj, cov_fis[sl, sl] * sj
+        cov_out[j] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
+        stds[j] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
+        if held[j]:
+            warns.append(f"mode at {fn0[j]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
+                         "its ± is the ML uncertainty at that pole, propagated to its neighbours")
+    return _Tail(s2, warns, cov_out, stds)
 
 
 def _whole_basis(seg: _Segment, full_basis: NDArray[np.float64], theta: NDArray[np.float64], free: NDArray[np.bool_],
