@@ -22,7 +22,9 @@ from __future__ import annotations
 import html
 import warnings as _warnings
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any, cast
 
 import numpy as np
@@ -44,7 +46,7 @@ from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted
 from .mac import mac
-from .ml import LocalML, local_ml
+from .ml import LocalML, _Job, local_ml
 from .modal import ModalModel
 from .noise import MisfitTest, segment_misfit
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
@@ -348,6 +350,12 @@ def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyo
             "far from the band, so the synthesis and the residues near that edge are biased"]
 
 
+#: FRF values (channels x lines) from which :func:`identify` forms the data's findings
+#: (:func:`~ema_rig.identification.diagnose.diagnose_frf`, ~10 ns a value) in a second thread while the
+#: modes are estimated: below, they cost less than a thread's start. A work-size rule: the same on any machine.
+_DIAGNOSE_THREAD_MIN_LINES = 100_000
+
+
 def identify(
     data: FRFData,
     *,
@@ -471,6 +479,12 @@ def identify(
     notes = hist_notes + notes
     beyond = _beyond_the_band(data, band)
     data = check_data(data, band)
+    # what makes the FRFs themselves suspect (phase noise, coherence at the peak) depends on the data
+    # alone: on many channels a second thread forms it meanwhile (joined below: the same findings)
+    side = ThreadPoolExecutor(1) if data.frf.size >= _DIAGNOSE_THREAD_MIN_LINES else None
+    findings = _Job(partial(diagnose_frf, data), side)
+    if side is not None:
+        side.shutdown(wait=False)  # its thread ends once the findings are formed
     # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result
     warnings: list[str] = [f"data: {w}" for w in data.meta.get("warnings", ()) if isinstance(w, str)]
     transposed = (data.n_in > data.n_out) if transpose is None else bool(transpose)
@@ -659,8 +673,7 @@ def identify(
     warnings += _skirt_warnings(data, model, crit.result, beyond)
     # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
     # from the API as from the command line
-
-    warnings += [f"data: {f}" for f in diagnose_frf(data) if f"data: {f}" not in warnings]
+    warnings += [f"data: {f}" for f in findings.result() if f"data: {f}" not in warnings]
     ident = Identification(
         poles=stab.poles,
         stabilization=stab,
