@@ -146,8 +146,23 @@ class LocalML:
 
 
 def _qr(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Reduced QR factors of ``a`` (LAPACK geqrf/orgqr, as ``numpy.linalg.qr``; SciPy's call has less overhead)."""
-    q, r = scipy.linalg.qr(a, mode="economic", check_finite=False)
+    """Reduced QR factors of ``a`` (LAPACK geqrf/orgqr, as ``numpy.linalg.qr``).
+
+    Up to 32 columns LAPACK's unblocked code runs whatever the workspace (its block size is 32),
+    so the two routines are called directly, without SciPy's workspace queries: the same factors
+    to the bit as ``scipy.linalg.qr(mode="economic")``, which takes the wider ones.
+    """
+    k = a.shape[1]
+    if k > 32 or a.shape[0] < k:
+        q, r = scipy.linalg.qr(a, mode="economic", check_finite=False)
+        return q, r
+    qr, tau, _, info = scipy.linalg.lapack.dgeqrf(a)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dgeqrf: info {info}")
+    r = np.triu(qr[:k])
+    q, _, info = scipy.linalg.lapack.dorgqr(qr, tau, overwrite_a=True)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dorgqr: info {info}")
     return q, r
 
 
