@@ -200,9 +200,13 @@ class _Segment:
         self.jw = jw
         self.yw = yw  # (2n, C) weighted stacked data
         self.w = w  # (n,) line weights
+        self.ww = np.concatenate([w, w])[:, None]  # (2n, 1) the weights of the stacked rows
         self.lam0 = lam0
         self.scale = np.abs(lam0)
         self.m = lam0.size
+        # the rows (k, i) of the derivative factors u, flattened, are the rows idx of b = (S_j, D_j) (evaluate)
+        self.idx = (2 * np.arange(self.m)[:, None] + np.array([0, 1, 1, 0])[None, :]).ravel()
+        self.scale2 = np.repeat(self.scale, 2)[:, None]  # (2m, 1)
         om = jw.imag
         mid, half = 0.5 * (om[0] + om[-1]), max(0.5 * (om[-1] - om[0]), 1e-30)
         u = (om - mid) / half
@@ -249,7 +253,7 @@ class _Segment:
         if n_t == 0:
             return
         cols = self._cols(self.lam0)
-        a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
+        a = np.concatenate([_stack(cols) * self.ww, self.fixed], axis=1)
         coef = np.linalg.lstsq(a, model_w, rcond=None)[0][a.shape[1] - n_t :]  # (n_t, C)
         keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
         self.fixed = np.ascontiguousarray(self.fixed[:, keep])
@@ -296,7 +300,7 @@ class _Segment:
         b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
         cols = np.empty_like(b1)
         cols[:, 0::2], cols[:, 1::2] = b1[:, : lam.size], b1[:, lam.size :]
-        a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]  # weighted pole columns (2n, 2m)
+        a = _stack(cols) * self.ww  # weighted pole columns (2n, 2m)
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
         # the background basis is orthonormal already: only the pole columns' part orthogonal to it
@@ -316,13 +320,13 @@ class _Segment:
         x = np.linalg.solve(r, qty[: 2 * self.m]) / d[:, None]  # (2m, C) coefficients of the poles
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
-        ww = np.concatenate([self.w, self.w])[:, None]
+        ww = self.ww
         su, du = _stack(s_fn) * ww, _stack(d_fn) * ww  # (2n, m)
         # V_k = sum_i u_ki c_ki^T (rank 2): d/dRe = s(a S + b D), d/dIm = s(a D - b S)
         k = 2 * self.m
         us = np.empty((k, 2, su.shape[0]))
         cs = np.empty((k, 2, x.shape[1]))
-        sx = x * np.repeat(self.scale, 2)[:, None]  # (2m, C): s_j a_j, s_j b_j
+        sx = x * self.scale2  # (2m, C): s_j a_j, s_j b_j
         us[0::2, 0], us[0::2, 1] = su.T, du.T
         us[1::2, 0], us[1::2, 1] = du.T, su.T
         cs[0::2, 0], cs[0::2, 1] = sx[0::2], sx[1::2]
@@ -331,7 +335,7 @@ class _Segment:
         # rows (k, i) of u, flattened, are b[idx])
         b_u = np.empty((2 * self.m, su.shape[0]))
         b_u[0::2], b_u[1::2] = su.T, du.T
-        idx = (2 * np.arange(self.m)[:, None] + np.array([0, 1, 1, 0])[None, :]).ravel()
+        idx = self.idx
         c2 = cs.reshape(2 * k, -1)
         qb = b_u @ q  # (2m, L): Q^T b
         g_b = (b_u @ b_u.T - qb @ qb.T)[np.ix_(idx, idx)]
@@ -420,8 +424,9 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
     n_eval = 1
     mu = 1e-4
     while n_eval < crit.max_iter:
-        h = np.asarray(cur["hess"])[np.ix_(idx, idx)]
-        g = np.asarray(cur["grad"])[idx]
+        h, g = np.asarray(cur["hess"]), np.asarray(cur["grad"])
+        if idx.size < theta.size:
+            h, g = h[np.ix_(idx, idx)], g[idx]
         dg = np.diag(h).copy()
         dg = np.where(dg > 0, dg, 1.0)
         try:
