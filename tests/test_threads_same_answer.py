@@ -81,17 +81,17 @@ def test_local_ml_with_a_second_thread_is_the_one_thread_estimate(monkeypatch: p
 
 
 def test_a_job_the_second_thread_has_not_started_runs_in_the_caller():
-    from ema_rig.identification.ml import _Job
+    from ema_rig._threads import Job
 
     gate = threading.Event()
     with ThreadPoolExecutor(1) as pool:
         pool.submit(gate.wait, 10.0)  # the one worker is busy: the job stays queued
-        job = _Job(threading.get_ident, pool)
+        job = Job(threading.get_ident, pool)
         assert job.result() == threading.get_ident()  # taken back and run here
         assert job.result() == threading.get_ident()  # once: the same value again
         gate.set()
     with ThreadPoolExecutor(1) as pool:
-        job = _Job(threading.get_ident, pool)
+        job = Job(threading.get_ident, pool)
         pool.shutdown(wait=True)  # the worker has run it
         assert job.result() != threading.get_ident()
-    assert _Job(threading.get_ident, None).result() == threading.get_ident()  # no pool: run at once
+    assert Job(threading.get_ident, None).result() == threading.get_ident()  # no pool: run at once

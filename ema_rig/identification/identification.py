@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._blas import single_threaded
+from .._threads import Job
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
@@ -46,7 +47,7 @@ from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted
 from .mac import mac
-from .ml import LocalML, _Job, local_ml
+from .ml import LocalML, local_ml
 from .modal import ModalModel
 from .noise import MisfitTest, segment_misfit
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
@@ -482,7 +483,7 @@ def identify(
     # what makes the FRFs themselves suspect (phase noise, coherence at the peak) depends on the data
     # alone: on many channels a second thread forms it meanwhile (joined below: the same findings)
     side = ThreadPoolExecutor(1) if data.frf.size >= _DIAGNOSE_THREAD_MIN_LINES else None
-    findings = _Job(partial(diagnose_frf, data), side)
+    findings = Job(partial(diagnose_frf, data), side)
     if side is not None:
         side.shutdown(wait=False)  # its thread ends once the findings are formed
     # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result

@@ -81,16 +81,15 @@ from __future__ import annotations
 
 import contextlib
 import copy
-from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
-from typing import Generic, TypeVar
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from .._threads import Job
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from .criteria import ML_CRITERIA, MLCriteria
@@ -593,7 +592,7 @@ def local_ml(
     # a second thread for the segments' whole-basis fits where they are large enough to gain from it
     # (numpy releases the GIL in BLAS and ufunc loops); a work-size rule, so the same on any machine
     two = any(2 * (i1 - i0) * n_chan >= _THREAD_MIN_EQUATIONS for i0, i1, _ in windows)
-    pending: list[tuple[list[int], _Job[_Tail], _Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None]] = []
+    pending: list[tuple[list[int], Job[_Tail], Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None]] = []
     with ThreadPoolExecutor(max_workers=1) if two else contextlib.nullcontext() as pool:
         for i0, i1, rs in windows:
             rs_arr = np.asarray(rs)
@@ -612,7 +611,7 @@ def local_ml(
             if 2 * n < 2 * (2 * m + n_poly) + 8:
                 few = partial(_Tail, np.nan, [f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML "
                                               "estimate; its uncertainty is unknown (NaN)" for r in rs])
-                pending.append((rs, _Job(few, None), None))
+                pending.append((rs, Job(few, None), None))
                 continue
             s_c, v_i = _separable(var[:, i0:i1])
             if not weighted_lines:
@@ -663,9 +662,9 @@ def local_ml(
             # segments need only the cut estimate, so a second thread may fit it meanwhile (fixed work, joined
             # in segment order below: the same numbers whichever thread runs it, and when)
             big = pool if 2 * n * n_chan >= _THREAD_MIN_EQUATIONS else None
-            whole: _Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
+            whole: Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
             if free.any() and n_cut > 0:
-                whole = _Job(partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
+                whole = Job(partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
                                      (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big)
             # the poles are final here (the next segments take them as their fixed neighbours); the
             # scores, covariances and warnings of the segment follow from them alone, so a second
@@ -674,7 +673,7 @@ def local_ml(
             for j, r in enumerate(rs):
                 poles_out[r] = lam[j]
                 kind[r] = "held" if held[j] else "ml"
-            tail = _Job(partial(_segment_tail, seg, theta, last, held, why, [fn0[r] for r in rs],
+            tail = Job(partial(_segment_tail, seg, theta, last, held, why, [fn0[r] for r in rs],
                                 (float(freq[i0]), float(freq[i1 - 1])), n_chan, nb, rho, nv, criteria), big)
             n_eval += 1
             pending.append((rs, tail, whole))
@@ -719,31 +718,6 @@ def local_ml(
     zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
     return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
                    both[:, :2].copy(), both[:, 2:].copy(), basis)
-
-
-_T = TypeVar("_T")
-
-
-class _Job(Generic[_T]):
-    """A task of a segment that a second thread may run (``pool``; None: run here, now).
-
-    :meth:`result` runs it in the calling thread when the second thread has not started it yet,
-    so neither thread idles while the other has queued work. A task depends on its inputs only
-    (copies or arrays no one changes afterwards): the numbers are the same whichever thread runs
-    it, and when; the caller joins the results in a fixed order.
-    """
-
-    def __init__(self, task: Callable[[], _T], pool: ThreadPoolExecutor | None) -> None:
-        self._task = task
-        self._future: Future[_T] | None = pool.submit(task) if pool is not None else None
-        self._value: tuple[_T] | None = None if pool is not None else (task(),)
-
-    def result(self) -> _T:
-        """The task's result (waits for the second thread when it runs it)."""
-        if self._value is None:
-            assert self._future is not None
-            self._value = (self._task(),) if self._future.cancel() else (self._future.result(),)
-        return self._value[0]
 
 
 @dataclass(frozen=True, slots=True, eq=False)
