@@ -482,9 +482,10 @@ def identify(
     data = check_data(data, band)
     # what makes the FRFs themselves suspect (phase noise, coherence at the peak) depends on the data
     # alone: on many channels a second thread forms it meanwhile (joined below: the same findings)
-    side = ThreadPoolExecutor(1) if data.frf.size >= _DIAGNOSE_THREAD_MIN_LINES else None
-    findings = Job(partial(diagnose_frf, data), side)
-    if side is not None:
+    findings: Job[list[str]] | None = None
+    if data.frf.size >= _DIAGNOSE_THREAD_MIN_LINES:
+        side = ThreadPoolExecutor(1)
+        findings = Job(partial(diagnose_frf, data), side)
         side.shutdown(wait=False)  # its thread ends once the findings are formed
     # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result
     warnings: list[str] = [f"data: {w}" for w in data.meta.get("warnings", ()) if isinstance(w, str)]
@@ -674,7 +675,8 @@ def identify(
     warnings += _skirt_warnings(data, model, crit.result, beyond)
     # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
     # from the API as from the command line
-    warnings += [f"data: {f}" for f in findings.result() if f"data: {f}" not in warnings]
+    found = diagnose_frf(data) if findings is None else findings.result()
+    warnings += [f"data: {f}" for f in found if f"data: {f}" not in warnings]
     ident = Identification(
         poles=stab.poles,
         stabilization=stab,
