@@ -22,13 +22,16 @@ from __future__ import annotations
 import html
 import warnings as _warnings
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._blas import single_threaded
+from .._threads import Job
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
@@ -348,6 +351,12 @@ def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyo
             "far from the band, so the synthesis and the residues near that edge are biased"]
 
 
+#: FRF values (channels x lines) from which :func:`identify` forms the data's findings
+#: (:func:`~ema_rig.identification.diagnose.diagnose_frf`, ~10 ns a value) in a second thread while the
+#: modes are estimated: below, they cost less than a thread's start. A work-size rule: the same on any machine.
+_DIAGNOSE_THREAD_MIN_LINES = 100_000
+
+
 def identify(
     data: FRFData,
     *,
@@ -471,6 +480,13 @@ def identify(
     notes = hist_notes + notes
     beyond = _beyond_the_band(data, band)
     data = check_data(data, band)
+    # what makes the FRFs themselves suspect (phase noise, coherence at the peak) depends on the data
+    # alone: on many channels a second thread forms it meanwhile (joined below: the same findings)
+    findings: Job[list[str]] | None = None
+    if data.frf.size >= _DIAGNOSE_THREAD_MIN_LINES:
+        side = ThreadPoolExecutor(1)
+        findings = Job(partial(diagnose_frf, data), side)
+        side.shutdown(wait=False)  # its thread ends once the findings are formed
     # caveats the reader attached to the data (e.g. coherence above 1 clipped) travel with the result
     warnings: list[str] = [f"data: {w}" for w in data.meta.get("warnings", ()) if isinstance(w, str)]
     transposed = (data.n_in > data.n_out) if transpose is None else bool(transpose)
@@ -659,8 +675,8 @@ def identify(
     warnings += _skirt_warnings(data, model, crit.result, beyond)
     # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
     # from the API as from the command line
-
-    warnings += [f"data: {f}" for f in diagnose_frf(data) if f"data: {f}" not in warnings]
+    found = diagnose_frf(data) if findings is None else findings.result()
+    warnings += [f"data: {f}" for f in found if f"data: {f}" not in warnings]
     ident = Identification(
         poles=stab.poles,
         stabilization=stab,

@@ -81,7 +81,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
 
@@ -89,6 +89,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from .._threads import Job
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from .criteria import ML_CRITERIA, MLCriteria
@@ -144,8 +145,23 @@ class LocalML:
 
 
 def _qr(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Reduced QR factors of ``a`` (LAPACK geqrf/orgqr, as ``numpy.linalg.qr``; SciPy's call has less overhead)."""
-    q, r = scipy.linalg.qr(a, mode="economic", check_finite=False)
+    """Reduced QR factors of ``a`` (LAPACK geqrf/orgqr, as ``numpy.linalg.qr``).
+
+    Up to 32 columns LAPACK's unblocked code runs whatever the workspace (its block size is 32),
+    so the two routines are called directly, without SciPy's workspace queries: the same factors
+    to the bit as ``scipy.linalg.qr(mode="economic")``, which takes the wider ones.
+    """
+    k = a.shape[1]
+    if k > 32 or a.shape[0] < k:
+        q, r = scipy.linalg.qr(a, mode="economic", check_finite=False)
+        return q, r
+    qr, tau, _, info = scipy.linalg.lapack.dgeqrf(a)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dgeqrf: info {info}")
+    r = np.triu(qr[:k])
+    q, _, info = scipy.linalg.lapack.dorgqr(qr, tau, overwrite_a=True)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dorgqr: info {info}")
     return q, r
 
 
@@ -183,9 +199,13 @@ class _Segment:
         self.jw = jw
         self.yw = yw  # (2n, C) weighted stacked data
         self.w = w  # (n,) line weights
+        self.ww = np.concatenate([w, w])[:, None]  # (2n, 1) the weights of the stacked rows
         self.lam0 = lam0
         self.scale = np.abs(lam0)
         self.m = lam0.size
+        # the rows (k, i) of the derivative factors u, flattened, are the rows idx of b = (S_j, D_j) (evaluate)
+        self.idx = (2 * np.arange(self.m)[:, None] + np.array([0, 1, 1, 0])[None, :]).ravel()
+        self.scale2 = np.repeat(self.scale, 2)[:, None]  # (2m, 1)
         om = jw.imag
         mid, half = 0.5 * (om[0] + om[-1]), max(0.5 * (om[-1] - om[0]), 1e-30)
         u = (om - mid) / half
@@ -232,7 +252,7 @@ class _Segment:
         if n_t == 0:
             return
         cols = self._cols(self.lam0)
-        a = np.concatenate([_stack(cols) * np.concatenate([self.w, self.w])[:, None], self.fixed], axis=1)
+        a = np.concatenate([_stack(cols) * self.ww, self.fixed], axis=1)
         coef = np.linalg.lstsq(a, model_w, rcond=None)[0][a.shape[1] - n_t :]  # (n_t, C)
         keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
         self.fixed = np.ascontiguousarray(self.fixed[:, keep])
@@ -279,7 +299,7 @@ class _Segment:
         b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
         cols = np.empty_like(b1)
         cols[:, 0::2], cols[:, 1::2] = b1[:, : lam.size], b1[:, lam.size :]
-        a = _stack(cols) * np.concatenate([self.w, self.w])[:, None]  # weighted pole columns (2n, 2m)
+        a = _stack(cols) * self.ww  # weighted pole columns (2n, 2m)
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
         # the background basis is orthonormal already: only the pole columns' part orthogonal to it
@@ -299,13 +319,13 @@ class _Segment:
         x = np.linalg.solve(r, qty[: 2 * self.m]) / d[:, None]  # (2m, C) coefficients of the poles
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
-        ww = np.concatenate([self.w, self.w])[:, None]
+        ww = self.ww
         su, du = _stack(s_fn) * ww, _stack(d_fn) * ww  # (2n, m)
         # V_k = sum_i u_ki c_ki^T (rank 2): d/dRe = s(a S + b D), d/dIm = s(a D - b S)
         k = 2 * self.m
         us = np.empty((k, 2, su.shape[0]))
         cs = np.empty((k, 2, x.shape[1]))
-        sx = x * np.repeat(self.scale, 2)[:, None]  # (2m, C): s_j a_j, s_j b_j
+        sx = x * self.scale2  # (2m, C): s_j a_j, s_j b_j
         us[0::2, 0], us[0::2, 1] = su.T, du.T
         us[1::2, 0], us[1::2, 1] = du.T, su.T
         cs[0::2, 0], cs[0::2, 1] = sx[0::2], sx[1::2]
@@ -314,7 +334,7 @@ class _Segment:
         # rows (k, i) of u, flattened, are b[idx])
         b_u = np.empty((2 * self.m, su.shape[0]))
         b_u[0::2], b_u[1::2] = su.T, du.T
-        idx = (2 * np.arange(self.m)[:, None] + np.array([0, 1, 1, 0])[None, :]).ravel()
+        idx = self.idx
         c2 = cs.reshape(2 * k, -1)
         qb = b_u @ q  # (2m, L): Q^T b
         g_b = (b_u @ b_u.T - qb @ qb.T)[np.ix_(idx, idx)]
@@ -403,8 +423,9 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
     n_eval = 1
     mu = 1e-4
     while n_eval < crit.max_iter:
-        h = np.asarray(cur["hess"])[np.ix_(idx, idx)]
-        g = np.asarray(cur["grad"])[idx]
+        h, g = np.asarray(cur["hess"]), np.asarray(cur["grad"])
+        if idx.size < theta.size:
+            h, g = h[np.ix_(idx, idx)], g[idx]
         dg = np.diag(h).copy()
         dg = np.where(dg > 0, dg, 1.0)
         try:
@@ -571,7 +592,7 @@ def local_ml(
     # a second thread for the segments' whole-basis fits where they are large enough to gain from it
     # (numpy releases the GIL in BLAS and ufunc loops); a work-size rule, so the same on any machine
     two = any(2 * (i1 - i0) * n_chan >= _THREAD_MIN_EQUATIONS for i0, i1, _ in windows)
-    pending: list[tuple[Future[tuple[NDArray[np.complex128], NDArray[np.float64], int]], list[tuple[int, int]]]] = []
+    pending: list[tuple[list[int], Job[_Tail], Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None]] = []
     with ThreadPoolExecutor(max_workers=1) if two else contextlib.nullcontext() as pool:
         for i0, i1, rs in windows:
             rs_arr = np.asarray(rs)
@@ -588,9 +609,9 @@ def local_ml(
             while n_poly > 0 and 2 * n < 2 * (2 * m + n_poly) + 8:
                 n_poly -= 2
             if 2 * n < 2 * (2 * m + n_poly) + 8:
-                for r in rs:
-                    warns.append(f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML estimate; "
-                                 "its uncertainty is unknown (NaN)")
+                few = partial(_Tail, np.nan, [f"mode at {fn0[r]:.6g} Hz: too few lines ({n}) near it for an ML "
+                                              "estimate; its uncertainty is unknown (NaN)" for r in rs])
+                pending.append((rs, Job(few, None), None))
                 continue
             s_c, v_i = _separable(var[:, i0:i1])
             if not weighted_lines:
@@ -640,91 +661,34 @@ def local_ml(
             # its own problem (a copy of the segment on the whole basis, started at the cut estimate): the next
             # segments need only the cut estimate, so a second thread may fit it meanwhile (fixed work, joined
             # in segment order below: the same numbers whichever thread runs it, and when)
-            whole: Future[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
+            big = pool if 2 * n * n_chan >= _THREAD_MIN_EQUATIONS else None
+            whole: Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
             if free.any() and n_cut > 0:
-                task = partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
-                               (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb)
-                if pool is not None and 2 * n * n_chan >= _THREAD_MIN_EQUATIONS:
-                    whole = pool.submit(task)
-                else:
-                    whole = Future()
-                    whole.set_result(task())
-            model_form: list[tuple[int, int]] = []  # (j, r) of the modes whose model-form part is added below
-            # the noise model of every line and channel in the units of the weighted problem: the
-            # residual covariance between channels is pooled after standardising by it
-            # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
-            # at the peaks, which is no random error of the lines)
-            full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
+                whole = Job(partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
+                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big)
+            # the poles are final here (the next segments take them as their fixed neighbours); the
+            # scores, covariances and warnings of the segment follow from them alone, so a second
+            # thread may form them while the next segment is fitted (joined in segment order below)
+            lam = seg.poles(theta)
+            for j, r in enumerate(rs):
+                poles_out[r] = lam[j]
+                kind[r] = "held" if held[j] else "ml"
+            tail = Job(partial(_segment_tail, seg, theta, last, held, why, [fn0[r] for r in rs],
+                                (float(freq[i0]), float(freq[i1 - 1])), n_chan, nb, rho, nv, criteria), big)
             n_eval += 1
-            hess = np.asarray(full["hess"])
-            sc = np.asarray(full["line_scores"])  # (2m, n)
-            blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
-            g = blocks.shape[1]
-            n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
-            s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
-            chi_out[rs_arr] = s2
-            # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
-            chi2 = float(full["chi2_noise"])
-            dof_t = 2 * n * n_chan
-            ratio = chi2 / dof_t
-            if ratio >= criteria.misfit_ratio:
-                from scipy.stats import chi2 as chi2_dist
-
-                p = float(chi2_dist.sf(chi2, dof_t))
-                if p < criteria.misfit_p:
-                    warns.append(
-                        f"the model misses the data near {', '.join(f'{fn0[r]:.6g}' for r in rs)} Hz "
-                        f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
-                        f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
-                        "the misfit (robust covariance)")
-            # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
-            meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
-            hinv = _inv(hess)
-            cov_theta: NDArray[np.float64] | None
-            if hinv is not None:
-                cov_rob = hinv @ meat @ hinv
-                jcj = np.asarray(full["jcj"])
-                cov_fis = hinv @ jcj @ hinv
-                if held.any() and free.any():
-                    # free poles: conditional on the held ones, plus the held poles' uncertainty propagated
-                    fi, hi = np.flatnonzero(np.repeat(free, 2)), np.flatnonzero(np.repeat(held, 2))
-                    hff = _inv(hess[np.ix_(fi, fi)])
-                    if hff is not None:
-                        kmat = -hff @ hess[np.ix_(fi, hi)]
-                        for cov in (cov_rob, cov_fis):
-                            mid = meat if cov is cov_rob else jcj
-                            cond = hff @ mid[np.ix_(fi, fi)] @ hff
-                            cov[np.ix_(fi, fi)] = cond + kmat @ cov[np.ix_(hi, hi)] @ kmat.T
-                cov_theta = None
-                lam = seg.poles(theta)
-                for j, r in enumerate(rs):
-                    sl = slice(2 * j, 2 * j + 2)
-                    sj = seg.scale[j] ** 2
-                    c_r, c_f = cov_rob[sl, sl] * sj, cov_fis[sl, sl] * sj
-                    poles_out[r] = lam[j]
-                    cov_out[r] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
-                    both[r] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
-                    model_form.append((j, r))
-                    kind[r] = "held" if held[j] else "ml"
-                    if held[j]:
-                        warns.append(f"mode at {fn0[r]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
-                                     "its ± is the ML uncertainty at that pole, propagated to its neighbours")
-            else:
-                cov_theta = None
-                for j, r in enumerate(rs):
-                    poles_out[r] = seg.poles(theta)[j]
-                    kind[r] = "held" if held[j] else "ml"
-                    warns.append(f"mode at {fn0[r]:.6g} Hz: the Fisher information of its segment "
-                                 f"({freq[i0]:.6g}..{freq[i1 - 1]:.6g} Hz) is singular, so its uncertainty is unknown "
-                                 "(NaN): the data do not determine the pole")
-            del cov_theta
-            if whole is not None:
-                pending.append((whole, model_form))
+            pending.append((rs, tail, whole))
         # ---- the model-form part of each segment (its whole-basis fit), in segment order ----
-        for whole, model_form in pending:
+        for rs, tail, whole in pending:
+            seg_out = tail.result()
+            warns += seg_out.warnings
+            chi_out[rs] = seg_out.chi2_red
+            if seg_out.cov is not None:
+                cov_out[rs], both[rs] = seg_out.cov, seg_out.stds
+            if whole is None:
+                continue
             d_basis, std_w, k = whole.result()
             n_eval += k
-            for j, r in model_form:
+            for j, r in enumerate(rs if seg_out.cov is not None else ()):
                 if not np.isfinite(d_basis[j, 0]):
                     basis[r] = np.nan
                 elif d_basis[j, 0] != 0:
@@ -754,6 +718,95 @@ def local_ml(
     zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
     return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
                    both[:, :2].copy(), both[:, 2:].copy(), basis)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _Tail:
+    """What a segment adds to :class:`LocalML` once its poles are fitted (:func:`_segment_tail`).
+
+    ``chi2_red`` the segment's ``chi2 / (N - P)``; ``warnings`` its lines, in order; ``cov``
+    (m, 2, 2) the covariance of (Re, Im) of each pole and ``stds`` (m, 4) the robust and Fisher
+    standard deviations of (f [Hz], zeta), None when the Fisher information is singular.
+    """
+
+    chi2_red: float
+    warnings: list[str]
+    cov: NDArray[np.float64] | None = None
+    stds: NDArray[np.float64] | None = None
+
+
+def _segment_tail(seg: _Segment, theta: NDArray[np.float64], last: dict[str, NDArray[np.float64] | float] | None,
+                  held: NDArray[np.bool_], why: dict[int, str], fn0: list[float], lines: tuple[float, float],
+                  n_chan: int, nb: int, rho: tuple[float, ...], nv: NDArray[np.float64], criteria: MLCriteria
+                  ) -> _Tail:
+    """Scores, covariances and warnings of a fitted segment ``seg`` at its poles ``theta`` (``last`` the
+    LM's last evaluation, ``held`` the modes kept at their start, ``why`` the reasons, ``fn0`` their
+    start natural frequencies [Hz], ``lines`` the segment's first and last line [Hz], blocks of ``nb``
+    lines for the robust covariance, ``rho`` the line correlation, ``nv`` the noise variance of the
+    weighted problem, shape (n, C))."""
+    n, m = seg.jw.size, seg.m
+    free = ~held
+    warns: list[str] = []
+    # the noise model of every line and channel in the units of the weighted problem: the
+    # residual covariance between channels is pooled after standardising by it
+    # (the profile a + b |H|^2 fitted to the residuals: coherence also reflects leakage bias
+    # at the peaks, which is no random error of the lines)
+    full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
+    hess = np.asarray(full["hess"])
+    sc = np.asarray(full["line_scores"])  # (2m, n)
+    blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
+    g = blocks.shape[1]
+    n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
+    s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
+    # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
+    chi2 = float(full["chi2_noise"])
+    dof_t = 2 * n * n_chan
+    ratio = chi2 / dof_t
+    if ratio >= criteria.misfit_ratio:
+        from scipy.stats import chi2 as chi2_dist
+
+        p = float(chi2_dist.sf(chi2, dof_t))
+        if p < criteria.misfit_p:
+            warns.append(
+                f"the model misses the data near {', '.join(f'{f:.6g}' for f in fn0)} Hz "
+                f"({lines[0]:.6g}..{lines[1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
+                f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
+                "the misfit (robust covariance)")
+    # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
+    meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
+    hinv = _inv(hess)
+    if hinv is None:
+        for f in fn0:
+            warns.append(f"mode at {f:.6g} Hz: the Fisher information of its segment "
+                         f"({lines[0]:.6g}..{lines[1]:.6g} Hz) is singular, so its uncertainty is unknown "
+                         "(NaN): the data do not determine the pole")
+        return _Tail(s2, warns)
+    cov_rob = hinv @ meat @ hinv
+    jcj = np.asarray(full["jcj"])
+    cov_fis = hinv @ jcj @ hinv
+    if held.any() and free.any():
+        # free poles: conditional on the held ones, plus the held poles' uncertainty propagated
+        fi, hi = np.flatnonzero(np.repeat(free, 2)), np.flatnonzero(np.repeat(held, 2))
+        hff = _inv(hess[np.ix_(fi, fi)])
+        if hff is not None:
+            kmat = -hff @ hess[np.ix_(fi, hi)]
+            for cov in (cov_rob, cov_fis):
+                mid = meat if cov is cov_rob else jcj
+                cond = hff @ mid[np.ix_(fi, fi)] @ hff
+                cov[np.ix_(fi, fi)] = cond + kmat @ cov[np.ix_(hi, hi)] @ kmat.T
+    lam = seg.poles(theta)
+    cov_out = np.empty((m, 2, 2))
+    stds = np.empty((m, 4))
+    for j in range(m):
+        sl = slice(2 * j, 2 * j + 2)
+        sj = seg.scale[j] ** 2
+        c_r, c_f = cov_rob[sl, sl] * sj, cov_fis[sl, sl] * sj
+        cov_out[j] = c_r if _freq_var(lam[j], c_r) >= _freq_var(lam[j], c_f) else c_f
+        stds[j] = (*_delta(lam[j], c_r), *_delta(lam[j], c_f))
+        if held[j]:
+            warns.append(f"mode at {fn0[j]:.6g} Hz held at its PolyMAX pole ({why.get(j, 'not refined')}); "
+                         "its ± is the ML uncertainty at that pole, propagated to its neighbours")
+    return _Tail(s2, warns, cov_out, stds)
 
 
 def _whole_basis(seg: _Segment, full_basis: NDArray[np.float64], theta: NDArray[np.float64], free: NDArray[np.bool_],

@@ -1,0 +1,97 @@
+"""Issue 18 (speed of the default identify): work handed to a second thread gives the one-thread answer.
+
+The local ML hands a segment's scores, covariances and whole-basis fit to a second thread while the
+next segment is fitted, and the completeness test fits its segments in two threads. Oracle: the
+same call with those threads switched off (their work-size thresholds raised above the data), to
+the bit, so neither the load nor the scheduling of the threads changes a result (the contract of
+``test_same_answer_any_load``, here checked stage by stage on data large enough to use the threads).
+"""
+
+from __future__ import annotations
+
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from ema_rig.frf import FRFData
+
+
+def _frf(n_out: int, seed: int) -> tuple[FRFData, np.ndarray, np.ndarray]:
+    """Three modes (one pair 2 % apart), accelerance, 1 % proportional noise: data, true poles,
+    noise-free FRFs."""
+    rng = np.random.default_rng(seed)
+    fn = np.array([210.0, 320.0, 326.4])
+    zeta = np.array([0.012, 0.015, 0.01])
+    lam = 2 * np.pi * fn * (-zeta + 1j * np.sqrt(1 - zeta**2))
+    freq = np.arange(150.0, 450.0 + 0.25, 0.25)
+    jw = 2j * np.pi * freq
+    phi = rng.uniform(-1.0, 1.0, (fn.size, n_out))
+    h = np.zeros((n_out, 1, freq.size), complex)
+    for r in range(fn.size):
+        res = phi[r] * phi[r, 0] / (2j * lam[r].imag)
+        h[:, 0] += res[:, None] / (jw - lam[r]) + np.conj(res)[:, None] / (jw - lam[r].conj())
+    h *= jw**2
+    clean = h.copy()
+    h = h + 0.01 * np.abs(h) * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape)) / np.sqrt(2)
+    dofs = [f"{i + 1}+Y" for i in range(n_out)]
+    return FRFData(freq, h, dofs, [dofs[0]]), lam, clean
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, np.ndarray):
+        return isinstance(b, np.ndarray) and a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
+    return a == b
+
+
+def test_segment_misfit_in_two_threads_is_the_one_thread_test(monkeypatch: pytest.MonkeyPatch):
+    import ema_rig.identification.noise as noise
+
+    data, lam, _ = _frf(96, 3)
+    # the threads are used: the data hold more values than the work-size rule's threshold
+    assert data.frf.size >= noise._MISFIT_THREAD_MIN_VALUES
+    two = noise.segment_misfit(data.freq, data.frf, lam)
+    assert two.freq_lower.size >= 4  # several segments to share between the threads
+    monkeypatch.setattr(noise, "_MISFIT_THREAD_MIN_VALUES", 10**12)
+    one = noise.segment_misfit(data.freq, data.frf, lam)
+    for name in ("freq_lower", "freq_upper", "ratio", "worst_ratio", "p_value", "dof", "failed", "edge", "variance"):
+        assert _same(getattr(two, name), getattr(one, name)), name
+
+
+def test_local_ml_with_a_second_thread_is_the_one_thread_estimate(monkeypatch: pytest.MonkeyPatch):
+    import ema_rig.identification.ml as ml
+    from ema_rig.identification.lsfd import lsfd
+
+    data, lam, _ = _frf(48, 4)
+    rng = np.random.default_rng(7)
+    start = lam * (1.0 + 2e-3 * (rng.standard_normal(lam.size) + 1j * rng.standard_normal(lam.size)))
+    model = lsfd(data, start).synthesize(data.freq).frf  # the start model, as identify passes it
+    # every segment's tasks to the second thread (threshold 1 equation), then none (threshold above the data)
+    monkeypatch.setattr(ml, "_THREAD_MIN_EQUATIONS", 1)
+    two = ml.local_ml(data, start, model)
+    monkeypatch.setattr(ml, "_THREAD_MIN_EQUATIONS", 10**12)
+    one = ml.local_ml(data, start, model)
+    assert "ml" in one.kind and np.all(np.isfinite(one.natural_freq_std))
+    # both tasks ran: the segments' scores and their whole-basis fits (a model-form part > 0)
+    assert one.basis_std is not None and np.any(one.basis_std > 0)
+    for name in ("poles", "pole_cov", "natural_freq_std", "damping_ratio_std", "kind", "chi2_red", "warnings",
+                 "n_eval", "robust_std", "fisher_std", "basis_std"):
+        assert _same(getattr(two, name), getattr(one, name)), name
+
+
+def test_a_job_the_second_thread_has_not_started_runs_in_the_caller():
+    from ema_rig._threads import Job
+
+    gate = threading.Event()
+    with ThreadPoolExecutor(1) as pool:
+        pool.submit(gate.wait, 10.0)  # the one worker is busy: the job stays queued
+        job = Job(threading.get_ident, pool)
+        assert job.result() == threading.get_ident()  # taken back and run here
+        assert job.result() == threading.get_ident()  # once: the same value again
+        gate.set()
+    with ThreadPoolExecutor(1) as pool:
+        job = Job(threading.get_ident, pool)
+        pool.shutdown(wait=True)  # the worker has run it
+        assert job.result() != threading.get_ident()
+    assert Job(threading.get_ident, None).result() == threading.get_ident()  # no pool: run at once
