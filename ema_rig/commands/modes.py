@@ -39,6 +39,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig modes``."""
     import numpy as np
 
+    from ..identification.window_damping import with_window_damping
     from ..mode_shapes import mode_shapes_records
 
     data, ident = load_and_identify(args)
@@ -56,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
         rec["mode_shape"] = {k: shp[k] for k in ("reference", "normalisation", "unit", "shape")}
     drive = [str(d) for d in ident.modes.in_dofs if d in ident.modes.out_dofs]
     fit = ident.fit_error
-    line_err = ident.modes.line_error(data)
+    line_err = with_window_damping(ident.modes).line_error(data)  # against the FRFs as measured (windowed)
     print(f"file   {args.file}")
     print(f"data   {data.n_out} outputs x {data.n_in} reference(s), band {ident.band[0]:g}-{ident.band[1]:g} Hz, "
           f"orders {min(ident.poles.orders)}-{max(ident.poles.orders)} "

@@ -11,6 +11,8 @@ remove_window_damping
     Remove an exponential window's damping from every identified pole (exact), with the
     standard deviations carried through; modes whose damping the window alone explains are
     dropped with a warning.
+with_window_damping
+    Its inverse on a model: the window's damping put back, for comparison with the windowed FRFs.
 
 Notes
 -----
@@ -36,8 +38,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..frf import FRFData
+from ..frf import FORM_POWER, FRFData
 from ..processing import ANTI_ALIAS_FRACTION, processing_history, usable_band
+from .modal import ModalModel
 
 DROP_SIGMAS = 2.0
 """A corrected damping ratio this many standard deviations below zero drops the mode (the 2 sigma
@@ -119,6 +122,46 @@ def _propagate(f: float, z: float, sf: float, sz: float, a: float) -> tuple[floa
     return float(fn[0]), float(zn[0]), float(np.sqrt(max(c2[0, 0], 0.0))), float(np.sqrt(max(c2[1, 1], 0.0)))
 
 
+def _move_poles(model: ModalModel, decay: float) -> ModalModel:
+    """``model`` with every pole's real part moved by ``+decay`` [1/s], its residues carried along.
+
+    The residues of the FRF form measured are the window's (unchanged by the shift); the model
+    stores receptance residues ``R = residue / lambda^p`` (p = 2 accelerance, 1 mobility), so
+    ``R_new = R (lambda / lambda_new)^p``. The residual terms are left as they are.
+    """
+    poles = np.asarray(model.poles, dtype=np.complex128)
+    lam = poles + float(decay)
+    ratio = (poles / lam) ** FORM_POWER[model.frf_form] if lam.size else np.ones(0)
+    return replace(model, poles=lam, residues=np.asarray(model.residues) * ratio[:, None, None])
+
+
+def with_window_damping(model: ModalModel) -> ModalModel:
+    """The model as the windowed FRFs show it: the exponential window's damping put back.
+
+    The inverse of the pole shift :func:`remove_window_damping` makes: the model the fit used,
+    to compare with the (windowed) FRFs it was fitted to, e.g. in a synthesis figure or
+    :meth:`~ema_rig.identification.modal.ModalModel.line_error`.
+
+    Parameters
+    ----------
+    model : ModalModel
+        With ``meta["window_decay"] = a`` [1/s] when :func:`remove_window_damping` corrected it.
+
+    Returns
+    -------
+    ModalModel
+        Unchanged without ``meta["window_decay"]`` (or ``a <= 0``). Else every pole moved by
+        ``-a`` (its residues carried along), ``meta["window_decay"]`` removed and
+        ``meta["window_damping_applied"] = a``.
+    """
+    a = float(model.meta.get("window_decay") or 0.0)
+    if a <= 0:
+        return model
+    meta = {k: v for k, v in model.meta.items() if k != "window_decay"}
+    meta["window_damping_applied"] = a
+    return replace(_move_poles(model, -a), meta=meta)
+
+
 def remove_window_damping(ident: Any, data: FRFData) -> Any:
     """The identification with an exponential window's damping removed from its modes.
 
@@ -172,14 +215,7 @@ def remove_window_damping(ident: Any, data: FRFData) -> Any:
     meta = dict(mm.meta)
     meta["window_decay"] = a
     meta["polymax_poles"] = [start[k] for k in keep]
-    lam = np.asarray(new_p, dtype=np.complex128)
-    # the residues of the FRF form measured are the window's; the model stores receptance residues
-    # R = residue / lambda^p (p = 2 accelerance, 1 mobility), so R_true = R_id (lambda_id / lambda)^p
-    power = {"receptance": 0, "mobility": 1, "accelerance": 2}.get(mm.frf_form, 0)
-    ratio = (poles[idx] / lam) ** power if lam.size else np.ones(0)
-    model = replace(
-        mm, poles=lam, residues=np.asarray(mm.residues)[idx] * ratio[:, None, None], meta=meta,
-    )
+    model = _move_poles(replace(mm, poles=poles[idx], residues=np.asarray(mm.residues)[idx], meta=meta), a)
     note = (f"exponential window ({hist.source if hist else ''}): {a:.6g} 1/s removed from every pole's real "
             f"part (Fladung & Rost 1997), i.e. {100 * a / (2 * np.pi):.4g} % / f[Hz] of damping ratio")
     notes = tuple(ident.notes) + (note,) + tuple(f"data: {n}" for n in (hist.notes if hist else ()))
@@ -190,4 +226,4 @@ def remove_window_damping(ident: Any, data: FRFData) -> Any:
                    damping_ratio_std=np.asarray(sz2, dtype=np.float64), warnings=tuple(warnings), notes=notes)
 
 
-__all__ = ["DROP_SIGMAS", "processing_band", "remove_decay", "remove_window_damping"]
+__all__ = ["DROP_SIGMAS", "processing_band", "remove_decay", "remove_window_damping", "with_window_damping"]

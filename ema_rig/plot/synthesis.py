@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..identification.window_damping import with_window_damping
 from ._render import fixed_layout, reuse_axes
 
 if TYPE_CHECKING:
@@ -121,7 +122,10 @@ def plot_synthesis(
         The measurement, shape (n_out, n_in, n_freq); its outputs and references must include
         those of ``modes``.
     modes : ModalModel
-        The LSFD model (poles, residues and residual terms).
+        The LSFD model (poles, residues and residual terms). One whose poles had an exponential
+        window's damping removed (``meta["window_decay"]``) is drawn with it put back
+        (:func:`~ema_rig.identification.window_damping.with_window_damping`): the model the fit
+        used, comparable with the windowed FRFs; the figure title says so.
     channels : sequence of (int, int), optional
         ``(output, reference)`` indices into ``modes.out_dofs`` / ``modes.in_dofs``; default:
         every output against every reference, at most ``max_channels``.
@@ -166,8 +170,11 @@ def plot_synthesis(
     width = hi - lo
     shown = data.band(max(float(data.freq[0]), lo - margin * width), min(float(data.freq[-1]), hi + margin * width))
     meas = shown.sel(out=list(modes.out_dofs), inp=list(modes.in_dofs)).to_form(modes.frf_form)
-    syn = modes.synthesize(meas.freq, frf_form=modes.frf_form)
-    per_line = modes.line_error(meas)
+    # the model the fit used: with an exponential window's damping put back, as the FRFs have it
+    fitted = with_window_damping(modes)
+    decay = float(fitted.meta.get("window_damping_applied") or 0.0)
+    syn = fitted.synthesize(meas.freq, frf_form=modes.frf_form)
+    per_line = fitted.line_error(meas)
     if channels is None:
         channels = [(i, j) for j in range(len(modes.in_dofs)) for i in range(len(modes.out_dofs))][:max_channels]
     n = len(channels)
@@ -242,8 +249,10 @@ def plot_synthesis(
     axs[0][0].legend(fontsize=8, loc="lower right")
     src = str(modes.meta.get("file") or data.meta.get("file") or data.meta.get("source") or "")
     name = src.replace("\\", "/").rsplit("/", 1)[-1]
+    windowed = (f"\nsynthesis with the exponential window's damping ({decay:.4g} 1/s), as measured"
+                if decay > 0 else "")
     fig.suptitle(title or f"{name + ': ' if name else ''}measured vs synthesised FRFs, {len(modes.poles)} modes in "
-                 f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies)", fontsize=10)
+                 f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies){windowed}", fontsize=10)
     if dpi is not None:
         fixed_layout(fig, [ax.yaxis for ax in out.axes])
     return out
