@@ -248,3 +248,24 @@ def test_a_windowed_measurement_is_overlaid_with_the_windows_damping_put_back(tm
     assert main(["modes", str(src), "--json", str(js)]) == 0
     line = np.array(json.loads(js.read_text())["line_error"], dtype=float)
     assert np.nanmax(line) < 1e-4, line
+
+
+@pytest.mark.usefixtures("mplcleanup")
+def test_title_fit_error_is_finite_and_the_models_own_when_the_band_starts_at_0_hz() -> None:
+    """Review finding (m_review6): a band from 0 Hz (mobility files such as the uff-corpus
+    ``ufffiles_frf.unv``) drew 'fit error nan %' in every panel (the lower residual is infinite at
+    0 Hz and the panel's own norm took that line in) while the command line gave 7.4 %: the title
+    now gives the model's ``fit_error``, the command line's number."""
+    system = five_mode_system(close_pair=False)
+    freq = np.linspace(0.0, 1000.0, 2001)
+    data = system.frf(freq, inputs=(0, 1)).to_form("mobility")
+    h = data.frf.copy()
+    h[:, :, 0] = h[:, :, 1]  # an analyser's finite DC line (mobility of the lumped system is 0 there)
+    data = data.replace(frf=h)
+    model = lsfd(data, system.poles, band=(0.0, 950.0))  # the true poles: an exact modal model
+    assert np.all(np.isfinite(model.fit_error)) and np.max(model.fit_error) < 1e-6
+    chart = plot_synthesis(data, model, max_channels=2)
+    for ax in chart.axes:
+        title = ax.get_title(loc="left")
+        # the exact model fits to ~0 %: the title must say so, as the JSON's fit_error does
+        assert "nan" not in title and "fit error 0.0 %" in title, title
