@@ -2,6 +2,8 @@
 
 Functions
 ---------
+shown_channels
+    The channels drawn by default: all, or the driving points and then the worst fits.
 plot_synthesis
     Small multiples, one panel per (output, reference) channel: measured and synthesised
     magnitude, the fitted band shaded, the identified natural frequencies marked and the
@@ -101,6 +103,41 @@ def phase_line(f: NDArray[np.float64], h: NDArray[np.complex128],
     return np.insert(np.asarray(f, dtype=float), jump, np.nan), np.insert(ph, jump, np.nan)
 
 
+def shown_channels(modes: ModalModel, max_channels: int,
+                   line_error: NDArray[np.float64] | None = None) -> list[tuple[int, int]]:
+    """The channels a synthesis figure shows by default: all of them, or the ones that matter.
+
+    Parameters
+    ----------
+    modes : ModalModel
+        The model, ``n_out`` outputs x ``n_in`` references.
+    max_channels : int
+        At most this many channels.
+    line_error : ndarray, shape (n_out, n_in), optional
+        Ranks the channels when the model has no ``fit_error`` (NaN ranks last).
+
+    Returns
+    -------
+    list of (int, int)
+        ``(output, reference)`` indices. With ``n_out * n_in <= max_channels``: every channel,
+        output by output for each reference. Else the driving points (output DOF = reference
+        DOF, in reference order) first, then the other channels by the model's ``fit_error``
+        (the command line's synthesis error), worst first; ties keep the output-by-output order.
+        Deterministic: the same model gives the same channels.
+    """
+    n_out, n_in = len(modes.out_dofs), len(modes.in_dofs)
+    every = [(i, j) for j in range(n_in) for i in range(n_out)]
+    if len(every) <= max_channels:
+        return every
+    drive = [(modes.out_dofs.index(d), j) for j, d in enumerate(modes.in_dofs) if d in modes.out_dofs]
+    score = modes.fit_error if modes.fit_error is not None else line_error
+    rest = [c for c in every if c not in drive]
+    if score is not None:
+        key = np.nan_to_num(np.asarray(score, dtype=float), nan=-np.inf)
+        rest = [rest[k] for k in np.argsort([-key[c] for c in rest], kind="stable")]
+    return (drive + rest)[:max(max_channels, 0)]
+
+
 def plot_synthesis(
     data: FRFData,
     modes: ModalModel,
@@ -128,9 +165,11 @@ def plot_synthesis(
         used, comparable with the windowed FRFs; the figure title says so.
     channels : sequence of (int, int), optional
         ``(output, reference)`` indices into ``modes.out_dofs`` / ``modes.in_dofs``; default:
-        every output against every reference, at most ``max_channels``.
+        :func:`shown_channels` (every output against every reference, or, with more than
+        ``max_channels`` of them, the driving points and then the worst fits).
     max_channels : int, optional
-        Upper bound on the panels drawn by default (12).
+        Upper bound on the panels drawn by default (12). With fewer panels than channels the
+        title says how many are shown ("12 of 26 channels shown").
     margin : float, optional
         Fraction of the fitted band shown on each side of it (0.1): the synthesis is only valid
         inside the band, the margin shows where it stops being so.
@@ -175,9 +214,11 @@ def plot_synthesis(
     decay = float(fitted.meta.get("window_damping_applied") or 0.0)
     syn = fitted.synthesize(meas.freq, frf_form=modes.frf_form)
     per_line = fitted.line_error(meas)
+    given = channels is not None
     if channels is None:
-        channels = [(i, j) for j in range(len(modes.in_dofs)) for i in range(len(modes.out_dofs))][:max_channels]
+        channels = shown_channels(modes, max_channels, per_line)
     n = len(channels)
+    n_all = len(modes.out_dofs) * len(modes.in_dofs)
     ncol = 2 if n > 1 else 1
     nrow = math.ceil(n / ncol)
     w = fig_width if fig_width is not None else (11.0 if ncol == 2 else 7.0)
@@ -248,10 +289,12 @@ def plot_synthesis(
     axs[0][0].legend(fontsize=8, loc="lower right")
     src = str(modes.meta.get("file") or data.meta.get("file") or data.meta.get("source") or "")
     name = src.replace("\\", "/").rsplit("/", 1)[-1]
+    subset = (f"; {n} of {n_all} channels shown" + ("" if given else ": the driving points, then the worst fits")
+              if n < n_all else "")
     windowed = (f"\nsynthesis with the exponential window's damping ({decay:.4g} 1/s), as measured"
                 if decay > 0 else "")
     fig.suptitle(title or f"{name + ': ' if name else ''}measured vs synthesised FRFs, {len(modes.poles)} modes in "
-                 f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies){windowed}", fontsize=10)
+                 f"{lo:g}–{hi:g} Hz\n(dotted: natural frequencies{subset}){windowed}", fontsize=10)
     if dpi is not None:
         fixed_layout(fig, [ax.yaxis for ax in out.axes])
     return out
@@ -271,4 +314,4 @@ def _vlines(ax: Axes, x: Any, **style: Any) -> Any:
     return lc
 
 
-__all__ = ["SynthesisPlot", "phase_centre", "phase_line", "plot_synthesis"]
+__all__ = ["SynthesisPlot", "phase_centre", "phase_line", "plot_synthesis", "shown_channels"]
