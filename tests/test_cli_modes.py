@@ -147,3 +147,25 @@ def test_modes_refine_shapes_and_uff55(uff_file, tmp_path, system):
     assert len(sets) == len(doc["modes"])
     f55 = sorted(abs(complex(s["eig"])) / (2 * np.pi) for s in sets)
     np.testing.assert_allclose(f55, sorted(m["natural_freq"] for m in doc["modes"]), rtol=1e-5)
+
+
+@pytest.mark.parametrize("labelled", [True, False])
+def test_modes_says_when_the_units_were_assumed(tmp_path, system, capsys, labelled):
+    """Review finding (m_review6): for a file without unit labels (dam0.unv) ``modes`` printed
+    effective masses in kg (2.9e6..1.9e8) without the 'SI assumed' caveat ``inspect`` gives; the
+    caveat is now a note in the text and in the JSON, and only when the units were assumed."""
+    from ema_rig.io.uff import write_uff58
+
+    path = tmp_path / "lumped.uff"
+    write_uff58(path, system.frf(FREQ, inputs=(0,)), binary=True, labelled=labelled)
+    out = tmp_path / "modes.json"
+    assert main(["modes", str(path), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    notes = [n for n in json.loads(out.read_text())["notes"] if "SI (m, N) assumed" in n]
+    if labelled:
+        assert notes == [] and "SI (m, N) assumed" not in text
+    else:
+        # six outputs x one reference, none labelled: every dataset's units assumed
+        assert notes == ["units: 6 of 6 FRF datasets: no unit label and no dataset 164: SI (m, N) assumed; "
+                         "effective masses [kg], residues and mode shapes are in SI only if the file is"]
+        assert f"note   {notes[0]}" in text

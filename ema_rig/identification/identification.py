@@ -478,6 +478,9 @@ def identify(
     band, hist_notes = processing_band(data, band)  # issue 18: the usable (anti-alias) band
     band, notes = _clip_band(data, band)
     notes = hist_notes + notes
+    if data.meta.get("units_assumed"):  # read_uff58: the file states no units (m_eff [kg] etc. rest on SI)
+        notes.append(f"units: {data.meta['units_assumed']}; effective masses [kg], residues and mode shapes "
+                     "are in SI only if the file is")
     beyond = _beyond_the_band(data, band)
     data = check_data(data, band)
     # what makes the FRFs themselves suspect (phase noise, coherence at the peak) depends on the data

@@ -41,6 +41,10 @@ class UnitDecision:
     note: str | None = None
 
 
+SI_ASSUMED = "no unit label and no dataset 164: SI (m, N) assumed"
+"""The unit decision of a dataset whose units nothing in the file states."""
+
+
 def _code_name(code: int) -> str:
     return f"{code} ({_CODE_NAMES.get(code, 'other')})"
 
@@ -170,7 +174,7 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
     # from the code: the unit system of dataset 164, else SI
     text = f"{form} from ordinate code {_code_name(num_code)}"
     if units164 is None:
-        return UnitDecision(form, 1.0, text + "; no unit label and no dataset 164: SI (m, N) assumed" + _j(notes))
+        return UnitDecision(form, 1.0, text + "; " + SI_ASSUMED + _j(notes))
     n_len = h["ordinate_len_unit_exp"] or 1
     n_force = h["ordinate_force_unit_exp"]
     d_len = h["orddenom_len_unit_exp"]

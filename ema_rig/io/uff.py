@@ -463,7 +463,8 @@ def read_uff58(
         ``meta``: ``source`` (path), ``datasets`` (indices used), ``coherence_datasets``,
         ``unit_decisions`` (one str per dataset used), ``sign_flips``, ``ignored_channels``,
         ``ignored_datasets``, ``notes``, ``warnings`` (one-line strings: coherence clipped ...),
-        ``ids`` (id lines per dataset index), ``rig`` (rig file path or None), and
+        ``ids`` (id lines per dataset index), ``rig`` (rig file path or None),
+        ``units_assumed`` (a sentence, present only when datasets state no units: SI assumed), and
         ``processing`` (:class:`~ema_rig.processing.ProcessingHistory` from the datasets 1858
         before the FRFs, present only when every FRF has the same one; its ``n_averages`` fills
         ``n_averages`` when no id line gives it).
@@ -552,6 +553,9 @@ def read_uff58(
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
+    n_assumed = sum(_uff_units.SI_ASSUMED in d for d in decisions)
+    if n_assumed:  # the caveat for every result in kg, m or N (effective masses, residues, shapes)
+        meta["units_assumed"] = f"{n_assumed} of {len(decisions)} FRF datasets: {_uff_units.SI_ASSUMED}"
     if history is not None:
         meta["processing"] = history  # issue 18: window, averaging, band (dataset 1858)
     frf.setflags(write=False)  # built here and frozen: FRFData keeps it without a copy
