@@ -45,7 +45,7 @@ KINDS: dict[str, str] = {
                  "sensor of each kind (housing/spindle, radial/lateral/axial); shaded: the identification band.",
 }
 #: Bump when the drawing changes (size, resolution, content): every per-measurement figure is redrawn.
-_DRAW_VERSION = 8
+_DRAW_VERSION = 9
 #: Pixel density and size of the embedded figures: at least 1000 px wide (readable on screen; issue 20).
 DPI = 80
 _SIZE = (12.8, 5.6)
@@ -179,7 +179,7 @@ def measurement_figures(
     # next (kept_figure): each figure is turned into PNG bytes before the next of its kind is drawn
     drawers: dict[str, Any] = {
         "stabilization": lambda: plot_stabilization(
-            ident.stabilization, view, selection=ident.selection, markersize=3.5,
+            ident.stabilization, view, selection=ident.selection, mode_freq=ident.natural_freq, markersize=3.5,
             title=f"{plain(m.id)}: PolyMAX {lo:.0f}–{hi:.0f} Hz", figure=kept_figure("stabilization", _SIZE)).figure,
     }
     if result is not None:
