@@ -45,12 +45,12 @@ def test_chart_artists(case, mplcleanup):
     # the band is shaded because the FRF spans more than the band
     x0 = chart.band_patch.get_x()
     np.testing.assert_allclose([x0, x0 + chart.band_patch.get_width()], [100.0, 900.0], rtol=1e-12)
-    # one dashed line and one label per selected mode, at the mode's mean frequency
+    # one dashed line and one label per selected mode; without the reported frequencies they mark
+    # the PolyMAX cluster mean and say so
     assert len(chart.mode_lines) == len(ident.selection) == 6
     np.testing.assert_allclose([ln.get_xdata()[0] for ln in chart.mode_lines], ident.selection.natural_freq)
-    assert [t.get_text().strip() for t in chart.mode_labels] == [
-        f"{f:.1f} Hz" for f in ident.selection.natural_freq
-    ]
+    assert [t.get_text().strip() for t in chart.mode_labels] == [f"{f:.1f} Hz" for f in ident.selection.natural_freq]
+    assert chart.mode_lines[0].get_label() == "selected mode at the PolyMAX cluster (6)"
     assert chart.axes.get_xlabel() == "frequency [Hz]" and chart.axes.get_ylabel() == "model order"
 
 
@@ -172,3 +172,30 @@ def test_mode_labels_never_overlap_and_rejected_are_distinct(case, mplcleanup):
     for ln in chart.rejected_lines:
         assert ln.get_linestyle() == ":" and ln.get_color() != chart.mode_lines[0].get_color()
     assert "converged" in chart.axes.get_title()
+
+
+def test_cli_chart_marks_the_reported_modes(monkeypatch, tmp_path, mplcleanup):
+    # the reviewer's defect: the chart labelled the PolyMAX cluster (111.9 Hz) while the table and
+    # JSON report the final modes (112.0 Hz). Oracle: the API's identify() on the same file.
+    from pathlib import Path
+
+    import ema_rig.plot.stabilization as stabilization_module
+    from ema_rig.cli import main
+    from ema_rig.io.uff import read_uff58
+
+    drawn = []
+    real = stabilization_module.plot_stabilization
+
+    def spy(*args, **kwargs):
+        drawn.append(real(*args, **kwargs))
+        return drawn[-1]
+
+    monkeypatch.setattr(stabilization_module, "plot_stabilization", spy)
+    file = Path(__file__).resolve().parents[1] / "data" / "b6302_1000N_1200rpm.uff"
+    assert main(["stabilization", str(file), "-o", str(tmp_path / "s.png")]) == 0
+    expected = identify(read_uff58(file)).natural_freq
+    (chart,) = drawn
+    # the same modes to the printed 0.1 Hz, lines within 0.1 % (a replayed ML fit, not bitwise)
+    assert [t.get_text() for t in chart.mode_labels] == [f"{f:.1f} Hz" for f in expected]
+    np.testing.assert_allclose([ln.get_xdata()[0] for ln in chart.mode_lines], expected, rtol=1e-3)
+    assert chart.mode_lines[0].get_label() == f"selected mode ({len(expected)})"

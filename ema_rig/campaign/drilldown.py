@@ -179,7 +179,7 @@ def measurement_figures(
     # next (kept_figure): each figure is turned into PNG bytes before the next of its kind is drawn
     drawers: dict[str, Any] = {
         "stabilization": lambda: plot_stabilization(
-            ident.stabilization, view, selection=ident.selection, markersize=3.5,
+            ident.stabilization, view, selection=ident.selection, mode_freq=ident.natural_freq, markersize=3.5,
             title=f"{plain(m.id)}: PolyMAX {lo:.0f}–{hi:.0f} Hz", figure=kept_figure("stabilization", _SIZE)).figure,
     }
     if result is not None:

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     margin = 0.05 * (hi - lo)
     shown = data.band(max(lo - margin, data.freq[0]), min(hi + margin, data.freq[-1]))
     chart = plot_stabilization(
-        ident.stabilization, shown, selection=ident.selection, indicator="cmif" if args.cmif else "sum",
+        ident.stabilization, shown, selection=ident.selection, mode_freq=ident.natural_freq, indicator="cmif" if args.cmif else "sum",
         show_unstable=args.show_unstable, color_scheme=args.colors, candidates=ident.candidates,
         title=f"{Path(args.file).name}: PolyMAX {lo:g}-{hi:g} Hz, {data.n_out} x {data.n_in}"
               + (" (transposed)" if ident.transposed else "")

@@ -383,7 +383,11 @@ class ResultCriteria(_Sourced):
         Above the highest mode, the FRFs' magnitude rising from its minimum to the upper band edge
         more than this factor (2) times the upper residual's own rise ``(f_edge / f_min)^p``, with a
         median synthesis error above ``poor_fit`` there, is the skirt of a mode above the band that the
-        model does not represent: warned about (the mode itself is not reported).
+        model does not represent: warned about (the mode itself is not reported). Mirrored at the lower
+        edge: below the lowest mode, a fall from the band start to the minimum more than this factor
+        times the lower residual's own ``(f_min / f_start)^(2 - p)``, with the same error, is content no
+        mode or residual represents (dam0's DC lines: 1100x); the default band then starts at that
+        minimum, an explicit band is warned about.
     skirt_lines : int
         Lines of the running median the magnitude is smoothed with for that test (9).
     """

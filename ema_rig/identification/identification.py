@@ -351,6 +351,49 @@ def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyo
             "far from the band, so the synthesis and the residues near that edge are biased"]
 
 
+def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[float, str] | None:
+    """Where the band should start, and why, when the FRFs fall from the lower band edge more than the
+    lower residual can (the mirror of :func:`_skirt_warnings`); None when they do not.
+
+    Below the lowest mode (beyond ``edge_hbw`` half-power half-bandwidths), the lines from the band's
+    start to the minimum of the magnitude (rms over the channels, running median of ``skirt_lines``)
+    are tested: a fall more than ``skirt_rise`` times the lower residual's own ``(f_min / f_start)^(2 - p)``
+    with a median relative synthesis error above ``poor_fit`` there. At 0 Hz that is the DC line (an
+    offset, drift, or a sensor's high-pass), which no mode or residual term represents and which
+    biases the whole fit. ``data`` are cut to the band. Returns the frequency of that minimum [Hz]
+    and the finding.
+    """
+    from scipy.ndimage import median_filter
+
+    f = data.freq
+    n_s = int(crit.skirt_lines)
+    if model.n_modes == 0 or f.size < 2 * n_s:
+        return None
+    r = int(np.argmin(model.natural_freq))
+    stop = int(np.searchsorted(f, model.natural_freq[r] * (1 - crit.edge_hbw * model.damping_ratio[r])))
+    if stop < n_s:
+        return None
+    mag = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))), size=n_s, mode="nearest")
+    i = int(np.argmin(mag[:stop]))
+    if i < n_s or not mag[i] > 0:
+        return None
+    fall = float(mag[0] / mag[i])
+    p = _FORM_POWER[data.frf_form]
+    if f[0] > 0:
+        lr_fall = float((f[i] / f[0]) ** (2 - p))
+    else:  # at 0 Hz the lower residual of mobility or receptance is infinite: it can follow any fall
+        lr_fall = 1.0 if p == 2 else float("inf")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.abs(data.frf[:, :, : i + 1] - model.synthesize(f[: i + 1]).frf) / np.abs(data.frf[:, :, : i + 1])
+    err = float(np.nanmedian(np.where(np.isfinite(rel), rel, np.nan))) if np.any(np.isfinite(rel)) else 0.0
+    if fall <= crit.skirt_rise * lr_fall or not err > crit.poor_fit:
+        return None
+    return float(f[i]), (f"the FRFs fall {fall:.3g}x from the band's start at {f[0]:.6g} Hz to {f[i]:.6g} Hz (the lower residual "
+            f"only {lr_fall:.3g}x) and the modal model misses them by {100 * err:.0f} % there (median over the "
+            "lines): low-frequency content no mode or residual term represents (near 0 Hz: a DC offset, drift or a "
+            "sensor's high-pass), which biases the whole fit")
+
+
 #: FRF values (channels x lines) from which :func:`identify` forms the data's findings
 #: (:func:`~ema_rig.identification.diagnose.diagnose_frf`, ~10 ns a value) in a second thread while the
 #: modes are estimated: below, they cost less than a thread's start. A work-size rule: the same on any machine.
@@ -475,6 +518,8 @@ def identify(
         band = selection.band if band is None else band
         max_order = selection.max_order if max_order is None and selection.max_order >= 1 else max_order
     src = source_of(data)
+    # no band given: the whole data, unless its low lines hold what no model represents (_low_edge)
+    default_band, measured = band is None, data
     band, hist_notes = processing_band(data, band)  # issue 18: the usable (anti-alias) band
     band, notes = _clip_band(data, band)
     notes = hist_notes + notes
@@ -676,6 +721,18 @@ def identify(
                         f"(above {100 * crit.result.poor_fit:.0f} %); modes may be missing or the data noisy")
     warnings += _edge_warnings(model, stab.band, crit.result)
     warnings += _skirt_warnings(data, model, crit.result, beyond)
+    low = _low_edge(data, model, crit.result)
+    if low is not None and not default_band:
+        hi_f = stab.band[1]
+        warnings.append(f"{low[1]}; start the band above it, e.g. band=({low[0]:.3g}, {hi_f:.6g}) Hz "
+                        f"(--band {low[0]:.3g} {hi_f:.6g})")
+    elif low is not None:  # the default band: start it there (explicit, so once) and say why
+        again = identify(measured, band=(low[0], stab.band[1]), max_order=max_order, freq_tol=freq_tol,
+                         damping_tol=damping_tol, mac_tol=mac_tol, near_tol=near_tol, residuals=residuals,
+                         progress=progress, transpose=transpose, refine=refine, criteria=criteria)
+        why = (f"the default band starts at {low[0]:.6g} Hz, not at the data's first line {stab.band[0]:.6g} Hz: "
+               f"over {stab.band[0]:g}..{stab.band[1]:g} Hz {low[1]}")
+        return replace(again, notes=(why,) + tuple(again.notes))
     # what makes the FRFs themselves suspect (coherence at the peak, phase noise): the same caveats
     # from the API as from the command line
     found = diagnose_frf(data) if findings is None else findings.result()

@@ -122,9 +122,15 @@ class StabilizationPlot:
     colors: Mapping[str, str] = field(default_factory=dict)
     rejected_lines: list[Any] = field(default_factory=list)
 
-    def mark_modes(self, selection: Selection | None, rejected: Sequence[Any] = ()) -> None:
+    def mark_modes(
+        self, selection: Selection | None, rejected: Sequence[Any] = (), mode_freq: Sequence[float] | None = None
+    ) -> None:
         """Replace the mode markers: selected modes (dashed line + frequency label) and rejected
         candidates (grey dotted line over the orders where they were stable, no label).
+
+        ``mode_freq`` [Hz], one per selected mode, are the reported (final) natural frequencies,
+        e.g. :attr:`ema_rig.identification.Identification.natural_freq`: lines and labels go there.
+        Without it they mark the selection's PolyMAX cluster poles (the legend says so).
 
         Labels never hide each other: each goes to the lowest of up to four label rows above the
         poles where it does not overlap its left neighbour (the chart grows upwards to make room).
@@ -142,11 +148,14 @@ class StabilizationPlot:
             (ln,) = ax.plot([c.natural_freq] * 2, [0, n_max], color=self.colors.get("rejected", "#666666"),
                             lw=1.0, ls=":", alpha=0.9, zorder=1, marker="x", markevery=[1], ms=7, mew=1.5)
             self.rejected_lines.append(ln)
-        if selection is None or not selection.modes:
+        if selection is None or not (selection.modes if mode_freq is None else len(mode_freq)):
             return
         x0, x1 = ax.get_xlim()
         width = 0.02 * (x1 - x0)  # a rotated 8-pt label is about 2 % of the axis wide
-        freqs = [m.natural_freq for m in selection.modes]
+        if mode_freq is None:
+            freqs = [float(m.natural_freq) for m in selection.modes]
+        else:
+            freqs = sorted(float(f) for f in mode_freq)
         levels: list[float] = []  # right edge of the last label in each row
         rows = []
         for f in freqs:
@@ -198,6 +207,7 @@ def plot_stabilization(
     candidates: Sequence[Any] = (),
     converged: bool | None = None,
     figure: Figure | None = None,
+    mode_freq: Sequence[float] | None = None,
 ) -> StabilizationPlot:
     """Draw a stabilization chart.
 
@@ -231,6 +241,11 @@ def plot_stabilization(
         With ``ax=None``: a figure to draw into instead of a new one. One that holds an earlier
         chart drawn this way keeps its axes (emptied, :func:`ema_rig.plot._render.reuse_axes`):
         the same picture, without building axes and ticks again; any other is cleared.
+    mode_freq : sequence of float, optional
+        The reported natural frequencies [Hz] of the selected modes, shape (n_modes,) (the
+        identification's final ones, :attr:`ema_rig.identification.Identification.natural_freq`):
+        the dashed lines and labels are drawn there. Without it they mark the selection's PolyMAX
+        cluster poles and the legend entry says ``at the PolyMAX cluster``.
 
     Returns
     -------
@@ -333,10 +348,11 @@ def plot_stabilization(
     if not kept:  # kept axes keep their grid style
         ax.grid(True, which="major", alpha=0.25)
     rejected = [c for c in candidates if not c.accepted and c.mode.n_poles >= 4]
-    plot.mark_modes(selection, rejected)
+    plot.mark_modes(selection, rejected, mode_freq)
     handles = [plot.poles[k] for k in plot.poles]
     if plot.mode_lines:
-        plot.mode_lines[0].set_label(f"selected mode ({len(plot.mode_lines)})")
+        where = "" if mode_freq is not None else " at the PolyMAX cluster"
+        plot.mode_lines[0].set_label(f"selected mode{where} ({len(plot.mode_lines)})")
         handles.append(plot.mode_lines[0])
     if plot.rejected_lines:
         plot.rejected_lines[0].set_label(f"rejected candidate ({len(plot.rejected_lines)})")
