@@ -805,7 +805,7 @@ def _replay_key(renderer: Any, axis: Any) -> Any:
         return None
     lo, hi = axis.get_view_interval()
     major = np.asarray(axis.get_majorticklocs(), dtype=float)
-    minor = np.asarray(axis.get_minorticklocs(), dtype=float)
+    minor = _minor_locs(axis)
     labels = tuple(axis.get_major_formatter().format_ticks(list(major)))
     offset = axis.get_major_formatter().get_offset()
     minor_labels = tuple(axis.get_minor_formatter().format_ticks(list(minor))) if minor.size else ()
@@ -821,6 +821,17 @@ def _replay_key(renderer: Any, axis: Any) -> Any:
             axis.offsetText.get_visible(), tuple(str(sp.get_position()) for sp in ax.spines.values()),
             tuple(rcParams[k] for k in ("text.hinting", "text.hinting_factor", "text.antialiased", "path.snap",
                                         "path.simplify", "path.simplify_threshold", "agg.path.chunksize")))
+
+
+def _minor_locs(axis: Any) -> np.ndarray:
+    """``axis.get_minorticklocs()`` as floats; with no minor ticks (a ``NullLocator``, as every
+    collapsed log axis has) without locating the major ticks again to take out those that
+    coincide with them (what ``get_minorticklocs`` does in any case)."""
+    from matplotlib.ticker import NullLocator
+
+    if type(axis.get_minor_locator()) is NullLocator:
+        return np.asarray(NullLocator()(), dtype=float)
+    return np.asarray(axis.get_minorticklocs(), dtype=float)
 
 
 @contextlib.contextmanager
