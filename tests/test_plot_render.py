@@ -440,3 +440,71 @@ def test_glyphs_are_merged_only_where_none_overlaps():
     np.testing.assert_array_equal(paint(one), paint(apart))
     overlapping = ((a, 10, 20), (b, 11, 20))  # b's covered pixels fall on a's
     assert _merged(overlapping) == overlapping
+
+
+def test_semilogy_helper_draws_what_axes_semilogy_draws():
+    # oracle: matplotlib's own Axes.semilogy, called for every curve (it sets the log scale, and the
+    # default locators and formatters, each time). The helper skips that only on a y axis that is
+    # already log with its default ticking: a linear axis (first curve) and a log axis given fixed
+    # ticks must still be set to the default log scale, as Axes.semilogy does (pixels of both, exact)
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import FixedLocator
+
+    from ema_rig.plot._render import semilogy
+
+    f = np.linspace(100.0, 1000.0, 800)
+
+    def build(draw):
+        fig = Figure(figsize=(4.0, 3.0))
+        a, b = fig.subplots(1, 2)
+        draw(a, f, 1.0 + 1e3 / (1.0 + ((f - 300.0) / 5.0) ** 2), color="k", lw=0.9)
+        draw(a, f, 2.0 + 1e2 / (1.0 + ((f - 600.0) / 9.0) ** 2), color="C3", ls="--")
+        b.set_yscale("log")
+        b.yaxis.set_major_locator(FixedLocator([1.0, 3.0]))  # not the default ticking: semilogy resets it
+        draw(b, f, 1.0 + f / 100.0, color="k")
+        return _savefig_pixels(fig, 60)
+
+    want = build(lambda ax, *a, **k: ax.semilogy(*a, **k))
+    got = build(semilogy)
+    assert got.shape == want.shape
+    assert np.abs(got - want).max() == 0
+
+
+def test_minor_locations_of_a_replay_key_are_matplotlibs():
+    # oracle: Axis.get_minorticklocs; the shortcut for a NullLocator must give the same (empty,
+    # float) array, and any other locator its own locations
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import NullLocator
+
+    from ema_rig.plot._render import _minor_locs
+
+    fig = Figure(figsize=(4.0, 3.0))
+    ax = fig.add_subplot()
+    ax.semilogy([1.0, 10.0], [1.0, 1e4])
+    ax.xaxis.set_minor_locator(NullLocator())
+    for axis in (ax.xaxis, ax.yaxis):
+        want = np.asarray(axis.get_minorticklocs(), dtype=float)
+        got = _minor_locs(axis)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+    assert _minor_locs(ax.yaxis).size > 10  # a log axis over four decades has its minor ticks
+
+
+def test_an_axis_whose_limits_keep_changing_works_out_its_key_only_when_it_records(monkeypatch):
+    # between its recordings (_VOLATILE misses in a row, then every _VOLATILE-th draw) such an axis is
+    # drawn by matplotlib without its replay key being worked out; the x axes, replayed, need theirs
+    # at every draw. Oracle for the pixels: savefig of the last panels built anew
+    from matplotlib.figure import Figure
+
+    import ema_rig.plot._render as render
+
+    keys: list = []
+    orig = render._replay_key
+    monkeypatch.setattr(render, "_replay_key", lambda r, axis: keys.append(axis.axis_name) or orig(r, axis))
+    fig = Figure(figsize=(4.0, 6.0), layout="constrained")
+    for k in range(7):
+        got = _pixels(render_png(_panels(fig, 1, ylim=(-50.0 - k, 50.0 - k)), dpi=72, colors=None))
+    # x: 2 axes x 7 draws; y: 2 axes at draws 1, 2, 3 and 6 (at every draw: 2 x 7)
+    assert keys.count("x") == 2 * 7
+    assert keys.count("y") == 2 * 4
+    want = _savefig_pixels(_fresh_panels(1, ylim=(-56.0, 44.0)), 72)
+    assert np.abs(got - want).max() == 0

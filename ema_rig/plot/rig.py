@@ -27,7 +27,7 @@ import numpy as np
 from .._atomic import atomic_path
 from .._text import plain
 from ..rig.model import HOUSING, SPINDLE, RigModel
-from ._render import fixed_layout, reuse_axes
+from ._render import fixed_layout, reuse_axes, semilogy
 from .synthesis import phase_centre, phase_line
 
 if TYPE_CHECKING:
@@ -203,11 +203,11 @@ def plot_rig_fit(
     for name, idx, row, label in panels:
         ax = axes[name]
         for k, i in enumerate(idx):
-            (ln,) = ax.semilogy(f, np.abs(data.frf[i, q, sel]), color=_MEAS, lw=0.9,
+            (ln,) = semilogy(ax, f, np.abs(data.frf[i, q, sel]), color=_MEAS, lw=0.9,
                                 label="measured" if k == 0 else None)
             artists["measured"].append(ln)
         for (mlabel, _, _, style), hm in zip(models, h_models, strict=True):
-            (lm,) = ax.semilogy(ff, np.abs(hm[row]), zorder=1, label=mlabel, **style)
+            (lm,) = semilogy(ax, ff, np.abs(hm[row]), zorder=1, label=mlabel, **style)
             artists["model"].append(lm)
         ax.set_ylabel(f"|FRF| [{unit}]")
         y0, y1 = ax.get_ylim()

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._render import reuse_axes
+from ._render import reuse_axes, semilogy
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -288,8 +288,8 @@ def plot_stabilization(
             label = f"CMIF  [{data.unit_str}]"
         for k, yk in enumerate(y):
             pos = np.where(yk > 0, yk, np.nan)
-            (ln,) = tw.semilogy(
-                data.freq, pos, color=colors["frf"], lw=1.0 if k == 0 else 0.7, alpha=0.55 if k == 0 else 0.35,
+            (ln,) = semilogy(
+                tw, data.freq, pos, color=colors["frf"], lw=1.0 if k == 0 else 0.7, alpha=0.55 if k == 0 else 0.35,
                 zorder=1, label=("sum of FRFs" if indicator == "sum" else f"CMIF {k + 1}"),
             )
             plot.frf_lines.append(ln)

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..identification.window_damping import with_window_damping
-from ._render import fixed_layout, reuse_axes
+from ._render import fixed_layout, reuse_axes, semilogy
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -255,8 +255,8 @@ def plot_synthesis(
             out.phase_axes.append(pax)
         m = np.abs(meas.frf[i, j])
         s = np.abs(syn.frf[i, j])
-        (lm,) = ax.semilogy(meas.freq, m, color="k", lw=1.0, label="measured")
-        (ls,) = ax.semilogy(meas.freq, s, color="C3", lw=1.0, ls="--", label="synthesised (LSFD)")
+        (lm,) = semilogy(ax, meas.freq, m, color="k", lw=1.0, label="measured")
+        (ls,) = semilogy(ax, meas.freq, s, color="C3", lw=1.0, ls="--", label="synthesised (LSFD)")
         ax.axvspan(lo, hi, color="C0", alpha=0.06, lw=0)
         _vlines(ax, modes.natural_freq, color="0.6", lw=0.6, ls=":")
         role = modes.roles[i] or ""
