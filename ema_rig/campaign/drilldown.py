@@ -49,8 +49,6 @@ _DRAW_VERSION = 9
 #: Pixel density and size of the embedded figures: at least 1000 px wide (readable on screen; issue 20).
 DPI = 80
 _SIZE = (12.8, 5.6)
-#: zlib level of the figures' PNGs (:func:`png_bytes`): encoding time against bytes, measured on the bundled demo.
-_PNG_LEVEL = 3
 #: Relative difference between the re-identified and the row's housing frequency that is reported.
 _FREQ_TOL = 1e-6
 
@@ -95,13 +93,12 @@ def png_bytes(fig: Figure, dpi: int = DPI) -> bytes:
     artist each (:func:`ema_rig.plot._render.render_png`): the picture ``savefig`` gives, faster.
     The palette holds the figure's 128 most frequent colours and 128 farthest from those
     (:func:`ema_rig.plot._render.palette_indices`).
-    zlib level 3 (:data:`_PNG_LEVEL`): the same pixels, encoded in 2.8 ms per figure instead of
-    6.0 ms at zlib's default level 6, for 15 % more bytes (bundled demo, 12 figures, 45 -> 52 kB
-    each); the exhaustive search (``optimize``) saves 8-10 % of the bytes for 8x the encoding time.
+    zlib's default level: the exhaustive one (``optimize``) saves 8-10 % of the bytes for 8x the
+    encoding time.
     """
     from ..plot._render import render_png
 
-    return render_png(fig, dpi=dpi, colors=256, optimize=False, compress_level=_PNG_LEVEL)
+    return render_png(fig, dpi=dpi, colors=256, optimize=False)
 
 
 def measurement_figures(

@@ -99,7 +99,7 @@ _LOCAL = threading.local()
 
 
 def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: bool = True,
-               reuse_layout: bool = True, compress_level: int = 6) -> bytes:
+               reuse_layout: bool = True) -> bytes:
     """Draw ``fig`` once and return it as PNG bytes.
 
     Parameters
@@ -115,8 +115,6 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
     reuse_layout : bool, optional
         Take the positions of an earlier constrained layout with the same key (module notes)
         instead of laying the figure out again (default True).
-    compress_level : int, optional
-        zlib level of the PNG encoder, 0-9 (default 6, zlib's own); the pixels do not depend on it.
 
     Returns
     -------
@@ -125,8 +123,7 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
         palette).
     """
     with _gc_paused():
-        return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout,
-                           compress_level=compress_level)
+        return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout)
 
 
 @contextlib.contextmanager
@@ -151,8 +148,7 @@ def _gc_paused() -> Iterator[None]:
             gc.enable()
 
 
-def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool,
-                compress_level: int) -> bytes:
+def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.layout_engine import ConstrainedLayoutEngine
     from PIL import Image  # a matplotlib dependency
@@ -186,7 +182,7 @@ def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, 
         img = Image.frombuffer("P", (w, h), index, "raw", "P", 0, 1)
         img.putpalette(palette.tobytes())
     out = io.BytesIO()
-    img.save(out, format="PNG", optimize=optimize, compress_level=compress_level)
+    img.save(out, format="PNG", optimize=optimize)
     return out.getvalue()
 
 
