@@ -677,7 +677,9 @@ def identify(
                 notes.append(f"model orders up to {tried} tried while the residual exceeded the noise estimate "
                              f"(modes per order: {', '.join(history)}); the modes of order {n} kept")
             if not done.test.passed:
-                msg = (f"the residual exceeds the {done.test.noise_source} noise estimate (chi-square test, "
+                noise = {"estimated": "noise estimated per channel", "given": "given noise"}.get(
+                    done.test.noise_source, f"noise from the {done.test.noise_source}")
+                msg = (f"the residual exceeds the {noise} (chi-square test, "
                        f"p < {crit.completeness.p_value:g} over {done.test.failed.size} segments) in "
                        f"{done.test.describe()}")
                 if n >= cap:  # stopped by the order cap: a mode may be missing
