@@ -8,7 +8,7 @@ from dataclasses import replace
 from typing import Any
 
 from ..config import load_rig
-from ..errors import EmaRigError, IdentificationError
+from ..errors import BandError, EmaRigError, IdentificationError
 from . import _args
 
 
@@ -71,7 +71,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
                          refine=bool(refine))
     except IdentificationError as exc:
         findings = [f for f in diagnose_file(args.file, data) if f not in exc.message]
-        if not findings or "outside the data" in exc.message:  # a wrong band is not the data's fault
+        if not findings or isinstance(exc, BandError):  # a wrong band is not the data's fault
             raise
         head = "; " if "the measurement itself is suspect" in exc.message else "; the measurement itself is suspect: "
         raise IdentificationError(exc.message + head + "; ".join(findings), file=exc.file) from None
