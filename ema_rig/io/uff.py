@@ -665,6 +665,9 @@ class _Channels:
     in_order: list[DOF] = field(default_factory=list)
     sign_flips: list[str] = field(default_factory=list)
     ignored_channels: list[str] = field(default_factory=list)
+    #: Every response / reference DOF (positive) the file's FRF datasets name, kept or ignored.
+    file_out: list[DOF] = field(default_factory=list)
+    file_in: list[DOF] = field(default_factory=list)
 
 
 def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
@@ -673,6 +676,9 @@ def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
     for r, _dec, _ in used:
         rd, fd = r.response, r.reference
         assert rd is not None and fd is not None
+        for seen, d in ((ch.file_out, rd.positive()), (ch.file_in, fd.positive())):
+            if d not in seen:
+                seen.append(d)
         if rig is not None:
             sensor = rig.sensor_for(rd)
             if sensor is None:
@@ -719,18 +725,19 @@ def _rig_order(ch: _Channels, rig: SensorLayout | None,
     (every rig sensor and excitation must be in the file)."""
     if rig is None:
         return ch.out_order, ch.in_order, [], []
-    for sensor in rig.sensors:
-        if sensor.dof.positive() not in ch.out_order:
-            raise UFFError(
-                f"rig sensor {sensor.dof} ({rig.path or 'rig file'}) has no FRF in the file "
-                f"(file responses: {', '.join(str(d) for d in ch.out_order) or 'none'})",
-                file=src,
-            )
+    # the excitations first: a wrong one drops every dataset, and its sensors would look missing too
     for ref in rig.references:
         if ref.positive() not in ch.in_order:
             raise UFFError(
                 f"rig excitation {ref} ({rig.path or 'rig file'}) is not a reference in the file "
-                f"(file references: {', '.join(str(d) for d in ch.in_order) or 'none'})",
+                f"(file references: {', '.join(str(d) for d in ch.file_in) or 'none'})",
+                file=src,
+            )
+    for sensor in rig.sensors:
+        if sensor.dof.positive() not in ch.out_order:
+            raise UFFError(
+                f"rig sensor {sensor.dof} ({rig.path or 'rig file'}) has no FRF in the file "
+                f"(file responses: {', '.join(str(d) for d in ch.file_out) or 'none'})",
                 file=src,
             )
     return ([s.dof.positive() for s in rig.sensors], [d.positive() for d in rig.references],
