@@ -378,6 +378,11 @@ def read_uff(path: str | PathLike[str]) -> UFFFile:
     return UFFFile(str(p), tuple(_to_record(r) for r in raws))
 
 
+#: The unit labels of a dataset 58 header the readers parse, with their names in messages.
+_UNIT_LABELS = (("abscissa_axis_units_lab", "abscissa unit label"), ("ordinate_axis_units_lab", "ordinate unit label"),
+                ("orddenom_axis_units_lab", "denominator unit label"))
+
+
 def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
     d: dict[str, Any] = {
         "index": r.index,
@@ -390,13 +395,21 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
         "status": r.status,
         "reason": r.reason,
     }
+    if r.type == 58 and r.status == "read":
+        # a unit label the readers refuse ("the values are not read") makes the dataset refused here too
+        for key, what in _UNIT_LABELS:
+            try:
+                _uff_units.parse_unit(str(r.header.get(key, "")), what)
+            except ValueError as exc:
+                d.update(status="refused", reason=str(exc), num_pts=None)
+                break
     if r.type == 58:
         d["function"] = FUNCTION_TYPES.get(r.function_type) if r.function_type is not None else None
         d["num_pts_header"] = r.num_pts_header
         d["ord_data_type"] = r.header.get("ord_data_type")
         sp = r.header.get("abscissa_spacing")
         d["spacing"] = None if sp is None else ("even" if sp == 1 else "uneven")
-        d["band"] = None if r.band is None or r.status != "read" else list(r.band)
+        d["band"] = None if r.band is None or d["status"] != "read" else list(r.band)
         d["units"] = {k: v.get("label") for k, v in r.units.items()}
     elif r.type == 164 and r.status == "read":
         d["units"] = dict(r.header)
