@@ -58,6 +58,7 @@ from ..frf import FRFData
 from ..processing import ProcessingHistory
 from . import _uff_1858, _uff_coherence, _uff_parse, _uff_units, _uff_write
 from .layout import SensorLayout
+from .units import parse_unit
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -399,7 +400,7 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
         # a unit label the readers refuse ("the values are not read") makes the dataset refused here too
         for key, what in _UNIT_LABELS:
             try:
-                _uff_units.parse_unit(str(r.header.get(key, "")), what)
+                parse_unit(str(r.header.get(key, "")), what)
             except ValueError as exc:
                 d.update(status="refused", reason=str(exc), num_pts=None)
                 break
