@@ -123,7 +123,15 @@ class IdentificationError(EmaRigError, ValueError):
 
 
 class BandError(IdentificationError):
-    """The requested frequency band is not covered by the data (a wrong band, not bad data)."""
+    """The requested frequency band is not covered by the data (a wrong band, not bad data).
+
+    Parameters
+    ----------
+    message : str
+        What is wrong (made by :func:`band_error`).
+    file : str or path-like, optional
+        The measurement file it concerns.
+    """
 
 
 def band_error(lo: float, hi: float, f0: float, f1: float, *, file: str | PathLike[str] | None = None) -> BandError:
@@ -131,6 +139,20 @@ def band_error(lo: float, hi: float, f0: float, f1: float, *, file: str | PathLi
 
     One wording for every stage: a band that overlaps the data only in part "extends beyond the
     data" (and the overlap is suggested), one without any overlap "lies outside the data".
+
+    Parameters
+    ----------
+    lo, hi : float
+        The requested band [Hz].
+    f0, f1 : float
+        The first and last frequency line of the data [Hz].
+    file : str or path-like, optional
+        The measurement file.
+
+    Returns
+    -------
+    BandError
+        The error to raise.
     """
     a, b = max(lo, f0), min(hi, f1)
     if b > a:
