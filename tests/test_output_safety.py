@@ -417,3 +417,25 @@ def test_all_or_nothing_renames_together_and_commit_staged_keeps(tmp_path: Path)
         _atomic.write_text(b, "2")
     assert a.read_text() == "1" and b.read_text() == "2" and len(list(tmp_path.iterdir())) == 3
     assert _atomic.remove_active_files() == []  # nothing left tracked
+
+
+def test_a_stiffness_refusal_json_is_kept_although_the_command_fails(small: Path, tmp_path: Path, capsys,  # noqa: F811
+                                                                       monkeypatch) -> None:
+    """The refusal JSON (the error and every candidate) is the answer of a refused match: all_or_nothing
+    keeps it (commit_staged) while the failing command's other outputs are never made."""
+    import json
+
+    import ema_rig.rig.stiffness as stiffness
+    from ema_rig.errors import MatchingError
+
+    def refused(*a: object, **k: object) -> object:
+        raise MatchingError("no identified mode matches the housing mode", candidates=[{"natural_freq": 123.0}])
+
+    monkeypatch.setattr(stiffness, "estimate_stiffness", refused)
+    argv = ["stiffness", str(small / "m1.uff"), "--rig", str(small / "rig.toml"),
+            "--json", str(tmp_path / "s.json"), "--plot", str(tmp_path / "s.png")]
+    assert main(argv) == EXIT_ERROR
+    assert "no identified mode matches" in _one_error_line(capsys)
+    assert [p.name for p in tmp_path.iterdir()] == ["s.json"]
+    doc = json.loads((tmp_path / "s.json").read_text(encoding="utf-8"))
+    assert doc["error"] == "no identified mode matches the housing mode" and doc["candidates"] == [{"natural_freq": 123.0}]
