@@ -406,11 +406,32 @@ def check_output_path(label: str, path: str | PathLike[str], *, figure: bool = F
                               f"got {p.name!r}", file=path)
     if p.is_dir():
         raise OutputPathError(f"{label} names a folder; give a file name", file=path)
-    top = next(d for d in p.parents if os.path.lexists(d))  # the root always exists
+    why = _folder_blocker(p.parent)
+    if why is not None:
+        raise OutputPathError(why if why.startswith("cannot") else f"{label}: {why}", file=path)
+
+
+def check_output_folder(folder: str | PathLike[str]) -> None:
+    """Refuse, before anything is computed, an output folder that cannot be made or written.
+
+    Raises
+    ------
+    OutputPathError
+        Naming the folder: a file or a dangling symbolic link is in the way, or it is not writable.
+    """
+    why = _folder_blocker(Path(os.path.abspath(os.fspath(folder))))
+    if why is not None:
+        raise OutputPathError(why, file=folder)
+
+
+def _folder_blocker(d: Path) -> str | None:
+    """Why the absolute folder ``d`` cannot be made or written into (None when it can)."""
+    top = next(p for p in (d, *d.parents) if os.path.lexists(p))  # the root always exists
     if not top.is_dir():  # the words of make_folder, which would fail the same way after the run
-        raise OutputPathError(f"cannot create the folder {p.parent} ({_in_the_way(top)})", file=path)
+        return f"cannot create the folder {d} ({_in_the_way(top)})"
     if not os.access(top, os.W_OK | os.X_OK):
-        raise OutputPathError(f"{label}: the folder {top} is not writable", file=path)
+        return f"the folder {top} is not writable"
+    return None
 
 
 def check_outputs(inputs: Mapping[str, str | PathLike[str] | None] | Iterable[tuple[str, Any]],

@@ -439,3 +439,12 @@ def test_a_stiffness_refusal_json_is_kept_although_the_command_fails(small: Path
     assert [p.name for p in tmp_path.iterdir()] == ["s.json"]
     doc = json.loads((tmp_path / "s.json").read_text(encoding="utf-8"))
     assert doc["error"] == "no identified mode matches the housing mode" and doc["candidates"] == [{"natural_freq": 123.0}]
+
+
+def test_campaign_output_folder_under_a_file_named_as_the_folder(small: Path, tmp_path: Path, capsys) -> None:  # noqa: F811
+    """campaign -o DIR with a file in the way names DIR (not DIR/campaign.csv, one of its files)."""
+    (tmp_path / "afile").write_bytes(VICTIM)
+    for out in (tmp_path / "afile", tmp_path / "afile" / "x"):
+        assert main(["campaign", str(small / "campaign.toml"), "-o", str(out)]) == EXIT_ERROR
+        assert _one_error_line(capsys) == f"error: {out}: cannot create the folder {out} (a file is in the way)"
+    assert (tmp_path / "afile").read_bytes() == VICTIM
