@@ -104,7 +104,7 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
         os.chmod(tmp_path, 0o644)  # mkstemp makes 0600; outputs are ordinary readable files
         yield tmp_path
         pending = _STAGED.get()
-        if pending is not None:
+        if pending is not None and os.fspath(target) not in _ACTIVE:  # a write into our own temporary: now
             pending.append((tmp_path, target))
             staged = True  # still tracked: a signal removes it
             return
