@@ -379,7 +379,7 @@ def read_uff(path: str | PathLike[str]) -> UFFFile:
     return UFFFile(str(p), tuple(_to_record(r) for r in raws))
 
 
-#: The unit labels of a dataset 58 header the readers parse, with their names in messages.
+#: The unit labels of an FRF dataset 58 header that read_uff58 parses, with their names in messages.
 _UNIT_LABELS = (("abscissa_axis_units_lab", "abscissa unit label"), ("ordinate_axis_units_lab", "ordinate unit label"),
                 ("orddenom_axis_units_lab", "denominator unit label"))
 
@@ -396,8 +396,9 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
         "status": r.status,
         "reason": r.reason,
     }
-    if r.type == 58 and r.status == "read":
-        # a unit label the readers refuse ("the values are not read") makes the dataset refused here too
+    if r.type == 58 and r.function_type == 4 and r.status == "read":
+        # an FRF unit label the FRF reader refuses ("the values are not read") makes it refused here too
+        # (other function types keep their labels as they are: a time history in V or Pa is read)
         for key, what in _UNIT_LABELS:
             try:
                 parse_unit(str(r.header.get(key, "")), what)
