@@ -5,8 +5,10 @@ permission denied) names the output file, not the temporary one. Temporary files
 killed process are recognised by their name and removed by :func:`remove_temporaries`;
 :func:`folder_lock` keeps a second run out of an output folder in use. While a command runs
 under :func:`removing_temporaries_on_signal`, SIGTERM, SIGHUP and SIGINT remove the temporary
-files (and the lock file) of this process before it dies. :func:`check_outputs` refuses an
-output that is one of the inputs before anything is written.
+files (and the lock file) of this process before it dies. :func:`check_outputs` refuses, before
+anything is computed or written, an output that is one of the inputs, a folder, in a folder that
+cannot be made, or a figure of an unknown format. Within :func:`all_or_nothing` the outputs are
+renamed into place together when the block succeeds, and none is when it fails.
 """
 
 from __future__ import annotations
@@ -20,8 +22,9 @@ import stat
 import sys
 import tempfile
 import threading
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Collection, Iterable, Iterator, Mapping
 from contextlib import contextmanager
+from contextvars import ContextVar
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -34,6 +37,10 @@ _TEMP_NAME = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp(\.[^.]*)?$")
 _ACTIVE: dict[str, int] = {}
 #: Descriptors of the folder locks this process holds (a forked worker must close its copies).
 _LOCK_FDS: set[int] = set()
+#: Inside :func:`all_or_nothing`: the written temporaries waiting for their rename, (temporary, target).
+_STAGED: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("_STAGED", default=None)
+#: Figure formats every command writes (the suffix picks the format; matplotlib's savefig).
+FIGURE_FORMATS = (".png", ".svg", ".pdf")
 
 
 def _track(path: Path) -> None:
@@ -58,14 +65,17 @@ def make_folder(folder: str | PathLike[str]) -> Path:
         d.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError) as exc:
         bad = next((p for p in (d, *d.parents) if os.path.lexists(p) and not p.is_dir()), d)
-        if bad.is_symlink():
-            why = f"{bad} is a symbolic link to the missing {os.readlink(bad)}: remove it or create its target"
-        else:
-            why = "a file is in the way"
-        raise OSError(exc.errno, f"cannot create the folder {d} ({why})", str(d)) from None
+        raise OSError(exc.errno, f"cannot create the folder {d} ({_in_the_way(bad)})", str(d)) from None
     except OSError as exc:
         raise _about(exc, d, f"cannot create the folder {d} ({exc.strerror or exc})") from exc
     return d
+
+
+def _in_the_way(bad: Path) -> str:
+    """What keeps a folder from being made: ``bad``, the existing non-folder on its path."""
+    if bad.is_symlink():
+        return f"{bad} is a symbolic link to the missing {os.readlink(bad)}: remove it or create its target"
+    return "a file is in the way"
 
 
 @contextmanager
@@ -74,7 +84,8 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
 
     The temporary file keeps the target's suffix, so writers that pick a format from the
     suffix (``savefig``) behave the same. On error the temporary file is removed; an
-    :class:`OSError` (disk full, permission denied ...) is re-raised naming ``path``.
+    :class:`OSError` (disk full, permission denied ...) is re-raised naming ``path``. Inside
+    :func:`all_or_nothing` the rename waits for the end of that block.
     """
     target = Path(path)
     try:
@@ -88,9 +99,15 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
     tmp_path = Path(tmp)
     _track(tmp_path)  # removed by the signal handler if the process is told to stop meanwhile
     os.close(fd)
+    staged = False
     try:
         os.chmod(tmp_path, 0o644)  # mkstemp makes 0600; outputs are ordinary readable files
         yield tmp_path
+        pending = _STAGED.get()
+        if pending is not None and os.fspath(target) not in _ACTIVE:  # a write into our own temporary: now
+            pending.append((tmp_path, target))
+            staged = True  # still tracked: a signal removes it
+            return
         os.replace(tmp_path, target)
     except OSError as exc:  # disk full, permissions ...: name the output, not the temporary file
         tmp_path.unlink(missing_ok=True)
@@ -101,7 +118,53 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
         tmp_path.unlink(missing_ok=True)
         raise
     finally:
-        _untrack(tmp_path)
+        if not staged:
+            _untrack(tmp_path)
+
+
+@contextmanager
+def all_or_nothing() -> Iterator[None]:
+    """Within the block, :func:`atomic_path` outputs are renamed into place only when it succeeds.
+
+    A command with several outputs (``--json`` and ``--plot``) that fails after writing one of
+    them leaves none: the written temporaries are removed when the block raises, and renamed
+    onto their targets, in the order written, when it ends normally. :func:`commit_staged` renames
+    what is written so far (an output meant to survive a failure: a refusal JSON).
+    """
+    pending: list[tuple[Path, Path]] = []
+    token = _STAGED.set(pending)
+    try:
+        yield
+    except BaseException:
+        for tmp, _ in pending:
+            tmp.unlink(missing_ok=True)
+            _untrack(tmp)
+        raise
+    finally:
+        _STAGED.reset(token)
+    _rename_all(pending)
+
+
+def commit_staged() -> None:
+    """Rename the outputs staged so far by :func:`all_or_nothing` (nothing outside such a block)."""
+    pending = _STAGED.get()
+    if pending:
+        _rename_all(pending)
+
+
+def _rename_all(pending: list[tuple[Path, Path]]) -> None:
+    """Rename each staged temporary onto its target; on an error remove the rest and name the target."""
+    while pending:
+        tmp, target = pending.pop(0)
+        try:
+            os.replace(tmp, target)
+        except OSError as exc:
+            for t, _ in [(tmp, target), *pending]:
+                t.unlink(missing_ok=True)
+                _untrack(t)
+            pending.clear()
+            raise _about(exc, target, exc.strerror or str(exc)) from exc
+        _untrack(tmp)
 
 
 def _about(exc: OSError, target: Path, text: str) -> OSError:
@@ -315,22 +378,84 @@ def _identities(path: str | PathLike[str]) -> set[tuple[Any, ...]]:
     return ids
 
 
+class OutputPathError(EmaRigError):
+    """An output path that cannot be written: a folder, under a file, or a figure of unknown format."""
+
+
+def check_output_path(label: str, path: str | PathLike[str], *, figure: bool = False) -> None:
+    """Refuse, before anything is computed, an output path that cannot be written.
+
+    Parameters
+    ----------
+    label : str
+        The option that names the output (``"--plot"``), for the message.
+    path : str or path-like
+        The output file.
+    figure : bool, optional
+        The output is a figure: its suffix must be one of :data:`FIGURE_FORMATS`.
+
+    Raises
+    ------
+    OutputPathError
+        Naming the output: it is a folder, its folder cannot be made (a file or a dangling
+        symbolic link is in the way) or is not writable, or a figure's suffix is not a format.
+    """
+    p = Path(os.path.abspath(os.fspath(path)))
+    if figure and p.suffix.lower() not in FIGURE_FORMATS:
+        raise OutputPathError(f"{label} must end in {', '.join(FIGURE_FORMATS)} (the figure format), "
+                              f"got {p.name!r}", file=path)
+    if p.is_dir():
+        raise OutputPathError(f"{label} names a folder; give a file name", file=path)
+    why = _folder_blocker(p.parent)
+    if why is not None:
+        raise OutputPathError(why if why.startswith("cannot") else f"{label}: {why}", file=path)
+
+
+def check_output_folder(folder: str | PathLike[str]) -> None:
+    """Refuse, before anything is computed, an output folder that cannot be made or written.
+
+    Raises
+    ------
+    OutputPathError
+        Naming the folder: a file or a dangling symbolic link is in the way, or it is not writable.
+    """
+    why = _folder_blocker(Path(os.path.abspath(os.fspath(folder))))
+    if why is not None:
+        raise OutputPathError(why, file=folder)
+
+
+def _folder_blocker(d: Path) -> str | None:
+    """Why the absolute folder ``d`` cannot be made or written into (None when it can)."""
+    top = next(p for p in (d, *d.parents) if os.path.lexists(p))  # the root always exists
+    if not top.is_dir():  # the words of make_folder, which would fail the same way after the run
+        return f"cannot create the folder {d} ({_in_the_way(top)})"
+    if not os.access(top, os.W_OK | os.X_OK):
+        return f"the folder {top} is not writable"
+    return None
+
+
 def check_outputs(inputs: Mapping[str, str | PathLike[str] | None] | Iterable[tuple[str, Any]],
-                  outputs: Mapping[str, str | PathLike[str] | None] | Iterable[tuple[str, Any]]) -> None:
-    """Refuse, before anything is written, an output that is an input or another output.
+                  outputs: Mapping[str, str | PathLike[str] | None] | Iterable[tuple[str, Any]],
+                  figures: Collection[str] = ()) -> None:
+    """Refuse, before anything is written, an output that is an input, another output, or unwritable.
 
     Two paths are the same file when they name the same inode (hard links, symbolic links,
-    ``./x`` and ``x``) or, for an output not yet made, the same path once resolved.
+    ``./x`` and ``x``) or, for an output not yet made, the same path once resolved. Each output
+    is also checked by :func:`check_output_path`.
 
     Parameters
     ----------
     inputs, outputs : mapping or iterable of (label, path)
         ``label`` names the option in the message (``"FILE"``, ``"--json"``); None paths are skipped.
+    figures : collection of str, optional
+        The labels of the outputs that are figures (their suffix must be a figure format).
 
     Raises
     ------
     OutputIsInputError
         Naming the output file and what it collides with.
+    OutputPathError
+        Naming an output that cannot be written.
     """
     ins = [(k, v) for k, v in (inputs.items() if isinstance(inputs, Mapping) else inputs) if v is not None]
     outs = [(k, v) for k, v in (outputs.items() if isinstance(outputs, Mapping) else outputs) if v is not None]
@@ -349,6 +474,8 @@ def check_outputs(inputs: Mapping[str, str | PathLike[str] | None] | Iterable[tu
             raise OutputIsInputError(f"{label} and {other} are the same output file; give each its own",
                                      file=path)
         seen.update({i: (label, path, "output") for i in idents})
+    for label, path in outs:  # after the collisions: overwriting an input is the graver mistake
+        check_output_path(label, path, figure=label in figures)
 
 
 def write_text(path: str | PathLike[str], text: str) -> None:

@@ -72,7 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
         mod = importlib.import_module(f"ema_rig.commands.{name}")
         p = sub.add_parser(name, help=help_text, description=(mod.__doc__ or help_text).strip().splitlines()[0])
         mod.add_arguments(p)
-        p.set_defaults(_run=mod.run, _io=getattr(mod, "io_paths", None))
+        p.set_defaults(_run=mod.run, _io=getattr(mod, "io_paths", None),
+                       _whole=not getattr(mod, "OUTPUTS_ON_FAILURE", False))
     return parser
 
 
@@ -138,8 +139,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     Every error line names a file: the one the error carries, else the command's input
     (``FILE``, ``CAMPAIGN.toml``, or the output of ``simulate`` / ``demo``). Everything printed
     has its control and bidirectional characters escaped (names read from files stay inert on the
-    terminal); an output that is one of the command's inputs is refused before anything is
-    written; SIGTERM, SIGHUP and Ctrl-C remove the temporary files being written.
+    terminal); an output that is one of the command's inputs, a folder, under a file, or a figure
+    of unknown format is refused before anything is computed; a command that fails leaves none
+    of its outputs (unless its module sets ``OUTPUTS_ON_FAILURE``: inspect's report, a campaign's
+    finished rows); SIGTERM, SIGHUP and Ctrl-C remove the temporary files being written.
     """
     out, err = sys.stdout, sys.stderr
     sys.stdout, sys.stderr = _InertStream(out), _InertStream(err)
@@ -169,7 +172,10 @@ def _main(argv: Sequence[str] | None) -> int:
             if args._io is not None:
                 _atomic.check_outputs(*args._io(args))
             with _atomic.removing_temporaries_on_signal():
-                return int(args._run(args))
+                if not args._whole:  # the command writes what it can even when it fails
+                    return int(args._run(args))
+                with _atomic.all_or_nothing():  # several outputs: a failure leaves none of them
+                    return int(args._run(args))
     except EmaRigError as exc:
         # str(exc) starts with the error's own file when it has one
         print(_error_line(None if exc.file else _subject(args), str(exc)), file=sys.stderr)

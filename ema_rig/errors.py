@@ -14,6 +14,8 @@ ConfigError
     A rig or campaign TOML file is invalid (``key`` names the offending key path).
 IdentificationError
     Modal identification failed (no stable pole, bad band, too few lines for the order ...).
+BandError
+    The requested band is not covered by the data (:func:`band_error` words it).
 InversionError
     A natural frequency cannot be turned into a physical stiffness.
 MatchingError
@@ -120,6 +122,47 @@ class IdentificationError(EmaRigError, ValueError):
     """
 
 
+class BandError(IdentificationError):
+    """The requested frequency band is not covered by the data (a wrong band, not bad data).
+
+    Parameters
+    ----------
+    message : str
+        What is wrong (made by :func:`band_error`).
+    file : str or path-like, optional
+        The measurement file it concerns.
+    """
+
+
+def band_error(lo: float, hi: float, f0: float, f1: float, *, file: str | PathLike[str] | None = None) -> BandError:
+    """The refusal of a band ``lo..hi`` [Hz] that the data's ``f0..f1`` [Hz] do not cover.
+
+    One wording for every stage: a band that overlaps the data only in part "extends beyond the
+    data" (and the overlap is suggested), one without any overlap "lies outside the data".
+
+    Parameters
+    ----------
+    lo, hi : float
+        The requested band [Hz].
+    f0, f1 : float
+        The first and last frequency line of the data [Hz].
+    file : str or path-like, optional
+        The measurement file.
+
+    Returns
+    -------
+    BandError
+        The error to raise.
+    """
+    a, b = max(lo, f0), min(hi, f1)
+    if b > a:
+        text = (f"band {lo:g}..{hi:g} Hz extends beyond the data ({f0:g}..{f1:g} Hz); "
+                f"choose a band within it, e.g. {a:g}..{b:g} Hz")
+    else:
+        text = f"band {lo:g}..{hi:g} Hz lies outside the data ({f0:g}..{f1:g} Hz)"
+    return BandError(text, file=file)
+
+
 class InversionError(EmaRigError, ValueError):
     """A natural frequency lies outside the range that gives a positive stiffness.
 
@@ -165,6 +208,7 @@ class UnitWarning(UserWarning):
 
 
 __all__ = [
+    "BandError",
     "ConfigError",
     "EmaRigError",
     "IdentificationError",
@@ -173,4 +217,5 @@ __all__ = [
     "MatchingError",
     "UFFError",
     "UnitWarning",
+    "band_error",
 ]

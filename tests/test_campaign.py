@@ -212,8 +212,17 @@ def test_pool_gets_the_longest_measurement_first(campaign_dir: Path, first_run, 
     assert submitted[-1] == "broken"
 
 
-def test_parallel_output_error_reaches_the_caller(campaign_dir: Path, tmp_path: Path) -> None:
+def test_parallel_output_error_reaches_the_caller(campaign_dir: Path, tmp_path: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    from ema_rig import _atomic
+    from ema_rig.errors import EmaRigError
+
     (tmp_path / "report.html").mkdir()  # the report cannot replace a folder
-    with pytest.raises(OSError) as info:  # after the pool drew the measurements' figures
+    with pytest.raises(EmaRigError, match="report.html names a folder"):  # refused before the run
+        run(campaign_dir / "campaign.toml", out_dir=tmp_path, jobs=2)
+    assert not (tmp_path / "results").exists()
+    # without that check, the write error after the pool drew the measurements' figures reaches the caller
+    monkeypatch.setattr(_atomic, "check_output_path", lambda *a, **k: None)
+    with pytest.raises(OSError) as info:
         run(campaign_dir / "campaign.toml", out_dir=tmp_path, jobs=2)
     assert "report.html" in str(info.value)

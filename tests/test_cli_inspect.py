@@ -113,11 +113,27 @@ def test_bad_input_exit_1_one_line(tmp_path: Path, capsys: pytest.CaptureFixture
 
 
 def test_rig_dof_missing_exit_1(tmp_path: Path, rig_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    p = _file(tmp_path)  # only 11+Y and 13-Y: the rig's other sensors are absent
+    p = _file(tmp_path)  # only 11+Y and 13-Y: the rig's other sensors and its axial excitation are absent
     assert main(["inspect", str(p), "--rig", str(rig_file)]) == 1
-    _one_error_line(capsys, "rig sensor 12+Y", "has no FRF in the file")
+    # the excitations are checked first (a wrong one drops every dataset): the missing one is named
+    _one_error_line(capsys, "rig excitation 15+X", "is not a reference in the file (file references: 11+Y)")
 
 
 def test_missing_file_exit_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["inspect", str(tmp_path / "none.uff")]) == 1
     _one_error_line(capsys, "none.uff", "file not found")
+
+
+def test_a_dataset_with_an_unreadable_unit_label_is_refused_in_table_and_json(
+        corpus_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Review defect 6: the corpus file's ordinate label '(m/s≤)/N' (a mis-decoded '²') was listed as
+    "read" with reason null, then the command exited 1 saying the values are not read. DESIGN §3.2:
+    such a dataset is "refused" with the reason (and num_pts null), and inspect exits 1 (a refused dataset)."""
+    out_json = tmp_path / "i.json"
+    assert main(["inspect", str(corpus_dir / "ufffiles_frf_utf8unit.unv"), "--json", str(out_json)]) == 1
+    out, err = capsys.readouterr()
+    d = json.loads(out_json.read_text(encoding="utf-8"))["datasets"][0]
+    assert d["status"] == "refused" and d["num_pts"] is None
+    assert "ordinate unit label '(m/s≤)/N' not understood" in d["reason"]
+    assert "refused: ordinate unit label" in out and "0 read, 1 refused" in out
+    assert err.count("\n") == 1 and "refused: ordinate unit label" in err

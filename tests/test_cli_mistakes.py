@@ -51,3 +51,27 @@ def test_a_uff_file_given_as_toml_is_named_as_such(command: str, capsys: pytest.
     err = capsys.readouterr().err
     assert "is a UFF file (a measurement), not a TOML file" in err and "ema-rig modes" in err
     assert "Traceback" not in err
+
+
+@pytest.mark.filterwarnings("ignore:.*is not an excitation of the rig file")  # the per-dataset warning
+def test_a_wrong_excitation_in_the_rig_file_is_named_with_the_files_references(tmp_path, capsys):
+    """Review defect 7: a rig whose excitation is not the file's reference dropped every dataset, and
+    the error then blamed the first sensor ("has no FRF in the file (file responses: none)") although
+    the file holds it; the error names the excitation and lists the file's references."""
+    rig = tmp_path / "rig.toml"
+    rig.write_text((DATA / "rig.toml").read_text(encoding="utf-8").replace('radial = "11+Y"', 'radial = "3+Z"'),
+                   encoding="utf-8")
+    assert main(["modes", str(DATA / "b6302_1000N_600rpm.uff"), "--rig", str(rig)]) == 1
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert err.startswith("error: ") and "rig excitation 3+Z" in err, err
+    assert "(file references: 11+Y)" in err and "has no FRF" not in err, err
+
+
+def test_a_low_max_order_is_blamed_on_the_cap_not_the_measurement(real_frf_dir, capsys):
+    """Review defect 9: with --max-order 3 the real rig file has no stable pole, while the default order
+    finds its modes (test_real_bands); the refusal said "the measurement itself is suspect: coherence ...".
+    It now says the cap may be too low and to raise --max-order."""
+    assert main(["modes", str(real_frf_dir / "vt_case1_full.uff"), "--max-order", "3"]) == 1
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert "no stable pole" in err and "the order cap may be too low: --max-order 3" in err, err
+    assert "raise it" in err and "suspect" not in err, err

@@ -204,7 +204,7 @@ def test_band_exceeding_the_data_by_less_than_a_step_is_clipped():
     ident = identify(d, band=(65, 1000))
     assert ident.band[1] == pytest.approx(999.997)
     assert any("clipped" in n for n in ident.notes)
-    with pytest.raises(IdentificationError, match="outside the data"):
+    with pytest.raises(IdentificationError, match="extends beyond the data"):
         identify(d, band=(65, 1001))  # more than one step beyond: still refused
 
 

@@ -224,9 +224,11 @@ def test_signal_mid_write_leaves_no_temporary(sig: int, code: int, tmp_path: Pat
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert proc.stdout is not None
-        assert proc.stdout.readline().strip() == "writing"
+        lines = [proc.stdout.readline().strip() for _ in range(2)]  # the summary, then the stalled rename
+        assert lines[-1] == "writing", lines
         temps = list(out.parent.iterdir())
-        assert len(temps) == 1 and ".tmp" in temps[0].name  # mid-write: the temporary exists
+        # mid-write: both outputs (measurement and truth) complete in their temporaries, renamed together
+        assert len(temps) == 2 and all(".tmp" in t.name for t in temps), temps
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=30)
     finally:
@@ -329,3 +331,120 @@ def test_nothing_left_behind_by_any_command_on_any_exit(small: Path, tmp_path: P
     assert sorted(p.name for p in (out / "s").iterdir()) == ["s.json"]
     assert not (out / "e").exists() or list((out / "e").iterdir()) == []
     capsys.readouterr()
+
+
+# ------------------------------------------------------- outputs checked before the run (review defect 5)
+def _bad_outputs(tmp: Path) -> list[tuple[list[str], Path, str]]:
+    """(argv, the output named in the error, what the error says) for outputs that cannot be written."""
+    f, r, t, afile = tmp / "m.uff", tmp / "rig.toml", tmp / "t.uff", tmp / "afile"
+    folder_in_way = f"cannot create the folder {afile} (a file is in the way)"
+    return [
+        (["modes", str(f), "--json", str(tmp / "j1.json"), "--plot", str(afile / "p.png")], afile / "p.png",
+         folder_in_way),
+        (["modes", str(f), "--plot", str(tmp / "noext")], tmp / "noext", "--plot must end in .png, .svg, .pdf"),
+        (["modes", str(f), "--json", str(tmp / "dir")], tmp / "dir", "--json names a folder; give a file name"),
+        (["modes", str(f), "--json", str(tmp / "j1.json"), "--shapes", str(afile / "s")], afile / "s_1.png",
+         folder_in_way),
+        (["modes", str(f), "--automac", str(tmp / "a.gif")], tmp / "a.gif", "--automac must end in .png"),
+        (["modes", str(f), "--uff55", str(afile / "m.unv")], afile / "m.unv", folder_in_way),
+        (["stabilization", str(f), "-o", str(tmp / "chart.gif")], tmp / "chart.gif", "-o must end in .png"),
+        (["stiffness", str(f), "--rig", str(r), "--plot", str(tmp / "noext")], tmp / "noext",
+         "--plot must end in .png"),
+        (["stiffness", str(f), "--rig", str(r), "--json", str(tmp / "dir")], tmp / "dir", "--json names a folder"),
+        (["calibrate", str(f), "--rig", str(r), "--plot", str(afile / "p.png")], afile / "p.png", folder_in_way),
+        (["inspect", str(f), "--json", str(tmp / "dir")], tmp / "dir", "--json names a folder"),
+        (["frf", str(t), "-o", str(afile / "f.uff")], afile / "f.uff", folder_in_way),
+        (["simulate", "--rig", str(r), "--k-tb", "7e7", "-o", str(afile / "s.uff")], afile / "s.uff",
+         folder_in_way),
+    ]
+
+
+@pytest.mark.parametrize("i", range(13))
+def test_unwritable_output_refused_before_the_input_is_read(i: int, tmp_path: Path, capsys) -> None:
+    """An output under a file, a folder given as a file, a figure without a figure suffix: refused before
+    the run, naming the output (the inputs are not even UFF/TOML: reading them would fail with another
+    error). Before, modes ran the whole identification, wrote --json, then failed on --plot."""
+    argv, named, text = _bad_outputs(tmp_path)[i]
+    for p in (tmp_path / "m.uff", tmp_path / "rig.toml", tmp_path / "t.uff", tmp_path / "afile"):
+        p.write_bytes(VICTIM)
+    (tmp_path / "dir").mkdir()
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert main(argv) == EXIT_ERROR
+    line = _one_error_line(capsys)
+    assert line.startswith(f"error: {named}: ") and text in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == before and list((tmp_path / "dir").iterdir()) == []
+    assert (tmp_path / "afile").read_bytes() == VICTIM
+
+
+def test_a_late_failure_leaves_none_of_the_outputs(small: Path, tmp_path: Path, capsys, monkeypatch) -> None:  # noqa: F811
+    """modes --json --plot whose figure fails after the JSON is written: neither file is left (the JSON
+    was before), nor a temporary; without the failure both are written."""
+    import ema_rig.plot.synthesis as synthesis
+
+    argv = ["modes", str(small / "m1.uff"), "--rig", str(small / "rig.toml"), "--max-order", "16",
+            "--json", str(tmp_path / "m.json"), "--plot", str(tmp_path / "m.png")]
+    real = synthesis.plot_synthesis
+
+    def failing(*a: object, **k: object) -> object:
+        raise ValueError("the figure cannot be drawn")
+
+    monkeypatch.setattr(synthesis, "plot_synthesis", failing)
+    assert main(argv) == EXIT_ERROR
+    assert "the figure cannot be drawn" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.setattr(synthesis, "plot_synthesis", real)
+    assert main(argv) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json", "m.png"]
+    capsys.readouterr()
+
+
+def test_all_or_nothing_renames_together_and_commit_staged_keeps(tmp_path: Path) -> None:
+    a, b, c = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "c.json"
+    with pytest.raises(RuntimeError), _atomic.all_or_nothing():
+        _atomic.write_text(a, "1")
+        _atomic.write_text(b, "2")
+        assert not a.exists() and not b.exists()  # staged: renamed only at the end
+        raise RuntimeError("late failure")
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(RuntimeError), _atomic.all_or_nothing():
+        _atomic.write_text(c, "refusal")
+        _atomic.commit_staged()  # an output meant to survive the failure
+        _atomic.write_text(a, "1")
+        raise RuntimeError("late failure")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json"]
+    with _atomic.all_or_nothing():
+        _atomic.write_text(a, "1")
+        _atomic.write_text(b, "2")
+    assert a.read_text() == "1" and b.read_text() == "2" and len(list(tmp_path.iterdir())) == 3
+    assert _atomic.remove_active_files() == []  # nothing left tracked
+
+
+def test_a_stiffness_refusal_json_is_kept_although_the_command_fails(small: Path, tmp_path: Path, capsys,  # noqa: F811
+                                                                       monkeypatch) -> None:
+    """The refusal JSON (the error and every candidate) is the answer of a refused match: all_or_nothing
+    keeps it (commit_staged) while the failing command's other outputs are never made."""
+    import json
+
+    import ema_rig.rig.stiffness as stiffness
+    from ema_rig.errors import MatchingError
+
+    def refused(*a: object, **k: object) -> object:
+        raise MatchingError("no identified mode matches the housing mode", candidates=[{"natural_freq": 123.0}])
+
+    monkeypatch.setattr(stiffness, "estimate_stiffness", refused)
+    argv = ["stiffness", str(small / "m1.uff"), "--rig", str(small / "rig.toml"),
+            "--json", str(tmp_path / "s.json"), "--plot", str(tmp_path / "s.png")]
+    assert main(argv) == EXIT_ERROR
+    assert "no identified mode matches" in _one_error_line(capsys)
+    assert [p.name for p in tmp_path.iterdir()] == ["s.json"]
+    doc = json.loads((tmp_path / "s.json").read_text(encoding="utf-8"))
+    assert doc["error"] == "no identified mode matches the housing mode" and doc["candidates"] == [{"natural_freq": 123.0}]
+
+
+def test_campaign_output_folder_under_a_file_named_as_the_folder(small: Path, tmp_path: Path, capsys) -> None:  # noqa: F811
+    """campaign -o DIR with a file in the way names DIR (not DIR/campaign.csv, one of its files)."""
+    (tmp_path / "afile").write_bytes(VICTIM)
+    for out in (tmp_path / "afile", tmp_path / "afile" / "x"):
+        assert main(["campaign", str(small / "campaign.toml"), "-o", str(out)]) == EXIT_ERROR
+        assert _one_error_line(capsys) == f"error: {out}: cannot create the folder {out} (a file is in the way)"
+    assert (tmp_path / "afile").read_bytes() == VICTIM

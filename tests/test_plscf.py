@@ -374,9 +374,14 @@ def _data(h=None, freq=FREQ):
 
 
 def test_band_outside_data():
-    with pytest.raises(IdentificationError, match=r"band 900..1200 Hz lies outside the data \(0..1000 Hz\)") as e:
+    # a band overlapping the data in part extends beyond it (the overlap is suggested); one without overlap
+    # lies outside it: the same wording as the stiffness stage's (one definition, errors.band_error)
+    with pytest.raises(IdentificationError, match=r"band 900..1200 Hz extends beyond the data \(0..1000 Hz\); "
+                       r"choose a band within it, e.g. 900..1000 Hz") as e:
         plscf(_data(), max_order=10, band=(900, 1200))
     assert e.value.file == "meas.uff"
+    with pytest.raises(IdentificationError, match=r"band 1100..1200 Hz lies outside the data \(0..1000 Hz\)"):
+        plscf(_data(), max_order=10, band=(1100, 1200))
     with pytest.raises(IdentificationError, match="freq_lower < freq_upper"):
         identify(_data(), band=(500, 100))
 

@@ -429,7 +429,10 @@ def check_out_folder(cfg: CampaignConfig, out: Path) -> None:
     ------
     OutputIsInputError
         Naming the output and the input it would overwrite.
+    OutputPathError
+        Naming the folder (or an output in it) when it cannot be made or written.
     """
+    _atomic.check_output_folder(out)  # a file in the way: named as the folder, not as one of its files
     inputs = [("campaign file", cfg.path), ("rig", cfg.rig_file), ("calibration", cfg.calibration)]
     inputs += [(f"measurement {m.id!r}", m.file) for m in cfg.measurements]
     outputs: list[tuple[str, Any]] = [(n, out / n) for n in ("campaign.csv", "settings.json", "report.html",

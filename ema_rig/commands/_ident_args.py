@@ -8,7 +8,7 @@ from dataclasses import replace
 from typing import Any
 
 from ..config import load_rig
-from ..errors import EmaRigError, IdentificationError
+from ..errors import BandError, EmaRigError, IdentificationError
 from . import _args
 
 
@@ -45,6 +45,7 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
     """
     from ..identification import Selection, identify
     from ..identification.diagnose import diagnose_file
+    from ..identification.identification import LOW_CAP_HINT
     from ..io.uff import read_uff58
 
     if args.max_order is not None and args.max_order < 1:
@@ -71,7 +72,10 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
                          refine=bool(refine))
     except IdentificationError as exc:
         findings = [f for f in diagnose_file(args.file, data) if f not in exc.message]
-        if not findings or "outside the data" in exc.message:  # a wrong band is not the data's fault
+        # a wrong band, or an order cap set too low, is not the data's fault
+        if LOW_CAP_HINT in exc.message and args.max_order is not None:  # name the option the user gave
+            raise IdentificationError(exc.message.replace("max_order=", "--max-order "), file=exc.file) from None
+        if not findings or isinstance(exc, BandError) or LOW_CAP_HINT in exc.message:
             raise
         head = "; " if "the measurement itself is suspect" in exc.message else "; the measurement itself is suspect: "
         raise IdentificationError(exc.message + head + "; ".join(findings), file=exc.file) from None

@@ -33,10 +33,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 
-def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
-    """The command's input and output files (checked against each other before it runs)."""
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]], tuple[str, ...]]:
+    """The command's input and output files and the labels of its figures (checked before it runs)."""
     return ([("DISK_FILE", args.file), ("--rig", args.rig)],
-            [("--json", args.json), ("--plot", args.plot)])
+            [("--json", args.json), ("--plot", args.plot)], ("--plot",))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,6 +14,9 @@ from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
 from ..errors import EmaRigError
 from . import _args
 
+#: Finished rows, figures and the report stay when a later row fails (the runner manages its folder).
+OUTPUTS_ON_FAILURE = True
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig campaign``."""

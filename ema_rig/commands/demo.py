@@ -12,6 +12,9 @@ from ..errors import EmaRigError
 from . import _args
 from .campaign import run_campaign
 
+#: A campaign (see ``campaign``): its finished outputs stay when a later step fails.
+OUTPUTS_ON_FAILURE = True
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig demo``."""

@@ -18,6 +18,9 @@ from . import _args
 if TYPE_CHECKING:
     from ..frf import FRFData
 
+#: The table and ``--json`` are written even when the command exits 1 (a refused dataset).
+OUTPUTS_ON_FAILURE = True
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig inspect``."""

@@ -29,10 +29,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 
-def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
-    """The command's input and output files (checked against each other before it runs)."""
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]], tuple[str, ...]]:
+    """The command's input and output files and the labels of its figures (checked before it runs).
+
+    ``--shapes PREFIX`` stands for its first figure ``PREFIX_1.png`` (the others share its folder).
+    """
     return ([("FILE", args.file), ("--rig", args.rig), ("--selection", args.selection), ("--geometry", args.geometry)],
-            [("--json", args.json), ("--save-selection", args.save_selection), ("--plot", args.plot), ("--uff55", args.uff55), ("--automac", args.automac)])
+            [("--json", args.json), ("--save-selection", args.save_selection), ("--plot", args.plot), ("--uff55", args.uff55), ("--automac", args.automac),
+             ("--shapes", args.shapes and f"{args.shapes}_1.png")],
+            ("--plot", "--automac", "--shapes"))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -45,8 +50,9 @@ def run(args: argparse.Namespace) -> int:
     data, ident = load_and_identify(args)
     if args.shapes:  # PREFIX_<n>.png: known once the modes are; checked before anything is written
 
-        ins, outs = io_paths(args)
-        check_outputs(ins, outs + [("--shapes", f"{args.shapes}_{k + 1}.png") for k in range(ident.modes.n_modes)])
+        ins, outs, figures = io_paths(args)
+        check_outputs(ins, [o for o in outs if o[0] != "--shapes"] + [("--shapes", f"{args.shapes}_{k + 1}.png") for k in range(ident.modes.n_modes)],
+                      figures)
     geometry = None
     if args.geometry:
         from ..io.geometry import read_geometry

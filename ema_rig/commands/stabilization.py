@@ -6,10 +6,7 @@ import argparse
 from pathlib import Path
 
 from .._atomic import atomic_path
-from ..errors import EmaRigError
 from ._ident_args import add_identification_arguments, load_and_identify, print_warnings
-
-_FORMATS = (".png", ".svg", ".pdf")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,17 +21,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 
-def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
-    """The command's input and output files (checked against each other before it runs)."""
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]], tuple[str, ...]]:
+    """The command's input and output files and the labels of its figures (checked before it runs)."""
     return ([("FILE", args.file), ("--rig", args.rig), ("--selection", args.selection)],
-            [("-o", args.output)])
+            [("-o", args.output)], ("-o",))
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``ema-rig stabilization``."""
-    suffix = Path(args.output).suffix.lower()
-    if suffix not in _FORMATS:
-        raise EmaRigError(f"-o must end in {', '.join(_FORMATS)}, got {args.output!r}", file=args.file)
+    suffix = Path(args.output).suffix.lower()  # a figure format: checked by io_paths before the run
     import matplotlib
 
     matplotlib.use("Agg")

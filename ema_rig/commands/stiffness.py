@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from .._atomic import write_json
+from .._atomic import commit_staged, write_json
 from ..config import load_rig
 from ..errors import EmaRigError, MatchingError
 from . import _args
@@ -129,13 +129,14 @@ def write_refusal(path: str, file: str, exc: Any) -> None:
     """JSON of a refused match: the one-line error, every candidate, empty warnings."""
     write_json(path, {"file": str(file), "error": exc.message, "warnings": [],
                       "candidates": [dict(c) for c in exc.candidates]})
+    commit_staged()  # the refusal is this run's answer: kept although the command fails
 
 
 
-def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]]]:
-    """The command's input and output files (checked against each other before it runs)."""
+def io_paths(args: argparse.Namespace) -> tuple[list[tuple[str, str | None]], list[tuple[str, str | None]], tuple[str, ...]]:
+    """The command's input and output files and the labels of its figures (checked before it runs)."""
     return ([("FILE", args.file), ("--rig", args.rig)],
-            [("--json", args.json), ("--plot", args.plot)])
+            [("--json", args.json), ("--plot", args.plot)], ("--plot",))
 
 
 def run(args: argparse.Namespace) -> int:

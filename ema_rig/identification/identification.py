@@ -585,7 +585,7 @@ def identify(
     residual_test: MisfitTest | None = None
     if selection is not None:
         stab = stabilized(cap)
-        _require_stable(stab, cap, src, data)
+        _require_stable(stab, cap, src, data, low_cap=n_in if explicit and cap < default_max_order(n_in) else None)
         try:
             sel = resolve_selection(stab, selection, tol=near_tol, source=src)
         except IdentificationError as exc:
@@ -624,7 +624,7 @@ def identify(
             if converged or n >= cap:
                 break
             prev, prev_order, n = cur, n, min(n + span, cap)
-        _require_stable(stab, n, src, data)
+        _require_stable(stab, n, src, data, low_cap=n_in if explicit and cap < default_max_order(n_in) else None)
         notes.append(f"model order grown to {n} (modes per order: {', '.join(history)}); "
                      + ("the mode set converged" if converged else "the mode set did NOT converge"))
         # ---- complete: the residual of the model consistent with the noise in every segment ----
@@ -1345,13 +1345,29 @@ def _why(data: FRFData) -> str:
     return ("; the measurement itself is suspect: " + "; ".join(findings)) if findings else ""
 
 
-def _require_stable(stab: StabilizationData, n: int, src: str | None, data: FRFData) -> None:
+#: Clause of the refusal when a user's order cap stopped the search below the default cap.
+LOW_CAP_HINT = "the order cap may be too low"
+
+
+def _require_stable(stab: StabilizationData, n: int, src: str | None, data: FRFData, *,
+                    low_cap: int | None = None) -> None:
+    """Refuse a stabilization without a stable pole up to order ``n``.
+
+    ``low_cap`` is the number of references when the caller capped the order below the order
+    the default search starts at (:func:`~ema_rig.identification.plscf.default_max_order`): the
+    refusal then blames the cap and says to raise it, not the measurement (the default order
+    finds modes that a cap of 3 cannot). A cap at or above that start leaves the measurement
+    to blame, as without a cap.
+    """
     n_stable = int(np.sum(np.isin(stab.status, ["s", "d", "v", "f"])))
     if n_stable == 0:
         fband = stab.band
+        why = (f"; {LOW_CAP_HINT}: max_order={n} is below the order {default_max_order(low_cap)} the default "
+               f"search starts at (default cap {default_order_cap(low_cap)}), raise it"
+               if low_cap is not None else _why(data))
         raise IdentificationError(
             f"no stable pole in the band {fband[0]:g}..{fband[1]:g} Hz up to order {n} "
-            f"({len(stab)} poles, {int(np.sum(stab.unstable))} of them unstable)" + _why(data),
+            f"({len(stab)} poles, {int(np.sum(stab.unstable))} of them unstable)" + why,
             file=src,
         )
 

@@ -99,7 +99,7 @@ from numpy.typing import NDArray
 from .._blas import single_threaded
 from .._progress import progress_bar
 from ..dof import DOF
-from ..errors import IdentificationError
+from ..errors import IdentificationError, band_error
 from ..frf import FRFData
 from ._roots import (
     aberth_chain,
@@ -298,9 +298,7 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
         f0, f1 = float(data.freq[0]), float(data.freq[-1])
         tol = 1e-9 * max(abs(f1), 1.0)
         if lo < f0 - tol or hi > f1 + tol:
-            raise IdentificationError(
-                f"band {lo:g}..{hi:g} Hz lies outside the data ({f0:g}..{f1:g} Hz)", file=src
-            )
+            raise band_error(lo, hi, f0, f1, file=src)
         data = data.band(lo, hi)
     if data.n_freq < 8:
         raise IdentificationError(f"only {data.n_freq} frequency lines in the band; need at least 8", file=src)

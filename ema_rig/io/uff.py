@@ -58,6 +58,7 @@ from ..frf import FRFData
 from ..processing import ProcessingHistory
 from . import _uff_1858, _uff_coherence, _uff_parse, _uff_units, _uff_write
 from .layout import SensorLayout
+from .units import parse_unit
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -378,6 +379,11 @@ def read_uff(path: str | PathLike[str]) -> UFFFile:
     return UFFFile(str(p), tuple(_to_record(r) for r in raws))
 
 
+#: The unit labels of an FRF dataset 58 header that read_uff58 parses, with their names in messages.
+_UNIT_LABELS = (("abscissa_axis_units_lab", "abscissa unit label"), ("ordinate_axis_units_lab", "ordinate unit label"),
+                ("orddenom_axis_units_lab", "denominator unit label"))
+
+
 def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
     d: dict[str, Any] = {
         "index": r.index,
@@ -390,13 +396,22 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
         "status": r.status,
         "reason": r.reason,
     }
+    if r.type == 58 and r.function_type == 4 and r.status == "read":
+        # an FRF unit label the FRF reader refuses ("the values are not read") makes it refused here too
+        # (other function types keep their labels as they are: a time history in V or Pa is read)
+        for key, what in _UNIT_LABELS:
+            try:
+                parse_unit(str(r.header.get(key, "")), what)
+            except ValueError as exc:
+                d.update(status="refused", reason=str(exc), num_pts=None)
+                break
     if r.type == 58:
         d["function"] = FUNCTION_TYPES.get(r.function_type) if r.function_type is not None else None
         d["num_pts_header"] = r.num_pts_header
         d["ord_data_type"] = r.header.get("ord_data_type")
         sp = r.header.get("abscissa_spacing")
         d["spacing"] = None if sp is None else ("even" if sp == 1 else "uneven")
-        d["band"] = None if r.band is None or r.status != "read" else list(r.band)
+        d["band"] = None if r.band is None or d["status"] != "read" else list(r.band)
         d["units"] = {k: v.get("label") for k, v in r.units.items()}
     elif r.type == 164 and r.status == "read":
         d["units"] = dict(r.header)
@@ -669,6 +684,9 @@ class _Channels:
     in_order: list[DOF] = field(default_factory=list)
     sign_flips: list[str] = field(default_factory=list)
     ignored_channels: list[str] = field(default_factory=list)
+    #: Every response / reference DOF (positive) the file's FRF datasets name, kept or ignored.
+    file_out: list[DOF] = field(default_factory=list)
+    file_in: list[DOF] = field(default_factory=list)
 
 
 def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
@@ -677,6 +695,9 @@ def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
     for r, _dec, _ in used:
         rd, fd = r.response, r.reference
         assert rd is not None and fd is not None
+        for seen, d in ((ch.file_out, rd.positive()), (ch.file_in, fd.positive())):
+            if d not in seen:
+                seen.append(d)
         if rig is not None:
             sensor = rig.sensor_for(rd)
             if sensor is None:
@@ -723,18 +744,19 @@ def _rig_order(ch: _Channels, rig: SensorLayout | None,
     (every rig sensor and excitation must be in the file)."""
     if rig is None:
         return ch.out_order, ch.in_order, [], []
-    for sensor in rig.sensors:
-        if sensor.dof.positive() not in ch.out_order:
-            raise UFFError(
-                f"rig sensor {sensor.dof} ({rig.path or 'rig file'}) has no FRF in the file "
-                f"(file responses: {', '.join(str(d) for d in ch.out_order) or 'none'})",
-                file=src,
-            )
+    # the excitations first: a wrong one drops every dataset, and its sensors would look missing too
     for ref in rig.references:
         if ref.positive() not in ch.in_order:
             raise UFFError(
                 f"rig excitation {ref} ({rig.path or 'rig file'}) is not a reference in the file "
-                f"(file references: {', '.join(str(d) for d in ch.in_order) or 'none'})",
+                f"(file references: {', '.join(str(d) for d in ch.file_in) or 'none'})",
+                file=src,
+            )
+    for sensor in rig.sensors:
+        if sensor.dof.positive() not in ch.out_order:
+            raise UFFError(
+                f"rig sensor {sensor.dof} ({rig.path or 'rig file'}) has no FRF in the file "
+                f"(file responses: {', '.join(str(d) for d in ch.file_out) or 'none'})",
                 file=src,
             )
     return ([s.dof.positive() for s in rig.sensors], [d.positive() for d in rig.references],

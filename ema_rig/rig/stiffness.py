@@ -75,7 +75,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import RigConfig
-from ..errors import EmaRigError, IdentificationError, InversionError
+from ..errors import EmaRigError, IdentificationError, InversionError, band_error
 from ..frf import FRFData
 from ..identification import Identification, Selection, identify
 from ..literals import DampingModel
@@ -132,10 +132,7 @@ def default_band(data: FRFData, rig: RigConfig, band: tuple[float, float] | None
     flo, fhi = float(data.freq[0]), float(data.freq[-1])
     lo2, hi2 = max(lo, flo), min(hi, fhi)
     if hi2 <= lo2:
-        raise IdentificationError(
-            f"band {lo:g}..{hi:g} Hz lies outside the data ({flo:g}..{fhi:g} Hz)",
-            file=_file_of(data),
-        )
+        raise band_error(lo, hi, flo, fhi, file=_file_of(data))
     return lo2, hi2
 
 
