@@ -123,22 +123,30 @@ def atomic_path(path: str | PathLike[str]) -> Iterator[Path]:
 
 
 @contextmanager
-def all_or_nothing() -> Iterator[None]:
+def all_or_nothing(discarded: list[Path] | None = None) -> Iterator[None]:
     """Within the block, :func:`atomic_path` outputs are renamed into place only when it succeeds.
 
     A command with several outputs (``--json`` and ``--plot``) that fails after writing one of
     them leaves none: the written temporaries are removed when the block raises, and renamed
     onto their targets, in the order written, when it ends normally. :func:`commit_staged` renames
     what is written so far (an output meant to survive a failure: a refusal JSON).
+
+    Parameters
+    ----------
+    discarded : list of Path, optional
+        Receives the targets whose written temporaries were removed because the block raised
+        (what the command may already have reported as written).
     """
     pending: list[tuple[Path, Path]] = []
     token = _STAGED.set(pending)
     try:
         yield
     except BaseException:
-        for tmp, _ in pending:
+        for tmp, target in pending:
             tmp.unlink(missing_ok=True)
             _untrack(tmp)
+            if discarded is not None:
+                discarded.append(target)
         raise
     finally:
         _STAGED.reset(token)

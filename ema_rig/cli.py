@@ -21,6 +21,7 @@ import os
 import sys
 import warnings
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from . import _atomic
@@ -165,6 +166,13 @@ def _main(argv: Sequence[str] | None) -> int:
             _sub_parser(parser, args.command).error(_unrecognized(_sub_parser(parser, args.command), extras))
     except SystemExit as exc:  # argparse prints its own message
         return int(exc.code) if isinstance(exc.code, int) else EXIT_USAGE
+    discarded: list[Path] = []  # outputs written, then removed because the command failed
+
+    def error_line(head: str | None, text: str) -> str:
+        if discarded:  # the command may have printed 'wrote X' for them: say they are gone
+            text += f"; nothing written ({', '.join(str(p) for p in discarded)} discarded)"
+        return _error_line(head, text)
+
     try:
         with warnings.catch_warnings():
             # user-facing warnings as one line each, no source line (restored on exit)
@@ -174,11 +182,11 @@ def _main(argv: Sequence[str] | None) -> int:
             with _atomic.removing_temporaries_on_signal():
                 if not args._whole:  # the command writes what it can even when it fails
                     return int(args._run(args))
-                with _atomic.all_or_nothing():  # several outputs: a failure leaves none of them
+                with _atomic.all_or_nothing(discarded):  # several outputs: a failure leaves none of them
                     return int(args._run(args))
     except EmaRigError as exc:
         # str(exc) starts with the error's own file when it has one
-        print(_error_line(None if exc.file else _subject(args), str(exc)), file=sys.stderr)
+        print(error_line(None if exc.file else _subject(args), str(exc)), file=sys.stderr)
         return EXIT_ERROR
     except BrokenPipeError:  # output piped into `head` and closed early: not an error of ours
 
@@ -188,11 +196,11 @@ def _main(argv: Sequence[str] | None) -> int:
         # files that cannot be opened, values that cannot be used: user input, not a bug
         name = getattr(exc, "filename", None) or _subject(args)
         msg = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        print(_error_line(name, msg), file=sys.stderr)
+        print(error_line(name, msg), file=sys.stderr)
         return EXIT_ERROR
     except MemoryError as exc:  # an input far larger than the machine (numpy says how many bytes)
         detail = f" ({exc})" if str(exc) else ""
-        print(_error_line(_subject(args), f"not enough memory for this input{detail}"), file=sys.stderr)
+        print(error_line(_subject(args), f"not enough memory for this input{detail}"), file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)

@@ -390,8 +390,13 @@ def test_a_late_failure_leaves_none_of_the_outputs(small: Path, tmp_path: Path, 
 
     monkeypatch.setattr(synthesis, "plot_synthesis", failing)
     assert main(argv) == EXIT_ERROR
-    assert "the figure cannot be drawn" in capsys.readouterr().err
+    out, err = capsys.readouterr()
+    assert "the figure cannot be drawn" in err
     assert list(tmp_path.iterdir()) == []
+    # 'wrote m.json' was printed before the failure: the one error line says it was not kept
+    assert f"wrote {tmp_path / 'm.json'}" in out
+    (line,) = [x for x in err.splitlines() if x.startswith("error:")]
+    assert f"nothing written ({tmp_path / 'm.json'} discarded)" in line
     monkeypatch.setattr(synthesis, "plot_synthesis", real)
     assert main(argv) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json", "m.png"]
