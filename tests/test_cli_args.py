@@ -208,7 +208,8 @@ def test_simulate_leaves_no_measurement_without_its_truth(tmp_path, rig_file, ca
     out = tmp_path / "m.uff"
     argv = ["simulate", "--rig", str(rig_file), "--k-tb", "7e7", "-o", str(out), "--fmax", "10", "--df", "1"]
     assert main(argv) == EXIT_ERROR
-    assert _one_error_line(capsys) == f"error: {out}.truth.json: No space left on device"
+    # the UFF staged before the truth failed is discarded, and the one error line says so
+    assert _one_error_line(capsys) == f"error: {out}.truth.json: No space left on device; nothing written ({out} discarded)"
     assert list(tmp_path.iterdir()) == [rig_file]  # the UFF written first was removed again
 
 
