@@ -242,3 +242,23 @@ def test_warm_started_roots_of_a_clustered_polynomial():
         assert found is not None
         assert _set_distance(found, want).max() < 1e-8
         assert np.abs(found - a).min() < 1e-9 and np.abs(found - b).min() < 1e-9
+
+
+def test_coincident_approximations_are_parted():
+    # two approximations on one point repel each other infinitely: neither moves, and the root
+    # they should share out is never found; after _STALL sweeps the later one restarts elsewhere.
+    # Without the parting aberth returns None and the chain gives None for every polynomial
+    # (each starts from the twins of the one before); with it, the companion roots to round-off
+    # (as above: measured <= 5e-14)
+    c = _kac(64, seed=31)
+    z0 = _warm(c, seed=32)
+    z0[7] = z0[3]
+    found = _roots.aberth(c, z0)
+    assert found is not None
+    assert _set_distance(found, _companion_roots(c)).max() < 5e-13
+    coefs = _chain(list(range(64, 71, 2)), seed=33)
+    start = _companion_roots(coefs[0][:-2])
+    start[5] = start[2]
+    for c, z in zip(coefs, _roots.aberth_chain(coefs, start), strict=True):
+        assert z is not None
+        assert _set_distance(z, _companion_roots(c)).max() < 5e-13

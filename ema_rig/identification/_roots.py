@@ -18,7 +18,7 @@ the previous sweep's repulsion sum (its change alters the step only at second or
 O(N^2) sums are recomputed only for the roots still far from convergence.
 
 At the degrees where a sweep costs more in fixed per-call work than in arithmetic (pLSCF: one
-reference, degrees 48-200 when the orders reach 64; two references up to 130),
+reference, degrees 48-200 when the orders reach 64; two references 64-200),
 :func:`aberth_chain` roots a whole run of orders in ONE batch of
 sweeps: each order starts from the iterate of the order below after one sweep (not from its
 converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 relative
@@ -232,6 +232,38 @@ _STALE = 1e-3
 #: more time).
 _REPULSION_BLOCK = 16384
 
+#: Sweeps after which an order still iterating is searched for two approximations on one root
+#: (see :func:`_part_twins`); from then on its repulsion sums are all formed afresh. On the pLSCF
+#: denominators of benchmarks/bench_plscf.py (one and two references, max orders 100 and 200,
+#: chained and one by one) every order converged within 15 sweeps (the smallest ``maxiter``
+#: that roots it), except the two-reference order 60 at max order 100: a reused repulsion sum
+#: had let two approximations settle on one root, and the order ran into the 60-sweep limit
+#: and the companion fallback (with the twins parted here: 23 sweeps, no fallback).
+_STALL = 16
+
+#: Relative distance below which two approximations of a root set count as one (a double root
+#: of a pLSCF denominator would need coincident poles to ~1e-10: its roots are simple to far
+#: coarser separations, ~1e-2 relative on the bench data).
+_TWIN = 1e-10
+
+
+def _part_twins(z: NDArray[np.complex128], turn: int) -> NDArray[np.intp]:
+    """Move the later member of every pair of coincident approximations in ``z`` (in place).
+
+    A repulsion sum reused from an earlier sweep (:data:`_STALE`) does not see an approximation
+    that has since come close; two can then converge on one root, each accepted, and the root
+    they leave free is never found (the order runs to ``maxiter`` and falls back). The moved
+    approximations restart on a circle of radius 1.1 (as the new points of :func:`warm_start`),
+    turned by the golden angle per call. Returns their indices (to iterate again).
+    """
+    d = np.abs(z[:, None] - z[None, :])
+    twin = np.triu(d <= _TWIN * np.abs(z)[:, None], 1).any(axis=0)
+    moved = np.flatnonzero(twin)
+    if moved.size:
+        k = np.arange(moved.size)
+        z[moved] = 1.1 * np.exp(1j * (0.7 + 2.399963 * turn + 2 * np.pi * (k + 0.5) / moved.size))
+    return moved
+
 
 def _repulsion(zr: NDArray[Any], ir: NDArray[Any], z: NDArray[Any]) -> NDArray[Any]:
     """``sum_{j != ir[i]} 1 / (zr[i] - z[j])`` for the roots ``zr = z[ir]`` (Aberth's correction term).
@@ -292,7 +324,8 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
             if it == 0 and s0 is not None:
                 s = s0[act]  # the start's sums, given
             else:
-                stale = np.abs(r * s_prev[act]) < _STALE  # NaN (no previous sum) compares False
+                # NaN (no previous sum) compares False; after a stall every sum is formed afresh
+                stale = np.abs(r * s_prev[act]) < (_STALE if it < _STALL else 0.0)
                 s = s_prev[act]
                 fresh = np.flatnonzero(~stale)
                 if fresh.size:
@@ -301,6 +334,9 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
             w = r / (1.0 - r * s)
             ok = np.isfinite(w)
             z[act[ok]] = za[ok] - w[ok]
+            if it + 1 == _STALL:
+                # still iterating: part approximations that settled on one root
+                act = np.union1d(act, _part_twins(z, 0))
     if act.size:
         return None
     # two approximations on one root would leave another root unfound: _checked tests the sum of
@@ -496,7 +532,8 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                 keep = ~small
                 act, own, r, z = act[keep], own[keep], r[keep], z[keep]
             if act.size:
-                stale = np.abs(r * s_prev[act]) < _STALE
+                # after a stall (below) every sum of that polynomial is formed afresh
+                stale = (np.abs(r * s_prev[act]) < _STALE) & (sweeps[own] < _STALL)
                 s = s_prev[act]
                 fresh = np.flatnonzero(~stale)
                 if fresh.size:
@@ -521,6 +558,11 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             live = state == 1
             sweeps[live] += 1
             left = np.bincount(act // n, minlength=k)  # roots still iterating per polynomial
+            for i in np.flatnonzero(live & (left > 0) & (sweeps == _STALL)).tolist():
+                # still iterating: part approximations that settled on one root
+                moved = _part_twins(table[i, : deg[i]], i)
+                pending[i * n + moved] = True
+                left[i] += moved.size
             for i in np.flatnonzero(live & ((left == 0) | (sweeps >= maxiter))).tolist():
                 state[i] = 2
                 if left[i] == 0:

@@ -62,7 +62,7 @@ eigenvalues of the block companion matrix of the coefficient-reversed, transpose
 ``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond) by
 default the Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`:
 O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to round-off; up to degree
-130 (one reference: 200): all those orders in one batch of sweeps,
+200: all those orders in one batch of sweeps,
 :func:`~._roots.aberth_chain`; above it one order at a time, the first sweep's repulsion sums
 from the previous order's polynomial, :func:`~._roots.aberth_warm`; an order that does not
 converge falls back to the companion eigenvalues). The
@@ -127,20 +127,15 @@ _CHAIN_FROM_DEGREE_ONE = 48
 
 #: Up to this degree (of det A: n_in x order) the orders from :data:`_ABERTH_MIN_DEGREE` on are rooted
 #: together (:func:`~._roots.aberth_chain`: one batch of sweeps for all orders, each started from
-#: the iterate of the order below), above it one order after the other (:func:`~._roots.aberth`).
-#: Measured on the denominators of benchmarks/bench_plscf.py (CPU time, both warm-started the
-#: same way): orders 64-100 10.1 against 12.8 ms, 100-130 11.8 against 12.7 ms, 130-160 17.7
-#: against 16.6 ms (the fixed cost per sweep that the batch shares matters less as the
-#: O(N^2) work per order grows). Two references, the bench's data, the same CPU-time pairing:
-#: 16.3 -> 14.0 ms at order 50, 56.2 -> 52.3 ms at order 100, poles the same to 3e-13 as sets.
-_CHAIN_MAX_DEGREE = 130
-
-#: :data:`_CHAIN_MAX_DEGREE` of one reference, since the power rows of an evaluation are formed
-#: by one product each (:func:`~._roots._block_powers`; the sweeps' arithmetic cheaper, the batch's
-#: shared fixed cost counts longer). Measured as above (CPU min of 5 alternating runs, both
-#: started from the companion roots of the order below): degrees 132-160 12.3 against 15.1 ms,
-#: 160-200 20.0 against 21.4 ms, 200-260 39.9 against 38.2 ms (the one-by-one iteration ahead).
-_CHAIN_MAX_DEGREE_ONE = 200
+#: the iterate of the order below), above it one order after the other (:func:`~._roots.aberth_warm`):
+#: the fixed cost per sweep that the batch shares matters less as the O(N^2) work per order grows.
+#: Measured on the denominators of benchmarks/bench_plscf.py (CPU min of alternating runs, BLAS
+#: one thread). One reference, both started from the companion roots of the order below:
+#: degrees 132-160 12.3 against 15.1 ms, 160-200 20.0 against 21.4 ms, 200-260 39.9 against
+#: 38.2 ms (the one-by-one iteration ahead). Two references, whole plscf calls with 130 against
+#: 200 (12 alternating calls each, load 7): max order 100 73.3 -> 64.3 ms, 200 263 -> 255 ms
+#: (260 instead: 267 ms at 200).
+_CHAIN_MAX_DEGREE = 200
 
 #: Default maximum model order for one reference / for several (denominator degree).
 DEFAULT_MAX_ORDER = {1: 64}
@@ -1168,7 +1163,6 @@ class PlscfEngine:
         chain: list[tuple[int, NDArray[Any], NDArray[Any]]] = []
         aberth_from, chain_max = _ABERTH_MIN_DEGREE, _CHAIN_MAX_DEGREE
         if n_in == 1:
-            chain_max = _CHAIN_MAX_DEGREE_ONE
             if order_list[-1] >= _ABERTH_MIN_DEGREE:
                 aberth_from = _CHAIN_FROM_DEGREE_ONE  # the chain goes on past _ABERTH_MIN_DEGREE
         try:
