@@ -214,9 +214,14 @@ def _ratio_part(pre: _Prepared, n: int, z: NDArray[Any], az: NDArray[Any], flip:
     small = np.zeros(z.size, dtype=bool)
     if test:
         near = np.flatnonzero(~(np.abs(r) > _NEAR * az))  # NaN (p = p' = 0) counts as near
+        tol = 4.0 * n * _EPS
+        # the bound sum_j |c_j| |x|^j is at most sum_j |c_j| max(1, |x|)^N: a root whose p exceeds
+        # that limit's rounding level fails the test without the bound (the same flags, fewer
+        # evaluations of the bound: most roots near convergence are not yet at rounding level)
+        near = near[np.abs(p[near]) <= tol * abs_blocks.sum() * np.maximum(np.abs(x[near]), 1.0) ** n]
         if near.size:
             bound = ((abs_blocks @ np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
-            small[near] = np.abs(p[near]) <= 4.0 * n * _EPS * bound
+            small[near] = np.abs(p[near]) <= tol * bound
     return r, small
 
 
@@ -621,8 +626,14 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     near = np.flatnonzero(~(np.abs(r) > _NEAR * az) & tested)  # NaN (p = p' = 0) counts as near
     if near.size:
         own = np.repeat(uo, np.diff(cuts))[near]
+        # first against the bound's upper limit (see _ratio_part): only the roots that pass it
+        # gather their coefficient blocks
+        tol = 4.0 * deg[own] * _EPS
+        pn = np.abs(p[near])
+        cand = pn <= tol * abs_blocks.sum(axis=(1, 2))[own] * np.maximum(az[near], 1.0) ** deg[own]
+        near, own, tol, pn = near[cand], own[cand], tol[cand], pn[cand]
         bound = (np.einsum("mkb,bm->km", abs_blocks[own], np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
-        small[near] = np.abs(p[near]) <= 4.0 * deg[own] * _EPS * bound
+        small[near] = pn <= tol * bound
     for u in np.flatnonzero(risky).tolist():
         # the roots outside the unit circle of this polynomial on its reversed polynomial
         a, b = cuts[u], cuts[u + 1]
