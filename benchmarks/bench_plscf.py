@@ -37,7 +37,8 @@ How the times are taken
   polynomial and its derivative at the final roots of every order (the pass that confirms
   them), timed with ema_rig's own evaluation kernel on the same coefficients. Each order's
   step and floor are replayed in pairs and the fastest of each counts (the cost without the
-  time slices other processes take on a shared machine).
+  time slices other processes take on a shared machine). Both are CPU times
+  (``time.process_time``, one BLAS thread), so a loaded machine inflates them alike.
 
 Run: ``python benchmarks/bench_plscf.py [--repeat N] [--cold N] [--quick]``.
 """
@@ -57,7 +58,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
-from _timing import measure_call, paired  # benchmarks/_timing.py, beside this script
+from _timing import measure_call  # benchmarks/_timing.py, beside this script
 
 MODES_HZ = np.array([4.7, 290.0, 455.0, 626.0, 810.0, 1100.0, 1450.0, 1908.0])
 DAMPING = np.array([0.03, 0.012, 0.008, 0.010, 0.005, 0.015, 0.020, 0.025])
@@ -137,10 +138,11 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
     Each root-finding call (one order, or one batched chain of orders, ``aberth_chain``, whose
     floor is the sum of its orders' floors) is recorded with its inputs during one ``plscf``
     call and then replayed ``replays`` times, interleaved with its floor (one evaluation at
-    the final roots of each of its orders); per call the fastest replay of each counts. On a shared machine a step of a
-    fraction of a millisecond timed once inside the call can absorb a whole time slice of
-    another process; the minimum of paired replays is the cost without that interference,
-    for the step and its floor alike. The share is the root step's wall time inside that
+    the final roots of each of its orders); per call the fastest replay of each counts, in CPU
+    time (``time.process_time``; one BLAS thread). On a shared machine a step of a fraction of a
+    millisecond timed once inside the call can absorb a whole time slice of another process; the
+    minimum of paired replays in CPU time is the cost without that interference, for the step
+    and its floor alike. The share is the root step's wall time inside that
     ``plscf`` call over the call's wall time (both with the machine's interference).
     """
     import importlib
@@ -200,18 +202,18 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
     for run, found in calls:
         ts, tf = [], []
         for _ in range(replays):
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             run()
-            ts.append(time.perf_counter() - t0)
+            ts.append(time.process_time() - t0)
             t_floor = 0.0
             for c, z in found:
                 if z.size:
                     j = np.arange(1, c.size)
                     dc, cr = c[1:] * j, c[::-1].copy()
                     dcr = cr[1:] * j
-                    t0 = time.perf_counter()
+                    t0 = time.process_time()
                     _ratio(c, dc, cr, dcr, z)
-                    t_floor += time.perf_counter() - t0
+                    t_floor += time.process_time() - t0
             tf.append(t_floor)
         step += min(ts)
         floor += min(tf)
@@ -375,7 +377,7 @@ def main() -> int:
             de, ds = err_ema(ps, order, lam[TARGET]), err_sdypy(model, order, lam[TARGET])
             print(f"{mo:>9} {order:>5} | {de[0]:>+12.2e} {de[1]:>+9.2e} | {ds[0]:>+10.2e} {ds[1]:>+9.2e}")
 
-    print("\nRoot step against its floor (ema_rig, one reference, BLAS 1 thread): seconds finding the roots of")
+    print("\nRoot step against its floor (ema_rig, one reference, BLAS 1 thread): CPU seconds finding the roots of")
     print("every order vs one evaluation of p and p' at the final roots of every order; per order the fastest")
     print("of 3 paired replays of each, median of 3 such runs; share = the root step's part of the plscf call's")
     print("wall time, timed inside the call (median of the 3 runs)")
@@ -408,12 +410,13 @@ def main() -> int:
     print("\nTwo references (MIMO), 8 outputs x 2 references, both tools on the even orders 2..N.")
     print("ema_rig: poly-reference pLSCF (2 x 2 matrix denominator: 2n poles at order n, participation factors).")
     print("sdypy: the 16 FRFs stacked as 16 rows of ONE reference - a different model (scalar common")
-    print("denominator: n poles at order n, no participation factors); paired as above, 626 Hz error at order N")
+    print("denominator: n poles at order n, no participation factors); paired as above (CPU ratio as above),")
+    print("626 Hz error at order N")
     freq2, h2, lam2 = make_arrays(2)
     data2 = ema_data(freq2, h2)
     h16 = np.ascontiguousarray(h2.reshape(-1, h2.shape[-1]))
     head = (f"{'max order':>9} {'BLAS thr':>8} | {'ema_rig [s]':>22} {'peak':>6} {'df/f':>9} {'dz/z':>9} | "
-            f"{'sdypy stacked [s]':>22} {'peak':>6} {'df/f':>9} {'dz/z':>9} | {'sdypy/ema_rig':>18}")
+            f"{'sdypy stacked [s]':>22} {'peak':>6} {'df/f':>9} {'dz/z':>9} | {'sdypy/ema_rig':>18} | {'CPU ratio':>18}")
     print(head)
     print("-" * len(head))
     for mo in orders:
@@ -421,12 +424,13 @@ def main() -> int:
             with blas_threads(threads):
                 _, pa, ps = measure_call(lambda mo=mo: call_ema(data2, mo, even=True))
                 _, pb, model = measure_call(lambda mo=mo: call_sdypy(freq2, h16, mo))
-                ta, tb = paired(lambda mo=mo: call_ema(data2, mo, even=True),
-                                lambda mo=mo: call_sdypy(freq2, h16, mo), repeat)
+                ta, tb, ca, cb = paired_cpu(lambda mo=mo: call_ema(data2, mo, even=True),
+                                            lambda mo=mo: call_sdypy(freq2, h16, mo), repeat)
             de = err_ema(ps, mo, lam2[TARGET])
             ds = err_sdypy(model, mo, lam2[TARGET])
             print(f"{mo:>9} {threads or 'default':>8} | {spread(ta):>22} {mb(pa)} {de[0]:>+9.2e} {de[1]:>+9.2e} | "
-                  f"{spread(tb):>22} {mb(pb)} {ds[0]:>+9.2e} {ds[1]:>+9.2e} | {ratio_spread(ta, tb):>18}")
+                  f"{spread(tb):>22} {mb(pb)} {ds[0]:>+9.2e} {ds[1]:>+9.2e} | {ratio_spread(ta, tb):>18} | "
+                  f"{ratio_spread(ca, cb):>18}")
     print("\nema_rig = plscf(data, max_order=N); sdypy = Model.get_poles('lscf') with pol_order_high = N/2;")
     print("both compute every even denominator order 2..N on the same 4000 lines. The root step's floor is")
     print("one evaluation pass at the final roots, not a faster root finder: step/floor says how far from it.")

@@ -32,6 +32,11 @@ rooted on its own starts from the previous order's roots, whose sums among thems
 chain, an order that starts at the iterate of the order below takes that order's sums of the
 same sweep (:func:`_chain_reuse`). Only the new start points' terms are added.
 
+A reused repulsion sum does not see an approximation that has come close since: two can then
+settle on one root, and the root they leave free is never found. An order still iterating after
+:data:`_STALL` sweeps is therefore searched for such twins once; the later of each pair restarts
+elsewhere, and from then on that order's sums are all formed afresh (:func:`_part_twins`).
+
 References
 ----------
 .. [1] O. Aberth, "Iteration methods for finding all zeros of a polynomial simultaneously",
@@ -246,9 +251,10 @@ _REPULSION_BLOCK = 16384
 #: and the companion fallback (with the twins parted here: 23 sweeps, no fallback).
 _STALL = 16
 
-#: Relative distance below which two approximations of a root set count as one (a double root
-#: of a pLSCF denominator would need coincident poles to ~1e-10: its roots are simple to far
-#: coarser separations, ~1e-2 relative on the bench data).
+#: Relative distance below which two approximations of a root set count as one: two that settled
+#: on one simple root agree to its round-off (6e-14 for the twins above), while the two roots of
+#: a true double root are resolved only to ~sqrt(eps) ~ 1e-8 and stay apart; the pLSCF
+#: denominators' roots are ~1e-2 apart (relative) on the bench data.
 _TWIN = 1e-10
 
 
