@@ -68,3 +68,32 @@ def measure_call(fn: Callable[[], Any]) -> tuple[float, int, Any]:
     out = fn()
     dt = time.perf_counter() - t0
     return dt, hwm_bytes() - before, out
+
+
+def ask_worker(proc: Any, request: str) -> tuple[float, float]:
+    """Send one request line to a worker process and read its answer ``"<wall> <cpu>"`` [s].
+
+    ``proc`` is a :class:`subprocess.Popen` with text pipes on stdin and stdout, one answer line
+    per request line (the long-lived tree workers of the ``*_vs_tree`` benchmarks).
+    """
+    assert proc.stdin is not None and proc.stdout is not None
+    proc.stdin.write(request + "\n")
+    proc.stdin.flush()
+    wall, cpu = proc.stdout.readline().split()
+    return float(wall), float(cpu)
+
+
+def git_head(tree: Any) -> str:
+    """Short commit of a git tree, or ``"(not a git tree)"`` (an exported archive)."""
+    import subprocess
+
+    r = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
+    return r.stdout.strip() or "(not a git tree)"
+
+
+def close_workers(procs: Any) -> None:
+    """Close the request pipe of each worker process (its loop over stdin ends) and wait for it."""
+    for p in procs:
+        assert p.stdin is not None
+        p.stdin.close()
+        p.wait()

@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _timing import ask_worker, close_workers, git_head  # benchmarks/_timing.py, beside this script
 
 REPO = Path(__file__).resolve().parent.parent
 CASES = [(1, 50), (1, 100), (1, 200), (2, 50), (2, 100), (2, 200)]
@@ -83,18 +84,9 @@ def main() -> None:
         assert ready == "ready" and Path(where).resolve().is_relative_to(trees[tag]), (tag, where)
 
     def ask(tag: str, n_in: int, mo: int, out: str = "-") -> tuple[float, float]:
-        p = procs[tag]
-        assert p.stdin is not None and p.stdout is not None
-        p.stdin.write(f"{n_in} {mo} {out}\n")
-        p.stdin.flush()
-        wall, cpu = p.stdout.readline().split()
-        return float(wall), float(cpu)
+        return ask_worker(procs[tag], f"{n_in} {mo} {out}")
 
-    def commit(tree: Path) -> str:
-        r = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
-        return r.stdout.strip() or "(not a git tree)"
-
-    print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: new = {REPO} @ {commit(REPO)}, "
+    print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: new = {REPO} @ {git_head(REPO)}, "
           f"old = {args.baseline}; {os.cpu_count()} cores, BLAS 1 thread, load average {os.getloadavg()[0]:.1f}")
     print("plscf on bench_plscf.py's data (8 outputs x 4000 lines), even orders 2..N; median (min-max) of alternating")
     print("calls; new/old per pair; poles: largest relative distance of a new pole to the nearest old one, same order")
@@ -115,18 +107,14 @@ def main() -> None:
                 return f"{statistics.median(x) * scale:{f}} ({min(x) * scale:{f}}-{max(x) * scale:{f}})"
 
             for k, kind in ((1, "cpu"), (0, "wall")):
-                old = [x[k] for x in t["old"]]
-                new = [x[k] for x in t["new"]]
+                old, new = ([x[k] for x in t[tag]] for tag in ("old", "new"))
                 ratio = [b / a for a, b in zip(old, new, strict=True)]
                 poles = (f"{stable:.1e} / {unstable:.1e}, {'equal' if same else 'DIFFER'}; fallbacks "
                          f"{int(pb['fallbacks'])} -> {int(pa['fallbacks'])}") if k == 1 else ""
                 print(f"{n_in:>4} {mo:>4} {kind:>4} | {fmt(old):>22} | {fmt(new):>22} | {fmt(ratio, 1.0):>18} | {poles}",
                       flush=True)
     print(f"# load average at the end {os.getloadavg()[0]:.1f}")
-    for p in procs.values():
-        assert p.stdin is not None
-        p.stdin.close()
-        p.wait()
+    close_workers(procs.values())
 
 
 if __name__ == "__main__":
