@@ -30,7 +30,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from .._blas import single_threaded
+from .._blas import in_callers_limit, single_threaded
 from .._threads import Job
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
@@ -803,17 +803,35 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
     bases: list[LsfdBasis] = []
     model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn, basis_out=bases)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
-    # one BLAS thread throughout: the ML's second thread (large segments) uses the other core
+    # one BLAS thread throughout: the threads below use the other core
     with single_threaded():
         # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
         staged = _local_ml_staged(data, model, syn)
-        if np.any(staged.poles != model.poles):
-            bases = []
-            model = _lsfd_checked(data, staged.poles, residuals=residuals, basis_out=bases)
-        if test is not None:
-            test[1].append(_misfit(data, model, test[0]))
+        # the poles are final: the LSFD model at them and its completeness test need nothing else of the
+        # ML, so a second thread forms them while this one joins the ML's uncertainties (pure tasks,
+        # joined here: the same numbers whichever thread runs what, and when)
+        side = ThreadPoolExecutor(1)
+        at_ml = Job(partial(_at_poles, data, model, bases[0] if bases else None, staged.poles, residuals,
+                            None if test is None else test[0]), side)
+        side.shutdown(wait=False)  # its thread ends once the task is done (or taken back)
         ml = staged.finish()
-    return model, ml, polymax, (bases[0] if bases else None)
+        model, basis, tested = at_ml.result()
+    if test is not None and tested is not None:
+        test[1].append(tested)
+    return model, ml, polymax, basis
+
+
+def _at_poles(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],
+              residuals: bool, cc: CompletenessCriteria | None) -> tuple[ModalModel, LsfdBasis | None, MisfitTest | None]:
+    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles) and,
+    with ``cc``, its completeness test; a task of :func:`_fit_modes` that a second thread may run
+    inside the caller's BLAS limit."""
+    with in_callers_limit():
+        if np.any(poles != model.poles):
+            bases: list[LsfdBasis] = []
+            model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases)
+            basis = bases[0] if bases else None
+        return model, basis, None if cc is None else _misfit(data, model, cc)
 
 
 def _fit_tested(data: FRFData, modes: Sequence[SelectedMode], residuals: bool, cc: CompletenessCriteria

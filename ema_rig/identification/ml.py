@@ -700,16 +700,19 @@ def local_ml_staged(
             whole: Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
             if free.any() and n_cut > 0:
                 whole = Job(partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
-                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big)
+                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big,
+                            later=True)
             # the poles are final here (the next segments take them as their fixed neighbours); the
             # scores, covariances and warnings of the segment follow from them alone, so a second
-            # thread may form them while the next segment is fitted (joined in segment order below)
+            # thread may form them while the next segment is fitted (joined in segment order in
+            # finish; on small segments they are formed there, after the caller used the poles)
             lam = seg.poles(theta)
             for j, r in enumerate(rs):
                 poles_out[r] = lam[j]
                 kind[r] = "held" if held[j] else "ml"
             tail = Job(partial(_segment_tail, seg, theta, last, held, why, [fn0[r] for r in rs],
-                                (float(freq[i0]), float(freq[i1 - 1])), n_chan, nb, rho, nv, criteria), big)
+                                (float(freq[i0]), float(freq[i1 - 1])), n_chan, nb, rho, nv, criteria), big,
+                       later=True)
             n_eval += 1
             pending.append((rs, tail, whole))
     finally:
