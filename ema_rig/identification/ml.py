@@ -518,10 +518,13 @@ def window_kernel(window: object, segment: object, df: float) -> tuple[NDArray[n
     return 2 * np.pi * df * b, k / np.sum(k)
 
 
-def _separable(var: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Best separable approximation ``var_ci ~ s_c v_i`` in the log domain: (s (C,), v (n,))."""
+def _separable(var: NDArray[np.float64], lines: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Best separable approximation ``var_ci ~ s_c v_i`` in the log domain: (s (C,), v (n,)); with
+    ``lines=False`` only ``s`` (the line profile v all ones: equal line weights)."""
     lv = np.log(np.maximum(var, 1e-300))
     a = np.mean(lv, axis=1)
+    if not lines:
+        return np.exp(a), np.ones(var.shape[1])
     b = np.mean(lv - a[:, None], axis=0)
     return np.exp(a), np.exp(b)
 
@@ -648,9 +651,7 @@ def local_ml_staged(
                                               "estimate; its uncertainty is unknown (NaN)" for r in rs])
                 pending.append((rs, Job(few, None), None))
                 continue
-            s_c, v_i = _separable(var[:, i0:i1])
-            if not weighted_lines:
-                v_i = np.ones_like(v_i)
+            s_c, v_i = _separable(var[:, i0:i1], weighted_lines)
             w = 1.0 / np.sqrt(v_i)
             ww = np.concatenate([w, w])[:, None]
             yw = _stack(y[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :]
