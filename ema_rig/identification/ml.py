@@ -575,13 +575,8 @@ class StagedML:
     finish: Callable[[], LocalML]
 
 
-def local_ml_staged(
-    data: FRFData,
-    poles: NDArray[np.complex128],
-    model_frf: NDArray[np.complex128],
-    *,
-    criteria: MLCriteria = ML_CRITERIA,
-) -> StagedML:
+def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDArray[np.complex128], *,
+                    criteria: MLCriteria = ML_CRITERIA) -> StagedML:
     """:func:`local_ml` with its poles before its uncertainties (same parameters, same numbers).
 
     The poles are final once every segment is fitted; the segments' scores, covariances and
