@@ -811,8 +811,14 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
         # ML, so a second thread forms them while this one joins the ML's uncertainties (pure tasks,
         # joined here: the same numbers whichever thread runs what, and when)
         side = ThreadPoolExecutor(1)
-        at_ml = Job(partial(_at_poles, data, model, bases[0] if bases else None, staged.poles, residuals,
-                            None if test is None else test[0]), side)
+        err = np.geterr()  # the caller's floating-point error handling holds in the thread too
+        start, start_basis = model, (bases[0] if bases else None)
+
+        def at_poles() -> tuple[ModalModel, LsfdBasis | None, MisfitTest | None]:
+            with in_callers_limit(), np.errstate(**err):
+                return _at_poles(data, start, start_basis, staged.poles, residuals, None if test is None else test[0])
+
+        at_ml = Job(at_poles, side)
         side.shutdown(wait=False)  # its thread ends once the task is done (or taken back)
         ml = staged.finish()
         model, basis, tested = at_ml.result()
@@ -824,14 +830,12 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
 def _at_poles(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],
               residuals: bool, cc: CompletenessCriteria | None) -> tuple[ModalModel, LsfdBasis | None, MisfitTest | None]:
     """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles) and,
-    with ``cc``, its completeness test; a task of :func:`_fit_modes` that a second thread may run
-    inside the caller's BLAS limit."""
-    with in_callers_limit():
-        if np.any(poles != model.poles):
-            bases: list[LsfdBasis] = []
-            model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases)
-            basis = bases[0] if bases else None
-        return model, basis, None if cc is None else _misfit(data, model, cc)
+    with ``cc``, its completeness test (the task :func:`_fit_modes` hands to a second thread)."""
+    if np.any(poles != model.poles):
+        bases: list[LsfdBasis] = []
+        model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases)
+        basis = bases[0] if bases else None
+    return model, basis, None if cc is None else _misfit(data, model, cc)
 
 
 def _fit_tested(data: FRFData, modes: Sequence[SelectedMode], residuals: bool, cc: CompletenessCriteria
