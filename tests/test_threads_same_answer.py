@@ -100,7 +100,7 @@ def test_a_job_the_second_thread_has_not_started_runs_in_the_caller():
 def test_identify_with_its_second_threads_is_the_one_thread_identification(monkeypatch: pytest.MonkeyPatch):
     """identify runs the LSFD at the ML poles and the completeness test in a second thread while the
     caller joins the ML's scores, covariances and whole-basis fits (themselves in the ML's second
-    thread here: threshold 1 equation). Oracle: the same call with every task run by the caller, in
+    thread here: thresholds 1 equation, 1 value). Oracle: the same call with every task run by the caller, in
     the order it is joined (no pool; the thresholds above the data), to the bit."""
     import ema_rig._threads as threads
     import ema_rig.identification.identification as idm
@@ -110,6 +110,7 @@ def test_identify_with_its_second_threads_is_the_one_thread_identification(monke
 
     data, _, _ = _frf(8, 5)
     monkeypatch.setattr(ml, "_THREAD_MIN_EQUATIONS", 1)
+    monkeypatch.setattr(idm, "_AT_POLES_THREAD_MIN_VALUES", 1)
     two = identify(data)
     # the ML's model-form part ran (its whole-basis fit), so both of its deferred tasks are compared
     assert two.residual_test is not None and two.natural_freq.size == 3
