@@ -583,6 +583,21 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
     whole-basis fits follow from them alone (on large segments in a second thread). The caller
     may use the poles (e.g. fit and test the model at them) while that work finishes, then joins
     it by :attr:`StagedML.finish`.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs already cut to the band, shape (n_out, n_in, n_freq) (as :func:`local_ml`).
+    poles : ndarray, shape (n_modes,)
+        Start poles [rad/s], one of each conjugate pair, ``Im > 0``.
+    model_frf : ndarray, shape (n_out, n_in, n_freq)
+        The start model synthesised on the same lines.
+    criteria : MLCriteria, optional
+        Window, block and work limits (:data:`ML_CRITERIA`).
+
+    Returns
+    -------
+    StagedML
     """
     lam0 = np.asarray(poles, dtype=np.complex128).ravel()
     nm = lam0.size
