@@ -11,8 +11,9 @@ the machine's other load:
 
 The counters take the CPU time of the process: a stage that runs while another thread works (the
 noise fit's blocks, the local ML's second thread, the completeness test's segments, the data's
-findings) is charged that thread's time too. ``--one-thread`` switches those threads off (their
-work-size thresholds raised above the data; the answers are the same to the bit) so that each
+findings, the LSFD at the ML poles with its completeness test beside the ML's join) is charged that
+thread's time too. ``--one-thread`` switches those threads off (their work-size thresholds raised
+above the data, identify's own tasks run when created; the answers are the same to the bit) so that each
 stage's own work is what its counter shows.
 """
 
@@ -32,7 +33,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parent.parent
 
 STAGES = {
-    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_misfit", "_lsfd_checked",
+    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_local_ml_staged", "_at_poles", "_misfit", "_lsfd_checked",
                                               "_reported_model", "judge_clusters", "stabilize", "cluster_poles",
                                               "diagnose_frf", "_split", "_parsimonious", "_skirt_warnings"],
     "ema_rig.identification.noise": ["fit_noise_model"],
@@ -86,6 +87,11 @@ def main() -> None:
         noise, ml = sys.modules["ema_rig.identification.noise"], sys.modules["ema_rig.identification.ml"]
         noise._NOISE_THREADS = 1
         noise._MISFIT_THREAD_MIN_VALUES = ml._THREAD_MIN_EQUATIONS = ident._DIAGNOSE_THREAD_MIN_LINES = 10**15
+        from ema_rig._threads import Job
+
+        # identify's own second thread (the LSFD at the ML poles and the completeness test beside the
+        # ML's join): run by the caller when it is created
+        ident.Job = lambda task, pool, **kw: Job(task, None, **kw)
     if args.case == "256":
         from bench_refine import synthetic_256
 

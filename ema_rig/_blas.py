@@ -48,4 +48,17 @@ def single_threaded() -> Iterator[None]:
         _open.depth = depth
 
 
-__all__ = ["single_threaded"]
+@contextmanager
+def in_callers_limit() -> Iterator[None]:
+    """For a task another thread runs inside the caller's :func:`single_threaded` block (joined before
+    the block ends): the blocks the task opens leave the limit to the caller's, so the limit is set and
+    restored by one thread only (a restore from the second thread after the caller's would keep it)."""
+    depth = getattr(_open, "depth", 0)
+    _open.depth = depth + 1
+    try:
+        yield
+    finally:
+        _open.depth = depth
+
+
+__all__ = ["in_callers_limit", "single_threaded"]

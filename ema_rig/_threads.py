@@ -15,7 +15,7 @@ T = TypeVar("T")
 
 
 class Job(Generic[T]):
-    """A task that a second thread may run (``pool``; None: run here, now).
+    """A task that a second thread may run (``pool``; None: run here, now, or with ``later`` when asked).
 
     :meth:`result` runs it in the calling thread when the second thread has not started it yet,
     so neither thread idles while the other has queued work. A task depends on its inputs only
@@ -23,16 +23,16 @@ class Job(Generic[T]):
     it, and when; the caller joins the results in a fixed order.
     """
 
-    def __init__(self, task: Callable[[], T], pool: ThreadPoolExecutor | None) -> None:
+    def __init__(self, task: Callable[[], T], pool: ThreadPoolExecutor | None, *, later: bool = False) -> None:
         self._task = task
         self._future: Future[T] | None = pool.submit(task) if pool is not None else None
-        self._value: tuple[T] | None = None if pool is not None else (task(),)
+        self._value: tuple[T] | None = None if pool is not None or later else (task(),)
 
     def result(self) -> T:
         """The task's result (waits for the second thread when it runs it)."""
         if self._value is None:
-            assert self._future is not None
-            self._value = (self._task(),) if self._future.cancel() else (self._future.result(),)
+            self._value = ((self._task(),) if self._future is None or self._future.cancel()
+                           else (self._future.result(),))
         return self._value[0]
 
 

@@ -24,7 +24,7 @@ def test_dam0_ml_estimate_is_continuous_at_rounding_level(real_frf_dir: Path, mo
     from ema_rig.io.uff import read_uff58
 
     seen: dict[str, object] = {}
-    real = idm.local_ml
+    real = idm.local_ml_staged  # identify's entry to the local ML (its poles first, then the rest)
 
     def spy(data, poles, model_frf, **kw):  # type: ignore[no-untyped-def]
         # the ML of the accepted set over the whole band: the call with the most lines (the
@@ -33,7 +33,7 @@ def test_dam0_ml_estimate_is_continuous_at_rounding_level(real_frf_dir: Path, mo
             seen.update(data=data, poles=poles, model_frf=model_frf)
         return real(data, poles, model_frf, **kw)
 
-    monkeypatch.setattr(idm, "local_ml", spy)
+    monkeypatch.setattr(idm, "local_ml_staged", spy)
     identify(read_uff58(real_frf_dir / "dam0.unv"), band=(1.0, 12.0))
     data, poles, syn = seen["data"], seen["poles"], seen["model_frf"]
     a = local_ml(data, poles, syn)  # type: ignore[arg-type]

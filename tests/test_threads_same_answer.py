@@ -95,3 +95,38 @@ def test_a_job_the_second_thread_has_not_started_runs_in_the_caller():
         pool.shutdown(wait=True)  # the worker has run it
         assert job.result() != threading.get_ident()
     assert Job(threading.get_ident, None).result() == threading.get_ident()  # no pool: run at once
+
+
+def test_identify_with_its_second_threads_is_the_one_thread_identification(monkeypatch: pytest.MonkeyPatch):
+    """identify runs the LSFD at the ML poles and the completeness test in a second thread while the
+    caller joins the ML's scores, covariances and whole-basis fits (themselves in the ML's second
+    thread here: thresholds 1 equation, 1 value). Oracle: the same call with every task run by the caller, in
+    the order it is joined (no pool; the thresholds above the data), to the bit."""
+    import ema_rig._threads as threads
+    import ema_rig.identification.identification as idm
+    import ema_rig.identification.ml as ml
+    import ema_rig.identification.noise as noise
+    from ema_rig.identification import identify
+
+    data, _, _ = _frf(8, 5)
+    monkeypatch.setattr(ml, "_THREAD_MIN_EQUATIONS", 1)
+    monkeypatch.setattr(idm, "_AT_POLES_THREAD_MIN_VALUES", 1)
+    two = identify(data)
+    # the ML's model-form part ran (its whole-basis fit), so both of its deferred tasks are compared
+    assert two.residual_test is not None and two.natural_freq.size == 3
+    monkeypatch.setattr(ml, "_THREAD_MIN_EQUATIONS", 10**12)
+    monkeypatch.setattr(noise, "_MISFIT_THREAD_MIN_VALUES", 10**12)
+    monkeypatch.setattr(noise, "_NOISE_THREADS", 1)
+
+    def here(task, pool, *, later=False):  # type: ignore[no-untyped-def]
+        return threads.Job(task, None, later=later)
+
+    monkeypatch.setattr(idm, "Job", here)
+    one = identify(data)
+    for name in ("natural_freq_std", "damping_ratio_std", "natural_freq_spread", "damping_ratio_spread", "std_kind",
+                 "warnings", "notes"):
+        assert _same(getattr(two, name), getattr(one, name)), name
+    for name in ("poles", "residues", "lower_residual", "upper_residual", "fit_error"):
+        assert _same(getattr(two.modes, name), getattr(one.modes, name)), name
+    for name in ("ratio", "p_value", "failed", "variance"):
+        assert _same(getattr(two.residual_test, name), getattr(one.residual_test, name)), name

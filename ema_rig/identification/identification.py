@@ -30,7 +30,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from .._blas import single_threaded
+from .._blas import in_callers_limit, single_threaded
 from .._threads import Job
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
@@ -47,7 +47,7 @@ from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted
 from .mac import mac
-from .ml import LocalML, local_ml
+from .ml import LocalML, StagedML, local_ml_staged
 from .modal import ModalModel
 from .noise import MisfitTest, segment_misfit
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
@@ -789,20 +789,70 @@ def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
     return list(unique.values())
 
 
-def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool) -> _Fitted:
+def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
+               test: tuple[CompletenessCriteria, list[MisfitTest]] | None = None) -> _Fitted:
     """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)
-    and the basis of the returned LSFD model (for the weighted residues at its poles)."""
+    and the basis of the returned LSFD model (for the weighted residues at its poles).
+
+    With ``test`` (criteria, a list) the completeness test of the returned model (:func:`_misfit`) is
+    appended to the list: it needs the ML poles only, so it is formed with the LSFD at them while a
+    second thread may still form the ML's scores and covariances (the same numbers as after it).
+    """
     syn = np.empty_like(data.frf, dtype=np.complex128)  # the LSFD model's FRFs on the data's lines
     # data checked by identify
     bases: list[LsfdBasis] = []
     model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn, basis_out=bases)
-    # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
-    ml = _local_ml(data, model, syn)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
-    if np.any(ml.poles != model.poles):
-        bases = []
-        model = _lsfd_checked(data, ml.poles, residuals=residuals, basis_out=bases)
-    return model, ml, polymax, (bases[0] if bases else None)
+    # one BLAS thread throughout: the threads below use the other core
+    with single_threaded():
+        # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
+        staged = _local_ml_staged(data, model, syn)
+        # the poles are final: the LSFD model at them and its completeness test need nothing else of the
+        # ML, so a second thread forms them while this one joins the ML's uncertainties (pure tasks,
+        # joined here: the same numbers whichever thread runs what, and when)
+        side = ThreadPoolExecutor(1) if data.frf.size >= _AT_POLES_THREAD_MIN_VALUES else None
+        err = np.geterr()  # the caller's floating-point error handling holds in the thread too
+        start, start_basis = model, (bases[0] if bases else None)
+
+        def at_poles() -> tuple[ModalModel, LsfdBasis | None, MisfitTest | None]:
+            with in_callers_limit(), np.errstate(**err):
+                return _at_poles(data, start, start_basis, staged.poles, residuals, None if test is None else test[0])
+
+        at_ml = Job(at_poles, side)
+        if side is not None:
+            side.shutdown(wait=False)  # its thread ends once the task is done (or taken back)
+        ml = staged.finish()
+        model, basis, tested = at_ml.result()
+    if test is not None and tested is not None:
+        test[1].append(tested)
+    return model, ml, polymax, basis
+
+
+#: FRF values (channels x lines) from which :func:`_fit_modes` forms the LSFD at the ML poles and the
+#: completeness test in a second thread while it joins the ML's uncertainties. Below (the bundled rig file:
+#: 13 600 values) both sides are small numpy calls that hold the interpreter lock, so the thread only adds
+#: hand-offs (measured: rig file 0.055 -> 0.059 s wall, same tasks in the caller); the same threshold as
+#: the completeness test's own two threads. A work-size rule: the same on any machine.
+_AT_POLES_THREAD_MIN_VALUES = 100_000
+
+
+def _at_poles(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],
+              residuals: bool, cc: CompletenessCriteria | None) -> tuple[ModalModel, LsfdBasis | None, MisfitTest | None]:
+    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles) and,
+    with ``cc``, its completeness test (the task :func:`_fit_modes` hands to a second thread)."""
+    if np.any(poles != model.poles):
+        bases: list[LsfdBasis] = []
+        model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases)
+        basis = bases[0] if bases else None
+    return model, basis, None if cc is None else _misfit(data, model, cc)
+
+
+def _fit_tested(data: FRFData, modes: Sequence[SelectedMode], residuals: bool, cc: CompletenessCriteria
+                ) -> tuple[_Fitted, MisfitTest]:
+    """:func:`_fit_modes` and the completeness test of its model (:func:`_misfit`), formed alongside."""
+    out: list[MisfitTest] = []
+    fitted = _fit_modes(data, modes, residuals, (cc, out))
+    return fitted, out[0]
 
 
 def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, cc: CompletenessCriteria,
@@ -850,8 +900,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     """
     cc = crit.completeness
     modes = _unique_modes(modes)
-    fitted = _fit_modes(data, modes, residuals)
-    test = _misfit(data, fitted[0], cc)
+    fitted, test = _fit_tested(data, modes, residuals, cc)
     added: list[float] = []
     if test.passed:
         return _parsimonious(data, _Completed(modes, candidates, fitted, test, ()), list(fitted[0].poles),
@@ -1184,8 +1233,8 @@ def _one_line(data: FRFData, done: _Completed, residuals: bool, crit: Identifica
     if not drop:
         return done
     modes = [m for m in done.modes if m.pole not in drop]
-    fitted = _fit_modes(data, modes, residuals)
-    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
+    fitted, test = _fit_tested(data, modes, residuals, cc)
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=test,
                    added=tuple(a for a in done.added if not any(abs(a - cands[by_pole[p]].natural_freq) < 1e-9
                                                                   for p in drop)))
 
@@ -1296,11 +1345,16 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
 def _local_ml(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> LocalML:
     """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band);
     ``syn`` the model's FRFs on the data's lines when the fit gave them (``_lsfd_checked(model_out=...)``)."""
+    with single_threaded():  # many small products: threads only add hand-off time
+        return _local_ml_staged(data, model, syn).finish()
+
+
+def _local_ml_staged(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> StagedML:
+    """:func:`~ema_rig.identification.ml.local_ml_staged` started as :func:`_local_ml` (call it on one BLAS thread)."""
     if syn is None:
         syn = model.synthesize(data.freq).frf
     syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz
-    with single_threaded():  # many small products: threads only add hand-off time
-        return local_ml(data, model.poles, syn)
+    return local_ml_staged(data, model.poles, syn)
 
 
 def _refined(ident: Identification, data: FRFData) -> Identification:

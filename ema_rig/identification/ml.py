@@ -79,8 +79,8 @@ Harris, Proc. IEEE 66 (1978) (window main lobes); Golub & Van Loan, *Matrix Comp
 
 from __future__ import annotations
 
-import contextlib
 import copy
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
@@ -518,10 +518,13 @@ def window_kernel(window: object, segment: object, df: float) -> tuple[NDArray[n
     return 2 * np.pi * df * b, k / np.sum(k)
 
 
-def _separable(var: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Best separable approximation ``var_ci ~ s_c v_i`` in the log domain: (s (C,), v (n,))."""
+def _separable(var: NDArray[np.float64], lines: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Best separable approximation ``var_ci ~ s_c v_i`` in the log domain: (s (C,), v (n,)); with
+    ``lines=False`` only ``s`` (the line profile v all ones: equal line weights)."""
     lv = np.log(np.maximum(var, 1e-300))
     a = np.mean(lv, axis=1)
+    if not lines:
+        return np.exp(a), np.ones(var.shape[1])
     b = np.mean(lv - a[:, None], axis=0)
     return np.exp(a), np.exp(b)
 
@@ -551,6 +554,50 @@ def local_ml(
     Returns
     -------
     LocalML
+    """
+    return local_ml_staged(data, poles, model_frf, criteria=criteria).finish()
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class StagedML:
+    """:func:`local_ml` in two stages (:func:`local_ml_staged`): the poles, then the rest.
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n_modes,)
+        The estimated poles [rad/s] (final: those of :meth:`finish`'s result, the same numbers).
+    finish : callable
+        Joins the segments' scores, covariances and model-form fits (a second thread may still be
+        forming them) and returns the :class:`LocalML`. Call it once.
+    """
+
+    poles: NDArray[np.complex128]
+    finish: Callable[[], LocalML]
+
+
+def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDArray[np.complex128], *,
+                    criteria: MLCriteria = ML_CRITERIA) -> StagedML:
+    """:func:`local_ml` with its poles before its uncertainties (same parameters, same numbers).
+
+    The poles are final once every segment is fitted; the segments' scores, covariances and
+    whole-basis fits follow from them alone (on large segments in a second thread). The caller
+    may use the poles (e.g. fit and test the model at them) while that work finishes, then joins
+    it by :attr:`StagedML.finish`.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs already cut to the band, shape (n_out, n_in, n_freq) (as :func:`local_ml`).
+    poles : ndarray, shape (n_modes,)
+        Start poles [rad/s], one of each conjugate pair, ``Im > 0``.
+    model_frf : ndarray, shape (n_out, n_in, n_freq)
+        The start model synthesised on the same lines.
+    criteria : MLCriteria, optional
+        Window, block and work limits (:data:`ML_CRITERIA`).
+
+    Returns
+    -------
+    StagedML
     """
     lam0 = np.asarray(poles, dtype=np.complex128).ravel()
     nm = lam0.size
@@ -593,7 +640,8 @@ def local_ml(
     # (numpy releases the GIL in BLAS and ufunc loops); a work-size rule, so the same on any machine
     two = any(2 * (i1 - i0) * n_chan >= _THREAD_MIN_EQUATIONS for i0, i1, _ in windows)
     pending: list[tuple[list[int], Job[_Tail], Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None]] = []
-    with ThreadPoolExecutor(max_workers=1) if two else contextlib.nullcontext() as pool:
+    pool = ThreadPoolExecutor(max_workers=1) if two else None
+    try:
         for i0, i1, rs in windows:
             rs_arr = np.asarray(rs)
             m = rs_arr.size
@@ -613,9 +661,7 @@ def local_ml(
                                               "estimate; its uncertainty is unknown (NaN)" for r in rs])
                 pending.append((rs, Job(few, None), None))
                 continue
-            s_c, v_i = _separable(var[:, i0:i1])
-            if not weighted_lines:
-                v_i = np.ones_like(v_i)
+            s_c, v_i = _separable(var[:, i0:i1], weighted_lines)
             w = 1.0 / np.sqrt(v_i)
             ww = np.concatenate([w, w])[:, None]
             yw = _stack(y[:, i0:i1].T) * ww / np.sqrt(s_c)[None, :]
@@ -665,22 +711,32 @@ def local_ml(
             whole: Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
             if free.any() and n_cut > 0:
                 whole = Job(partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
-                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big)
+                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big,
+                            later=True)
             # the poles are final here (the next segments take them as their fixed neighbours); the
             # scores, covariances and warnings of the segment follow from them alone, so a second
-            # thread may form them while the next segment is fitted (joined in segment order below)
+            # thread may form them while the next segment is fitted (joined in segment order in
+            # finish; on small segments they are formed there, after the caller used the poles)
             lam = seg.poles(theta)
             for j, r in enumerate(rs):
                 poles_out[r] = lam[j]
                 kind[r] = "held" if held[j] else "ml"
             tail = Job(partial(_segment_tail, seg, theta, last, held, why, [fn0[r] for r in rs],
-                                (float(freq[i0]), float(freq[i1 - 1])), n_chan, nb, rho, nv, criteria), big)
+                                (float(freq[i0]), float(freq[i1 - 1])), n_chan, nb, rho, nv, criteria), big,
+                       later=True)
             n_eval += 1
             pending.append((rs, tail, whole))
-        # ---- the model-form part of each segment (its whole-basis fit), in segment order ----
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=False)  # its thread ends once the queued work is done (or taken back)
+    n_fit = n_eval
+
+    def finish() -> LocalML:
+        n_eval = n_fit
+        # ---- each segment's scores and covariances, and its whole-basis fit, in segment order ----
         for rs, tail, whole in pending:
             seg_out = tail.result()
-            warns += seg_out.warnings
+            warns.extend(seg_out.warnings)
             chi_out[rs] = seg_out.chi2_red
             if seg_out.cov is not None:
                 cov_out[rs], both[rs] = seg_out.cov, seg_out.stds
@@ -703,21 +759,23 @@ def local_ml(
                     basis[r] = np.sqrt(b2)
                     shrink = float(np.sqrt(b2[0] / d2[0])) if d2[0] > 0 else 0.0
                     cov_out[r] = cov_out[r] + np.outer(dv, dv) * shrink**2
-    fstd = np.full(nm, np.nan)
-    zstd = np.full(nm, np.nan)
-    for r in range(nm):
-        if np.all(np.isfinite(both[r])):
-            # the larger of the robust and the (correlation-aware) Fisher uncertainty, per quantity
-            fstd[r], zstd[r] = max(both[r, 0], both[r, 2]), max(both[r, 1], both[r, 3])
-            # plus the model-form part of the background basis, in quadrature
-            bf, bz = np.nan_to_num(basis[r])
-            fstd[r], zstd[r] = float(np.hypot(fstd[r], bf)), float(np.hypot(zstd[r], bz))
-    # the float resolution of the fit is the smallest meaningful uncertainty: never 0
-    fn = np.abs(poles_out) / (2 * np.pi)
-    fstd = np.where(np.isfinite(fstd), np.maximum(fstd, 1e-10 * fn), fstd)
-    zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
-    return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
-                   both[:, :2].copy(), both[:, 2:].copy(), basis)
+        fstd = np.full(nm, np.nan)
+        zstd = np.full(nm, np.nan)
+        for r in range(nm):
+            if np.all(np.isfinite(both[r])):
+                # the larger of the robust and the (correlation-aware) Fisher uncertainty, per quantity
+                fstd[r], zstd[r] = max(both[r, 0], both[r, 2]), max(both[r, 1], both[r, 3])
+                # plus the model-form part of the background basis, in quadrature
+                bf, bz = np.nan_to_num(basis[r])
+                fstd[r], zstd[r] = float(np.hypot(fstd[r], bf)), float(np.hypot(zstd[r], bz))
+        # the float resolution of the fit is the smallest meaningful uncertainty: never 0
+        fn = np.abs(poles_out) / (2 * np.pi)
+        fstd = np.where(np.isfinite(fstd), np.maximum(fstd, 1e-10 * fn), fstd)
+        zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
+        return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
+                       both[:, :2].copy(), both[:, 2:].copy(), basis)
+
+    return StagedML(poles_out.copy(), finish)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -893,4 +951,4 @@ def _check(lam: NDArray[np.complex128], lam0: NDArray[np.complex128], free: NDAr
     return bad
 
 
-__all__ = ["ML_CRITERIA", "LocalML", "MLCriteria", "local_ml"]
+__all__ = ["ML_CRITERIA", "LocalML", "MLCriteria", "StagedML", "local_ml", "local_ml_staged"]
