@@ -798,12 +798,12 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
                 and 0 < c.damping_ratio <= crit.judge.max_damping
                 and c.mode.n_poles >= crit.judge.min_poles and "outside the band" not in c.reason]
         pool.sort(key=lambda i: (-cands[i].mode.n_poles, cands[i].natural_freq))
-        pool = pool[: 2 * cc.max_added]
-        # then the features the ML found in the segment, the strongest (largest local F) first
-        pool += _by_local_f(data, model_poles, cands, [n_clusters + j for j, c in enumerate(feats)
-                                                       if lo <= c.natural_freq <= hi], test.variance, cc)[:1]
+        # then the feature the ML found in the segment with the largest local F
+        pool_f = _by_local_f(data, model_poles, cands, [n_clusters + j for j, c in enumerate(feats)
+                                                        if lo <= c.natural_freq <= hi], test.variance, cc)[:1]
+        pool += pool_f  # every candidate of the segment is a look of the local tests (Bonferroni)
         n_added = 0
-        for i in pool:
+        for i in pool[: 2 * cc.max_added] + [i for i in pool_f if i not in pool[: 2 * cc.max_added]]:
             if n_added >= cc.max_added:
                 break
             c = cands[i]
