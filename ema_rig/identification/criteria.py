@@ -338,6 +338,17 @@ class CompletenessCriteria(_Sourced):
         line nearest to it (default True): a pole can zero any one line, so a misfit of one line (a
         glitch, leakage, a distorted peak) is no mode; a real one shows on the lines of its skirt as
         well, however light.
+    ml_features : bool
+        Where the local ML moved a mode's pole inside its lines further than ``MLCriteria.move_hbw``
+        (and held it at its PolyMAX pole), the place it moved to is a candidate missing mode (the
+        strongest by its local F per segment), decided like any other by the local F test (also
+        without its peak line). In a segment the band-edge rule puts down to a mode beyond the edge,
+        such a feature inside the band is tested too: the ML placed the pole inside the band, not
+        beyond it. Default False: on ufffiles_frf 79.95-719.55 Hz it adds the 713.7 Hz mode that
+        0-799.5 Hz has (every held mode of the band then ML-estimated, no poor-fit warning, the
+        band-to-band changes of the modes smaller), but the smaller sigma of that band leaves the
+        changes of 11 of 59 modes outside their combined 2 sigma (98 % -> 81 % inside), and the
+        one-band 704.9 Hz mode stays (benchmarks/results/study_real_bands_ml_features.txt).
     """
 
     p_value: float = _src(1e-3, "chi-square test p = 0.001 family-wise (Bonferroni), dof = 2 lines x channels - "
@@ -364,6 +375,10 @@ class CompletenessCriteria(_Sourced):
     peak_line_out: bool = _src(True, "a jackknife of the peak line (Efron & Tibshirani 1993, ch. 11): ufffiles_frf 94.99 Hz "
                                "(zeta 0.19 %, beside the 96.1 Hz mode) zeroes the 95.0 Hz line alone; vt_case1's 34.06 Hz "
                                "(zeta 0.02 %, half-power band below a line) stands on its skirt (benchmarks/study_real_bands.py)")
+    ml_features: bool = _src(False, "off: on ufffiles_frf 79.95-719.55 Hz it adds the 713.7 Hz mode of 0-799.5 Hz, but frequency "
+                             "changes inside their 2 sigma fall from 58/59 to 48/59 and 704.9 Hz stays one-band "
+                             "(benchmarks/study_real_bands.py --ml-features); when on, the candidate is where the data's ML "
+                             "moved a pole beyond MLCriteria.move_hbw ('another feature of the data'), not any place")
 
 
 @dataclass(frozen=True, slots=True)

@@ -129,6 +129,10 @@ class LocalML:
         segment's cut and whole background basis (0 where the cut dropped nothing, NaN where the
         whole-basis fit could not hold the mode), included in ``natural_freq_std`` /
         ``damping_ratio_std``.
+    moved_to : ndarray, shape (n_modes,), complex, optional
+        Per held mode, the pole [rad/s] the fit had moved it to inside its lines, further than
+        ``MLCriteria.move_hbw`` (another feature of the data: a candidate of a missing mode);
+        NaN for every other mode.
     """
 
     poles: NDArray[np.complex128]
@@ -142,6 +146,7 @@ class LocalML:
     robust_std: NDArray[np.float64] | None = None
     fisher_std: NDArray[np.float64] | None = None
     basis_std: NDArray[np.float64] | None = None
+    moved_to: NDArray[np.complex128] | None = None
 
 
 def _qr(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -586,6 +591,7 @@ def local_ml(
     chi_out = np.full(nm, np.nan)
     both = np.full((nm, 4), np.nan)  # robust (f, zeta) and Fisher (f, zeta) standard deviations
     basis = np.zeros((nm, 2))  # model-form part (f, zeta): cut vs whole background basis
+    went = np.full(nm, np.nan + 0j)  # where the fit moved a held pole inside its lines (another feature)
     n_eval = 0
     jw_all = np.asarray(2j * np.pi * freq, dtype=np.complex128)
     windows = _windows(fn0, hb0, freq, criteria)
@@ -647,6 +653,8 @@ def local_ml(
                     continue
                 worst = max(bad, key=lambda j: bad[j][0])
                 why[worst] = bad[worst][1]
+                if 1.0 < bad[worst][0] < float("inf"):  # moved inside its lines beyond its half-bandwidth
+                    went[rs_arr[worst]] = seg.poles(theta)[worst]
                 free[worst] = False
                 theta = th0
             else:
@@ -717,7 +725,8 @@ def local_ml(
     fstd = np.where(np.isfinite(fstd), np.maximum(fstd, 1e-10 * fn), fstd)
     zstd = np.where(np.isfinite(zstd), np.maximum(zstd, 1e-10), zstd)
     return LocalML(poles_out, cov_out, fstd, zstd, tuple(kind), chi_out, tuple(warns), n_eval,
-                   both[:, :2].copy(), both[:, 2:].copy(), basis)
+                   both[:, :2].copy(), both[:, 2:].copy(), basis,
+                   np.where(np.array([k == "held" for k in kind]), went, np.nan + 0j))
 
 
 @dataclass(frozen=True, slots=True, eq=False)
