@@ -8,8 +8,8 @@ listed. Every reference mode of the data's README (a peer's or a published value
 away from its edges, must be found exactly once (within 1 %). Files: ``real-frf/dam0.unv``, ``real-frf/vt_case1_full.uff``, ``uff-corpus/ufffiles_frf.unv``
 under ``$EMA_RIG_SHARED`` (default ``/work/shared``).
 
-Run: ``python benchmarks/study_real_bands.py`` (``--ml-features``: with
-``CompletenessCriteria(ml_features=True)``, the opt-in candidates at the features the local ML found).
+Run: ``python benchmarks/study_real_bands.py`` (``--no-ml-features``: with
+``CompletenessCriteria(ml_features=False)``, without the candidates at the features the local ML found).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def main() -> None:
     from ema_rig.identification.criteria import CompletenessCriteria, IdentificationCriteria
     from ema_rig.io.uff import read_uff58
 
-    crit = IdentificationCriteria(completeness=CompletenessCriteria(ml_features="--ml-features" in sys.argv[1:]))
+    crit = IdentificationCriteria(completeness=CompletenessCriteria(ml_features="--no-ml-features" not in sys.argv[1:]))
     rel_changes: list[float] = []
 
     n_f = n_f_ok = n_z_ok = 0

@@ -763,8 +763,6 @@ def _segment_tail(seg: _Segment, theta: NDArray[np.float64], last: dict[str, NDA
     full = seg.evaluate(theta, scores=True, rho=rho, noise_var=nv, prev=last)
     hess = np.asarray(full["hess"])
     sc = np.asarray(full["line_scores"])  # (2m, n)
-    blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)  # (2m, G)
-    g = blocks.shape[1]
     n_eq, n_lin = 2 * n * n_chan, seg.L * n_chan
     s2 = float(full["cost"]) / max(n_eq - n_lin - 2 * m, 1)
     # is the segment's residual consistent with the noise estimate? (chi^2 test with its dof)
@@ -781,8 +779,8 @@ def _segment_tail(seg: _Segment, theta: NDArray[np.float64], last: dict[str, NDA
                 f"({lines[0]:.6g}..{lines[1]:.6g} Hz: residual {ratio:.3g} times the noise estimate, "
                 f"chi2 test p = {p:.1g} with {dof_t} dof): a mode may be missing there; the ± include "
                 "the misfit (robust covariance)")
-    # robust meat from the leverage-corrected scores, small-sample factor G / (G - 1) of the blocks
-    meat = (blocks @ blocks.T) * (g / max(g - 1, 1))
+    # robust meat from the leverage-corrected scores over blocks of lines (length from the data)
+    meat = _meat(sc, nb, criteria.block_from_scores)
     hinv = _inv(hess)
     if hinv is None:
         for f in fn0:
@@ -830,7 +828,8 @@ def _whole_basis(seg: _Segment, full_basis: NDArray[np.float64], theta: NDArray[
     seg.restore_basis(full_basis)
     th_w, k, last_w = _lm(seg, theta, free, crit)
     bad_w = _check(seg.poles(th_w), lam0, free, lines, df, crit.move_hbw)
-    std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv, prev=last_w), th_w, nb)
+    std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv, prev=last_w), th_w, nb,
+                        crit.block_from_scores)
     d_basis = np.zeros((seg.m, 2), np.complex128)
     for j in np.flatnonzero(free).tolist():
         # a pole the whole-basis fit cannot hold has left for another feature: no alternative
@@ -845,17 +844,15 @@ _THREAD_MIN_EQUATIONS = 20_000
 
 
 def _basis_stds(seg: _Segment, ev: dict[str, NDArray[np.float64] | float], theta: NDArray[np.float64],
-                nb: int) -> NDArray[np.float64]:
+                nb: int, from_scores: bool) -> NDArray[np.float64]:
     """(f [Hz], zeta) standard deviations per mode of a segment's fit, shape (m, 2): the larger of the
-    robust (blocks of ``nb`` lines) and the Fisher covariance, all poles free; NaN when singular."""
-    sc = np.asarray(ev["line_scores"])
-    blocks = np.add.reduceat(sc, np.arange(0, sc.shape[1], nb), axis=1)
-    g = blocks.shape[1]
+    robust (blocks of at least ``nb`` lines, :func:`_meat`) and the Fisher covariance, all poles free;
+    NaN when singular."""
     hinv = _inv(np.asarray(ev["hess"]))
     out = np.full((seg.m, 2), np.nan)
     if hinv is None:
         return out
-    cov_rob = hinv @ ((blocks @ blocks.T) * (g / max(g - 1, 1))) @ hinv
+    cov_rob = hinv @ _meat(np.asarray(ev["line_scores"]), nb, from_scores) @ hinv
     cov_fis = hinv @ np.asarray(ev["jcj"]) @ hinv
     lam = seg.poles(theta)
     for j in range(seg.m):
@@ -863,6 +860,54 @@ def _basis_stds(seg: _Segment, ev: dict[str, NDArray[np.float64] | float], theta
         r_, f_ = _delta(lam[j], cov_rob[sl, sl] * sj), _delta(lam[j], cov_fis[sl, sl] * sj)
         out[j] = max(r_[0], f_[0]), max(r_[1], f_[1])
     return out
+
+
+def _score_bandwidth(sc: NDArray[np.float64]) -> float:
+    """Andrews' (Econometrica 59, 1991, eq. 6.4 and 6.2) AR(1) plug-in bandwidth [lines] of the Bartlett
+    kernel for the long-run covariance of the line scores ``sc``, shape (k, n).
+
+    Each score series is standardised and fitted by an AR(1) ``rho_a``; then
+    ``alpha(1) = sum 4 rho^2 s^4 / ((1 - rho)^6 (1 + rho)^2) / sum s^4 / (1 - rho)^4`` (``s^2`` the
+    innovation variance) and the bandwidth is ``1.1447 (alpha(1) n)^(1/3)``. ``rho`` is kept inside
+    +-0.97 (Andrews' own truncation is the sample's unit-root boundary); 0 for fewer than 3 lines.
+    """
+    n = sc.shape[1]
+    if n < 3:
+        return 0.0
+    x = sc / np.sqrt(np.maximum(np.mean(sc * sc, axis=1, keepdims=True), np.finfo(float).tiny))
+    a0, a1 = x[:, :-1], x[:, 1:]
+    rho = np.clip(np.sum(a0 * a1, axis=1) / np.maximum(np.sum(a0 * a0, axis=1), np.finfo(float).tiny), -0.97, 0.97)
+    s4 = np.mean((a1 - rho[:, None] * a0) ** 2, axis=1) ** 2
+    den = float(np.sum(s4 / (1 - rho) ** 4))
+    if not den > 0:
+        return 0.0
+    alpha = float(np.sum(4 * rho**2 * s4 / ((1 - rho) ** 6 * (1 + rho) ** 2))) / den
+    return 1.1447 * (alpha * n) ** (1.0 / 3.0)
+
+
+def _meat(sc: NDArray[np.float64], nb: int, from_scores: bool) -> NDArray[np.float64]:
+    """The sandwich's meat ``Var(sum of the scores)`` from the line scores ``sc``, shape (k, n) -> (k, k).
+
+    ``from_scores`` False: sums over non-overlapping blocks of ``nb`` lines, small-sample factor
+    ``G / (G - 1)`` of the ``G`` blocks (batch means). True: blocks of ``b`` lines, ``b`` the larger of
+    ``nb`` and :func:`_score_bandwidth` (at most half the lines), every one of the ``n - b + 1``
+    overlapping blocks, scaled by ``n^2 / (b (n - b + 1) (n - b))`` (overlapping batch means, Meketon
+    & Schmeiser, Proc. Winter Simulation Conf. 1984: the variance of the mean ``n b / ((n - b + 1)
+    (n - b)) sum (mean_j - mean)^2``, times ``n^2``; ``b = 1`` gives ``n / (n - 1) sum s s^T``). The
+    scores of a converged fit sum to zero, so blocks as long as the segment would see nothing: the
+    cap at half the lines keeps at least two independent blocks' worth of information.
+    """
+    n = sc.shape[1]
+    if not from_scores:
+        blocks = np.add.reduceat(sc, np.arange(0, n, nb), axis=1)
+        g = blocks.shape[1]
+        return np.asarray((blocks @ blocks.T) * (g / max(g - 1, 1)), dtype=np.float64)
+    b = int(min(max(nb, int(np.ceil(_score_bandwidth(sc)))), max(n // 2, 1)))
+    if b >= n:
+        return np.asarray(sc @ sc.T, dtype=np.float64)
+    cs = np.concatenate([np.zeros((sc.shape[0], 1)), np.cumsum(sc, axis=1)], axis=1)
+    w = cs[:, b:] - cs[:, :-b]  # (k, n - b + 1): the sum of every block of b adjacent lines
+    return np.asarray((w @ w.T) * (n * n / (b * (n - b + 1) * (n - b))), dtype=np.float64)
 
 
 def _freq_var(lam: complex, c: NDArray[np.float64]) -> float:
