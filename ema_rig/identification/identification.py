@@ -37,6 +37,7 @@ from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from ..processing import processing_history, usable_band
 from .criteria import (
+    ML_CRITERIA,
     RESULT_CRITERIA,
     CompletenessCriteria,
     IdentificationCriteria,
@@ -950,11 +951,20 @@ def _ml_features(data: FRFData, modes: Sequence[SelectedMode], ml: LocalML,
     the data that the model lacks: on those lines one pole there explained more than one pole at the
     mode's own stable cluster. The pole it moved to (inside the band, damping below
     ``JudgeCriteria.max_damping``) is a candidate (``n_poles`` 0: no cluster of its own), one per
-    place: within a tenth of a half-power band of one already listed it is that one.
+    place: within a tenth of a half-power band of one already listed it is that one. A place within
+    ``MLCriteria.move_hbw`` half-power half-bandwidths (at least two line spacings) of another mode of
+    the model is that mode's own feature, not another one: the same distance that made the held
+    pole's move "another feature" (:func:`~ema_rig.identification.ml.local_ml`), read from the mode
+    it lands on (dam0 1.5-6 Hz: the 5.12 Hz mode moved to 4.667 Hz, 0.035 Hz from the 4.632 Hz mode,
+    whose half-power half-bandwidth is 0.041 Hz; added, the pair is one mode to the band's full ML,
+    :func:`~ema_rig.identification.refine.refine`).
     """
     if ml.moved_to is None:
         return []
     f = data.freq
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    near_mode = np.maximum(ML_CRITERIA.move_hbw * (-ml.poles.real) / (2 * np.pi), 2 * df)
+    fn_model = np.abs(ml.poles) / (2 * np.pi)
     out: list[Candidate] = []
     for k, lam in enumerate(ml.moved_to):
         if not np.isfinite(lam) or k >= len(modes):
@@ -963,6 +973,8 @@ def _ml_features(data: FRFData, modes: Sequence[SelectedMode], ml: LocalML,
         if not (f[0] < fn < f[-1] and 0 < zeta <= crit.judge.max_damping):
             continue
         if any(abs(fn - c.natural_freq) < 0.1 * 2 * max(zeta, c.damping_ratio) * fn for c in out):
+            continue
+        if np.any((np.abs(fn_model - fn) <= near_mode) & (np.arange(fn_model.size) != k)):
             continue
         m = modes[k]
         out.append(Candidate(replace(m, pole=complex(lam), natural_freq=float(fn), damping_ratio=float(zeta),
