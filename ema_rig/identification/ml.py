@@ -876,10 +876,12 @@ def _score_bandwidth(sc: NDArray[np.float64]) -> float:
     Each score series is standardised and fitted by an AR(1) ``rho_a``; then
     ``alpha(1) = sum 4 rho^2 s^4 / ((1 - rho)^6 (1 + rho)^2) / sum s^4 / (1 - rho)^4`` (``s^2`` the
     innovation variance) and the bandwidth is ``1.1447 (alpha(1) n)^(1/3)``. ``rho`` is kept inside
-    +-0.97 (Andrews' own truncation is the sample's unit-root boundary); 0 for fewer than 3 lines.
+    +-0.97, a guard against a unit root where the plug-in diverges (not from Andrews; the segment's
+    half-line cap of :func:`_meat` bounds the block anyway); 0 for fewer than 3 lines
+    or non-finite scores (the covariance is then NaN anyway).
     """
     n = sc.shape[1]
-    if n < 3:
+    if n < 3 or not bool(np.all(np.isfinite(sc))):
         return 0.0
     x = sc / np.sqrt(np.maximum(np.mean(sc * sc, axis=1, keepdims=True), np.finfo(float).tiny))
     a0, a1 = x[:, :-1], x[:, 1:]
