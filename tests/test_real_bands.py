@@ -9,11 +9,23 @@ same lines, an independent order growth and selection), not the code's own sigma
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
 
 from ema_rig.identification import identify
+
+
+@functools.lru_cache(maxsize=4)
+def _identified(path, band=None):
+    """``identify`` of the file at ``path`` in ``band`` at the defaults, once per module run (the
+    result is frozen; two tests ask for the same band)."""
+    from ema_rig.io.uff import read_uff58
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return identify(read_uff58(path), band=band)
 
 
 def _pair(path, band_a, band_b, f0):
@@ -74,12 +86,7 @@ def test_ufffiles_frf_one_line_is_no_missing_mode(corpus_dir):
     # Nyquist plot of 92-98.5 Hz is one circle; the extra pole zeroes the 95.0 Hz line alone
     # (without that line F = 1.5 < 6.1): a distorted peak, not a mode. Oracle: the data's own lines
     # (the other band, and the test without the one line), not the ML estimate.
-    from ema_rig.io.uff import read_uff58
-
-    d = read_uff58(corpus_dir / "ufffiles_frf.unv")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        x = identify(d)
+    x = _identified(corpus_dir / "ufffiles_frf.unv")
     near = x.natural_freq[np.abs(x.natural_freq - 95.5) <= 1.5]
     assert near.size == 1 and abs(near[0] - 96.1) < 0.5, near  # the one mode of the circle, once
     (c,) = [c for c in x.candidates if abs(c.natural_freq - 94.82) < 0.1]
@@ -114,12 +121,7 @@ def test_ufffiles_frf_edge_mode_inside_band_b(corpus_dir):
     # a pole to is a candidate, tested on its lines (F = 1.25e3 >= 4.8): B then holds the mode and
     # every mode is an ML estimate. Oracle: the other band (0-799.5 Hz: 713.85 Hz) and the data's
     # peak (|H| largest at 713 Hz). Fails with ml_features=False (no mode within 1 %).
-    from ema_rig.io.uff import read_uff58
-
-    d = read_uff58(corpus_dir / "ufffiles_frf.unv")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        x = identify(d, band=(79.95, 719.55))
+    x = _identified(corpus_dir / "ufffiles_frf.unv", (79.95, 719.55))
     near = x.natural_freq[np.abs(x.natural_freq - 713.85) <= 0.01 * 713.85]
     assert near.size == 1, x.natural_freq
     assert any("feature inside the band" in c.reason and c.accepted for c in x.candidates)
@@ -135,12 +137,8 @@ def test_ufffiles_frf_two_bands_changes_inside_their_sigma(corpus_dir):
     # from the scores (MLCriteria.block_from_scores) 28 of 31. Oracle: the other band (the same lines,
     # its own order growth and selection), not the code's sigma formula; fails with
     # block_from_scores=False (20/31).
-    from ema_rig.io.uff import read_uff58
-
-    d = read_uff58(corpus_dir / "ufffiles_frf.unv")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        a, b = identify(d), identify(d, band=(79.95, 719.55))
+    a = _identified(corpus_dir / "ufffiles_frf.unv")
+    b = _identified(corpus_dir / "ufffiles_frf.unv", (79.95, 719.55))
     n = ok = 0
     for j, f in enumerate(b.natural_freq):
         k = int(np.argmin(np.abs(a.natural_freq - f)))
