@@ -8,12 +8,14 @@ listed. Every reference mode of the data's README (a peer's or a published value
 away from its edges, must be found exactly once (within 1 %). Files: ``real-frf/dam0.unv``, ``real-frf/vt_case1_full.uff``, ``uff-corpus/ufffiles_frf.unv``
 under ``$EMA_RIG_SHARED`` (default ``/work/shared``).
 
-Run: ``python benchmarks/study_real_bands.py``.
+Run: ``python benchmarks/study_real_bands.py`` (``--no-ml-features``: with
+``CompletenessCriteria(ml_features=False)``, without the candidates at the features the local ML found).
 """
 
 from __future__ import annotations
 
 import os
+import sys
 import warnings
 from pathlib import Path
 
@@ -36,7 +38,11 @@ CASES = (
 
 def main() -> None:
     from ema_rig.identification import identify
+    from ema_rig.identification.criteria import CompletenessCriteria, IdentificationCriteria
     from ema_rig.io.uff import read_uff58
+
+    crit = IdentificationCriteria(completeness=CompletenessCriteria(ml_features="--no-ml-features" not in sys.argv[1:]))
+    rel_changes: list[float] = []
 
     n_f = n_f_ok = n_z_ok = 0
     n_ref = n_ref_once = n_one_band = 0
@@ -52,8 +58,8 @@ def main() -> None:
             band_b = (lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            a = identify(data, band=band_a)
-            b = identify(data, band=band_b)
+            a = identify(data, band=band_a, criteria=crit)
+            b = identify(data, band=band_b, criteria=crit)
         lo, hi = max(a.band[0], b.band[0]), min(a.band[1], b.band[1])
         print(f"{rel}: band A {band_a}, {a.natural_freq.size} modes; band B {band_b}, {b.natural_freq.size} modes")
         for x, tag in ((a, "A"), (b, "B")):
@@ -82,13 +88,15 @@ def main() -> None:
                 df, dz = y.natural_freq[j] - f, y.damping_ratio[j] - x.damping_ratio[k]
                 ok_f, ok_z = abs(df) <= 2 * sf, abs(dz) <= 2 * sz
                 n_f += 1
+                rel_changes.append(abs(df) / f)
                 n_f_ok += bool(ok_f)
                 n_z_ok += bool(ok_z)
                 print(f"    {f:10.4f} Hz: change {df:+.4f} Hz = {df / sf:+.2f} sigma, zeta {100 * dz:+.3f} % = "
                       f"{dz / sz:+.2f} sigma {'ok' if ok_f and ok_z else 'OUTSIDE 2 sigma'}")
     if n_f:
         print(f"inside 2 sigma: frequency {n_f_ok}/{n_f} = {100 * n_f_ok / n_f:.0f} %, "
-              f"damping {n_z_ok}/{n_f} = {100 * n_z_ok / n_f:.0f} %")
+              f"damping {n_z_ok}/{n_f} = {100 * n_z_ok / n_f:.0f} %; median |change| of f "
+              f"{1e6 * float(np.median(rel_changes)):.0f} ppm, mean {1e6 * float(np.mean(rel_changes)):.0f} ppm")
     print(f"reference modes found exactly once: {n_ref_once}/{n_ref}; modes in only one band (away from the "
           f"edges): {n_one_band}")
 

@@ -162,3 +162,37 @@ def test_vt_case1_no_phantom(real_frf_dir):
     wide = identify(d, band=(0.0, 500.0))
     for ref in (34.06, 161.6, 212.09):
         assert np.sum(np.abs(wide.natural_freq / ref - 1) < 0.01) == 1, (ref, wide.natural_freq)
+
+
+def test_ml_records_the_feature_a_held_pole_moved_to():
+    # CompletenessCriteria.ml_features: a pole the local ML moved inside its lines further than its
+    # half-power half-bandwidth (MLCriteria.move_hbw) is held at its start, and the place it moved to
+    # is kept (LocalML.moved_to) as a candidate missing mode. Data: one mode at 104 Hz, zeta 0.4 %
+    # (analytic pole, 1e-4 noise); start 1.5 Hz below it with zeta 1 % (half-bandwidth 1.03 Hz): the
+    # ML moves it there and holds it. Oracle: the analytic pole. From a start 0.5 Hz away (inside
+    # the half-bandwidth) it is an ordinary ML estimate and nothing is recorded.
+    from ema_rig.frf import FRFData
+    from ema_rig.identification.lsfd import lsfd
+    from ema_rig.identification.ml import local_ml
+
+    f = np.arange(80.0, 125.0, 0.05)
+    jw = 2j * np.pi * f
+
+    def pole(fn: float, z: float) -> complex:
+        return complex(-z * 2 * np.pi * fn, 2 * np.pi * fn * np.sqrt(1 - z * z))
+
+    true = pole(104.0, 0.004)
+    h = (1 / (jw - true) + 1 / (jw - np.conj(true))) / (4j * np.pi * 100)
+    rng = np.random.default_rng(1)
+    h = h + 1e-4 * np.max(np.abs(h)) * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size))
+    d = FRFData(f, h[None, None], ["1+Y"], ["1+Y"], frf_form="receptance")
+    for f0, held in ((102.5, True), (103.5, False)):
+        start = np.array([pole(f0, 0.01)])
+        r = local_ml(d, start, lsfd(d, start, residuals=True).synthesize(f).frf)
+        assert r.moved_to is not None and r.kind == (("held",) if held else ("ml",))
+        if held:
+            assert r.poles[0] == start[0]
+            # the moved-to pole is the data's mode: within 1e-4 relative (noise 1e-4 of the peak)
+            assert abs(r.moved_to[0] - true) < 1e-4 * abs(true), (r.moved_to, true)
+        else:
+            assert np.isnan(r.moved_to[0])

@@ -37,6 +37,7 @@ from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from ..processing import processing_history, usable_band
 from .criteria import (
+    ML_CRITERIA,
     RESULT_CRITERIA,
     CompletenessCriteria,
     IdentificationCriteria,
@@ -902,23 +903,35 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     modes = _unique_modes(modes)
     fitted, test = _fit_tested(data, modes, residuals, cc)
     added: list[float] = []
-    if test.passed:
+    feats = _ml_features(data, modes, fitted[1], crit) if cc.local_evidence and cc.ml_features else []
+    # the segments to search: the failing ones, and those put down to a mode beyond the band edge when the
+    # ML located a feature inside the band there (its lines then decide, as for any missing mode)
+    where = [(lo, hi, False) for lo, hi in test.failing()] + [
+        (float(a), float(b), True) for a, b, e in zip(test.freq_lower, test.freq_upper, test.edge, strict=True)
+        if e and any(a <= c.natural_freq <= b for c in feats)]
+    if not where:
         return _parsimonious(data, _Completed(modes, candidates, fitted, test, ()), list(fitted[0].poles),
                              residuals, crit)
-    cands = list(candidates)
+    n_clusters = len(candidates)
+    cands = [*candidates, *feats]
     accepted_poles = {m.pole for m in modes}
     model_poles = list(fitted[0].poles)
     n_chan = data.n_out * data.n_in
     f = data.freq
     df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
 
-    for lo, hi in test.failing():
-        pool = [i for i, c in enumerate(cands) if not c.accepted and lo <= c.natural_freq <= hi
-                and c.mode.pole not in accepted_poles and 0 < c.damping_ratio <= crit.judge.max_damping
+    for lo, hi, at_edge in where:
+        pool = [i for i, c in enumerate(cands[:n_clusters]) if not at_edge and not c.accepted
+                and lo <= c.natural_freq <= hi and c.mode.pole not in accepted_poles
+                and 0 < c.damping_ratio <= crit.judge.max_damping
                 and c.mode.n_poles >= crit.judge.min_poles and "outside the band" not in c.reason]
         pool.sort(key=lambda i: (-cands[i].mode.n_poles, cands[i].natural_freq))
+        # then the feature the ML found in the segment with the largest local F
+        pool_f = _by_local_f(data, model_poles, cands, [n_clusters + j for j, c in enumerate(feats)
+                                                        if lo <= c.natural_freq <= hi], test.variance, cc)[:1]
+        pool += pool_f  # every candidate of the segment is a look of the local tests (Bonferroni)
         n_added = 0
-        for i in pool[: 2 * cc.max_added]:
+        for i in pool[: 2 * cc.max_added] + [i for i in pool_f if i not in pool[: 2 * cc.max_added]]:
             if n_added >= cc.max_added:
                 break
             c = cands[i]
@@ -967,12 +980,73 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
             model_poles.append(c.mode.pole)
             accepted_poles.add(c.mode.pole)
             cands[i] = replace(c, accepted=True, support=sup_k,
-                               reason=(f"physical: a missing mode (the residual near it was above the noise; "
+                               reason=(f"physical: a missing mode (the residual near it was above the noise"
+                                       f"{' in a segment at the band edge, the feature inside the band' if at_edge else ''}; "
                                        f"{why}; before: {c.reason})"))
             added.append(c.natural_freq)
             n_added += 1
-    return _parsimonious(data, _Completed(modes, tuple(cands), fitted, test, tuple(added)), model_poles,
+    # a feature the lines did not need is no candidate of the result (it was never a cluster)
+    kept = cands[:n_clusters] + [c for c in cands[n_clusters:] if c.accepted]
+    return _parsimonious(data, _Completed(modes, tuple(kept), fitted, test, tuple(added)), model_poles,
                          residuals, crit)
+
+
+def _ml_features(data: FRFData, modes: Sequence[SelectedMode], ml: LocalML,
+                 crit: IdentificationCriteria) -> list[Candidate]:
+    """Candidates of missing modes at the features the local ML found (``CompletenessCriteria.ml_features``).
+
+    A mode the ML held at its PolyMAX pole because its fit moved it, inside its own lines, further
+    than ``MLCriteria.move_hbw`` half-power half-bandwidths (``LocalML.moved_to``) marks a feature of
+    the data that the model lacks: on those lines one pole there explained more than one pole at the
+    mode's own stable cluster. The pole it moved to (inside the band, damping below
+    ``JudgeCriteria.max_damping``) is a candidate (``n_poles`` 0: no cluster of its own), one per
+    place: within a tenth of a half-power band of one already listed it is that one. A place within
+    ``MLCriteria.move_hbw`` half-power half-bandwidths (at least two line spacings) of another mode of
+    the model is that mode's own feature, not another one: the same distance that made the held
+    pole's move "another feature" (:func:`~ema_rig.identification.ml.local_ml`), read from the mode
+    it lands on (dam0 1.5-6 Hz: the 5.12 Hz mode moved to 4.667 Hz, 0.035 Hz from the 4.632 Hz mode,
+    whose half-power half-bandwidth is 0.041 Hz; added, the pair is one mode to the band's full ML,
+    :func:`~ema_rig.identification.refine.refine`).
+    """
+    if ml.moved_to is None:
+        return []
+    f = data.freq
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    near_mode = np.maximum(ML_CRITERIA.move_hbw * (-ml.poles.real) / (2 * np.pi), 2 * df)
+    fn_model = np.abs(ml.poles) / (2 * np.pi)
+    out: list[Candidate] = []
+    for k, lam in enumerate(ml.moved_to):
+        if not np.isfinite(lam) or k >= len(modes):
+            continue
+        fn, zeta = abs(lam) / (2 * np.pi), -lam.real / abs(lam)
+        if not (f[0] < fn < f[-1] and 0 < zeta <= crit.judge.max_damping):
+            continue
+        if any(abs(fn - c.natural_freq) < 0.1 * 2 * max(zeta, c.damping_ratio) * fn for c in out):
+            continue
+        if np.any((np.abs(fn_model - fn) <= near_mode) & (np.arange(fn_model.size) != k)):
+            continue
+        m = modes[k]
+        out.append(Candidate(replace(m, pole=complex(lam), natural_freq=float(fn), damping_ratio=float(zeta),
+                                     natural_freq_std=0.0, damping_ratio_std=0.0, n_poles=0, order_min=0,
+                                     order_max=0),
+                             accepted=False,
+                             reason=(f"a feature of the data the ML found: its fit moved the mode at "
+                                     f"{m.natural_freq:.6g} Hz to {fn:.6g} Hz, beyond its half-power half-bandwidth")))
+    return out
+
+
+def _by_local_f(data: FRFData, null: Sequence[complex], cands: Sequence[Candidate], idx: Sequence[int],
+                variance: NDArray[np.float64] | None, cc: CompletenessCriteria) -> list[int]:
+    """``idx`` (into ``cands``) ordered by their local F statistic over the poles ``null`` (:func:`_nested_test`
+    on :func:`_local_lines`), largest first; those whose fit fails last, by frequency."""
+    if len(idx) < 2 or variance is None:
+        return list(idx)
+    f = data.freq
+    score = {}
+    for i in idx:
+        res = _nested_test(data, null, cands[i].mode.pole, _local_lines(f, cands[i], cc), variance, cc, ())
+        score[i] = -np.inf if res is None else res[0]
+    return sorted(idx, key=lambda i: (-score[i], cands[i].natural_freq))
 
 
 def _passes_with(data: FRFData, poles: Sequence[complex], lo: float, hi: float, test: MisfitTest,
