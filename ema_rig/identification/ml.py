@@ -311,9 +311,11 @@ class _Segment:
         the residual and what :meth:`_derivatives` takes from it (see :meth:`evaluate`)."""
         lam = self.poles(theta)
         b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
-        cols = np.empty_like(b1)
-        cols[:, 0::2], cols[:, 1::2] = b1[:, : lam.size], b1[:, lam.size :]
-        a = _stack(cols) * self.ww  # weighted pole columns (2n, 2m)
+        m, n = lam.size, self.jw.size
+        # weighted pole columns (2n, 2m): Re R_r, Im R_r interleaved per pole, the rows (Re, Im) stacked
+        a = np.empty((2 * n, 2 * m))
+        a[:n, 0::2], a[:n, 1::2], a[n:, 0::2], a[n:, 1::2] = b1.real[:, :m], b1.real[:, m:], b1.imag[:, :m], b1.imag[:, m:]
+        a *= self.ww
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
         # the background basis is orthonormal already: only the pole columns' part orthogonal to it
@@ -341,8 +343,6 @@ class _Segment:
         pos2, neg2 = np.asarray(out["_pos2"]).view(np.complex128), np.asarray(out["_neg2"]).view(np.complex128)
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
-        ww = self.ww
-        su, du = _stack(s_fn) * ww, _stack(d_fn) * ww  # (2n, m)
         # V_k = sum_i u_ki c_ki^T (rank 2): d/dRe = s(a S + b D), d/dIm = s(a D - b S), with the rows
         # u_k = (S_j, D_j) for k = 2j and (D_j, S_j) for k = 2j + 1: the 2m distinct rows b = (S_j, D_j)
         k = 2 * self.m
@@ -350,9 +350,12 @@ class _Segment:
         sx = x * self.scale2  # (2m, C): s_j a_j, s_j b_j
         cs[0::2, 0], cs[0::2, 1] = sx[0::2], sx[1::2]
         cs[1::2, 0], cs[1::2, 1] = sx[0::2], -sx[1::2]
-        # the sums as matrix products (BLAS 3) of the rows b (the rows (k, i) of u, flattened, are b[idx])
-        b_u = np.empty((2 * self.m, su.shape[0]))
-        b_u[0::2], b_u[1::2] = su.T, du.T
+        # the sums as matrix products (BLAS 3) of the rows b (the rows (k, i) of u, flattened, are b[idx]),
+        # weighted like the data, the rows (Re, Im) of each line stacked
+        n = s_fn.shape[0]
+        b_u = np.empty((k, 2 * n))
+        b_u[0::2, :n], b_u[0::2, n:], b_u[1::2, :n], b_u[1::2, n:] = s_fn.real.T, s_fn.imag.T, d_fn.real.T, d_fn.imag.T
+        b_u *= self.ww.T
         idx = self.idx
         c2 = cs.reshape(2 * k, -1)
         qb = b_u @ q  # (2m, L): Q^T b
