@@ -5,10 +5,13 @@ data once and time ``identify(data, band=...)`` at the defaults on request; the 
 in alternating order (A B, B A, ...) so load drifts of the machine stay out of the ratio. Data:
 
 * the bundled rig file ``data/b6302_1000N_1200rpm.uff`` with ``data/rig.toml``, 150-1000 Hz;
-* the 256-output synthetic file of ``bench_refine.py`` (8 modes, 1 % proportional noise), 100-1000 Hz.
+* the 256-output synthetic file of ``bench_refine.py`` (8 modes, 1 % proportional noise), 100-1000 Hz;
+* with ``--many-modes``, also ``uff-corpus/ufffiles_frf.unv`` of ``$EMA_RIG_SHARED`` (one FRF, 41 modes:
+  segments of up to 29 modes on ~1000 lines), 20-780 Hz and the whole file (the local ML's
+  evaluations dominate there).
 
-Run: ``python benchmarks/bench_default_ml.py --baseline /tmp/old [--repeat 7]`` where the baseline
-is a checkout of the reference commit (``git worktree add /tmp/old 8d99d0c``).
+Run: ``python benchmarks/bench_default_ml.py --baseline /tmp/old [--repeat 7] [--one-thread] [--many-modes]``
+where the baseline is a checkout of the reference commit (``git worktree add /tmp/old 8d99d0c``).
 """
 
 from __future__ import annotations
@@ -30,12 +33,16 @@ warnings.simplefilter("ignore")
 from ema_rig.config import load_rig
 from ema_rig.identification import identify
 from ema_rig.io.uff import read_uff58
-repo, synth = sys.argv[1], sys.argv[2]
+repo, synth, shared = sys.argv[1], sys.argv[2], sys.argv[3]
 cases = {"rig": (read_uff58(repo + "/data/b6302_1000N_1200rpm.uff", rig=load_rig(repo + "/data/rig.toml")),
                  (150.0, 1000.0)),
          "256": (read_uff58(synth), (100.0, 1000.0))}
 for d, b in cases.values():
     identify(d, band=b)
+if shared:
+    frf = read_uff58(shared + "/uff-corpus/ufffiles_frf.unv")
+    cases["band"], cases["whole"] = (frf, (20.0, 780.0)), (frf, None)
+    identify(frf, band=(50.0, 150.0))  # warm-up: a few modes
 import ema_rig
 print("ready", ema_rig.__file__, flush=True)
 for line in sys.stdin:
@@ -51,7 +58,12 @@ def main() -> None:
     ap.add_argument("--baseline", required=True, type=Path)
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--one-thread", action="store_true", help="one BLAS thread in both workers")
+    ap.add_argument("--many-modes", action="store_true",
+                    help="also ufffiles_frf of $EMA_RIG_SHARED (default /work/shared), 20-780 Hz and whole")
     args = ap.parse_args()
+    shared = os.environ.get("EMA_RIG_SHARED", "/work/shared") if args.many_modes else ""
+    if shared and not Path(shared, "uff-corpus", "ufffiles_frf.unv").is_file():
+        raise SystemExit(f"no {shared}/uff-corpus/ufffiles_frf.unv (set EMA_RIG_SHARED)")
     sys.path.insert(0, str(REPO / "benchmarks"))
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -65,7 +77,7 @@ def main() -> None:
         for tag, tree in (("new", REPO), ("old", args.baseline.resolve())):
             # cwd=tree: ``python -c`` puts the working directory first on sys.path, before PYTHONPATH
             # (run from this repository's root, both workers would import this tree)
-            procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(REPO), str(synth)], text=True,
+            procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(REPO), str(synth), shared], text=True,
                                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=str(tree),
                                           env=dict(os.environ, PYTHONPATH=str(tree),
                                                    **({"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
@@ -95,7 +107,10 @@ def main() -> None:
               f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(default)')}; "
               f"load average at start {os.getloadavg()[0]:.1f}")
         print(f"{'data':28s} {'':5s} {'old identify [s]':>22s} {'new identify [s]':>22s} {'new/old':>18s}")
-        for case, name in (("rig", "rig file (8 out, 1701 lines)"), ("256", "256 outputs (1801 lines)")):
+        names = [("rig", "rig file (8 out, 1701 lines)"), ("256", "256 outputs (1801 lines)")]
+        if shared:
+            names += [("band", "ufffiles_frf 20-780 Hz"), ("whole", "ufffiles_frf whole file")]
+        for case, name in names:
             t: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
             for i in range(args.repeat):
                 for tag in (("old", "new") if i % 2 == 0 else ("new", "old")):

@@ -250,6 +250,14 @@ class MLCriteria:
         ... or when the Gauss-Newton model predicts at most this fraction for the next step
         (default 1e-15, ~5 float epsilons: the cost's own rounding, so the evaluation could not
         tell the step from rounding; the predicted reduction of Dennis & Schnabel 1996, sect. 6.4).
+    lm_offset : float
+        ... or when the relative offset of the residual, ``sqrt((pred / P) / (cost / (N - P_all)))``
+        with ``pred`` the Gauss-Newton predicted reduction (the squared projection of the residual on
+        the tangent plane of the ``P`` free pole parameters) and ``N - P_all`` the residual degrees of
+        freedom, is at most this (default 0.001, Bates & Watts, Technometrics 23, 1981): the distance
+        left to the minimum is then below ``sqrt(P) lm_offset`` standard deviations of the estimate
+        (0.007 for 50 parameters), where the iterations would only crawl along directions the data
+        barely determine.
     """
 
     window_hbw: float = 4.0
@@ -264,6 +272,7 @@ class MLCriteria:
     background_sigmas: float = 1.0
     lm_rtol: float = 1e-12
     lm_pred_rtol: float = 1e-15
+    lm_offset: float = 1e-3
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name."""
@@ -281,6 +290,7 @@ class MLCriteria:
             "move_hbw": "half-power half-bandwidth: a pole further away is another feature of the data",
             "lm_rtol": "cost change of a few thousand float64 eps: converged (unchanged stop test)",
             "lm_pred_rtol": "predicted reduction (Dennis & Schnabel 1996, 6.4) at the cost's rounding, ~5 float64 eps",
+            "lm_offset": "relative offset convergence criterion 0.001 (Bates & Watts, Technometrics 23, 1981)",
         }
 
 

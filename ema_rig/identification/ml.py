@@ -293,25 +293,41 @@ class _Segment:
 
     def evaluate(self, theta: NDArray[np.float64], scores: bool = False, rho: tuple[float, ...] = (),
                  noise_var: NDArray[np.float64] | None = None,
-                 prev: dict[str, NDArray[np.float64] | float] | None = None) -> dict[str, NDArray[np.float64] | float]:
+                 prev: dict[str, NDArray[np.float64] | float] | None = None,
+                 cost_only: bool = False) -> dict[str, NDArray[np.float64] | float]:
         """Cost, Gauss-Newton matrix and gradient of all 2m pole parameters (and per-line scores).
 
         ``prev`` is an earlier result of this segment (e.g. the last of :func:`_lm`): when it was
         formed at the same ``theta`` on the same background basis, its projection, residual and
-        derivative columns are taken over and only the scores are formed (the same numbers).
+        derivative columns are taken over and only what it lacks is formed (the same numbers).
+        With ``cost_only`` the result holds the cost and residual only (``"hess"`` and ``"grad"``
+        missing): a trial point of :func:`_lm`, completed by a second call with it as ``prev``
+        when it is accepted.
         """
         if (prev is not None and prev.get("_fixed") is self.fixed
                 and np.array_equal(np.asarray(prev["theta"]), theta)):
-            kept = {key: v for key, v in prev.items() if not key.startswith("_")}
-            if scores:
-                self._scores(kept, np.asarray(prev["_q"]), np.asarray(prev["e"]), np.asarray(prev["_us"]),
-                             np.asarray(prev["_cs"]), rho, noise_var)
-            return kept
+            out = dict(prev)
+        else:
+            out = self._project(theta)
+        if cost_only:
+            return out
+        if "hess" not in out:
+            self._derivatives(out)
+        if scores:
+            self._scores(out, np.asarray(out["_q"]), np.asarray(out["e"]), np.asarray(out["_bu"]),
+                         np.asarray(out["_cs"]), rho, noise_var)
+        return out
+
+    def _project(self, theta: NDArray[np.float64]) -> dict[str, NDArray[np.float64] | float]:
+        """Projection of the data on the span of the pole and background columns at ``theta``: the cost,
+        the residual and what :meth:`_derivatives` takes from it (see :meth:`evaluate`)."""
         lam = self.poles(theta)
         b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
-        cols = np.empty_like(b1)
-        cols[:, 0::2], cols[:, 1::2] = b1[:, : lam.size], b1[:, lam.size :]
-        a = _stack(cols) * self.ww  # weighted pole columns (2n, 2m)
+        m, n = lam.size, self.jw.size
+        # weighted pole columns (2n, 2m): Re R_r, Im R_r interleaved per pole, the rows (Re, Im) stacked
+        a = np.empty((2 * n, 2 * m))
+        a[:n, 0::2], a[:n, 1::2], a[n:, 0::2], a[n:, 1::2] = b1.real[:, :m], b1.real[:, m:], b1.imag[:, :m], b1.imag[:, m:]
+        a *= self.ww
         d = np.linalg.norm(a, axis=0)
         d = np.where(d > 0, d, 1.0)
         # the background basis is orthonormal already: only the pole columns' part orthogonal to it
@@ -328,24 +344,30 @@ class _Segment:
         qty = q.T @ self.yw  # (L, C)
         e = self.yw - q @ qty  # residual (2n, C)
         cost = float(np.sum(e * e))
-        x = np.linalg.solve(r, qty[: 2 * self.m]) / d[:, None]  # (2m, C) coefficients of the poles
+        return {"cost": cost, "e": e, "theta": theta.copy(), "_q": q, "_r": r, "_d": d, "_qty": qty,
+                # the second-order pole columns as float views (re, im interleaved); _fixed: identity of the basis
+                "_pos2": pos2.view(np.float64), "_neg2": neg2.view(np.float64), "_fixed": self.fixed}
+
+    def _derivatives(self, out: dict[str, NDArray[np.float64] | float]) -> None:
+        """Gauss-Newton matrix ``"hess"`` and gradient ``"grad"`` of the cost into ``out`` (a :meth:`_project`)."""
+        q, e, d = np.asarray(out["_q"]), np.asarray(out["e"]), np.asarray(out["_d"])
+        x = np.linalg.solve(np.asarray(out["_r"]), np.asarray(out["_qty"])[: 2 * self.m]) / d[:, None]  # (2m, C)
+        pos2, neg2 = np.asarray(out["_pos2"]).view(np.complex128), np.asarray(out["_neg2"]).view(np.complex128)
         s_fn = pos2 + neg2  # (n, m)
         d_fn = 1j * (pos2 - neg2)
-        ww = self.ww
-        su, du = _stack(s_fn) * ww, _stack(d_fn) * ww  # (2n, m)
-        # V_k = sum_i u_ki c_ki^T (rank 2): d/dRe = s(a S + b D), d/dIm = s(a D - b S)
+        # V_k = sum_i u_ki c_ki^T (rank 2): d/dRe = s(a S + b D), d/dIm = s(a D - b S), with the rows
+        # u_k = (S_j, D_j) for k = 2j and (D_j, S_j) for k = 2j + 1: the 2m distinct rows b = (S_j, D_j)
         k = 2 * self.m
-        us = np.empty((k, 2, su.shape[0]))
         cs = np.empty((k, 2, x.shape[1]))
         sx = x * self.scale2  # (2m, C): s_j a_j, s_j b_j
-        us[0::2, 0], us[0::2, 1] = su.T, du.T
-        us[1::2, 0], us[1::2, 1] = du.T, su.T
         cs[0::2, 0], cs[0::2, 1] = sx[0::2], sx[1::2]
         cs[1::2, 0], cs[1::2, 1] = sx[0::2], -sx[1::2]
-        # the same sums as matrix products (BLAS 3) of the 2m distinct rows b = (S_j, D_j) of u (the
-        # rows (k, i) of u, flattened, are b[idx])
-        b_u = np.empty((2 * self.m, su.shape[0]))
-        b_u[0::2], b_u[1::2] = su.T, du.T
+        # the sums as matrix products (BLAS 3) of the rows b (the rows (k, i) of u, flattened, are b[idx]),
+        # weighted like the data, the rows (Re, Im) of each line stacked
+        n = s_fn.shape[0]
+        b_u = np.empty((k, 2 * n))
+        b_u[0::2, :n], b_u[0::2, n:], b_u[1::2, :n], b_u[1::2, n:] = s_fn.real.T, s_fn.imag.T, d_fn.real.T, d_fn.imag.T
+        b_u *= self.ww.T
         idx = self.idx
         c2 = cs.reshape(2 * k, -1)
         qb = b_u @ q  # (2m, L): Q^T b
@@ -353,19 +375,17 @@ class _Segment:
         hess = (g_b * (c2 @ c2.T)).reshape(k, 2, k, 2).sum(axis=(1, 3))
         # J^T r with r = model - data: sum over lines and channels of u E c
         grad = -np.sum(c2 * (b_u @ e)[idx], axis=1).reshape(k, 2).sum(axis=1)
-        out: dict[str, NDArray[np.float64] | float] = {"cost": cost, "hess": 0.5 * (hess + hess.T), "grad": grad,
-                                                          "e": e, "theta": theta.copy(), "_q": q, "_us": us,
-                                                          "_cs": cs}
-        out["_fixed"] = self.fixed  # identity of the basis (see prev)
-        if scores:
-            self._scores(out, q, e, us, cs, rho, noise_var)
-        return out
+        out["hess"], out["grad"], out["_bu"], out["_cs"] = 0.5 * (hess + hess.T), grad, b_u, cs
 
     def _scores(self, out: dict[str, NDArray[np.float64] | float], q: NDArray[np.float64], e: NDArray[np.float64],
-                us: NDArray[np.float64], cs: NDArray[np.float64], rho: tuple[float, ...],
+                b_u: NDArray[np.float64], cs: NDArray[np.float64], rho: tuple[float, ...],
                 noise_var: NDArray[np.float64] | None) -> None:
-        """Per-line scores, ``J^T S J`` and the noise chi-square into ``out`` (see :meth:`evaluate`)."""
+        """Per-line scores, ``J^T S J`` and the noise chi-square into ``out`` (see :meth:`evaluate`; ``b_u``
+        the rows (S_j, D_j) of :meth:`_derivatives`)."""
         k = 2 * self.m
+        us = np.empty((k, 2, b_u.shape[1]))  # the derivative factors u_k (rows (S_j, D_j) and (D_j, S_j))
+        us[0::2, 0], us[0::2, 1] = b_u[0::2], b_u[1::2]
+        us[1::2, 0], us[1::2, 1] = b_u[1::2], b_u[0::2]
         # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E. V_k = u_k c_k^T
         # has rank 2: the projection acts on u_k (2n x 2) before the product with c_k
         ut = np.swapaxes(us, 1, 2)  # (k, 2n, 2)
@@ -425,7 +445,15 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
     cost ``r^T r``: Dennis & Schnabel, *Numerical Methods for Unconstrained Optimization and
     Nonlinear Equations*, SIAM 1996, sect. 6.4 and 7.2; Moré, LNM 630, 1978). Such a step is below
     the float resolution of the cost, so its evaluation is not spent (it saves one evaluation of
-    the usual 4-5; the estimates move by rounding only).
+    the usual 4-5; the estimates move by rounding only). The iterations stop too when that predicted
+    reduction is statistically nothing: the relative offset of Bates & Watts (Technometrics 23, 1981),
+    ``sqrt((pred / P) / s^2)`` with ``s^2`` the cost over its residual degrees of freedom, at most
+    ``crit.lm_offset``. Without it a segment with a pole the data barely determine crawled along
+    that direction up to ``max_iter`` evaluations (cost changes of 1e-8 with steps of 1e-2 on
+    ``ufffiles_frf``), rounding deciding each step.
+
+    A trial point's cost is formed alone (:meth:`_Segment.evaluate` with ``cost_only``); its
+    derivatives only when the step is taken (the same numbers).
     """
     idx = np.flatnonzero(np.repeat(free, 2))
     theta = theta0.copy()
@@ -434,6 +462,7 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
     cur = seg.evaluate(theta)
     n_eval = 1
     mu = 1e-4
+    dof = max(seg.yw.size - seg.L * seg.yw.shape[1] - idx.size, 1)  # residual dof: real equations - parameters
     while n_eval < crit.max_iter:
         h, g = np.asarray(cur["hess"]), np.asarray(cur["grad"])
         if idx.size < theta.size:
@@ -450,15 +479,15 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
         # the cost is half the squared residual's gradient scale: cost(theta + s) ~ cost + 2 g^T s + s^T H s
         # with grad = J^T r and hess = J^T J of the residual r (cost = r^T r)
         pred = -(2.0 * float(g @ step) + float(step @ h @ step))
-        if mu <= 1e-4 and 0.0 <= pred <= crit.lm_pred_rtol * c0:
+        if mu <= 1e-4 and 0.0 <= pred <= max(crit.lm_pred_rtol * c0, crit.lm_offset**2 * idx.size * c0 / dof):
             break
         trial = theta.copy()
         trial[idx] += step
-        new = seg.evaluate(trial)
+        new = seg.evaluate(trial, cost_only=True)  # the derivatives only where the step is taken
         n_eval += 1
         c1 = float(new["cost"])
         if np.isfinite(c1) and c1 <= c0:
-            theta, cur = trial, new
+            theta, cur = trial, seg.evaluate(trial, prev=new)
             mu = max(mu / 5.0, 1e-12)
             if c0 - c1 <= crit.lm_rtol * c0 or np.max(np.abs(step)) < 1e-12:
                 break
