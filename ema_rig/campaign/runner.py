@@ -24,7 +24,8 @@ so that no worker is left alone with one long measurement at the end. A worker d
 report's figures of the measurement it computed right after computing it, from that computation
 (it is not identified again; only the PNG bytes come back). The figures of rows
 reused from a previous run but missing from the folder are drawn at the end by the same pool (an
-identification each) while this process draws the campaign figures.
+identification each) while this process draws the campaign figures; with none of those, a worker
+draws every other campaign figure while this process draws the rest.
 """
 
 from __future__ import annotations

@@ -547,7 +547,8 @@ def warm_up(dpi: float) -> None:
         semilogy(ax, [1.0, 2.0], [1.0, 1e3], label="a")  # mathtext tick labels: the grammar
         ax.set_title("a", fontsize=9)
         ax.legend(fontsize=8)
-        FigureCanvasAgg(fig).draw()
+        canvas: Any = FigureCanvasAgg(fig)
+        canvas.draw()
 
 
 def kept_figure(kind: str, figsize: tuple[float, float]) -> Figure:
