@@ -428,6 +428,14 @@ def campaign_figure_names(result: CampaignResult) -> list[str]:
 
     A name whose figure turns out to have nothing to show (too few repeats, no damping) is
     listed but not returned.
+
+    Parameters
+    ----------
+    result : CampaignResult
+
+    Returns
+    -------
+    list of str
     """
     return list(_planned(result))
 
