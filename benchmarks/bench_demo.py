@@ -9,8 +9,8 @@ the children: unlike the wall time it hardly depends on what else runs on the ma
 1-minute load average before the run, and the wall time of the output phase (``write_outputs``:
 table, figures and report; with ``--jobs 2`` the measurement figures are drawn by the pool within
 it) as a share of the run (it includes the identification each measurement's figures need),
-and the time spent on the figures proper (building them and making their PNG bytes: CPU seconds summed
-over every process) as a share of the run's CPU time. Reported: medians with min-max, and the median of the per-round
+and the time spent on the figures proper (building them, making their PNG bytes and, with a pool, the
+figures' one-time work done before it forks (``warm_up``): CPU seconds summed over every process) as a share of the run's CPU time. Reported: medians with min-max, and the median of the per-round
 ratios new/old.
 
 Run from the repository root::
@@ -69,12 +69,14 @@ def drawing(fn):
     return wrapper
 for mod, name in [("ema_rig.plot.stabilization", "plot_stabilization"), ("ema_rig.plot.rig", "plot_rig_fit"),
                   ("ema_rig.plot.synthesis", "plot_synthesis"), ("ema_rig.plot.campaign", "campaign_figures"),
-                  ("ema_rig.campaign.drilldown", "png_bytes"), ("ema_rig.plot._render", "render_png")]:
+                  ("ema_rig.campaign.drilldown", "png_bytes"), ("ema_rig.plot._render", "render_png"),
+                  ("ema_rig.plot._render", "warm_up")]:
     try:
         m = importlib.import_module(mod)
     except ImportError:  # the older tree has no renderer
         continue
-    setattr(m, name, drawing(getattr(m, name)))
+    if hasattr(m, name):  # an older tree has no warm_up
+        setattr(m, name, drawing(getattr(m, name)))
 from matplotlib.figure import Figure
 Figure.savefig = drawing(Figure.savefig)
 from ema_rig.cli import main

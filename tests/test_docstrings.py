@@ -49,7 +49,6 @@ UNDOCUMENTED: frozenset[str] = frozenset({
     "ema_rig.identification.stabilization.resolve_selection",
     "ema_rig.io.uff.UFFFile",
     "ema_rig.io.uff.UFFRecord",
-    "ema_rig.plot.campaign.campaign_figures",
     "ema_rig.plot.campaign.measured_std",
     "ema_rig.plot.campaign.figure_stem",
     "ema_rig.plot.campaign.plot_repeatability",

@@ -508,3 +508,22 @@ def test_an_axis_whose_limits_keep_changing_works_out_its_key_only_when_it_recor
     assert keys.count("y") == 2 * 4
     want = _savefig_pixels(_fresh_panels(1, ylim=(-56.0, 44.0)), 72)
     assert np.abs(got - want).max() == 0
+
+
+def test_warm_up_leaves_the_one_time_work_done_for_forked_workers() -> None:
+    # in a fresh interpreter: before warm_up no Agg backend and no mathtext grammar (the premise);
+    # after it both, so a worker forked then inherits them instead of building them again
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from ema_rig.plot._render import warm_up\n"
+        "from matplotlib.mathtext import MathTextParser\n"
+        "before = ('matplotlib.backends.backend_agg' in sys.modules, MathTextParser._parser is not None)\n"
+        "warm_up(80)\n"
+        "after = ('matplotlib.backends.backend_agg' in sys.modules, MathTextParser._parser is not None)\n"
+        "print(before, after)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split("\n")[0] == "(False, False) (True, True)", out.stdout + out.stderr

@@ -22,8 +22,8 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-from collections.abc import Mapping
-from concurrent.futures import Executor, Future, as_completed
+from collections.abc import Mapping, Sequence
+from concurrent.futures import BrokenExecutor, Executor, Future, as_completed
 from contextlib import ExitStack
 from os import PathLike
 from pathlib import Path
@@ -56,6 +56,7 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     executor : concurrent.futures.Executor, optional
         Draws the measurements' figures not in ``drawn`` (an identification each) in parallel
         while this process draws the campaign figures; the files are written here, in the same order.
+        With none of those to draw, one of its workers draws every other campaign figure meanwhile.
     drawn : mapping, optional
         Measurement id -> (row cache key, :class:`~ema_rig.campaign.drilldown.MeasurementFigures`)
         drawn by the runner's worker with the computation (:func:`figures_to_draw`): written as
@@ -89,7 +90,8 @@ def write_outputs(result: CampaignResult, out_dir: str | PathLike[str], *,
     # the measurements' figures that must be drawn again start first, in the executor
     drawn = drawn or {}
     ahead = {} if executor is None else _draw_ahead(result, out, previous, executor, drawn)
-    figures = _campaign_figures(result, out, previous, manifest)
+    # the pool shares the campaign figures when it has no measurement's figures to draw
+    figures = _campaign_figures(result, out, previous, manifest, executor=None if ahead else executor)
     _record(out, previous, manifest)
     per_meas = _measurement_figures(result, out, previous, manifest, ahead, drawn)
     kept = set(manifest["figures"])
@@ -143,8 +145,12 @@ def _hash(obj: Any) -> str:
 
 
 def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, Any],
-                      manifest: dict[str, Any]) -> dict[str, Path]:
-    """The campaign figures: drawn again only when the rows or the bearing information changed."""
+                      manifest: dict[str, Any], executor: Executor | None = None) -> dict[str, Path]:
+    """The campaign figures: drawn again only when the rows or the bearing information changed.
+
+    With an ``executor`` (a pool with nothing else to draw), one of its workers draws every other
+    figure meanwhile.
+    """
     shown = [{c: r.get(c) for c in COLUMNS if c != "elapsed_s"} for r in result.rows]
     bearings = {k: repr(v) for k, v in result.config.bearings.items()}
     key = _hash({"rows": shown, "bearings": bearings, "version": version()})
@@ -155,17 +161,53 @@ def _campaign_figures(result: CampaignResult, out: Path, previous: Mapping[str, 
         manifest["campaign_figures"] = names
         manifest["figures"].update({n: key for n in names})
         return {Path(n).stem: out / n for n in names}
-    from ..plot._render import render_png
-    from ..plot.campaign import campaign_figures
+    from ..plot.campaign import campaign_figure_names
 
+    names = campaign_figure_names(result)
+    # an idle pool draws every other figure while this process draws the rest (the same figures,
+    # drawn where a core is free: this process would otherwise draw them alone at the run's end)
+    theirs = executor.submit(_campaign_pngs, result, names[1::2]) if executor is not None and len(names) > 1 else None
+    pngs = _campaign_pngs(result, names if theirs is None else names[0::2])
+    if theirs is not None:
+        try:
+            pngs.update(theirs.result())
+        except BrokenExecutor as exc:  # its worker died: drawn here instead
+            logger.warning("campaign figures drawn again in this process: %s", exc)
+            pngs.update(_campaign_pngs(result, names[1::2]))
     figures: dict[str, Path] = {}
-    for name, fig in campaign_figures(result).items():  # pyplot-free Figures: nothing to close
-        path = out / f"{name}.png"
-        _atomic.write_bytes(path, render_png(fig, dpi=120, colors=None, optimize=False))
-        figures[name] = path
+    for name in names:
+        if name in pngs:
+            path = out / f"{name}.png"
+            _atomic.write_bytes(path, pngs[name])
+            figures[name] = path
     manifest["campaign_figures"] = [p.name for p in figures.values()]
     manifest["figures"].update({p.name: key for p in figures.values()})
     return figures
+
+
+def _campaign_pngs(result: CampaignResult, names: Sequence[str]) -> dict[str, bytes]:
+    """The campaign figures of these names as PNG bytes (:func:`~ema_rig.plot.campaign.campaign_figures`).
+
+    A picklable worker: a pool's process draws some of a campaign's figures while the caller
+    draws the others. A name whose figure has nothing to show is left out.
+
+    Parameters
+    ----------
+    result : CampaignResult
+    names : sequence of str
+        Names from :func:`~ema_rig.plot.campaign.campaign_figure_names`.
+
+    Returns
+    -------
+    dict
+        Name -> PNG bytes (RGB, 120 dpi).
+    """
+    from ..plot._render import render_png
+    from ..plot.campaign import campaign_figures
+
+    # pyplot-free Figures: nothing to close
+    return {name: render_png(fig, dpi=120, colors=None, optimize=False)
+            for name, fig in campaign_figures(result, names).items()}
 
 
 def _plan(result: CampaignResult, out: Path, previous: Mapping[str, Any]) -> list[tuple[Any, Any, str, dict[str, str], bool]]:

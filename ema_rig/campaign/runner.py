@@ -16,13 +16,16 @@ watchdog thread on the parent's process id everywhere but Windows).
 
 Where the time goes with ``jobs > 1``: the calibration runs first in this process, and its first
 call pays the imports of the numerical stack (scipy, the identification); the pool is started
-after it, so its forked workers inherit those modules instead of importing them again. The
+after it, so its forked workers inherit those modules instead of importing them again; when
+they will draw, this process does the figures' one-time work (matplotlib's imports, the mathtext
+grammar, font lookups: :func:`ema_rig.plot._render.warm_up`) just before, for the same reason. The
 measurements are submitted longest first (by their time in the previous run, else by file size),
 so that no worker is left alone with one long measurement at the end. A worker draws the
 report's figures of the measurement it computed right after computing it, from that computation
 (it is not identified again; only the PNG bytes come back). The figures of rows
 reused from a previous run but missing from the folder are drawn at the end by the same pool (an
-identification each) while this process draws the campaign figures.
+identification each) while this process draws the campaign figures; with none of those, a worker
+draws every other campaign figure while this process draws the rest.
 """
 
 from __future__ import annotations
@@ -59,7 +62,7 @@ from .._progress import progress_bar
 from .._version import version
 from ..config import RigConfig, read_regular_file
 from ..errors import EmaRigError
-from .drilldown import KINDS, measurement_figures
+from .drilldown import DPI, KINDS, measurement_figures
 from .outputs import MANIFEST, MEASUREMENT_DIR, figures_to_draw, write_outputs
 from .result import COLUMNS, CampaignResult
 from .schema import CampaignConfig, Measurement, load_campaign
@@ -554,7 +557,12 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     own_pool: ProcessPoolExecutor | None = None
     if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
         # forked after the calibration: the workers inherit its imports; they also draw the
-        # measurements' figures of the report (with the computation, or at the end for reused rows)
+        # measurements' figures of the report (with the computation, or at the end for reused rows),
+        # and inherit the figures' one-time work too, done here once instead of once per worker
+        if drill_down:
+            from ..plot._render import warm_up
+
+            warm_up(DPI)
         own_pool = executor = make_pool(min(jobs, len(cfg.measurements)))
     try:
         if executor is None:

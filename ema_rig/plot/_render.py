@@ -10,6 +10,9 @@ palette_indices
 kept_figure, reuse_axes
     One figure per kind per worker thread, its axes and tick objects kept from one measurement
     to the next: only the data, limits and texts are drawn anew.
+warm_up
+    A process' one-time figure work (matplotlib's modules, the mathtext grammar, font lookups)
+    done before it forks a pool, so that every worker inherits it instead of doing it again.
 fixed_layout
     A constrained layout that keeps the room for the outermost tick labels of chosen axes (log
     magnitudes), so that where those land does not change it: computed once per key and process,
@@ -87,7 +90,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["collapse_minor_ticks", "fixed_layout", "kept_figure", "palette_indices", "render_png", "reuse_axes",
-           "semilogy"]
+           "semilogy", "warm_up"]
 
 #: Layouts kept per process (structure -> [(key, positions)]), newest last; a few per figure kind.
 _LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
@@ -515,6 +518,37 @@ def _local() -> dict[str, Any]:
         _LOCAL.pid = pid
     kept: dict[str, Any] = _LOCAL.kept
     return kept
+
+
+def warm_up(dpi: float) -> None:
+    """Do the one-time work of a process' first figure now, before it forks the workers that draw.
+
+    A process' first report figure pays, besides its own drawing, matplotlib's imports (figure,
+    axes, ticker, Agg), the mathtext grammar (log tick labels are mathtext; built once per process)
+    and the font lookups: about half a second of CPU, paid again by every worker of a pool that
+    forks before it (the campaign's workers draw each measurement's figures, and this process the
+    campaign figures). Done here, once, the workers inherit the modules, the grammar and the
+    font-lookup cache. What a fork must not share is not kept: the small figure drawn here is
+    thrown away with its plain Agg canvas and renderer (so no glyph of it goes to this module's
+    caches and no mathtext layout outlives it), and matplotlib drops its FreeType font objects in a
+    forked child (:func:`_canvas`). Nothing drawn later depends on it: the same pixels either way.
+
+    Parameters
+    ----------
+    dpi : float
+        Pixel density [dots per inch] of the figures the workers will draw.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    with _gc_paused():
+        fig = Figure(figsize=(2.0, 1.5), dpi=dpi)
+        ax = fig.add_subplot()
+        semilogy(ax, [1.0, 2.0], [1.0, 1e3], label="a")  # mathtext tick labels: the grammar
+        ax.set_title("a", fontsize=9)
+        ax.legend(fontsize=8)
+        canvas: Any = FigureCanvasAgg(fig)
+        canvas.draw()
 
 
 def kept_figure(kind: str, figsize: tuple[float, float]) -> Figure:

@@ -4,6 +4,8 @@ Functions
 ---------
 campaign_figures
     Every figure the campaign's data support, by name.
+campaign_figure_names
+    Their names, without building them (to share them out between processes).
 plot_k_vs_load
     k_TB versus radial load with error bars, the Hertzian estimate and a F^(1/3) fit.
 plot_rotating_vs_static
@@ -22,10 +24,11 @@ Error bars are +/- one standard uncertainty (k_TB_std). Names that come from the
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 from collections import defaultdict
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -394,45 +397,78 @@ def plot_damping(rows: Sequence[Row], bearing: str) -> Figure | None:
     return fig
 
 
-def campaign_figures(result: CampaignResult) -> dict[str, Figure]:
+def campaign_figures(result: CampaignResult, names: Collection[str] | None = None) -> dict[str, Figure]:
     """Every figure the campaign's data support.
+
+    Parameters
+    ----------
+    result : CampaignResult
+    names : collection of str, optional
+        Build only the figures of these names (:func:`campaign_figure_names`); default all.
 
     Returns
     -------
     dict
         Name -> Figure: ``validation_<bearing>`` for bearings with FE bounds,
         ``k_vs_load_<bearing>``, ``rotating_vs_static_<bearing>``, ``speed_<bearing>``,
-        ``damping_<bearing>`` where the data exist, and ``repeatability``.
+        ``damping_<bearing>`` where the data exist, and ``repeatability``, in that order
+        (Sect. 5, validation, before Sect. 6, operating conditions).
     """
+    figs: dict[str, Figure] = {}
+    for name, build in _planned(result).items():
+        if names is None or name in names:
+            fig = build()
+            if fig is not None:
+                figs[name] = fig
+    return figs
+
+
+def campaign_figure_names(result: CampaignResult) -> list[str]:
+    """The names :func:`campaign_figures` may return, in its order, without building a figure.
+
+    A name whose figure turns out to have nothing to show (too few repeats, no damping) is
+    listed but not returned.
+
+    Parameters
+    ----------
+    result : CampaignResult
+
+    Returns
+    -------
+    list of str
+    """
+    return list(_planned(result))
+
+
+def _planned(result: CampaignResult) -> dict[str, Callable[[], Figure | None]]:
+    """Name -> how to build that figure, in the order of :func:`campaign_figures`."""
     rows = result.rows
     ok = _ok(rows)
-    figs: dict[str, Figure] = {}
+    plan: dict[str, Callable[[], Figure | None]] = {}
     bearings = sorted({r["bearing"] for r in ok})
     for b in bearings:
         info = result.config.bearings.get(b, BearingInfo())
         rs = [r for r in ok if r["bearing"] == b]
         safe = figure_stem(b)
         if info.k_lower is not None and info.k_upper is not None:
-            figs[f"validation_{safe}"] = plot_validation(rows, b, info)
+            plan[f"validation_{safe}"] = functools.partial(plot_validation, rows, b, info)
             continue
         if len({r["radial_load"] for r in rs if _finite(r["radial_load"])}) > 1:
-            figs[f"k_vs_load_{safe}"] = plot_k_vs_load(rows, b, info=info)
+            plan[f"k_vs_load_{safe}"] = functools.partial(plot_k_vs_load, rows, b, info=info)
         if any(r["speed"] > 0 for r in rs) and any(r["speed"] <= 0 for r in rs):
-            figs[f"rotating_vs_static_{safe}"], _ = plot_rotating_vs_static(rows, b, planted=_planted(rs, result))
+            plan[f"rotating_vs_static_{safe}"] = functools.partial(
+                lambda b, rs: plot_rotating_vs_static(rows, b, planted=_planted(rs, result))[0], b, rs)
         if len({r["speed"] for r in rs if r["speed"] > 0}) > 1:
-            figs[f"speed_{safe}"] = plot_speed_effect(rows, b)
-        damp = plot_damping(rows, b)
-        if damp is not None:
-            figs[f"damping_{safe}"] = damp
+            plan[f"speed_{safe}"] = functools.partial(plot_speed_effect, rows, b)
+        plan[f"damping_{safe}"] = functools.partial(plot_damping, rows, b)
     # Sect. 5 (validation) before Sect. 6 (operating conditions)
-    figs = dict(sorted(figs.items(), key=lambda kv: not kv[0].startswith("validation")))
-    rep = plot_repeatability(rows)
-    if rep is not None:
-        figs["repeatability"] = rep
-    return figs
+    plan = dict(sorted(plan.items(), key=lambda kv: not kv[0].startswith("validation")))
+    plan["repeatability"] = functools.partial(plot_repeatability, rows)
+    return plan
 
 
 __all__ = [
+    "campaign_figure_names",
     "campaign_figures",
     "measured_std",
     "figure_stem",
