@@ -56,6 +56,29 @@ def real_frf_dir() -> Path:
     return _shared_dir(REAL_FRF, "real measured FRFs")
 
 
+@pytest.fixture(scope="session")
+def identified_at_defaults():
+    """``identify(read_uff58(path), band=band)`` at the defaults, once per test session.
+
+    The result is frozen, so tests that ask for the same file and band share one run (an
+    identification of a many-mode real file takes seconds). Warnings are silenced: the tests read
+    them from the result's ``warnings``.
+    """
+    import functools
+    import warnings
+
+    @functools.lru_cache(maxsize=8)
+    def run(path: Path, band: tuple[float, float] | None = None):
+        from ema_rig.identification import identify
+        from ema_rig.io.uff import read_uff58
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return identify(read_uff58(path), band=band)
+
+    return run
+
+
 @pytest.fixture
 def mplcleanup():
     """Use the Agg backend and close every figure a test opened."""

@@ -9,23 +9,11 @@ same lines, an independent order growth and selection), not the code's own sigma
 
 from __future__ import annotations
 
-import functools
 import warnings
 
 import numpy as np
 
 from ema_rig.identification import identify
-
-
-@functools.lru_cache(maxsize=4)
-def _identified(path, band=None):
-    """``identify`` of the file at ``path`` in ``band`` at the defaults, once per module run (the
-    result is frozen; two tests ask for the same band)."""
-    from ema_rig.io.uff import read_uff58
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return identify(read_uff58(path), band=band)
 
 
 def _pair(path, band_a, band_b, f0):
@@ -78,7 +66,7 @@ def test_ufffiles_frf_206_hz_in_both_bands(corpus_dir):
     assert abs(found[0] - found[1]) < 0.01 * 206.8
 
 
-def test_ufffiles_frf_one_line_is_no_missing_mode(corpus_dir):
+def test_ufffiles_frf_one_line_is_no_missing_mode(corpus_dir, identified_at_defaults):
     # issue 18, "no mode that only one band supports": over the whole file (0-799.5 Hz) a 6-pole
     # cluster at 94.82 Hz, beside the 96.1 Hz mode (zeta 1.3 %, half-power half-bandwidth 1.3 Hz),
     # was added as a missing mode (local F = 12.6 >= 6.01 with 4, 32 dof) and reported at 94.99 Hz,
@@ -86,7 +74,7 @@ def test_ufffiles_frf_one_line_is_no_missing_mode(corpus_dir):
     # Nyquist plot of 92-98.5 Hz is one circle; the extra pole zeroes the 95.0 Hz line alone
     # (without that line F = 1.5 < 6.1): a distorted peak, not a mode. Oracle: the data's own lines
     # (the other band, and the test without the one line), not the ML estimate.
-    x = _identified(corpus_dir / "ufffiles_frf.unv")
+    x = identified_at_defaults(corpus_dir / "ufffiles_frf.unv")
     near = x.natural_freq[np.abs(x.natural_freq - 95.5) <= 1.5]
     assert near.size == 1 and abs(near[0] - 96.1) < 0.5, near  # the one mode of the circle, once
     (c,) = [c for c in x.candidates if abs(c.natural_freq - 94.82) < 0.1]
@@ -112,7 +100,7 @@ def test_ufffiles_frf_one_line_mode_not_accepted_either(corpus_dir):
     assert any("not resolved by the lines" in c.reason and abs(c.natural_freq - 95.0) < 0.5 for c in x.candidates)
 
 
-def test_ufffiles_frf_edge_mode_inside_band_b(corpus_dir):
+def test_ufffiles_frf_edge_mode_inside_band_b(corpus_dir, identified_at_defaults):
     # issue 18, band study, band B = 79.95-719.55 Hz: the 713.85 Hz mode (zeta 2 %, found by 0-799.5 Hz,
     # a 92-pole cluster there) lies 5.7 Hz inside B's upper edge; B's PolyMAX had no cluster for it,
     # the misfit of its last segment (522.5-719.5 Hz, 13x the noise) was put down to a mode beyond
@@ -121,14 +109,14 @@ def test_ufffiles_frf_edge_mode_inside_band_b(corpus_dir):
     # a pole to is a candidate, tested on its lines (F = 1.25e3 >= 4.8): B then holds the mode and
     # every mode is an ML estimate. Oracle: the other band (0-799.5 Hz: 713.85 Hz) and the data's
     # peak (|H| largest at 713 Hz). Fails with ml_features=False (no mode within 1 %).
-    x = _identified(corpus_dir / "ufffiles_frf.unv", (79.95, 719.55))
+    x = identified_at_defaults(corpus_dir / "ufffiles_frf.unv", (79.95, 719.55))
     near = x.natural_freq[np.abs(x.natural_freq - 713.85) <= 0.01 * 713.85]
     assert near.size == 1, x.natural_freq
     assert any("feature inside the band" in c.reason and c.accepted for c in x.candidates)
     assert "held" not in x.std_kind and not any(w.startswith("poor fit") for w in x.warnings)
 
 
-def test_ufffiles_frf_two_bands_changes_inside_their_sigma(corpus_dir):
+def test_ufffiles_frf_two_bands_changes_inside_their_sigma(corpus_dir, identified_at_defaults):
     # issue 18, "a mode's change between two reasonable bands inside +-2 sigma for >= 90 % of the
     # modes". ufffiles_frf in 0-799.5 and 79.95-719.55 Hz: once band B fits (ml_features), its sigma
     # from blocks of 4-6 lines shrank 7-14x while its residual stays correlated over ~100 lines
@@ -137,8 +125,8 @@ def test_ufffiles_frf_two_bands_changes_inside_their_sigma(corpus_dir):
     # from the scores (MLCriteria.block_from_scores) 28 of 31. Oracle: the other band (the same lines,
     # its own order growth and selection), not the code's sigma formula; fails with
     # block_from_scores=False (20/31).
-    a = _identified(corpus_dir / "ufffiles_frf.unv")
-    b = _identified(corpus_dir / "ufffiles_frf.unv", (79.95, 719.55))
+    a = identified_at_defaults(corpus_dir / "ufffiles_frf.unv")
+    b = identified_at_defaults(corpus_dir / "ufffiles_frf.unv", (79.95, 719.55))
     n = ok = 0
     for j, f in enumerate(b.natural_freq):
         k = int(np.argmin(np.abs(a.natural_freq - f)))
