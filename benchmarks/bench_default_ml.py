@@ -25,6 +25,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _timing import ask_worker, git_head  # benchmarks/_timing.py, beside this script
+
 REPO = Path(__file__).resolve().parent.parent
 
 WORKER = r"""
@@ -90,19 +92,10 @@ def main() -> None:
             print(f"{tag}: ema_rig from {where}")
 
         def ask(tag: str, case: str) -> tuple[float, float]:
-            p = procs[tag]
-            assert p.stdin is not None and p.stdout is not None
-            p.stdin.write(case + "\n")
-            p.stdin.flush()
-            wall, cpu = p.stdout.readline().split()
-            return float(wall), float(cpu)
+            return ask_worker(procs[tag], case)
 
-        def commit(tree: Path) -> str:
-            r = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
-            return r.stdout.strip() or "?"
-
-        print(f"# {time.strftime('%Y-%m-%dT%H:%MZ', time.gmtime())}: new = {REPO} @ {commit(REPO)}, "
-              f"old = {args.baseline} @ {commit(args.baseline)}; {os.cpu_count()} cores")
+        print(f"# {time.strftime('%Y-%m-%dT%H:%MZ', time.gmtime())}: new = {REPO} @ {git_head(REPO)}, "
+              f"old = {args.baseline} @ {git_head(args.baseline)}; {os.cpu_count()} cores")
         print(f"baseline {args.baseline}; BLAS threads: {'1' if args.one_thread else 'default'}; "
               f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(default)')}; "
               f"load average at start {os.getloadavg()[0]:.1f}")

@@ -220,7 +220,7 @@ class MLCriteria:
         main lobe; where a model error correlates it over many lines (a missing mode, leakage of a
         mode the segment does not fit) the blocks grow with it, and so does the sigma.
     max_iter : int
-        Work limit: Levenberg-Marquardt evaluations per segment (default 50).
+        Work limit: Levenberg-Marquardt evaluations per segment (default 400).
     misfit_p, misfit_ratio : float
         A segment whose leverage-corrected residual exceeds the noise estimate in a chi-square test
         at ``p < misfit_p`` (default 0.001, dof = its real equations) and by at least
