@@ -1261,9 +1261,8 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     if not added:
         return done
     modes = _unique_modes(modes)
-    fitted = _fit_modes(data, modes, residuals)
-    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=_misfit(data, fitted[0], cc),
-                   split=tuple(added))
+    fitted, test = _fit_tested(data, modes, residuals, cc)
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=test, split=tuple(added))
 
 
 def _one_line(data: FRFData, done: _Completed, residuals: bool, crit: IdentificationCriteria) -> _Completed:
@@ -1354,7 +1353,8 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
     one local test per weak mode, a work limit). Not done when the noise level is unknown (a
     coherence without the number of averages).
     """
-    var = done.test.variance if crit.completeness.drop_weak else None
+    cc = crit.completeness
+    var = done.test.variance if cc.drop_weak else None
     if done.test.noise_source == "coherence" and data.n_averages is None:
         var = None  # the coherence without the number of averages gives the noise's shape, not its level
     cands = list(done.candidates)
@@ -1376,14 +1376,15 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
         lo, hi = float(done.test.freq_lower[seg[0]]), float(done.test.freq_upper[seg[0]])
         if lo >= hi or not np.any((f >= lo) & (f <= hi)):
             continue
-        if _passes_with(data, others, lo, hi, done.test, crit.completeness, alone=True):
+        if _passes_with(data, others, lo, hi, done.test, cc, alone=True):
             modes = [m for m in modes if m.pole != c.mode.pole]
             poles = others
             cands[i] = replace(c, accepted=False, reason=(
                 f"not needed by the data: without it the residual near {fk:.6g} Hz stays consistent with the "
                 f"noise estimate (its own term {100 * c.peak_share:.0f} % of the FRF near it)"))
             dropped.append(fk)
-    fitted = _fit_modes(data, modes, residuals) if dropped or done.added else done.fitted
+    # the model's completeness test comes with each refit (:func:`_fit_tested`); None: not refitted
+    fitted, test = _fit_tested(data, modes, residuals, cc) if dropped or done.added else (done.fitted, None)
     ml = fitted[1]
     dup: set[complex] = set()
     for lesser, stronger in _unresolved(modes, ml, f, crit):
@@ -1395,7 +1396,7 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                 f"(within 3 x their summed uncertainty, participation MAC > {crit.judge.dup_participation_mac:g})"))
     if dup:
         modes = [m for m in modes if m.pole not in dup]
-        fitted = _fit_modes(data, modes, residuals)
+        fitted, test = _fit_tested(data, modes, residuals, cc)
     elif not dropped and not done.added:
         return done
     # a missing mode is added as a start value: when the ML of the whole band cannot hold it (it
@@ -1410,10 +1411,11 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
                 f"not determined by the data: added as a missing mode, but the ML fit could not hold it "
                 f"(before: {cands[i].reason})"))
         modes = [m for m in modes if m.pole not in {x.pole for x in lost}]
-        fitted = _fit_modes(data, modes, residuals)
+        fitted, test = _fit_tested(data, modes, residuals, cc)
         done = replace(done, added=tuple(f for f in done.added if f not in gone))
-    return _Completed(modes, tuple(cands), fitted, _misfit(data, fitted[0], crit.completeness), done.added,
-                      tuple(dropped))
+    if test is None:
+        test = _misfit(data, fitted[0], cc)
+    return _Completed(modes, tuple(cands), fitted, test, done.added, tuple(dropped))
 
 
 def _local_ml(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> LocalML:
