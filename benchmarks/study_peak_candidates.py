@@ -18,8 +18,9 @@ test's own minimum segment (``CompletenessCriteria.min_segment_lines`` lines, ha
   ``local_p`` Bonferroni over the candidates on the same lines) and the peak-line jackknife
   (``_peak_line_out``); the study reports where the ML put it.
 
-It also prints the data's peaks near 657.5 and 704.9 Hz on ufffiles_frf (summed magnitude and
-the Kennedy-Pancu sweep rate ``|H(k+1) - H(k)|``) to say whether a peak detector would see them.
+It also lists the data's own peaks (``peaks``: local maxima of the summed magnitude whose
+prominence stands out of the noise, more than a half-power bandwidth from every model mode): the
+candidates a peak detector would give, and whether it sees 657.5 and 704.9 Hz on ufffiles_frf.
 
 Run: ``PYTHONPATH=. python benchmarks/study_peak_candidates.py``.
 """
@@ -79,16 +80,58 @@ def scan(dd, x, cc, w):  # type: ignore[no-untyped-def]
     return out, sum(1 for q in rows if q[1]), len(rows)
 
 
-def peaks(d) -> None:  # type: ignore[no-untyped-def]
-    """The data's own peaks near 657.5 and 704.9 Hz: summed magnitude and Kennedy-Pancu sweep rate."""
-    f = d.freq
-    h = d.frf.reshape(-1, f.size)
+def peaks(dd, x, cc, tag, show=()):  # type: ignore[no-untyped-def]
+    """The data's own peaks: local maxima of the summed magnitude that stand out of the noise.
+
+    A local maximum's prominence (its drop to the higher of the two minima before a higher point
+    on either side) against the noise sd of the summed magnitude, ``sqrt(sum_c var_c / 2)`` (a
+    complex error of variance ``v`` gives ``|H|`` a variance ``v / 2`` where ``|H| >> sd``): it stands
+    out when above the normal quantile at ``CompletenessCriteria.p_value`` Bonferroni over the
+    maxima. A peak is a candidate when no model mode lies within one half-power bandwidth
+    (2 half-power half-bandwidths, ``ResultCriteria.edge_hbw``). ``show``: frequencies [Hz] whose
+    nearest local maximum is described whatever it scores. Also the Kennedy-Pancu sweep rate
+    ``sum_c |H(k+1) - H(k)|`` (the largest where the Nyquist circle turns fastest) there.
+    """
+    from scipy.stats import norm
+
+    f = dd.freq
+    h = dd.frf.reshape(-1, f.size)
+    var = x.residual_test.variance
     mag = np.sum(np.abs(h), axis=0)
-    sweep = np.sum(np.abs(np.diff(h, axis=1)), axis=0)  # between lines k and k + 1
-    for name, y, ff in (("summed magnitude", mag, f), ("sweep rate |H(k+1) - H(k)|", sweep, 0.5 * (f[1:] + f[:-1]))):
-        k = np.flatnonzero((y[1:-1] > y[:-2]) & (y[1:-1] >= y[2:])) + 1
-        k = k[(ff[k] > 630) & (ff[k] < 725)]
-        print(f"  ufffiles_frf {name}: local maxima in 630-725 Hz at " + ", ".join(f"{ff[j]:.2f} ({y[j]:.3g})" for j in k))
+    sd = np.sqrt(np.sum(np.where(np.isfinite(var), var, 0.0), axis=0) / 2)
+    k = np.flatnonzero((mag[1:-1] > mag[:-2]) & (mag[1:-1] >= mag[2:])) + 1
+    z_need = float(norm.isf(cc.p_value / max(k.size, 1)))
+    lam = np.asarray(x.modes.poles)
+    fn, hb = np.abs(lam) / (2 * np.pi), np.maximum(-lam.real / (2 * np.pi), 1e-12)
+    rows = []
+    for j in k:
+        a = j
+        while a > 0 and mag[a - 1] <= mag[j]:
+            a -= 1
+        b = j
+        while b < mag.size - 1 and mag[b + 1] <= mag[j]:
+            b += 1
+        z = (mag[j] - max(mag[a: j + 1].min(), mag[j: b + 1].min())) / sd[j] if sd[j] > 0 else np.inf
+        i = int(np.argmin(np.abs(fn - f[j]))) if fn.size else -1
+        dist = abs(fn[i] - f[j]) / hb[i] if i >= 0 else np.inf
+        rows.append((float(f[j]), float(z), float(fn[i]) if i >= 0 else np.nan, float(dist)))
+    cand = [r for r in rows if r[1] >= z_need and r[3] > 2]
+    print(f"  band {tag}: {k.size} local maxima of the summed magnitude, {sum(r[1] >= z_need for r in rows)} stand out "
+          f"(prominence >= {z_need:.2f} noise sd), {len(cand)} of them more than a half-power bandwidth from every "
+          f"model mode: " + ", ".join(f"{r[0]:.4g} Hz ({r[1]:.3g} sd, {r[3]:.3g} hbw from {r[2]:.5g})" for r in cand))
+    sweep = np.sum(np.abs(np.diff(h, axis=1)), axis=0)
+    fm = 0.5 * (f[1:] + f[:-1])
+    ks = np.flatnonzero((sweep[1:-1] > sweep[:-2]) & (sweep[1:-1] >= sweep[2:])) + 1
+    for fc in show:
+        if not (f[0] < fc < f[-1]) or not rows:
+            continue
+        r = min(rows, key=lambda q: abs(q[0] - fc))
+        js = ks[int(np.argmin(np.abs(fm[ks] - fc)))] if ks.size else None
+        sw = "" if js is None else (f"; nearest sweep-rate maximum {fm[js]:.2f} Hz, "
+                                    f"{abs(fn - fm[js]).min() / hb[int(np.argmin(abs(fn - fm[js])))]:.3g} hbw from the "
+                                    f"nearest model mode")
+        print(f"    near {fc:g} Hz: the nearest magnitude maximum is {r[0]:.2f} Hz, prominence {r[1]:.3g} noise sd "
+              f"(needs {z_need:.2f}), {r[3]:.3g} half-power half-bandwidths from the model mode at {r[2]:.5g} Hz{sw}")
 
 
 def main() -> None:
@@ -101,8 +144,6 @@ def main() -> None:
     tally = {w: [0, 0] for w in widths}  # supported candidates, of them in one band only
     for rel, band_a, band_b in CASES:
         d = read_uff58(SHARED / rel)
-        if "ufffiles" in rel:
-            peaks(d)
         if band_a is None:
             lo, hi = float(d.freq[0]), float(d.freq[-1])
             band_a, band_b = (lo, hi), (lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))
@@ -115,6 +156,9 @@ def main() -> None:
             sel = (d.freq >= b0) & (d.freq <= b1)
             idents[tag] = (x, d.replace(freq=d.freq[sel], frf=d.frf[:, :, sel],
                                         coherence=None if d.coherence is None else d.coherence[:, :, sel]))
+        print(f"{rel}: the data's peaks")
+        for tag, (x, dd) in idents.items():
+            peaks(dd, x, cc, tag, (657.5, 704.9) if "ufffiles" in rel else ())
         for w in widths:
             found = {}
             for tag, (x, dd) in idents.items():

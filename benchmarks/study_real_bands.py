@@ -41,9 +41,7 @@ def main() -> None:
     from ema_rig.identification.criteria import CompletenessCriteria, IdentificationCriteria
     from ema_rig.io.uff import read_uff58
 
-    scan = [int(a.split("=")[1]) for a in sys.argv[1:] if a.startswith("--scan-lines=")]
-    crit = IdentificationCriteria(completeness=CompletenessCriteria(ml_features="--no-ml-features" not in sys.argv[1:],
-                                                                   scan_lines=scan[0] if scan else 0))
+    crit = IdentificationCriteria(completeness=CompletenessCriteria(ml_features="--no-ml-features" not in sys.argv[1:]))
     rel_changes: list[float] = []
 
     n_f = n_f_ok = n_z_ok = 0

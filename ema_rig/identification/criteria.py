@@ -403,7 +403,6 @@ class CompletenessCriteria(_Sourced):
                              "56/59 (off: 4 modes in one band only; benchmarks/study_real_bands.py); the candidate is where "
                              "the data's ML moved a pole beyond MLCriteria.move_hbw ('another feature of the data'), not any "
                              "place")
-    scan_lines: int = _src(0, "trial (benchmarks/study_peak_candidates.py): windows of this many lines scanned for a local misfit; 0 off")
 
 
 @dataclass(frozen=True, slots=True)

@@ -904,12 +904,9 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     fitted, test = _fit_tested(data, modes, residuals, cc)
     added: list[float] = []
     feats = _ml_features(data, modes, fitted[1], crit) if cc.local_evidence and cc.ml_features else []
-    scanned = (_misfit_windows(data, modes, fitted[0].poles, test, cc)
-               if cc.local_evidence and cc.scan_lines > 0 and modes else [])
-    feats += [c for c, _lo, _hi in scanned]
     # the segments to search: the failing ones, and those put down to a mode beyond the band edge when the
     # ML located a feature inside the band there (its lines then decide, as for any missing mode)
-    where = [(lo, hi, False) for lo, hi in test.failing()] + [(lo, hi, False) for _c, lo, hi in scanned] + [
+    where = [(lo, hi, False) for lo, hi in test.failing()] + [
         (float(a), float(b), True) for a, b, e in zip(test.freq_lower, test.freq_upper, test.edge, strict=True)
         if e and any(a <= c.natural_freq <= b for c in feats)]
     if not where:
@@ -1035,68 +1032,6 @@ def _ml_features(data: FRFData, modes: Sequence[SelectedMode], ml: LocalML,
                              accepted=False,
                              reason=(f"a feature of the data the ML found: its fit moved the mode at "
                                      f"{m.natural_freq:.6g} Hz to {fn:.6g} Hz, beyond its half-power half-bandwidth")))
-    return out
-
-
-def _misfit_windows(data: FRFData, modes: Sequence[SelectedMode], poles: NDArray[np.complex128], test: MisfitTest,
-                    cc: CompletenessCriteria) -> list[tuple[Candidate, float, float]]:
-    """Candidates of missing modes where a window of ``cc.scan_lines`` lines fails the misfit test.
-
-    The band is cut into half-overlapping windows of ``scan_lines`` lines; each is tested as one
-    segment (:func:`~ema_rig.identification.noise.segment_misfit` with the model's ``poles`` and the
-    noise variance of ``test``), failing at ``cc.p_value`` Bonferroni over the windows x (channels
-    + 1) with a ratio at least ``cc.misfit_ratio``. Per run of failing windows, the centre of the
-    worst is a candidate with the damping whose ``local_hbw`` half-power half-bandwidths span the
-    window (its own lines are the window), unless it lies within the completeness loop's duplicate
-    distance of a model mode. Returns ``(candidate, lo, hi)`` with the worst window's first and
-    last line [Hz].
-    """
-    f = data.freq
-    w = int(cc.scan_lines)
-    var = test.variance
-    if var is None or f.size < w or not modes:
-        return []
-    n_chan = data.n_out * data.n_in
-    y = data.frf.reshape(n_chan, -1)
-    lam = np.asarray(poles, dtype=np.complex128)
-    starts = list(range(0, f.size - w + 1, max(w // 2, 1)))
-    alpha = cc.p_value / max(len(starts) * (n_chan + 1), 1)
-    rows = []
-    with single_threaded():
-        for i0 in starts:
-            sl = slice(i0, i0 + w)
-            t = segment_misfit(f[sl], y[:, sl], lam, power=_FORM_POWER[data.frf_form], variance=var[:, sl],
-                               edges=[0, w], criteria=cc)
-            rows.append((i0, bool(t.p_value[0] < alpha and max(t.ratio[0], t.worst_ratio[0]) >= cc.misfit_ratio),
-                         float(max(t.ratio[0], t.worst_ratio[0]))))
-    df = float(np.median(np.diff(f)))
-    fn_m = np.abs(lam) / (2 * np.pi)
-    near = 0.1 * np.maximum(2 * (-lam.real) / (2 * np.pi), df)
-    fn_modes = np.array([m.natural_freq for m in modes])
-    out: list[tuple[Candidate, float, float]] = []
-    k = 0
-    while k < len(rows):
-        if not rows[k][1]:
-            k += 1
-            continue
-        j = k
-        while j + 1 < len(rows) and rows[j + 1][1]:
-            j += 1
-        i0, _fail, r = max(rows[k: j + 1], key=lambda q: q[2])
-        k = j + 1
-        fc = float(f[i0 + w // 2])
-        zeta = 0.5 * w * df / (cc.local_hbw * fc)
-        if np.any(np.abs(fn_m - fc) <= near) or not 0 < zeta < 1:
-            continue
-        wn = 2 * np.pi * fc
-        pole = complex(-zeta * wn, wn * np.sqrt(1 - zeta**2))
-        m = modes[int(np.argmin(np.abs(fn_modes - fc)))]
-        out.append((Candidate(replace(m, pole=pole, natural_freq=fc, damping_ratio=zeta, natural_freq_std=0.0,
-                                      damping_ratio_std=0.0, n_poles=0, order_min=0, order_max=0),
-                              accepted=False,
-                              reason=(f"a local misfit of the data: the {w} lines {f[i0]:.6g}..{f[i0 + w - 1]:.6g} Hz "
-                                      f"fail the misfit test (residual {r:.3g} x the noise)")),
-                    float(f[i0]), float(f[i0 + w - 1])))
     return out
 
 
