@@ -19,6 +19,8 @@ part, the parts of one row timed alternately in the same minutes):
    every order of the chain) is added: ``3 + rep / eval`` is a lower limit of the chain's step /
    floor, whatever the implementation of the sweeps (the chain can take a new order's first sums
    from the order below, so the limit without any repulsion pass, 3.0, is the absolute one).
+   ``whole step`` is the limit of the whole root step / floor of ``bench_plscf.py``: the orders
+   below the chain at their ``dgeev`` time (``eval eig`` their floor), the chain at ``3 eval + rep``.
 
 Run: ``python benchmarks/study_plscf_bounds.py [--repeat 7]``.
 """
@@ -55,16 +57,21 @@ def fastest(fns: dict[str, Callable[[], Any]], repeat: int) -> dict[str, float]:
     return best
 
 
-def record_roots(data: Any, max_order: int) -> tuple[list[np.ndarray], list[tuple[list[np.ndarray], np.ndarray]]]:
-    """(companion matrices rooted by ``dgeev``, chains (coefficients, start)) of one ``plscf`` call."""
+def record_roots(data: Any, max_order: int) -> tuple[list[np.ndarray], list[tuple[np.ndarray, np.ndarray]],
+                                                     list[tuple[list[np.ndarray], np.ndarray]]]:
+    """(companion matrices rooted by ``dgeev``, their (det coefficients, roots), chains (coefficients,
+    start)) of one ``plscf`` call."""
     mod = importlib.import_module("ema_rig.identification.plscf")
     comps: list[np.ndarray] = []
+    eig_roots: list[tuple[np.ndarray, np.ndarray]] = []
     chains: list[tuple[list[np.ndarray], np.ndarray]] = []
     eig0, chain0 = mod._roots_eig, mod.aberth_chain
 
     def rec_eig(low: np.ndarray) -> Any:
         comps.append(mod._companion(low[::-1]))
-        return eig0(low)
+        z = eig0(low)
+        eig_roots.append((mod.det_coefficients(low), z))
+        return z
 
     def rec_chain(coefs: list[np.ndarray], start: np.ndarray, **kw: Any) -> Any:
         chains.append((coefs, start))
@@ -75,7 +82,7 @@ def record_roots(data: Any, max_order: int) -> tuple[list[np.ndarray], list[tupl
         call_ema(data, max_order, even=True)
     finally:
         mod._roots_eig, mod.aberth_chain = eig0, chain0
-    return comps, chains
+    return comps, eig_roots, chains
 
 
 def main() -> int:
@@ -90,13 +97,13 @@ def main() -> int:
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {os.getloadavg()[0]:.1f}, "
           f"BLAS 1 thread, CPU ms, fastest of {args.repeat} alternating rounds")
     print(f"{'refs':>4} {'N':>4} | {'plscf':>7} {'sdypy':>7} {'ratio':>6} | {'dgeev':>7} {'chain':>7} {'roots':>7} "
-          f"{'sdypy/roots':>11} | {'eval':>6} {'rep':>6} {'3+rep/eval':>12}")
+          f"{'sdypy/roots':>11} | {'eval eig':>8} {'eval':>6} {'rep':>6} {'3+rep/eval':>10} {'whole step':>10}")
     with blas_threads(1):
         for n_in, mo in ((1, 50), (1, 100), (1, 200), (2, 50), (2, 100)):
             freq, h, _ = make_arrays(n_in)
             data = ema_data(freq, h)
             h1 = h.reshape(-1, freq.size)  # two references: the 16 FRFs stacked as one reference
-            comps, chains = record_roots(data, mo)
+            comps, eig_roots, chains = record_roots(data, mo)
             finals = [aberth_chain(c, s) for c, s in chains]
 
             def eig_all(comps: list[np.ndarray] = comps) -> None:
@@ -107,12 +114,14 @@ def main() -> int:
                 for c, s in chains:
                     aberth_chain(c, s)
 
-            def eval_pass(chains: list[Any] = chains, finals: list[Any] = finals) -> None:
-                for (coefs, _), found in zip(chains, finals, strict=True):
-                    for c, z in zip(coefs, found, strict=True):
-                        j = np.arange(1, c.size)
-                        cr = c[::-1].copy()
-                        _ratio(c, c[1:] * j, cr, cr[1:] * j, z)
+            def one_eval(pairs: list[tuple[np.ndarray, np.ndarray]]) -> None:
+                for c, z in pairs:  # as bench_plscf.py's floor
+                    j = np.arange(1, c.size)
+                    cr = c[::-1].copy()
+                    _ratio(c, c[1:] * j, cr, cr[1:] * j, z)
+
+            chain_pairs = [(c, z) for (coefs, _), found in zip(chains, finals, strict=True)
+                           for c, z in zip(coefs, found, strict=True)]
 
             def rep_pass(finals: list[Any] = finals) -> None:
                 for found in finals:
@@ -121,12 +130,15 @@ def main() -> int:
 
             t = fastest({"plscf": lambda d=data, m=mo: call_ema(d, m, even=True),
                          "sdypy": lambda f=freq, x=h1, m=mo: call_sdypy(f, x, m),
-                         "dgeev": eig_all, "chain": chain_all, "eval": eval_pass, "rep": rep_pass}, args.repeat)
+                         "dgeev": eig_all, "chain": chain_all, "eval": lambda p=chain_pairs: one_eval(p),
+                         "eval_eig": lambda p=eig_roots: one_eval(p), "rep": rep_pass}, args.repeat)
             roots = t["dgeev"] + t["chain"]
-            lim = f"{3 + t['rep'] / t['eval']:12.1f}" if chains else f"{'-':>12}"
+            lim = f"{3 + t['rep'] / t['eval']:10.1f}" if chains else f"{'-':>10}"
+            # the whole root step: the companion orders at their dgeev time, the chain at its limit
+            whole = (t["dgeev"] + 3 * t["eval"] + t["rep"] * bool(chains)) / (t["eval_eig"] + t["eval"])
             print(f"{n_in:>4} {mo:>4} | {t['plscf'] * 1e3:7.2f} {t['sdypy'] * 1e3:7.2f} {t['sdypy'] / t['plscf']:6.2f} | "
                   f"{t['dgeev'] * 1e3:7.2f} {t['chain'] * 1e3:7.2f} {roots * 1e3:7.2f} {t['sdypy'] / roots:11.2f} | "
-                  f"{t['eval'] * 1e3:6.2f} {t['rep'] * 1e3:6.2f} {lim}", flush=True)
+                  f"{t['eval_eig'] * 1e3:8.2f} {t['eval'] * 1e3:6.2f} {t['rep'] * 1e3:6.2f} {lim} {whole:10.1f}", flush=True)
     print(f"# load average at the end {os.getloadavg()[0]:.1f}")
     return 0
 
