@@ -34,15 +34,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import bench_plscf as bp  # beside this script: its data, calls and BLAS limit
 import numpy as np
-from bench_plscf import (  # beside this script
-    blas_threads,
-    call_ema,
-    call_sdypy,
-    ema_data,
-    import_sdypy,
-    make_arrays,
-)
 
 
 def fastest(fns: dict[str, Callable[[], Any]], repeat: int) -> dict[str, float]:
@@ -79,7 +72,7 @@ def record_roots(data: Any, max_order: int) -> tuple[list[np.ndarray], list[tupl
 
     mod._roots_eig, mod.aberth_chain = rec_eig, rec_chain
     try:
-        call_ema(data, max_order, even=True)
+        bp.call_ema(data, max_order, even=True)
     finally:
         mod._roots_eig, mod.aberth_chain = eig0, chain0
     return comps, eig_roots, chains
@@ -93,15 +86,15 @@ def main() -> int:
 
     from ema_rig.identification._roots import _ratio, _repulsion, aberth_chain
 
-    import_sdypy()
+    bp.import_sdypy()
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {os.getloadavg()[0]:.1f}, "
           f"BLAS 1 thread, CPU ms, fastest of {args.repeat} alternating rounds")
     print(f"{'refs':>4} {'N':>4} | {'plscf':>7} {'sdypy':>7} {'ratio':>6} | {'dgeev':>7} {'chain':>7} {'roots':>7} "
           f"{'sdypy/roots':>11} | {'eval eig':>8} {'eval':>6} {'rep':>6} {'3+rep/eval':>10} {'whole step':>10}")
-    with blas_threads(1):
+    with bp.blas_threads(1):
         for n_in, mo in ((1, 50), (1, 100), (1, 200), (2, 50), (2, 100)):
-            freq, h, _ = make_arrays(n_in)
-            data = ema_data(freq, h)
+            freq, h, _ = bp.make_arrays(n_in)
+            data = bp.ema_data(freq, h)
             h1 = h.reshape(-1, freq.size)  # two references: the 16 FRFs stacked as one reference
             comps, eig_roots, chains = record_roots(data, mo)
             finals = [aberth_chain(c, s) for c, s in chains]
@@ -128,8 +121,8 @@ def main() -> int:
                     for z in found:
                         _repulsion(z, np.arange(z.size), z)
 
-            t = fastest({"plscf": lambda d=data, m=mo: call_ema(d, m, even=True),
-                         "sdypy": lambda f=freq, x=h1, m=mo: call_sdypy(f, x, m),
+            t = fastest({"plscf": lambda d=data, m=mo: bp.call_ema(d, m, even=True),
+                         "sdypy": lambda f=freq, x=h1, m=mo: bp.call_sdypy(f, x, m),
                          "dgeev": eig_all, "chain": chain_all, "eval": lambda p=chain_pairs: one_eval(p),
                          "eval_eig": lambda p=eig_roots: one_eval(p), "rep": rep_pass}, args.repeat)
             roots = t["dgeev"] + t["chain"]
