@@ -8,7 +8,7 @@ other processes take on a shared machine). The parent asks them in alternating o
 ...) so load drifts stay out of the ratio, and compares the two trees' poles of every order as
 sets (each pole to its nearest partner; stable and unstable poles apart).
 
-Run: ``python benchmarks/bench_plscf_vs_tree.py --baseline /tmp/old [--repeat 9]`` with the
+Run: ``python benchmarks/bench_plscf_vs_tree.py --baseline /tmp/old [--repeat 9] [--cases 1:50,2:50]`` with the
 baseline a checkout of the reference commit (``git archive f95e2e5 | tar -x -C /tmp/old``).
 """
 
@@ -71,7 +71,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--baseline", required=True, type=Path)
     ap.add_argument("--repeat", type=int, default=9, help="alternating pairs per case (default 9; 5 at N = 200)")
+    ap.add_argument("--cases", default=",".join(f"{a}:{b}" for a, b in CASES),
+                    help="references:max order, comma-separated (default all: %(default)s)")
     args = ap.parse_args()
+    cases = [(int(a), int(b)) for a, b in (c.split(":") for c in args.cases.split(","))]
     trees = {"new": REPO, "old": args.baseline.resolve()}
     one = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     procs = {tag: subprocess.Popen([sys.executable, "-c", WORKER, str(REPO / "benchmarks")], text=True,
@@ -92,7 +95,7 @@ def main() -> None:
     print("calls; new/old per pair; poles: largest relative distance of a new pole to the nearest old one, same order")
     print(f"{'refs':>4} {'N':>4} {'kind':>4} | {'old [ms]':>22} | {'new [ms]':>22} | {'new/old':>18} | poles stable / unstable, counts")
     with tempfile.TemporaryDirectory() as tmp:
-        for n_in, mo in CASES:
+        for n_in, mo in cases:
             files = {tag: str(Path(tmp) / f"{tag}.npz") for tag in procs}
             for tag in procs:
                 ask(tag, n_in, mo, files[tag])  # untimed: the poles, and caches warm

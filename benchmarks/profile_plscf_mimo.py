@@ -12,7 +12,10 @@ top-level stages.
 once per order (the solve and the root step), as microseconds per order over bands of orders:
 where each millisecond of an order goes as the order grows.
 
-Run: ``python benchmarks/profile_plscf_mimo.py [--repeat N] [--per-order] [ORDER ...]`` (default 50 100 200).
+``--refs 1`` profiles the one-reference rows of ``bench_plscf.py`` the same way (the per-order
+table's orders are then the degrees as well; its "warm_start" row is empty there).
+
+Run: ``python benchmarks/profile_plscf_mimo.py [--repeat N] [--per-order] [--refs 1|2] [ORDER ...]`` (default 50 100 200).
 """
 
 from __future__ import annotations
@@ -35,15 +38,18 @@ STAGES = [
     ("_refine_many", True), ("_participation_many", True),
 ]
 
-#: stages run once per order, with the model order each call is for (from its arguments; two references)
+#: stages run once per order, with the model order each call is for (from its arguments; the root
+#: finders' give the degree, divided by the references in ``main``)
 PER_ORDER: dict[str, Callable[..., int]] = {
     "_solve_order": lambda m, n, n_in: int(n),
     "det_coefficients": lambda alpha: int(alpha.shape[0]) - 1,
-    "warm_start": lambda prev, n_roots: int(n_roots) // 2,
-    "aberth": lambda c, z0, **k: (int(c.size) - 1) // 2,
-    "aberth_warm": lambda c, *a, **k: (int(c.size) - 1) // 2,
+    "warm_start": lambda prev, n_roots: int(n_roots),  # the degree: the order times the references
+    "aberth": lambda c, z0, **k: int(c.size) - 1,
+    "aberth_warm": lambda c, *a, **k: int(c.size) - 1,
     "_roots_eig": lambda low: int(low.shape[0]) - 1,
 }
+#: the stages whose PER_ORDER value is a degree
+BY_DEGREE = {"warm_start", "aberth", "aberth_warm"}
 #: bands of orders for the per-order table (degree 2n < 64: companion eigenvalues; above: Aberth)
 BANDS = [(2, 30), (32, 50), (52, 100), (102, 150), (152, 200)]
 
@@ -53,6 +59,7 @@ def main() -> int:
     ap.add_argument("orders", nargs="*", type=int, default=[50, 100, 200])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--per-order", action="store_true", help="microseconds per order of the per-order stages")
+    ap.add_argument("--refs", type=int, choices=(1, 2), default=2, help="references (default 2; 1: bench_plscf's main rows)")
     args = ap.parse_args()
     mod = importlib.import_module("ema_rig.identification.plscf")
     spent: dict[str, float] = collections.defaultdict(float)
@@ -67,14 +74,15 @@ def main() -> int:
                 dt = time.thread_time() - t0
                 spent[name] += dt
                 if name in PER_ORDER:
-                    by_order[name, PER_ORDER[name](*a, **k)] += dt
+                    o = PER_ORDER[name](*a, **k)
+                    by_order[name, o // args.refs if name in BY_DEGREE else o] += dt
         return run
 
     names = [n for n, _ in STAGES if hasattr(mod, n)]
     originals = {n: getattr(mod, n) for n in names}
-    freq, h, _ = make_arrays(2)
+    freq, h, _ = make_arrays(args.refs)
     data = ema_data(freq, h)
-    print(f"two-reference pLSCF, 8 x 2 x {freq.size} lines, even orders 2..N, BLAS 1 thread, "
+    print(f"{('one', 'two')[args.refs - 1]}-reference pLSCF, 8 x {args.refs} x {freq.size} lines, even orders 2..N, BLAS 1 thread, "
           f"CPU ms per stage (fastest of {args.repeat} calls), {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     try:
         for n in names:

@@ -167,6 +167,28 @@ def test_aberth_chain_far_roots_and_non_convergence(monkeypatch):
     assert _roots.aberth_chain(coefs, _companion_roots(inner[:195]), maxiter=1) == [None, None, None]
 
 
+def test_aberth_chain_several_polynomials_with_far_roots():
+    # every polynomial of the chain has its own conjugate pair far outside the unit circle
+    # (moduli 7.5, 8, 8.5: each polynomial's powers overflow, so all three go through their
+    # reversed polynomials, in the same sweeps, each from blocks prepared once and kept by the
+    # chain): each must be rooted on its OWN reversed polynomial. The first two have blocks of
+    # the same shape (degrees 196 and 198), so blocks taken from the wrong polynomial would not
+    # fail loudly; the roots would then not be the companion's.
+    base = _kac(198, seed=7)
+
+    def with_pair(inner: np.ndarray, r: float) -> np.ndarray:
+        far = r * np.exp(1j * np.pi / 3)
+        return np.convolve(inner, [abs(far) ** 2, -2 * far.real, 1.0])
+
+    coefs = [with_pair(base[:195] * 1.01, 7.5), with_pair(base[:197], 8.0), with_pair(base, 8.5)]
+    found = _roots.aberth_chain(coefs, _companion_roots(base[:195]))
+    for c, z, r in zip(coefs, found, (7.5, 8.0, 8.5), strict=True):
+        assert z is not None
+        # round-off, as in test_aberth_finds_the_companion_roots
+        assert _set_distance(z, _companion_roots(c)).max() < 5e-13
+        assert np.isclose(np.sort(np.abs(z))[-1], r, rtol=1e-12)
+
+
 def test_blocked_evaluation_of_several_polynomials_against_horner():
     rng = np.random.default_rng(13)
     degrees = (3, 40, 101)

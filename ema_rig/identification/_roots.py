@@ -151,6 +151,9 @@ def powers(x: NDArray[Any], n: int) -> NDArray[Any]:
     return out.reshape(-1, x.size)[: n + 1]
 
 
+_Prepared = tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
 def _prepare(coef: NDArray[Any], dcoef: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The coefficients of p and p' cut into the blocks of :func:`_block_powers`.
 
@@ -165,6 +168,14 @@ def _prepare(coef: NDArray[Any], dcoef: NDArray[Any]) -> tuple[NDArray[np.float6
     st[0, : n + 1] = coef
     st[1, :n] = dcoef
     return st.reshape(2 * k, b), np.abs(st[0]).reshape(k, b)
+
+
+def _prepare_both(c: NDArray[Any]) -> tuple[_Prepared, _Prepared]:
+    """:func:`_prepare` of ``p = sum_j c_j z^j`` and p', and of the reversed polynomial
+    ``q(y) = y^N p(1/y)`` and q' (the arguments of :func:`_ratio_prepared`)."""
+    j = np.arange(1, c.size)
+    cr = c[::-1]
+    return _prepare(c, c[1:] * j), _prepare(cr, cr[1:] * j)
 
 
 def _ratio(c: NDArray[Any], dc: NDArray[Any], cr: NDArray[Any], dcr: NDArray[Any], z: NDArray[Any],
@@ -184,9 +195,6 @@ def _ratio(c: NDArray[Any], dc: NDArray[Any], cr: NDArray[Any], dcr: NDArray[Any
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         return _ratio_prepared(_prepare(c, dc), _prepare(cr, dcr), c.size - 1, z, test)
-
-
-_Prepared = tuple[NDArray[np.float64], NDArray[np.float64]]
 
 
 def _ratio_prepared(pre: _Prepared, pre_rev: _Prepared, n: int, z: NDArray[Any], test: bool) -> tuple[NDArray[Any], NDArray[Any]]:
@@ -310,10 +318,7 @@ def aberth(c: NDArray[np.float64], z0: NDArray[np.complex128], *, maxiter: int =
     if n < 1 or z0.size != n or c[-1] == 0 or not np.all(np.isfinite(c)):
         return None
     c = np.asarray(c, dtype=float)
-    j = np.arange(1, n + 1)
-    pre = _prepare(c, c[1:] * j)  # p and p'
-    cr = c[::-1]
-    pre_rev = _prepare(cr, cr[1:] * j)  # q(y) = y^N p(1/y) and q'
+    pre, pre_rev = _prepare_both(c)  # p and p'; q(y) = y^N p(1/y) and q'
     z = np.asarray(z0, dtype=np.complex128).copy()
     act = np.arange(n)  # roots still iterating
     s_prev = np.full(n, np.nan, dtype=np.complex128)  # each root's last repulsion sum
@@ -367,10 +372,8 @@ def self_repulsion(coef: NDArray[np.float64], roots: NDArray[np.complex128]) -> 
     d1 = coef[1:] * np.arange(1, n + 1)  # p'
     if n < 2:
         return np.zeros(roots.size, dtype=np.complex128)
-    j = np.arange(1, n)
-    d1r = d1[::-1]
     with np.errstate(divide="ignore", invalid="ignore"):
-        r, _ = _ratio_prepared(_prepare(d1, d1[1:] * j), _prepare(d1r, d1r[1:] * j), n - 1, roots, False)
+        r, _ = _ratio_prepared(*_prepare_both(d1), n - 1, roots, False)
         return cast("NDArray[np.complex128]", 0.5 / r)  # p'' / (2 p')
 
 
@@ -510,6 +513,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
     state = np.zeros(k, dtype=int)  # 0 waiting, 1 iterating, 2 finished
     pending = np.zeros(k * n, dtype=bool)  # roots still iterating (flat index)
     bad = ~np.array([c[-1] != 0 and bool(np.all(np.isfinite(c))) for c in coefs])
+    prepared: dict[int, tuple[_Prepared, _Prepared]] = {}  # of the polynomials evaluated apart (_chain_ratio)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         while True:
             # start the next polynomial from the iterate of the one before
@@ -537,7 +541,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             # the active roots are grouped by polynomial (flat order): slices of each
             cuts = np.concatenate([[0], np.flatnonzero(own[1:] != own[:-1]) + 1, [act.size]])
             uo = own[cuts[:-1]]
-            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, n, uo, cuts, z, sweeps[uo] > 0)
+            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, n, uo, cuts, z, sweeps[uo] > 0, prepared)
             if small.any():
                 pending[act[small]] = False
                 keep = ~small
@@ -603,7 +607,7 @@ def _chain_reuse(fa: NDArray[Any], n: int, copied: int, d_old: int) -> tuple[NDA
 
 def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDArray[Any]], deg: NDArray[Any],
                  n: int, uo: NDArray[Any], cuts: NDArray[Any], z: NDArray[Any],
-                 test: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
+                 test: NDArray[Any], prepared: dict[int, tuple[_Prepared, _Prepared]]) -> tuple[NDArray[Any], NDArray[Any]]:
     """Newton ratio and rounding flag (as :func:`_ratio`) of the roots ``z``, grouped by polynomial.
 
     ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``. The
@@ -611,7 +615,8 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     slice (one small real matrix product per polynomial). Direct evaluation while no power can
     overflow (as :func:`_ratio_prepared`); otherwise each polynomial goes through
     :func:`_ratio_prepared`, which evaluates the roots outside the unit circle on the reversed
-    polynomial.
+    polynomial; its blocked coefficients (:func:`_prepare_both`) are formed once per polynomial
+    and kept in ``prepared`` (polynomial index -> blocks) for the sweeps that follow.
     """
     az = np.abs(z)
     zmax = np.maximum.reduceat(az, cuts[:-1])
@@ -643,11 +648,10 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     for u in np.flatnonzero(risky).tolist():
         # the roots outside the unit circle of this polynomial on its reversed polynomial
         a, b = cuts[u], cuts[u + 1]
-        c = coefs[uo[u]]
-        j = np.arange(1, c.size)
-        cr = c[::-1]
-        r[a:b], small[a:b] = _ratio_prepared(_prepare(c, c[1:] * j), _prepare(cr, cr[1:] * j),
-                                             c.size - 1, z[a:b], bool(test[u]))
+        i = int(uo[u])
+        if i not in prepared:
+            prepared[i] = _prepare_both(coefs[i])
+        r[a:b], small[a:b] = _ratio_prepared(*prepared[i], int(deg[i]), z[a:b], bool(test[u]))
     return r, small
 
 
