@@ -33,7 +33,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parent.parent
 
 STAGES = {
-    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_local_ml_staged", "_at_poles", "_misfit", "_lsfd_checked",
+    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_local_ml_staged", "_lsfd_at", "_misfit_at", "_lsfd_checked",
                                               "_reported_model", "judge_clusters", "stabilize", "cluster_poles",
                                               "diagnose_frf", "_split", "_parsimonious", "_skirt_warnings"],
     "ema_rig.identification.noise": ["fit_noise_model"],
