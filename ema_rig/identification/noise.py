@@ -359,7 +359,8 @@ def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[
     Lower and upper bounds of the profile at every grid point from binned sums
     (:func:`_noise_bounds`) leave the points where the minimum can lie; those are evaluated in
     double precision exactly as a full evaluation would, and the best of them is the best grid
-    point (every other point's lower bound exceeds a value the profile reaches).
+    point (every other point's lower bound exceeds a value the profile reaches). ``threads``: the
+    blocks of :func:`_blocks` in threads (the fit's work-size rule, :data:`_NOISE_THREAD_MIN_VALUES`).
 
     Returns
     -------
@@ -438,7 +439,8 @@ def _bin_sums(wz: NDArray[np.float64], unw: NDArray[np.float64], e_lo: int, n_b:
 
 def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
                   grid: NDArray[np.float64], threads: bool = False) -> NDArray[np.bool_]:
-    """The grid points at which a channel's profile can be smallest, shape (n_chan, n_grid), bool.
+    """The grid points at which a channel's profile can be smallest, shape (n_chan, n_grid), bool
+    (``threads``: the bin sums' blocks in threads, see :func:`_blocks`).
 
     The lines of each channel are binned by ``u = |H|^2 / m`` (``_BOUND_BINS`` bins per octave,
     edges exact binary fractions); per bin the sums of ``z``, ``z u``, ``z / u`` and of ``1``,
@@ -543,6 +545,7 @@ def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     in a few steps. A channel without such a bracket takes the end the profile falls towards (the
     caller keeps the best grid point when that is lower). Stops when the step is below 1e-13 or the
     bracket narrower than 1e-12 in ``x``, after ``max_iter`` steps at most (a work limit).
+    ``threads``: the blocks in threads (see :func:`_blocks`).
     """
     ln10 = np.log(10.0)
     q, s, t = np.empty(wz.shape[0]), np.empty(wz.shape[0]), np.empty(wz.shape[0])
