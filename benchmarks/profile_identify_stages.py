@@ -33,10 +33,12 @@ from typing import Any
 REPO = Path(__file__).resolve().parent.parent
 
 STAGES = {
-    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_local_ml_staged", "_at_poles", "_misfit", "_lsfd_checked",
+    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_local_ml_staged", "_lsfd_at", "_misfit_at", "_lsfd_checked",
                                               "_reported_model", "judge_clusters", "stabilize", "cluster_poles",
                                               "diagnose_frf", "_split", "_parsimonious", "_skirt_warnings"],
-    "ema_rig.identification.noise": ["fit_noise_model"],
+    "ema_rig.identification.noise": ["fit_noise_model", "segment_misfit"],
+    # inside the local ML: the segments' fits, their scores and covariances, the whole-basis (model-form) refits
+    "ema_rig.identification.ml": ["_lm", "_segment_tail", "_whole_basis"],
 }
 
 
@@ -82,6 +84,7 @@ def main() -> None:
     plscf = sys.modules["ema_rig.identification.plscf"]
     wrap(plscf.PlscfEngine, "poles", "PolyMAX poles")
     wrap(plscf.PlscfEngine, "__init__", "PolyMAX setup")
+    wrap(sys.modules["ema_rig.identification.ml"]._Segment, "_scores", "ML scores")
     ident = sys.modules["ema_rig.identification.identification"]
     if args.one_thread:
         noise, ml = sys.modules["ema_rig.identification.noise"], sys.modules["ema_rig.identification.ml"]

@@ -127,6 +127,21 @@ def test_bound_screen_keeps_the_best_grid_point():
         assert alive.sum(axis=1).mean() <= 4.0, alive.sum(axis=1)
 
 
+def _pools(monkeypatch):
+    """A list that records every thread pool the noise module creates from now on."""
+    import ema_rig.identification.noise as noise
+
+    made = []
+
+    class Spy(noise.ThreadPoolExecutor):  # type: ignore[misc]
+        def __init__(self, *a, **k):  # type: ignore[no-untyped-def]
+            made.append(a)
+            super().__init__(*a, **k)
+
+    monkeypatch.setattr(noise, "ThreadPoolExecutor", Spy)
+    return made
+
+
 def test_noise_fit_in_threads_is_the_fit_in_one_thread(monkeypatch):
     """Blocks of channels run in a pool of two threads (issue 18: speed); the answer is the
     one-thread answer to the bit (oracle: the same fit with the pool switched off), for the noise
@@ -138,12 +153,35 @@ def test_noise_fit_in_threads_is_the_fit_in_one_thread(monkeypatch):
     u = np.exp(rng.uniform(-8.0, 4.0, (n_chan, n)))
     z = (1e-3 + 0.02 * u) * rng.exponential(size=u.shape)
     mask = rng.uniform(size=u.shape) > 0.15
+    made = _pools(monkeypatch)
+    monkeypatch.setattr(noise, "_NOISE_THREAD_MIN_VALUES", 1)  # the threads used on these small data
     two = [noise.fit_noise_model(z, u, mask=m) for m in (None, mask)]
+    assert len(made) >= 2  # they ran (bin sums, candidate points, Newton: in pools)
     monkeypatch.setattr(noise, "_NOISE_THREADS", 1)
     one = [noise.fit_noise_model(z, u, mask=m) for m in (None, mask)]
     for r2, r1 in zip(two, one, strict=True):
         for x2, x1 in zip(r2, r1, strict=True):
             assert np.array_equal(x2, x1)
+
+
+def test_noise_fit_threads_only_from_its_work_size(monkeypatch):
+    """The noise fit's blocks run in threads only from ``_NOISE_THREAD_MIN_VALUES`` values (channels x
+    lines; a work-size rule, measured inside identify: below it the threads contend with identify's own
+    for no wall time). Oracle: the pools the module creates, for fits just below and at the threshold."""
+    import ema_rig.identification.noise as noise
+
+    rng = np.random.default_rng(6)
+    u = np.exp(rng.uniform(-6.0, 3.0, (64, 500)))  # two blocks of 32 channels
+    z = (1e-3 + 0.01 * u) * rng.exponential(size=u.shape)
+    made = _pools(monkeypatch)
+    monkeypatch.setattr(noise, "_NOISE_THREAD_MIN_VALUES", u.size + 1)
+    below = noise.fit_noise_model(z, u)
+    assert made == []
+    monkeypatch.setattr(noise, "_NOISE_THREAD_MIN_VALUES", u.size)
+    at = noise.fit_noise_model(z, u)
+    assert len(made) >= 2
+    for x_b, x_a in zip(below, at, strict=True):
+        assert np.array_equal(x_b, x_a)
 
 
 def test_noise_fit_of_a_channel_with_a_nan_line_is_nan_and_leaves_the_others():

@@ -130,3 +130,48 @@ def test_identify_with_its_second_threads_is_the_one_thread_identification(monke
         assert _same(getattr(two.modes, name), getattr(one.modes, name)), name
     for name in ("ratio", "p_value", "failed", "variance"):
         assert _same(getattr(two.residual_test, name), getattr(one.residual_test, name)), name
+
+
+@pytest.mark.parametrize("threshold", [1, 10**12])
+def test_the_completeness_test_formed_beside_the_lsfd_is_the_test_of_the_fitted_model(
+        monkeypatch: pytest.MonkeyPatch, threshold: int):
+    """_fit_modes forms the completeness test from the ML poles alone (in the order the LSFD model will
+    hold them) while the LSFD at those poles is fitted in the other thread, or by the caller (threshold
+    1: both tasks handed to a second thread; above the data: run by the caller). Oracle: the definition,
+    the test of the fitted model (:func:`_misfit` of the LSFD model at the ML poles), to the bit; the
+    returned model is the LSFD at the ML poles (not at the PolyMAX start)."""
+    import ema_rig.identification.identification as idm
+    from ema_rig.identification.criteria import COMPLETENESS_CRITERIA
+    from ema_rig.identification.lsfd import _model_order, lsfd
+    from ema_rig.identification.stabilization import SelectedMode
+
+    data, lam, _ = _frf(8, 5)
+    rng = np.random.default_rng(11)
+    start = lam * (1.0 + 2e-3 * (rng.standard_normal(lam.size) + 1j * rng.standard_normal(lam.size)))
+    # the start poles in an order that is not |pole|'s: the model (and the test) hold them sorted
+    modes = [SelectedMode(order=40, index=0, pole=complex(p), natural_freq=abs(p) / (2 * np.pi),
+                          damping_ratio=-p.real / abs(p), natural_freq_std=0.01, damping_ratio_std=1e-4, n_poles=20,
+                          participation=(1 + 0j,)) for p in start[::-1]]
+    monkeypatch.setattr(idm, "_AT_POLES_THREAD_MIN_VALUES", threshold)
+    (model, ml, _, _), test = idm._fit_tested(data, modes, True, COMPLETENESS_CRITERIA)
+    assert np.any(ml.poles != _model_order(start)) and "ml" in ml.kind  # the ML moved the poles
+    fitted = lsfd(data, ml.poles)
+    oracle = idm._misfit(data, fitted, COMPLETENESS_CRITERIA)
+    assert _same(model.poles, fitted.poles) and _same(model.residues, fitted.residues)
+    for name in ("freq_lower", "freq_upper", "ratio", "worst_ratio", "p_value", "dof", "failed", "edge", "variance"):
+        assert _same(getattr(test, name), getattr(oracle, name)), name
+
+
+def test_model_order_is_the_order_of_the_lsfd_models_poles():
+    """The poles a task takes before the LSFD fit (``_model_order``, ``_model_poles``) are the fitted model's,
+    element by element, for poles given in any order (oracle: ``lsfd``'s model)."""
+    from ema_rig.identification.identification import _lsfd_at, _model_poles
+    from ema_rig.identification.lsfd import _model_order, lsfd
+
+    data, lam, _ = _frf(4, 6)
+    start = lsfd(data, lam)
+    for order in ([2, 0, 1], [1, 2, 0], [0, 1, 2]):
+        assert _same(_model_order(lam[order]), lsfd(data, lam[order]).poles), order
+        moved = lam[order] * (1.0 + 1e-4j)
+        assert _same(_model_poles(start, moved), _lsfd_at(data, start, None, moved, True)[0].poles), order
+    assert _model_poles(start, start.poles) is start.poles  # the start model's own poles: no fit

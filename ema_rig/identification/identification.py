@@ -46,7 +46,7 @@ from .criteria import (
 )
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
-from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted
+from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, _model_order
 from .mac import mac
 from .ml import LocalML, StagedML, local_ml_staged
 from .modal import ModalModel
@@ -796,8 +796,9 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
     and the basis of the returned LSFD model (for the weighted residues at its poles).
 
     With ``test`` (criteria, a list) the completeness test of the returned model (:func:`_misfit`) is
-    appended to the list: it needs the ML poles only, so it is formed with the LSFD at them while a
-    second thread may still form the ML's scores and covariances (the same numbers as after it).
+    appended to the list: it needs the ML poles only (not the LSFD at them), so it is formed beside that
+    fit and while a second thread may still form the ML's scores and covariances (the same numbers as
+    after them).
     """
     syn = np.empty_like(data.frf, dtype=np.complex128)  # the LSFD model's FRFs on the data's lines
     # data checked by identify
@@ -809,43 +810,59 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
         # ---- the default estimate: ML on the lines near the modes, robust standard uncertainty ----
         staged = _local_ml_staged(data, model, syn)
         # the poles are final: the LSFD model at them and its completeness test need nothing else of the
-        # ML, so a second thread forms them while this one joins the ML's uncertainties (pure tasks,
-        # joined here: the same numbers whichever thread runs what, and when)
+        # ML, and neither needs the other (the test takes the poles alone, in the model's order), so on
+        # large data a second thread starts on the test (the longer task) while this one joins the ML's
+        # uncertainties, then takes the LSFD back when the thread has not started it yet (pure tasks,
+        # joined here in a fixed order: the same numbers whichever thread runs what, and when)
         side = ThreadPoolExecutor(1) if data.frf.size >= _AT_POLES_THREAD_MIN_VALUES else None
         err = np.geterr()  # the caller's floating-point error handling holds in the thread too
         start, start_basis = model, (bases[0] if bases else None)
+        poles = staged.poles
+        cc = None if test is None else test[0]
 
-        def at_poles() -> tuple[ModalModel, LsfdBasis | None, MisfitTest | None]:
+        def lsfd_at() -> tuple[ModalModel, LsfdBasis | None]:
             with in_callers_limit(), np.errstate(**err):
-                return _at_poles(data, start, start_basis, staged.poles, residuals, None if test is None else test[0])
+                return _lsfd_at(data, start, start_basis, poles, residuals)
 
-        at_ml = Job(at_poles, side)
+        def misfit_at(crit: CompletenessCriteria) -> MisfitTest:
+            with in_callers_limit(), np.errstate(**err):
+                return _misfit_at(data, _model_poles(start, poles), crit)
+
+        tested_job = None if cc is None else Job(partial(misfit_at, cc), side)
+        fit_job = Job(lsfd_at, side, later=True)
         if side is not None:
-            side.shutdown(wait=False)  # its thread ends once the task is done (or taken back)
+            side.shutdown(wait=False)  # its thread ends once the tasks are done (or taken back)
         ml = staged.finish()
-        model, basis, tested = at_ml.result()
+        model, basis = fit_job.result()
+        tested = None if tested_job is None else tested_job.result()
     if test is not None and tested is not None:
         test[1].append(tested)
     return model, ml, polymax, basis
 
 
-#: FRF values (channels x lines) from which :func:`_fit_modes` forms the LSFD at the ML poles and the
-#: completeness test in a second thread while it joins the ML's uncertainties. Below (the bundled rig file:
+#: FRF values (channels x lines) from which :func:`_fit_modes` hands the completeness test at the ML poles
+#: (and the LSFD at them, unless the caller takes it back first) to a second thread while it joins the ML's
+#: uncertainties. Below (the bundled rig file:
 #: 13 600 values) both sides are small numpy calls that hold the interpreter lock, so the thread only adds
 #: hand-offs (measured: rig file 0.055 -> 0.059 s wall, same tasks in the caller); the same threshold as
 #: the completeness test's own two threads. A work-size rule: the same on any machine.
 _AT_POLES_THREAD_MIN_VALUES = 100_000
 
 
-def _at_poles(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],
-              residuals: bool, cc: CompletenessCriteria | None) -> tuple[ModalModel, LsfdBasis | None, MisfitTest | None]:
-    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles) and,
-    with ``cc``, its completeness test (the task :func:`_fit_modes` hands to a second thread)."""
+def _model_poles(model: ModalModel, poles: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """The poles of the LSFD model at ``poles`` (:func:`_lsfd_at`), without the fit: ``model``'s when they are
+    its poles, else in the order an LSFD model holds them (:func:`~ema_rig.identification.lsfd._model_order`)."""
+    return model.poles if not np.any(poles != model.poles) else _model_order(poles)
+
+
+def _lsfd_at(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],
+             residuals: bool) -> tuple[ModalModel, LsfdBasis | None]:
+    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles)."""
     if np.any(poles != model.poles):
         bases: list[LsfdBasis] = []
         model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases)
         basis = bases[0] if bases else None
-    return model, basis, None if cc is None else _misfit(data, model, cc)
+    return model, basis
 
 
 def _fit_tested(data: FRFData, modes: Sequence[SelectedMode], residuals: bool, cc: CompletenessCriteria
@@ -879,8 +896,13 @@ def _reported_model(data: FRFData, model: ModalModel, test: MisfitTest | None, c
 
 def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> MisfitTest:
     """:func:`~ema_rig.identification.noise.segment_misfit` of ``model`` on ``data`` (cut to the band)."""
+    return _misfit_at(data, model.poles, crit)
+
+
+def _misfit_at(data: FRFData, poles: NDArray[np.complex128], crit: CompletenessCriteria) -> MisfitTest:
+    """:func:`_misfit` of the model with the poles ``poles`` (shape (n_modes,) [rad/s], in the model's order)."""
     with single_threaded():  # many small factorizations: threads only add hand-off time
-        return segment_misfit(data.freq, data.frf, model.poles, power=_FORM_POWER[data.frf_form],
+        return segment_misfit(data.freq, data.frf, poles, power=_FORM_POWER[data.frf_form],
                               coherence=data.coherence, n_averages=data.n_averages, criteria=crit)
 
 

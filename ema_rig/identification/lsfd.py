@@ -157,6 +157,18 @@ class LsfdBasis:
                 and np.array_equal(self.freq, freq))
 
 
+def _model_order(poles: ArrayLike) -> NDArray[np.complex128]:
+    """The poles as an LSFD model holds them: shape (n_modes,), sorted by ``|pole|`` [rad/s].
+
+    The order of :attr:`ModalModel.poles <ema_rig.identification.modal.ModalModel.poles>` of every
+    :func:`lsfd` fit (and of the tests formed at those poles, e.g. the completeness test): a task that
+    needs the model's poles but not its residues takes them from here, before the fit is done.
+    """
+    lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
+    out: NDArray[np.complex128] = lam[np.argsort(np.abs(lam))]
+    return out
+
+
 def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
                   variance: NDArray[np.float64] | None = None,
                   model_out: NDArray[np.complex128] | None = None,
@@ -249,7 +261,7 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         raise IdentificationError("LSFD needs at least one pole", file=src)
     if not np.all(np.isfinite(lam)) or np.any(lam.imag <= 0):
         raise IdentificationError("LSFD poles must be finite with Im > 0 (one of each conjugate pair)", file=src)
-    lam = lam[np.argsort(np.abs(lam))]
+    lam = _model_order(lam)
     p = _FORM_POWER[data.frf_form]
     f = data.freq
     h = data.frf

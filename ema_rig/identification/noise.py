@@ -210,7 +210,8 @@ def fit_noise_model(
     minimum, and only the others (one or two per channel, typically) are evaluated in double
     precision: the best grid point is the one the full double-precision grid gives. Channels are
     independent and processed in blocks that stay in the processor cache, two blocks at a time in
-    threads (a fixed partition: the result is the one-thread result to the bit).
+    threads from :data:`_NOISE_THREAD_MIN_VALUES` values (a fixed partition: the result is the one-thread
+    result to the bit).
 
     Examples
     --------
@@ -243,12 +244,13 @@ def fit_noise_model(
         wz = wts * z
         unw = np.where(wts > 0, un, 0.0)
     grid = np.concatenate([[0.0], np.logspace(-4.0, 8.0, 49)])
-    s_g, t_g, nll, best = _noise_grid(wz, unw, cnt, grid)
+    threads = z.size >= _NOISE_THREAD_MIN_VALUES  # a work-size rule: the same on any machine
+    s_g, t_g, nll, best = _noise_grid(wz, unw, cnt, grid, threads)
     # the minimum between the neighbours of the best grid point, in log q
     lg = np.log10(np.where(grid > 0, grid, 1e-5))
     lo = lg[np.maximum(best - 1, 0)]
     hi = lg[np.minimum(best + 1, grid.size - 1)]
-    q_m, s_m, t_m = _noise_refine(wz, unw, cnt, lo, hi)
+    q_m, s_m, t_m = _noise_refine(wz, unw, cnt, lo, hi, threads=threads)
     f_m = np.log(s_m) + t_m
     rows = np.arange(n_chan)
     better = f_m < nll[rows, best]
@@ -267,18 +269,27 @@ _NOISE_BLOCK = 32
 #: Threads of :func:`_blocks` (fixed: the partition into blocks, not the machine, decides the work).
 _NOISE_THREADS = 2
 
+#: Values (channels x lines) of a noise fit from which :func:`_blocks` runs its blocks in threads. Measured
+#: inside the default ``identify`` on the 256-output file of ``bench_refine.py`` and larger copies of it
+#: (2026-12-07, 2 cores, ``chrt -f 10``, 9-20 alternating calls, the answers identical; noise threads on /
+#: off, wall): 256 x 1801 values 0.236 / 0.212 s (the threads contend with identify's own), 256 x 3601
+#: 0.350 / 0.353 s, 512 x 3601 0.788 / 0.793 s, 1024 x 3601 1.183 / 1.275 s; below 2 million values the
+#: threads add 10-25 % CPU time for no wall time. A work-size rule: the same on any machine.
+_NOISE_THREAD_MIN_VALUES = 2_000_000
 
-def _blocks(fn: Callable[[int, int], None], n: int) -> None:
+
+def _blocks(fn: Callable[[int, int], None], n: int, threads: bool) -> None:
     """Call ``fn(i0, i1)`` for the blocks ``[i0, i1)`` of ``_NOISE_BLOCK`` items of ``0..n``.
 
-    With more than one block they run in a pool of ``_NOISE_THREADS`` threads (numpy releases the
+    With ``threads`` (the fit holds at least :data:`_NOISE_THREAD_MIN_VALUES` values) and more than
+    one block they run in a pool of ``_NOISE_THREADS`` threads (numpy releases the
     interpreter lock in its loops over the lines). The partition is fixed and every block writes
     only its own rows, computed by the same operations as in one thread, so the result does not
     depend on the number of threads, their scheduling or the load of the machine, to the bit. The
     caller's ``np.errstate`` applies in the threads.
     """
     spans = [(i0, min(i0 + _NOISE_BLOCK, n)) for i0 in range(0, n, _NOISE_BLOCK)]
-    if len(spans) < 2 or _NOISE_THREADS < 2:
+    if len(spans) < 2 or _NOISE_THREADS < 2 or not threads:
         for i0, i1 in spans:
             fn(i0, i1)
         return
@@ -342,13 +353,14 @@ def _noise_profile(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArr
 
 
 def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
-                grid: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+                grid: NDArray[np.float64], threads: bool = False) -> tuple[NDArray[np.float64], ...]:
     """The best point of the profile on ``grid`` per channel, and the profile there.
 
     Lower and upper bounds of the profile at every grid point from binned sums
     (:func:`_noise_bounds`) leave the points where the minimum can lie; those are evaluated in
     double precision exactly as a full evaluation would, and the best of them is the best grid
-    point (every other point's lower bound exceeds a value the profile reaches).
+    point (every other point's lower bound exceeds a value the profile reaches). ``threads``: the
+    blocks of :func:`_blocks` in threads (the fit's work-size rule, :data:`_NOISE_THREAD_MIN_VALUES`).
 
     Returns
     -------
@@ -360,7 +372,7 @@ def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[
     n_chan, n_g = wz.shape[0], grid.size
     # a channel with a NaN or inf line has no best point (its fit is NaN, as a full grid gives)
     finite = np.isfinite(np.sum(wz, axis=1)) & np.isfinite(np.sum(unw, axis=1))
-    cand = _noise_bounds(wz, unw, cnt, grid) & finite[:, None]
+    cand = _noise_bounds(wz, unw, cnt, grid, threads) & finite[:, None]
     s_g = np.full((n_chan, n_g), np.nan)
     t_g = np.full((n_chan, n_g), np.nan)
     rows, cols = np.nonzero(cand)
@@ -369,7 +381,7 @@ def _noise_grid(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[
         r, c = rows[k0:k1], cols[k0:k1]
         s_g[r, c], t_g[r, c] = _noise_profile(wz[r], unw[r], cnt[r], grid[c])
 
-    _blocks(one, rows.size)
+    _blocks(one, rows.size, threads)
     nll = np.log(s_g) + t_g
     best = np.argmin(np.where(np.isfinite(nll), nll, np.inf), axis=1)
     return s_g, t_g, nll, best
@@ -426,8 +438,9 @@ def _bin_sums(wz: NDArray[np.float64], unw: NDArray[np.float64], e_lo: int, n_b:
 
 
 def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
-                  grid: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """The grid points at which a channel's profile can be smallest, shape (n_chan, n_grid), bool.
+                  grid: NDArray[np.float64], threads: bool = False) -> NDArray[np.bool_]:
+    """The grid points at which a channel's profile can be smallest, shape (n_chan, n_grid), bool
+    (``threads``: the bin sums' blocks in threads, see :func:`_blocks`).
 
     The lines of each channel are binned by ``u = |H|^2 / m`` (``_BOUND_BINS`` bins per octave,
     edges exact binary fractions); per bin the sums of ``z``, ``z u``, ``z / u`` and of ``1``,
@@ -464,7 +477,7 @@ def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     def sums(i0: int, i1: int) -> None:
         st_s[i0:i1], st_t[i0:i1] = _bin_sums(wz[i0:i1], unw[i0:i1], e_lo, n_b)
 
-    _blocks(sums, n_chan)
+    _blocks(sums, n_chan, threads)
     frac = np.arange(kb) / (2 * kb) + 0.5
     octs = np.arange(e_lo, e_hi + 1)
     lo = np.concatenate([[0.0, 0.0], np.ldexp(np.tile(frac, octs.size), np.repeat(octs, kb))])
@@ -520,7 +533,7 @@ def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
 
 
 def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
-                  lo: NDArray[np.float64], hi: NDArray[np.float64], max_iter: int = 60
+                  lo: NDArray[np.float64], hi: NDArray[np.float64], max_iter: int = 60, *, threads: bool = False
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """The ratio ``q`` of a local minimum of the profile between ``10**lo`` and ``10**hi``, shape (n_chan,),
     and the level ``s`` and log term ``t`` there (:func:`_noise_profile`, block by block while the
@@ -532,6 +545,7 @@ def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
     in a few steps. A channel without such a bracket takes the end the profile falls towards (the
     caller keeps the best grid point when that is lower). Stops when the step is below 1e-13 or the
     bracket narrower than 1e-12 in ``x``, after ``max_iter`` steps at most (a work limit).
+    ``threads``: the blocks in threads (see :func:`_blocks`).
     """
     ln10 = np.log(10.0)
     q, s, t = np.empty(wz.shape[0]), np.empty(wz.shape[0]), np.empty(wz.shape[0])
@@ -541,7 +555,7 @@ def _noise_refine(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
         q[i0:i1] = np.exp(x)
         s[i0:i1], t[i0:i1] = _noise_profile(wz[i0:i1], unw[i0:i1], cnt[i0:i1], q[i0:i1])
 
-    _blocks(one, wz.shape[0])
+    _blocks(one, wz.shape[0], threads)
     return q, s, t
 
 
