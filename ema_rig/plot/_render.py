@@ -89,9 +89,14 @@ if TYPE_CHECKING:
     from matplotlib.axis import Axis
     from matplotlib.figure import Figure
 
-__all__ = ["collapse_minor_ticks", "fixed_layout", "kept_figure", "palette_indices", "render_png", "reuse_axes",
+__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "kept_figure", "palette_indices", "render_png", "reuse_axes",
            "semilogy", "warm_up"]
 
+#: zlib level of :func:`render_png`'s PNG data. Level 3 against zlib's default 6, the bundled demo's 63
+#: figures encoded at each (``benchmarks/results/demo.txt``, 2026-12-07 x_fig8): 57 palette figures 145
+#: against 305 ms CPU for 2.87 against 2.50 MB (+15 %), 6 campaign figures (RGB) 49 against 69 ms for
+#: 267 against 255 kB; levels 1-2 saved only 20 ms more for +23-29 % bytes.
+PNG_LEVEL = 3
 #: Layouts kept per process (structure -> [(key, positions)]), newest last; a few per figure kind.
 _LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
 _MAX_LAYOUTS = 8
@@ -102,7 +107,7 @@ _LOCAL = threading.local()
 
 
 def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: bool = True,
-               reuse_layout: bool = True) -> bytes:
+               reuse_layout: bool = True, compress_level: int = PNG_LEVEL) -> bytes:
     """Draw ``fig`` once and return it as PNG bytes.
 
     Parameters
@@ -118,6 +123,9 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
     reuse_layout : bool, optional
         Take the positions of an earlier constrained layout with the same key (module notes)
         instead of laying the figure out again (default True).
+    compress_level : int, optional
+        zlib level 0-9 of the PNG data when not ``optimize`` (default :data:`PNG_LEVEL`); lossless
+        at every level: the same pixels, only the bytes and the time to make them differ.
 
     Returns
     -------
@@ -126,7 +134,8 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
         palette).
     """
     with _gc_paused():
-        return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout)
+        return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout,
+                           compress_level=compress_level)
 
 
 @contextlib.contextmanager
@@ -151,7 +160,8 @@ def _gc_paused() -> Iterator[None]:
             gc.enable()
 
 
-def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool) -> bytes:
+def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool,
+                compress_level: int) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.layout_engine import ConstrainedLayoutEngine
     from PIL import Image  # a matplotlib dependency
@@ -185,7 +195,10 @@ def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, 
         img = Image.frombuffer("P", (w, h), index, "raw", "P", 0, 1)
         img.putpalette(palette.tobytes())
     out = io.BytesIO()
-    img.save(out, format="PNG", optimize=optimize)
+    if optimize:
+        img.save(out, format="PNG", optimize=True)
+    else:
+        img.save(out, format="PNG", compress_level=compress_level)
     return out.getvalue()
 
 
@@ -881,13 +894,19 @@ def _axes_replayed(fig: Figure) -> Iterator[None]:
     aligned with other axes' (``align_labels``), any figure not kept, and a recording that used
     the renderer otherwise are drawn by matplotlib. An axis that missed its recordings _VOLATILE
     draws in a row (limits that follow the data) is looked up and recorded at every _VOLATILE-th
-    draw only.
+    draw only. The axes of any other figure (the campaign figures) work their ticks and tick label
+    boxes out once for the whole draw (:func:`_ticks_once`): matplotlib does it again to place each
+    axis label and, for every axes with a title, to place the title.
     """
     from matplotlib.axis import Axis
 
     label = fig.get_label()
     if not (isinstance(label, str) and label.startswith("ema_rig.")):
-        yield
+        with contextlib.ExitStack() as stack:
+            for ax in fig.axes:
+                for axis in (ax.xaxis, ax.yaxis):
+                    stack.enter_context(_ticks_once(axis))
+            yield
         return
     patched = []
     for ax in fig.axes:
@@ -955,23 +974,27 @@ def _replaying(axis: Any, draw: Any) -> Any:
 
 @contextlib.contextmanager
 def _ticks_once(axis: Any) -> Iterator[None]:
-    """The axis' ticks and tick label boxes worked out once for one draw of it.
+    """The axis' ticks and tick label boxes worked out once within the block (a draw of a finished figure).
 
     matplotlib's ``Axis.draw`` updates the ticks and measures their labels, then, to place the
     axis label clear of the tick labels of every axes aligned with it (``_get_tick_boxes_siblings``;
     this axis alone unless ``align_labels``), updates and measures them all again: the same ticks
-    and boxes, nothing changed between. Within the block the second time takes the first's.
+    and boxes, nothing changed between; ``Axes.draw`` does it all once more for every axes with a
+    title (its y axis' tight box, to place the title clear of an offset text). Within the block
+    the second time takes the first's, kept by what they read that a draw could change: the view
+    limits (the ticks and their labels), and the axes' box and the renderer (the label boxes).
     """
     update, boxes = axis._update_ticks, axis._get_ticklabel_bboxes
     memo: dict[Any, Any] = {}
 
     def update_ticks() -> Any:
-        if "ticks" not in memo:
-            memo["ticks"] = update()
-        return memo["ticks"]
+        k = ("ticks", tuple(axis.get_view_interval()))
+        if k not in memo:
+            memo[k] = update()
+        return memo[k]
 
     def ticklabel_bboxes(ticks: Any, renderer: Any = None) -> Any:
-        k = (id(ticks), id(renderer))
+        k = (id(ticks), id(renderer), tuple(axis.axes.bbox.bounds))
         if k not in memo:
             memo[k] = boxes(ticks, renderer)
         return memo[k]
