@@ -163,11 +163,32 @@ def _gc_paused() -> Iterator[None]:
 def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool,
                 compress_level: int) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.layout_engine import ConstrainedLayoutEngine
     from PIL import Image  # a matplotlib dependency
 
     fig.set_dpi(dpi)
     canvas = _canvas(fig, float(dpi), FigureCanvasAgg)
+    with _layouts_kept(canvas.get_renderer()):
+        _draw(fig, canvas, reuse_layout)
+    w, h = canvas.get_width_height()
+    rgba = canvas.buffer_rgba()
+    if colors is None:
+        img = Image.frombuffer("RGBA", (w, h), rgba, "raw", "RGBA", 0, 1).convert("RGB")
+    else:
+        index, palette = palette_indices(np.frombuffer(rgba, dtype="<u4").reshape(h, w), colors)
+        img = Image.frombuffer("P", (w, h), index, "raw", "P", 0, 1)
+        img.putpalette(palette.tobytes())
+    out = io.BytesIO()
+    if optimize:
+        img.save(out, format="PNG", optimize=True)
+    else:
+        img.save(out, format="PNG", compress_level=compress_level)
+    return out.getvalue()
+
+
+def _draw(fig: Figure, canvas: Any, reuse_layout: bool) -> None:
+    """Lay ``fig`` out (or take a kept layout) and draw it on ``canvas`` (:func:`render_png`)."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
     engine = fig.get_layout_engine()
     constrained = isinstance(engine, ConstrainedLayoutEngine)
     reused = constrained and reuse_layout and _reuse_layout(fig)
@@ -186,20 +207,101 @@ def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, 
         fig.set_layout_engine(engine)  # switched off for this draw only: laid out again if drawn again
         if reuse_layout and not reused:
             _keep_layout(fig)
-    w, h = canvas.get_width_height()
-    rgba = canvas.buffer_rgba()
-    if colors is None:
-        img = Image.frombuffer("RGBA", (w, h), rgba, "raw", "RGBA", 0, 1).convert("RGB")
-    else:
-        index, palette = palette_indices(np.frombuffer(rgba, dtype="<u4").reshape(h, w), colors)
-        img = Image.frombuffer("P", (w, h), index, "raw", "P", 0, 1)
-        img.putpalette(palette.tobytes())
-    out = io.BytesIO()
-    if optimize:
-        img.save(out, format="PNG", optimize=True)
-    else:
-        img.save(out, format="PNG", compress_level=compress_level)
-    return out.getvalue()
+
+
+# ----------------------------------------------------------------------------- text layouts
+#: Text layouts kept per renderer at most (:func:`_layouts_kept`); all dropped when full.
+_MAX_TEXT_LAYOUTS = 4096
+#: rcParams a text's layout reads besides its own properties: how its font is found and hinted,
+#: and how mathtext sets it (part of every kept layout's key).
+_TEXT_RC = ("font.family", "font.sans-serif", "font.serif", "font.monospace", "font.cursive", "font.fantasy",
+            "text.hinting", "text.hinting_factor", "text.kerning_factor", "text.parse_math", "mathtext.fontset",
+            "mathtext.default", "mathtext.fallback", "mathtext.rm", "mathtext.it", "mathtext.bf", "mathtext.bfit",
+            "mathtext.sf", "mathtext.tt", "mathtext.cal")
+#: Renders in progress in this process that keep text layouts (:func:`_layouts_kept`), and
+#: matplotlib's own ``Text._get_layout`` while they do.
+_KEEPING: dict[str, Any] = {"n": 0, "own": None}
+_KEEPING_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _layouts_kept(renderer: Any) -> Iterator[None]:
+    """Texts drawn on ``renderer`` within the block take their layout from one kept before.
+
+    matplotlib lays a text out (``Text._get_layout``: its lines measured, its box rotated and
+    aligned) at each draw and again at each measure of its box (tick label boxes, legends, the
+    layout): the font found by its properties and its height read from the font's tables each
+    time, the text's size from a cache behind a copy of its font properties. A report figure
+    draws some 70 texts, most of them measurement after measurement the same strings (tick
+    labels, axis labels, legend entries): 200 layouts per measurement's three figures, 18 of
+    them new (bundled demo). The layout does not depend on where the text is (the position is
+    added afterwards): it is kept per renderer (text metrics are the renderer's), keyed by what it
+    reads (:func:`_text_layout_key`: the string, font properties, line spacing, alignments,
+    rotation and its mode, dpi, whether math is parsed, and the rcParams of fonts and mathtext),
+    and handed out as a copy; wrapped and TeX texts are laid out by matplotlib. The same numbers,
+    so the same pixels (``tests/test_plot_render.py``).
+
+    matplotlib's method is replaced on the ``Text`` class while any render keeps layouts (a count
+    under a lock, for renders in several threads), and only texts drawn on a renderer given here
+    use the kept ones: any other draws as matplotlib does.
+    """
+    from matplotlib import rcParams
+    from matplotlib.text import Text
+
+    rc = tuple(repr(rcParams[k]) for k in _TEXT_RC)
+    stores: dict[Any, dict[Any, Any]] = renderer.__dict__.setdefault("_ema_rig_layout_stores", {})
+    store = stores.setdefault(rc, {})
+    before = renderer.__dict__.get("_ema_rig_layouts")
+    renderer._ema_rig_layouts = store
+    with _KEEPING_LOCK:
+        if _KEEPING["n"] == 0:
+            own = Text.__dict__["_get_layout"]
+            _KEEPING["own"] = own
+            Text._get_layout = _kept_layout(own)  # type: ignore[method-assign]
+        _KEEPING["n"] += 1
+    try:
+        yield
+    finally:
+        with _KEEPING_LOCK:
+            _KEEPING["n"] -= 1
+            if _KEEPING["n"] == 0:
+                Text._get_layout = _KEEPING["own"]  # type: ignore[method-assign]
+                _KEEPING["own"] = None
+        if before is None:
+            del renderer._ema_rig_layouts
+        else:
+            renderer._ema_rig_layouts = before
+
+
+def _kept_layout(own: Any) -> Any:
+    """``Text._get_layout`` (``own``) answered from the renderer's kept layouts (:func:`_layouts_kept`)."""
+    def get_layout(text: Any, renderer: Any) -> Any:
+        store = getattr(renderer, "_ema_rig_layouts", None)
+        key = None if store is None else _text_layout_key(text, renderer)
+        if key is None:
+            return own(text, renderer)
+        kept = store.get(key)
+        if kept is None:
+            kept = own(text, renderer)
+            if len(store) >= _MAX_TEXT_LAYOUTS:
+                store.clear()
+            store[key] = kept
+        bbox, lines, corner = kept
+        return bbox.frozen(), list(lines), corner  # a Bbox is mutable: each caller its own
+
+    return get_layout
+
+
+def _text_layout_key(text: Any, renderer: Any) -> Any:
+    """Everything ``Text._get_layout`` reads of ``text`` but the rcParams; None: lay it out anew."""
+    if text.get_wrap() or text.get_usetex():
+        return None
+    fig = text.get_figure(root=True)
+    if fig is None:
+        return None
+    return (text.get_text(), _font_key(text.get_fontproperties()), text._linespacing, text._get_multialignment(),
+            float(text.get_rotation()), text.get_rotation_mode(), text._horizontalalignment,
+            text._verticalalignment, float(fig.dpi), float(renderer.dpi), bool(text.get_parse_math()))
 
 
 #: Colour ids of this thread (:func:`_colour_ids`): a table from 24-bit colour to id (0: none yet), lazily
