@@ -565,3 +565,42 @@ def test_a_figure_not_kept_works_each_axis_ticks_out_once_per_draw(monkeypatch):
     assert diff.max() <= 4 and (diff > 0).mean() < 1e-3
     drawn = [a for ax in fig.axes for a in (ax.xaxis, ax.yaxis) if a.get_visible()]
     assert sorted(map(id, calls)) == sorted(map(id, drawn))
+
+
+_LAYOUT_VARIANTS = [{}, {"rotation": 30}, {"rotation": 30, "rotation_mode": "anchor"}, {"ha": "right"},
+                    {"va": "top"}, {"va": "baseline", "ha": "center"}, {"fontsize": 13}, {"weight": "bold"},
+                    {"family": "monospace"}, {"linespacing": 2.0}, {"multialignment": "right"},
+                    {"parse_math": False, "ha": "right"}]
+
+
+def _one_text(**kw):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3.0, 2.0))
+    fig.text(0.6, 0.5, "$k_{TB+MS}$ = 1.25 MN/m\nwide", **kw)  # one string: only its properties differ
+    return fig
+
+
+def test_kept_text_layouts_are_matplotlibs_for_every_property_they_depend_on(monkeypatch):
+    # oracle: matplotlib's savefig, which lays every text out anew. The same string drawn with one
+    # property changed at a time after the plain one: a layout kept under a key that missed the
+    # property would put the text elsewhere or break it otherwise (tens of pixels off)
+    from matplotlib.text import Text
+
+    for kw in _LAYOUT_VARIANTS:
+        want = _savefig_pixels(_one_text(**kw), 72)
+        got = _pixels(render_png(_one_text(**kw), dpi=72, colors=None))
+        assert np.abs(got - want).max() == 0, kw  # no log axis: nothing is drawn otherwise
+    # and they are kept: drawn again, no text is laid out anew
+    own = Text._get_layout
+    laid: list = []
+
+    def counted(self, renderer):
+        laid.append(self)
+        return own(self, renderer)
+
+    monkeypatch.setattr(Text, "_get_layout", counted)
+    for kw in _LAYOUT_VARIANTS:
+        render_png(_one_text(**kw), dpi=72, colors=None)
+    assert laid == []
+    assert Text.__dict__["_get_layout"] is counted  # the class' own method back after the renders
