@@ -248,7 +248,8 @@ def _layouts_kept(renderer: Any) -> Iterator[None]:
     from matplotlib import rcParams
     from matplotlib.text import Text
 
-    rc = tuple(repr(rcParams[k]) for k in _TEXT_RC)
+    params: Any = rcParams  # typed by literal keys only
+    rc = tuple(repr(params[k]) for k in _TEXT_RC)
     stores: dict[Any, dict[Any, Any]] = renderer.__dict__.setdefault("_ema_rig_layout_stores", {})
     store = stores.setdefault(rc, {})
     before = renderer.__dict__.get("_ema_rig_layouts")
@@ -257,7 +258,7 @@ def _layouts_kept(renderer: Any) -> Iterator[None]:
         if _KEEPING["n"] == 0:
             own = Text.__dict__["_get_layout"]
             _KEEPING["own"] = own
-            Text._get_layout = _kept_layout(own)  # type: ignore[method-assign]
+            setattr(Text, "_get_layout", _kept_layout(own))  # noqa: B010 (private: untyped)
         _KEEPING["n"] += 1
     try:
         yield
@@ -265,7 +266,7 @@ def _layouts_kept(renderer: Any) -> Iterator[None]:
         with _KEEPING_LOCK:
             _KEEPING["n"] -= 1
             if _KEEPING["n"] == 0:
-                Text._get_layout = _KEEPING["own"]  # type: ignore[method-assign]
+                setattr(Text, "_get_layout", _KEEPING["own"])  # noqa: B010
                 _KEEPING["own"] = None
         if before is None:
             del renderer._ema_rig_layouts
@@ -276,9 +277,9 @@ def _layouts_kept(renderer: Any) -> Iterator[None]:
 def _kept_layout(own: Any) -> Any:
     """``Text._get_layout`` (``own``) answered from the renderer's kept layouts (:func:`_layouts_kept`)."""
     def get_layout(text: Any, renderer: Any) -> Any:
-        store = getattr(renderer, "_ema_rig_layouts", None)
+        store: dict[Any, Any] | None = getattr(renderer, "_ema_rig_layouts", None)
         key = None if store is None else _text_layout_key(text, renderer)
-        if key is None:
+        if store is None or key is None:
             return own(text, renderer)
         kept = store.get(key)
         if kept is None:
