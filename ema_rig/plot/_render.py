@@ -68,6 +68,14 @@ An axis of a kept figure (ticks, gridlines, tick labels, its label) is mostly dr
 the previous measurement (a campaign's band is the same for all its measurements): its calls into
 Agg's C renderer are recorded and made again when nothing the axis' drawing reads changed
 (:func:`_axes_replayed`), the same pixels without matplotlib's few hundred Python calls per tick.
+The axes of figures not kept (the campaign figures) work their ticks and tick label boxes out
+once per draw instead of three to five times (label and title placement measure them again).
+
+A text's layout (its lines measured, its box rotated and aligned) does not depend on where it is
+drawn, and matplotlib makes it anew at each draw and each measure of the text: during a render
+the layouts are kept per renderer under everything they read (:func:`_layouts_kept`): 200 per
+measurement's three figures, 18 of them new (bundled demo). The PNG data is zlib's level 3
+(:data:`PNG_LEVEL`): lossless as any level, half the encoding time of level 6.
 """
 
 from __future__ import annotations
