@@ -204,7 +204,8 @@ def _draw(fig: Figure, canvas: Any, reuse_layout: bool) -> None:
         assert engine is not None
         if not reused:
             off = _minor_off(fig)  # nothing the layout measures
-            engine.execute(fig)  # what the draw would do first
+            with _figure_ticks_once(fig):
+                engine.execute(fig)  # what the draw would do first
             _minor_on(off)
         fig.set_layout_engine("none")
     # the minor ticks where the axes are drawn: a log axis' locator asks how much room it has
@@ -1013,10 +1014,7 @@ def _axes_replayed(fig: Figure) -> Iterator[None]:
 
     label = fig.get_label()
     if not (isinstance(label, str) and label.startswith("ema_rig.")):
-        with contextlib.ExitStack() as stack:
-            for ax in fig.axes:
-                for axis in (ax.xaxis, ax.yaxis):
-                    stack.enter_context(_ticks_once(axis))
+        with _figure_ticks_once(fig):
             yield
         return
     patched = []
@@ -1084,6 +1082,16 @@ def _replaying(axis: Any, draw: Any) -> Any:
 
 
 @contextlib.contextmanager
+def _figure_ticks_once(fig: Figure) -> Iterator[None]:
+    """:func:`_ticks_once` for every axis of ``fig`` within the block."""
+    with contextlib.ExitStack() as stack:
+        for ax in fig.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                stack.enter_context(_ticks_once(axis))
+        yield
+
+
+@contextlib.contextmanager
 def _ticks_once(axis: Any) -> Iterator[None]:
     """The axis' ticks and tick label boxes worked out once within the block (a draw of a finished figure).
 
@@ -1091,15 +1099,17 @@ def _ticks_once(axis: Any) -> Iterator[None]:
     axis label clear of the tick labels of every axes aligned with it (``_get_tick_boxes_siblings``;
     this axis alone unless ``align_labels``), updates and measures them all again: the same ticks
     and boxes, nothing changed between; ``Axes.draw`` does it all once more for every axes with a
-    title (its y axis' tight box, to place the title clear of an offset text). Within the block
-    the second time takes the first's, kept by what they read that a draw could change: the view
-    limits (the ticks and their labels), and the axes' box and the renderer (the label boxes).
+    title (its y axis' tight box, to place the title clear of an offset text), and a constrained
+    layout measures them all for each of its passes. Within the block the second time takes the
+    first's, kept by what they read that a draw or a layout pass changes: the view limits and the
+    axes' box (the ticks and their labels: a locator takes as many ticks as the axis has room
+    for), and the renderer (the label boxes).
     """
     update, boxes = axis._update_ticks, axis._get_ticklabel_bboxes
     memo: dict[Any, Any] = {}
 
     def update_ticks() -> Any:
-        k = ("ticks", tuple(axis.get_view_interval()))
+        k = ("ticks", tuple(axis.get_view_interval()), tuple(axis.axes.bbox.bounds))
         if k not in memo:
             memo[k] = update()
         return memo[k]
@@ -1320,7 +1330,8 @@ def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
     keep = len(proxies) == sum(1 for a in reserve if a.get_visible() and a.axes.get_visible())
     off = _minor_off(fig)  # nothing the layout measures
     try:
-        layout.execute(fig)
+        with _figure_ticks_once(fig):
+            layout.execute(fig)
     finally:
         _minor_on(off)
         for axis, saved in proxies:
