@@ -527,3 +527,131 @@ def test_warm_up_leaves_the_one_time_work_done_for_forked_workers() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split("\n")[0] == "(False, False) (True, True)", out.stdout + out.stderr
+
+
+def test_png_level_changes_the_bytes_never_the_pixels():
+    # oracle: zlib is lossless; the decoded PNG at any level is the image the figure draws. Level 0
+    # (stored) must come out larger than the default level, else the level never reached the encoder
+    from ema_rig.plot._render import PNG_LEVEL
+
+    stored = render_png(_figure(), dpi=64, colors=64, optimize=False, compress_level=0)
+    packed = render_png(_figure(), dpi=64, colors=64, optimize=False)
+    best = render_png(_figure(), dpi=64, colors=64, optimize=True)
+    assert 0 < PNG_LEVEL <= 9
+    assert len(stored) > 2 * len(packed)
+    assert np.array_equal(_pixels(stored), _pixels(packed))
+    assert np.array_equal(_pixels(best), _pixels(packed))
+
+
+def test_a_figure_not_kept_works_each_axis_ticks_out_once_per_draw(monkeypatch):
+    # matplotlib's Axis.draw updates its ticks, draws them, then updates them again to place the
+    # axis label, and Axes.draw does it once more for an axes with a title (its y axis' tight box);
+    # drawn by render_png, a figure that is not kept per worker (the campaign figures) updates the
+    # ticks of each axis once per draw (measured without the memo: 10 updates for these 4 axes),
+    # and draws savefig's pixels
+    from matplotlib.axis import Axis
+
+    fig = _figure()
+    fig.set_layout_engine("none")  # no layout: only the draw updates ticks
+    want = _savefig_pixels(fig, 64)
+    calls: list = []
+    orig = Axis._update_ticks
+    monkeypatch.setattr(Axis, "_update_ticks", lambda self: calls.append(self) or orig(self))
+    got = _pixels(render_png(fig, dpi=64, colors=None))
+    diff = np.abs(got - want).max(axis=2)
+    # as in test_render_matches_savefig_and_reuses_the_layout: the collapsed minor ticks are at
+    # most 3 levels of 255 off on a few pixels (measured 3, on 51 of 65280 with or without the
+    # tick memo); ticks or labels of another draw would be off by far more
+    assert diff.max() <= 4 and (diff > 0).mean() < 1e-3
+    drawn = [a for ax in fig.axes for a in (ax.xaxis, ax.yaxis) if a.get_visible()]
+    assert sorted(map(id, calls)) == sorted(map(id, drawn))
+
+
+_LAYOUT_VARIANTS = [{}, {"rotation": 30}, {"rotation": 30, "rotation_mode": "anchor"}, {"ha": "right"},
+                    {"va": "top"}, {"va": "baseline", "ha": "center"}, {"fontsize": 13}, {"weight": "bold"},
+                    {"family": "monospace"}, {"linespacing": 2.0}, {"multialignment": "right"},
+                    {"parse_math": False, "ha": "right"}]
+
+
+def _one_text(**kw):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3.0, 2.0))
+    fig.text(0.6, 0.5, "$k_{TB+MS}$ = 1.25 MN/m\nwide", **kw)  # one string: only its properties differ
+    return fig
+
+
+def test_kept_text_layouts_are_matplotlibs_for_every_property_they_depend_on(monkeypatch):
+    # oracle: matplotlib's savefig, which lays every text out anew. The same string drawn with one
+    # property changed at a time after the plain one: a layout kept under a key that missed the
+    # property would put the text elsewhere or break it otherwise (tens of pixels off)
+    from matplotlib.text import Text
+
+    for kw in _LAYOUT_VARIANTS:
+        want = _savefig_pixels(_one_text(**kw), 72)
+        got = _pixels(render_png(_one_text(**kw), dpi=72, colors=None))
+        assert np.abs(got - want).max() == 0, kw  # no log axis: nothing is drawn otherwise
+    # and they are kept: drawn again, no text is laid out anew
+    own = Text._get_layout
+    laid: list = []
+
+    def counted(self, renderer):
+        laid.append(self)
+        return own(self, renderer)
+
+    monkeypatch.setattr(Text, "_get_layout", counted)
+    for kw in _LAYOUT_VARIANTS:
+        render_png(_one_text(**kw), dpi=72, colors=None)
+    assert laid == []
+    assert Text.__dict__["_get_layout"] is counted  # the class' own method back after the renders
+
+
+def _squeezed(seed_text: str = "a title\nof three\nlines"):
+    """A small panel that a constrained layout shrinks a lot (titles, labels): its y axis takes
+    fewer ticks after the first pass than before it (a locator takes as many as there is room for)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3.0, 4.0), layout="constrained")
+    axs = fig.subplots(2, 1)
+    for ax in axs:
+        # room for 7 ticks (-0.25 ... 1.25, 4 digits wide) before the layout, for 4 after it (-1 ... 2)
+        ax.plot([0.0, 1.0], [0.0, 1.05])
+        ax.set_title(seed_text, fontsize=11)
+        ax.set_xlabel("frequency\n[Hz]")
+        ax.set_ylabel("|H|")
+    fig.suptitle("suptitle\nsecond line")
+    return fig
+
+
+def test_a_layout_with_ticks_worked_out_once_per_pass_places_the_axes_as_matplotlib(monkeypatch):
+    # oracle: matplotlib's own constrained layout of an identical figure. The layout run by
+    # render_png works each axis' ticks out once per layout pass, keyed by the view limits and the
+    # axes' box: each pass changes the box, and with it how many ticks there are room for (7
+    # labels 4 digits wide before the layout, 4 of 1 digit after it here), so ticks kept from a
+    # pass before would place the axes elsewhere
+    from matplotlib.axis import Axis
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    want = _squeezed()
+    want.draw_without_rendering()
+    fig = _squeezed()
+    render_png(fig, dpi=100, colors=None, reuse_layout=False)
+    for a, b in zip(want.axes, fig.axes, strict=True):
+        assert np.allclose(a.get_position().bounds, b.get_position().bounds, atol=1e-12, rtol=0.0)
+    # tick updates within the layout: matplotlib's own against render_png's
+    calls: list = []
+    orig_update = Axis._update_ticks
+    monkeypatch.setattr(Axis, "_update_ticks", lambda self: calls.append(self) or orig_update(self))
+    counts: list = []
+    orig_execute = ConstrainedLayoutEngine.execute
+
+    def counted(self, f):
+        calls.clear()
+        orig_execute(self, f)
+        counts.append(len(calls))
+
+    monkeypatch.setattr(ConstrainedLayoutEngine, "execute", counted)
+    _squeezed().draw_without_rendering()
+    render_png(_squeezed(), dpi=100, colors=None, reuse_layout=False)
+    mpl_own, memo = counts
+    assert memo <= mpl_own // 4  # measured: 8 updates (4 axes, 2 passes) against 52

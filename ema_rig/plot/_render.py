@@ -68,6 +68,14 @@ An axis of a kept figure (ticks, gridlines, tick labels, its label) is mostly dr
 the previous measurement (a campaign's band is the same for all its measurements): its calls into
 Agg's C renderer are recorded and made again when nothing the axis' drawing reads changed
 (:func:`_axes_replayed`), the same pixels without matplotlib's few hundred Python calls per tick.
+The axes of figures not kept (the campaign figures) work their ticks and tick label boxes out
+once per draw instead of three to five times (label and title placement measure them again).
+
+A text's layout (its lines measured, its box rotated and aligned) does not depend on where it is
+drawn, and matplotlib makes it anew at each draw and each measure of the text: during a render
+the layouts are kept per renderer under everything they read (:func:`_layouts_kept`): 200 per
+measurement's three figures, 18 of them new (bundled demo). The PNG data is zlib's level 3
+(:data:`PNG_LEVEL`): lossless as any level, half the encoding time of level 6.
 """
 
 from __future__ import annotations
@@ -89,9 +97,14 @@ if TYPE_CHECKING:
     from matplotlib.axis import Axis
     from matplotlib.figure import Figure
 
-__all__ = ["collapse_minor_ticks", "fixed_layout", "kept_figure", "palette_indices", "render_png", "reuse_axes",
+__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "kept_figure", "palette_indices", "render_png", "reuse_axes",
            "semilogy", "warm_up"]
 
+#: zlib level of :func:`render_png`'s PNG data. Level 3 against zlib's default 6, the bundled demo's 63
+#: figures encoded at each (``benchmarks/results/demo.txt``, 2026-12-07 x_fig8): 57 palette figures 145
+#: against 305 ms CPU for 2.87 against 2.50 MB (+15 %), 6 campaign figures (RGB) 49 against 69 ms for
+#: 267 against 255 kB; levels 1-2 saved only 20 ms more for +23-29 % bytes.
+PNG_LEVEL = 3
 #: Layouts kept per process (structure -> [(key, positions)]), newest last; a few per figure kind.
 _LAYOUTS: dict[Any, list[tuple[Any, Any]]] = {}
 _MAX_LAYOUTS = 8
@@ -102,7 +115,7 @@ _LOCAL = threading.local()
 
 
 def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: bool = True,
-               reuse_layout: bool = True) -> bytes:
+               reuse_layout: bool = True, compress_level: int = PNG_LEVEL) -> bytes:
     """Draw ``fig`` once and return it as PNG bytes.
 
     Parameters
@@ -118,6 +131,9 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
     reuse_layout : bool, optional
         Take the positions of an earlier constrained layout with the same key (module notes)
         instead of laying the figure out again (default True).
+    compress_level : int, optional
+        zlib level 0-9 of the PNG data when not ``optimize`` (default :data:`PNG_LEVEL`); lossless
+        at every level: the same pixels, only the bytes and the time to make them differ.
 
     Returns
     -------
@@ -126,7 +142,8 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
         palette).
     """
     with _gc_paused():
-        return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout)
+        return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout,
+                           compress_level=compress_level)
 
 
 @contextlib.contextmanager
@@ -151,13 +168,35 @@ def _gc_paused() -> Iterator[None]:
             gc.enable()
 
 
-def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool) -> bytes:
+def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, reuse_layout: bool,
+                compress_level: int) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.layout_engine import ConstrainedLayoutEngine
     from PIL import Image  # a matplotlib dependency
 
     fig.set_dpi(dpi)
     canvas = _canvas(fig, float(dpi), FigureCanvasAgg)
+    with _layouts_kept(canvas.get_renderer()):
+        _draw(fig, canvas, reuse_layout)
+    w, h = canvas.get_width_height()
+    rgba = canvas.buffer_rgba()
+    if colors is None:
+        img = Image.frombuffer("RGBA", (w, h), rgba, "raw", "RGBA", 0, 1).convert("RGB")
+    else:
+        index, palette = palette_indices(np.frombuffer(rgba, dtype="<u4").reshape(h, w), colors)
+        img = Image.frombuffer("P", (w, h), index, "raw", "P", 0, 1)
+        img.putpalette(palette.tobytes())
+    out = io.BytesIO()
+    if optimize:
+        img.save(out, format="PNG", optimize=True)
+    else:
+        img.save(out, format="PNG", compress_level=compress_level)
+    return out.getvalue()
+
+
+def _draw(fig: Figure, canvas: Any, reuse_layout: bool) -> None:
+    """Lay ``fig`` out (or take a kept layout) and draw it on ``canvas`` (:func:`render_png`)."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
     engine = fig.get_layout_engine()
     constrained = isinstance(engine, ConstrainedLayoutEngine)
     reused = constrained and reuse_layout and _reuse_layout(fig)
@@ -165,7 +204,8 @@ def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, 
         assert engine is not None
         if not reused:
             off = _minor_off(fig)  # nothing the layout measures
-            engine.execute(fig)  # what the draw would do first
+            with _figure_ticks_once(fig):
+                engine.execute(fig)  # what the draw would do first
             _minor_on(off)
         fig.set_layout_engine("none")
     # the minor ticks where the axes are drawn: a log axis' locator asks how much room it has
@@ -176,17 +216,102 @@ def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, 
         fig.set_layout_engine(engine)  # switched off for this draw only: laid out again if drawn again
         if reuse_layout and not reused:
             _keep_layout(fig)
-    w, h = canvas.get_width_height()
-    rgba = canvas.buffer_rgba()
-    if colors is None:
-        img = Image.frombuffer("RGBA", (w, h), rgba, "raw", "RGBA", 0, 1).convert("RGB")
-    else:
-        index, palette = palette_indices(np.frombuffer(rgba, dtype="<u4").reshape(h, w), colors)
-        img = Image.frombuffer("P", (w, h), index, "raw", "P", 0, 1)
-        img.putpalette(palette.tobytes())
-    out = io.BytesIO()
-    img.save(out, format="PNG", optimize=optimize)
-    return out.getvalue()
+
+
+# ----------------------------------------------------------------------------- text layouts
+#: Text layouts kept per renderer at most (:func:`_layouts_kept`); all dropped when full.
+_MAX_TEXT_LAYOUTS = 4096
+#: rcParams a text's layout reads besides its own properties: how its font is found and hinted,
+#: and how mathtext sets it (part of every kept layout's key).
+_TEXT_RC = ("font.family", "font.sans-serif", "font.serif", "font.monospace", "font.cursive", "font.fantasy",
+            "text.hinting", "text.hinting_factor", "text.kerning_factor", "text.parse_math", "mathtext.fontset",
+            "mathtext.default", "mathtext.fallback", "mathtext.rm", "mathtext.it", "mathtext.bf", "mathtext.bfit",
+            "mathtext.sf", "mathtext.tt", "mathtext.cal")
+#: Renders in progress in this process that keep text layouts (:func:`_layouts_kept`), and
+#: matplotlib's own ``Text._get_layout`` while they do.
+_KEEPING: dict[str, Any] = {"n": 0, "own": None}
+_KEEPING_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _layouts_kept(renderer: Any) -> Iterator[None]:
+    """Texts drawn on ``renderer`` within the block take their layout from one kept before.
+
+    matplotlib lays a text out (``Text._get_layout``: its lines measured, its box rotated and
+    aligned) at each draw and again at each measure of its box (tick label boxes, legends, the
+    layout): the font found by its properties and its height read from the font's tables each
+    time, the text's size from a cache behind a copy of its font properties. A report figure
+    draws some 70 texts, most of them measurement after measurement the same strings (tick
+    labels, axis labels, legend entries): 200 layouts per measurement's three figures, 18 of
+    them new (bundled demo). The layout does not depend on where the text is (the position is
+    added afterwards): it is kept per renderer (text metrics are the renderer's), keyed by what it
+    reads (:func:`_text_layout_key`: the string, font properties, line spacing, alignments,
+    rotation and its mode, dpi, whether math is parsed, and the rcParams of fonts and mathtext),
+    and handed out as a copy; wrapped and TeX texts are laid out by matplotlib. The same numbers,
+    so the same pixels (``tests/test_plot_render.py``).
+
+    matplotlib's method is replaced on the ``Text`` class while any render keeps layouts (a count
+    under a lock, for renders in several threads), and only texts drawn on a renderer given here
+    use the kept ones: any other draws as matplotlib does.
+    """
+    from matplotlib import rcParams
+    from matplotlib.text import Text
+
+    params: Any = rcParams  # typed by literal keys only
+    rc = tuple(repr(params[k]) for k in _TEXT_RC)
+    stores: dict[Any, dict[Any, Any]] = renderer.__dict__.setdefault("_ema_rig_layout_stores", {})
+    store = stores.setdefault(rc, {})
+    before = renderer.__dict__.get("_ema_rig_layouts")
+    renderer._ema_rig_layouts = store
+    with _KEEPING_LOCK:
+        if _KEEPING["n"] == 0:
+            own = Text.__dict__["_get_layout"]
+            _KEEPING["own"] = own
+            setattr(Text, "_get_layout", _kept_layout(own))  # noqa: B010 (private: untyped)
+        _KEEPING["n"] += 1
+    try:
+        yield
+    finally:
+        with _KEEPING_LOCK:
+            _KEEPING["n"] -= 1
+            if _KEEPING["n"] == 0:
+                setattr(Text, "_get_layout", _KEEPING["own"])  # noqa: B010
+                _KEEPING["own"] = None
+        if before is None:
+            del renderer._ema_rig_layouts
+        else:
+            renderer._ema_rig_layouts = before
+
+
+def _kept_layout(own: Any) -> Any:
+    """``Text._get_layout`` (``own``) answered from the renderer's kept layouts (:func:`_layouts_kept`)."""
+    def get_layout(text: Any, renderer: Any) -> Any:
+        store: dict[Any, Any] | None = getattr(renderer, "_ema_rig_layouts", None)
+        key = None if store is None else _text_layout_key(text, renderer)
+        if store is None or key is None:
+            return own(text, renderer)
+        kept = store.get(key)
+        if kept is None:
+            kept = own(text, renderer)
+            if len(store) >= _MAX_TEXT_LAYOUTS:
+                store.clear()
+            store[key] = kept
+        bbox, lines, corner = kept
+        return bbox.frozen(), list(lines), corner  # a Bbox is mutable: each caller its own
+
+    return get_layout
+
+
+def _text_layout_key(text: Any, renderer: Any) -> Any:
+    """Everything ``Text._get_layout`` reads of ``text`` but the rcParams; None: lay it out anew."""
+    if text.get_wrap() or text.get_usetex():
+        return None
+    fig = text.get_figure(root=True)
+    if fig is None:
+        return None
+    return (text.get_text(), _font_key(text.get_fontproperties()), text._linespacing, text._get_multialignment(),
+            float(text.get_rotation()), text.get_rotation_mode(), text._horizontalalignment,
+            text._verticalalignment, float(fig.dpi), float(renderer.dpi), bool(text.get_parse_math()))
 
 
 #: Colour ids of this thread (:func:`_colour_ids`): a table from 24-bit colour to id (0: none yet), lazily
@@ -881,13 +1006,16 @@ def _axes_replayed(fig: Figure) -> Iterator[None]:
     aligned with other axes' (``align_labels``), any figure not kept, and a recording that used
     the renderer otherwise are drawn by matplotlib. An axis that missed its recordings _VOLATILE
     draws in a row (limits that follow the data) is looked up and recorded at every _VOLATILE-th
-    draw only.
+    draw only. The axes of any other figure (the campaign figures) work their ticks and tick label
+    boxes out once for the whole draw (:func:`_ticks_once`): matplotlib does it again to place each
+    axis label and, for every axes with a title, to place the title.
     """
     from matplotlib.axis import Axis
 
     label = fig.get_label()
     if not (isinstance(label, str) and label.startswith("ema_rig.")):
-        yield
+        with _figure_ticks_once(fig):
+            yield
         return
     patched = []
     for ax in fig.axes:
@@ -954,24 +1082,40 @@ def _replaying(axis: Any, draw: Any) -> Any:
 
 
 @contextlib.contextmanager
+def _figure_ticks_once(fig: Figure) -> Iterator[None]:
+    """:func:`_ticks_once` for every axis of ``fig`` within the block."""
+    with contextlib.ExitStack() as stack:
+        for ax in fig.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                stack.enter_context(_ticks_once(axis))
+        yield
+
+
+@contextlib.contextmanager
 def _ticks_once(axis: Any) -> Iterator[None]:
-    """The axis' ticks and tick label boxes worked out once for one draw of it.
+    """The axis' ticks and tick label boxes worked out once within the block (a draw of a finished figure).
 
     matplotlib's ``Axis.draw`` updates the ticks and measures their labels, then, to place the
     axis label clear of the tick labels of every axes aligned with it (``_get_tick_boxes_siblings``;
     this axis alone unless ``align_labels``), updates and measures them all again: the same ticks
-    and boxes, nothing changed between. Within the block the second time takes the first's.
+    and boxes, nothing changed between; ``Axes.draw`` does it all once more for every axes with a
+    title (its y axis' tight box, to place the title clear of an offset text), and a constrained
+    layout measures them all for each of its passes. Within the block the second time takes the
+    first's, kept by what they read that a draw or a layout pass changes: the view limits and the
+    axes' box (the ticks and their labels: a locator takes as many ticks as the axis has room
+    for), and the renderer (the label boxes).
     """
     update, boxes = axis._update_ticks, axis._get_ticklabel_bboxes
     memo: dict[Any, Any] = {}
 
     def update_ticks() -> Any:
-        if "ticks" not in memo:
-            memo["ticks"] = update()
-        return memo["ticks"]
+        k = ("ticks", tuple(axis.get_view_interval()), tuple(axis.axes.bbox.bounds))
+        if k not in memo:
+            memo[k] = update()
+        return memo[k]
 
     def ticklabel_bboxes(ticks: Any, renderer: Any = None) -> Any:
-        k = (id(ticks), id(renderer))
+        k = (id(ticks), id(renderer), tuple(axis.axes.bbox.bounds))
         if k not in memo:
             memo[k] = boxes(ticks, renderer)
         return memo[k]
@@ -1186,7 +1330,8 @@ def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
     keep = len(proxies) == sum(1 for a in reserve if a.get_visible() and a.axes.get_visible())
     off = _minor_off(fig)  # nothing the layout measures
     try:
-        layout.execute(fig)
+        with _figure_ticks_once(fig):
+            layout.execute(fig)
     finally:
         _minor_on(off)
         for axis, saved in proxies:
