@@ -142,7 +142,7 @@ def test_the_completeness_test_formed_beside_the_lsfd_is_the_test_of_the_fitted_
     returned model is the LSFD at the ML poles (not at the PolyMAX start)."""
     import ema_rig.identification.identification as idm
     from ema_rig.identification.criteria import COMPLETENESS_CRITERIA
-    from ema_rig.identification.lsfd import _model_order, lsfd
+    from ema_rig.identification.lsfd import lsfd, model_order
     from ema_rig.identification.stabilization import SelectedMode
 
     data, lam, _ = _frf(8, 5)
@@ -154,7 +154,7 @@ def test_the_completeness_test_formed_beside_the_lsfd_is_the_test_of_the_fitted_
                           participation=(1 + 0j,)) for p in start[::-1]]
     monkeypatch.setattr(idm, "_AT_POLES_THREAD_MIN_VALUES", threshold)
     (model, ml, _, _), test = idm._fit_tested(data, modes, True, COMPLETENESS_CRITERIA)
-    assert np.any(ml.poles != _model_order(start)) and "ml" in ml.kind  # the ML moved the poles
+    assert np.any(ml.poles != model_order(start)) and "ml" in ml.kind  # the ML moved the poles
     fitted = lsfd(data, ml.poles)
     oracle = idm._misfit(data, fitted, COMPLETENESS_CRITERIA)
     assert _same(model.poles, fitted.poles) and _same(model.residues, fitted.residues)
@@ -163,15 +163,15 @@ def test_the_completeness_test_formed_beside_the_lsfd_is_the_test_of_the_fitted_
 
 
 def test_model_order_is_the_order_of_the_lsfd_models_poles():
-    """The poles a task takes before the LSFD fit (``_model_order``, ``_model_poles``) are the fitted model's,
+    """The poles a task takes before the LSFD fit (``model_order``, ``_model_poles``) are the fitted model's,
     element by element, for poles given in any order (oracle: ``lsfd``'s model)."""
     from ema_rig.identification.identification import _lsfd_at, _model_poles
-    from ema_rig.identification.lsfd import _model_order, lsfd
+    from ema_rig.identification.lsfd import lsfd, model_order
 
     data, lam, _ = _frf(4, 6)
     start = lsfd(data, lam)
     for order in ([2, 0, 1], [1, 2, 0], [0, 1, 2]):
-        assert _same(_model_order(lam[order]), lsfd(data, lam[order]).poles), order
+        assert _same(model_order(lam[order]), lsfd(data, lam[order]).poles), order
         moved = lam[order] * (1.0 + 1e-4j)
         assert _same(_model_poles(start, moved), _lsfd_at(data, start, None, moved, True)[0].poles), order
     assert _model_poles(start, start.poles) is start.poles  # the start model's own poles: no fit

@@ -46,7 +46,7 @@ from .criteria import (
 )
 from .diagnose import diagnose_frf
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
-from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, _model_order
+from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
 from .ml import LocalML, StagedML, local_ml_staged
 from .modal import ModalModel
@@ -851,8 +851,8 @@ _AT_POLES_THREAD_MIN_VALUES = 100_000
 
 def _model_poles(model: ModalModel, poles: NDArray[np.complex128]) -> NDArray[np.complex128]:
     """The poles of the LSFD model at ``poles`` (:func:`_lsfd_at`), without the fit: ``model``'s when they are
-    its poles, else in the order an LSFD model holds them (:func:`~ema_rig.identification.lsfd._model_order`)."""
-    return model.poles if not np.any(poles != model.poles) else _model_order(poles)
+    its poles, else in the order an LSFD model holds them (:func:`~ema_rig.identification.lsfd.model_order`)."""
+    return model.poles if not np.any(poles != model.poles) else model_order(poles)
 
 
 def _lsfd_at(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],

@@ -157,7 +157,7 @@ class LsfdBasis:
                 and np.array_equal(self.freq, freq))
 
 
-def _model_order(poles: ArrayLike) -> NDArray[np.complex128]:
+def model_order(poles: ArrayLike) -> NDArray[np.complex128]:
     """The poles as an LSFD model holds them: shape (n_modes,), sorted by ``|pole|`` [rad/s].
 
     The order of :attr:`ModalModel.poles <ema_rig.identification.modal.ModalModel.poles>` of every
@@ -261,7 +261,7 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         raise IdentificationError("LSFD needs at least one pole", file=src)
     if not np.all(np.isfinite(lam)) or np.any(lam.imag <= 0):
         raise IdentificationError("LSFD poles must be finite with Im > 0 (one of each conjugate pair)", file=src)
-    lam = _model_order(lam)
+    lam = model_order(lam)
     p = _FORM_POWER[data.frf_form]
     f = data.freq
     h = data.frf
@@ -532,4 +532,4 @@ def _output_chunks(h: NDArray[np.complex128]) -> Iterator[tuple[int, int, NDArra
         yield o0, o1, blk.view(np.float64)
 
 
-__all__ = ["lsfd"]
+__all__ = ["lsfd", "model_order"]
