@@ -33,6 +33,7 @@ from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import MatchingError
 from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
 from .candidates import find_dof
+from .damping import bearing_stiffness_readings
 from .fit import (
     DrivingPointMass,
     HousingMass,
@@ -54,6 +55,7 @@ from .inversion import (
     model_mode_at,
 )
 from .matching import MATCH_CRITERIA, MatchResult
+from .model import series_stiffness
 
 __all__ = [
     "DAMPING_MODELS",
@@ -142,6 +144,26 @@ def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: DampingM
     delta = 1.0 - root
     f0 = float(abs_freq) * (root if damping_model == "hysteretic" else 1.0)
     return f0, delta / math.sqrt(3.0)
+
+
+def _bearing_damping_spread(abs_freq: float, damping_ratio: float, f0: float, params: ModelParams) -> float:
+    """Damping model-form term [fraction of ``f0``] of the readings with the damping in the bearing.
+
+    :func:`undamped_freq`'s readings assume proportional damping; with the dashpot (or loss
+    factor) in the bearing, in series with ``k_MS``, the same pole stands for the undamped
+    frequency of the bearing stiffness :func:`~ema_rig.rig.damping.bearing_stiffness_readings`
+    gives, ``O(zeta^2 (1 + k_TB / k_MS))`` from ``f0`` (a stiff bearing is the far end). As in
+    :func:`undamped_freq`, the truth may lie anywhere up to the farthest reading: the relative
+    standard uncertainty is its distance over ``sqrt(3)`` (rectangular). Readings without a
+    positive stiffness below ``k_MS`` (outside the inversion's range) are not readings.
+    """
+    spread = 0.0
+    for k in bearing_stiffness_readings(abs_freq, damping_ratio, params).values():
+        if not (math.isfinite(k) and k > 0):
+            continue
+        f = housing_freq_from_k_tb_ms(series_stiffness(k, params.k_MS), params)
+        spread = max(spread, abs(f / f0 - 1.0))
+    return spread / math.sqrt(3.0)
 
 
 # --------------------------------------------------------------------------- uncertainty
@@ -667,7 +689,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     f_abs = float(hm["natural_freq"])
     zeta = float(hm["damping_ratio"])
     f0, u_damp = undamped_freq(f_abs, zeta, damping_model)
-    terms: dict[str, float] = {"damping model": u_damp}
+    terms: dict[str, float] = {"damping model": max(u_damp, _bearing_damping_spread(f_abs, zeta, f0, rig.model))}
     warns = list(m.warnings)
     notes: list[str] = []
     f_inv = f0
