@@ -216,3 +216,15 @@ def test_pipeline_errors_are_ema_rig_errors(tmp_path):
     # sanity of the harness: a file with every radial housing sensor gone cannot be matched
     with pytest.raises(EmaRigError):
         _estimate(tmp_path, "none", RigTruth(seed=9), drop=("11+Y", "12+Y", "13+Y"))
+
+
+def test_band_edge_mode_the_result_does_not_use_is_a_note(tmp_path):
+    # The ovalisation mode moved to 990 Hz, 10 Hz below the band's top (150..1000 Hz): the
+    # identification flags its own estimate as edge-biased, but k_TB (housing mode at 626 Hz, far
+    # from it) is exact. On ea76aec that flag was a k_TB warning on every such file (a study
+    # family warned on 8 of 8 right answers, study_unseen_truths.txt); it is a note now.
+    truth = RigTruth(oval_freq=990.0, seed=3)
+    res = _estimate(tmp_path, "edge", truth)
+    assert res.warnings == ()
+    assert any("sits at the band edge" in n for n in res.notes)
+    assert abs(_z(res, truth)) < 0.5
