@@ -51,7 +51,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 ROOT = Path(__file__).resolve().parents[1]
+TREE = [ROOT]  # the ema_rig checkout the CLI runs from (--tree)
+TIGHT = dict.fromkeys(("m_H", "m_S", "m_F", "k_MS", "k_AS", "k_S", "k_B"), 1e-4)
 FREQ = np.arange(0.0, 1100.25, 0.5)  # Hz, the bundled files' grid
+N_SEEDS = [6]
 
 TABLE1 = {"m_H": 2.566, "m_S": 2.8, "m_F": 205.0, "k_MS": 114e6, "k_AS": 650e3, "k_S": 348e6, "k_B": 180e3}
 TOL = {"m_H": 0.005, "m_S": 0.02, "m_F": 0.05, "k_MS": 0.02, "k_AS": 0.10, "k_S": 0.02, "k_B": 0.10}
@@ -220,9 +223,9 @@ def write_uff(path: Path, freq: NDArray[np.float64], frf: NDArray[np.complex128]
 
 def cli(*args: str) -> tuple[int, dict[str, object] | None, str]:
     out = Path(tempfile.mkstemp(suffix=".json")[1])
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env = dict(os.environ, PYTHONPATH=str(TREE[0]))
     r = subprocess.run([sys.executable, "-m", "ema_rig.cli", *args, "--json", str(out)],
-                       capture_output=True, text=True, env=env, cwd=ROOT, check=False)
+                       capture_output=True, text=True, env=env, cwd=TREE[0], check=False)
     res = json.loads(out.read_text()) if r.returncode == 0 and out.stat().st_size else None
     out.unlink()
     return r.returncode, res, r.stderr.strip().splitlines()[-1] if r.stderr.strip() else ""
@@ -303,6 +306,8 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
 
     return {
         "k_TB 1e7..1e9 (log-uniform)": lambda s: (Truth(k_TB=_logk(s, 1), seed=s), None),
+        "k_TB 1e7..1e9 (log-spaced grid over the seeds)": lambda s: (
+            Truth(k_TB=10 ** (7 + 2 * s / max(N_SEEDS[0] - 1, 1)), seed=s), None),
         "frame part 1-3 % from the housing mode": frame,
         "sensor masses 10-60 g each, declared": lambda s: (
             Truth(k_TB=_logk(s, 4, 3e7, 2e8), sensor_mass=float(_r(s, 4).uniform(0.010, 0.060)), seed=s), None),
@@ -313,6 +318,11 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         "m_H 20 % off the file (tol 20 % stated)": lambda s: mass_off(s, 0.20),
         "heavy bearing damping zeta 4-10 %": lambda s: (
             Truth(k_TB=_logk(s, 8, 3e7, 2e8), zeta_H=float(_r(s, 8).uniform(0.04, 0.10)), seed=s), None),
+        "stiff bearing 3e8-1e9, zeta 4-10 %": lambda s: (
+            Truth(k_TB=_logk(s, 9, 3e8, 1e9), zeta_H=float(_r(s, 9).uniform(0.04, 0.10)), seed=s), None),
+        "bearing zeta 1-10 %, rig tolerances 1e-4": lambda s: (
+            Truth(k_TB=_logk(s, 10, 3e7, 3e8), zeta_H=float(_r(s, 10).uniform(0.01, 0.10)), file_tol=TIGHT, seed=s),
+            None),
         "k_MS from calibrate on a disk truth (k_MS 0.85-1.15 x)": disk,
     }
 
@@ -322,8 +332,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=6)
     ap.add_argument("--only", default="")
     ap.add_argument("-o", "--out", type=Path, default=None)
+    ap.add_argument("--tree", type=Path, default=ROOT, help="ema_rig checkout the CLI runs from (before/after)")
     a = ap.parse_args(argv)
-    lines = ["| family | seed | k_TB true | k_TB printed | err % | sigma % | z | exit | sigma parts (rel.) | c_TB printed vs true | warnings |",
+    TREE[0] = a.tree.resolve()
+    N_SEEDS[0] = a.seeds
+    lines = ["| family | seed | k_TB true | k_TB printed | err % | sigma % | z | exit | sigma parts (rel.) | c_TB printed vs true | warnings (else stderr's last line) |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     summary = ["| family | n | ok (no warning, within 2 sigma) | warned, right (within 2 sigma) | warned, wrong |"
                " refused | SILENT (no warning, outside 2 sigma) | median sigma % | max |z| |",
@@ -341,7 +354,7 @@ def main(argv: list[str] | None = None) -> int:
                 w = " / ".join(row.warns)[:400].replace("|", "/")
                 line = (f"| {fam} | {s} | {t.k_TB:.4g} | {row.k:.4g} | {100 * (row.k / t.k_TB - 1):+.2f} | "
                         f"{100 * row.sigma / row.k:.2f} | {row.z:+.2f} | {row.rc} | {row.parts} | {row.c_tb} | "
-                        f"{w or row.err} |")
+                        f"{w or ('(stderr) ' + row.err if row.err else '')} |")
                 lines.append(line)
                 print(line, flush=True)
             ok = [r for r in rows if r.rc == 0 and not _warned(r) and abs(r.z) <= 2]
@@ -354,7 +367,8 @@ def main(argv: list[str] | None = None) -> int:
             summary.append(f"| {fam} | {len(rows)} | {len(ok)} | {len(wr)} | {len(ww)} | {len(ref)} | {len(sil)} | "
                            f"{np.median(sig) if sig else math.nan:.2f} | {max(zs) if zs else math.nan:.2f} |")
             print(summary[-1], flush=True)
-    text = "\n".join(summary) + "\n\n" + "\n".join(lines) + "\n"
+    head = f"ema_rig tree: {TREE[0]}; {a.seeds} seeds per family; python -m ema_rig.cli at its defaults\n\n"
+    text = head + "\n".join(summary) + "\n\n" + "\n".join(lines) + "\n"
     if a.out is not None:
         a.out.write_text(text, encoding="utf-8")
     return 0
