@@ -109,10 +109,9 @@ def bearing_stiffness_readings(natural_freq: float, damping_ratio: float, params
 
     Parameters
     ----------
-    natural_freq : float
-        Identified ``|lambda| / 2 pi`` of the housing mode [Hz].
-    damping_ratio : float
-        Identified ``-Re(lambda) / |lambda|``, in [0, 1).
+    natural_freq, damping_ratio : float
+        The identified housing pole: ``|lambda| / 2 pi`` [Hz] and ``zeta``, as for
+        :func:`bearing_impedance`.
     params : ModelParams
         Rig parameters (undamped elsewhere; ``params.k_MS`` in series).
 

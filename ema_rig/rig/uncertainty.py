@@ -109,9 +109,11 @@ def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: DampingM
 
     The difference ``delta = 1 - sqrt(1 - 2 zeta^2)`` (~ ``zeta^2``) between the two readings is
     the size of the damping model-form term: whichever model is declared, the truth may lie
-    anywhere between the two (and a non-proportional dashpot, e.g. in the bearing, shifts the
-    pole by a similar ``O(zeta^2)``), so the relative standard uncertainty of the undamped
-    frequency is ``delta / sqrt(3)`` (a rectangular distribution of half-width ``delta``).
+    anywhere between the two, so the relative standard uncertainty of the undamped frequency is
+    ``delta / sqrt(3)`` (a rectangular distribution of half-width ``delta``). A dashpot in the
+    bearing, in series with ``k_MS``, moves the reading by ``O(zeta^2 (1 + k_TB / k_MS))``,
+    several times more for a stiff bearing: :func:`assess_housing_mode` widens the term to that
+    reading when it lies farther.
 
     Parameters
     ----------
@@ -606,7 +608,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     The rule: a ``k_TB`` reported without a warning lies within 2 sigma of the truth, so every
     ambiguity either widens the budget by a stated model-form term and warns, or is refused:
 
-    * **damping model** (always, no warning): :func:`undamped_freq`;
+    * **damping model** (always, no warning): :func:`undamped_freq`, or the farther reading of the
+      pole with the damping in the bearing (:func:`~ema_rig.rig.damping.bearing_stiffness_readings`);
     * **several modes pass** the housing criteria: warning; term = half the largest relative
       spread of their frequencies (the alternatives sit at 2 sigma); refused above
       :data:`MAX_ALTERNATIVE_SPREAD`;
