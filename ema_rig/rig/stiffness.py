@@ -702,6 +702,7 @@ def estimate_stiffness(
 
 
 _HELD = re.compile(r"^mode at ([0-9.eE+-]+) Hz held at its PolyMAX pole")
+_EDGE = re.compile(r"^mode at ([0-9.eE+-]+) Hz sits at the band edge")
 
 
 def _identification_caveats(ident: Any, m: MatchResult, asm: Any) -> tuple[list[str], list[str]]:
@@ -710,7 +711,9 @@ def _identification_caveats(ident: Any, m: MatchResult, asm: Any) -> tuple[list[
     A mode held at its PolyMAX pole by the ML estimate (``std_kind`` ``'held'``) that the result
     does not use (not the housing mode, an alternative, a neighbour given a term, or a corrected
     cross-axis partner) leaves ``k_TB`` and its std as they are (the held pole's uncertainty is
-    propagated to the free poles of its segment): its warning is a note of this result.
+    propagated to the free poles of its segment): its warning is a note of this result. So does
+    a mode at the band edge that the result does not use: the edge biases that mode's own
+    estimate, and a mode close enough to move the housing mode's is a neighbour (used).
     """
     kinds = tuple(getattr(ident, "std_kind", ()) or ())
     fn = [float(f) for f in ident.modes.natural_freq]
@@ -722,10 +725,15 @@ def _identification_caveats(ident: Any, m: MatchResult, asm: Any) -> tuple[list[
     notes: list[str] = []
     for w in ident.warnings:
         hit = _HELD.match(w)
+        edge = _EDGE.match(w)
         idx = None
         if hit is not None and len(kinds) == len(fn):
             f_w = float(hit.group(1))
             near = [i for i in range(len(fn)) if kinds[i] == "held" and abs(fn[i] - f_w) <= 1e-5 * f_w]
+            idx = near[0] if len(near) == 1 else None
+        elif edge is not None:  # the message gives 6 significant digits
+            f_w = float(edge.group(1))
+            near = [i for i in range(len(fn)) if abs(fn[i] - f_w) <= 1e-5 * f_w]
             idx = near[0] if len(near) == 1 else None
         (notes if idx is not None and idx not in used else warns).append(w)
     return warns, notes
@@ -855,6 +863,7 @@ def calibrate(
         progress=progress, file=file,
     )
     asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    id_warns, id_notes = _identification_caveats(ident, m, asm)
     f_d = asm.inverted_freq
     # measured and model-form frequency terms act on k_TB+MS through the same slope
     f_meas = measured_freq_std(m)  # NaN when unknown: the k_MS uncertainties are then NaN too
@@ -888,6 +897,6 @@ def calibrate(
         warnings=asm.warnings + ((
             "the housing mode's standard uncertainty is unknown (see the identification warnings), so "
             "k_MS_std_measured and k_MS_std are NaN",) if math.isnan(f_meas) else ())
-        + tuple(f"identification: {w}" for w in ident.warnings),
-        notes=tuple(notes),
+        + tuple(f"identification: {w}" for w in id_warns),
+        notes=(*notes, *(f"identification: {w}" for w in id_notes)),
     )
