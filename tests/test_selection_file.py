@@ -1,10 +1,10 @@
 """A hand-edited or foreign mode-selection JSON (``--selection``) is refused by name, never a traceback.
 
-The smoke review (benchmarks/results/smoke_b1a9ba2.txt, part E) fed ``stiffness --selection`` with
+The smoke review (benchmarks/results/smoke_b1a9ba2.txt, part F) fed ``stiffness --selection`` with
 mutations of a saved selection: a top-level list or string, a mode that is not an object, an order
 of 1e400 (JSON's inf) ended in an AttributeError / OverflowError traceback; a band written as a
 string ran as the band '1'..'5' Hz; a NaN pole, a negative or NaN frequency and a max order of -5
-ran on silently. Each must be one ``error: <file>: not a valid mode selection: ...`` line.
+ran on silently; an empty mode list failed with 'LSFD needs at least one pole'. Each must be one ``error: <file>: not a valid mode selection: ...`` line.
 """
 
 from __future__ import annotations
@@ -61,6 +61,7 @@ MUTATIONS = {
     "damping inf": _set(("modes", 0, "damping_ratio"), float("inf")),
     "tolerance not a number": _set(("tolerances", "freq_tol"), "x"),
     "in_dofs a number": _set(("in_dofs",), 5),
+    "no mode": _set(("modes",), []),
 }
 
 

@@ -450,6 +450,8 @@ class Selection:
                 raise ValueError(f"format must be 'ema_rig.selection/1', got {d.get('format')!r}")
             if not isinstance(d["modes"], list):
                 raise TypeError(f"modes must be a list, got {type(d['modes']).__name__}")
+            if not d["modes"]:
+                raise ValueError("it holds no mode (nothing to replay)")
             band = d["band"]
             if isinstance(band, str) or len(band) != 2:
                 raise ValueError(f"band must be [low, high] in Hz, got {band!r}")
