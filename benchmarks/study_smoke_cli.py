@@ -9,7 +9,11 @@ DESIGN section 3.2 command that takes the file at its defaults:
 - the bundled rig commands: ``calibrate data/disk.uff --rig``, ``stiffness FILE --rig --json`` on every
   bundled measurement, ``simulate``, ``campaign data/campaign.toml`` and ``demo``;
 - hostile inputs built in a temporary folder: a truncated copy, a non-UFF file, an empty file, a folder
-  as FILE, an unwritable output path, rig files with a key missing / misspelt / a wrong type.
+  as FILE, an unwritable output path, rig files with a key missing / misspelt / a wrong type;
+- every documented ``modes`` option on every file ``modes`` accepts (part E), hand-edited saved
+  selections through ``stiffness --selection`` (part F), and a user's next steps (part G): the disk
+  file given to ``stiffness``, simulated bearings from 1e5 to 1e13 N/m, ``frf`` then ``modes``, a
+  campaign with broken measurement files.
 
 Per run it records the exit code, wall and child CPU time, and flags (a test engineer's defect list):
 a Python traceback; a failure without exactly one ``error: <file>: ...`` line naming the file; a file
@@ -387,6 +391,51 @@ def main() -> None:
                     expect=["k.json"])
             extra = ["a broken selection accepted"] if r["rc"] == 0 and kind != "unchanged" else []
             n_flags += row(lines, kind, "stiffness", r, extra)
+
+    lines += ["", "== G. a user's next steps: the disk file given to stiffness, extreme simulated bearings, "
+              "frf -> modes, a campaign with broken measurement files"]
+    with tempfile.TemporaryDirectory(prefix="next_") as td:
+        tdp = Path(td)
+        r = run(["stiffness", str(DATA / "disk.uff"), "--rig", rig], expect=[])
+        n_flags += row(lines, "data/disk.uff", "stiffness", r, [])
+        for k_tb in ("1e5", "1e9", "1e10", "1e12", "1e13"):
+            sim = tdp / f"sim_{k_tb}.uff"
+            r = run(["simulate", "--rig", rig, "--k-tb", k_tb, "--seed", "1", "-o", str(sim)], expect=[])
+            n_flags += row(lines, f"simulate --k-tb {k_tb}", "simulate", r, [])
+            r = run(["stiffness", str(sim), "--rig", rig, "--json", "{out}/k.json"], expect=["k.json"])
+            extra = []
+            js = r["json"].get("k.json", {})
+            if r["rc"] == 0:
+                extra = check_rig(js, ("k_TB", "k_TB_std", "k_TB_MS", "k_MS"))
+                z = (js["k_TB"] - float(k_tb)) / js["k_TB_std"]
+                lines.append(f"{'':<48} k_TB {js['k_TB']:.4g} +- {js['k_TB_std']:.3g} N/m (truth {k_tb}, "
+                             f"z {z:.2f}), {len(js.get('warnings', []))} warnings")
+                if abs(z) > 2 and not js.get("warnings"):
+                    extra.append("no warning but k_TB beyond 2 sigma of the truth")
+            n_flags += row(lines, f"  sim {k_tb}", "stiffness", r, extra)
+        frf = tdp / "vt1_frf.uff"
+        r = run(["frf", str(shared / "real-frf" / "vt_case1_full.uff"), "-o", str(frf)], expect=[])
+        n_flags += row(lines, "vt_case1_full -> frf", "frf", r, [])
+        r = run(["modes", str(frf), "--json", "{out}/m.json"], expect=[])
+        extra = check_modes(r["json"].get("m.json", {}), 640.0) if r["rc"] == 0 else []
+        n_flags += row(lines, "  its FRF", "modes", r, [])
+        lines.append(f"{'':<48} {'; '.join(extra) or 'no flag'}: " + ", ".join(
+            f"{m['natural_freq']:.5g} Hz zeta {100 * m['damping_ratio']:.3f} +- {100 * m['damping_ratio_std']:.3f} %"
+            for m in r["json"].get("m.json", {}).get("modes", [])))
+        for f in ("rig.toml", "disk.uff", "dummy_200N_r1.uff"):
+            shutil.copy(DATA / f, tdp / f)
+        (tdp / "empty.uff").write_bytes(b"")
+        (tdp / "trunc.uff").write_bytes((DATA / "dummy_500N_r1.uff").read_bytes()[:20000])
+        (tdp / "dir.uff").mkdir()
+        rows = "".join(f'[[measurement]]\nid = "{i}"\nfile = "{f}"\nbearing = "dummy"\nradial_load = 200.0\n'
+                       for i, f in (("ok", "dummy_200N_r1.uff"), ("empty", "empty.uff"), ("trunc", "trunc.uff"),
+                                    ("dir", "dir.uff"), ("missing", "missing.uff"), ("disk", "disk.uff")))
+        (tdp / "c.toml").write_text('rig = "rig.toml"\ncalibration = "disk.uff"\n[defaults]\nband = [150.0, 1000.0]\n'
+                                    "[bearings.dummy]\nk_lower = 31.14e6\nk_upper = 34.12e6\n" + rows)
+        r = run(["campaign", str(tdp / "c.toml"), "-o", "{out}/camp"], expect=None)
+        extra = [] if r["rc"] == 3 else [f"exit {r['rc']}, expected 3 (partial failure)"]
+        n_flags += row(lines, "campaign with 5 broken rows", "campaign", r, extra)
+        lines += [f"{'':<48} {ln.strip()[:150]}" for ln in r["out"].splitlines() if ln.startswith("  ")][:6]
 
     lines += ["", "== D. warnings by how many runs of a command they fire on (numbers and file blanked)"]
     for cmd, cnt in warn_count.items():
