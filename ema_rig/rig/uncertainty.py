@@ -60,6 +60,7 @@ __all__ = [
     "DEFAULT_REL_UNCERTAINTY",
     "MASS_WARN_RATIO",
     "MAX_ALTERNATIVE_SPREAD",
+    "UNRESOLVED_SIGMAS",
     "Assessment",
     "StiffnessUncertainty",
     "UncertaintyTerm",
@@ -436,6 +437,29 @@ MASS_WARN_RATIO = 1.1
 
 MAX_ALTERNATIVE_SPREAD = 0.10
 """Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
+
+UNRESOLVED_SIGMAS = 2.0
+"""k_TB whose interval of this many standard uncertainties reaches 0 is not resolved by the
+measurement: warned (the rule of :mod:`ema_rig.rig.stiffness` reads its 2 standard uncertainties;
+past it the linearised +- is no interval of a positive stiffness; e.g. a bearing far stiffer than
+the mounting system, where k_TB = 1 / (1 / k_TB+MS - 1 / k_MS) grows without bound)."""
+
+
+def unresolved_warning(k_tb: float, k_tb_std: float, k_ms: float) -> list[str]:
+    """The warning for a ``k_TB`` [N/m] whose ``UNRESOLVED_SIGMAS`` interval reaches 0 (empty otherwise).
+
+    Parameters
+    ----------
+    k_tb, k_tb_std, k_ms : float
+        The bearing stiffness, its total standard uncertainty and the mounting-system
+        stiffness [N/m].
+    """
+    if not (math.isfinite(k_tb_std) and UNRESOLVED_SIGMAS * k_tb_std >= k_tb):
+        return []
+    return [f"k_TB = {k_tb:.4g} +/- {k_tb_std:.3g} N/m is not resolved: its {UNRESOLVED_SIGMAS:g}-sigma interval "
+            f"reaches 0, so the linearised +/- is no interval of the stiffness (k_TB is {k_tb / k_ms:.3g}x "
+            "k_MS; a bearing far stiffer than the mounting system is bounded from below only)"]
+
 
 CROSS_AXIS_RATIO_STD = 0.035
 """Standard uncertainty of a measured cross-axis / radial amplitude ratio: an accelerometer
