@@ -75,3 +75,13 @@ def test_a_low_max_order_is_blamed_on_the_cap_not_the_measurement(real_frf_dir, 
     err = capsys.readouterr().err.splitlines()[-1]
     assert "no stable pole" in err and "the order cap may be too low: --max-order 3" in err, err
     assert "raise it" in err and "suspect" not in err, err
+
+
+def test_a_too_narrow_band_is_blamed_on_the_band_not_the_measurement(real_frf_dir, capsys):
+    """Smoke review (benchmarks/results/smoke_b1a9ba2.txt, part C): --band 100 100.3 on vt_case1 (0.3125 Hz lines)
+    said "only 1 frequency lines in the band; need at least 8; the measurement itself is suspect: coherence ...".
+    The data hold 1601 lines: the band is what is wrong, and the line says how to mend it."""
+    assert main(["modes", str(real_frf_dir / "vt_case1_full.uff"), "--band", "100", "100.3"]) == 1
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert "only 1 frequency lines in the band 100..100.3 Hz" in err and "widen the band" in err, err
+    assert "suspect" not in err, err

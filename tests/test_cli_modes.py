@@ -171,3 +171,41 @@ def test_modes_says_when_the_units_were_assumed(tmp_path, system, capsys, labell
         assert notes == ["units: 6 of 6 FRF datasets: no unit label and no dataset 164: SI (m, N) assumed; "
                          "effective masses [kg], residues and mode shapes are in SI only if the file is"]
         assert f"note   {notes[0]}" in text
+
+
+def _identify_must_not_run(monkeypatch):
+    """Make any identification fail the test: the refusal must come before the slow part."""
+    import ema_rig.identification as ident_pkg
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("identify ran although the command's outputs could not be written")
+    monkeypatch.setattr(ident_pkg, "identify", refuse)
+
+
+def test_uff55_of_a_scalar_dof_refused_before_the_identification(corpus_dir, tmp_path, monkeypatch, capsys):
+    """readuff_uff58b_frf.frf measures node 192 direction 0 (a scalar channel): dataset 55 cannot hold it.
+
+    The smoke review (benchmarks/results/smoke_b1a9ba2.txt) found the refusal came only after the whole
+    identification (and discarded its --json); on ufffiles_frf-sized data that is a minute of waiting.
+    """
+    _identify_must_not_run(monkeypatch)
+    out = tmp_path / "m.json"
+    code = main(["modes", str(corpus_dir / "readuff_uff58b_frf.frf"), "--uff55", str(tmp_path / "m.unv"),
+                 "--json", str(out)])
+    err = capsys.readouterr().err
+    assert code == 1 and "--uff55" in err and "'192'" in err and "Traceback" not in err, err
+    assert not out.exists() and not (tmp_path / "m.unv").exists()
+
+
+def test_a_file_without_geometry_refused_before_the_identification(tmp_path, monkeypatch, capsys):
+    """--geometry naming a UFF file without node datasets: its error comes first, naming that file."""
+    from pathlib import Path
+
+    _identify_must_not_run(monkeypatch)
+    measurement = Path(__file__).resolve().parent.parent / "data" / "dummy_200N_r1.uff"
+    bad = tmp_path / "not_geometry.uff"
+    bad.write_bytes(measurement.read_bytes())
+    code = main(["modes", str(measurement), "--geometry", str(bad), "--shapes", str(tmp_path / "s")])
+    err = capsys.readouterr().err
+    assert code == 1 and err.startswith(f"error: {bad}: no node dataset"), err
+    assert list(tmp_path.iterdir()) == [bad]

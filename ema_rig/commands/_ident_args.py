@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -36,12 +37,15 @@ def add_identification_arguments(parser: argparse.ArgumentParser) -> None:
                              "default: the rig file's [identification] n_averages)")
 
 
-def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
+def load_and_identify(args: argparse.Namespace,
+                      before: Callable[[Any], None] | None = None) -> tuple[Any, Any]:
     """Read the file (with the rig, if given) and run :func:`ema_rig.identification.identify`.
 
     Returns ``(data, ident)``; ``ident`` carries the identification's warnings plus the data
     findings of :func:`~ema_rig.identification.diagnose.diagnose_file`. A refusal
     (:class:`~ema_rig.errors.IdentificationError`) is re-raised with those findings appended.
+    ``before(data)``, when given, runs on the data read and before the identification: a check
+    of what the command will need from them (it raises to refuse, before the slow part).
     """
     from ..identification import Selection, identify
     from ..identification.diagnose import diagnose_file
@@ -67,6 +71,8 @@ def load_and_identify(args: argparse.Namespace) -> tuple[Any, Any]:
     if n_averages is not None:
         data = data.replace(n_averages=float(n_averages))
     selection = Selection.from_json(args.selection) if args.selection else None
+    if before is not None:
+        before(data)
     try:
         ident = identify(data, band=band, max_order=max_order, selection=selection, progress=True,
                          refine=bool(refine))

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from .._atomic import atomic_path, check_outputs, write_json
+from ..errors import EmaRigError
 from ..processing import processing_history
 from ._ident_args import add_identification_arguments, load_and_identify, print_warnings
 
@@ -47,17 +49,27 @@ def run(args: argparse.Namespace) -> int:
     from ..identification.window_damping import with_window_damping
     from ..mode_shapes import mode_shapes_records
 
-    data, ident = load_and_identify(args)
+    geometry = None
+    if args.geometry:  # read before the identification: a wrong file is refused in a second, not after it
+        from ..io.geometry import read_geometry
+
+        geometry = read_geometry(args.geometry)
+
+    def writable(data: Any) -> None:  # what --uff55 cannot hold, refused before the identification
+        if args.uff55:
+            from ..io.uff55 import check_uff55_dofs
+
+            try:
+                check_uff55_dofs(data.out_dofs)
+            except ValueError as exc:
+                raise EmaRigError(f"--uff55: {exc}", file=args.file) from None
+
+    data, ident = load_and_identify(args, before=writable)
     if args.shapes:  # PREFIX_<n>.png: known once the modes are; checked before anything is written
 
         ins, outs, figures = io_paths(args)
         check_outputs(ins, [o for o in outs if o[0] != "--shapes"] + [("--shapes", f"{args.shapes}_{k + 1}.png") for k in range(ident.modes.n_modes)],
                       figures)
-    geometry = None
-    if args.geometry:
-        from ..io.geometry import read_geometry
-
-        geometry = read_geometry(args.geometry)
     records = ident.to_records()
     for rec, shp in zip(records, mode_shapes_records(ident.modes), strict=True):
         rec["mode_shape"] = {k: shp[k] for k in ("reference", "normalisation", "unit", "shape")}

@@ -99,7 +99,7 @@ from numpy.typing import NDArray
 from .._blas import single_threaded
 from .._progress import progress_bar
 from ..dof import DOF
-from ..errors import IdentificationError, band_error
+from ..errors import BandError, IdentificationError, band_error
 from ..frf import FRFData
 from ._roots import (
     aberth_chain,
@@ -278,7 +278,7 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
     ------
     IdentificationError
         Band reversed or outside the data, NaN/inf values, an all-zero FRF, fewer than 8
-        lines.
+        lines (a :class:`~ema_rig.errors.BandError` when the data hold 8 but the band does not).
     """
     if not isinstance(data, FRFData):
         raise TypeError(f"data must be an FRFData, got {type(data).__name__}")
@@ -294,7 +294,11 @@ def check_data(data: FRFData, band: tuple[float, float] | None) -> FRFData:
         tol = 1e-9 * max(abs(f1), 1.0)
         if lo < f0 - tol or hi > f1 + tol:
             raise band_error(lo, hi, f0, f1, file=src)
+        whole = data.n_freq
         data = data.band(lo, hi)
+        if data.n_freq < 8 <= whole:  # the band's fault, not the data's: say so (no data diagnosis appended)
+            raise BandError(f"only {data.n_freq} frequency lines in the band {lo:g}..{hi:g} Hz; need at least 8 "
+                            f"(the data hold {whole} lines over {f0:g}..{f1:g} Hz: widen the band)", file=src)
     if data.n_freq < 8:
         raise IdentificationError(f"only {data.n_freq} frequency lines in the band; need at least 8", file=src)
     frf = data.frf

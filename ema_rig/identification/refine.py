@@ -684,10 +684,20 @@ def _edge_misfit(z: NDArray[np.float64], freq: NDArray[np.float64]) -> list[str]
     for name, sl in (("lower", slice(0, k)), ("upper", slice(n - k, n))):
         chi = float(np.mean(z[:, sl]))
         if chi > 3.0:
+            where = f"({freq[sl][0]:.6g}..{freq[sl][-1]:.6g} Hz: residual {chi:.3g} times the noise)"
+            if name == "lower" and n > 1 and freq[0] <= 2 * (freq[1] - freq[0]):
+                # the band starts at the first lines above 0 Hz: nothing lies below it to move away from
+                out.append(
+                    f"the model misses the data at the start of the band, next to 0 Hz {where}: content no mode "
+                    "represents (modes too lightly damped or too close for the line spacing, a DC offset, drift "
+                    "or a sensor's high-pass); the modes nearest it may be biased beyond their standard "
+                    "deviations: start the band above it"
+                )
+                continue
             out.append(
-                f"the model misses the data near the {name} band edge ({freq[sl][0]:.6g}..{freq[sl][-1]:.6g} Hz: "
-                f"residual {chi:.3g} times the noise), probably a mode just outside the band; the modes nearest "
-                "that edge may be biased beyond their standard deviations: move the edge away from it"
+                f"the model misses the data near the {name} band edge {where}, probably a mode just outside the "
+                "band; the modes nearest that edge may be biased beyond their standard deviations: move the edge "
+                "away from it"
             )
     return out
 

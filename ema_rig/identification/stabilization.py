@@ -296,17 +296,34 @@ class SelectedMode:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> SelectedMode:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`.
+
+        Raises
+        ------
+        ValueError, TypeError, KeyError, OverflowError
+            ``d`` is no mode as :meth:`to_dict` writes it (not an object, a key missing, a pole
+            that is not finite or not above the real axis, a natural frequency that is not finite
+            and positive, a damping ratio that is not finite, an integer out of range).
+        """
+        if not isinstance(d, Mapping):
+            raise TypeError(f"each mode must be an object, got {type(d).__name__}")
         prov = str(d.get("provenance", "manual"))
         if prov not in PROVENANCES:
             raise ValueError(f"provenance must be one of {PROVENANCES}, got {prov!r}")
         re, im = d["pole"]
+        pole = complex(float(re), float(im))
+        f_n, zeta = float(d["natural_freq"]), float(d["damping_ratio"])
+        if not (np.isfinite(pole) and pole.imag > 0):
+            raise ValueError(f"pole must be finite with Im > 0 [rad/s], got {pole}")
+        if not (np.isfinite(f_n) and f_n > 0 and np.isfinite(zeta)):
+            raise ValueError(f"natural_freq must be finite and positive and damping_ratio finite, "
+                             f"got {f_n} Hz, {zeta}")
         return cls(
             order=int(d["order"]),
             index=int(d["index"]),
-            pole=complex(float(re), float(im)),
-            natural_freq=float(d["natural_freq"]),
-            damping_ratio=float(d["damping_ratio"]),
+            pole=pole,
+            natural_freq=f_n,
+            damping_ratio=zeta,
             natural_freq_std=float(d.get("natural_freq_std", 0.0)),
             damping_ratio_std=float(d.get("damping_ratio_std", 0.0)),
             n_poles=int(d.get("n_poles", 1)),
@@ -427,17 +444,34 @@ class Selection:
             text = Path(text_or_path).read_text(encoding="utf-8")
         try:
             d = json.loads(text)
+            if not isinstance(d, dict):
+                raise TypeError(f"expected a JSON object, got {type(d).__name__}")
             if d.get("format") != "ema_rig.selection/1":
                 raise ValueError(f"format must be 'ema_rig.selection/1', got {d.get('format')!r}")
+            if not isinstance(d["modes"], list):
+                raise TypeError(f"modes must be a list, got {type(d['modes']).__name__}")
+            if not d["modes"]:
+                raise ValueError("it holds no mode (nothing to replay)")
+            band = d["band"]
+            if isinstance(band, str) or len(band) != 2:
+                raise ValueError(f"band must be [low, high] in Hz, got {band!r}")
+            lo, hi = float(band[0]), float(band[1])
+            if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo < hi):
+                raise ValueError(f"band must be finite with 0 <= low < high, got {lo}..{hi} Hz")
+            max_order = int(d["max_order"])
+            if max_order < 1:
+                raise ValueError(f"max_order must be a positive integer, got {max_order}")
             return cls(
                 modes=tuple(SelectedMode.from_dict(m) for m in d["modes"]),
-                band=tuple(d["band"]),
-                max_order=int(d["max_order"]),
-                tolerances=d.get("tolerances", {}),
-                in_dofs=tuple(d.get("in_dofs", ())),
+                band=(lo, hi),
+                max_order=max_order,
+                tolerances={str(k): float(v) for k, v in dict(d.get("tolerances", {})).items()},
+                in_dofs=tuple(str(x) for x in d.get("in_dofs", ())),
                 source=d.get("source"),
             )
-        except (ValueError, KeyError, TypeError) as exc:
+        except KeyError as exc:
+            raise IdentificationError(f"not a valid mode selection: key {exc} missing", file=src) from None
+        except (ValueError, TypeError, OverflowError) as exc:
             raise IdentificationError(f"not a valid mode selection: {exc}", file=src) from None
 
     def to_records(self) -> list[dict[str, Any]]:

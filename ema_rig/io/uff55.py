@@ -21,6 +21,7 @@ significant digits (E13.5), which bounds the round trip.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from os import PathLike
 from typing import Any
 
@@ -30,6 +31,25 @@ from .._atomic import atomic_path
 from ..dof import DOF
 from ..errors import UFFError
 from ..mode_shapes import ModalShapes, mode_shapes_records
+
+
+def check_uff55_dofs(out_dofs: Sequence[DOF]) -> None:
+    """Refuse response DOFs that dataset 55 cannot hold (its complex modes: X, Y, Z translations per node).
+
+    Parameters
+    ----------
+    out_dofs : sequence of DOF
+        The response DOFs of the mode shapes, shape (n_out,).
+
+    Raises
+    ------
+    ValueError
+        Naming the rotational or scalar (direction 0) DOFs.
+    """
+    bad = [str(d) for d in out_dofs if not 1 <= abs(d.direction) <= 3]
+    if bad:
+        raise ValueError(f"dataset 55 complex modes hold X, Y, Z translations only; cannot write the "
+                         f"rotational or scalar response DOF(s) {bad}")
 
 
 def uff55_sets(model: ModalShapes, *, reference: DOF | str | None = None, name: str = "") -> list[dict[str, Any]]:
@@ -60,9 +80,7 @@ def uff55_sets(model: ModalShapes, *, reference: DOF | str | None = None, name: 
 
     if model.n_modes == 0:
         raise ValueError("the model has no mode to write")
-    bad = [str(d) for d in model.out_dofs if not 1 <= abs(d.direction) <= 3]
-    if bad:
-        raise ValueError(f"dataset 55 complex modes hold X, Y, Z translations only; cannot write {bad}")
+    check_uff55_dofs(model.out_dofs)
     recs = mode_shapes_records(model, ref=reference)
     ref = recs[0]["reference"]
     nodes: list[int] = []

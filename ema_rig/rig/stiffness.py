@@ -48,6 +48,8 @@ resolved silently; it is either covered by a stated model-form term *and* a warn
   (a split housing mass: an appendage, a load arm), the uncoupled frequency is recovered from
   the group's driving-point compliance and the result placed between both readings;
 * effective modal mass off the model's by more than 10 %: warning and a term ``|ln r| / 4``;
+* a ``k_TB`` whose 2-sigma interval reaches 0 (:data:`~ema_rig.rig.uncertainty.UNRESOLVED_SIGMAS`): warning
+  that the measurement does not resolve it (a bearing far stiffer than the mounting system);
 * damping: the declared model (viscous default) gives the undamped frequency; the
   viscous/hysteretic difference is always in the budget (no warning);
 * issue 19, what the measured evidence resolves (notes, terms; warnings only where it cannot):
@@ -99,6 +101,7 @@ from .uncertainty import (
     defaults_note,
     measured_freq_std,
     stiffness_uncertainty,
+    unresolved_warning,
 )
 
 __all__ = [
@@ -691,7 +694,8 @@ def estimate_stiffness(
         k_TB_std_measured=float(unc.k_TB_std_measured) if not unknown else math.nan,
         inverted_freq=float(f_h),
         damping_model=damping_model,
-        warnings=asm.warnings + tuple(unknown) + tuple(f"identification: {w}" for w in id_warns),
+        warnings=asm.warnings + tuple(unknown) + tuple(unresolved_warning(k_tb, float(unc.k_TB_std), kms))
+        + tuple(f"identification: {w}" for w in id_warns),
         notes=asm.notes + tuple(defaults_note(unc)) + tuple(f"identification: {w}" for w in id_notes),
         mode_source=source,
         damping=damping,

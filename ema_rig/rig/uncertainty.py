@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..config import MODEL_KEYS, ModelParams, RigConfig
-from ..errors import MatchingError
+from ..errors import InversionError, MatchingError
 from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
 from .candidates import find_dof
 from .damping import bearing_stiffness_readings
@@ -62,6 +62,7 @@ __all__ = [
     "DEFAULT_REL_UNCERTAINTY",
     "MASS_WARN_RATIO",
     "MAX_ALTERNATIVE_SPREAD",
+    "UNRESOLVED_SIGMAS",
     "Assessment",
     "StiffnessUncertainty",
     "UncertaintyTerm",
@@ -297,17 +298,34 @@ def sensitivities(f_H: float, params: ModelParams) -> dict[str, float]:
     -------
     dict
         Keys ``'f_H'`` and the names of :data:`ema_rig.config.MODEL_KEYS`.
+
+    Raises
+    ------
+    InversionError
+        ``f_H`` gives no positive ``k_TB``, or lies so close to the rigid-bearing limit
+        (``k_TB+MS`` -> ``k_MS``, a bearing far stiffer than the mounting system) that a step of
+        1e-5 in ``f_H`` or a parameter crosses it: ``k_TB`` is then not resolvable on this rig.
     """
-    k_tb_from_housing_freq(f_H, params)  # raises on an invalid frequency
+    k_tb = k_tb_from_housing_freq(f_H, params)  # raises on an invalid frequency
     h = 1e-5
     out = {}
-    kp, km = _k_tb_raw(f_H * (1 + h), params), _k_tb_raw(f_H * (1 - h), params)
-    out["f_H"] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+
+    def dlog(name: str, kp: float, km: float) -> float:
+        if not (kp > 0 and km > 0):  # the step crossed the rigid-bearing limit (k_TB -> infinity)
+            raise InversionError(
+                f"k_TB = {k_tb:.4g} N/m at the housing frequency {float(f_H):.6g} Hz is not resolvable: "
+                f"k_TB+MS = {k_tb_ms_closed_form(f_H, params):.6g} N/m lies so close to k_MS = {params.k_MS:.6g} N/m "
+                f"(the rigid-bearing limit, {housing_freq_bounds(params, bearing=True)[1]:.2f} Hz) that a relative "
+                f"change of {h:g} in {name} makes the bearing stiffer than rigid; the bearing is far "
+                "stiffer than the mounting system: only a lower bound of k_TB can be measured on this rig (a steel-disk "
+                "measurement is for `ema-rig calibrate`)")
+        return (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+
+    out["f_H"] = dlog("f_H", _k_tb_raw(f_H * (1 + h), params), _k_tb_raw(f_H * (1 - h), params))
     for name in MODEL_KEYS:
         v = getattr(params, name)
-        kp = _k_tb_raw(f_H, replace(params, **{name: v * (1 + h)}))
-        km = _k_tb_raw(f_H, replace(params, **{name: v * (1 - h)}))
-        out[name] = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+        out[name] = dlog(name, _k_tb_raw(f_H, replace(params, **{name: v * (1 + h)})),
+                         _k_tb_raw(f_H, replace(params, **{name: v * (1 - h)})))
     return out
 
 
@@ -443,6 +461,29 @@ MASS_WARN_RATIO = 1.1
 
 MAX_ALTERNATIVE_SPREAD = 0.10
 """Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
+
+UNRESOLVED_SIGMAS = 2.0
+"""k_TB whose interval of this many standard uncertainties reaches 0 is not resolved by the
+measurement: warned (the rule of :mod:`ema_rig.rig.stiffness` reads its 2 standard uncertainties;
+past it the linearised +- is no interval of a positive stiffness; e.g. a bearing far stiffer than
+the mounting system, where k_TB = 1 / (1 / k_TB+MS - 1 / k_MS) grows without bound)."""
+
+
+def unresolved_warning(k_tb: float, k_tb_std: float, k_ms: float) -> list[str]:
+    """The warning for a ``k_TB`` [N/m] whose ``UNRESOLVED_SIGMAS`` interval reaches 0 (empty otherwise).
+
+    Parameters
+    ----------
+    k_tb, k_tb_std, k_ms : float
+        The bearing stiffness, its total standard uncertainty and the mounting-system
+        stiffness [N/m].
+    """
+    if not (math.isfinite(k_tb_std) and UNRESOLVED_SIGMAS * k_tb_std >= k_tb):
+        return []
+    return [f"k_TB = {k_tb:.4g} +/- {k_tb_std:.3g} N/m is not resolved: its {UNRESOLVED_SIGMAS:g}-sigma interval "
+            f"reaches 0, so the linearised +/- is no interval of the stiffness (k_TB is {k_tb / k_ms:.3g}x "
+            "k_MS; a bearing far stiffer than the mounting system is bounded from below only)"]
+
 
 CROSS_AXIS_RATIO_STD = 0.035
 """Standard uncertainty of a measured cross-axis / radial amplitude ratio: an accelerometer
