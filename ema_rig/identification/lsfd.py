@@ -163,6 +163,16 @@ def model_order(poles: ArrayLike) -> NDArray[np.complex128]:
     The order of :attr:`ModalModel.poles <ema_rig.identification.modal.ModalModel.poles>` of every
     :func:`lsfd` fit (and of the tests formed at those poles, e.g. the completeness test): a task that
     needs the model's poles but not its residues takes them from here, before the fit is done.
+
+    Parameters
+    ----------
+    poles : array_like of complex, any shape
+        Continuous-time poles [rad/s], in any order.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_modes,)
+        The same poles, sorted by ``|pole|`` as the LSFD model holds them [rad/s].
     """
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     out: NDArray[np.complex128] = lam[np.argsort(np.abs(lam))]
