@@ -26,8 +26,6 @@ bearing_impedance
     ``Z_TB(s)`` [N/m] at an identified pole.
 bearing_damping
     ``c_TB`` and the loss factor with their standard uncertainties.
-bearing_stiffness_readings
-    ``k_TB`` of the pole read with the damping in the bearing, per bearing damping model.
 
 Classes
 -------
@@ -49,8 +47,7 @@ from ..errors import InversionError
 from ..literals import DampingModel
 from .model import mass_matrix, stiffness_matrix
 
-__all__ = ["BEARING_DAMPING_MODELS", "BearingDamping", "bearing_damping", "bearing_impedance",
-           "bearing_stiffness_readings"]
+__all__ = ["BEARING_DAMPING_MODELS", "BearingDamping", "bearing_damping", "bearing_impedance"]
 
 BEARING_DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 """Bearing damping models: a dashpot in parallel with ``k_TB``, or ``k_TB (1 + j eta)``."""
@@ -97,36 +94,6 @@ def bearing_impedance(natural_freq: float, damping_ratio: float, params: ModelPa
     if d == 0 or not np.isfinite(d):
         raise InversionError(f"no finite bearing impedance for the pole at {natural_freq:.2f} Hz")
     return complex(1.0 / d)
-
-
-def bearing_stiffness_readings(natural_freq: float, damping_ratio: float, params: ModelParams) -> dict[str, float]:
-    """``k_TB`` [N/m] that puts the 3DOF pole at the identified one with the damping in the bearing.
-
-    The headline ``k_TB`` inverts the undamped frequency of a proportionally damped model; a
-    dashpot (or loss factor) in the bearing, in series with the real ``k_MS``, puts the same pole
-    on a different real bearing stiffness (the series element's dynamic stiffness rises with
-    ``w c_TB``). The readings bound that model-form difference.
-
-    Parameters
-    ----------
-    natural_freq, damping_ratio : float
-        The identified housing pole: ``|lambda| / 2 pi`` [Hz] and ``zeta``, as for
-        :func:`bearing_impedance`.
-    params : ModelParams
-        Rig parameters (undamped elsewhere; ``params.k_MS`` in series).
-
-    Returns
-    -------
-    dict of str to float
-        ``k_TB`` [N/m] per model of :data:`BEARING_DAMPING_MODELS` (``'viscous'``: dashpot in
-        parallel with ``k_TB``; ``'hysteretic'``: ``k_TB (1 + j eta)``).
-
-    Raises
-    ------
-    InversionError
-        When no finite bearing impedance puts the pole there.
-    """
-    return {model: _read(natural_freq, damping_ratio, params, model)[0] for model in BEARING_DAMPING_MODELS}
 
 
 def _read(natural_freq: float, damping_ratio: float, params: ModelParams, model: str) -> tuple[float, float, float]:

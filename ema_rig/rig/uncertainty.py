@@ -33,7 +33,6 @@ from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import InversionError, MatchingError
 from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
 from .candidates import find_dof
-from .damping import bearing_stiffness_readings
 from .fit import (
     DrivingPointMass,
     HousingMass,
@@ -55,7 +54,6 @@ from .inversion import (
     model_mode_at,
 )
 from .matching import MATCH_CRITERIA, MatchResult
-from .model import series_stiffness
 
 __all__ = [
     "DAMPING_MODELS",
@@ -110,11 +108,9 @@ def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: DampingM
 
     The difference ``delta = 1 - sqrt(1 - 2 zeta^2)`` (~ ``zeta^2``) between the two readings is
     the size of the damping model-form term: whichever model is declared, the truth may lie
-    anywhere between the two, so the relative standard uncertainty of the undamped frequency is
-    ``delta / sqrt(3)`` (a rectangular distribution of half-width ``delta``). A dashpot in the
-    bearing, in series with ``k_MS``, moves the reading by ``O(zeta^2 (1 + k_TB / k_MS))``,
-    several times more for a stiff bearing: :func:`assess_housing_mode` widens the term to that
-    reading when it lies farther.
+    anywhere between the two (and a non-proportional dashpot, e.g. in the bearing, shifts the
+    pole by a similar ``O(zeta^2)``), so the relative standard uncertainty of the undamped
+    frequency is ``delta / sqrt(3)`` (a rectangular distribution of half-width ``delta``).
 
     Parameters
     ----------
@@ -147,26 +143,6 @@ def undamped_freq(abs_freq: float, damping_ratio: float, damping_model: DampingM
     delta = 1.0 - root
     f0 = float(abs_freq) * (root if damping_model == "hysteretic" else 1.0)
     return f0, delta / math.sqrt(3.0)
-
-
-def _bearing_damping_spread(abs_freq: float, damping_ratio: float, f0: float, params: ModelParams) -> float:
-    """Damping model-form term [fraction of ``f0``] of the readings with the damping in the bearing.
-
-    :func:`undamped_freq`'s readings assume proportional damping; with the dashpot (or loss
-    factor) in the bearing, in series with ``k_MS``, the same pole stands for the undamped
-    frequency of the bearing stiffness :func:`~ema_rig.rig.damping.bearing_stiffness_readings`
-    gives, ``O(zeta^2 (1 + k_TB / k_MS))`` from ``f0`` (a stiff bearing is the far end). As in
-    :func:`undamped_freq`, the truth may lie anywhere up to the farthest reading: the relative
-    standard uncertainty is its distance over ``sqrt(3)`` (rectangular). Readings without a
-    positive stiffness below ``k_MS`` (outside the inversion's range) are not readings.
-    """
-    spread = 0.0
-    for k in bearing_stiffness_readings(abs_freq, damping_ratio, params).values():
-        if not (math.isfinite(k) and k > 0):
-            continue
-        f = housing_freq_from_k_tb_ms(series_stiffness(k, params.k_MS), params)
-        spread = max(spread, abs(f / f0 - 1.0))
-    return spread / math.sqrt(3.0)
 
 
 # --------------------------------------------------------------------------- uncertainty
@@ -649,8 +625,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     The rule: a ``k_TB`` reported without a warning lies within 2 sigma of the truth, so every
     ambiguity either widens the budget by a stated model-form term and warns, or is refused:
 
-    * **damping model** (always, no warning): :func:`undamped_freq`, or the farther reading of the
-      pole with the damping in the bearing (:func:`~ema_rig.rig.damping.bearing_stiffness_readings`);
+    * **damping model** (always, no warning): :func:`undamped_freq`;
     * **several modes pass** the housing criteria: warning; term = half the largest relative
       spread of their frequencies (the alternatives sit at 2 sigma); refused above
       :data:`MAX_ALTERNATIVE_SPREAD`;
@@ -733,7 +708,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     f_abs = float(hm["natural_freq"])
     zeta = float(hm["damping_ratio"])
     f0, u_damp = undamped_freq(f_abs, zeta, damping_model)
-    terms: dict[str, float] = {"damping model": max(u_damp, _bearing_damping_spread(f_abs, zeta, f0, rig.model))}
+    terms: dict[str, float] = {"damping model": u_damp}
     warns = list(m.warnings)
     notes: list[str] = []
     f_inv = f0
