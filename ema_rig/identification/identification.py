@@ -1245,6 +1245,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
             and 0 < c.damping_ratio <= jc.max_damping and f[0] < c.natural_freq < f[-1]
             and c.reason.startswith(("negligible contribution", "duplicate of"))]
     by_pole = {m.pole: m for m in modes}
+    split_k: set[int] = set()  # the modes split beside a rejected cluster
     for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
         m = by_pole.get(p_start)
         if m is None or ml.kind[k] != "ml" or not np.isfinite(ml.natural_freq_std[k]) or ml.natural_freq_std[k] <= 0:
@@ -1280,11 +1281,78 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
             f"before: {c.reason})"))
         added.append(f"{c.natural_freq:.6g} Hz beside {m.natural_freq:.6g} Hz")
         modes.append(c.mode)
+        split_k.add(k)
+    if cc.split_misfit:
+        for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
+            m = by_pole.get(p_start)
+            if m is None or k in split_k or ml.kind[k] != "ml":
+                continue
+            c_new = _split_start(data, model, k, m, done.test, cc)
+            if c_new is None:
+                continue
+            c, stat, need, q, dof_l, sl = c_new
+            model.append(c.mode.pole)
+            cands.append(replace(c, support=stat, reason=(
+                f"physical: the lines of {m.natural_freq:.6g} Hz exceed the noise and need two modes there "
+                f"(nested F test on {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz, the second pole started one half-power "
+                f"half-bandwidth beside the ML estimate: F = {stat:.3g} >= {need:.3g} with {q:.0f}, {dof_l:.0f} dof, "
+                f"2 starts tested)")))
+            added.append(f"a second mode beside {m.natural_freq:.6g} Hz (its lines exceed the noise)")
+            modes.append(c.mode)
     if not added:
         return done
     modes = _unique_modes(modes)
     fitted, test = _fit_tested(data, modes, residuals, cc)
     return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=test, split=tuple(added))
+
+
+def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMode, test: MisfitTest,
+                 cc: CompletenessCriteria) -> tuple[Candidate, float, float, float, float, NDArray[np.bool_]] | None:
+    """A second mode beside the model's mode ``k`` (accepted mode ``m``) whose own lines misfit, or None.
+
+    The lines of the mode (:func:`_local_lines` at its ML pole) fail the chi-square test of the
+    residual against the noise variance of ``test`` (the model's poles, the lines as one segment):
+    the one pole there stands for more than one feature of the data. A second pole is started one
+    half-power half-bandwidth ``zeta f_n`` below and above the ML estimate (where two modes of that
+    damping begin to be resolved) and tested on those lines by the nested F test (:func:`_nested_test`,
+    Bonferroni over the two starts), also without the peak line (:func:`_peak_line_out`). Returns the
+    candidate of the larger F that passes, with ``(F, threshold, q, dof, lines)``.
+    """
+    var = test.variance
+    if var is None:
+        return None
+    f = data.freq
+    lam = complex(model[k])
+    fn, zeta = abs(lam) / (2 * np.pi), -lam.real / abs(lam)
+    if not (0 < zeta and any(a <= fn <= b for a, b in test.failing())):
+        return None
+    own = Candidate(replace(m, pole=lam, natural_freq=fn, damping_ratio=zeta), accepted=False, reason="")
+    sl = _local_lines(f, own, cc)
+    n = int(sl.sum())
+    if n < cc.min_segment_lines:
+        return None
+    n_chan = data.n_out * data.n_in
+    coh = None if data.coherence is None else data.coherence.reshape(n_chan, -1)[:, sl]
+    with single_threaded():
+        t = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], np.asarray(model, dtype=np.complex128),
+                           power=_FORM_POWER[data.frf_form], variance=var[:, sl], coherence=coh, edges=[0, n],
+                           criteria=cc)
+    if not bool(t.failed[0]):
+        return None
+    starts = [fn * (1 - zeta), fn * (1 + zeta)]
+    best = None
+    for fs in starts:
+        w = 2 * np.pi * fs
+        pole = complex(-zeta * w, w * np.sqrt(1 - zeta * zeta))
+        c = Candidate(replace(m, pole=pole, natural_freq=float(fs), damping_ratio=float(zeta), natural_freq_std=0.0,
+                              damping_ratio_std=0.0, n_poles=0, order_min=0, order_max=0), accepted=True, reason="")
+        res = _nested_test(data, model, pole, sl, var, cc, starts)
+        if res is None or not res[0] >= res[1] or (best is not None and res[0] <= best[1]):
+            continue
+        if _peak_line_out(data, model, c, sl, var, cc, starts) is not None:
+            continue
+        best = (c, *res[:4], sl)
+    return best
 
 
 def _one_line(data: FRFData, done: _Completed, residuals: bool, crit: IdentificationCriteria) -> _Completed:
