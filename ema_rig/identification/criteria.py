@@ -359,6 +359,13 @@ class CompletenessCriteria(_Sourced):
         line nearest to it (default True): a pole can zero any one line, so a misfit of one line (a
         glitch, leakage, a distorted peak) is no mode; a real one shows on the lines of its skirt as
         well, however light.
+    split_misfit : bool
+        An accepted mode whose own lines (``local_hbw``) exceed the noise (the chi-square test of the
+        segments, the lines as one segment) is tested for a second mode beside it (default True;
+        ``identification._split_start``): a second pole started one half-power half-bandwidth below
+        and above its ML estimate must explain those lines to the noise and pass the local nested F
+        test (``local_p``, Bonferroni over the two starts), also without its peak line; after the
+        band's refit the ML must hold it and its segment must pass, else the split is undone.
     ml_features : bool
         Where the local ML moved a mode's pole inside its lines further than ``MLCriteria.move_hbw``
         (and held it at its PolyMAX pole), the place it moved to is a candidate missing mode (the
