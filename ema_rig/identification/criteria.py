@@ -359,13 +359,6 @@ class CompletenessCriteria(_Sourced):
         line nearest to it (default True): a pole can zero any one line, so a misfit of one line (a
         glitch, leakage, a distorted peak) is no mode; a real one shows on the lines of its skirt as
         well, however light.
-    split_misfit : bool
-        An accepted mode whose own lines (``local_hbw``) exceed the noise (the chi-square test of the
-        segments, the lines as one segment) is tested for a second mode beside it (default True;
-        ``identification._split_start``): a second pole started one half-power half-bandwidth below
-        and above its ML estimate must explain those lines to the noise and pass the local nested F
-        test (``local_p``, Bonferroni over the two starts), also without its peak line; after the
-        band's refit the ML must hold it and its segment must pass, else the split is undone.
     ml_features : bool
         Where the local ML moved a mode's pole inside its lines further than ``MLCriteria.move_hbw``
         (and held it at its PolyMAX pole), the place it moved to is a candidate missing mode (the
@@ -405,9 +398,6 @@ class CompletenessCriteria(_Sourced):
     peak_line_out: bool = _src(True, "a jackknife of the peak line (Efron & Tibshirani 1993, ch. 11): ufffiles_frf 94.99 Hz "
                                "(zeta 0.19 %, beside the 96.1 Hz mode) zeroes the 95.0 Hz line alone; vt_case1's 34.06 Hz "
                                "(zeta 0.02 %, half-power band below a line) stands on its skirt (benchmarks/study_real_bands.py)")
-    split_misfit: bool = _src(True, "issue 18: a local misfit around a peak is a missing mode; data/disk.uff 0-2000 Hz merged "
-                              "789.7 and 801.0 Hz into 797.7 Hz (F 150-240 against 2.4 with (18, ~3000) dof; "
-                              "benchmarks/study_disk_pair.py)")
     ml_features: bool = _src(True, "on: on ufffiles_frf 79.95-719.55 Hz it adds the 713.7 Hz mode of 0-799.5 Hz (held modes "
                              "8 -> 0) and, with MLCriteria.block_from_scores, frequency changes inside their 2 sigma are "
                              "56/59 (off: 4 modes in one band only; benchmarks/study_real_bands.py); the candidate is where "
