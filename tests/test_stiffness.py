@@ -410,3 +410,12 @@ def test_plot_rig_fit_fixed_layout_is_computed_once_and_draws_what_matplotlib_dr
     # them instead of one line per tick (112 pixels, at most 6 levels); a shifted panel, a missing tick
     # or label changes thousands of pixels by far more
     assert diff.max() <= 8 and (diff > 2).sum() < 400, (int(diff.max()), int((diff > 2).sum()))
+
+
+@pytest.mark.parametrize("call", ["estimate_stiffness", "calibrate"])
+def test_a_path_in_place_of_the_data_says_how_to_read_it(rig, call):
+    # the smoke review (b_smoke8) passed a file's path to the API and got an AttributeError from deep
+    # inside; the data's type is checked first and the message names the reader (fails before: no
+    # TypeError, an AttributeError on str.meta)
+    with pytest.raises(TypeError, match=r"FRFData \(read the file with read_uff58\(path, rig=rig\)\), got str"):
+        getattr(st, call)("measurement.uff", rig)

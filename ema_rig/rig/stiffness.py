@@ -140,7 +140,14 @@ def default_band(data: FRFData, rig: RigConfig, band: tuple[float, float] | None
 
 
 def _file_of(data: FRFData) -> str | None:
-    """The measurement file of ``data``: ``meta['file']``, else ``meta['source']`` if it is a file."""
+    """The measurement file of ``data``: ``meta['file']``, else ``meta['source']`` if it is a file.
+
+    The first look of :func:`estimate_stiffness` and :func:`calibrate` at their data: anything but
+    an :class:`FRFData` (e.g. the file's path) is a ``TypeError`` that says how to read it.
+    """
+    if not isinstance(data, FRFData):
+        raise TypeError(f"data must be an FRFData (read the file with read_uff58(path, rig=rig)), "
+                        f"got {type(data).__name__}")
     v = data.meta.get("file")
     if isinstance(v, str) and v:
         return v
