@@ -735,16 +735,13 @@ def _identification_caveats(ident: Any, m: MatchResult, asm: Any) -> tuple[list[
     warns: list[str] = []
     notes: list[str] = []
     for w in ident.warnings:
-        hit = _HELD.match(w)
-        edge = _EDGE.match(w)
+        held = _HELD.match(w)
+        hit = held or _EDGE.match(w)
         idx = None
-        if hit is not None and len(kinds) == len(fn):
-            f_w = float(hit.group(1))
-            near = [i for i in range(len(fn)) if kinds[i] == "held" and abs(fn[i] - f_w) <= 1e-5 * f_w]
-            idx = near[0] if len(near) == 1 else None
-        elif edge is not None:  # the message gives 6 significant digits
-            f_w = float(edge.group(1))
-            near = [i for i in range(len(fn)) if abs(fn[i] - f_w) <= 1e-5 * f_w]
+        if hit is not None and (held is None or len(kinds) == len(fn)):
+            f_w = float(hit.group(1))  # the message gives 6 significant digits
+            near = [i for i in range(len(fn))
+                    if (held is None or kinds[i] == "held") and abs(fn[i] - f_w) <= 1e-5 * f_w]
             idx = near[0] if len(near) == 1 else None
         (notes if idx is not None and idx not in used else warns).append(w)
     return warns, notes
