@@ -24,7 +24,9 @@ under ``if TYPE_CHECKING:`` included -- and
 from __future__ import annotations
 
 import ast
+import functools
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -129,8 +131,13 @@ def _is_type_checking(test: ast.expr) -> bool:
     return "TYPE_CHECKING" in ast.unparse(test)
 
 
-def collect_imports() -> list[Imp]:
-    """Every import of every module of ema_rig (inside functions and under TYPE_CHECKING included)."""
+@functools.cache
+def collect_imports() -> tuple[Imp, ...]:
+    """Every import of every module of ema_rig (inside functions and under TYPE_CHECKING included).
+
+    Parsed once per session (every module of the package, ~1 s): the six checks below read the
+    same sources, which do not change while the tests run.
+    """
     mods = _modules()
     out: list[Imp] = []
     for mod, path in mods.items():
@@ -165,7 +172,7 @@ def collect_imports() -> list[Imp]:
                 walk(ch, in_fn or isinstance(ch, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)), tc)
 
         walk(ast.parse(path.read_text(encoding="utf-8")), False, False)
-    return out
+    return tuple(out)
 
 
 def layer_of(module: str) -> int:
@@ -177,11 +184,11 @@ def layer_of(module: str) -> int:
     return next(r for r, p in LAYERS if p == best)
 
 
-def _internal(imps: list[Imp]) -> list[Imp]:
+def _internal(imps: Sequence[Imp]) -> list[Imp]:
     return [i for i in imps if i.target == "ema_rig" or i.target.startswith("ema_rig.")]
 
 
-def upward_imports(imps: list[Imp]) -> list[str]:
+def upward_imports(imps: Sequence[Imp]) -> list[str]:
     """Every import of a module from a higher layer, as 'importer:line -> target (layer -> layer)'."""
     bad = []
     for i in _internal(imps):
@@ -191,7 +198,7 @@ def upward_imports(imps: list[Imp]) -> list[str]:
     return sorted(set(bad))
 
 
-def import_cycles(imps: list[Imp]) -> list[list[str]]:
+def import_cycles(imps: Sequence[Imp]) -> list[list[str]]:
     """The strongly connected components (more than one module) of the module import graph."""
     graph: dict[str, set[str]] = {m: set() for m in _modules()}
     for i in _internal(imps):
@@ -233,7 +240,7 @@ def import_cycles(imps: list[Imp]) -> list[list[str]]:
     return sorted(sccs)
 
 
-def _heavy_at_import(imps: list[Imp]) -> dict[str, bool]:
+def _heavy_at_import(imps: Sequence[Imp]) -> dict[str, bool]:
     """Whether importing each module imports a heavy package (its module-level closure, parents included)."""
     mods = _modules()
     deps: dict[str, set[str]] = {m: set() for m in mods}
@@ -268,7 +275,7 @@ def _lazy_internal_reason(importer: str, target: str) -> str | None:
     return None
 
 
-def unjustified_function_level_imports(imps: list[Imp]) -> list[str]:
+def unjustified_function_level_imports(imps: Sequence[Imp]) -> list[str]:
     heavy = _heavy_at_import(imps)
     bad = []
     for i in imps:
@@ -289,7 +296,7 @@ def unjustified_function_level_imports(imps: list[Imp]) -> list[str]:
     return sorted(set(bad))
 
 
-def private_imports(imps: list[Imp]) -> list[str]:
+def private_imports(imps: Sequence[Imp]) -> list[str]:
     """Private names (``_x``) imported from another module (ema_rig's or a third party's)."""
     bad = []
     for i in imps:
@@ -315,7 +322,7 @@ PRIVATE_MODULES_ALLOWED: dict[tuple[str, str], str] = {
 }
 
 
-def private_module_imports(imps: list[Imp]) -> list[str]:
+def private_module_imports(imps: Sequence[Imp]) -> list[str]:
     """Imports of a subpackage's private module (``ema_rig.io._uff_units``) from outside that subpackage.
 
     ``ema_rig``'s own private modules (``ema_rig._atomic``, ``ema_rig._text``) are the whole
@@ -335,7 +342,7 @@ def private_module_imports(imps: list[Imp]) -> list[str]:
     return sorted(set(bad))
 
 
-def counts(imps: list[Imp]) -> dict[str, int]:
+def counts(imps: Sequence[Imp]) -> dict[str, int]:
     stmts_fn = {(i.importer, i.line) for i in imps if i.in_function}
     stmts_tc = {(i.importer, i.line) for i in imps if i.type_checking}
     stmts_fn_int = {(i.importer, i.line) for i in _internal(imps) if i.in_function}
