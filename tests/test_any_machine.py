@@ -35,7 +35,9 @@ def test_skipped_tests_are_explained_in_one_line(tmp_path):
     env = {**os.environ, "EMA_RIG_SHARED": str(tmp_path / "nowhere"), "PYTHONPATH": str(REPO)}
     env.pop("EMA_RIG_REQUIRE_SHARED", None)
     env.pop("EMA_RIG_UFF_CORPUS", None)
-    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests/test_uff_corpus.py"],
+    for k in [k for k in env if k.startswith("PYTEST_XDIST") or k == "PYTEST_CURRENT_TEST"]:
+        env.pop(k)  # this test may itself run in a pytest-xdist worker
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n0", "-p", "no:cacheprovider", "tests/test_uff_corpus.py"],
                          cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
     lines = [ln for ln in run.stdout.splitlines() if "skipped: ../shared not found" in ln]
     assert len(lines) == 1, run.stdout[-2000:]
