@@ -23,7 +23,7 @@ how far its result is from the current one:
    identity blocks two rows below the diagonal) against ``dgeev`` on the scalar companion of
    ``det A(z)`` (Hessenberg: ``dgehrd`` has nothing to do); distance of its roots to the block ones.
 
-Run: ``python benchmarks/study_plscf_directions.py [--repeat 9]``.
+Run (from the repository root): ``PYTHONPATH=. python benchmarks/study_plscf_directions.py [--repeat 9]``.
 """
 
 from __future__ import annotations
