@@ -15,7 +15,11 @@ file: 256 x 1801), each piece run ``2 k`` times one after the other and split ov
    a PolyMAX order below the Aberth chain (degree 46), the SVD of the LSFD basis of the rig file
    (3402 x 22, :func:`~ema_rig.identification.lsfd._projector`), the rig file's local-ML evaluation
    (:meth:`~ema_rig.identification._Segment.evaluate`: ~25 small numpy calls).
-2. **Overlap** (``overlap``): the caller runs a Python-bound piece (the ML evaluations) while a second
+2. **Does the call release the lock?** While a second thread is inside one long call (700 x 700),
+   the calling thread spins a Python loop: the CPU it gets is near 0 when the call holds the lock
+   (a contrast the machine's other load does not hide). SciPy's ``dgeev`` wrapper (what PolyMAX's
+   :func:`~ema_rig.identification.plscf._eigvals` calls) is compared with ``numpy.linalg.eigvals``.
+3. **Overlap** (``overlap``): the caller runs a Python-bound piece (the ML evaluations) while a second
    thread runs LAPACK calls that need the lock only to start and return (the 22 companion
    eigenvalue calls of PolyMAX orders 2..44): the wall time of both against their sum.
 
@@ -114,6 +118,33 @@ def main() -> None:
             t_w, t_c = _timed(_in_two(piece, k), args.repeat)
             print(f"{name:36s} {k:3d} {s_w:10.2f} / {s_c:8.2f} {t_w:10.2f} / {t_c:8.2f} {t_w / s_w:10.2f} "
                   f"{1e3 * s_w / (2 * k):13.1f}")
+        # does a call release the lock? the CPU the calling thread gets while a second thread is inside
+        # one long call (a load-independent contrast: near 0 when the call holds the lock)
+        big = np.asfortranarray(rng.standard_normal((700, 700)))
+        longs: dict[str, Callable[[], object]] = {
+            "scipy dgeev 700 x 700 (plscf._eigvals)": lambda: _eigvals(big.copy(order="F")),
+            "numpy.linalg.eigvals 700 x 700": lambda: np.linalg.eigvals(big),
+            "numpy.linalg.svd 700 x 700": lambda: np.linalg.svd(big),
+            "20 matrix products 700 x 700": lambda: [big @ big for _ in range(20)],
+        }
+        for name, call in longs.items():
+            done = threading.Event()
+
+            def side(c: Callable[[], object] = call, ev: threading.Event = done) -> None:
+                c()
+                ev.set()
+
+            t = threading.Thread(target=side)
+            t0, c0 = time.perf_counter(), time.thread_time()
+            t.start()
+            steps = 0
+            while not done.is_set():
+                steps += 1
+            t.join()
+            wall, mine = time.perf_counter() - t0, time.thread_time() - c0
+            print(f"{name:40s}: {1e3 * wall:6.0f} ms; meanwhile the calling thread ran {steps:8d} loop steps on "
+                  f"{1e3 * mine:5.0f} ms CPU ({100 * mine / wall:3.0f} % of the call: "
+                  f"{'lock held' if mine < 0.1 * wall else 'lock released'})")
         # overlap: Python-bound ML evaluations here, the PolyMAX orders' dgeev calls in a second thread
         seg, theta = _rig_segment(rng)
         comps = []
