@@ -1,9 +1,10 @@
 """Study: which of the default ``identify``'s pieces two Python threads can run side by side (issue 18).
 
 The default ``identify`` is a chain of numpy and LAPACK calls made from Python. A second thread
-pays only when the two threads' work overlaps; each numpy or LAPACK call releases the interpreter
-lock (GIL) inside its loop but takes it back to return, so a call whose loop is short hands the lock
-to and fro, and the hand-off (a futex wake and a context switch) costs more than the loop. This
+pays only when the two threads' work overlaps; numpy's calls release the interpreter lock (GIL)
+inside their loops but take it back to return, so a call whose loop is short hands the lock to and
+fro, and the hand-off (a futex wake and a context switch) costs more than the loop; some SciPy
+wrappers of BLAS / LAPACK keep the lock for the whole call (part 2). This
 study times, on this machine, the pieces ``identify`` is made of at the sizes of
 ``bench_default_ml.py``'s two files (the bundled rig file: 8 channels x 1701 lines; the 256-output
 file: 256 x 1801), each piece run ``2 k`` times one after the other and split over two threads
@@ -14,7 +15,7 @@ file: 256 x 1801), each piece run ``2 k`` times one after the other and split ov
    (:func:`~ema_rig.identification.noise._newton_block`), LAPACK ``dgeev`` on the companion matrix of
    a PolyMAX order below the Aberth chain (degree 46), the SVD of the LSFD basis of the rig file
    (3402 x 22, :func:`~ema_rig.identification.lsfd._projector`), the rig file's local-ML evaluation
-   (:meth:`~ema_rig.identification._Segment.evaluate`: ~25 small numpy calls).
+   (:meth:`~ema_rig.identification.ml._Segment.evaluate`: ~25 small numpy calls).
 2. **Does the call release the lock?** While a second thread is inside one long call (700 x 700;
    the SciPy BLAS wrappers 1500 x 1500),
    the calling thread spins a Python loop: the CPU it gets is near 0 when the call holds the lock
@@ -25,8 +26,8 @@ file: 256 x 1801), each piece run ``2 k`` times one after the other and split ov
    and the SciPy BLAS / LAPACK wrappers PolyMAX's Gram updates, ``Q`` rows and order limit call
    (``dsyrk``, ``dtrmm``, ``dpotrf``) and the local ML's QR (``dgeqrf``) with numpy's calls.
 3. **Overlap** (``overlap``): the caller runs a Python-bound piece (the ML evaluations) while a second
-   thread runs LAPACK calls that need the lock only to start and return (the 22 companion
-   eigenvalue calls of PolyMAX orders 2..44): the wall time of both against their sum.
+   thread runs the 22 companion eigenvalue calls of PolyMAX orders 2..44 (SciPy's ``dgeev``, as
+   PolyMAX calls it): the wall time of both against their sum.
 
 Wall time ``time.perf_counter``, CPU ``time.process_time`` (both threads), the median of
 ``--repeat`` runs. Run under ``chrt -f 10`` on a shared machine (the other load then cannot take the
