@@ -433,7 +433,9 @@ def stiffness_uncertainty(
 
 # --------------------------------------------------------------------------- model-form assessment
 MASS_WARN_RATIO = 1.1
-"""Effective modal mass off the model's by more than this factor: warning + model-form term."""
+"""Effective modal mass off the model's by more than this factor: warning + model-form term, unless
+the housing mode is clean and its two readings of ``m_H`` (driving-point modal mass, spindle/housing
+ratio) agree within :data:`SHAPE_MASS_CONSISTENT`: then the data measure ``m_H``."""
 
 MAX_ALTERNATIVE_SPREAD = 0.10
 """Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
@@ -678,7 +680,14 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       identified mass scatters by a few % under 10 % noise and the model's by the m_H
       tolerance): warning; term ``|ln r| / 4``: if all of the housing's compliance sits in this
       mode (the mass difference being participation missing from the identified mode), the
-      uncoupled frequency is ``f sqrt(r)``; that alternative sits at 2 sigma.
+      uncoupled frequency is ``f sqrt(r)``; that alternative sits at 2 sigma. Not where the mode is
+      clean (as above, no in-phase partner carrying housing motion) and its two readings of ``m_H``,
+      the driving-point modal mass and the spindle/housing ratio, agree within
+      :data:`SHAPE_MASS_CONSISTENT` combined sigma: participation missing from the mode would not
+      move the ratio's reading alike, so the rig file's ``m_H`` is off (or undeclared masses sit on
+      the housing) and the measured ``m_H`` is used as in the modal mass check (a note naming both
+      masses; a 20 % off rig file gave k_TB +40 ... +139 % behind this warning before). One reading
+      alone keeps the warning and the term.
 
     Parameters
     ----------
@@ -899,8 +908,14 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     dpm, leak_bound = None, None
     m_h_new, m_h_rel = None, None
     info_inv = model_mode_at(params, f_inv)
-    if not used and (ratio is None or abs(math.log(ratio)) <= math.log(MASS_WARN_RATIO)):
+    # an effective modal mass off the model's by more than MASS_WARN_RATIO is either m_H off the rig file
+    # (with what sits on the housing) or participation missing from the identified mode: a clean housing
+    # mode whose two independent readings of m_H (driving-point modal mass, spindle/housing ratio) agree
+    # (SHAPE_MASS_CONSISTENT) tells the first; otherwise (rolled back below) the effective-mass term
+    mass_off = ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO)
+    if not used and (not mass_off or not partners):
         dpm = dpm0
+    ratio_in, n_notes, n_warns = ratio, len(notes), len(warns)
     housing_mass = None
     by_shape = None
     m_h_corr: tuple[float, dict[str, float]] | None = None
@@ -1089,6 +1104,13 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                 warns.append(f"{msg}: a close neighbour or cross-axis motion shares the housing mode, so the "
                              f"mass does not measure m_H alone{extra}; m_H tolerance widened to "
                              f"{100 * m_h_rel:.1f} %")
+    if mass_off and dpm is not None and (housing_mass is None or housing_mass.by_shape is None):
+        # beyond MASS_WARN_RATIO one reading of the mass alone (or a mode not clean) cannot tell an off
+        # m_H from participation missing from the identified mode: what the block above concluded is
+        # withdrawn, and the effective-mass term below applies
+        del notes[n_notes:], warns[n_warns:]
+        dpm, housing_mass, by_shape, leak_bound, m_h_new, m_h_rel, m_h_budget = (None,) * 7
+        ratio = ratio_in
     if housing_mass is not None and housing_mass.used is not None and by_shape is not None:
         notes.append(f"m_H measured twice: driving-point modal mass (force chain {100 * u_fc:.1f} %) and the "
                      f"housing mode's spindle/housing ratio {by_shape.ratio:.4f} ({by_shape.m_H:.4g} +/- "
