@@ -91,7 +91,10 @@ def test_driving_point_modal_mass_is_not_m_h_but_inverts_to_it(factor):
     h = phi[:, 1] / math.sqrt(phi[:, 1] @ m @ phi[:, 1])  # the housing mode, mass-normalised
     f_h = math.sqrt(lam[1]) / (2 * math.pi)
     modal_mass = 1.0 / h[0] ** 2
-    # not equal: the spindle moves in the housing mode (a few % at 626 Hz)
+    # phi^T M phi = 1 gives 1 / phi_H^2 = m_H + m_S (phi_S / phi_H)^2 + m_F (phi_F / phi_H)^2: the housing
+    # mass plus the spindle's (and frame's) participation; not equal to m_H (a few % at 626 Hz)
+    r_s, r_f = h[1] / h[0], h[2] / h[0]
+    assert modal_mass == pytest.approx(m_h + p["m_S"] * r_s**2 + p["m_F"] * r_f**2, rel=1e-9)
     assert abs(modal_mass / m_h - 1) > 0.01
     params = replace(ModelParams(**TABLE1), m_H=TABLE1["m_H"])  # the rig file's nominal m_H
     got = measured_housing_mass(f_h, modal_mass, params)
