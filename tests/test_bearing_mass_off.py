@@ -62,6 +62,23 @@ def test_a_fifth_off_m_h_is_measured_twice_and_used(tmp_path, file_factor, seed)
     assert abs(res.inversion_3dof["k_TB"] / truth.k_TB - 1) > 0.15
 
 
+def test_a_loose_m_h_tolerance_gives_way_to_the_measured_mass(tmp_path):
+    # the rig file states m_H 20 % low with a 20 % tolerance: the data (3.09 +/- 0.05 kg read twice)
+    # agree with it at one sigma, yet are ten times as precise. Kept as it stood, k_TB was -24 % +/- 29 %
+    # behind the effective-mass warning; combined by inverse variance, the measurement carries it
+    truth = RigTruth(k_TB=66.3e6, file_m_H_factor=1 / 1.2, seed=2)
+    uff, rig_path = write_case(tmp_path, "loose", truth, FREQ)
+    rig_path.write_text(rig_path.read_text().replace("m_H = 0.005", "m_H = 0.2"))
+    rig = load_rig(rig_path)
+    assert rig.uncertainty["m_H"] == pytest.approx(0.2)
+    res = st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False)
+    hm = res.housing_mass
+    assert hm is not None and hm.agrees and hm.source == "combined"
+    assert abs(hm.used - TABLE1["m_H"]) <= 2 * hm.used * hm.used_rel_std and hm.used_rel_std < 0.02
+    assert res.warnings == () and any("more precise: combined" in n for n in res.notes)
+    assert abs((res.k_TB - truth.k_TB) / res.k_TB_std) <= 2.0 and res.k_TB_std / res.k_TB < 0.035
+
+
 def test_one_reading_of_a_fifth_off_mass_stays_warned(tmp_path):
     # without the spindle's radial sensors the mode's shape gives no second reading of m_H: the
     # driving-point modal mass alone cannot tell an off m_H from participation the identified mode

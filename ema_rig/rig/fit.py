@@ -460,7 +460,9 @@ class HousingMass:
         fit's std (:data:`ema_rig.rig.uncertainty.MASS_AGREE_SIGMAS`).
     source : str
         What the inversion used: ``'rig file'``, ``'combined'`` (rig file and measurement by
-        inverse variance, force chain stated), ``'rig file, tolerance widened'`` (the discrepancy
+        inverse variance, force chain stated, or not stated where the effective mass is more than
+        10 % off and the measurement, read twice, is the more precise), ``'rig file, tolerance
+        widened'`` (the discrepancy
         is smaller than the measurement's std) or ``'measured'``.
     by_shape, by_shape_std : float or None
         ``m_H`` [kg] from the housing mode's spindle/housing ratio (:func:`housing_mass_from_ratio`,
