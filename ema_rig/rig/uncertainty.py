@@ -437,7 +437,8 @@ def stiffness_uncertainty(
 MASS_WARN_RATIO = 1.1
 """Effective modal mass off the model's by more than this factor: warning + model-form term, unless
 the housing mode is clean and its two readings of ``m_H`` (driving-point modal mass, spindle/housing
-ratio) agree within :data:`SHAPE_MASS_CONSISTENT`: then the data measure ``m_H``."""
+ratio) each put the rig file's off, alike and beyond :data:`SHAPE_MASS_CONSISTENT` of their own std
+(:func:`_mass_off_confirmed`): then the data measure ``m_H``."""
 
 MAX_ALTERNATIVE_SPREAD = 0.10
 """Refuse when modes that all pass the housing criteria lie more than this (relative) apart."""
@@ -690,8 +691,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       uncoupled frequency is ``f sqrt(r)``; that alternative sits at 2 sigma. Not where the mode is
       clean (as above, no in-phase partner carrying housing motion) and its two readings of ``m_H``,
       the driving-point modal mass and the spindle/housing ratio, agree within
-      :data:`SHAPE_MASS_CONSISTENT` combined sigma: participation missing from the mode would not
-      move the ratio's reading alike, so the rig file's ``m_H`` is off (or undeclared masses sit on
+      :data:`SHAPE_MASS_CONSISTENT` combined sigma and each put the rig file's off alike beyond it
+      (:func:`_mass_off_confirmed`): participation missing from the mode would not move the ratio's
+      reading alike, so the rig file's ``m_H`` is off (or undeclared masses sit on
       the housing) and the measured ``m_H`` is used as in the modal mass check (a note naming both
       masses; a 20 % off rig file gave k_TB +40 ... +139 % behind this warning before). One reading
       alone keeps the warning and the term.
@@ -918,7 +920,8 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     # an effective modal mass off the model's by more than MASS_WARN_RATIO is either m_H off the rig file
     # (with what sits on the housing) or participation missing from the identified mode: a clean housing
     # mode whose two independent readings of m_H (driving-point modal mass, spindle/housing ratio) agree
-    # (SHAPE_MASS_CONSISTENT) tells the first; otherwise (rolled back below) the effective-mass term
+    # and each say so alone (_mass_off_confirmed) tells the first; otherwise (rolled back below) the
+    # effective-mass term
     mass_off = ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO)
     if not used and (not mass_off or not partners):
         dpm = dpm0
@@ -1266,7 +1269,7 @@ def _damping_location(m: MatchResult, modes: Any, rig: RigConfig, data: Any) -> 
         return None
     try:
         th_b = bearing_mode_phase(f_abs, zeta, rig.model)
-    except (InversionError, ValueError, ZeroDivisionError):
+    except InversionError:  # no finite bearing impedance puts the pole there: no bearing reading
         return None
     u_th = math.hypot(sp.phase_std, ACCEL_PHASE_STD * math.sqrt(1.0 / sp.n_spindle + 1.0))
     if not (abs(sp.phase) > DAMPING_PHASE_SIGMAS * u_th and abs(th_b) > 0):
@@ -1285,8 +1288,8 @@ def _damping_location(m: MatchResult, modes: Any, rig: RigConfig, data: Any) -> 
     rel = max(abs(math.log(f_lo / f_phi)), abs(math.log(f_hi / f_phi)))
     note = (f"housing mode's spindle/housing phase {math.degrees(sp.phase):+.2f} +/- {math.degrees(u_th):.2f} deg "
             f"(all of its damping in the bearing: {math.degrees(th_b):+.2f} deg): the bearing holds "
-            f"{100 * phi:.0f} +/- {100 * share_std:.0f} % of the damping; the pole read with it, "
-            f"{f_phi:.2f} Hz inverted (|lambda| {f_abs:.2f} Hz, +/- {100 * rel:.2f} %)")
+            f"{100 * phi:.0f} +/- {100 * share_std:.0f} % of the damping; the pole read with it, |lambda| "
+            f"{f_abs:.2f} Hz stands for {f_phi:.2f} Hz of the undamped model (+/- {100 * rel:.2f} %)")
     return DampingLocation(share=phi, share_std=share_std, factor=f_phi / f_abs, rel_std=rel, note=note)
 
 
