@@ -45,9 +45,11 @@ import numpy as np
 from ..config import MODEL_KEYS, ModelParams
 from ..errors import InversionError
 from ..literals import DampingModel
-from .model import mass_matrix, stiffness_matrix
+from .inversion import housing_freq_from_k_tb_ms
+from .model import mass_matrix, series_stiffness, stiffness_matrix
 
-__all__ = ["BEARING_DAMPING_MODELS", "BearingDamping", "bearing_damping", "bearing_impedance"]
+__all__ = ["BEARING_DAMPING_MODELS", "BearingDamping", "bearing_damping", "bearing_impedance", "bearing_mode_phase",
+           "bearing_reading_freq"]
 
 BEARING_DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 """Bearing damping models: a dashpot in parallel with ``k_TB``, or ``k_TB (1 + j eta)``."""
@@ -94,6 +96,75 @@ def bearing_impedance(natural_freq: float, damping_ratio: float, params: ModelPa
     if d == 0 or not np.isfinite(d):
         raise InversionError(f"no finite bearing impedance for the pole at {natural_freq:.2f} Hz")
     return complex(1.0 / d)
+
+
+def bearing_mode_phase(natural_freq: float, damping_ratio: float, params: ModelParams) -> float:
+    """Phase [rad] of the spindle/housing amplitude ratio ``x_S / x_H`` of the 3DOF housing mode with
+    all of its damping in the bearing.
+
+    At the identified pole ``s`` the bearing + mounting element is ``k_TB+MS(s)``
+    (:func:`bearing_impedance` in series with ``k_MS``); the mode shape solves
+    ``(K0 + k_TB+MS(s) e e^T + s^2 M) x = 0`` with ``x_H = 1``. A proportionally damped mode is
+    real (phase 0); a dashpot in the bearing alone, in series with ``k_MS``, makes it complex by
+    about the bearing's loss angle times the spindle's share of the element's deflection.
+
+    Parameters
+    ----------
+    natural_freq : float
+        Identified ``|lambda| / 2 pi`` of the housing mode [Hz].
+    damping_ratio : float
+        Identified damping ratio.
+    params : ModelParams
+        Rig parameters.
+
+    Returns
+    -------
+    float
+        ``arg(x_S / x_H)`` [rad].
+
+    Examples
+    --------
+    >>> from ema_rig.config import ModelParams
+    >>> p = ModelParams(2.566, 2.8, 205.0, 114e6, 650e3, 348e6, 180e3)
+    >>> round(math.degrees(bearing_mode_phase(626.0, 0.02, p)), 2)
+    2.94
+    """
+    s = _pole(natural_freq, damping_ratio)
+    k_c = 1.0 / (1.0 / bearing_impedance(natural_freq, damping_ratio, params) + 1.0 / params.k_MS)
+    a = stiffness_matrix(params, 0.0).astype(complex) + k_c * np.outer(_E, _E) + s * s * mass_matrix(params)
+    x = np.linalg.solve(a[1:, 1:], -a[1:, 0])
+    return float(np.angle(x[0]))
+
+
+def bearing_reading_freq(natural_freq: float, damping_ratio: float, params: ModelParams,
+                         model: DampingModel = "viscous") -> float | None:
+    """Housing frequency [Hz] whose undamped inversion gives the bearing's complex reading of a pole.
+
+    ``k_TB`` of the pole read with its damping in the bearing (``_read``: the real part of
+    ``Z_TB`` for ``model``), put back in series with ``k_MS`` and through the undamped 3DOF model
+    (:func:`ema_rig.rig.inversion.housing_freq_from_k_tb_ms`), so that the stiffness budget, which
+    inverts a frequency, carries it unchanged. ``damping_ratio = 0`` gives ``natural_freq``.
+
+    Parameters
+    ----------
+    natural_freq : float
+        ``|lambda| / 2 pi`` of the housing mode [Hz].
+    damping_ratio : float
+        The damping ratio read as the bearing's (a share of the identified one).
+    params : ModelParams
+        Rig parameters (``k_MS`` the one used for ``k_TB``).
+    model : {'viscous', 'hysteretic'}
+        Bearing damping model.
+
+    Returns
+    -------
+    float or None
+        None when the reading gives no positive stiffness.
+    """
+    k = _read(natural_freq, damping_ratio, params, model)[0]
+    if not (math.isfinite(k) and k > 0):
+        return None
+    return float(housing_freq_from_k_tb_ms(series_stiffness(k, params.k_MS), params))
 
 
 def _read(natural_freq: float, damping_ratio: float, params: ModelParams, model: str) -> tuple[float, float, float]:

@@ -56,6 +56,7 @@ __all__ = [
     "NeighbourPairFit",
     "HousingRigidBody",
     "RadialLayout",
+    "ShapePhase",
     "SplitHousingFit",
     "TiltStiffness",
     "centre_mass_factor",
@@ -64,6 +65,7 @@ __all__ = [
     "housing_inertia",
     "housing_tilt",
     "radial_layout",
+    "spindle_phase",
     "housing_rigid_body",
     "cross_axis_correction",
     "driving_point_mass",
@@ -250,6 +252,102 @@ def driving_point_mass_of(data: FRFData, p: int, q: int, poles: NDArray[np.compl
     return driving_point_mass(data.freq, data.frf[p, q], poles, index, frf_form=data.frf_form)
 
 
+def _local_residue(freq: NDArray[np.float64], frf: NDArray[np.complex128], poles: NDArray[np.complex128], index: int,
+                   frf_form: FrfForm, window: float = 0.10, pole_window: float = 0.40
+                   ) -> tuple[complex, NDArray[np.float64]] | None:
+    """Residue of mode ``index`` on one channel and the covariance of its (Re, Im), shape (2, 2).
+
+    The local fit of :func:`driving_point_mass` with every identified pole held (linear least
+    squares, weighted by ``1 / |H|``; covariance ``s^2 (A^T W A)^-1``); None on too few lines."""
+    p = np.asarray(poles, dtype=complex)
+    f0 = abs(p[index]) / (2 * math.pi)
+    sel = (freq > f0 * (1 - window)) & (freq < f0 * (1 + window)) & (freq > 0)
+    w = 2 * math.pi * np.asarray(freq, dtype=float)[sel]
+    near = [r for r in range(p.size) if abs(abs(p[r]) / (2 * math.pi) / f0 - 1) < pole_window]
+    if w.size < 20:
+        return None
+    jw = 1j * w
+    h = np.asarray(frf)[sel] / jw ** _FORM_POWER[frf_form]
+    wt = 1.0 / np.maximum(np.abs(h), 1e-300)
+    y = np.concatenate([(h * wt).real, (h * wt).imag])
+    a_c = _local_columns(jw, w, p[near]) * wt[:, None]
+    a_real = np.concatenate([a_c.real, a_c.imag])
+    coef, *_ = np.linalg.lstsq(a_real, y, rcond=None)
+    dof = y.size - coef.size
+    if dof <= 0:
+        return None
+    resid = y - a_real @ coef
+    cov = float(resid @ resid) / dof * np.linalg.pinv(a_real.T @ a_real)
+    k = 2 * near.index(index)
+    return complex(coef[k], coef[k + 1]), np.asarray(cov[k:k + 2, k:k + 2], dtype=np.float64)
+
+
+@dataclass(frozen=True, slots=True)
+class ShapePhase:
+    """Phase of the spindle's radial motion against the driving point's in one mode.
+
+    Attributes
+    ----------
+    phase : float
+        ``arg(mean_s R_s / R_p)`` [rad]: the spindle radial sensors' residues (sign as mounted)
+        over the driving point's; 0 or pi for a real (proportionally damped) mode.
+    phase_std : float
+        Its standard uncertainty from the local fits' residual scatter [rad] (channels independent).
+    n_spindle : int
+        Spindle radial sensors used.
+    """
+
+    phase: float
+    phase_std: float
+    n_spindle: int
+
+
+def spindle_phase(data: FRFData, p: int, q: int, spindle: list[int], poles: NDArray[np.complex128], index: int
+                  ) -> ShapePhase | None:
+    """Phase of the spindle/housing amplitude ratio of mode ``index`` with its std (:class:`ShapePhase`).
+
+    Each channel's residue is fitted locally at the identified poles (:func:`_local_residue`); the
+    ratio's phase error is ``Im(dR_s / R_s) - Im(dR_p / R_p)`` to first order.
+
+    Parameters
+    ----------
+    data : FRFData
+    p, q : int
+        Driving-point output and input indices.
+    spindle : list of int
+        Output indices of the spindle's radial sensors.
+    poles : ndarray, shape (n_modes,), complex
+        Identified poles [rad/s].
+    index : int
+        The mode.
+
+    Returns
+    -------
+    ShapePhase or None
+        None without spindle sensors or when a channel's fit has too few lines.
+    """
+    if not spindle:
+        return None
+    fits = []
+    for c in (p, *spindle):
+        r = _local_residue(data.freq, data.frf[c, q], poles, index, data.frf_form)
+        if r is None:
+            return None
+        sgn = float(data.out_dofs[c].sign)
+        fits.append((sgn * r[0], r[1]))
+    r_p, c_p = fits[0]
+    r_s = sum(f[0] for f in fits[1:]) / len(spindle)
+    c_s = sum(f[1] for f in fits[1:]) / len(spindle) ** 2
+    if not (abs(r_p) > 0 and abs(r_s) > 0):
+        return None
+
+    def grad(x: complex) -> NDArray[np.float64]:  # d Im(dX / X) / d(Re X, Im X)
+        return np.array([-x.imag, x.real]) / abs(x) ** 2
+
+    var = float(grad(r_s) @ c_s @ grad(r_s) + grad(r_p) @ c_p @ grad(r_p))
+    return ShapePhase(phase=float(np.angle(r_s / r_p)), phase_std=math.sqrt(max(var, 0.0)), n_spindle=len(spindle))
+
+
 @dataclass(frozen=True, slots=True)
 class CrossAxisCorrection:
     """Uncoupled radial housing frequency from a cross-coupled partner mode.
@@ -362,7 +460,9 @@ class HousingMass:
         fit's std (:data:`ema_rig.rig.uncertainty.MASS_AGREE_SIGMAS`).
     source : str
         What the inversion used: ``'rig file'``, ``'combined'`` (rig file and measurement by
-        inverse variance, force chain stated), ``'rig file, tolerance widened'`` (the discrepancy
+        inverse variance, force chain stated, or not stated where the effective mass is more than
+        10 % off and the measurement, read twice, is the more precise), ``'rig file, tolerance
+        widened'`` (the discrepancy
         is smaller than the measurement's std) or ``'measured'``.
     by_shape, by_shape_std : float or None
         ``m_H`` [kg] from the housing mode's spindle/housing ratio (:func:`housing_mass_from_ratio`,
