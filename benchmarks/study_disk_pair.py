@@ -101,7 +101,7 @@ def main() -> None:
         stat, q, dof = res
         print(f"  {m['natural_freq']:.2f} Hz on {f[sl][0]:.1f}..{f[sl][-1]:.1f} Hz: F = {stat:.1f} with ({q:.0f}, {dof:.0f}) "
               f"dof; threshold at p = {cc.local_p:g}: {f_dist.isf(cc.local_p, q, dof):.2f}")
-    for name, ident in (("split_misfit off (75f3ca0)", before), ("split_misfit on", after)):
+    for name, ident in (("split_misfit off (as main, ec07f23)", before), ("split_misfit on", after)):
         fn, s_f = ident.natural_freq, ident.natural_freq_std
         zeta, s_z = ident.damping_ratio, ident.damping_ratio_std
         print(f"{name}: {fn.size} modes; near the truth of 700-1000 Hz:")

@@ -12,7 +12,12 @@ import pytest
 
 from ema_rig.frf import FRFData
 from ema_rig.identification import identify
-from ema_rig.identification.crosscheck import COMBINED_SIGMAS, PEER_MIN_ORDERS, CrossCheckRow, crosscheck
+from ema_rig.identification.crosscheck import (
+    COMBINED_SIGMAS,
+    PEER_MIN_ORDERS,
+    CrossCheckRow,
+    crosscheck,
+)
 from ema_rig.processing import ProcessingHistory
 
 pytestmark = pytest.mark.crosscheck
