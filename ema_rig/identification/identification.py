@@ -1233,8 +1233,9 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     With ``CompletenessCriteria.split_misfit`` (data of ``split_min_channels`` channels or more) an
     accepted mode whose own lines exceed the noise is also tested without a cluster beside it
     (:func:`_split_start`: the second pole started one half-power half-bandwidth beside it;
-    data/disk.uff at 0-2000 Hz, 789.7 and 801.0 Hz). That second mode is undone when the band's ML cannot hold it or its segment still fails after the
-    refit (the misfit was the model's error, not a missing mode).
+    data/disk.uff at 0-2000 Hz, 789.7 and 801.0 Hz). That second mode is undone when the band's
+    ML cannot hold it or its segment still fails after the refit (the misfit was the model's error,
+    not a missing mode).
     """
     cc, jc = crit.completeness, crit.judge
     if not cc.local_evidence or done.test.variance is None or not done.modes:
