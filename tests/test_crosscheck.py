@@ -12,7 +12,12 @@ import pytest
 
 from ema_rig.frf import FRFData
 from ema_rig.identification import identify
-from ema_rig.identification.crosscheck import COMBINED_SIGMAS, CrossCheckRow, crosscheck
+from ema_rig.identification.crosscheck import (
+    COMBINED_SIGMAS,
+    PEER_MIN_ORDERS,
+    CrossCheckRow,
+    crosscheck,
+)
 from ema_rig.processing import ProcessingHistory
 
 pytestmark = pytest.mark.crosscheck
@@ -117,12 +122,19 @@ def test_dam0_flags_follow_the_combined_sigma_and_the_peer_only_modes_are_listed
     k10 = int(np.argmin(np.abs(ident.natural_freq - 10.21)))
     assert 0.0034 < ident.damping_ratio_std[k10] < 0.0068
     assert abs(r10.damping_ratio_peer - r10.damping_ratio) < 2 * r10.damping_sigma
+    # every ema_rig mode has the peer's stable cluster beside it but the 7.28 Hz second mode of the 7.14 Hz pair
+    # (CompletenessCriteria.split_misfit: F 9.8 against 1.79 with (54, 1244) dof on 6.66-7.56 Hz); there sdypy-EMA
+    # has a stable pole at 0 or 1 orders, by the BLAS kernel and thread count (rounding): no evidence either way
+    weak = [r.natural_freq for r in cc.rows if r.n_orders_peer < PEER_MIN_ORDERS]
+    assert len(weak) == 1 and abs(weak[0] - 7.28) < 0.02, weak
     # every mode whose f or zeta differ by more than the combined sigma carries the flag, and no other
     for r in cc.rows:
-        assert r.found
-        big_f = abs(r.natural_freq_peer - r.natural_freq) > np.hypot(r.natural_freq_std, r.natural_freq_std_peer)
-        big_z = abs(r.damping_ratio_peer - r.damping_ratio) > np.hypot(r.damping_ratio_std, r.damping_ratio_std_peer)
-        assert ("f" in r.flags) == big_f and ("zeta" in r.flags) == big_z
+        if not r.found:
+            assert r.flags == ("missing",)
+        else:
+            big_f = abs(r.natural_freq_peer - r.natural_freq) > np.hypot(r.natural_freq_std, r.natural_freq_std_peer)
+            big_z = abs(r.damping_ratio_peer - r.damping_ratio) > np.hypot(r.damping_ratio_std, r.damping_ratio_std_peer)
+            assert ("f" in r.flags) == big_f and ("zeta" in r.flags) == big_z
         line = next(ln for ln in cc.table().splitlines() if ln.strip().startswith(f"{r.natural_freq:.4f}"))
         assert line.rstrip().endswith(",".join(r.flags) or "-")
     # sdypy-EMA's stable clusters away from every ema_rig mode (measured: 1.02, 5.13, 9.47, 10.51 Hz)

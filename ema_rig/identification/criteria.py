@@ -359,6 +359,21 @@ class CompletenessCriteria(_Sourced):
         line nearest to it (default True): a pole can zero any one line, so a misfit of one line (a
         glitch, leakage, a distorted peak) is no mode; a real one shows on the lines of its skirt as
         well, however light.
+    split_misfit : bool
+        An accepted mode whose own lines (``local_hbw``) exceed the noise (the chi-square test of the
+        segments, the lines as one segment) is tested for a second mode beside it (default True;
+        ``identification._split_start``): a second pole started one half-power half-bandwidth below
+        and above its ML estimate must explain those lines to the noise and pass the local nested F
+        test (``local_p``, Bonferroni over the two starts), also without its peak line; after the
+        band's refit the ML must hold it and its segment must pass, else the split is undone. Own
+        lines cut by the band's edge are not tested (their misfit may be a mode beyond the edge: the
+        band-edge rule of ``segment_misfit``; the rig file's 958 Hz mode at 150-1000 Hz).
+    split_min_channels : int
+        Channels (outputs x references) a mode's lines need for ``split_misfit`` (default 2): a
+        second mode close to another shows as a change of the ratio between the channels across the
+        peak (the channels x lines matrix of the lines has rank two, one mode's rank one), which
+        one pole cannot make; on one channel a split rests on the line shape alone, which a model
+        error of the one mode (leakage, nonlinearity) distorts alike.
     ml_features : bool
         Where the local ML moved a mode's pole inside its lines further than ``MLCriteria.move_hbw``
         (and held it at its PolyMAX pole), the place it moved to is a candidate missing mode (the
@@ -398,6 +413,13 @@ class CompletenessCriteria(_Sourced):
     peak_line_out: bool = _src(True, "a jackknife of the peak line (Efron & Tibshirani 1993, ch. 11): ufffiles_frf 94.99 Hz "
                                "(zeta 0.19 %, beside the 96.1 Hz mode) zeroes the 95.0 Hz line alone; vt_case1's 34.06 Hz "
                                "(zeta 0.02 %, half-power band below a line) stands on its skirt (benchmarks/study_real_bands.py)")
+    split_misfit: bool = _src(True, "issue 18: a local misfit around a peak is a missing mode; data/disk.uff 0-2000 Hz merged "
+                              "789.7 and 801.0 Hz into 797.7 Hz (F 150-240 against 2.4 with (18, ~3000) dof; "
+                              "benchmarks/study_disk_pair.py)")
+    split_min_channels: int = _src(2, "one mode's lines form a channels x lines matrix of rank one (its shape times its "
+                                   "response), two close modes one of rank two, which needs two channels; on ufffiles_frf (one "
+                                   "FRF) all 5 second modes split_misfit proposed at 0-799.5 Hz were held by the band's ML at "
+                                   "their start and undone, at 1.9x the identify's CPU (benchmarks/results/study_disk_pair.txt)")
     ml_features: bool = _src(True, "on: on ufffiles_frf 79.95-719.55 Hz it adds the 713.7 Hz mode of 0-799.5 Hz (held modes "
                              "8 -> 0) and, with MLCriteria.block_from_scores, frequency changes inside their 2 sigma are "
                              "56/59 (off: 4 modes in one band only; benchmarks/study_real_bands.py); the candidate is where "
