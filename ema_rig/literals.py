@@ -15,6 +15,8 @@ UnitPreference
     ``[units] prefer`` of a rig file: which of a UFF dataset's unit code and label wins.
 DampingModel
     The bearing damping model of :func:`ema_rig.rig.damping.bearing_damping`.
+DampingKind
+    What its ``c_TB`` is: ``"measured"`` or ``"upper bound"`` (:data:`ema_rig.rig.damping.C_TB_KINDS`).
 Estimator
     The FRF estimator of :func:`ema_rig.spectral.estimate_frf`.
 FailureKind
@@ -37,6 +39,7 @@ SensorRole = Literal["housing", "spindle"]
 SensorAxis = Literal["radial", "lateral", "axial"]
 UnitPreference = Literal["code", "label"]
 DampingModel = Literal["viscous", "hysteretic"]
+DampingKind = Literal["measured", "upper bound"]
 Estimator = Literal["H1", "H2", "Hv"]
 FailureKind = Literal["range", "harmonic", "no radial sensor", "no radial motion", "spindle ratio", "lateral",
                       "axial", "tilt", "amplitude", "mass", "mass units"]
@@ -54,6 +57,7 @@ __all__ = [
     "KIND_MEASURED",
     "KIND_MODEL",
     "KIND_RIG",
+    "DampingKind",
     "DampingModel",
     "Estimator",
     "FailureKind",

@@ -61,9 +61,30 @@ _CAPTIONS = {
              "alike and are left out so that a speed effect stays visible.",
     "repeatability": "Deviation of repeated measurements from their condition mean.",
     "damping": "Bearing damping c_TB (viscous dashpot in parallel with k_TB) from the housing mode's identified "
-               "damping through the 3DOF model, against radial load and speed; damping elsewhere that moves "
-               "with the housing mode is attributed to the bearing (an upper bound).",
+               "damping through the 3DOF model, against radial load and speed: measured where the housing "
+               "mode's spindle/housing phase gives the bearing's share of the damping (filled markers, ±1σ "
+               "with the share's), else all of the mode's damping read as the bearing's, an upper bound "
+               "(open markers, the bound's own ±1σ).",
 }
+
+
+def _c_tb_mark(r: Mapping[str, Any]) -> str:
+    """``'≤ '`` before an upper-bound ``c_TB`` in the results table (:func:`ema_rig.rig.damping.c_tb_kind`)."""
+    from .rig.damping import c_tb_kind
+
+    c = r.get("c_TB")
+    return "≤ " if isinstance(c, float | int) and math.isfinite(c) and c_tb_kind(r) == "upper bound" else ""
+
+
+def _c_tb(r: Mapping[str, Any]) -> str:
+    """The row's ``c_TB`` as :func:`ema_rig.rig.damping.c_tb_text` says it (its kind from the detail)."""
+    from .rig.damping import c_tb_kind, c_tb_text
+
+    c, sd = r.get("c_TB", math.nan), r.get("c_TB_std", math.nan)
+    if not (isinstance(c, float | int) and math.isfinite(c)):
+        return "c_TB not available"
+    kind = c_tb_kind(r)
+    return c_tb_text(float(c), float(sd) if isinstance(sd, float | int) else math.nan, kind, pm="±", unit="N·s/m")
 
 
 def _h(text: Any) -> str:
@@ -153,8 +174,9 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         parts.append(f"<figure>{_img(path, name)}<figcaption>{_h(_caption(name))}</figcaption></figure>")
     parts.append("<h2 id='results'>Results</h2><p class='muted'>Stiffness in MN/m (= N/µm); ± is one standard "
                  "uncertainty (measured: from the identified housing frequency; total: with the rig-file tolerances "
-                 "and model-form terms); frequencies are undamped natural frequencies |λ|/2π. Each id links to the "
-                 "measurement's own section (figures, candidate modes, warnings).</p>")
+                 "and model-form terms); frequencies are undamped natural frequencies |λ|/2π; c_TB marked ≤ is an "
+                 "upper bound (all of the housing mode's damping read as the bearing's), its ± the bound's own. "
+                 "Each id links to the measurement's own section (figures, candidate modes, warnings).</p>")
     head = ["id", "bearing", "load [N]", "speed [rpm]", "shaft pos. [°]", "repeat", "k_TB [MN/m]",
             "± measured [MN/m]", "± total [MN/m]", "k_TB+MS [MN/m]", "f_H [Hz]", "± f_H [Hz]", "ζ_H [%]",
             "f_spindle [Hz]", "c_TB [N·s/m]", "± c_TB [N·s/m]", "f_H from", "warnings", "status"]
@@ -171,7 +193,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
             ("", _fmt(r.get("k_TB_std_measured", math.nan), "N/m")),
             ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
             ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
-            ("", _fmt(r.get("c_TB", math.nan), ".0f")), ("", _fmt(r.get("c_TB_std", math.nan), ".0f")),
+            ("", _c_tb_mark(r) + _fmt(r.get("c_TB", math.nan), ".0f")), ("", _fmt(r.get("c_TB_std", math.nan), ".0f")),
             ("l", _h(_source(r))),
             ("", str(len(_unique(r.get("warnings") or ())))),
             ("l", _h(status)),
@@ -253,8 +275,7 @@ def _measurement_section(i: int, r: Mapping[str, Any],
         parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m (total) · "
                      f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz (measured)"
                      f" · from {_h(_SOURCE_TEXT.get(_source(r), _source(r)))} · "
-                     f"bearing damping c_TB {_fmt(r.get('c_TB', math.nan), '.0f')} ± "
-                     f"{_fmt(r.get('c_TB_std', math.nan), '.0f')} N·s/m, loss factor "
+                     f"bearing damping {_h(_c_tb(r))}, loss factor "
                      f"{_fmt(r.get('loss_factor', math.nan), '.4f')} ± {_fmt(r.get('loss_factor_std', math.nan), '.4f')}"
                      "</p>")
         parts.append(_comparison(r.get("detail")))

@@ -49,6 +49,8 @@ def summary(res: Any) -> str:
     """Readable multi-line summary of a StiffnessResult."""
     hm, sm = res.housing_mode, res.spindle_mode
     sd = hm.get("natural_freq_std")
+    from ..rig.damping import c_tb_text  # numpy: not at the CLI's start-up
+
     lines = [
         f"file          {res.file or '-'}",
         f"housing mode  {hm['natural_freq']:.2f}{_args.pm(sd)} Hz"
@@ -70,7 +72,7 @@ def summary(res: Any) -> str:
         "housing mass  " + _mass(getattr(res, "housing_mass", None)),
         "housing body  " + _rigid(res.rigid_body),
         "bearing damp. " + ("not available" if res.damping is None else
-                            f"c_TB {res.c_TB:.4g}{_args.pm(res.c_TB_std)} N s/m, loss factor "
+                            f"{c_tb_text(res.c_TB, res.c_TB_std, res.damping.kind)}, loss factor "
                             f"{res.loss_factor:.4f}{_args.pm(res.loss_factor_std)} ({res.damping.model} bearing)"),
         "budget        " + ", ".join(
             f"{t.name} {100 * t.share:.0f} % [{t.kind}]" for t in res.uncertainty.terms if t.share >= 0.005),

@@ -36,6 +36,7 @@ import numpy as np
 
 from .._text import plain
 from ..campaign.schema import BearingInfo
+from ..rig.damping import c_tb_kind
 from ..rig.hertz import ball_bearing_radial_stiffness
 from ..simulate import planted_k_tb
 
@@ -355,7 +356,9 @@ def _planted(rows: Sequence[Row], result: CampaignResult) -> dict[str, float]:
 
 
 def plot_damping(rows: Sequence[Row], bearing: str) -> Figure | None:
-    """Bearing damping ``c_TB`` (±1σ) of one bearing against radial load and against speed.
+    """Bearing damping ``c_TB`` (±1σ) of one bearing against radial load and against speed: filled
+    markers where it is measured, open ones where it is the upper bound
+    (:func:`ema_rig.rig.damping.c_tb_kind`).
 
     Parameters
     ----------
@@ -384,11 +387,16 @@ def plot_damping(rows: Sequence[Row], bearing: str) -> Figure | None:
                                        ("not rotating", [r for r in rot if r["speed"] <= 0], ("s", "C3"))):
             if not group:
                 continue
-            x = np.array([r[key] for r in group], dtype=float)
-            y = np.array([r["c_TB"] for r in group], dtype=float)
-            e = np.array([r.get("c_TB_std", math.nan) for r in group], dtype=float)
-            ax.errorbar(x, y, yerr=np.where(np.isfinite(e), e, 0.0), fmt=mk, color=col, capsize=3, ms=5,
-                        label=f"{name} (±1σ)")
+            for kind, part in (("measured", [r for r in group if c_tb_kind(r) == "measured"]),
+                               ("upper bound", [r for r in group if c_tb_kind(r) != "measured"])):
+                if not part:
+                    continue
+                x = np.array([r[key] for r in part], dtype=float)
+                y = np.array([r["c_TB"] for r in part], dtype=float)
+                e = np.array([r.get("c_TB_std", math.nan) for r in part], dtype=float)
+                ax.errorbar(x, y, yerr=np.where(np.isfinite(e), e, 0.0), fmt=mk, color=col, capsize=3, ms=5,
+                            mfc=col if kind == "measured" else "none",
+                            label=f"{name}, {kind} (±1σ{' of the bound' if kind != 'measured' else ''})")
         ax.set_xlabel(labels[key])
         ax.set_ylabel("bearing damping c_TB [N·s/m]")
         ax.grid(True, alpha=0.3)

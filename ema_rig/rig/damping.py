@@ -16,9 +16,14 @@ with ``e = [1, -1, 0]`` and ``s = 2 pi f (-zeta + j sqrt(1 - zeta^2))`` from the
 * hysteretic bearing: ``Z = k_TB (1 + j eta)``, so ``k_TB = Re Z`` and ``eta = Im Z / Re Z``.
 
 Each is quoted also in the other's terms at the housing mode (``eta = c_TB w / k_TB``).
-Everything else in the model is undamped: damping elsewhere that moves with the housing mode
-(air springs, the frame, the housing's own material) is attributed to the bearing, so ``c_TB``
-is an upper bound of the bearing's own damping on a rig with damped surroundings.
+Everything else in the model is undamped: read with all of the mode's damping, damping elsewhere
+that moves with the housing mode (air springs, the frame, the housing's own material) is
+attributed to the bearing, so ``c_TB`` is an upper bound of the bearing's own damping on a rig
+with damped surroundings (``kind`` ``'upper bound'``). Where the housing mode's spindle/housing
+phase measures the bearing's share ``phi`` of the damping
+(:func:`ema_rig.rig.uncertainty.assess_housing_mode`, its "damping location"), the pole is read with
+``phi zeta`` in the bearing, the rest leaving ``|lambda|`` alone, and ``c_TB`` is a measurement
+whose std carries the share's (``kind`` ``'measured'``).
 
 Functions
 ---------
@@ -26,6 +31,9 @@ bearing_impedance
     ``Z_TB(s)`` [N/m] at an identified pole.
 bearing_damping
     ``c_TB`` and the loss factor with their standard uncertainties.
+c_tb_kind, c_tb_text
+    What a row's ``c_TB`` is, and ``c_TB`` as one line of text, its kind said (the CLI, the report
+    and the figures).
 
 Classes
 -------
@@ -44,15 +52,22 @@ import numpy as np
 
 from ..config import MODEL_KEYS, ModelParams
 from ..errors import InversionError
-from ..literals import DampingModel
+from ..literals import DampingKind, DampingModel
 from .inversion import housing_freq_from_k_tb_ms
 from .model import mass_matrix, series_stiffness, stiffness_matrix
 
-__all__ = ["BEARING_DAMPING_MODELS", "BearingDamping", "bearing_damping", "bearing_impedance", "bearing_mode_phase",
-           "bearing_reading_freq"]
+__all__ = ["BEARING_DAMPING_MODELS", "C_TB_KINDS", "BearingDamping", "bearing_damping", "bearing_impedance",
+           "bearing_mode_phase", "bearing_reading_freq", "c_tb_kind", "c_tb_text"]
 
 BEARING_DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 """Bearing damping models: a dashpot in parallel with ``k_TB``, or ``k_TB (1 + j eta)``."""
+
+C_TB_KINDS: dict[DampingKind, str] = {
+    "measured": "the bearing's share of the housing mode's damping measured from its spindle/housing phase",
+    "upper bound": "all of the housing mode's damping read as the bearing's (its location not measured)",
+}
+"""What ``c_TB`` is, per ``BearingDamping.kind``: a measurement, or an upper bound whose std is the
+bound's own (it does not cover the damping that sits elsewhere)."""
 
 _E = np.array([1.0, -1.0, 0.0])
 
@@ -198,7 +213,17 @@ class BearingDamping:
         Bearing stiffness of this complex reading [N/m] (beside the headline ``k_TB``, which
         inverts the undamped frequency).
     c_TB_std_measured : float
-        The part of ``c_TB_std`` from the identified frequency and damping ratio [N s/m].
+        The part of ``c_TB_std`` from the identified frequency and damping ratio (and the
+        bearing's measured share of it) [N s/m].
+    kind : str
+        ``'measured'`` (read with the bearing's measured share of the damping, ``c_TB_std``
+        carrying the share's std) or ``'upper bound'`` (read with all of it; ``c_TB_std`` is the
+        bound's own std and does not cover damping that sits elsewhere): :data:`C_TB_KINDS`.
+    share, share_std : float or None
+        The bearing's share of the housing mode's damping used and its std (None: the upper bound).
+    c_TB_upper, c_TB_upper_std : float
+        The upper bound (all of the damping in the bearing) [N s/m] and its own std: ``c_TB`` and
+        ``c_TB_std`` where ``kind`` is ``'upper bound'``; NaN when not given.
     """
 
     model: str
@@ -208,12 +233,68 @@ class BearingDamping:
     loss_factor_std: float
     k_TB: float
     c_TB_std_measured: float
+    kind: DampingKind = "upper bound"
+    share: float | None = None
+    share_std: float | None = None
+    c_TB_upper: float = math.nan
+    c_TB_upper_std: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict for JSON (``c_TB``, ``c_TB_std``, ``loss_factor``, ``loss_factor_std`` ...)."""
+        """Plain dict for JSON (``c_TB``, ``c_TB_std``, ``c_TB_kind``, ``loss_factor``, ``loss_factor_std`` ...)."""
         return {"bearing_damping_model": self.model, "c_TB": self.c_TB, "c_TB_std": self.c_TB_std,
-                "c_TB_std_measured": self.c_TB_std_measured, "loss_factor": self.loss_factor,
+                "c_TB_std_measured": self.c_TB_std_measured, "c_TB_kind": self.kind,
+                "c_TB_note": C_TB_KINDS[self.kind], "damping_share": self.share,
+                "damping_share_std": self.share_std, "c_TB_upper": self.c_TB_upper,
+                "c_TB_upper_std": self.c_TB_upper_std, "loss_factor": self.loss_factor,
                 "loss_factor_std": self.loss_factor_std, "k_TB_complex": self.k_TB}
+
+
+def c_tb_kind(row: Mapping[str, Any]) -> DampingKind:
+    """``c_TB_kind`` of a result or campaign row: its own, else its ``detail``'s; one without any is
+    from before the kind existed, when every ``c_TB`` was the upper bound.
+
+    Parameters
+    ----------
+    row : mapping
+        A stiffness JSON document or a campaign row (``c_TB_kind`` or ``detail['c_TB_kind']``).
+
+    Returns
+    -------
+    {'measured', 'upper bound'}
+    """
+    kind = row.get("c_TB_kind") or (row.get("detail") or {}).get("c_TB_kind")
+    return "measured" if kind == "measured" else "upper bound"
+
+
+def c_tb_text(c_TB: float, c_TB_std: float, kind: DampingKind | str | None, *, pm: str = "+/-", unit: str = "N s/m") -> str:
+    """``c_TB`` as one line of text, its kind said: the one label of the CLI, the report and the figures.
+
+    Parameters
+    ----------
+    c_TB, c_TB_std : float
+        Bearing damping [N s/m] and its std.
+    kind : str or None
+        ``BearingDamping.kind``; None (a result written before the kind existed) reads as an
+        upper bound, which every ``c_TB`` was then.
+    pm, unit : str
+        Plus-minus sign and unit as the caller prints them.
+
+    Returns
+    -------
+    str
+        ``'c_TB 1020 +/- 213 N s/m (measured)'`` or ``'c_TB <= 1121 N s/m (upper bound, the bound's
+        own std 21.3)'``.
+
+    Examples
+    --------
+    >>> c_tb_text(1121.4, 21.3, "upper bound")
+    "c_TB <= 1121 N s/m (upper bound, the bound's own std 21.3)"
+    >>> c_tb_text(1020.0, 213.0, "measured")
+    'c_TB 1020 +/- 213 N s/m (measured)'
+    """
+    if kind == "measured":
+        return f"c_TB {c_TB:.4g} {pm} {c_TB_std:.3g} {unit} (measured)"
+    return f"c_TB <= {c_TB:.4g} {unit} (upper bound, the bound's own std {c_TB_std:.3g})"
 
 
 def bearing_damping(
@@ -225,12 +306,20 @@ def bearing_damping(
     damping_ratio_std: float = 0.0,
     rel_unc: Mapping[str, float] | None = None,
     model: DampingModel = "viscous",
+    share: float | None = None,
+    share_std: float = 0.0,
 ) -> BearingDamping:
     """Bearing damping ``c_TB`` and loss factor with standard uncertainties.
 
     The stds propagate (linearised, central differences of relative step 1e-4, inputs
-    uncorrelated) the identified ``natural_freq_std`` and ``damping_ratio_std`` (measured) and
-    the relative tolerances of the model parameters in ``rel_unc`` (missing names: none).
+    uncorrelated) the identified ``natural_freq_std`` and ``damping_ratio_std`` (measured),
+    the bearing's measured ``share_std`` (measured) and the relative tolerances of the model
+    parameters in ``rel_unc`` (missing names: none).
+
+    Without ``share`` the pole is read with all of its damping in the bearing: an upper bound
+    (``kind`` ``'upper bound'``). With it, ``share * damping_ratio`` is the bearing's (the rest,
+    proportional, leaves ``|lambda|`` alone; as :func:`bearing_reading_freq` reads ``k_TB``):
+    ``kind`` ``'measured'``.
 
     Parameters
     ----------
@@ -246,6 +335,10 @@ def bearing_damping(
         Relative standard uncertainty per model parameter name.
     model : {'viscous', 'hysteretic'}
         Bearing damping model.
+    share : float, optional
+        The bearing's measured share of the damping, in [0, 1]; None: all of it (upper bound).
+    share_std : float
+        Its standard uncertainty.
 
     Returns
     -------
@@ -254,7 +347,7 @@ def bearing_damping(
     Raises
     ------
     ValueError
-        For an unknown ``model``.
+        For an unknown ``model`` or a ``share`` outside [0, 1].
     InversionError
         When the pole gives no finite bearing impedance.
 
@@ -268,7 +361,14 @@ def bearing_damping(
     """
     if model not in BEARING_DAMPING_MODELS:
         raise ValueError(f"model must be one of {BEARING_DAMPING_MODELS}, got {model!r}")
-    f, z = float(natural_freq), float(damping_ratio)
+    if share is not None and not 0.0 <= share <= 1.0:
+        raise ValueError(f"share must be in [0, 1], got {share!r}")
+    phi = 1.0 if share is None else float(share)
+    f, z = float(natural_freq), phi * float(damping_ratio)
+    # d/d(share) of a reading at share * zeta is zeta d/d(zeta): the share's std is one more std of the
+    # damping ratio read as the bearing's, independent of the identified one
+    z_std = math.hypot(phi * float(damping_ratio_std), float(damping_ratio) * float(share_std if share is not None
+                                                                                   else 0.0))
     k, c, eta = _read(f, z, params, model)
     h = 1e-4
     var_m = {"c": 0.0, "eta": 0.0}
@@ -284,11 +384,10 @@ def bearing_damping(
     if natural_freq_std > 0:
         add(var_m, _read(f * (1 + h), z, params, model), _read(f * (1 - h), z, params, model), f * h,
             float(natural_freq_std))
-    if damping_ratio_std > 0:
+    if z_std > 0:
         dz = max(z * h, 1e-7)
         lo = max(z - dz, 0.0)  # one-sided at zero damping
-        add(var_m, _read(f, z + dz, params, model), _read(f, lo, params, model), (z + dz - lo) / 2,
-            float(damping_ratio_std))
+        add(var_m, _read(f, z + dz, params, model), _read(f, lo, params, model), (z + dz - lo) / 2, z_std)
     for name, u in (rel_unc or {}).items():
         if name not in MODEL_KEYS or not u:
             continue
@@ -297,6 +396,14 @@ def bearing_damping(
         minus = _read(f, z, replace(params, **{name: v * (1 - h)}), model)
         add(var_a, plus, minus, h, float(u))  # relative step against relative tolerance
     c_std = math.sqrt(var_m["c"] + var_a["c"])
+    upper, upper_std = c, c_std
+    if share is not None:  # the all-in-the-bearing reading beside the measurement
+        b = bearing_damping(natural_freq, damping_ratio, params, natural_freq_std=natural_freq_std,
+                            damping_ratio_std=damping_ratio_std, rel_unc=rel_unc, model=model)
+        upper, upper_std = b.c_TB, b.c_TB_std
     return BearingDamping(model=model, c_TB=float(c), c_TB_std=c_std, loss_factor=float(eta),
                           loss_factor_std=math.sqrt(var_m["eta"] + var_a["eta"]), k_TB=float(k),
-                          c_TB_std_measured=math.sqrt(var_m["c"]))
+                          c_TB_std_measured=math.sqrt(var_m["c"]),
+                          kind="upper bound" if share is None else "measured", share=share,
+                          share_std=None if share is None else float(share_std), c_TB_upper=float(upper),
+                          c_TB_upper_std=float(upper_std))

@@ -473,7 +473,7 @@ def _damping_keys(d: Any) -> dict[str, Any]:
     """``c_TB``, ``c_TB_std``, ``loss_factor``, ``loss_factor_std`` (null when not available)."""
     if d is None:
         return {"c_TB": None, "c_TB_std": None, "loss_factor": None, "loss_factor_std": None,
-                "bearing_damping_model": None}
+                "bearing_damping_model": None, "c_TB_kind": None}
     return {k: v for k, v in d.to_dict().items() if k != "k_TB_complex"}
 
 
@@ -677,7 +677,7 @@ def estimate_stiffness(
     hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
     inv3 = _plain_inversion(asm.undamped_freq, replace(rig.model, k_MS=kms))
     rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
-    damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model)
+    damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model, asm.damping_location)
     return StiffnessResult(
         k_TB=k_tb,
         k_TB_std=float(unc.k_TB_std) if not unknown else math.nan,
@@ -770,8 +770,11 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
 
 
 def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
-                     damping_model: DampingModel) -> Any:
-    """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible)."""
+                     damping_model: DampingModel, location: Any = None) -> Any:
+    """:func:`ema_rig.rig.damping.bearing_damping` of the housing mode (None when not invertible): read
+    with the bearing's measured share of the damping where ``location``
+    (:class:`ema_rig.rig.uncertainty.DampingLocation`) gives one (a measurement), else with all of it
+    (an upper bound)."""
     rel = {**DEFAULT_REL_UNCERTAINTY, **rel_unc}
     if k_ms_std is not None:
         rel["k_MS"] = float(k_ms_std) / params.k_MS
@@ -783,7 +786,9 @@ def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, floa
     try:
         return bearing_damping(float(hm["natural_freq"]), float(hm["damping_ratio"]), params,
                                natural_freq_std=std("natural_freq_std"), damping_ratio_std=std("damping_ratio_std"),
-                               rel_unc=rel, model=damping_model)
+                               rel_unc=rel, model=damping_model,
+                               share=None if location is None else float(location.share),
+                               share_std=0.0 if location is None else float(location.share_std))
     except (InversionError, ValueError, ZeroDivisionError) as exc:
         logger.info("bearing damping not available: %s", exc)
         return None

@@ -582,6 +582,9 @@ class Assessment:
         its relative std from the measurement alone and ``d ln m_H / d ln x`` per parameter, for
         the k_TB budget (:func:`stiffness_uncertainty` ``shared``); ``m_H_rel_std`` is the
         marginal std.
+    damping_location : DampingLocation or None
+        The bearing's measured share of the housing mode's damping (:func:`_damping_location`);
+        None where the data do not tell where the damping sits.
     """
 
     abs_freq: float
@@ -597,6 +600,7 @@ class Assessment:
     modal_mass: Any = None
     housing_mass: Any = None
     m_H_budget: tuple[float, dict[str, float]] | None = None
+    damping_location: DampingLocation | None = None
 
 
 def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> float | None:
@@ -1184,7 +1188,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         abs_freq=f_abs, undamped_freq=f0, inverted_freq=f_inv, model_form=terms,
         warnings=tuple(warns), mass_ratio=ratio, notes=tuple(notes), m_H=m_h_new, m_H_rel_std=m_h_rel,
         m_H_budget=m_h_budget,
-        cross_axis=cross, modal_mass=dpm, housing_mass=housing_mass,
+        cross_axis=cross, modal_mass=dpm, housing_mass=housing_mass, damping_location=loc,
     )
 
 
