@@ -275,7 +275,11 @@ def run(tmp: Path, name: str, family: str, t: Truth, calibrate_from: Truth | Non
     c_tb = ""
     if res.get("c_TB") is not None and t.c_TB > 0:
         c, cs = float(res["c_TB"]), float(res["c_TB_std"])  # type: ignore[arg-type]
-        c_tb = f"{c:.4g} vs {t.c_TB:.4g} (z {(c - t.c_TB) / cs:+.2f})"
+        if res.get("c_TB_kind", "upper bound") == "measured":
+            c_tb = f"{c:.4g} vs {t.c_TB:.4g} (z {(c - t.c_TB) / cs:+.2f}; measured, share {res.get('damping_share'):.2f})"
+        else:  # an upper bound (its std the bound's own): holds when the truth is under c + 2 sigma
+            c_tb = (f"<= {c:.4g} vs {t.c_TB:.4g} (bound {'holds' if t.c_TB <= c + 2 * cs else 'BROKEN'}, "
+                    f"z {(c - t.c_TB) / cs:+.2f})")
     return Row(family, t, rc, float(res["k_TB"]), float(res["k_TB_std"]), parts,  # type: ignore[arg-type]
                cal + [str(w) for w in res.get("warnings", [])], err, c_tb)  # type: ignore[attr-defined]
 
