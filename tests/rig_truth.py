@@ -105,6 +105,9 @@ class RigTruth:
     file_force_chain: float | None = None  # [uncertainty] force_chain in the rig file (None: absent)
     c_TB: float = 0.0  # N s/m, damping='bearing_viscous'
     eta_TB: float = 0.0  # loss factor, damping='bearing_hysteretic'
+    # bearing-damped truths: stiffness-proportional damping beta K0 of the structure (every spring but
+    # the bearing element), beta = 2 structural_zeta / (2 pi 600 Hz): zeta at 600 Hz of a mode of K0
+    structural_zeta: float = 0.0
 
     @property
     def k_TB_MS(self) -> float:
@@ -266,16 +269,25 @@ class RigTruth:
         return out
 
 
-    def _frf_bearing(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
-        """Only the bearing damps the radial chain (plus a 5 % dashpot on the bushings); every
-        other coordinate has its own dashpot to ground with ``zeta`` at its own frequency."""
+    def bearing_truth_damping(self) -> NDArray[np.float64]:
+        """Damping matrix [N s/m] of a bearing-damped truth without the bearing element: a dashpot to
+        ground with ``zeta`` on every coordinate but the radial chain's, 5 % on the bushings, and
+        ``structural_zeta`` stiffness-proportional on the structure."""
         m, k0 = self.matrices(k_bearing=0.0)
-        c_obs = self.observation()
-        b = c_obs[0]
         damp = np.zeros_like(m)
         for i in range(3, 12):
             damp[i, i] = 2 * self.zeta * math.sqrt(k0[i, i] * m[i, i]) if k0[i, i] > 0 else 0.0
         damp[2, 2] += 2 * 0.05 * math.sqrt(self.params["k_B"] * self.params["m_F"])
+        return damp + 2 * self.structural_zeta / (2 * math.pi * 600.0) * k0
+
+    def _frf_bearing(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
+        """Only the bearing damps the radial chain (plus a 5 % dashpot on the bushings and the
+        structure's ``structural_zeta``); every other coordinate has its own dashpot to ground with
+        ``zeta`` at its own frequency (:meth:`bearing_truth_damping`)."""
+        m, k0 = self.matrices(k_bearing=0.0)
+        c_obs = self.observation()
+        b = c_obs[0]
+        damp = self.bearing_truth_damping()
         e = np.zeros(12)
         e[0], e[1] = 1.0, -1.0
         out = np.empty((len(OUT), freq.size), complex)
@@ -292,10 +304,7 @@ class RigTruth:
         lam, phi = _eigh(k, m)
         h = _housing_index(lam, phi, m)
         m0, k0 = self.matrices(k_bearing=0.0)
-        damp = np.zeros_like(m0)
-        for i in range(3, 12):
-            damp[i, i] = 2 * self.zeta * math.sqrt(k0[i, i] * m0[i, i]) if k0[i, i] > 0 else 0.0
-        damp[2, 2] += 2 * 0.05 * math.sqrt(self.params["k_B"] * self.params["m_F"])
+        damp = self.bearing_truth_damping()
         e = np.zeros(12)
         e[0], e[1] = 1.0, -1.0
 
