@@ -188,12 +188,13 @@ def main(argv: list[str] | None = None) -> int:
                           f"| {100 * np.median([abs(r[5] * r[4]) for r in rep]) if rep else math.nan:.3f} "
                           f"| {max((abs(r[6]) for r in rep), default=math.nan):.2f} |")
         print()
-        print("| damping class | n | within 2 sigma | median sigma % | max sigma % | median |bias| % | warned |")
-        print("|---|---|---|---|---|---|---|")
+        print("| damping class | n | within 2 sigma | median sigma % | max sigma % | median |bias| % | warned "
+              "| c_TB measured / upper bound | upper bound within 2 of its own sigma |")
+        print("|---|---|---|---|---|---|---|---|---|")
         for name, dmake in damping_classes().items():
             if args.only and args.only not in name:
                 continue
-            inside, sig, bias, warned = 0, [], [], 0
+            inside, sig, bias, warned, measured, bound_in = 0, [], [], 0, 0, 0
             for s in range(args.seeds):
                 truth, model, true_val = dmake(s)
                 truth = _fc(truth, args.force_chain)
@@ -206,6 +207,10 @@ def main(argv: list[str] | None = None) -> int:
                 sig.append(100 * sd / val)
                 bias.append(100 * abs(val / true_val - 1))
                 warned += bool(res.warnings)  # type: ignore[attr-defined]
+                measured += getattr(d, "kind", "upper bound") == "measured"  # before the kind: all bounds
+                if model == "viscous":
+                    up, up_sd = getattr(d, "c_TB_upper", d.c_TB), getattr(d, "c_TB_upper_std", d.c_TB_std)
+                    bound_in += abs(up - true_val) <= 2 * up_sd
                 if args.verbose:
                     print(f"|   seed {s} | {val:.4g} vs {true_val:.4g} | z {(val - true_val) / sd:+.2f} "
                           f"| sigma {100 * sd / val:.2f} % | | | {len(res.warnings)} |")  # type: ignore[attr-defined]
@@ -213,7 +218,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"| {name} | {args.seeds} | no damping reported | | | | |")
                 continue
             print(f"| {name} | {args.seeds} | {inside} | {np.median(sig):.2f} | {np.max(sig):.2f} "
-                  f"| {np.median(bias):.2f} | {warned} |")
+                  f"| {np.median(bias):.2f} | {warned} | {measured} / {len(sig) - measured} "
+                  f"| {bound_in if model == 'viscous' else '-'} |")
     return 0
 
 

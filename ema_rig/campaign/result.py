@@ -20,7 +20,7 @@ COLUMNS: tuple[str, ...] = (
     "id", "file", "bearing", "radial_load", "speed", "shaft_position", "repeat", "tags",
     "status", "k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS",
     "housing_freq", "housing_freq_std", "housing_damping",
-    "spindle_freq", "spindle_damping", "c_TB", "c_TB_std", "loss_factor", "loss_factor_std",
+    "spindle_freq", "spindle_damping", "c_TB", "c_TB_std", "c_TB_kind", "loss_factor", "loss_factor_std",
     "mode_source", "error", "elapsed_s", "warnings",
 )
 

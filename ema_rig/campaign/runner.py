@@ -71,8 +71,9 @@ logger = logging.getLogger(__name__)
 
 #: Name of the calibration's result in ``results/`` (ids may not start with ``_``).
 CALIBRATION_NAME = "_calibration"
-#: Bump when the meaning of a cached result changes without a version change.
-_KEY_SCHEMA = 4
+#: Bump when the meaning of a cached result changes without a version change (5: c_TB read with the
+#: bearing's measured share of the damping, c_TB_kind).
+_KEY_SCHEMA = 5
 _MAX_RESULT_BYTES = 64 * 1024 * 1024
 _NUMERIC = ("radial_load", "speed", "shaft_position", "k_TB", "k_TB_std", "k_TB_std_measured", "k_TB_MS", "k_MS", "housing_freq",
             "housing_freq_std", "housing_damping", "spindle_freq", "spindle_damping", "c_TB", "c_TB_std",
@@ -245,6 +246,7 @@ def _process_and_draw(task: MeasurementTask, m: Measurement | None = None,
 
 def _compute(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | None]:
     from ..io.uff import read_uff58
+    from ..rig.damping import c_tb_kind
     from ..rig.stiffness import calibrate, estimate_stiffness
 
     data = read_uff58(task.file, rig=task.rig)
@@ -271,6 +273,7 @@ def _compute(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | N
         "spindle_freq": _nan(sm.get("natural_freq")), "spindle_damping": _nan(sm.get("damping_ratio")),
         "mode_source": str(d.get("mode_source") or "auto"),
         "c_TB": _nan(d.get("c_TB")), "c_TB_std": _nan(d.get("c_TB_std")),
+        "c_TB_kind": "" if d.get("c_TB") is None else c_tb_kind(d),
         "loss_factor": _nan(d.get("loss_factor")), "loss_factor_std": _nan(d.get("loss_factor_std")),
         "warnings": list(d.get("warnings") or []),
         "detail": d,
@@ -522,7 +525,7 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     bar = _progress(progress, len(cfg.measurements), reused)
 
     def finish(m: Measurement, key: str | None, result: dict[str, Any]) -> None:
-        blank = {c: math.nan for c in COLUMNS} | {"mode_source": ""}  # every column in every row, errors included
+        blank = {c: math.nan for c in COLUMNS} | {"mode_source": "", "c_TB_kind": ""}  # every column in every row, errors included
         row = {**blank, "warnings": [], **m.conditions(), **result,
                "cache_key": key if _cacheable(result) else None}
         rows[m.id] = row
@@ -602,7 +605,8 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         bar(None)
 
         ordered = tuple(
-            {c: rows[m.id].get(c, math.nan if c not in ("error", "status", "mode_source") else "") for c in COLUMNS}
+            {c: rows[m.id].get(c, math.nan if c not in ("error", "status", "mode_source", "c_TB_kind") else "")
+             for c in COLUMNS}
             | {"detail": rows[m.id].get("detail"), "warnings": list(rows[m.id].get("warnings") or [])}
             for m in cfg.measurements
         )
