@@ -83,8 +83,11 @@ def _c_tb(r: Mapping[str, Any]) -> str:
     c, sd = r.get("c_TB", math.nan), r.get("c_TB_std", math.nan)
     if not (isinstance(c, float | int) and math.isfinite(c)):
         return "c_TB not available"
-    kind = c_tb_kind(r)
-    return c_tb_text(float(c), float(sd) if isinstance(sd, float | int) else math.nan, kind, pm="±", unit="N·s/m")
+    detail = r.get("detail") or {}
+    up, up_sd = detail.get("c_TB_upper"), detail.get("c_TB_upper_std")
+    return c_tb_text(float(c), float(sd) if isinstance(sd, float | int) else math.nan, c_tb_kind(r),
+                     upper=float(up) if isinstance(up, float | int) else None,
+                     upper_std=float(up_sd) if isinstance(up_sd, float | int) else None, pm="±", unit="N·s/m")
 
 
 def _h(text: Any) -> str:

@@ -72,7 +72,8 @@ def summary(res: Any) -> str:
         "housing mass  " + _mass(getattr(res, "housing_mass", None)),
         "housing body  " + _rigid(res.rigid_body),
         "bearing damp. " + ("not available" if res.damping is None else
-                            f"{c_tb_text(res.c_TB, res.c_TB_std, res.damping.kind)}, loss factor "
+                            c_tb_text(res.c_TB, res.c_TB_std, res.damping.kind, upper=res.damping.c_TB_upper,
+                                      upper_std=res.damping.c_TB_upper_std) + ", loss factor "
                             f"{res.loss_factor:.4f}{_args.pm(res.loss_factor_std)} ({res.damping.model} bearing)"),
         "budget        " + ", ".join(
             f"{t.name} {100 * t.share:.0f} % [{t.kind}]" for t in res.uncertainty.terms if t.share >= 0.005),

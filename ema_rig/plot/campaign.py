@@ -396,7 +396,7 @@ def plot_damping(rows: Sequence[Row], bearing: str) -> Figure | None:
                 e = np.array([r.get("c_TB_std", math.nan) for r in part], dtype=float)
                 ax.errorbar(x, y, yerr=np.where(np.isfinite(e), e, 0.0), fmt=mk, color=col, capsize=3, ms=5,
                             mfc=col if kind == "measured" else "none",
-                            label=f"{name}, {kind} (±1σ{' of the bound' if kind != 'measured' else ''})")
+                            label=f"{name}, {kind} (±1σ)")
         ax.set_xlabel(labels[key])
         ax.set_ylabel("bearing damping c_TB [N·s/m]")
         ax.grid(True, alpha=0.3)

@@ -266,7 +266,8 @@ def c_tb_kind(row: Mapping[str, Any]) -> DampingKind:
     return "measured" if kind == "measured" else "upper bound"
 
 
-def c_tb_text(c_TB: float, c_TB_std: float, kind: DampingKind | str | None, *, pm: str = "+/-", unit: str = "N s/m") -> str:
+def c_tb_text(c_TB: float, c_TB_std: float, kind: DampingKind | str | None, *, upper: float | None = None,
+              upper_std: float | None = None, pm: str = "+/-", unit: str = "N s/m") -> str:
     """``c_TB`` as one line of text, its kind said: the one label of the CLI, the report and the figures.
 
     Parameters
@@ -276,24 +277,30 @@ def c_tb_text(c_TB: float, c_TB_std: float, kind: DampingKind | str | None, *, p
     kind : str or None
         ``BearingDamping.kind``; None (a result written before the kind existed) reads as an
         upper bound, which every ``c_TB`` was then.
+    upper, upper_std : float, optional
+        The upper bound and its own std beside a measured ``c_TB`` (``c_TB_upper``); not printed
+        when missing or not finite.
     pm, unit : str
         Plus-minus sign and unit as the caller prints them.
 
     Returns
     -------
     str
-        ``'c_TB 1020 +/- 213 N s/m (measured)'`` or ``'c_TB <= 1121 N s/m (upper bound, the bound's
-        own std 21.3)'``.
+        ``'c_TB 1020 +/- 213 N s/m (measured; upper bound 1121 +/- 21.3)'`` or ``'c_TB <= 1121
+        N s/m (upper bound, the bound's own std 21.3)'``.
 
     Examples
     --------
     >>> c_tb_text(1121.4, 21.3, "upper bound")
     "c_TB <= 1121 N s/m (upper bound, the bound's own std 21.3)"
-    >>> c_tb_text(1020.0, 213.0, "measured")
-    'c_TB 1020 +/- 213 N s/m (measured)'
+    >>> c_tb_text(1020.0, 213.0, "measured", upper=1121.4, upper_std=21.3)
+    'c_TB 1020 +/- 213 N s/m (measured; upper bound 1121 +/- 21.3)'
     """
     if kind == "measured":
-        return f"c_TB {c_TB:.4g} {pm} {c_TB_std:.3g} {unit} (measured)"
+        bound = ""
+        if upper is not None and upper_std is not None and math.isfinite(upper) and math.isfinite(upper_std):
+            bound = f"; upper bound {upper:.4g} {pm} {upper_std:.3g}"
+        return f"c_TB {c_TB:.4g} {pm} {c_TB_std:.3g} {unit} (measured{bound})"
     return f"c_TB <= {c_TB:.4g} {unit} (upper bound, the bound's own std {c_TB_std:.3g})"
 
 
