@@ -538,6 +538,16 @@ def write_uff(path: Path, meas: Measurement, *, binary: bool = False) -> Path:
     return path
 
 
+def tighten_tolerances(rig_path: Path, tol: float = 1e-4) -> None:
+    """Set every ``[uncertainty]`` tolerance of the rig file at ``rig_path`` to ``tol``: what is left of
+    sigma is what the data carry (the studies' class "rig tolerances 1e-4")."""
+    text = rig_path.read_text()
+    head, _, tail = text.partition("[uncertainty]\n")
+    body, sep, rest = tail.partition("\n\n")
+    body = "\n".join(f"{line.split('=')[0].strip()} = {tol}" for line in body.splitlines() if "=" in line)
+    rig_path.write_text(head + "[uncertainty]\n" + body + "\n" + sep + rest)
+
+
 def write_case(tmp: Path, name: str, truth: RigTruth, freq: NDArray[np.float64], **kw: object) -> tuple[Path, Path]:
     """Write ``name.uff`` and ``name.toml`` (the rig file) into ``tmp``; return both paths.
 

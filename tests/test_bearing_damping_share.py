@@ -25,7 +25,7 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg
-from rig_truth import TABLE1, RigTruth, write_case
+from rig_truth import TABLE1, RigTruth, tighten_tolerances, write_case
 
 from ema_rig.cli import main
 from ema_rig.config import ModelParams, load_rig
@@ -38,16 +38,6 @@ pytest.importorskip("ema_rig.identification")
 FREQ = np.arange(0.0, 1100.25, 0.5)
 
 
-def _tight(rig_path):
-    # every rig-file tolerance 1e-4: the bound's own std is then what the data carry (0.2 %), far under
-    # the structure's share of the damping (the study's class "bearing zeta 1-10 %, rig tolerances 1e-4")
-    text = rig_path.read_text()
-    head, _, tail = text.partition("[uncertainty]\n")
-    body, sep, rest = tail.partition("\n\n")
-    body = "\n".join(f"{line.split('=')[0].strip()} = 0.0001" for line in body.splitlines() if "=" in line)
-    rig_path.write_text(head + "[uncertainty]\n" + body + "\n" + sep + rest)
-
-
 def _dashpot_for(k_tb: float, zeta: float) -> float:
     """Bearing dashpot [N s/m] in parallel with k_TB that gives a lone housing on k_TB+MS about zeta."""
     ks = 1.0 / (1.0 / k_tb + 1.0 / TABLE1["k_MS"])
@@ -58,7 +48,7 @@ def test_c_tb_measured_with_the_bearings_share_where_the_structure_damps_too(tmp
     k_tb, c_tb = 6e7, _dashpot_for(6e7, 0.04)
     truth = RigTruth(k_TB=k_tb, damping="bearing_viscous", c_TB=c_tb, structural_zeta=0.003, seed=5)
     uff, rig_path = write_case(tmp_path, "share", truth, FREQ)
-    _tight(rig_path)
+    tighten_tolerances(rig_path)  # the bound's own std is then 0.2 %, far under the structure's share
     rig = load_rig(rig_path)
     res = st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False)
     assert res.warnings == ()

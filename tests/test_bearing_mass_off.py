@@ -20,7 +20,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import scipy.linalg
-from rig_truth import TABLE1, RigTruth, write_case
+from rig_truth import TABLE1, RigTruth, tighten_tolerances, write_case
 
 from ema_rig.config import ModelParams, load_rig
 from ema_rig.io.uff import read_uff58
@@ -122,11 +122,7 @@ def test_driving_point_modal_mass_is_not_m_h_but_inverts_to_it(factor):
 def _tight(rig_path):
     # every rig-file tolerance 1e-4: what is left of sigma is what the data carry (the study's class
     # "bearing zeta 1-10 %, rig tolerances 1e-4", where 4 of 8 runs were 2.0-4.0 sigma off, silent)
-    text = rig_path.read_text()
-    head, _, tail = text.partition("[uncertainty]\n")
-    body, sep, rest = tail.partition("\n\n")
-    body = "\n".join(f"{line.split('=')[0].strip()} = 0.0001" for line in body.splitlines() if "=" in line)
-    rig_path.write_text(head + "[uncertainty]\n" + body + "\n" + sep + rest)
+    tighten_tolerances(rig_path)
 
 
 def test_bearing_dashpot_read_where_the_phase_puts_the_damping(tmp_path):
