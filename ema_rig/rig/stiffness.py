@@ -59,7 +59,9 @@ resolved silently; it is either covered by a stated model-form term *and* a warn
   outside the tolerance; a cross-axis coupled partner
   (two-mode reduction); two modes sharing the housing's radial motion (the 4DOF split-housing
   fit). The plain 3DOF inversion is kept beside the result (``inversion_3dof``); the bearing's
-  damping ``c_TB``/loss factor and the housing's axial and cross stiffness are reported with stds;
+  damping ``c_TB``/loss factor (measured with the bearing's share of the housing mode's damping
+  where its spindle/housing phase gives one, else the all-in-the-bearing upper bound, said so:
+  ``c_TB_kind``) and the housing's axial and cross stiffness are reported with stds;
 * calibration with the disk assumed rigid: a model-form term of 5.8 % in ``k_MS_std`` (note).
 
 Refusals are one line (at most 300 characters) naming the likely cause (polarity of a named
@@ -341,7 +343,9 @@ class StiffnessResult:
         ``"replay"`` or ``"tracked replay"`` (see :func:`mode_source`).
     damping : BearingDamping or None
         The bearing's damping ``c_TB`` [N s/m] and loss factor from the housing pole
-        (:func:`ema_rig.rig.damping.bearing_damping`, model ``damping_model``); None when the
+        (:func:`ema_rig.rig.damping.bearing_damping`, model ``damping_model``): read with the
+        bearing's measured share of the damping where the assessment's damping location gives
+        one (``kind`` ``'measured'``), else with all of it (``'upper bound'``); None when the
         pole gives no finite bearing impedance.
     inversion_3dof : dict or None
         The plain 3DOF inversion for comparison: ``freq`` [Hz] (the identified undamped
@@ -470,7 +474,7 @@ class StiffnessResult:
 
 
 def _damping_keys(d: Any) -> dict[str, Any]:
-    """``c_TB``, ``c_TB_std``, ``loss_factor``, ``loss_factor_std`` (null when not available)."""
+    """``c_TB``, ``c_TB_std``, ``c_TB_kind``, ``loss_factor``, ``loss_factor_std`` ... (null when not available)."""
     if d is None:
         return {"c_TB": None, "c_TB_std": None, "loss_factor": None, "loss_factor_std": None,
                 "bearing_damping_model": None, "c_TB_kind": None}
