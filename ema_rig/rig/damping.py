@@ -63,7 +63,8 @@ BEARING_DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 """Bearing damping models: a dashpot in parallel with ``k_TB``, or ``k_TB (1 + j eta)``."""
 
 C_TB_KINDS: dict[DampingKind, str] = {
-    "measured": "the bearing's share of the housing mode's damping measured from its spindle/housing phase",
+    "measured": "the bearing's share of the housing mode's damping measured from its spindle/housing phase "
+                "(damping in the spindle's support lowers that phase: the share, and c_TB, read low by its part)",
     "upper bound": "all of the housing mode's damping read as the bearing's (its location not measured)",
 }
 """What ``c_TB`` is, per ``BearingDamping.kind``: a measurement, or an upper bound whose std is the
