@@ -400,7 +400,9 @@ def plot_damping(rows: Sequence[Row], bearing: str) -> Figure | None:
         ax.set_xlabel(labels[key])
         ax.set_ylabel("bearing damping c_TB [N·s/m]")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8, loc="best")
+        lo, hi = ax.get_ylim()
+        ax.set_ylim(lo, hi + 0.25 * (hi - lo))  # headroom: the legend above the error bars, not on them
+        ax.legend(fontsize=8, loc="upper right")
     fig.suptitle(f"Bearing {plain(bearing)}: damping from the housing mode (3DOF model)", fontsize=10)
     return fig
 
