@@ -767,6 +767,8 @@ def identify(
 #: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im) and the LSFD basis of the
 #: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles).
 _Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None]
+#: the local refits of one stage, keyed by (poles, lines) (:func:`_refit_on`): the stage's tests repeat some
+_Refits = dict[tuple[bytes, bytes], NDArray[np.complex128] | None]
 
 
 @dataclass(frozen=True, slots=True)
@@ -941,6 +943,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     n_chan = data.n_out * data.n_in
     f = data.freq
     df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    memo: _Refits = {}  # the local refits made here: a feature ranked by its local F is then tested on the same lines
 
     for lo, hi, at_edge in where:
         pool = [i for i, c in enumerate(cands[:n_clusters]) if not at_edge and not c.accepted
@@ -950,7 +953,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
         pool.sort(key=lambda i: (-cands[i].mode.n_poles, cands[i].natural_freq))
         # then the feature the ML found in the segment with the largest local F
         pool_f = _by_local_f(data, model_poles, cands, [n_clusters + j for j, c in enumerate(feats)
-                                                        if lo <= c.natural_freq <= hi], test.variance, cc)[:1]
+                                                        if lo <= c.natural_freq <= hi], test.variance, cc, memo)[:1]
         pool += pool_f  # every candidate of the segment is a look of the local tests (Bonferroni)
         n_added = 0
         for i in pool[: 2 * cc.max_added] + [i for i in pool_f if i not in pool[: 2 * cc.max_added]]:
@@ -969,7 +972,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
                 # the evidence of the lines near it alone (the same in any band that holds them)
                 sl = _local_lines(f, c, cc)
                 res = (_nested_test(data, model_poles, c.mode.pole, sl, test.variance, cc,
-                                    [cands[j].natural_freq for j in pool])
+                                    [cands[j].natural_freq for j in pool], memo)
                        if int(sl.sum()) >= cc.min_segment_lines and test.variance is not None else None)
                 if res is None:
                     continue
@@ -977,7 +980,8 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
                 if not stat >= need:
                     continue
                 out = (None if test.variance is None else  # checked above: res is None without it
-                       _peak_line_out(data, model_poles, c, sl, test.variance, cc, [cands[j].natural_freq for j in pool]))
+                       _peak_line_out(data, model_poles, c, sl, test.variance, cc, [cands[j].natural_freq for j in pool],
+                                      memo))
                 if out is not None:
                     cands[i] = replace(c, reason=(f"{c.reason}; not a missing mode: its local evidence (F = {stat:.3g} >= "
                                                   f"{need:.3g}) rests on one line, {out}"))
@@ -1058,15 +1062,17 @@ def _ml_features(data: FRFData, modes: Sequence[SelectedMode], ml: LocalML,
 
 
 def _by_local_f(data: FRFData, null: Sequence[complex], cands: Sequence[Candidate], idx: Sequence[int],
-                variance: NDArray[np.float64] | None, cc: CompletenessCriteria) -> list[int]:
+                variance: NDArray[np.float64] | None, cc: CompletenessCriteria,
+                memo: _Refits | None = None) -> list[int]:
     """``idx`` (into ``cands``) ordered by their local F statistic over the poles ``null`` (:func:`_nested_test`
-    on :func:`_local_lines`), largest first; those whose fit fails last, by frequency."""
+    on :func:`_local_lines`), largest first; those whose fit fails last, by frequency. ``memo``: refits
+    already made (:func:`_refit_on`)."""
     if len(idx) < 2 or variance is None:
         return list(idx)
     f = data.freq
     score = {}
     for i in idx:
-        res = _nested_test(data, null, cands[i].mode.pole, _local_lines(f, cands[i], cc), variance, cc, ())
+        res = _nested_test(data, null, cands[i].mode.pole, _local_lines(f, cands[i], cc), variance, cc, (), memo)
         score[i] = -np.inf if res is None else res[0]
     return sorted(idx, key=lambda i: (-score[i], cands[i].natural_freq))
 
@@ -1101,9 +1107,6 @@ def _passes_with(data: FRFData, poles: Sequence[complex], lo: float, hi: float, 
     # the slice's ends are no band edges: an "edge" failure there is a failure
     bad = t.failed | t.edge
     return not bool(np.any(bad & (t.freq_lower <= mid) & (mid <= t.freq_upper)))
-
-
-_Refits = dict[tuple[bytes, bytes], NDArray[np.complex128] | None]
 
 
 def _refit_on(data: FRFData, poles: NDArray[np.complex128], sl: NDArray[np.bool_],
