@@ -44,6 +44,19 @@ def _pair(seed: int = 3) -> FRFData:
     return FRFData(f, h[:, None], ["1+Y", "2+Y", "3+Y"], ["1+Y"], frf_form="mobility")
 
 
+def _count_calls(monkeypatch: pytest.MonkeyPatch, module: object, name: str) -> list[int]:
+    """A list that grows by one at each call of ``module.name`` (the function itself still runs)."""
+    calls: list[int] = []
+    real = getattr(module, name)
+
+    def counting(*a, **k):  # type: ignore[no-untyped-def]
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(module, name, counting)
+    return calls
+
+
 # start values off the truth by about half a half-power bandwidth, as a PolyMAX pole or a split start is
 START = np.array([_pole(401.5, 0.014), _pole(407.5, 0.009)])
 
@@ -51,14 +64,7 @@ START = np.array([_pole(401.5, 0.014), _pole(407.5, 0.009)])
 def test_refit_gives_the_ml_poles_without_its_uncertainties(monkeypatch: pytest.MonkeyPatch) -> None:
     d = _pair()
     sl = (d.freq >= 385.0) & (d.freq <= 425.0)
-    tails: list[int] = []
-    real_tail = ml_mod._segment_tail
-
-    def counting_tail(*a, **k):  # type: ignore[no-untyped-def]
-        tails.append(1)
-        return real_tail(*a, **k)
-
-    monkeypatch.setattr(ml_mod, "_segment_tail", counting_tail)
+    tails = _count_calls(monkeypatch, ml_mod, "_segment_tail")
     got = ident._refit_on(d, START, sl)
     assert got is not None
     # no segment scores or covariances formed: the refit needs the poles only
@@ -82,14 +88,7 @@ def test_refit_memo_serves_repeats_only(monkeypatch: pytest.MonkeyPatch) -> None
     sl2 = (d.freq >= 386.0) & (d.freq <= 425.0)  # one line less at the lower end: another problem
     plain, plain2 = ident._refit_on(d, START, sl), ident._refit_on(d, START, sl2)
     assert plain is not None and plain2 is not None
-    calls: list[int] = []
-    real = ident._local_ml_staged
-
-    def counting(*a, **k):  # type: ignore[no-untyped-def]
-        calls.append(1)
-        return real(*a, **k)
-
-    monkeypatch.setattr(ident, "_local_ml_staged", counting)
+    calls = _count_calls(monkeypatch, ident, "_local_ml_staged")
     memo: ident._Refits = {}
     first = ident._refit_on(d, START, sl, memo)
     assert first is not None and len(calls) == 1
