@@ -6,7 +6,7 @@ whole-basis fits) are not formed there, and a refit the same stage already made 
 of every nested test on the same lines, each start's refit of ``_split_start`` repeated by its
 nested test) is taken from the stage's memo (benchmarks/results/split_refit_cost.txt: dam0 and
 disk.uff). Oracles: the true poles of a simulated pair (physics), and the full local ML
-(``ml.local_ml``, with its uncertainties) on the same lines for "the same numbers".
+(``local_ml_staged(...).finish()``, with its uncertainties) on the same lines for "the same numbers".
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import pytest
 
 import ema_rig.identification.identification as ident
 import ema_rig.identification.ml as ml_mod
+from ema_rig._blas import single_threaded
 from ema_rig.frf import FRFData
 from ema_rig.identification.lsfd import _lsfd_checked
 
@@ -77,7 +78,8 @@ def test_refit_gives_the_ml_poles_without_its_uncertainties(monkeypatch: pytest.
         assert z[k] == pytest.approx(z_t, abs=1e-3)
     # the same numbers as the full local ML (with its uncertainties) on the same lines
     part = d.replace(freq=d.freq[sl], frf=d.frf[:, :, sl])
-    full = ident._local_ml(part, _lsfd_checked(part, START, residuals=True))
+    with single_threaded():
+        full = ident._local_ml_staged(part, _lsfd_checked(part, START, residuals=True)).finish()
     assert tails, "the full local ML forms the segment tails"
     np.testing.assert_array_equal(got, full.poles)
 

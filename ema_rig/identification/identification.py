@@ -1116,7 +1116,8 @@ def _refit_on(data: FRFData, poles: NDArray[np.complex128], sl: NDArray[np.bool_
 
     Only the ML's poles are formed (:func:`_local_ml_staged` without its ``finish``: the poles are the
     same numbers, its uncertainties are not needed here). ``memo``: the refits already made on the
-    same data (keyed by the poles and the lines; one :func:`_split`), a repeated one is taken from it.
+    same data (keyed by the poles and the lines; one stage, :func:`_split` or :func:`_complete`), a
+    repeated one is taken from it.
     """
     lam = np.asarray(poles, dtype=np.complex128)
     key = (lam.tobytes(), np.packbits(sl).tobytes() + sl.size.to_bytes(8, "little"))
@@ -1588,17 +1589,11 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
     return _Completed(modes, tuple(cands), fitted, test, done.added, tuple(dropped))
 
 
-def _local_ml(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> LocalML:
-    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band);
-    ``syn`` the model's FRFs on the data's lines when the fit gave them (``_lsfd_checked(model_out=...)``)."""
-    with single_threaded():  # many small products: threads only add hand-off time
-        return _local_ml_staged(data, model, syn).finish()
-
-
 def _local_ml_staged(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None, *,
                      second_thread: bool = True) -> StagedML:
-    """:func:`~ema_rig.identification.ml.local_ml_staged` started as :func:`_local_ml` (call it on one BLAS
-    thread; ``second_thread`` as there)."""
+    """:func:`~ema_rig.identification.ml.local_ml_staged` started at the LSFD model's poles (data cut to the band;
+    call it on one BLAS thread: many small products, threads only add hand-off time); ``syn`` the model's FRFs on
+    the data's lines when the fit gave them (``_lsfd_checked(model_out=...)``), ``second_thread`` as there."""
     if syn is None:
         syn = model.synthesize(data.freq).frf
     syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz
