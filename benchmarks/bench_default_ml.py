@@ -8,9 +8,15 @@ in alternating order (A B, B A, ...) so load drifts of the machine stay out of t
 * the 256-output synthetic file of ``bench_refine.py`` (8 modes, 1 % proportional noise), 100-1000 Hz;
 * with ``--many-modes``, also ``uff-corpus/ufffiles_frf.unv`` of ``$EMA_RIG_SHARED`` (one FRF, 41 modes:
   segments of up to 29 modes on ~1000 lines), 20-780 Hz and the whole file (the local ML's
-  evaluations dominate there).
+  evaluations dominate there);
+* with ``--split-data``, also ``real-frf/dam0.unv`` of ``$EMA_RIG_SHARED`` (26 outputs, 1-12 Hz: most modes'
+  own lines exceed the noise, so ``CompletenessCriteria.split_misfit`` refits each locally) and the
+  bundled ``data/disk.uff`` at its default band (0-2000 Hz, 8 outputs: the 789.7 / 801.0 Hz pair).
 
-Run: ``python benchmarks/bench_default_ml.py --baseline /tmp/old [--repeat 7] [--one-thread] [--many-modes]``
+``--cases rig,dam0`` runs only those (names: rig, 256, band, whole, dam0, disk).
+
+Run: ``python benchmarks/bench_default_ml.py --baseline /tmp/old [--repeat 7] [--one-thread] [--many-modes]
+[--split-data] [--cases ...]``
 where the baseline is a checkout of the reference commit (``git worktree add /tmp/old 8d99d0c``).
 """
 
@@ -35,7 +41,7 @@ warnings.simplefilter("ignore")
 from ema_rig.config import load_rig
 from ema_rig.identification import identify
 from ema_rig.io.uff import read_uff58
-repo, synth, shared = sys.argv[1], sys.argv[2], sys.argv[3]
+repo, synth, shared, real = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
 cases = {"rig": (read_uff58(repo + "/data/b6302_1000N_1200rpm.uff", rig=load_rig(repo + "/data/rig.toml")),
                  (150.0, 1000.0)),
          "256": (read_uff58(synth), (100.0, 1000.0))}
@@ -45,6 +51,10 @@ if shared:
     frf = read_uff58(shared + "/uff-corpus/ufffiles_frf.unv")
     cases["band"], cases["whole"] = (frf, (20.0, 780.0)), (frf, None)
     identify(frf, band=(50.0, 150.0))  # warm-up: a few modes
+if real:
+    cases["dam0"] = (read_uff58(real + "/real-frf/dam0.unv"), (1.0, 12.0))
+    cases["disk"] = (read_uff58(repo + "/data/disk.uff"), None)
+    identify(cases["dam0"][0], band=(2.0, 6.0))  # warm-up
 import ema_rig
 print("ready", ema_rig.__file__, flush=True)
 for line in sys.stdin:
@@ -62,10 +72,16 @@ def main() -> None:
     ap.add_argument("--one-thread", action="store_true", help="one BLAS thread in both workers")
     ap.add_argument("--many-modes", action="store_true",
                     help="also ufffiles_frf of $EMA_RIG_SHARED (default /work/shared), 20-780 Hz and whole")
+    ap.add_argument("--split-data", action="store_true",
+                    help="also dam0 of $EMA_RIG_SHARED (default /work/shared) at 1-12 Hz and data/disk.uff")
+    ap.add_argument("--cases", default="", help="comma-separated subset: rig,256,band,whole,dam0,disk")
     args = ap.parse_args()
     shared = os.environ.get("EMA_RIG_SHARED", "/work/shared") if args.many_modes else ""
     if shared and not Path(shared, "uff-corpus", "ufffiles_frf.unv").is_file():
         raise SystemExit(f"no {shared}/uff-corpus/ufffiles_frf.unv (set EMA_RIG_SHARED)")
+    real = os.environ.get("EMA_RIG_SHARED", "/work/shared") if args.split_data else ""
+    if real and not Path(real, "real-frf", "dam0.unv").is_file():
+        raise SystemExit(f"no {real}/real-frf/dam0.unv (set EMA_RIG_SHARED)")
     sys.path.insert(0, str(REPO / "benchmarks"))
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -79,7 +95,7 @@ def main() -> None:
         for tag, tree in (("new", REPO), ("old", args.baseline.resolve())):
             # cwd=tree: ``python -c`` puts the working directory first on sys.path, before PYTHONPATH
             # (run from this repository's root, both workers would import this tree)
-            procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(REPO), str(synth), shared], text=True,
+            procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(REPO), str(synth), shared, real], text=True,
                                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=str(tree),
                                           env=dict(os.environ, PYTHONPATH=str(tree),
                                                    **({"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
@@ -103,6 +119,11 @@ def main() -> None:
         names = [("rig", "rig file (8 out, 1701 lines)"), ("256", "256 outputs (1801 lines)")]
         if shared:
             names += [("band", "ufffiles_frf 20-780 Hz"), ("whole", "ufffiles_frf whole file")]
+        if real:
+            names += [("dam0", "dam0 1-12 Hz (26 out)"), ("disk", "disk.uff 0-2000 Hz (8 out)")]
+        if args.cases:
+            wanted = args.cases.split(",")
+            names = [x for x in names if x[0] in wanted]
         for case, name in names:
             t: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
             for i in range(args.repeat):

@@ -767,6 +767,8 @@ def identify(
 #: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im) and the LSFD basis of the
 #: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles).
 _Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None]
+#: the local refits of one stage, keyed by (poles, lines) (:func:`_refit_on`): the stage's tests repeat some
+_Refits = dict[tuple[bytes, bytes], NDArray[np.complex128] | None]
 
 
 @dataclass(frozen=True, slots=True)
@@ -941,6 +943,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     n_chan = data.n_out * data.n_in
     f = data.freq
     df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    memo: _Refits = {}  # the local refits made here: a feature ranked by its local F is then tested on the same lines
 
     for lo, hi, at_edge in where:
         pool = [i for i, c in enumerate(cands[:n_clusters]) if not at_edge and not c.accepted
@@ -950,7 +953,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
         pool.sort(key=lambda i: (-cands[i].mode.n_poles, cands[i].natural_freq))
         # then the feature the ML found in the segment with the largest local F
         pool_f = _by_local_f(data, model_poles, cands, [n_clusters + j for j, c in enumerate(feats)
-                                                        if lo <= c.natural_freq <= hi], test.variance, cc)[:1]
+                                                        if lo <= c.natural_freq <= hi], test.variance, cc, memo)[:1]
         pool += pool_f  # every candidate of the segment is a look of the local tests (Bonferroni)
         n_added = 0
         for i in pool[: 2 * cc.max_added] + [i for i in pool_f if i not in pool[: 2 * cc.max_added]]:
@@ -969,7 +972,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
                 # the evidence of the lines near it alone (the same in any band that holds them)
                 sl = _local_lines(f, c, cc)
                 res = (_nested_test(data, model_poles, c.mode.pole, sl, test.variance, cc,
-                                    [cands[j].natural_freq for j in pool])
+                                    [cands[j].natural_freq for j in pool], memo)
                        if int(sl.sum()) >= cc.min_segment_lines and test.variance is not None else None)
                 if res is None:
                     continue
@@ -977,7 +980,8 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
                 if not stat >= need:
                     continue
                 out = (None if test.variance is None else  # checked above: res is None without it
-                       _peak_line_out(data, model_poles, c, sl, test.variance, cc, [cands[j].natural_freq for j in pool]))
+                       _peak_line_out(data, model_poles, c, sl, test.variance, cc, [cands[j].natural_freq for j in pool],
+                                      memo))
                 if out is not None:
                     cands[i] = replace(c, reason=(f"{c.reason}; not a missing mode: its local evidence (F = {stat:.3g} >= "
                                                   f"{need:.3g}) rests on one line, {out}"))
@@ -1058,15 +1062,17 @@ def _ml_features(data: FRFData, modes: Sequence[SelectedMode], ml: LocalML,
 
 
 def _by_local_f(data: FRFData, null: Sequence[complex], cands: Sequence[Candidate], idx: Sequence[int],
-                variance: NDArray[np.float64] | None, cc: CompletenessCriteria) -> list[int]:
+                variance: NDArray[np.float64] | None, cc: CompletenessCriteria,
+                memo: _Refits | None = None) -> list[int]:
     """``idx`` (into ``cands``) ordered by their local F statistic over the poles ``null`` (:func:`_nested_test`
-    on :func:`_local_lines`), largest first; those whose fit fails last, by frequency."""
+    on :func:`_local_lines`), largest first; those whose fit fails last, by frequency. ``memo``: refits
+    already made (:func:`_refit_on`)."""
     if len(idx) < 2 or variance is None:
         return list(idx)
     f = data.freq
     score = {}
     for i in idx:
-        res = _nested_test(data, null, cands[i].mode.pole, _local_lines(f, cands[i], cc), variance, cc, ())
+        res = _nested_test(data, null, cands[i].mode.pole, _local_lines(f, cands[i], cc), variance, cc, (), memo)
         score[i] = -np.inf if res is None else res[0]
     return sorted(idx, key=lambda i: (-score[i], cands[i].natural_freq))
 
@@ -1103,26 +1109,43 @@ def _passes_with(data: FRFData, poles: Sequence[complex], lo: float, hi: float, 
     return not bool(np.any(bad & (t.freq_lower <= mid) & (mid <= t.freq_upper)))
 
 
-def _refit_on(data: FRFData, poles: NDArray[np.complex128], sl: NDArray[np.bool_]) -> NDArray[np.complex128] | None:
+def _refit_on(data: FRFData, poles: NDArray[np.complex128], sl: NDArray[np.bool_],
+              memo: _Refits | None = None) -> NDArray[np.complex128] | None:
     """``poles`` with those inside the lines ``sl`` re-estimated there by the local ML (LSFD start);
-    None when the fit fails. A pole's PolyMAX value is a start value, not its estimate."""
-    f = data.freq
+    None when the fit fails. A pole's PolyMAX value is a start value, not its estimate.
+
+    Only the ML's poles are formed (:func:`_local_ml_staged` without its ``finish``: the poles are the
+    same numbers, its uncertainties are not needed here). ``memo``: the refits already made on the
+    same data (keyed by the poles and the lines; one stage, :func:`_split` or :func:`_complete`), a
+    repeated one is taken from it.
+    """
     lam = np.asarray(poles, dtype=np.complex128)
+    key = (lam.tobytes(), np.packbits(sl).tobytes() + sl.size.to_bytes(8, "little"))
+    if memo is not None and key in memo:
+        hit = memo[key]
+        return None if hit is None else hit.copy()
+    f = data.freq
     fn = np.abs(lam) / (2 * np.pi)
     inside = (fn >= f[sl][0]) & (fn <= f[sl][-1])
     idx = np.flatnonzero(sl)
     part = data.replace(freq=f[sl], frf=data.frf[:, :, sl],
                         coherence=None if data.coherence is None else data.coherence[:, :, sl])
+    out: NDArray[np.complex128] | None = lam
     if inside.any() and 2 * idx.size > 2 * int(inside.sum()) + 2:
         try:
             model = _lsfd_checked(part, lam[inside], residuals=True)
-            ml = _local_ml(part, model)
+            with single_threaded():  # many small products: threads only add hand-off time
+                ml_poles = _local_ml_staged(part, model, second_thread=False).poles
         except (IdentificationError, np.linalg.LinAlgError, ValueError):
-            return None
-        if np.all(np.isfinite(ml.poles)) and np.all(ml.poles.imag > 0):
-            lam = lam.copy()
-            lam[np.flatnonzero(inside)] = ml.poles
-    return lam
+            ml_poles = None
+        if ml_poles is None:
+            out = None
+        elif np.all(np.isfinite(ml_poles)) and np.all(ml_poles.imag > 0):
+            out = lam.copy()
+            out[np.flatnonzero(inside)] = ml_poles
+    if memo is not None:
+        memo[key] = None if out is None else out.copy()
+    return out
 
 
 def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria) -> NDArray[np.bool_]:
@@ -1135,12 +1158,14 @@ def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria)
 
 
 def _peak_line_out(data: FRFData, null: Sequence[complex], c: Candidate, sl: NDArray[np.bool_],
-                   variance: NDArray[np.float64], cc: CompletenessCriteria, looks: Sequence[float]) -> str | None:
+                   variance: NDArray[np.float64], cc: CompletenessCriteria, looks: Sequence[float],
+                   memo: _Refits | None = None) -> str | None:
     """Why candidate ``c``'s local evidence on the lines ``sl`` rests on the line nearest to it alone, or None.
 
     The nested test of :func:`_nested_test` again without that line
     (``CompletenessCriteria.peak_line_out``): a pole and its residues can zero any one line, so a
     misfit of one line is no evidence of a mode; a real mode, however light, shows on its skirt too.
+    ``memo``: refits already made (:func:`_refit_on`).
     """
     if not cc.peak_line_out:
         return None
@@ -1148,7 +1173,7 @@ def _peak_line_out(data: FRFData, null: Sequence[complex], c: Candidate, sl: NDA
     j = int(idx[np.argmin(np.abs(data.freq[idx] - c.natural_freq))])
     sl_out = sl.copy()
     sl_out[j] = False
-    res = _nested_test(data, null, c.mode.pole, sl_out, variance, cc, looks)
+    res = _nested_test(data, null, c.mode.pole, sl_out, variance, cc, looks, memo)
     if res is not None and res[0] >= res[1]:
         return None
     tail = "the fit failed" if res is None else f"F = {res[0]:.3g} < {res[1]:.3g} with {res[2]:.0f}, {res[3]:.0f} dof"
@@ -1156,19 +1181,20 @@ def _peak_line_out(data: FRFData, null: Sequence[complex], c: Candidate, sl: NDA
 
 
 def _nested_test(data: FRFData, null: Sequence[complex], pole: complex, sl: NDArray[np.bool_],
-                 variance: NDArray[np.float64], cc: CompletenessCriteria,
-                 looks: Sequence[float]) -> tuple[float, float, float, float, int] | None:
+                 variance: NDArray[np.float64], cc: CompletenessCriteria, looks: Sequence[float],
+                 memo: _Refits | None = None) -> tuple[float, float, float, float, int] | None:
     """The local test of one more mode ``pole`` over the poles ``null`` on the lines ``sl``.
 
     Returns ``(F, threshold, q, dof, n_looks)``: :func:`_local_f`'s statistic and the F quantile at
     ``cc.local_p`` Bonferroni-corrected over the ``n_looks`` candidate frequencies of ``looks``
-    [Hz] that lie on those lines (the candidates tested there); None when a fit fails.
+    [Hz] that lie on those lines (the candidates tested there); None when a fit fails. ``memo``:
+    refits already made (:func:`_refit_on`; the null's refit is the same for every candidate on the lines).
     """
     from scipy.stats import f as f_dist
 
     fl = data.freq[sl]
     n_looks = sum(1 for fc in looks if fl[0] <= fc <= fl[-1])
-    res = _local_f(data, null, [*null, pole], sl, variance, cc)
+    res = _local_f(data, null, [*null, pole], sl, variance, cc, memo)
     if res is None:
         return None
     stat, q, dof = res
@@ -1176,7 +1202,8 @@ def _nested_test(data: FRFData, null: Sequence[complex], pole: complex, sl: NDAr
 
 
 def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl: NDArray[np.bool_],
-             variance: NDArray[np.float64], cc: CompletenessCriteria) -> tuple[float, float, float] | None:
+             variance: NDArray[np.float64], cc: CompletenessCriteria,
+             memo: _Refits | None = None) -> tuple[float, float, float] | None:
     """The F statistic of the extra mode of ``alt`` over ``null`` on the lines ``sl``: (F, q, dof).
 
     Each pole set is re-estimated on the lines by the local ML (:func:`_refit_on`), then fitted
@@ -1184,7 +1211,8 @@ def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl:
     (:func:`~ema_rig.identification.noise.segment_misfit`, the lines as one segment, weighted by
     ``variance``). ``F = ((chi2_0 - chi2_1) / q) / (chi2_1 / dof)`` with ``q = dof_0 - dof``
     (the extra mode's pole and residues) and ``dof`` the alternative's residual degrees of freedom:
-    a scale error of the noise estimate cancels. None when a fit fails.
+    a scale error of the noise estimate cancels. None when a fit fails. ``memo``: refits already
+    made (:func:`_refit_on`).
     """
     f = data.freq
     n_chan = data.n_out * data.n_in
@@ -1198,7 +1226,7 @@ def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl:
         return float(t.ratio[0] * t.dof[0]), float(t.dof[0])
 
     lam0 = np.asarray(null, dtype=np.complex128)
-    ref0 = _refit_on(data, lam0, sl)
+    ref0 = _refit_on(data, lam0, sl, memo)
     (c0, d0), best0 = chi2(lam0), lam0
     if ref0 is not None:
         c_r, d_r = chi2(ref0)
@@ -1208,7 +1236,7 @@ def _local_f(data: FRFData, null: Sequence[complex], alt: Sequence[complex], sl:
     # start (nested: never worse than the null), whichever fits better
     lam1 = np.asarray(alt, dtype=np.complex128)
     extra = np.asarray([p for p in alt if p not in set(null)], dtype=np.complex128)
-    ref1 = _refit_on(data, lam1, sl)
+    ref1 = _refit_on(data, lam1, sl, memo)
     tries = [np.concatenate([best0, extra])] + ([ref1] if ref1 is not None else [])
     c1, d1 = min(chi2(lam) for lam in tries)
     q = d0 - d1
@@ -1253,6 +1281,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
             and c.reason.startswith(("negligible contribution", "duplicate of"))]
     by_pole = {m.pole: m for m in modes}
     split_k: set[int] = set()  # the modes split beside a rejected cluster
+    memo: _Refits = {}  # the local refits made here: the tests below repeat some (the null's, each start's)
     for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
         m = by_pole.get(p_start)
         if m is None or ml.kind[k] != "ml" or not np.isfinite(ml.natural_freq_std[k]) or ml.natural_freq_std[k] <= 0:
@@ -1272,12 +1301,13 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
         sl = _local_lines(f, c, cc)
         if int(sl.sum()) < cc.min_segment_lines:
             continue
-        res = _nested_test(data, model, c.mode.pole, sl, done.test.variance, cc, [cands[j].natural_freq for j in pool])
+        res = _nested_test(data, model, c.mode.pole, sl, done.test.variance, cc, [cands[j].natural_freq for j in pool],
+                           memo)
         if res is None:
             continue
         stat, need, q, dof_l, n_looks = res
         if not stat >= need or _peak_line_out(data, model, c, sl, done.test.variance, cc,
-                                              [cands[j].natural_freq for j in pool]) is not None:
+                                              [cands[j].natural_freq for j in pool], memo) is not None:
             continue
         model.append(c.mode.pole)
         pool.remove(i)
@@ -1296,7 +1326,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
             m = by_pole.get(p_start)
             if m is None or k in split_k or ml.kind[k] != "ml":
                 continue
-            c_new = _split_start(data, model, k, m, done.test, cc)
+            c_new = _split_start(data, model, k, m, done.test, cc, memo)
             if c_new is None:
                 continue
             c, stat, need, q, dof_l, sl = c_new
@@ -1334,7 +1364,8 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
 
 
 def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMode, test: MisfitTest,
-                 cc: CompletenessCriteria) -> tuple[Candidate, float, float, float, float, NDArray[np.bool_]] | None:
+                 cc: CompletenessCriteria, memo: _Refits | None = None
+                 ) -> tuple[Candidate, float, float, float, float, NDArray[np.bool_]] | None:
     """A second mode beside the model's mode ``k`` (accepted mode ``m``) whose own lines misfit, or None.
 
     The lines of the mode (:func:`_local_lines` at its ML pole) fail the chi-square test of the
@@ -1351,7 +1382,8 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
     Bonferroni over the two starts), also without the peak line (:func:`_peak_line_out`). Returns
     the candidate of the larger F that passes, with ``(F, threshold, q, dof, lines)``. Own lines
     that reach the band's first or last line are not tested: a misfit there may be the skirt of a
-    mode beyond the edge, which those lines cannot tell from a second mode.
+    mode beyond the edge, which those lines cannot tell from a second mode. ``memo``: refits already
+    made (:func:`_refit_on`; the nested test repeats each start's refit and the null's).
     """
     var = test.variance
     if var is None:
@@ -1385,7 +1417,7 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
                               damping_ratio_std=0.0, n_poles=0, order_min=0, order_max=0), accepted=True, reason="")
         # the misfit is a missing mode only when the two poles explain the lines to the noise (first: the
         # cheapest of the tests, and the one a model error fails)
-        alt = _refit_on(data, np.asarray([*model, pole], dtype=np.complex128), sl)
+        alt = _refit_on(data, np.asarray([*model, pole], dtype=np.complex128), sl, memo)
         if alt is None:
             continue
         with single_threaded():
@@ -1393,10 +1425,10 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
                                    variance=var[:, sl], coherence=coh, edges=[0, n], criteria=cc)
         if bool(t_alt.failed[0]):
             continue
-        res = _nested_test(data, model, pole, sl, var, cc, starts)
+        res = _nested_test(data, model, pole, sl, var, cc, starts, memo)
         if res is None or not res[0] >= res[1] or (best is not None and res[0] <= best[1]):
             continue
-        if _peak_line_out(data, model, c, sl, var, cc, starts) is not None:
+        if _peak_line_out(data, model, c, sl, var, cc, starts, memo) is not None:
             continue
         best = (c, *res[:4], sl)
     return best
@@ -1557,19 +1589,15 @@ def _parsimonious(data: FRFData, done: _Completed, poles: list[complex], residua
     return _Completed(modes, tuple(cands), fitted, test, done.added, tuple(dropped))
 
 
-def _local_ml(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> LocalML:
-    """:func:`~ema_rig.identification.ml.local_ml` started at the LSFD model's poles (data cut to the band);
-    ``syn`` the model's FRFs on the data's lines when the fit gave them (``_lsfd_checked(model_out=...)``)."""
-    with single_threaded():  # many small products: threads only add hand-off time
-        return _local_ml_staged(data, model, syn).finish()
-
-
-def _local_ml_staged(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None) -> StagedML:
-    """:func:`~ema_rig.identification.ml.local_ml_staged` started as :func:`_local_ml` (call it on one BLAS thread)."""
+def _local_ml_staged(data: FRFData, model: ModalModel, syn: NDArray[np.complex128] | None = None, *,
+                     second_thread: bool = True) -> StagedML:
+    """:func:`~ema_rig.identification.ml.local_ml_staged` started at the LSFD model's poles (data cut to the band;
+    call it on one BLAS thread: many small products, threads only add hand-off time); ``syn`` the model's FRFs on
+    the data's lines when the fit gave them (``_lsfd_checked(model_out=...)``), ``second_thread`` as there."""
     if syn is None:
         syn = model.synthesize(data.freq).frf
     syn = np.where(np.isfinite(syn), syn, data.frf)  # a lower residual is infinite at 0 Hz
-    return local_ml_staged(data, model.poles, syn)
+    return local_ml_staged(data, model.poles, syn, second_thread=second_thread)
 
 
 def _refined(ident: Identification, data: FRFData) -> Identification:

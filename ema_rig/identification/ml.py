@@ -617,7 +617,7 @@ class StagedML:
 
 
 def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDArray[np.complex128], *,
-                    criteria: MLCriteria = ML_CRITERIA) -> StagedML:
+                    criteria: MLCriteria = ML_CRITERIA, second_thread: bool = True) -> StagedML:
     """:func:`local_ml` with its poles before its uncertainties (same parameters, same numbers).
 
     The poles are final once every segment is fitted; the segments' scores, covariances and
@@ -635,6 +635,11 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
         The start model synthesised on the same lines.
     criteria : MLCriteria, optional
         Window, block and work limits (:data:`ML_CRITERIA`).
+    second_thread : bool, optional
+        Let a second thread form large segments' scores, covariances and whole-basis fits while
+        the next segment is fitted (default True). False: all of that is formed only when
+        :attr:`StagedML.finish` is called (the same numbers), so a caller that needs the poles
+        alone and never calls it spends nothing on it.
 
     Returns
     -------
@@ -680,7 +685,7 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
     windows = _windows(fn0, hb0, freq, criteria)
     # a second thread for the segments' whole-basis fits where they are large enough to gain from it
     # (numpy releases the GIL in BLAS and ufunc loops); a work-size rule, so the same on any machine
-    two = any(2 * (i1 - i0) * n_chan >= _THREAD_MIN_EQUATIONS for i0, i1, _ in windows)
+    two = second_thread and any(2 * (i1 - i0) * n_chan >= _THREAD_MIN_EQUATIONS for i0, i1, _ in windows)
     pending: list[tuple[list[int], Job[_Tail], Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None]] = []
     pool = ThreadPoolExecutor(max_workers=1) if two else None
     try:
