@@ -659,7 +659,10 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       :data:`CROSS_AXIS_RATIO` of the radial ones: with an identified partner whose radial /
       cross-axis ratio tells the same mixing, the uncoupled frequency is recovered
       (:func:`ema_rig.rig.fit.cross_axis_correction`, a note and a term); otherwise a warning
-      and a term bounding the shift for a partner anywhere in the band;
+      and a term bounding the shift for a partner anywhere in the band. Between 2 and 3 sigma of
+      misalignment (misalignment alone or a coupling partly hidden by it, which the data cannot
+      tell apart) the identified frequency is inverted and, with a partner telling the same mixing,
+      the coupled reading (its uncoupled frequency) sits at 1 sigma: a term and a note;
     * **modal mass check** (with ``data`` and a driving point): the driving-point modal mass,
       fitted at the identified poles (:func:`ema_rig.rig.fit.driving_point_mass`; the damping ratio
       std of the identification carried into its std), against
