@@ -349,6 +349,9 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         "hysteretic bearing eta 2-20 %, no dashpot": lambda s: (
             Truth(k_TB=_logk(s, 13, 3e7, 3e8), zeta_H=0.0, bearing_loss=float(_r(s, 13).uniform(0.02, 0.20)),
                   seed=s), None),
+        "hysteretic bearing eta 2-20 %, rig tolerances 1e-4": lambda s: (
+            Truth(k_TB=_logk(s, 13, 3e7, 3e8), zeta_H=0.0, bearing_loss=float(_r(s, 13).uniform(0.02, 0.20)),
+                  file_tol=TIGHT, seed=s), None),
         "damping in the housing's support zeta 1-6 %, bearing undamped": lambda s: (
             Truth(k_TB=_logk(s, 14, 3e7, 3e8), zeta_H=0.0, support_zeta=float(_r(s, 14).uniform(0.01, 0.06)),
                   seed=s), None),
