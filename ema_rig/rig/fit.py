@@ -114,6 +114,30 @@ def _local_columns(jw: NDArray[np.complex128], w: NDArray[np.float64], lam: NDAr
     return cols
 
 
+def _local_band(freq: NDArray[np.float64], frf: NDArray[np.complex128], p: NDArray[np.complex128], index: int,
+                frf_form: FrfForm, window: float, pole_window: float
+                ) -> tuple[NDArray[np.float64], NDArray[np.complex128], NDArray[np.float64], NDArray[np.float64],
+                           list[int]] | None:
+    """The local fit's lines around mode ``index`` of one channel: ``(w, jw, wt, y, near)``, or None.
+
+    ``w`` [rad/s] the lines within ``+-window`` of the mode (None below 20 of them), ``wt`` the
+    ``1 / |H|`` weights of the receptance there, ``y`` the weighted receptance as (Re, Im) stacked,
+    ``near`` the indices of the poles within ``+-pole_window`` (they enter with their own residues).
+    Shared by :func:`driving_point_mass` and :func:`_local_residue`.
+    """
+    f0 = abs(p[index]) / (2 * math.pi)
+    sel = (freq > f0 * (1 - window)) & (freq < f0 * (1 + window)) & (freq > 0)
+    w = 2 * math.pi * np.asarray(freq, dtype=float)[sel]
+    if w.size < 20:
+        return None
+    jw = 1j * w
+    h = np.asarray(frf)[sel] / jw ** _FORM_POWER[frf_form]
+    near = [r for r in range(p.size) if abs(abs(p[r]) / (2 * math.pi) / f0 - 1) < pole_window]
+    wt = 1.0 / np.maximum(np.abs(h), 1e-300)
+    y = np.concatenate([(h * wt).real, (h * wt).imag])
+    return w, jw, wt, y, near
+
+
 def driving_point_mass(
     freq: NDArray[np.float64],
     frf: NDArray[np.complex128],
@@ -163,17 +187,11 @@ def driving_point_mass(
         None when the band holds too few lines.
     """
     p = np.asarray(poles, dtype=complex).copy()
-    f0 = abs(p[index]) / (2 * math.pi)
-    sel = (freq > f0 * (1 - window)) & (freq < f0 * (1 + window)) & (freq > 0)
-    w = 2 * math.pi * np.asarray(freq, dtype=float)[sel]
-    if w.size < 20:
+    band = _local_band(freq, frf, p, index, frf_form, window, pole_window)
+    if band is None:
         return None
-    jw = 1j * w
-    h = np.asarray(frf)[sel] / jw ** _FORM_POWER[frf_form]
-    near = [r for r in range(p.size) if abs(abs(p[r]) / (2 * math.pi) / f0 - 1) < pole_window]
+    w, jw, wt, y, near = band
     k = near.index(index)
-    wt = 1.0 / np.maximum(np.abs(h), 1e-300)
-    y = np.concatenate([(h * wt).real, (h * wt).imag])
 
     # the free pole: the mode's own (freeing the neighbours' too on one channel is ill-conditioned:
     # close modes trade residues; measured on the issue-19 truths, masses 10 % off)
@@ -200,7 +218,7 @@ def driving_point_mass(
         def vp(x: NDArray[np.float64]) -> NDArray[np.float64]:  # variable projection
             a_real = design(poles_of(x))
             c, *_ = np.linalg.lstsq(a_real, y, rcond=None)
-            return cast("NDArray[np.float64]", y - a_real @ c)
+            return y - a_real @ c
 
         scale = np.concatenate([[1e-3, max(x0[2 * j + 1], 1e-4) * 0.1] for j in range(len(free))])
         sol = least_squares(vp, x0, x_scale=scale, method="lm", xtol=1e-12, ftol=1e-12, max_nfev=400)
@@ -260,16 +278,10 @@ def _local_residue(freq: NDArray[np.float64], frf: NDArray[np.complex128], poles
     The local fit of :func:`driving_point_mass` with every identified pole held (linear least
     squares, weighted by ``1 / |H|``; covariance ``s^2 (A^T W A)^-1``); None on too few lines."""
     p = np.asarray(poles, dtype=complex)
-    f0 = abs(p[index]) / (2 * math.pi)
-    sel = (freq > f0 * (1 - window)) & (freq < f0 * (1 + window)) & (freq > 0)
-    w = 2 * math.pi * np.asarray(freq, dtype=float)[sel]
-    near = [r for r in range(p.size) if abs(abs(p[r]) / (2 * math.pi) / f0 - 1) < pole_window]
-    if w.size < 20:
+    band = _local_band(freq, frf, p, index, frf_form, window, pole_window)
+    if band is None:
         return None
-    jw = 1j * w
-    h = np.asarray(frf)[sel] / jw ** _FORM_POWER[frf_form]
-    wt = 1.0 / np.maximum(np.abs(h), 1e-300)
-    y = np.concatenate([(h * wt).real, (h * wt).imag])
+    w, jw, wt, y, near = band
     a_c = _local_columns(jw, w, p[near]) * wt[:, None]
     a_real = np.concatenate([a_c.real, a_c.imag])
     coef, *_ = np.linalg.lstsq(a_real, y, rcond=None)
