@@ -35,7 +35,7 @@ from ..dof import DOF
 from ..errors import MatchingError
 from ..identification.modal import ModalModel, effective_mass, shape_products
 
-__all__ = ["Candidate", "find_dof", "measure_candidates"]
+__all__ = ["Candidate", "find_dof", "measure_candidates", "sensor_groups"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,8 +137,21 @@ def _clean(x: float | None) -> float | None:
     return None if x is None or not np.isfinite(x) else float(x)
 
 
-def _sensor_groups(modes: ModalModel, rig: RigConfig) -> dict[tuple[str, str], list[int]]:
-    """Output indices per (role, axis), from the model's roles/axes or the rig's sensor list."""
+def sensor_groups(modes: ModalModel, rig: RigConfig) -> dict[tuple[str, str], list[int]]:
+    """Output indices per (role, axis), from the model's roles/axes or the rig's sensor list.
+
+    Parameters
+    ----------
+    modes : ModalModel
+        Identified modes (their outputs, roles and axes).
+    rig : RigConfig
+        The rig file, for outputs the data name no role of.
+
+    Returns
+    -------
+    dict
+        ``(role, axis) -> [output index, ...]``, e.g. ``("spindle", "radial")``.
+    """
     groups: dict[tuple[str, str], list[int]] = {}
     for i, d in enumerate(modes.out_dofs):
         role, axis = modes.roles[i], modes.axes[i]
@@ -267,7 +280,7 @@ def measure_candidates(
             f"the identified modes have no radial reference {rig.radial} "
             f"(references: {[str(d) for d in modes.in_dofs]})"
         )
-    groups = _sensor_groups(modes, rig)
+    groups = sensor_groups(modes, rig)
     h_rad = groups.get(("housing", "radial"), [])
     shapes = modes.mode_shapes(modes.in_dofs[q])
     part = (np.mean(np.abs(shape_products(modes.poles, modes.residues[:, h_rad, q])), axis=1) if h_rad

@@ -32,7 +32,7 @@ from typing import Any
 from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import InversionError, MatchingError
 from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
-from .candidates import find_dof
+from .candidates import find_dof, sensor_groups
 from .damping import bearing_mode_phase, bearing_reading_freq
 from .fit import (
     DrivingPointMass,
@@ -1283,8 +1283,7 @@ def _damping_location(m: MatchResult, modes: Any, rig: RigConfig, data: Any) -> 
         return None
     p = _find(data.out_dofs, rig.radial)
     q = _find(data.in_dofs, rig.radial)
-    spindle = [i for i, d in enumerate(data.out_dofs)
-               if (se := rig.sensor_for(d)) is not None and se.role == "spindle" and se.axis == "radial"]
+    spindle = sensor_groups(modes, rig).get(("spindle", "radial"), [])
     if p is None or q is None or not spindle:
         return None
     hm = m.housing_mode
