@@ -1402,11 +1402,14 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
         return None
     n_chan = data.n_out * data.n_in
     coh = None if data.coherence is None else data.coherence.reshape(n_chan, -1)[:, sl]
-    with single_threaded():
-        t = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], np.asarray(model, dtype=np.complex128),
-                           power=_FORM_POWER[data.frf_form], variance=var[:, sl], coherence=coh, edges=[0, n],
-                           criteria=cc)
-    if not bool(t.failed[0]):
+
+    def fails(poles: NDArray[np.complex128]) -> bool:  # the chi-square test of the lines as one segment
+        with single_threaded():
+            t = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], poles, power=_FORM_POWER[data.frf_form],
+                               variance=var[:, sl], coherence=coh, edges=[0, n], criteria=cc)
+        return bool(t.failed[0])
+
+    if not fails(np.asarray(model, dtype=np.complex128)):
         return None
     starts = [fn * (1 - zeta), fn * (1 + zeta)]
     best = None
@@ -1418,12 +1421,7 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
         # the misfit is a missing mode only when the two poles explain the lines to the noise (first: the
         # cheapest of the tests, and the one a model error fails)
         alt = _refit_on(data, np.asarray([*model, pole], dtype=np.complex128), sl, memo)
-        if alt is None:
-            continue
-        with single_threaded():
-            t_alt = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], alt, power=_FORM_POWER[data.frf_form],
-                                   variance=var[:, sl], coherence=coh, edges=[0, n], criteria=cc)
-        if bool(t_alt.failed[0]):
+        if alt is None or fails(alt):
             continue
         res = _nested_test(data, model, pole, sl, var, cc, starts, memo)
         if res is None or not res[0] >= res[1] or (best is not None and res[0] <= best[1]):
