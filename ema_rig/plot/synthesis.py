@@ -317,7 +317,8 @@ def _vspan(ax: Axes, lo: float, hi: float, **style: Any) -> Any:
 
     p = Rectangle((lo, 0.0), hi - lo, 1.0, **style)
     p.set_transform(ax.get_xaxis_transform(which="grid"))
-    p.get_path()._interpolation_steps = GRIDLINE_INTERPOLATION_STEPS  # as axvspan
+    path: Any = p.get_path()  # the interpolation steps are private
+    path._interpolation_steps = GRIDLINE_INTERPOLATION_STEPS  # as axvspan
     ax.add_artist(p)  # clipped to the axes patch, appended to the children as add_patch does
     _take_in_x(ax, np.array([lo, hi]))
     return p
