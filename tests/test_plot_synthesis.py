@@ -296,3 +296,37 @@ def test_a_subset_of_channels_shows_the_driving_points_and_the_worst_fits_and_sa
     full = plot_synthesis(data, model, max_channels=12)
     assert full.channels == [(i, j) for j in range(2) for i in range(6)]
     assert "channels shown" not in full.figure.get_suptitle()
+
+
+def test_band_span_and_mode_lines_draw_and_widen_the_x_limits_as_axvspan_and_axvline() -> None:
+    # oracle: matplotlib's own axvspan and axvline on a twin figure. The span is drawn on the same
+    # pixels (Agg: exact, the same path and transform), and both widen the x data limits to a
+    # span or line beyond the curve (a mode line at 1500 Hz over a 100-1000 Hz curve), to float
+    # rounding (axvspan maps its corners through the data transform and back)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from ema_rig.plot.synthesis import _vlines, _vspan
+
+    def figure(ours: bool, lines: bool) -> tuple[np.ndarray, np.ndarray]:
+        fig = Figure(figsize=(3.0, 2.0), dpi=60)
+        ax = fig.add_subplot()
+        f = np.linspace(100.0, 1000.0, 500)
+        ax.semilogy(f, 1.0 + np.sin(f / 50.0) ** 2)
+        if ours:
+            _vspan(ax, 150.0, 1200.0, color="C0", alpha=0.3, lw=0)
+        else:
+            ax.axvspan(150.0, 1200.0, color="C0", alpha=0.3, lw=0)
+        if lines and ours:
+            _vlines(ax, [50.0, 1500.0], color="0.6", lw=0.6, ls=":")
+        elif lines:
+            for x in (50.0, 1500.0):
+                ax.axvline(x, color="0.6", lw=0.6, ls=":")
+        limits = np.array([ax.dataLim.intervalx, ax.dataLim.intervaly])
+        FigureCanvasAgg(fig).draw()
+        return limits, np.asarray(fig.canvas.buffer_rgba())
+
+    np.testing.assert_array_equal(figure(True, False)[1], figure(False, False)[1])
+    want, got = figure(False, True)[0], figure(True, True)[0]
+    assert_allclose(got, want, rtol=1e-12)
+    assert got[0, 0] == 50.0 and got[0, 1] == 1500.0

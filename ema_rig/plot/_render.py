@@ -351,9 +351,17 @@ def palette_indices(packed: np.ndarray, colors: int) -> tuple[np.ndarray, np.nda
     """
     if not 1 <= colors <= 256:
         raise ValueError(f"colors must be 1 to 256, got {colors}")
-    rgb24 = np.bitwise_and(packed.reshape(-1), 0xFFFFFF)
+    flat = packed.reshape(-1)
+    # most of a figure is its background (the first pixel's colour): counted as one number, the
+    # look-ups and counts below walk the other pixels only, and the background's index is filled in
+    background = flat[:1]
+    other = flat != background
+    n_other = int(np.count_nonzero(other))
+    # the other pixels' colours, then the background's (once)
+    rgb24 = np.bitwise_and(np.concatenate([flat[other], background]), 0xFFFFFF)
     ids, colours = _colour_ids(rgb24)
     counts = np.bincount(ids, minlength=colours.size)
+    counts[ids[-1]] += flat.size - n_other - 1
     present = np.flatnonzero(counts)
     # in order of the colour value: nothing below depends on the ids' order
     present = present[np.argsort(colours[present], kind="stable")]
@@ -390,7 +398,9 @@ def palette_indices(packed: np.ndarray, colors: int) -> tuple[np.ndarray, np.nda
         chosen = np.concatenate([chosen, np.asarray(extra, dtype=np.intp)])
     table = np.zeros(colours.size, dtype=np.uint8)
     table[present] = nearest
-    return table[ids].reshape(packed.shape), rgb[chosen].astype(np.uint8)
+    index = np.full(flat.size, table[ids[-1]], dtype=np.uint8)
+    index[other] = table[ids[:-1]]
+    return index.reshape(packed.shape), rgb[chosen].astype(np.uint8)
 
 
 def _nearest(x: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
