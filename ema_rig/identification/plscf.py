@@ -652,9 +652,9 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
     from scipy.linalg.lapack import dpotrf, dpotrs
 
     if n_in == 1:
-        solved = _solve_order_one(m, n)
-        if solved is not None:
-            return solved
+        one = _solve_order_one(m, n)
+        if one is not None:
+            return one
     eye = np.eye(n_in)
     k = n * n_in
     # the factor of m^T (a Fortran-ordered view: its UPPER triangle is the lower triangle of m, so
