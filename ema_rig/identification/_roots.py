@@ -22,7 +22,9 @@ reference, degrees 48-200 when the orders reach 64; two references 64-200),
 :func:`aberth_chain` roots a whole run of orders in ONE batch of
 sweeps: each order starts from the iterate of the order below after one sweep (not from its
 converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 relative
-anyway), and each sweep evaluates and corrects the active roots of every started order
+anyway; up to degree 100, where a sweep's cost is mostly fixed, up to five orders start in the
+same sweep, each from the start of the one before, so the chain ends fewer sweeps after its
+last start), and each sweep evaluates and corrects the active roots of every started order
 together, so the fixed cost of a sweep is paid once for ~10 orders instead of once per order.
 
 The first sweep's repulsion sums, the largest of the O(N^2) work (every root is far from
