@@ -116,6 +116,27 @@ def test_repulsion_sums_against_the_definition(monkeypatch):
             np.testing.assert_allclose(_roots._repulsion(z[ia], ia, z), want, rtol=1e-13)
 
 
+
+def test_chain_repulsion_sums_against_the_definition(monkeypatch):
+    # the chain's sums (real arithmetic: conj(d) / |d|^2) over a padded table of three
+    # polynomials' roots: each root's sum runs over its own polynomial's other roots; the
+    # padding (_FAR beyond each degree) contributes nothing. Against the complex sums written
+    # out: round-off of a sum of <= 39 terms (1e-13 relative)
+    rng = np.random.default_rng(12)
+    degrees = (20, 31, 40)
+    table = np.full((3, 40), _roots._FAR, dtype=np.complex128)
+    for i, d in enumerate(degrees):
+        table[i, :d] = rng.standard_normal(d) + 1j * rng.standard_normal(d)
+    own = np.repeat(np.arange(3), [7, 9, 11])
+    pos = np.concatenate([rng.choice(d, k, replace=False) for d, k in zip(degrees, (7, 9, 11), strict=True)])
+    zr = table[own, pos]
+    want = np.array([sum(1.0 / (zr[m] - table[own[m], j]) for j in range(degrees[own[m]]) if j != pos[m])
+                     for m in range(zr.size)])
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for block in (40, 200, 4096):  # blocks of 1 row, several rows, one block
+            monkeypatch.setattr(_roots, "_REPULSION_BLOCK", block)
+            np.testing.assert_allclose(_roots._chain_repulsion(zr, pos, table, own), want, rtol=1e-13)
+
 def _chain(degrees, seed):
     """Polynomials of rising degree whose roots move between neighbours as a pLSCF denominator's
     do: truncations of one random series, each perturbed by 1 %."""
@@ -140,6 +161,31 @@ def test_aberth_chain_finds_the_companion_roots_of_every_polynomial():
         _, small = _roots._ratio(c, c[1:] * j, cr, cr[1:] * j, z)
         assert small.all()  # every root accepted on the backward-error test
 
+
+
+def test_aberth_chain_starts_several_low_degree_polynomials_per_sweep(monkeypatch):
+    # 19 polynomials of degrees 64-100: started one per sweep, the last would start at sweep 19
+    # at the earliest and need at least one more sweep to be accepted (no warm start is at
+    # rounding level before its first correction), so the chain would take > 19 sweeps (one
+    # evaluation, _chain_ratio, per sweep); started in groups (_CHAIN_GROUP up to degree
+    # _CHAIN_GROUP_MAX_DEGREE) it takes fewer (measured: 15; 06ee910: 27), with the companion roots of each
+    # to round-off as in the test above
+    degrees = list(range(64, 101, 2))
+    coefs = _chain(degrees, seed=21)
+    start = _companion_roots(coefs[0][:-2])
+    sweeps = []
+    ratio = _roots._chain_ratio
+
+    def counted(*args, **kwargs):
+        sweeps.append(1)
+        return ratio(*args, **kwargs)
+
+    monkeypatch.setattr(_roots, "_chain_ratio", counted)
+    found = _roots.aberth_chain(coefs, start)
+    assert len(sweeps) < len(degrees)
+    for c, z in zip(coefs, found, strict=True):
+        assert z is not None
+        assert _set_distance(z, _companion_roots(c)).max() < 5e-13
 
 def test_aberth_chain_far_roots_and_non_convergence(monkeypatch):
     # the last polynomial has a conjugate pair of modulus 8 (8^200 overflows): its roots go

@@ -22,7 +22,9 @@ reference, degrees 48-200 when the orders reach 64; two references 64-200),
 :func:`aberth_chain` roots a whole run of orders in ONE batch of
 sweeps: each order starts from the iterate of the order below after one sweep (not from its
 converged roots: the unstable roots of consecutive pLSCF orders differ by ~3e-2 relative
-anyway), and each sweep evaluates and corrects the active roots of every started order
+anyway; up to degree 100, where a sweep's cost is mostly fixed, up to five orders start in the
+same sweep, each from the start of the one before, so the chain ends fewer sweeps after its
+last start), and each sweep evaluates and corrects the active roots of every started order
 together, so the fixed cost of a sweep is paid once for ~10 orders instead of once per order.
 
 The first sweep's repulsion sums, the largest of the O(N^2) work (every root is far from
@@ -414,6 +416,22 @@ def aberth_warm(c: NDArray[np.float64], prev_coef: NDArray[np.float64], prev: ND
 #: later start gains nothing, and every sweep of delay adds one to the batch's sweep count.
 _CHAIN_LAG = 1
 
+#: Polynomials of :func:`aberth_chain` started in one sweep (each from the start of the one before
+#: it), while their degree is at most :data:`_CHAIN_GROUP_MAX_DEGREE`. At such degrees a sweep
+#: costs mostly the fixed cost of its array operations, paid once for every started polynomial,
+#: and a chain that starts one polynomial per sweep ends a whole staggering of sweeps after its
+#: last start; above, the work per root dominates and a start from an iterate that has had a
+#: sweep saves more of it. Measured on the recorded chains of benchmarks/bench_plscf.py (CPU min
+#: of 9 alternating runs, BLAS one thread; one start per sweep against groups of 5 up to degree
+#: 100): two references max order 50 (degrees 64-100) 8.78 -> 7.20 ms (21 -> 14 sweeps), one
+#: reference max order 100 (48-100) 18.2 -> 13.1 ms (37 -> 18 sweeps), max order 200 one
+#: reference 71.9 -> 65.9 ms, two references 40.4 -> 37.2 ms, two references max order 100
+#: (64-200) 39.8 -> 41.3 ms; no order fell back to the eigenvalues. Groups of 5 up to degree 80
+#: or 120 gained less or lost at 200; groups of 3 let two approximations settle on one root in
+#: three of these chains (an order ran to ``maxiter`` and its eigenvalue fallback).
+_CHAIN_GROUP = 5
+_CHAIN_GROUP_MAX_DEGREE = 100
+
 #: Padding of the root table of :func:`aberth_chain` beyond an order's degree: its reciprocal
 #: distance to any root (~1e-300) vanishes from every repulsion sum, and stays finite.
 _FAR = 1e300
@@ -506,20 +524,23 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
     for i, c in enumerate(coefs):
         padded[i, : c.size] = c
     blocks, abs_blocks = coefficient_blocks(padded)
+    abs_sums = abs_blocks.sum(axis=(1, 2))
     table = np.full((k, n), _FAR, dtype=np.complex128)  # roots of polynomial i in row i
     flat = table.reshape(-1)
     s_prev = np.full(k * n, np.nan, dtype=np.complex128)
     sweeps = np.zeros(k, dtype=int)
     state = np.zeros(k, dtype=int)  # 0 waiting, 1 iterating, 2 finished
+    nxt = 0  # the next polynomial to start (k: all started)
     pending = np.zeros(k * n, dtype=bool)  # roots still iterating (flat index)
     bad = ~np.array([c[-1] != 0 and bool(np.all(np.isfinite(c))) for c in coefs])
     prepared: dict[int, tuple[_Prepared, _Prepared]] = {}  # of the polynomials evaluated apart (_chain_ratio)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         while True:
             # start the next polynomial from the iterate of the one before
-            nxt = int(np.argmax(state == 0)) if np.any(state == 0) else -1
-            copied = -1  # a polynomial started in this sweep at the iterate of the one before
-            if nxt >= 0 and (nxt == 0 or state[nxt - 1] == 2 or sweeps[nxt - 1] >= _CHAIN_LAG):
+            copied = -1  # the last polynomial started in this sweep at the iterate (start) of the one before
+            started = 0
+            while nxt < k and (nxt == 0 or state[nxt - 1] == 2 or sweeps[nxt - 1] >= _CHAIN_LAG
+                               or (0 < started < _CHAIN_GROUP and deg[nxt] <= _CHAIN_GROUP_MAX_DEGREE)):
                 if bad[nxt]:
                     state[nxt] = 2
                 else:
@@ -531,6 +552,8 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
                     table[nxt, : deg[nxt]] = z0
                     pending[nxt * n : nxt * n + deg[nxt]] = True
                     state[nxt] = 1
+                nxt += 1
+                started += 1
             act = np.flatnonzero(pending)
             if act.size == 0:
                 if np.all(state == 2):
@@ -541,7 +564,8 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             # the active roots are grouped by polynomial (flat order): slices of each
             cuts = np.concatenate([[0], np.flatnonzero(own[1:] != own[:-1]) + 1, [act.size]])
             uo = own[cuts[:-1]]
-            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, n, uo, cuts, z, sweeps[uo] > 0, prepared)
+            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, n, uo, cuts, z, sweeps[uo] > 0, prepared,
+                                    own, abs_sums)
             if small.any():
                 pending[act[small]] = False
                 keep = ~small
@@ -607,65 +631,101 @@ def _chain_reuse(fa: NDArray[Any], n: int, copied: int, d_old: int) -> tuple[NDA
 
 def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDArray[Any]], deg: NDArray[Any],
                  n: int, uo: NDArray[Any], cuts: NDArray[Any], z: NDArray[Any],
-                 test: NDArray[Any], prepared: dict[int, tuple[_Prepared, _Prepared]]) -> tuple[NDArray[Any], NDArray[Any]]:
+                 test: NDArray[Any], prepared: dict[int, tuple[_Prepared, _Prepared]],
+                 own: NDArray[Any] | None = None, abs_sums: NDArray[Any] | None = None) -> tuple[NDArray[Any], NDArray[Any]]:
     """Newton ratio and rounding flag (as :func:`_ratio`) of the roots ``z``, grouped by polynomial.
 
     ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``. The
     two power tables are formed once for all roots; each polynomial's blocks multiply its own
-    slice (one small real matrix product per polynomial). Direct evaluation while no power can
-    overflow (as :func:`_ratio_prepared`); otherwise each polynomial goes through
-    :func:`_ratio_prepared`, which evaluates the roots outside the unit circle on the reversed
-    polynomial; its blocked coefficients (:func:`_prepare_both`) are formed once per polynomial
-    and kept in ``prepared`` (polynomial index -> blocks) for the sweeps that follow.
+    slice (one small real matrix product per polynomial, written in place). Direct evaluation
+    while no power can overflow (as :func:`_ratio_prepared`); otherwise each polynomial goes
+    through :func:`_ratio_prepared`, which evaluates the roots outside the unit circle on the
+    reversed polynomial; its blocked coefficients (:func:`_prepare_both`) are formed once per
+    polynomial and kept in ``prepared`` (polynomial index -> blocks) for the sweeps that follow.
+    ``own`` (the polynomial of each root) and ``abs_sums`` (``abs_blocks.sum(axis=(1, 2))``), when
+    the caller holds them, spare forming them again; the results do not depend on them.
+
+    A sweep of :func:`aberth_chain` evaluates a few hundred roots of ~10 polynomials: its cost is
+    mostly the fixed cost of the array operations, so the overflow test per polynomial is made
+    only when the largest root of all could overflow the highest degree.
     """
     az = np.abs(z)
-    zmax = np.maximum.reduceat(az, cuts[:-1])
-    risky = deg[uo] * np.log10(np.maximum(zmax, 1.0)) > 150  # a power of some root may overflow
+    risky = None
+    if z.size and float(deg[uo].max()) * math.log10(max(float(az.max()), 1.0)) > 150:
+        zmax = np.maximum.reduceat(az, cuts[:-1])
+        risky = deg[uo] * np.log10(np.maximum(zmax, 1.0)) > 150  # a power of some root may overflow
     base, big = _block_powers(z, n)
     kb = big.shape[0]
     basef = base.view(np.float64)  # (b, 2 m): real and imaginary parts side by side
     inner = np.empty((2 * kb, z.size), dtype=np.complex128)
-    for t, i in enumerate(uo):
-        a, b = cuts[t], cuts[t + 1]
-        inner[:, a:b] = (blocks[i] @ basef[:, 2 * a : 2 * b]).view(np.complex128)
+    innerf = inner.view(np.float64)
+    cl = cuts.tolist()
+    for t, i in enumerate(uo.tolist()):
+        a, b = 2 * cl[t], 2 * cl[t + 1]
+        np.matmul(blocks[i], basef[:, a:b], out=innerf[:, a:b])
     inner[:kb] *= big
     inner[kb:] *= big
     p = inner[:kb].sum(axis=0)
     r = p / inner[kb:].sum(axis=0)
     small = np.zeros(z.size, dtype=bool)
-    tested = np.repeat(test & ~risky, np.diff(cuts))
-    near = np.flatnonzero(~(np.abs(r) > _NEAR * az) & tested)  # NaN (p = p' = 0) counts as near
+    counts = np.diff(cuts)
+    near = np.flatnonzero(~(np.abs(r) > _NEAR * az))  # NaN (p = p' = 0) counts as near
+    tested = test if risky is None else test & ~risky
+    if not tested.all():
+        near = near[np.repeat(tested, counts)[near]]
     if near.size:
-        own = np.repeat(uo, np.diff(cuts))[near]
+        own = (np.repeat(uo, counts) if own is None else own)[near]
+        if abs_sums is None:
+            abs_sums = abs_blocks.sum(axis=(1, 2))
         # first against the bound's upper limit (see _ratio_part): only the roots that pass it
         # gather their coefficient blocks
-        tol = 4.0 * deg[own] * _EPS
+        dn = deg[own]
+        tol = 4.0 * _EPS * dn
         pn = np.abs(p[near])
-        cand = pn <= tol * abs_blocks.sum(axis=(1, 2))[own] * np.maximum(az[near], 1.0) ** deg[own]
+        cand = pn <= tol * abs_sums[own] * np.maximum(az[near], 1.0) ** dn
         near, own, tol, pn = near[cand], own[cand], tol[cand], pn[cand]
-        bound = (np.einsum("mkb,bm->km", abs_blocks[own], np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
-        small[near] = pn <= tol * bound
-    for u in np.flatnonzero(risky).tolist():
-        # the roots outside the unit circle of this polynomial on its reversed polynomial
-        a, b = cuts[u], cuts[u + 1]
-        i = int(uo[u])
-        if i not in prepared:
-            prepared[i] = _prepare_both(coefs[i])
-        r[a:b], small[a:b] = _ratio_prepared(*prepared[i], int(deg[i]), z[a:b], bool(test[u]))
+        if near.size:
+            bound = (np.einsum("mkb,bm->km", abs_blocks[own], np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
+            small[near] = pn <= tol * bound
+    if risky is not None:
+        for u in np.flatnonzero(risky).tolist():
+            # the roots outside the unit circle of this polynomial on its reversed polynomial
+            a, b = cl[u], cl[u + 1]
+            i = int(uo[u])
+            if i not in prepared:
+                prepared[i] = _prepare_both(coefs[i])
+            r[a:b], small[a:b] = _ratio_prepared(*prepared[i], int(deg[i]), z[a:b], bool(test[u]))
     return r, small
 
 
 def _chain_repulsion(zr: NDArray[Any], pos: NDArray[Any], table: NDArray[Any], own: NDArray[Any]) -> NDArray[Any]:
-    """``sum_{j != pos[i]} 1 / (zr[i] - table[own[i], j])``, in blocks of rows (see :func:`_repulsion`)."""
+    """``sum_{j != pos[i]} 1 / (zr[i] - table[own[i], j])``, in blocks of rows (see :func:`_repulsion`).
+
+    In real arithmetic, ``1 / d = conj(d) / |d|^2`` on the real and imaginary parts apart: one
+    real reciprocal per term where numpy's complex reciprocal takes a branching (Smith) division
+    (800 x 100 terms, one thread: 0.40 against 0.69 ms with the gather and the subtraction).
+    The sums differ from the complex division's by a few ulps. A padding entry :data:`_FAR`
+    contributes 0 (``|d|^2`` overflows to inf), a coincident pair makes the sum non-finite, as
+    the complex division does.
+    """
     m, n = zr.size, table.shape[1]
+    tr, ti = np.ascontiguousarray(table.real), np.ascontiguousarray(table.imag)
     out = np.empty(m, dtype=np.complex128)
     step = max(1, _REPULSION_BLOCK // max(n, 1))
     for a in range(0, m, step):
         b = min(a + step, m)
-        d = zr[a:b, None] - table[own[a:b]]
-        d[np.arange(b - a), pos[a:b]] = 1.0
-        np.reciprocal(d, out=d)
-        out[a:b] = d.sum(axis=1) - 1.0
+        rows = np.arange(b - a)
+        dr = np.take(tr, own[a:b], axis=0)
+        np.subtract(zr.real[a:b, None], dr, out=dr)
+        di = np.take(ti, own[a:b], axis=0)
+        np.subtract(zr.imag[a:b, None], di, out=di)
+        dr[rows, pos[a:b]] = 1.0  # the root's own term: 1 / 1, taken off below
+        di[rows, pos[a:b]] = 0.0
+        q = np.multiply(dr, dr)
+        q += np.multiply(di, di)
+        np.reciprocal(q, out=q)  # 1 / |d|^2
+        out.real[a:b] = np.einsum("ij,ij->i", dr, q) - 1.0  # without the own term's 1
+        out.imag[a:b] = -np.einsum("ij,ij->i", di, q)
     return out
 
 

@@ -86,6 +86,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
 from collections.abc import Iterable, Iterator, Mapping
 from concurrent.futures import ThreadPoolExecutor
@@ -651,34 +652,37 @@ def _solve_order(m: NDArray[Any], n: int, n_in: int) -> tuple[NDArray[Any], NDAr
     from scipy.linalg.lapack import dpotrf, dpotrs
 
     if n_in == 1:
-        solved = _solve_order_one(m, n)
-        if solved is not None:
-            return solved
+        one = _solve_order_one(m, n)
+        if one is not None:
+            return one
     eye = np.eye(n_in)
     k = n * n_in
-    g, info = dpotrf(m, lower=1, clean=0)
-    x = None
+    # the factor of m^T (a Fortran-ordered view: its UPPER triangle is the lower triangle of m, so
+    # LAPACK reads m without a transposed copy), as in _solve_order_one
+    g, info = dpotrf(m.T, lower=0, clean=0)
+    coef = np.empty((2, n + 1, n_in, n_in))  # alpha_low, alpha_high
+    low, high = coef[0], coef[1]
+    solved = False
     if info == 0:
-        e = np.zeros((k + n_in, 2 * n_in))
+        e = np.zeros((k + n_in, 2 * n_in), order="F")
         e[:n_in, :n_in] = eye
         e[k:, n_in:] = eye
-        u, info = dpotrs(g, e, lower=1)
+        u, info = dpotrs(g, e, lower=0, overwrite_b=1)
         if info == 0:
             # the diagonal blocks u[:n_in, :n_in] and u[k:, n_in:] of M^-1 are symmetric positive
             # definite: x_low = u[n_in:, :n_in] u[:n_in, :n_in]^-1, x_high = u[:k, n_in:] u[k:, n_in:]^-1
-            # (both k x n_in), from the inverses of the two small pivot blocks
+            # (both k x n_in), from the inverses of the two small pivot blocks, written in place
             with contextlib.suppress(np.linalg.LinAlgError):  # singular pivot block: the fallback below
                 inv0 = _inv_small(u[:n_in, :n_in])
                 inv1 = _inv_small(u[k:, n_in:])
-                x = (u[n_in:, :n_in] @ inv0, u[:k, n_in:] @ inv1)
-    low = np.empty((n + 1, n_in, n_in))
-    high = np.empty((n + 1, n_in, n_in))
-    low[0] = eye
-    high[n] = eye
-    if x is not None and np.isfinite(x[0]).all() and np.isfinite(x[1]).all():
-        low[1:] = x[0].reshape(n, n_in, n_in)
-        high[:n] = x[1].reshape(n, n_in, n_in)
-    else:
+                np.matmul(u[n_in:, :n_in], inv0, out=low[1:].reshape(k, n_in))
+                np.matmul(u[:k, n_in:], inv1, out=high[:n].reshape(k, n_in))
+                low[0] = eye
+                high[n] = eye
+                solved = bool(np.isfinite(coef).all())  # both in one test
+    if not solved:
+        low[0] = eye
+        high[n] = eye
         m = np.tril(m) + np.tril(m, -1).T  # the least-squares fallback reads the whole matrix
         low[1:] = _spd_solve(m[n_in:, n_in:], -m[n_in:, :n_in]).reshape(n, n_in, n_in)
         high[:n] = _spd_solve(m[:k, :k], -m[k:, :k].T).reshape(n, n_in, n_in)
@@ -692,9 +696,11 @@ def _inv_small(a: NDArray[Any]) -> NDArray[Any]:
     :class:`numpy.linalg.LinAlgError` as :func:`numpy.linalg.inv`.
     """
     if a.shape == (2, 2):
+        # in Python floats (no numpy error state to set: a zero determinant gives inf, and
+        # inf or NaN entries follow without an exception)
         (p, q), (r, t) = a.tolist()
-        with np.errstate(divide="ignore", invalid="ignore"):
-            d = 1.0 / np.float64(p * t - q * r)
+        det = p * t - q * r
+        d = 1.0 / det if det != 0.0 else math.inf
         return np.array([[t * d, -q * d], [-r * d, p * d]])
     if a.shape == (1, 1):
         with np.errstate(divide="ignore"):
@@ -775,21 +781,25 @@ def _companion(beta: NDArray[Any]) -> NDArray[Any]:
     return c
 
 
-def _eigvals(c: NDArray[Any]) -> NDArray[Any]:
+def _eigvals(c: NDArray[Any], *, checked: bool = False) -> NDArray[Any]:
     """Eigenvalues of a real square matrix: LAPACK ``dgeev`` without eigenvectors.
 
     The routine ``numpy.linalg.eigvals`` calls, with less wrapping (~5 us a call) and the same
     errors (:class:`numpy.linalg.LinAlgError`). The input array is overwritten when it is
-    Fortran-ordered.
+    Fortran-ordered. ``checked``: the caller has made sure every entry is finite (a companion
+    matrix of finite coefficients), so the matrix is not scanned again.
     """
     from scipy.linalg.lapack import dgeev
 
-    if not np.isfinite(c).all():
+    if not checked and not np.isfinite(c).all():
         raise np.linalg.LinAlgError("Array must not contain infs or NaNs")
     wr, wi, _, _, info = dgeev(c, compute_vl=0, compute_vr=0, overwrite_a=1)
     if info != 0:
         raise np.linalg.LinAlgError("Eigenvalues did not converge")
-    return cast("NDArray[Any]", wr + 1j * wi)
+    w = np.empty(wr.size, dtype=np.complex128)  # wr + 1j wi without the temporaries
+    w.real = wr
+    w.imag = wi
+    return w
 
 
 def _null_vectors(a: NDArray[Any]) -> NDArray[Any]:
@@ -816,9 +826,13 @@ def _null_vectors(a: NDArray[Any]) -> NDArray[Any]:
 
 def _roots_eig(low: NDArray[Any]) -> NDArray[Any]:
     """All roots z of det A_low(z), from the companion matrix of the reversed polynomial."""
-    # roots of A_low(z) (alpha_0 = I) are 1 / w with w the roots of the reversed, monic polynomial
-    w = _eigvals(_companion(low[::-1]))
-    w = w[(w != 0) & np.isfinite(w)]
+    # roots of A_low(z) (alpha_0 = I) are 1 / w with w the roots of the reversed, monic polynomial;
+    # the companion matrix holds the coefficients, zeros and ones: finite when they are
+    if not np.isfinite(low).all():
+        raise np.linalg.LinAlgError("Array must not contain infs or NaNs")
+    w = _eigvals(_companion(low[::-1]), checked=True)
+    if not w.all():  # dgeev's eigenvalues of a finite matrix are finite; a zero one is a root at infinity
+        w = w[w != 0]
     return cast("NDArray[Any]", 1.0 / w)
 
 
