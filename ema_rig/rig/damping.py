@@ -23,7 +23,8 @@ with damped surroundings (``kind`` ``'upper bound'``). Where the housing mode's 
 phase measures the bearing's share ``phi`` of the damping
 (:func:`ema_rig.rig.uncertainty.assess_housing_mode`, its "damping location"), the pole is read with
 ``phi zeta`` in the bearing, the rest leaving ``|lambda|`` alone, and ``c_TB`` is a measurement
-whose std carries the share's (``kind`` ``'measured'``).
+whose std carries the share's (``kind`` ``'measured'``): the share's noise (measured) and, since the
+phase reads the share only as a lower bound, the span up to 1 (model form, ``share_model_std``).
 
 Functions
 ---------
