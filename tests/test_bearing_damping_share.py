@@ -150,8 +150,8 @@ def test_share_reading_against_the_complex_eigen_solution(k_tb, zeta):
 def test_c_tb_share_covers_damping_in_the_spindles_support(tmp_path):
     # the structure's stiffness-proportional damping at 1 % (loss factor 2 % at 600 Hz in k_S) lowers
     # the spindle/housing phase far more than it dissipates: the phase read a share 0.66 and c_TB
-    # 2551 +/- 350 N s/m against the dashpot's 3744 (z -3.4, no warning) before the share was taken
-    # midway between that reading and 1 with the span's std
+    # 2551 +/- 350 N s/m against the dashpot's 3744 (z -3.4, no warning) before the span from that
+    # reading up to all of it entered the share's std (one-sided rectangular, model form)
     k_tb, c_tb = 6e7, _dashpot_for(6e7, 0.08)
     truth = RigTruth(k_TB=k_tb, damping="bearing_viscous", c_TB=c_tb, structural_zeta=0.01, seed=5)
     uff, rig_path = write_case(tmp_path, "support", truth, FREQ)

@@ -64,9 +64,9 @@ BEARING_DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 """Bearing damping models: a dashpot in parallel with ``k_TB``, or ``k_TB (1 + j eta)``."""
 
 C_TB_KINDS: dict[DampingKind, str] = {
-    "measured": "the bearing's share of the housing mode's damping from its spindle/housing phase, which "
-                "damping in the spindle's support lowers: the share taken midway between the phase's reading "
-                "and all of it, its std covering that span",
+    "measured": "the bearing's share of the housing mode's damping measured from its spindle/housing phase, "
+                "a lower bound (damping in the spindle's support lowers that phase): its std covers the span "
+                "up to all of it",
     "upper bound": "all of the housing mode's damping read as the bearing's (its location not measured)",
 }
 """What ``c_TB`` is, per ``BearingDamping.kind``: a measurement, or an upper bound whose std is the

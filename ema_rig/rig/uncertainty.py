@@ -1280,13 +1280,11 @@ class DampingLocation:
     Attributes
     ----------
     share, share_std : float
-        The bearing's share of the mode's damping, in [0, 1], and the std the phase's noise gives it:
-        the middle of the span from the phase's reading (measured phase over the all-in-the-bearing
-        model's, a lower bound) to 1 (:func:`_damping_location`).
+        The bearing's share of the mode's damping (measured phase over the all-in-the-bearing
+        model's, in [0, 1]; a lower bound, :func:`_damping_location`) and the std its noise gives it.
     share_span_std : float
-        The share's model-form std: the span's, ``(1 - reading) / sqrt(12)`` (rectangular over it).
-    phase_share : float
-        The phase's own reading of the share, in [0, 1] (the span's lower end).
+        The share's model-form std: the root-mean-square of the one-sided rectangular span from the
+        reading up to 1, ``(1 - share) / sqrt(3)``.
     factor : float
         Frequency to invert / ``|lambda| / 2 pi``: the pole read with that share of its damping in
         the bearing (:func:`ema_rig.rig.damping.bearing_reading_freq`).
@@ -1302,7 +1300,6 @@ class DampingLocation:
     rel_std: float
     note: str
     share_span_std: float = 0.0
-    phase_share: float = math.nan
 
 
 def _damping_location(m: MatchResult, modes: Any, rig: RigConfig, data: Any) -> DampingLocation | None:
@@ -1312,18 +1309,21 @@ def _damping_location(m: MatchResult, modes: Any, rig: RigConfig, data: Any) -> 
     the spindle lag or lead the housing by :func:`ema_rig.rig.damping.bearing_mode_phase` and makes
     ``|lambda|`` stand for a stiffer undamped model (+0.5 ... +11 % in k_TB on the bearing-damped
     truths of ``benchmarks/study_unseen_truths.py``). The measured phase over that model's reads the
-    bearing's share (phase linear in the bearing's loss angle), but only as a lower bound: the ratio
-    ``x_S / x_H`` is set by the spindle's own equation, ``(k_S* + k_TB+MS - w^2 m_S) x_S = k_TB+MS x_H``,
-    where damping in the spindle's support (``k_S* = k_S (1 + j eta_S)``) lowers the phase by
-    ``eta_S k_S / Re(...)`` while dissipating almost nothing (the spindle barely moves): a loss factor
-    of 0.6 % there reads a true share of 0.96 as 0.79 (3DOF pencil, ``scipy.linalg.eig``,
-    ``tests/test_bearing_damping_share.py``), and no damping elsewhere raises the phase. The share
-    therefore lies between the phase's reading ``phi_p`` and 1; ``eta_S`` is not measured (the
-    spindle's own mode lies far above the band), so the share is taken in the middle,
-    ``(phi_p + 1) / 2``, with the span's rectangular std ``(1 - phi_p) / sqrt(12)`` as a model-form
-    part beside the phase noise's (halved with it). The pole is read with ``phi zeta`` in the
-    bearing (the rest, proportional, leaves ``|lambda|`` alone). None (the plain reading) without
-    data, a driving point or spindle radial sensors, or when the phase does not pass
+    bearing's share ``phi`` (phase linear in the bearing's loss angle), but only as a lower bound: the
+    ratio ``x_S / x_H`` is set by the spindle's own equation, ``(k_S* + k_TB+MS - w^2 m_S) x_S =
+    k_TB+MS x_H``, where damping in the spindle's support (``k_S* = k_S (1 + j eta_S)``) lowers the
+    phase by ``eta_S k_S / Re(...)`` while dissipating almost nothing (the spindle barely moves): the
+    structure's 1 % stiffness-proportional damping reads a true share ~0.97 as 0.66 (3DOF pencil,
+    ``scipy.linalg.eig``, ``tests/test_bearing_damping_share.py``), and no damping elsewhere raises the
+    phase; damping in the housing's own support (air springs, beside ``k_AS``) leaves it alone, so the
+    reading can also be the truth. ``eta_S`` is not measured (the spindle's own mode lies far above the
+    band), so the share stays the phase's reading, and the span up to 1 is a model-form part of its std,
+    the root-mean-square of that one-sided rectangular spread, ``(1 - phi) / sqrt(3)`` (as
+    :func:`ema_rig.rig.inversion.calibrate_k_ms` takes a rigid disk's). Measured on the fresh seeds: taking
+    the middle of the span instead read k_TB -12.9 % at z -2.0 where a dashpot beside the air springs
+    held a third of the damping (its reading then the truth). The pole is read with ``phi zeta`` in the
+    bearing (the rest, proportional, leaves ``|lambda|`` alone). None (the plain reading) without data,
+    a driving point or spindle radial sensors, or when the phase does not pass
     :data:`DAMPING_PHASE_SIGMAS`.
     """
     if data is None:
@@ -1350,26 +1350,24 @@ def _damping_location(m: MatchResult, modes: Any, rig: RigConfig, data: Any) -> 
     share, share_std = sp.phase / th_b, u_th / abs(th_b)
     if not -DAMPING_PHASE_SIGMAS * share_std <= share <= 1.0 + DAMPING_PHASE_SIGMAS * share_std:
         return None
-    phi_p = min(max(share, 0.0), 1.0)  # the phase's reading: a lower bound (damping in the spindle's support)
-    phi = 0.5 * (phi_p + 1.0)
-    noise_std, span_std = 0.5 * share_std, (1.0 - phi_p) / math.sqrt(12.0)
-    u_phi = math.hypot(noise_std, span_std)
+    phi = min(max(share, 0.0), 1.0)  # the phase's reading: a lower bound (damping in the spindle's support)
+    span_std = (1.0 - phi) / math.sqrt(3.0)  # the rms of the one-sided span from it up to 1
 
     def read(x: float) -> float | None:
         return bearing_reading_freq(f_abs, min(max(x, 0.0), 1.0) * zeta, rig.model)
 
-    f_phi, f_lo, f_hi = read(phi), read(phi - u_phi), read(phi + u_phi)
-    if f_phi is None or f_lo is None or f_hi is None:
+    f_phi, f_lo, f_hi, f_all = read(phi), read(phi - share_std), read(phi + share_std), read(1.0)
+    if f_phi is None or f_lo is None or f_hi is None or f_all is None:
         return None
-    rel = max(abs(math.log(f_lo / f_phi)), abs(math.log(f_hi / f_phi)))
+    rel = math.hypot(max(abs(math.log(f_lo / f_phi)), abs(math.log(f_hi / f_phi))),
+                     abs(math.log(f_all / f_phi)) / math.sqrt(3.0))
     note = (f"housing mode's spindle/housing phase {math.degrees(sp.phase):+.2f} +/- {math.degrees(u_th):.2f} deg "
-            f"(all of its damping in the bearing: {math.degrees(th_b):+.2f} deg) reads the bearing's share as "
-            f"{100 * phi_p:.0f} %, a lower bound (damping in the spindle's support lowers the phase): the bearing "
-            f"holds {100 * phi_p:.0f}-100 % of the damping, taken as {100 * phi:.0f} +/- {100 * u_phi:.0f} %; the pole "
-            f"read with it, |lambda| {f_abs:.2f} Hz stands for {f_phi:.2f} Hz of the undamped model "
-            f"(+/- {100 * rel:.2f} %)")
-    return DampingLocation(share=phi, share_std=noise_std, factor=f_phi / f_abs, rel_std=rel, note=note,
-                           share_span_std=span_std, phase_share=phi_p)
+            f"(all of its damping in the bearing: {math.degrees(th_b):+.2f} deg): the bearing holds "
+            f"{100 * phi:.0f} +/- {100 * share_std:.0f} % of the damping or more, up to all of it (damping in the "
+            f"spindle's support lowers the phase; a model-form {100 * span_std:.0f} %); the pole read with it, "
+            f"|lambda| {f_abs:.2f} Hz stands for {f_phi:.2f} Hz of the undamped model (+/- {100 * rel:.2f} %)")
+    return DampingLocation(share=phi, share_std=share_std, factor=f_phi / f_abs, rel_std=rel, note=note,
+                           share_span_std=span_std)
 
 
 SPLIT_FIT_CHI2 = 6.63
