@@ -88,6 +88,7 @@ class Truth:
     ax_freq: float = 310.0  # Hz, housing axial translation (paper: near 300 Hz)
     sp_ax_freq: float = 1012.0  # Hz, spindle axial (paper Sect. 3)
     noise: float = 0.01  # relative complex noise on every line
+    structure_zeta: float = 0.003  # stiffness-proportional damping of the structure (zeta at 600 Hz), k_S's too
     mass_scale: float = 1.0  # another rig: Table 1's masses (and the axial spindle mass) times this
     stiff_scale: float = 1.0  # ... and Table 1's stiffnesses times this (the rig file states the scaled values)
     seed: int = 0
@@ -158,7 +159,7 @@ class Truth:
             k += kc * (np.outer(e, u) + np.outer(u, e))
         # light stiffness-proportional damping of the structure (0.3 % at 600 Hz); the bearing element
         # (k_TB + j w c_TB in series with k_MS) is added per line in frf()
-        c += 0.003 / (math.pi * 600.0) * k
+        c += self.structure_zeta / (math.pi * 600.0) * k
         if self.support_zeta > 0:  # damping in the housing's support: a dashpot beside the air springs
             spring(YH, QP if self.frame_ratio is not None else YF,
                    2 * self.support_zeta * math.sqrt(self.k_TB_MS * self.m_H_total), c)
@@ -402,6 +403,9 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         "fewer averages: noise 3-6 % per line": lambda s: (
             Truth(k_TB=_logk(s, 17, 3e7, 3e8), noise=float(_r(s, 17).uniform(0.03, 0.06)), seed=s), None),
         "lateral mode 1-2 % from the housing mode": lateral_near,
+        "structure damped 0.5-1 % (the spindle's support too), bearing zeta 3-8 %": lambda s: (
+            Truth(k_TB=_logk(s, 20, 3e7, 2e8), zeta_H=float(_r(s, 20).uniform(0.03, 0.08)),
+                  structure_zeta=float(_r(s, 20).uniform(0.005, 0.01)), seed=s), None),
         "bearing zeta 3-8 % with support damping zeta 1-3 %": lambda s: (
             Truth(k_TB=_logk(s, 19, 3e7, 2e8), zeta_H=float(_r(s, 19).uniform(0.03, 0.08)),
                   support_zeta=float(_r(s, 19).uniform(0.01, 0.03)), seed=s), None),
