@@ -88,7 +88,22 @@ class Truth:
     ax_freq: float = 310.0  # Hz, housing axial translation (paper: near 300 Hz)
     sp_ax_freq: float = 1012.0  # Hz, spindle axial (paper Sect. 3)
     noise: float = 0.01  # relative complex noise on every line
+    structure_zeta: float = 0.003  # stiffness-proportional damping of the structure (zeta at 600 Hz), k_S's too
+    mass_scale: float = 1.0  # another rig: Table 1's masses (and the axial spindle mass) times this
+    stiff_scale: float = 1.0  # ... and Table 1's stiffnesses times this (the rig file states the scaled values)
     seed: int = 0
+
+    @property
+    def table(self) -> dict[str, float]:
+        """Table 1 of this rig (scaled masses and stiffnesses; k_MS is the truth's own field)."""
+        out = {key: val * (self.mass_scale if key.startswith("m_") else self.stiff_scale)
+               for key, val in TABLE1.items()}
+        out["k_MS"] = self.k_MS
+        return out
+
+    @property
+    def freq_scale(self) -> float:
+        return math.sqrt(self.stiff_scale / self.mass_scale)
 
     @property
     def k_TB_MS(self) -> float:
@@ -100,7 +115,8 @@ class Truth:
 
     def matrices(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """M, K, C (7 x 7); the flexible frame DOF is stiff and massless-free when absent."""
-        p = TABLE1
+        p = self.table
+        m_xs = 1.5 * self.mass_scale
         n = 7
         m = np.zeros((n, n))
         k = np.zeros((n, n))
@@ -115,7 +131,7 @@ class Truth:
 
         mh = self.m_H_total
         ms = 3 * self.spindle_sensor_mass  # the spindle is rigid: its three sensors ride on y_S and x_S
-        for i, mv in ((YH, mh), (YS, p["m_S"] + ms), (YF, p["m_F"]), (ZH, mh), (XH, mh), (XS, 1.5 + ms),
+        for i, mv in ((YH, mh), (YS, p["m_S"] + ms), (YF, p["m_F"]), (ZH, mh), (XH, mh), (XS, m_xs + ms),
                       (QP, self.m_P)):
             m[i, i] = mv
         k_tbms = self.k_TB_MS
@@ -131,7 +147,7 @@ class Truth:
         spring(ZH, None, mh * (2 * math.pi * self.lat_freq) ** 2, k)
         k_ax = mh * (2 * math.pi * self.ax_freq) ** 2
         spring(XH, XS, k_ax, k)
-        spring(XS, None, 1.5 * (2 * math.pi * self.sp_ax_freq) ** 2, k)
+        spring(XS, None, m_xs * (2 * math.pi * self.sp_ax_freq) ** 2, k)
         # weak elastic cross-coupling (3 %) of the bearing's radial deflection y_H - y_S with the
         # housing's lateral and axial motion (a rigid translation of the rig stays force-free)
         e = np.zeros(n)
@@ -143,7 +159,7 @@ class Truth:
             k += kc * (np.outer(e, u) + np.outer(u, e))
         # light stiffness-proportional damping of the structure (0.3 % at 600 Hz); the bearing element
         # (k_TB + j w c_TB in series with k_MS) is added per line in frf()
-        c += 0.003 / (math.pi * 600.0) * k
+        c += self.structure_zeta / (math.pi * 600.0) * k
         if self.support_zeta > 0:  # damping in the housing's support: a dashpot beside the air springs
             spring(YH, QP if self.frame_ratio is not None else YF,
                    2 * self.support_zeta * math.sqrt(self.k_TB_MS * self.m_H_total), c)
@@ -164,7 +180,7 @@ class Truth:
 
     def _housing_freq_3dof(self) -> float:
         """The housing mode of the 3DOF model (without the frame part), Hz."""
-        p = TABLE1
+        p = self.table
         m = np.diag([self.m_H_total, p["m_S"], p["m_F"]])
         k = np.array([[p["k_AS"] + self.k_TB_MS, -self.k_TB_MS, -p["k_AS"]],
                       [-self.k_TB_MS, self.k_TB_MS + p["k_S"], -p["k_S"]],
@@ -193,7 +209,7 @@ class Truth:
         return out
 
     def rig_text(self, k_MS: float | None = None, k_MS_rel: float | None = None) -> str:
-        params = dict(TABLE1, m_H=self.file_m_H)
+        params = dict(self.table, m_H=self.file_m_H)
         if k_MS is not None:
             params["k_MS"] = k_MS
         tol = dict(TOL, **self.file_tol)
@@ -203,7 +219,9 @@ class Truth:
         text += "".join(f"{key} = {val!r}\n" for key, val in params.items())
         text += '\n[excitation]\nradial = "11+Y"\n\n[uncertainty]\n'
         text += "".join(f"{key} = {val!r}\n" for key, val in tol.items())
-        text += "\n[identification]\nband = [150.0, 1000.0]\nk_MS_band = [700.0, 1100.0]\n"
+        fs = self.freq_scale  # the rig's modes move with sqrt(k/m): so does its band (inside the file's grid)
+        text += (f"\n[identification]\nband = [{150.0 * fs:.1f}, {min(1000.0 * fs, 1050.0):.1f}]\n"
+                 f"k_MS_band = [{min(700.0 * fs, 900.0):.1f}, 1100.0]\n")
         for dof, role, axis in SENSORS:
             text += f'\n[[sensor]]\ndof = "{dof}"\nrole = "{role}"\naxis = "{axis}"\n'
             if role == "housing" and self.sensor_mass > 0 and self.declare_sensor_mass:
@@ -330,6 +348,22 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         f = 1 + (1 if s % 2 else -1) * float(_r(s, 12).uniform(lo, hi))
         return Truth(k_TB=_logk(s, 12, 3e7, 2e8), m_H=TABLE1["m_H"] * f, seed=s), None
 
+    def another_rig(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 16)
+        ms = float(2 ** r.uniform(-1, 1))
+        ks = ms * float(r.uniform(0.85, 1.15)) ** 2
+        fs = math.sqrt(ks / ms)  # the housing's lateral/axial and the spindle's axial modes move with the rig
+        return Truth(k_TB=_logk(s, 16, 3e7, 2e8) * ks, k_MS=TABLE1["k_MS"] * ks, m_H=TABLE1["m_H"] * ms,
+                     file_m_H=TABLE1["m_H"] * ms, mass_scale=ms, stiff_scale=ks, lat_freq=430.0 * fs,
+                     ax_freq=310.0 * fs, sp_ax_freq=1012.0 * fs, seed=s), None
+
+    def lateral_near(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 18)
+        t = Truth(k_TB=_logk(s, 18, 3e7, 2e8), seed=s)
+        sign = 1.0 if r.uniform() < 0.5 else -1.0
+        return Truth(k_TB=t.k_TB, lat_freq=t._housing_freq_3dof() * (1 + sign * float(r.uniform(0.01, 0.02))),
+                     seed=s), None
+
     return {
         "k_TB 1e7..1e9 (log-uniform)": lambda s: (Truth(k_TB=_logk(s, 1), seed=s), None),
         "k_TB 1e7..1e9 (log-spaced grid over the seeds)": lambda s: (Truth(k_TB=_grid(s), seed=s), None),
@@ -364,6 +398,17 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
             None),
         "m_H 10-12 % off the file (tol 0.5 %)": lambda s: mass_near(s, 0.10, 0.12),
         "m_H 4-6 % off the file (tol 0.5 %)": lambda s: mass_near(s, 0.04, 0.06),
+        # r_truth11: a test engineer's other rigs and other days
+        "another rig: masses x0.5-2, stiffnesses to match (modes x0.85-1.15), rig file scaled": another_rig,
+        "fewer averages: noise 3-6 % per line": lambda s: (
+            Truth(k_TB=_logk(s, 17, 3e7, 3e8), noise=float(_r(s, 17).uniform(0.03, 0.06)), seed=s), None),
+        "lateral mode 1-2 % from the housing mode": lateral_near,
+        "structure damped 0.5-1 % (the spindle's support too), bearing zeta 3-8 %": lambda s: (
+            Truth(k_TB=_logk(s, 20, 3e7, 2e8), zeta_H=float(_r(s, 20).uniform(0.03, 0.08)),
+                  structure_zeta=float(_r(s, 20).uniform(0.005, 0.01)), seed=s), None),
+        "bearing zeta 3-8 % with support damping zeta 1-3 %": lambda s: (
+            Truth(k_TB=_logk(s, 19, 3e7, 2e8), zeta_H=float(_r(s, 19).uniform(0.03, 0.08)),
+                  support_zeta=float(_r(s, 19).uniform(0.01, 0.03)), seed=s), None),
     }
 
 

@@ -65,3 +65,41 @@ def rig_modes(params, f_h: float = 626.0) -> list[tuple[float, float, np.ndarray
         (info.spindle_freq * 1.003, 0.01, np.array([b, b, b, 0, 0, info.spindle_mode_ratio * b,
                                                      info.spindle_mode_ratio * b, 0.05 * b])),
     ]
+
+
+def damping_term_by_hand(params, f_abs: float, zeta: float) -> float:
+    """Relative std of the k_TB budget's damping-model term where the phase does not place the damping
+    (oracle, written out here): rectangular, half-width the wider of ``1 - sqrt(1 - 2 zeta^2)``
+    (viscous vs hysteretic proportional) and the shift to the pole read with all of its damping in
+    the bearing. That reading: the complex bearing ``Z`` (in series with ``k_MS``) that zeroes
+    ``det(K0 + k_c e e^T + s^2 M)`` at the pole ``s``, found by ``scipy.optimize.fsolve``; its
+    stiffness ``Re Z - Re s Im Z / Im s`` (dashpot) or ``Re Z`` (hysteretic) in series with ``k_MS``
+    and through the 3DOF eigenvalues (``scipy.linalg.eigvalsh``) gives the frequency."""
+    import math
+
+    import scipy.linalg
+    import scipy.optimize
+
+    p = params
+    w = 2 * math.pi * f_abs
+    s = complex(-zeta * w, w * math.sqrt(1 - zeta**2))
+    mm = np.diag([p.m_H, p.m_S, p.m_F])
+
+    def kmat(k: complex) -> np.ndarray:
+        ka, ks, kb = p.k_AS, p.k_S, p.k_B
+        return np.array([[ka + k, -k, -ka], [-k, k + ks, -ks], [-ka, -ks, ka + ks + kb]], dtype=complex)
+
+    def resid(x: np.ndarray) -> list[float]:
+        z = complex(x[0], x[1]) * 1e7
+        d = np.linalg.det((kmat(1 / (1 / z + 1 / p.k_MS)) + s * s * mm) / 1e8)
+        return [d.real, d.imag]
+
+    k_guess = 1 / (1 / (mm[0, 0] * w * w) - 1 / p.k_MS)
+    zr, zi = scipy.optimize.fsolve(resid, [k_guess / 1e7, 2 * zeta * k_guess / 1e7], xtol=1e-13)
+    z = complex(zr, zi) * 1e7
+    half = 1 - math.sqrt(1 - 2 * zeta**2)
+    for k in (z.real - s.real * z.imag / s.imag, z.real):
+        lam = scipy.linalg.eigvalsh(kmat(1 / (1 / k + 1 / p.k_MS)).real, mm)
+        f_b = math.sqrt(lam[1]) / (2 * math.pi)
+        half = max(half, abs(math.log(f_b / f_abs)))
+    return half / math.sqrt(3)

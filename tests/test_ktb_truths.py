@@ -11,10 +11,10 @@ within 2 standard uncertainties of the truth. One seed per class keeps the runti
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
+from _rig_synth import damping_term_by_hand
 from rig_truth import G, RigTruth, write_case
 
 from ema_rig.cli import main
@@ -123,9 +123,11 @@ def test_hysteretic_damping_within_2_sigma(tmp_path):
     res_h = st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False, damping_model="hysteretic")
     assert abs(res_h.k_TB / truth.k_TB - 1) < abs(res.k_TB / truth.k_TB - 1)
     assert res_h.inverted_freq < res_h.housing_mode["natural_freq"]
+    # the phase does not place the damping (hysteretic everywhere: a real mode), so the term spans the
+    # declared model's alternatives and the all-in-the-bearing reading (0.63 % -> 1.86 % here)
     zeta = res.housing_mode["damping_ratio"]
-    expected = (1 - math.sqrt(1 - 2 * zeta**2)) / math.sqrt(3)
-    assert res.uncertainty.term("damping model").rel_input == pytest.approx(expected, rel=1e-12)
+    expected = damping_term_by_hand(load_rig(rig_path).model, res.housing_mode["natural_freq"], zeta)
+    assert res.uncertainty.term("damping model").rel_input == pytest.approx(expected, rel=1e-9)
 
 
 def test_reversed_sensor_names_its_polarity(tmp_path):

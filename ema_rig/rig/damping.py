@@ -23,7 +23,8 @@ with damped surroundings (``kind`` ``'upper bound'``). Where the housing mode's 
 phase measures the bearing's share ``phi`` of the damping
 (:func:`ema_rig.rig.uncertainty.assess_housing_mode`, its "damping location"), the pole is read with
 ``phi zeta`` in the bearing, the rest leaving ``|lambda|`` alone, and ``c_TB`` is a measurement
-whose std carries the share's (``kind`` ``'measured'``).
+whose std carries the share's (``kind`` ``'measured'``): the share's noise (measured) and, since the
+phase reads the share only as a lower bound, the span up to 1 (model form, ``share_model_std``).
 
 Functions
 ---------
@@ -63,8 +64,9 @@ BEARING_DAMPING_MODELS: tuple[str, ...] = ("viscous", "hysteretic")
 """Bearing damping models: a dashpot in parallel with ``k_TB``, or ``k_TB (1 + j eta)``."""
 
 C_TB_KINDS: dict[DampingKind, str] = {
-    "measured": "the bearing's share of the housing mode's damping measured from its spindle/housing phase "
-                "(damping in the spindle's support lowers that phase: the share, and c_TB, read low by its part)",
+    "measured": "the bearing's share of the housing mode's damping measured from its spindle/housing phase, "
+                "a lower bound (damping in the spindle's support lowers that phase): its std covers the span "
+                "up to all of it",
     "upper bound": "all of the housing mode's damping read as the bearing's (its location not measured)",
 }
 """What ``c_TB`` is, per ``BearingDamping.kind``: a measurement, or an upper bound whose std is the
@@ -316,13 +318,14 @@ def bearing_damping(
     model: DampingModel = "viscous",
     share: float | None = None,
     share_std: float = 0.0,
+    share_model_std: float = 0.0,
 ) -> BearingDamping:
     """Bearing damping ``c_TB`` and loss factor with standard uncertainties.
 
     The stds propagate (linearised, central differences of relative step 1e-4, inputs
     uncorrelated) the identified ``natural_freq_std`` and ``damping_ratio_std`` (measured),
-    the bearing's measured ``share_std`` (measured) and the relative tolerances of the model
-    parameters in ``rel_unc`` (missing names: none).
+    the bearing's measured ``share_std`` (measured), its ``share_model_std`` (model form) and the
+    relative tolerances of the model parameters in ``rel_unc`` (missing names: none).
 
     Without ``share`` the pole is read with all of its damping in the bearing: an upper bound
     (``kind`` ``'upper bound'``). With it, ``share * damping_ratio`` is the bearing's (the rest,
@@ -346,7 +349,11 @@ def bearing_damping(
     share : float, optional
         The bearing's measured share of the damping, in [0, 1]; None: all of it (upper bound).
     share_std : float
-        Its standard uncertainty.
+        Its standard uncertainty from the measurement (the phase's noise): in ``c_TB_std_measured``.
+    share_model_std : float
+        Its model-form standard uncertainty (where in its span the share lies,
+        :class:`ema_rig.rig.uncertainty.DampingLocation`): in ``c_TB_std``, not in
+        ``c_TB_std_measured``.
 
     Returns
     -------
@@ -392,10 +399,15 @@ def bearing_damping(
     if natural_freq_std > 0:
         add(var_m, _read(f * (1 + h), z, params, model), _read(f * (1 - h), z, params, model), f * h,
             float(natural_freq_std))
-    if z_std > 0:
+    z_model_std = float(damping_ratio) * float(share_model_std if share is not None else 0.0)
+    if z_std > 0 or z_model_std > 0:
         dz = max(z * h, 1e-7)
         lo = max(z - dz, 0.0)  # one-sided at zero damping
-        add(var_m, _read(f, z + dz, params, model), _read(f, lo, params, model), (z + dz - lo) / 2, z_std)
+        plus_z, minus_z, step_z = _read(f, z + dz, params, model), _read(f, lo, params, model), (z + dz - lo) / 2
+        if z_std > 0:
+            add(var_m, plus_z, minus_z, step_z, z_std)
+        if z_model_std > 0:
+            add(var_a, plus_z, minus_z, step_z, z_model_std)
     for name, u in (rel_unc or {}).items():
         if name not in MODEL_KEYS or not u:
             continue
@@ -413,5 +425,5 @@ def bearing_damping(
                           loss_factor_std=math.sqrt(var_m["eta"] + var_a["eta"]), k_TB=float(k),
                           c_TB_std_measured=math.sqrt(var_m["c"]),
                           kind="upper bound" if share is None else "measured", share=share,
-                          share_std=None if share is None else float(share_std), c_TB_upper=float(upper),
+                          share_std=None if share is None else math.hypot(share_std, share_model_std), c_TB_upper=float(upper),
                           c_TB_upper_std=float(upper_std))

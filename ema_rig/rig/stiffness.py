@@ -792,7 +792,8 @@ def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, floa
                                natural_freq_std=std("natural_freq_std"), damping_ratio_std=std("damping_ratio_std"),
                                rel_unc=rel, model=damping_model,
                                share=None if location is None else float(location.share),
-                               share_std=0.0 if location is None else float(location.share_std))
+                               share_std=0.0 if location is None else float(location.share_std),
+                               share_model_std=0.0 if location is None else float(location.share_span_std))
     except (InversionError, ValueError, ZeroDivisionError) as exc:
         logger.info("bearing damping not available: %s", exc)
         return None
@@ -879,7 +880,7 @@ def calibrate(
         data, rig, band=band, max_order=max_order, speed_hz=None, spindle=False,
         progress=progress, file=file,
     )
-    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file)
+    asm = assess_housing_mode(m, ident.modes, rig, damping_model=damping_model, file=file, bearing=False)
     id_warns, id_notes = _identification_caveats(ident, m, asm)
     f_d = asm.inverted_freq
     # measured and model-form frequency terms act on k_TB+MS through the same slope
