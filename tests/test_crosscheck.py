@@ -132,8 +132,12 @@ def test_dam0_flags_follow_the_combined_sigma_and_the_peer_only_modes_are_listed
         if not r.found:
             assert r.flags == ("missing",)
         else:
-            big_f = abs(r.natural_freq_peer - r.natural_freq) > np.hypot(r.natural_freq_std, r.natural_freq_std_peer)
-            big_z = abs(r.damping_ratio_peer - r.damping_ratio) > np.hypot(r.damping_ratio_std, r.damping_ratio_std_peer)
+            # a sigma the peer cannot give (a cluster of one order: no spread) counts as 0, as documented;
+            # with one BLAS thread sdypy-EMA has the 7.28 Hz pole at exactly one order (NaN sigma)
+            big_f = abs(r.natural_freq_peer - r.natural_freq) > np.hypot(
+                r.natural_freq_std, np.nan_to_num(r.natural_freq_std_peer))
+            big_z = abs(r.damping_ratio_peer - r.damping_ratio) > np.hypot(
+                r.damping_ratio_std, np.nan_to_num(r.damping_ratio_std_peer))
             assert ("f" in r.flags) == big_f and ("zeta" in r.flags) == big_z
         line = next(ln for ln in cc.table().splitlines() if ln.strip().startswith(f"{r.natural_freq:.4f}"))
         assert line.rstrip().endswith(",".join(r.flags) or "-")
