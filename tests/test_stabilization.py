@@ -168,3 +168,35 @@ def test_bad_selection_json(tmp_path):
     p.write_text('{"format": "something else"}')
     with pytest.raises(IdentificationError, match="not a valid mode selection"):
         Selection.from_json(p)
+
+
+def test_modes_of_all_clusters_at_once_are_each_clusters_mode(mimo):
+    """The judge forms the modes of all clusters in one pass (``_modes_from_rows``); each is the mode of its
+    cluster alone, to the bit: mean and sample standard deviation (0 for one pole) of the natural
+    frequencies and damping ratios, extreme orders, and as representative the member nearest to the
+    cluster's medians.
+
+    Oracle: numpy's ``mean``, ``std`` and ``median`` of each cluster on its own, and the representative
+    written out from its definition. Clusters: those of the five-mode system, one cut to a single pole,
+    one with a tied frequency (an even-sized cluster: the median is the mean of the two middle values).
+    """
+    from ema_rig.identification.stabilization import _modes_from_rows, cluster_poles, order_ranks
+
+    stab = mimo[2].stabilization
+    clusters = cluster_poles(stab)
+    clusters = [*clusters, clusters[0][:1], clusters[1][:4]]
+    modes = _modes_from_rows(stab, clusters, "auto", order_ranks(stab))
+    assert len(modes) == len(clusters) >= 7
+    for rows, m in zip(clusters, modes, strict=True):
+        fn, zeta = stab.natural_freq[rows], stab.damping_ratio[rows]
+        ddof = 1 if rows.size > 1 else 0
+        assert m.natural_freq == float(np.mean(fn)) and m.damping_ratio == float(np.mean(zeta))
+        assert m.natural_freq_std == float(np.std(fn, ddof=ddof)) and m.damping_ratio_std == float(np.std(zeta, ddof=ddof))
+        mf, mz = np.median(fn), np.median(zeta)
+        rep = int(rows[np.argmin(np.abs(fn - mf) / mf + 0.05 * np.abs(zeta - mz) / max(abs(mz), 1e-12))])
+        assert m.pole == complex(stab.pole[rep]) and m.order == int(stab.order[rep])
+        assert m.index == int(np.flatnonzero(stab.poles.at_order(m.order) == rep)[0])
+        assert (m.n_poles, m.order_min, m.order_max) == (rows.size, stab.order[rows].min(), stab.order[rows].max())
+        assert m.participation == tuple(complex(c) for c in stab.participation[rep])
+    with pytest.raises(ValueError, match="without rows"):
+        _modes_from_rows(stab, [clusters[0][:0]], "auto")
