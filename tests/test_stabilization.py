@@ -200,3 +200,50 @@ def test_modes_of_all_clusters_at_once_are_each_clusters_mode(mimo):
         assert m.participation == tuple(complex(c) for c in stab.participation[rep])
     with pytest.raises(ValueError, match="without rows"):
         _modes_from_rows(stab, [clusters[0][:0]], "auto")
+
+
+def test_status_letters_of_many_orders_follow_their_definition():
+    """Every pole's letter, the orders compared all at once, is the one its definition gives.
+
+    Oracle: written out pole by pole here. The reference of a pole is the stable pole (Re < 0) of the
+    previous computed order nearest in frequency (the lower one of two equally near); ``f`` frequency
+    within ``freq_tol`` (and the pole itself stable), ``d`` also damping within ``damping_tol``, ``v``
+    also ``1 - MAC`` of the participation within ``mac_tol``, ``s`` both; the first order and an order
+    after one without stable poles are all ``o``. 40 orders of random poles on 3 references, a fifth
+    unstable, clustered near 12 frequencies so that every letter occurs; an empty order in the middle.
+    """
+    rng = np.random.default_rng(5)
+    rows = []
+    centres = rng.uniform(50.0, 900.0, 12)
+    shapes = rng.normal(size=(12, 3)) + 1j * rng.normal(size=(12, 3))
+    for order in range(2, 82, 2):
+        if order == 40:
+            continue  # no poles at order 40: order 42 has no reference
+        for _ in range(rng.integers(3, 15)):
+            c = rng.integers(12)
+            fn = centres[c] * (1 + rng.normal(0, 0.006))
+            zeta = 0.02 * (1 + rng.normal(0, 0.05))
+            lam = _pole(fn, zeta)
+            rows.append((order, -lam.conjugate() if rng.uniform() < 0.2 else lam,
+                         shapes[c] + rng.normal(0, rng.choice([0.02, 0.5]), 3)))
+    order = np.array([r[0] for r in rows])
+    pole = np.array([r[1] for r in rows])
+    part = np.array([r[2] for r in rows])
+    ps = PoleSet(order=order, pole=pole, participation=part, band=(0, 1000), orders=tuple(range(2, 82, 2)))
+    tol = {"freq_tol": 0.01, "damping_tol": 0.05, "mac_tol": 0.02}
+    got = stabilize(ps, **tol).status
+    fn, zeta = np.abs(pole) / (2 * np.pi), -pole.real / np.abs(pole)
+    want = []
+    for i in range(len(rows)):
+        prev = [k for k in range(len(rows)) if order[k] == order[i] - 2 and pole[k].real < 0]
+        if not prev:
+            want.append("o")
+            continue
+        ref = min(prev, key=lambda k: (abs(fn[k] - fn[i]), fn[k]))
+        mac_ = abs(np.vdot(part[ref], part[i])) ** 2 / (np.vdot(part[i], part[i]).real * np.vdot(part[ref], part[ref]).real)
+        ok_f = abs(fn[i] - fn[ref]) / fn[ref] <= tol["freq_tol"] and pole[i].real < 0
+        ok_d = ok_f and abs(zeta[i] - zeta[ref]) / zeta[ref] <= tol["damping_tol"]
+        ok_v = ok_f and 1 - mac_ <= tol["mac_tol"]
+        want.append("s" if ok_d and ok_v else "d" if ok_d else "v" if ok_v else "f" if ok_f else "o")
+    assert list(got) == want
+    assert set(want) == {"o", "f", "d", "v", "s"}

@@ -210,28 +210,40 @@ def stabilize(
     zeta = poles.damping_ratio
     part = poles.participation
     stable_pole = poles.pole.real < 0
-    prev: NDArray[np.intp] | None = None
-    for order in poles.orders:
-        cur = poles.at_order(order)
-        if prev is not None and prev.size and cur.size:
-            pf = fn[prev]
-            j = np.searchsorted(pf, fn[cur])
-            lo = np.clip(j - 1, 0, pf.size - 1)
-            hi = np.clip(j, 0, pf.size - 1)
-            pick = np.where(np.abs(pf[lo] - fn[cur]) <= np.abs(pf[hi] - fn[cur]), lo, hi)
-            ref = prev[pick]
-            df = np.abs(fn[cur] - fn[ref]) / fn[ref]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                dz = np.abs(zeta[cur] - zeta[ref]) / np.abs(zeta[ref])
-            num = np.abs(np.sum(part[cur].conj() * part[ref], axis=1)) ** 2
-            den = np.sum(np.abs(part[cur]) ** 2, axis=1) * np.sum(np.abs(part[ref]) ** 2, axis=1)
-            dm = 1.0 - num / np.where(den > 0, den, 1.0)
-            ok_f = (df <= freq_tol) & stable_pole[cur]
-            ok_d = ok_f & (dz <= damping_tol)
-            ok_v = ok_f & (dm <= mac_tol)
-            st = np.where(ok_d & ok_v, "s", np.where(ok_d, "d", np.where(ok_v, "v", np.where(ok_f, "f", "o"))))
-            status[cur] = st
-        prev = cur[stable_pole[cur]]
+    # every order's poles (by frequency) against the stable poles of the order before it, all orders at once
+    groups = [poles.at_order(order) for order in poles.orders]
+    prev = [g[stable_pole[g]] for g in groups]
+    n_prev = np.array([p.size for p in prev], dtype=np.intp)
+    asked = [i for i in range(1, len(groups)) if n_prev[i - 1] and groups[i].size]
+    if asked:
+        cur = np.concatenate([groups[i] for i in asked])
+        g_cur = np.repeat(np.array(asked, dtype=np.intp) - 1, [groups[i].size for i in asked])  # the order before
+        p_rows = np.concatenate(prev)  # by order, then by frequency (each order's at_order)
+        p_start = np.concatenate([[0], np.cumsum(n_prev)[:-1]]).astype(np.intp)
+        # searchsorted of each pole among its previous order's stable poles: how many of them lie below it
+        # (one merged sort by order, frequency, and the asked pole first among equal frequencies)
+        g_all = np.concatenate([np.repeat(np.arange(len(groups)), n_prev), g_cur])
+        f_all = np.concatenate([fn[p_rows], fn[cur]])
+        is_p = np.concatenate([np.ones(p_rows.size, np.intp), np.zeros(cur.size, np.intp)])
+        merged = np.lexsort((is_p, f_all, g_all))
+        below = np.empty(merged.size, np.intp)
+        below[merged] = np.cumsum(is_p[merged])
+        size = n_prev[g_cur]
+        j = below[p_rows.size:] - p_start[g_cur]
+        lo = p_start[g_cur] + np.clip(j - 1, 0, size - 1)
+        hi = p_start[g_cur] + np.clip(j, 0, size - 1)
+        f_cur = fn[cur]
+        ref = p_rows[np.where(np.abs(fn[p_rows[lo]] - f_cur) <= np.abs(fn[p_rows[hi]] - f_cur), lo, hi)]
+        df = np.abs(f_cur - fn[ref]) / fn[ref]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dz = np.abs(zeta[cur] - zeta[ref]) / np.abs(zeta[ref])
+        num = np.abs(np.sum(part[cur].conj() * part[ref], axis=1)) ** 2
+        den = np.sum(np.abs(part[cur]) ** 2, axis=1) * np.sum(np.abs(part[ref]) ** 2, axis=1)
+        dm = 1.0 - num / np.where(den > 0, den, 1.0)
+        ok_f = (df <= freq_tol) & stable_pole[cur]
+        ok_d = ok_f & (dz <= damping_tol)
+        ok_v = ok_f & (dm <= mac_tol)
+        status[cur] = np.where(ok_d & ok_v, "s", np.where(ok_d, "d", np.where(ok_v, "v", np.where(ok_f, "f", "o"))))
     return StabilizationData(
         poles, status, {"freq_tol": freq_tol, "damping_tol": damping_tol, "mac_tol": mac_tol}
     )
