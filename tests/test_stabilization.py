@@ -247,3 +247,33 @@ def test_status_letters_of_many_orders_follow_their_definition():
         want.append("s" if ok_d and ok_v else "d" if ok_d else "v" if ok_v else "f" if ok_f else "o")
     assert list(got) == want
     assert set(want) == {"o", "f", "d", "v", "s"}
+
+
+def test_clusters_keep_per_order_the_pole_nearest_their_median(mimo):
+    """``cluster_poles`` (all labels' members chosen at once) keeps, of each linkage cluster, one pole per
+    order, the one nearest the cluster's median frequency (the first row of equally near ones), and
+    lists the clusters by the median frequency of the poles kept.
+
+    Oracle: the rule written out here label by label from the linkage labels, with numpy's median.
+    """
+    from ema_rig.identification.criteria import STABILIZATION_CRITERIA as crit
+    from ema_rig.identification.stabilization import _linkage_labels, cluster_poles
+
+    stab = mimo[2].stabilization
+    for statuses in (("s",), ("s", "d", "v", "f")):
+        got = cluster_poles(stab, statuses=statuses)
+        f_tol, z_tol, m_tol = crit.cluster_scales(None, None, None)
+        zeta = stab.damping_ratio
+        cand = np.flatnonzero(np.isin(stab.status, list(statuses)) & (zeta > 0) & (zeta <= 0.2) & ~stab.unstable)
+        labels = _linkage_labels(stab, cand, f_tol, z_tol, m_tol)
+        want = []
+        for lab in np.unique(labels):
+            rows = cand[labels == lab]
+            med = np.median(stab.natural_freq[rows])
+            keep = [min((r for r in rows if stab.order[r] == o), key=lambda r: (abs(stab.natural_freq[r] - med), r))
+                    for o in sorted(set(stab.order[rows]))]
+            want.append(np.array(keep))
+        want.sort(key=lambda r: float(np.median(stab.natural_freq[r])))
+        assert len(got) == len(want) >= 5
+        for g, w in zip(got, want, strict=True):
+            assert list(g) == list(w)

@@ -491,18 +491,6 @@ class Selection:
         return [m.to_dict() for m in self.modes]
 
 
-def _cluster_members(stab: StabilizationData, rows: NDArray[np.intp]) -> NDArray[np.intp]:
-    """Keep at most one pole per order: the one closest to the cluster's median frequency."""
-    fn = stab.natural_freq[rows]
-    med = np.median(fn)
-    order = stab.order[rows]
-    key = np.lexsort((np.abs(fn - med), order))
-    rows, order = rows[key], order[key]
-    first = np.ones(rows.size, bool)
-    first[1:] = order[1:] != order[:-1]
-    return rows[first]
-
-
 def order_ranks(stab: StabilizationData) -> NDArray[np.intp]:
     """For every row, its position among its order's poles sorted by frequency (all rows at once)."""
     key = np.lexsort((stab.natural_freq, stab.order))
@@ -663,8 +651,28 @@ def cluster_poles(
         np.isin(stab.status, list(wanted)) & (zeta > 0) & (zeta <= max_damping) & ~stab.unstable
     )
     labels = _linkage_labels(stab, cand, freq_tol, damping_tol, mac_tol)
-    out = [_cluster_members(stab, cand[labels == lab]) for lab in np.unique(labels)]
-    return sorted(out, key=lambda r: float(np.median(stab.natural_freq[r])))
+    if cand.size == 0:
+        return []
+    # each label's rows (ascending, as cand holds them), one pole per order: the one closest to the
+    # label's median frequency (all labels at once: the medians by one sort, then one sort by label,
+    # order and distance to the median, the first of each order kept)
+    by_label = np.argsort(labels, kind="stable")
+    rows, lab = cand[by_label], labels[by_label]
+    sizes = np.diff(np.flatnonzero(np.concatenate([[True], lab[1:] != lab[:-1], [True]])))
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
+    fn = stab.natural_freq[rows]
+    med = _segment_medians(fn, starts, sizes)
+    group = np.repeat(np.arange(sizes.size), sizes)
+    order = stab.order[rows]
+    key = np.lexsort((np.abs(fn - np.repeat(med, sizes)), order, group))
+    rows, order, group = rows[key], order[key], group[key]
+    first = np.ones(rows.size, bool)
+    first[1:] = (order[1:] != order[:-1]) | (group[1:] != group[:-1])
+    rows, group = rows[first], group[first]
+    cut = np.flatnonzero(np.concatenate([[True], group[1:] != group[:-1]]))
+    out = np.split(rows, cut[1:])
+    at = _segment_medians(stab.natural_freq[rows], cut.astype(np.intp), np.diff(np.concatenate([cut, [rows.size]])))
+    return [out[i] for i in sorted(range(len(out)), key=lambda i: float(at[i]))]
 
 
 def select_modes(
