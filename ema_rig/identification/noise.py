@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import IdentificationError
 from .criteria import COMPLETENESS_CRITERIA, CompletenessCriteria
-from .modal import pole_residue_basis
+from .modal import modal_basis, unit_real_basis
 
 #: Largest coherence used in :func:`coherence_variance`: keeps the variance of a line finite
 #: (relative std >= 0.1 % / sqrt(n_averages)) where an analyser writes exactly 1.
@@ -816,6 +816,7 @@ def segment_misfit(
     variance: NDArray[np.float64] | None = None,
     edges: ArrayLike | None = None,
     criteria: CompletenessCriteria = COMPLETENESS_CRITERIA,
+    pole_columns: NDArray[np.complex128] | None = None,
 ) -> MisfitTest:
     """Do given poles explain the FRFs to the noise? A chi-square test per band segment and channel.
 
@@ -852,6 +853,9 @@ def segment_misfit(
         :func:`segment_edges` of the poles).
     criteria : CompletenessCriteria, optional
         Level, misfit ratio and segment width (:data:`~ema_rig.identification.criteria.COMPLETENESS_CRITERIA`).
+    pole_columns : ndarray, shape (n_freq, 2 n_modes), complex, optional
+        :func:`~ema_rig.identification.modal.modal_basis` of ``poles`` on ``freq`` without residual columns,
+        when the caller has it (e.g. its rows of a larger set of lines: the same numbers); default formed here.
 
     Returns
     -------
@@ -880,6 +884,10 @@ def segment_misfit(
     edges = (segment_edges(f, fn, -lam.real / np.maximum(np.abs(lam), 1e-300), criteria=criteria)
              if edges is None else np.asarray(edges, dtype=np.intp))
     n_seg = edges.size - 1
+    # the pole columns on every line, formed once: each segment's fit takes its lines' rows and its poles'
+    # columns (the numbers pole_residue_basis forms on those lines, before the columns are scaled)
+    if lam.size and pole_columns is None:
+        pole_columns = modal_basis(np.asarray(2j * np.pi * f, dtype=np.complex128), lam, power, residuals=False)
     # |residual|^2 and |model|^2 of every line (0 on lines left out), formed segment by segment
     resid2 = np.zeros(y.shape)
     model2 = np.zeros(y.shape)
@@ -906,8 +914,9 @@ def segment_misfit(
         near = np.sort(near[:n_max])
         m_seg[s_i] = int(np.sum((fn >= lo) & (fn <= hi)))
         cols = []
-        if near.size:
-            cols.append(pole_residue_basis(f[idx], lam[near], power, residuals=False)[0])
+        if near.size and pole_columns is not None:
+            cb = np.ascontiguousarray(pole_columns[idx][:, np.concatenate([near, lam.size + near])])
+            cols.append(unit_real_basis(cb)[0])
         if deg >= 0:
             x = f[idx] - 0.5 * (lo + hi)
             x = x / max(float(np.max(np.abs(x))), 1e-300)
