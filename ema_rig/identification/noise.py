@@ -507,7 +507,9 @@ def _bound_coefficients(e_lo: int, e_hi: int, grid: NDArray[np.float64]
     kb = _BOUND_BINS
     g_key = grid.tobytes()
     keys: list[int | tuple[str, int]] = [("below", e_lo), *range(e_lo, e_hi + 1)]
-    missing = [k for k in keys if (g_key, k) not in _BOUND_CACHE]
+    # the entries this call uses, held here: another thread may empty the cache meanwhile
+    have = {k: hit for k in keys if (hit := _BOUND_CACHE.get((g_key, k))) is not None}
+    missing = [k for k in keys if k not in have]
     if missing:
         frac = np.arange(kb) / (2 * kb) + 0.5
         lo_l: list[NDArray[np.float64]] = []
@@ -520,17 +522,19 @@ def _bound_coefficients(e_lo: int, e_hi: int, grid: NDArray[np.float64]
                 lo_l.append(np.ldexp(frac, k))
                 hi_l.append(np.ldexp(frac + 0.5 / kb, k))
         c_s, c_t = _bin_coefficients(np.concatenate(lo_l), np.concatenate(hi_l), grid)
+        c_s.setflags(write=False)  # shared by later fits
+        c_t.setflags(write=False)
         if len(_BOUND_CACHE) + len(missing) > _BOUND_CACHE_SIZE:
             _BOUND_CACHE.clear()
         i = 0
         for k, lo_k in zip(missing, lo_l, strict=True):
-            _BOUND_CACHE[(g_key, k)] = (c_s[i:i + lo_k.size], c_t[i:i + lo_k.size])
+            have[k] = _BOUND_CACHE[(g_key, k)] = (c_s[i:i + lo_k.size], c_t[i:i + lo_k.size])
             i += lo_k.size
     n_g = grid.size
     # bin 0 (u = 0): exactly z in s; no line in t
     first_s = np.zeros((1, 3, 2 * n_g))
     first_s[0, 0] = 1.0
-    parts = [_BOUND_CACHE[(g_key, k)] for k in keys]
+    parts = [have[k] for k in keys]
     c_s = np.concatenate([first_s, *(p[0] for p in parts)])
     c_t = np.concatenate([np.zeros((1, 4, 2 * n_g)), *(p[1] for p in parts)])
     n_b = c_s.shape[0]
