@@ -33,10 +33,13 @@ from typing import Any
 REPO = Path(__file__).resolve().parent.parent
 
 STAGES = {
-    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml", "_local_ml_staged", "_lsfd_at", "_misfit_at", "_lsfd_checked",
+    "ema_rig.identification.identification": ["_complete", "_fit_modes", "_local_ml_staged", "_lsfd_at", "_misfit_at", "_lsfd_checked",
                                               "_reported_model", "judge_clusters", "stabilize", "cluster_poles",
-                                              "diagnose_frf", "_split", "_parsimonious", "_skirt_warnings"],
-    "ema_rig.identification.noise": ["fit_noise_model", "segment_misfit"],
+                                              "diagnose_frf", "_split", "_split_start", "_parsimonious",
+                                              "_skirt_warnings", "segment_misfit", "_one_line"],
+    # the noise fit inside the completeness test; the judge's LSFD
+    "ema_rig.identification.noise": ["fit_noise_model"],
+    "ema_rig.identification.judge": ["_fit"],
     # inside the local ML: the segments' fits, their scores and covariances, the whole-basis (model-form) refits
     "ema_rig.identification.ml": ["_lm", "_segment_tail", "_whole_basis"],
 }
@@ -54,6 +57,7 @@ def main() -> None:
     warnings.simplefilter("ignore")
     sys.path.insert(0, str(REPO / "benchmarks"))
     import ema_rig.identification.identification  # noqa: F401  (the module, not the package's function)
+    import ema_rig.identification.judge  # noqa: F401
     import ema_rig.identification.ml  # noqa: F401
     import ema_rig.identification.noise  # noqa: F401
     import ema_rig.identification.plscf  # noqa: F401

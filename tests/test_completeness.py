@@ -196,3 +196,46 @@ def test_ml_records_the_feature_a_held_pole_moved_to():
             assert abs(r.moved_to[0] - true) < 1e-4 * abs(true), (r.moved_to, true)
         else:
             assert np.isnan(r.moved_to[0])
+
+
+def test_segment_chi_square_is_its_least_squares_fit():
+    """The chi-square of a segment is that of its local least-squares fit: the modes' Re/Im residue columns
+    and a complex quadratic per channel, residues free, against the given noise variance; the pole columns
+    may come from the caller (rows of the columns on a larger set of lines, as the split test passes them).
+
+    Oracle: the fit written out here from the modal model's definition
+    (``(jw)^2 / (jw - lambda) + c.c.`` terms, ``numpy.linalg.lstsq``), ``chi2 = sum 2 |e|^2 / var`` over the
+    channels and lines with ``2 L - P`` dof per channel; rtol 1e-9 (two least-squares solutions of a
+    well-conditioned system, ~1e-13 apart).
+    """
+    from ema_rig.identification.modal import modal_basis
+
+    sys5 = five_mode_system(close_pair=False)
+    d = sys5.frf(FREQ, inputs=[0, 1], noise=0.01, rng=np.random.default_rng(3)).band(50, 950)
+    poles = sys5.poles[sys5.natural_freq < 900]
+    y = d.frf.reshape(-1, d.freq.size)
+    var = np.full(y.shape, 1e-3) * (1 + np.arange(y.shape[0]))[:, None] * np.mean(np.abs(y) ** 2)
+    sl = (d.freq >= 380.0) & (d.freq <= 440.0)
+    f, ys, n = d.freq[sl], y[:, sl], int(sl.sum())
+    jw = 2j * np.pi * f
+    fn, width = np.abs(poles) / (2 * np.pi), f[-1] - f[0]
+    near = poles[(fn >= f[0] - width) & (fn <= f[-1] + width)]  # the modes within a segment width of its lines
+    assert 1 <= near.size < poles.size
+    cols = [jw**2 / (jw - p) + jw**2 / (jw - np.conj(p)) for p in near]
+    cols += [1j * (jw**2 / (jw - p) - jw**2 / (jw - np.conj(p))) for p in near]
+    x = (f - 0.5 * (f[0] + f[-1])) / (0.5 * (f[-1] - f[0]))
+    cols += [x**k + 0j for k in range(3)] + [1j * x**k for k in range(3)]
+    a = np.stack(cols, axis=1)
+    a_r = np.concatenate([a.real, a.imag])  # real unknowns: Re / Im rows stacked
+    chi2, dof = 0.0, 0.0
+    for c in range(ys.shape[0]):
+        b = np.concatenate([ys[c].real, ys[c].imag])
+        e = b - a_r @ np.linalg.lstsq(a_r, b, rcond=None)[0]
+        chi2 += float(np.sum(2 * (e[:n] ** 2 + e[n:] ** 2) / var[c, sl]))
+        dof += 2 * n - a_r.shape[1]
+    m_own = int(np.sum((fn >= f[0]) & (fn <= f[-1])))  # the segment's own modes: 2 dof each, estimated there
+    want = chi2 / (dof - 2 * m_own)
+    whole = modal_basis(2j * np.pi * d.freq, poles, 2, residuals=False)
+    for columns in (None, whole[sl]):
+        t = segment_misfit(f, ys, poles, power=2, variance=var[:, sl], edges=[0, n], pole_columns=columns)
+        assert t.ratio[0] == pytest.approx(want, rel=1e-9)

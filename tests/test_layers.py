@@ -97,7 +97,7 @@ PRIVATE_ALLOWED: frozenset[tuple[str, str, str]] = frozenset({
     ("ema_rig.identification.judge", "ema_rig.identification.lsfd", "_design"),
     ("ema_rig.identification.judge", "ema_rig.identification.lsfd", "_output_chunks"),
     ("ema_rig.identification.judge", "ema_rig.identification.lsfd", "_projector"),
-    ("ema_rig.identification.judge", "ema_rig.identification.stabilization", "_mode_from_rows"),
+    ("ema_rig.identification.judge", "ema_rig.identification.stabilization", "_modes_from_rows"),
     ("ema_rig.identification.identification", "ema_rig.identification.lsfd", "_lsfd_checked"),
     ("ema_rig.identification.identification", "ema_rig.identification.lsfd", "_lsfd_noise_weighted"),
     ("ema_rig.identification.identification", "ema_rig.identification.judge", "_fit"),

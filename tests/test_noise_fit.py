@@ -198,3 +198,36 @@ def test_noise_fit_of_a_channel_with_a_nan_line_is_nan_and_leaves_the_others():
     for c in (0, 2, 4, 12, 14, 39):
         a1, b1, _ = fit_noise_model(z[c:c + 1], u[c:c + 1])
         assert a[c] == a1[0] and b[c] == b1[0]
+
+
+def test_bound_coefficients_from_the_cache_are_those_formed_anew():
+    """The bins' bound coefficients kept per octave (``noise._BOUND_CACHE``, shared by the fits of one
+    process) are the numbers a fit with an empty cache forms, to the bit, whichever fit formed them first.
+
+    Oracle: the coefficients of the same exponent range formed with the cache emptied, and the
+    per-bin formulas (``_bin_coefficients``) evaluated at the bins' edges in one call, assembled in the
+    layout of ``_noise_bounds``' products (row ``k n_b + b``: sum ``k`` of bin ``b``). Exact equality
+    is the claim: the same operations on the same edges, only formed at another time.
+    """
+    import ema_rig.identification.noise as noise
+
+    grid = np.concatenate([[0.0], np.logspace(-4.0, 8.0, 49)])
+    noise._BOUND_CACHE.clear()
+    fresh = noise._bound_coefficients(-18, 5, grid)
+    noise._BOUND_CACHE.clear()
+    noise._bound_coefficients(-30, -2, grid)  # another fit's range first: octaves -18..-2 come from the cache
+    noise._bound_coefficients(3, 9, grid)
+    warm = noise._bound_coefficients(-18, 5, grid)
+    for a, b in zip(fresh, warm, strict=True):
+        assert a.shape == b.shape and a.tobytes() == b.tobytes()
+    kb = noise._BOUND_BINS
+    frac = np.arange(kb) / (2 * kb) + 0.5
+    octs = np.arange(-18, 6)
+    lo = np.concatenate([[0.0, 0.0], np.ldexp(np.tile(frac, octs.size), np.repeat(octs, kb))])
+    hi = np.concatenate([[0.0, np.ldexp(0.5, -18)], np.ldexp(np.tile(frac + 0.5 / kb, octs.size), np.repeat(octs, kb))])
+    c_s, c_t = noise._bin_coefficients(lo, hi, grid)
+    n_b = lo.size
+    c_s[0] = [[1.0] * (2 * grid.size), [0.0] * (2 * grid.size), [0.0] * (2 * grid.size)]  # bin 0 (u = 0): z alone
+    c_t[0] = 0.0
+    assert np.array_equal(warm[0], c_s.transpose(1, 0, 2).reshape(3 * n_b, -1))
+    assert np.array_equal(warm[1], c_t.transpose(1, 0, 2).reshape(4 * n_b, -1))

@@ -168,3 +168,112 @@ def test_bad_selection_json(tmp_path):
     p.write_text('{"format": "something else"}')
     with pytest.raises(IdentificationError, match="not a valid mode selection"):
         Selection.from_json(p)
+
+
+def test_modes_of_all_clusters_at_once_are_each_clusters_mode(mimo):
+    """The judge forms the modes of all clusters in one pass (``_modes_from_rows``); each is the mode of its
+    cluster alone, to the bit: mean and sample standard deviation (0 for one pole) of the natural
+    frequencies and damping ratios, extreme orders, and as representative the member nearest to the
+    cluster's medians.
+
+    Oracle: numpy's ``mean``, ``std`` and ``median`` of each cluster on its own, and the representative
+    written out from its definition. Clusters: those of the five-mode system, one cut to a single pole,
+    one with a tied frequency (an even-sized cluster: the median is the mean of the two middle values).
+    """
+    from ema_rig.identification.stabilization import _modes_from_rows, cluster_poles, order_ranks
+
+    stab = mimo[2].stabilization
+    clusters = cluster_poles(stab)
+    clusters = [*clusters, clusters[0][:1], clusters[1][:4]]
+    modes = _modes_from_rows(stab, clusters, "auto", order_ranks(stab))
+    assert len(modes) == len(clusters) >= 7
+    for rows, m in zip(clusters, modes, strict=True):
+        fn, zeta = stab.natural_freq[rows], stab.damping_ratio[rows]
+        ddof = 1 if rows.size > 1 else 0
+        assert m.natural_freq == float(np.mean(fn)) and m.damping_ratio == float(np.mean(zeta))
+        assert m.natural_freq_std == float(np.std(fn, ddof=ddof)) and m.damping_ratio_std == float(np.std(zeta, ddof=ddof))
+        mf, mz = np.median(fn), np.median(zeta)
+        rep = int(rows[np.argmin(np.abs(fn - mf) / mf + 0.05 * np.abs(zeta - mz) / max(abs(mz), 1e-12))])
+        assert m.pole == complex(stab.pole[rep]) and m.order == int(stab.order[rep])
+        assert m.index == int(np.flatnonzero(stab.poles.at_order(m.order) == rep)[0])
+        assert (m.n_poles, m.order_min, m.order_max) == (rows.size, stab.order[rows].min(), stab.order[rows].max())
+        assert m.participation == tuple(complex(c) for c in stab.participation[rep])
+    with pytest.raises(ValueError, match="without rows"):
+        _modes_from_rows(stab, [clusters[0][:0]], "auto")
+
+
+def test_status_letters_of_many_orders_follow_their_definition():
+    """Every pole's letter, the orders compared all at once, is the one its definition gives.
+
+    Oracle: written out pole by pole here. The reference of a pole is the stable pole (Re < 0) of the
+    previous computed order nearest in frequency (the lower one of two equally near); ``f`` frequency
+    within ``freq_tol`` (and the pole itself stable), ``d`` also damping within ``damping_tol``, ``v``
+    also ``1 - MAC`` of the participation within ``mac_tol``, ``s`` both; the first order and an order
+    after one without stable poles are all ``o``. 40 orders of random poles on 3 references, a fifth
+    unstable, clustered near 12 frequencies so that every letter occurs; an empty order in the middle.
+    """
+    rng = np.random.default_rng(5)
+    rows = []
+    centres = rng.uniform(50.0, 900.0, 12)
+    shapes = rng.normal(size=(12, 3)) + 1j * rng.normal(size=(12, 3))
+    for order in range(2, 82, 2):
+        if order == 40:
+            continue  # no poles at order 40: order 42 has no reference
+        for _ in range(rng.integers(3, 15)):
+            c = rng.integers(12)
+            fn = centres[c] * (1 + rng.normal(0, 0.006))
+            zeta = 0.02 * (1 + rng.normal(0, 0.05))
+            lam = _pole(fn, zeta)
+            rows.append((order, -lam.conjugate() if rng.uniform() < 0.2 else lam,
+                         shapes[c] + rng.normal(0, rng.choice([0.02, 0.5]), 3)))
+    order = np.array([r[0] for r in rows])
+    pole = np.array([r[1] for r in rows])
+    part = np.array([r[2] for r in rows])
+    ps = PoleSet(order=order, pole=pole, participation=part, band=(0, 1000), orders=tuple(range(2, 82, 2)))
+    tol = {"freq_tol": 0.01, "damping_tol": 0.05, "mac_tol": 0.02}
+    got = stabilize(ps, **tol).status
+    fn, zeta = np.abs(pole) / (2 * np.pi), -pole.real / np.abs(pole)
+    want = []
+    for i in range(len(rows)):
+        prev = [k for k in range(len(rows)) if order[k] == order[i] - 2 and pole[k].real < 0]
+        if not prev:
+            want.append("o")
+            continue
+        ref = min(prev, key=lambda k: (abs(fn[k] - fn[i]), fn[k]))
+        mac_ = abs(np.vdot(part[ref], part[i])) ** 2 / (np.vdot(part[i], part[i]).real * np.vdot(part[ref], part[ref]).real)
+        ok_f = abs(fn[i] - fn[ref]) / fn[ref] <= tol["freq_tol"] and pole[i].real < 0
+        ok_d = ok_f and abs(zeta[i] - zeta[ref]) / zeta[ref] <= tol["damping_tol"]
+        ok_v = ok_f and 1 - mac_ <= tol["mac_tol"]
+        want.append("s" if ok_d and ok_v else "d" if ok_d else "v" if ok_v else "f" if ok_f else "o")
+    assert list(got) == want
+    assert set(want) == {"o", "f", "d", "v", "s"}
+
+
+def test_clusters_keep_per_order_the_pole_nearest_their_median(mimo):
+    """``cluster_poles`` (all labels' members chosen at once) keeps, of each linkage cluster, one pole per
+    order, the one nearest the cluster's median frequency (the first row of equally near ones), and
+    lists the clusters by the median frequency of the poles kept.
+
+    Oracle: the rule written out here label by label from the linkage labels, with numpy's median.
+    """
+    from ema_rig.identification.criteria import STABILIZATION_CRITERIA as crit
+    from ema_rig.identification.stabilization import _linkage_labels, cluster_poles
+
+    stab = mimo[2].stabilization
+    for statuses in (("s",), ("s", "d", "v", "f")):
+        got = cluster_poles(stab, statuses=statuses)
+        f_tol, z_tol, m_tol = crit.cluster_scales(None, None, None)
+        zeta = stab.damping_ratio
+        cand = np.flatnonzero(np.isin(stab.status, list(statuses)) & (zeta > 0) & (zeta <= 0.2) & ~stab.unstable)
+        labels = _linkage_labels(stab, cand, f_tol, z_tol, m_tol)
+        want = []
+        for lab in np.unique(labels):
+            rows = cand[labels == lab]
+            med = np.median(stab.natural_freq[rows])
+            keep = [min((r for r in rows if stab.order[r] == o), key=lambda r: (abs(stab.natural_freq[r] - med), r))
+                    for o in sorted(set(stab.order[rows]))]
+            want.append(np.array(keep))
+        want.sort(key=lambda r: float(np.median(stab.natural_freq[r])))
+        assert len(got) == len(want) >= 5
+        for g, w in zip(got, want, strict=True):
+            assert list(g) == list(w)

@@ -49,7 +49,7 @@ from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
 from .ml import LocalML, StagedML, local_ml_staged
-from .modal import ModalModel
+from .modal import ModalModel, modal_basis
 from .noise import MisfitTest, segment_misfit
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
@@ -1322,11 +1322,16 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     n_cluster_split = len(added)
     at_misfit: list[tuple[float, SelectedMode]] = []  # (the split mode's ML frequency [Hz], the second mode)
     if cc.split_misfit and data.n_out * data.n_in >= cc.split_min_channels:
+        jw = np.asarray(2j * np.pi * f, dtype=np.complex128)
+        cols: tuple[int, NDArray[np.complex128]] | None = None  # the model's pole columns on every line
         for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
             m = by_pole.get(p_start)
             if m is None or k in split_k or ml.kind[k] != "ml":
                 continue
-            c_new = _split_start(data, model, k, m, done.test, cc, memo)
+            if cols is None or cols[0] != len(model):  # the model grows by the modes split off
+                cols = (len(model), modal_basis(jw, np.asarray(model, dtype=np.complex128), _FORM_POWER[data.frf_form],
+                                                residuals=False))
+            c_new = _split_start(data, model, k, m, done.test, cc, memo, cols[1])
             if c_new is None:
                 continue
             c, stat, need, q, dof_l, sl = c_new
@@ -1364,7 +1369,8 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
 
 
 def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMode, test: MisfitTest,
-                 cc: CompletenessCriteria, memo: _Refits | None = None
+                 cc: CompletenessCriteria, memo: _Refits | None = None,
+                 model_columns: NDArray[np.complex128] | None = None,
                  ) -> tuple[Candidate, float, float, float, float, NDArray[np.bool_]] | None:
     """A second mode beside the model's mode ``k`` (accepted mode ``m``) whose own lines misfit, or None.
 
@@ -1383,7 +1389,9 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
     the candidate of the larger F that passes, with ``(F, threshold, q, dof, lines)``. Own lines
     that reach the band's first or last line are not tested: a misfit there may be the skirt of a
     mode beyond the edge, which those lines cannot tell from a second mode. ``memo``: refits already
-    made (:func:`_refit_on`; the nested test repeats each start's refit and the null's).
+    made (:func:`_refit_on`; the nested test repeats each start's refit and the null's). ``model_columns``:
+    :func:`~ema_rig.identification.modal.modal_basis` of ``model`` on the data's lines without residual
+    columns, when the caller has it.
     """
     var = test.variance
     if var is None:
@@ -1403,13 +1411,15 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
     n_chan = data.n_out * data.n_in
     coh = None if data.coherence is None else data.coherence.reshape(n_chan, -1)[:, sl]
 
-    def fails(poles: NDArray[np.complex128]) -> bool:  # the chi-square test of the lines as one segment
+    def fails(poles: NDArray[np.complex128], columns: NDArray[np.complex128] | None = None) -> bool:
+        # the chi-square test of the lines as one segment
         with single_threaded():
             t = segment_misfit(f[sl], data.frf.reshape(n_chan, -1)[:, sl], poles, power=_FORM_POWER[data.frf_form],
-                               variance=var[:, sl], coherence=coh, edges=[0, n], criteria=cc)
+                               variance=var[:, sl], coherence=coh, edges=[0, n], criteria=cc,
+                               pole_columns=None if columns is None else columns[sl])
         return bool(t.failed[0])
 
-    if not fails(np.asarray(model, dtype=np.complex128)):
+    if not fails(np.asarray(model, dtype=np.complex128), model_columns):
         return None
     starts = [fn * (1 - zeta), fn * (1 + zeta)]
     best = None

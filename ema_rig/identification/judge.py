@@ -68,7 +68,7 @@ from .modal import pole_residue_basis
 from .stabilization import (
     SelectedMode,
     StabilizationData,
-    _mode_from_rows,
+    _modes_from_rows,
     cluster_poles,
     order_ranks,
 )
@@ -286,7 +286,7 @@ def judge_clusters(
     if clusters is None:
         clusters = cluster_poles(stab, max_damping=max_damping)
     ranks = order_ranks(stab)
-    modes = [_mode_from_rows(stab, rows, "auto", ranks) for rows in clusters]
+    modes = _modes_from_rows(stab, clusters, "auto", ranks)
     verdict: list[str | None] = [None] * len(modes)
     persistence = np.full(len(modes), np.nan)
     lo, hi = stab.band

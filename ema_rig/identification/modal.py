@@ -610,6 +610,25 @@ def pole_residue_basis(
         the physical ones.
     """
     basis = modal_basis(np.asarray(2j * np.pi * f, dtype=np.complex128), lam, p, residuals=residuals)  # (n_freq, n_unknown) complex
+    return unit_real_basis(basis)
+
+
+def unit_real_basis(basis: NDArray[np.complex128]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The real basis of :func:`pole_residue_basis` from the complex one (:func:`modal_basis`'s columns).
+
+    Parameters
+    ----------
+    basis : ndarray, shape (n_freq, n_unknown), complex
+        Complex columns, one per real unknown (e.g. :func:`modal_basis` on some lines, or its rows and
+        columns for a subset of the lines and poles: the same numbers as formed there).
+
+    Returns
+    -------
+    a : ndarray, shape (2 n_freq, n_unknown)
+        Rows (Re, Im) interleaved per line, each column of unit norm.
+    scale : ndarray, shape (n_unknown,)
+        Column norms (1 for an all-zero column).
+    """
     n_f, n_unk = basis.shape
     a = basis.view(np.float64).reshape(n_f, n_unk, 2).transpose(0, 2, 1).reshape(2 * n_f, n_unk)
     scale = np.sqrt(np.einsum("kj,kj->j", a, a))
@@ -618,4 +637,4 @@ def pole_residue_basis(
 
 
 __all__ = ["ModalModel", "SpectralWindow", "effective_mass", "modal_basis", "pole_basis_with_derivative", "pole_columns",
-           "pole_residue_basis", "residual_columns", "shape_products", "synthesize_frf"]
+           "pole_residue_basis", "residual_columns", "shape_products", "synthesize_frf", "unit_real_basis"]

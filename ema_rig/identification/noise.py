@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import IdentificationError
 from .criteria import COMPLETENESS_CRITERIA, CompletenessCriteria
-from .modal import pole_residue_basis
+from .modal import modal_basis, unit_real_basis
 
 #: Largest coherence used in :func:`coherence_variance`: keeps the variance of a line finite
 #: (relative std >= 0.1 % / sqrt(n_averages)) where an analyser writes exactly 1.
@@ -437,6 +437,110 @@ def _bin_sums(wz: NDArray[np.float64], unw: NDArray[np.float64], e_lo: int, n_b:
     return st_s, st_t
 
 
+def _bin_coefficients(lo: NDArray[np.float64], hi: NDArray[np.float64], grid: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The coefficients of :func:`_noise_bounds`' linear bounds for bins ``[lo, hi]`` of ``u``, each shape (n_bins,).
+
+    Returns arrays of shape (n_bins, 3, 2 n_grid) and (n_bins, 4, 2 n_grid): per bin the rows that
+    multiply its sums ``(z, z u, z / u)`` and ``(1, u, 1 / u, ln u)``, the lower bounds at the grid
+    points, then the upper ones. A bin's coefficients depend on its edges and the grid alone.
+    """
+    lo_, hi_, q = lo[:, None], hi[:, None], grid[None, :]
+    n_b, n_g = lo.size, grid.size
+    mid = 0.5 * (lo_ + hi_)
+    qm = 1.0 + q * mid
+    den = (1.0 + q * lo_) * (1.0 + q * hi_)
+    wdt = np.where(hi_ > lo_, hi_ - lo_, 1.0)
+    zero = np.zeros((n_b, n_g))
+    # in u (where q u <= 1 at the bin's centre): 1 / (1 + q u) convex, ln(1 + q u) concave; lower
+    # bound of s the tangent at the centre, upper the chord; of t the chord, upper the tangent
+    su_lo = ((1.0 + 2.0 * q * mid) / qm**2, -q / qm**2)
+    su_hi = ((1.0 + q * lo_ + q * hi_) / den, -q / den)
+    h_sl = (np.log1p(q * hi_) - np.log1p(q * lo_)) / wdt
+    tu_lo = (np.log1p(q * lo_) - lo_ * h_sl, h_sl)
+    tu_hi = (np.log1p(q * mid) - mid * (q / qm), q / qm)
+    # in v = 1 / u (where q u > 1): 1 / (1 + q u) = v / (q + v) and ln(1 + q u) = ln u + ln(q + v),
+    # both concave in v: lower bounds the chord on [1 / hi, 1 / lo], upper the tangent at the centre
+    va, vb = 1.0 / np.where(hi_ > 0, hi_, 1.0), 1.0 / np.where(lo_ > 0, lo_, 1.0)
+    vm = 0.5 * (va + vb)
+    dq = (q + va) * (q + vb)
+    sv_lo = (va * vb / dq, q / dq)
+    sv_hi = (vm**2 / (q + vm) ** 2, q / (q + vm) ** 2)
+    p_sl = (np.log(q + vb) - np.log(q + va)) / np.where(vb > va, vb - va, 1.0)
+    tv_lo = (np.log(q + va) - va * p_sl, p_sl)
+    tv_hi = (np.log(q + vm) - vm / (q + vm), 1.0 / (q + vm))
+    use_v = (q * mid > 1.0) & (lo_ > 0)
+    one = np.ones((n_b, n_g))
+
+    def coef(c_u: tuple[NDArray[np.float64], ...], c_v: tuple[NDArray[np.float64], ...], with_log: bool
+             ) -> NDArray[np.float64]:
+        rows_ = [np.where(use_v, c_v[0], c_u[0]), np.where(use_v, zero, c_u[1]), np.where(use_v, c_v[1], zero)]
+        if with_log:
+            rows_.append(np.where(use_v, one, zero))
+        return np.stack(rows_, axis=1)
+
+    c_s = np.concatenate([coef(su_lo, sv_lo, False), coef(su_hi, sv_hi, False)], axis=2)
+    c_t = np.concatenate([coef(tu_lo, tv_lo, True), coef(tu_hi, tv_hi, True)], axis=2)
+    return c_s, c_t
+
+
+#: The coefficients of :func:`_bin_coefficients` already formed, by (grid, octave): an octave's ``_BOUND_BINS``
+#: bins (key its exponent) or the bin below the binned octaves (key ``("below", e_lo)``). They depend on the
+#: grid and the bin edges alone (fixed binary fractions), so a value taken from here is the one formed anew,
+#: to the bit; at most :data:`_BOUND_CACHE_SIZE` entries (22 kB each) are kept.
+_BOUND_CACHE: dict[tuple[bytes, int | tuple[str, int]], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+
+#: Entries of :data:`_BOUND_CACHE` (octaves x grids) at most: a fit touches e_hi - e_lo + 2 <= 62 of them.
+_BOUND_CACHE_SIZE = 512
+
+
+def _bound_coefficients(e_lo: int, e_hi: int, grid: NDArray[np.float64]
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The matrices of :func:`_noise_bounds`' two products, shape (3 n_b, 2 n_grid) and (4 n_b, 2 n_grid).
+
+    Rows ``k n_b + b`` multiply sum ``k`` of bin ``b`` (bin 0: ``u = 0``, only ``z`` enters; bin 1:
+    ``0 < u < 2**(e_lo - 1)``; then ``_BOUND_BINS`` per octave ``e_lo..e_hi``), columns the lower
+    bounds at the grid points, then the upper ones. The bins' coefficients are formed once per octave
+    (:data:`_BOUND_CACHE`): those of the octaves the lines of one fit share with another's are not formed
+    again (the completeness test fits the noise of all channels, then of those whose lines it left out).
+    """
+    kb = _BOUND_BINS
+    g_key = grid.tobytes()
+    keys: list[int | tuple[str, int]] = [("below", e_lo), *range(e_lo, e_hi + 1)]
+    # the entries this call uses, held here: another thread may empty the cache meanwhile
+    have = {k: hit for k in keys if (hit := _BOUND_CACHE.get((g_key, k))) is not None}
+    missing = [k for k in keys if k not in have]
+    if missing:
+        frac = np.arange(kb) / (2 * kb) + 0.5
+        lo_l: list[NDArray[np.float64]] = []
+        hi_l: list[NDArray[np.float64]] = []
+        for k in missing:
+            if isinstance(k, tuple):
+                lo_l.append(np.zeros(1))
+                hi_l.append(np.array([np.ldexp(0.5, e_lo)]))
+            else:
+                lo_l.append(np.ldexp(frac, k))
+                hi_l.append(np.ldexp(frac + 0.5 / kb, k))
+        c_s, c_t = _bin_coefficients(np.concatenate(lo_l), np.concatenate(hi_l), grid)
+        c_s.setflags(write=False)  # shared by later fits
+        c_t.setflags(write=False)
+        if len(_BOUND_CACHE) + len(missing) > _BOUND_CACHE_SIZE:
+            _BOUND_CACHE.clear()
+        i = 0
+        for k, lo_k in zip(missing, lo_l, strict=True):
+            have[k] = _BOUND_CACHE[(g_key, k)] = (c_s[i:i + lo_k.size], c_t[i:i + lo_k.size])
+            i += lo_k.size
+    n_g = grid.size
+    # bin 0 (u = 0): exactly z in s; no line in t
+    first_s = np.zeros((1, 3, 2 * n_g))
+    first_s[0, 0] = 1.0
+    parts = [have[k] for k in keys]
+    c_s = np.concatenate([first_s, *(p[0] for p in parts)])
+    c_t = np.concatenate([np.zeros((1, 4, 2 * n_g)), *(p[1] for p in parts)])
+    n_b = c_s.shape[0]
+    return c_s.transpose(1, 0, 2).reshape(3 * n_b, 2 * n_g), c_t.transpose(1, 0, 2).reshape(4 * n_b, 2 * n_g)
+
+
 def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArray[np.float64],
                   grid: NDArray[np.float64], threads: bool = False) -> NDArray[np.bool_]:
     """The grid points at which a channel's profile can be smallest, shape (n_chan, n_grid), bool
@@ -478,47 +582,7 @@ def _noise_bounds(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
         st_s[i0:i1], st_t[i0:i1] = _bin_sums(wz[i0:i1], unw[i0:i1], e_lo, n_b)
 
     _blocks(sums, n_chan, threads)
-    frac = np.arange(kb) / (2 * kb) + 0.5
-    octs = np.arange(e_lo, e_hi + 1)
-    lo = np.concatenate([[0.0, 0.0], np.ldexp(np.tile(frac, octs.size), np.repeat(octs, kb))])
-    hi = np.concatenate([[0.0, np.ldexp(0.5, e_lo)], np.ldexp(np.tile(frac + 0.5 / kb, octs.size), np.repeat(octs, kb))])
-    lo_, hi_, q = lo[:, None], hi[:, None], grid[None, :]
-    mid = 0.5 * (lo_ + hi_)
-    qm = 1.0 + q * mid
-    den = (1.0 + q * lo_) * (1.0 + q * hi_)
-    wdt = np.where(hi_ > lo_, hi_ - lo_, 1.0)
-    zero = np.zeros((n_b, n_g))
-    # in u (where q u <= 1 at the bin's centre): 1 / (1 + q u) convex, ln(1 + q u) concave; lower
-    # bound of s the tangent at the centre, upper the chord; of t the chord, upper the tangent
-    su_lo = ((1.0 + 2.0 * q * mid) / qm**2, -q / qm**2)
-    su_hi = ((1.0 + q * lo_ + q * hi_) / den, -q / den)
-    h_sl = (np.log1p(q * hi_) - np.log1p(q * lo_)) / wdt
-    tu_lo = (np.log1p(q * lo_) - lo_ * h_sl, h_sl)
-    tu_hi = (np.log1p(q * mid) - mid * (q / qm), q / qm)
-    # in v = 1 / u (where q u > 1): 1 / (1 + q u) = v / (q + v) and ln(1 + q u) = ln u + ln(q + v),
-    # both concave in v: lower bounds the chord on [1 / hi, 1 / lo], upper the tangent at the centre
-    va, vb = 1.0 / np.where(hi_ > 0, hi_, 1.0), 1.0 / np.where(lo_ > 0, lo_, 1.0)
-    vm = 0.5 * (va + vb)
-    dq = (q + va) * (q + vb)
-    sv_lo = (va * vb / dq, q / dq)
-    sv_hi = (vm**2 / (q + vm) ** 2, q / (q + vm) ** 2)
-    p_sl = (np.log(q + vb) - np.log(q + va)) / np.where(vb > va, vb - va, 1.0)
-    tv_lo = (np.log(q + va) - va * p_sl, p_sl)
-    tv_hi = (np.log(q + vm) - vm / (q + vm), 1.0 / (q + vm))
-    use_v = (q * mid > 1.0) & (lo_ > 0)
-    one = np.ones((n_b, n_g))
-
-    def coef(c_u: tuple[NDArray[np.float64], ...], c_v: tuple[NDArray[np.float64], ...], with_log: bool
-             ) -> NDArray[np.float64]:
-        rows_ = [np.where(use_v, c_v[0], c_u[0]), np.where(use_v, zero, c_u[1]), np.where(use_v, c_v[1], zero)]
-        if with_log:
-            rows_.append(np.where(use_v, one, zero))
-        return np.concatenate(rows_, axis=0)
-
-    c_s = np.concatenate([coef(su_lo, sv_lo, False), coef(su_hi, sv_hi, False)], axis=1)
-    c_t = np.concatenate([coef(tu_lo, tv_lo, True), coef(tu_hi, tv_hi, True)], axis=1)
-    c_s[0], c_s[n_b], c_s[2 * n_b] = 1.0, 0.0, 0.0  # bin 0 (u = 0): exactly z; no line in t
-    c_t[[0, n_b, 2 * n_b, 3 * n_b]] = 0.0
+    c_s, c_t = _bound_coefficients(e_lo, e_hi, grid)
     s_b = st_s @ c_s  # (n_chan, 2 n_g): lower | upper
     t_b = st_t @ c_t
     tol = 1e-10
@@ -756,6 +820,7 @@ def segment_misfit(
     variance: NDArray[np.float64] | None = None,
     edges: ArrayLike | None = None,
     criteria: CompletenessCriteria = COMPLETENESS_CRITERIA,
+    pole_columns: NDArray[np.complex128] | None = None,
 ) -> MisfitTest:
     """Do given poles explain the FRFs to the noise? A chi-square test per band segment and channel.
 
@@ -792,6 +857,9 @@ def segment_misfit(
         :func:`segment_edges` of the poles).
     criteria : CompletenessCriteria, optional
         Level, misfit ratio and segment width (:data:`~ema_rig.identification.criteria.COMPLETENESS_CRITERIA`).
+    pole_columns : ndarray, shape (n_freq, 2 n_modes), complex, optional
+        :func:`~ema_rig.identification.modal.modal_basis` of ``poles`` on ``freq`` without residual columns,
+        when the caller has it (e.g. its rows of a larger set of lines: the same numbers); default formed here.
 
     Returns
     -------
@@ -820,6 +888,10 @@ def segment_misfit(
     edges = (segment_edges(f, fn, -lam.real / np.maximum(np.abs(lam), 1e-300), criteria=criteria)
              if edges is None else np.asarray(edges, dtype=np.intp))
     n_seg = edges.size - 1
+    # the pole columns on every line, formed once: each segment's fit takes its lines' rows and its poles'
+    # columns (the numbers pole_residue_basis forms on those lines, before the columns are scaled)
+    if lam.size and pole_columns is None:
+        pole_columns = modal_basis(np.asarray(2j * np.pi * f, dtype=np.complex128), lam, power, residuals=False)
     # |residual|^2 and |model|^2 of every line (0 on lines left out), formed segment by segment
     resid2 = np.zeros(y.shape)
     model2 = np.zeros(y.shape)
@@ -846,8 +918,9 @@ def segment_misfit(
         near = np.sort(near[:n_max])
         m_seg[s_i] = int(np.sum((fn >= lo) & (fn <= hi)))
         cols = []
-        if near.size:
-            cols.append(pole_residue_basis(f[idx], lam[near], power, residuals=False)[0])
+        if near.size and pole_columns is not None:
+            cb = np.ascontiguousarray(pole_columns[idx][:, np.concatenate([near, lam.size + near])])
+            cols.append(unit_real_basis(cb)[0])
         if deg >= 0:
             x = f[idx] - 0.5 * (lo + hi)
             x = x / max(float(np.max(np.abs(x))), 1e-300)

@@ -210,28 +210,40 @@ def stabilize(
     zeta = poles.damping_ratio
     part = poles.participation
     stable_pole = poles.pole.real < 0
-    prev: NDArray[np.intp] | None = None
-    for order in poles.orders:
-        cur = poles.at_order(order)
-        if prev is not None and prev.size and cur.size:
-            pf = fn[prev]
-            j = np.searchsorted(pf, fn[cur])
-            lo = np.clip(j - 1, 0, pf.size - 1)
-            hi = np.clip(j, 0, pf.size - 1)
-            pick = np.where(np.abs(pf[lo] - fn[cur]) <= np.abs(pf[hi] - fn[cur]), lo, hi)
-            ref = prev[pick]
-            df = np.abs(fn[cur] - fn[ref]) / fn[ref]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                dz = np.abs(zeta[cur] - zeta[ref]) / np.abs(zeta[ref])
-            num = np.abs(np.sum(part[cur].conj() * part[ref], axis=1)) ** 2
-            den = np.sum(np.abs(part[cur]) ** 2, axis=1) * np.sum(np.abs(part[ref]) ** 2, axis=1)
-            dm = 1.0 - num / np.where(den > 0, den, 1.0)
-            ok_f = (df <= freq_tol) & stable_pole[cur]
-            ok_d = ok_f & (dz <= damping_tol)
-            ok_v = ok_f & (dm <= mac_tol)
-            st = np.where(ok_d & ok_v, "s", np.where(ok_d, "d", np.where(ok_v, "v", np.where(ok_f, "f", "o"))))
-            status[cur] = st
-        prev = cur[stable_pole[cur]]
+    # every order's poles (by frequency) against the stable poles of the order before it, all orders at once
+    groups = [poles.at_order(order) for order in poles.orders]
+    prev = [g[stable_pole[g]] for g in groups]
+    n_prev = np.array([p.size for p in prev], dtype=np.intp)
+    asked = [i for i in range(1, len(groups)) if n_prev[i - 1] and groups[i].size]
+    if asked:
+        cur = np.concatenate([groups[i] for i in asked])
+        g_cur = np.repeat(np.array(asked, dtype=np.intp) - 1, [groups[i].size for i in asked])  # the order before
+        p_rows = np.concatenate(prev)  # by order, then by frequency (each order's at_order)
+        p_start = np.concatenate([[0], np.cumsum(n_prev)[:-1]]).astype(np.intp)
+        # searchsorted of each pole among its previous order's stable poles: how many of them lie below it
+        # (one merged sort by order, frequency, and the asked pole first among equal frequencies)
+        g_all = np.concatenate([np.repeat(np.arange(len(groups)), n_prev), g_cur])
+        f_all = np.concatenate([fn[p_rows], fn[cur]])
+        is_p = np.concatenate([np.ones(p_rows.size, np.intp), np.zeros(cur.size, np.intp)])
+        merged = np.lexsort((is_p, f_all, g_all))
+        below = np.empty(merged.size, np.intp)
+        below[merged] = np.cumsum(is_p[merged])
+        size = n_prev[g_cur]
+        j = below[p_rows.size:] - p_start[g_cur]
+        lo = p_start[g_cur] + np.clip(j - 1, 0, size - 1)
+        hi = p_start[g_cur] + np.clip(j, 0, size - 1)
+        f_cur = fn[cur]
+        ref = p_rows[np.where(np.abs(fn[p_rows[lo]] - f_cur) <= np.abs(fn[p_rows[hi]] - f_cur), lo, hi)]
+        df = np.abs(f_cur - fn[ref]) / fn[ref]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dz = np.abs(zeta[cur] - zeta[ref]) / np.abs(zeta[ref])
+        num = np.abs(np.sum(part[cur].conj() * part[ref], axis=1)) ** 2
+        den = np.sum(np.abs(part[cur]) ** 2, axis=1) * np.sum(np.abs(part[ref]) ** 2, axis=1)
+        dm = 1.0 - num / np.where(den > 0, den, 1.0)
+        ok_f = (df <= freq_tol) & stable_pole[cur]
+        ok_d = ok_f & (dz <= damping_tol)
+        ok_v = ok_f & (dm <= mac_tol)
+        status[cur] = np.where(ok_d & ok_v, "s", np.where(ok_d, "d", np.where(ok_v, "v", np.where(ok_f, "f", "o"))))
     return StabilizationData(
         poles, status, {"freq_tol": freq_tol, "damping_tol": damping_tol, "mac_tol": mac_tol}
     )
@@ -479,18 +491,6 @@ class Selection:
         return [m.to_dict() for m in self.modes]
 
 
-def _cluster_members(stab: StabilizationData, rows: NDArray[np.intp]) -> NDArray[np.intp]:
-    """Keep at most one pole per order: the one closest to the cluster's median frequency."""
-    fn = stab.natural_freq[rows]
-    med = np.median(fn)
-    order = stab.order[rows]
-    key = np.lexsort((np.abs(fn - med), order))
-    rows, order = rows[key], order[key]
-    first = np.ones(rows.size, bool)
-    first[1:] = order[1:] != order[:-1]
-    return rows[first]
-
-
 def order_ranks(stab: StabilizationData) -> NDArray[np.intp]:
     """For every row, its position among its order's poles sorted by frequency (all rows at once)."""
     key = np.lexsort((stab.natural_freq, stab.order))
@@ -502,26 +502,80 @@ def order_ranks(stab: StabilizationData) -> NDArray[np.intp]:
 
 def _mode_from_rows(stab: StabilizationData, rows: NDArray[np.intp], provenance: str,
                     ranks: NDArray[np.intp] | None = None) -> SelectedMode:
+    """The mode of one cluster (rows of ``stab``): :func:`_modes_from_rows` of the one cluster."""
+    return _modes_from_rows(stab, [rows], provenance, ranks)[0]
+
+
+def _segment_medians(x: NDArray[np.float64], starts: NDArray[np.intp], sizes: NDArray[np.intp]
+                     ) -> NDArray[np.float64]:
+    """``np.median`` of each segment ``x[s:s + n]`` (segments side by side, none empty), shape (n_seg,).
+
+    The middle value, or the mean of the two middle values (``(a + b) / 2``, as ``np.median`` forms
+    it), of each segment sorted; NaN for a segment holding a NaN, as ``np.median`` gives.
+    """
+    seg = np.repeat(np.arange(sizes.size), sizes)
+    xs = x[np.lexsort((x, seg))]  # sorted within each segment (NaN last)
+    lo = xs[starts + (sizes - 1) // 2]
+    hi = xs[starts + sizes // 2]
+    med = np.where(sizes % 2 == 1, lo, (lo + hi) / 2.0)
+    nan = np.add.reduceat(np.isnan(x).astype(np.intp), starts) > 0
+    return np.where(nan, np.nan, med)
+
+
+def _modes_from_rows(stab: StabilizationData, clusters: Sequence[NDArray[np.intp]], provenance: str,
+                     ranks: NDArray[np.intp] | None = None) -> list[SelectedMode]:
+    """The mode of each cluster of rows of ``stab`` (none empty), formed for all clusters at once.
+
+    Natural frequency and damping ratio: the mean over the cluster's poles, their standard deviation
+    (``ddof = 1``; 0 for one pole); the representative pole the member nearest to the cluster's
+    medians (``|f - f_med| / f_med + 0.05 |zeta - zeta_med| / |zeta_med|``, the first of equal ones).
+    The elementwise steps run over the clusters side by side, the sums per cluster (the pairwise sums of
+    ``np.mean`` and ``np.std``): the same numbers as one cluster at a time.
+    ``ranks``: :func:`order_ranks` of ``stab`` when the caller has it.
+    """
+    if not clusters:
+        return []
+    sizes = np.array([r.size for r in clusters], dtype=np.intp)
+    if np.any(sizes == 0):
+        raise ValueError("a cluster without rows has no mode")
+    rows = np.concatenate(clusters).astype(np.intp, copy=False)
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
     fn = stab.natural_freq[rows]
     zeta = stab.damping_ratio[rows]
-    mf, mz = np.median(fn), np.median(zeta)
-    score = np.abs(fn - mf) / mf + 0.05 * np.abs(zeta - mz) / max(abs(mz), 1e-12)
-    rep = int(rows[np.argmin(score)])
-    ddof = 1 if rows.size > 1 else 0
-    return SelectedMode(
-        order=int(stab.order[rep]),
-        index=stab.index_in_order(rep) if ranks is None else int(ranks[rep]),
-        pole=complex(stab.pole[rep]),
-        natural_freq=float(fn.mean()),
-        damping_ratio=float(zeta.mean()),
-        natural_freq_std=float(fn.std(ddof=ddof)),
-        damping_ratio_std=float(zeta.std(ddof=ddof)),
-        n_poles=int(rows.size),
-        provenance=provenance,
-        participation=tuple(complex(c) for c in stab.participation[rep]),
-        order_min=int(stab.order[rows].min()),
-        order_max=int(stab.order[rows].max()),
-    )
+    mf = _segment_medians(fn, starts, sizes)
+    mz = _segment_medians(zeta, starts, sizes)
+    mf_r, mz_r = np.repeat(mf, sizes), np.repeat(mz, sizes)
+    score = np.abs(fn - mf_r) / mf_r + 0.05 * np.abs(zeta - mz_r) / np.repeat(np.maximum(np.abs(mz), 1e-12), sizes)
+    # sums per cluster: np.add.reduce of each cluster's contiguous part, the pairwise sum np.mean and np.std
+    # form (np.add.reduceat adds in another order)
+    bounds = list(zip(starts.tolist(), (starts + sizes).tolist(), strict=True))
+
+    def sums(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.array([np.add.reduce(x[a:b]) for a, b in bounds])
+
+    mean_f, mean_z = sums(fn) / sizes, sums(zeta) / sizes
+    ddof = np.where(sizes > 1, 1, 0)
+
+    def std(x: NDArray[np.float64], mean: NDArray[np.float64]) -> NDArray[np.float64]:
+        d = x - np.repeat(mean, sizes)
+        d *= d
+        out: NDArray[np.float64] = np.sqrt(sums(d) / (sizes - ddof))
+        return out
+
+    std_f, std_z = std(fn, mean_f), std(zeta, mean_z)
+    orders = stab.order[rows]
+    o_min, o_max = np.minimum.reduceat(orders, starts), np.maximum.reduceat(orders, starts)
+    reps = np.array([rows[a + int(np.argmin(score[a:b]))] for a, b in bounds], dtype=np.intp)
+    poles = stab.pole[reps].tolist()
+    parts = stab.participation[reps].tolist()
+    return [SelectedMode(order=int(stab.order[rep]),
+                         index=stab.index_in_order(rep) if ranks is None else int(ranks[rep]), pole=complex(poles[i]),
+                         natural_freq=float(mean_f[i]), damping_ratio=float(mean_z[i]),
+                         natural_freq_std=float(std_f[i]), damping_ratio_std=float(std_z[i]),
+                         n_poles=int(sizes[i]), provenance=provenance,
+                         participation=tuple(complex(c) for c in parts[i]),
+                         order_min=int(o_min[i]), order_max=int(o_max[i]))
+            for i, rep in enumerate(reps.tolist())]
 
 
 def _linkage_labels(
@@ -597,8 +651,28 @@ def cluster_poles(
         np.isin(stab.status, list(wanted)) & (zeta > 0) & (zeta <= max_damping) & ~stab.unstable
     )
     labels = _linkage_labels(stab, cand, freq_tol, damping_tol, mac_tol)
-    out = [_cluster_members(stab, cand[labels == lab]) for lab in np.unique(labels)]
-    return sorted(out, key=lambda r: float(np.median(stab.natural_freq[r])))
+    if cand.size == 0:
+        return []
+    # each label's rows (ascending, as cand holds them), one pole per order: the one closest to the
+    # label's median frequency (all labels at once: the medians by one sort, then one sort by label,
+    # order and distance to the median, the first of each order kept)
+    by_label = np.argsort(labels, kind="stable")
+    rows, lab = cand[by_label], labels[by_label]
+    sizes = np.diff(np.flatnonzero(np.concatenate([[True], lab[1:] != lab[:-1], [True]])))
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
+    fn = stab.natural_freq[rows]
+    med = _segment_medians(fn, starts, sizes)
+    group = np.repeat(np.arange(sizes.size), sizes)
+    order = stab.order[rows]
+    key = np.lexsort((np.abs(fn - np.repeat(med, sizes)), order, group))
+    rows, order, group = rows[key], order[key], group[key]
+    first = np.ones(rows.size, bool)
+    first[1:] = (order[1:] != order[:-1]) | (group[1:] != group[:-1])
+    rows, group = rows[first], group[first]
+    cut = np.flatnonzero(np.concatenate([[True], group[1:] != group[:-1]]))
+    out = np.split(rows, cut[1:])
+    at = _segment_medians(stab.natural_freq[rows], cut.astype(np.intp), np.diff(np.concatenate([cut, [rows.size]])))
+    return [out[i] for i in sorted(range(len(out)), key=lambda i: float(at[i]))]
 
 
 def select_modes(
