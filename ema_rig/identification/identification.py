@@ -433,7 +433,9 @@ def identify(
     its PolyMAX pole and a rejected cluster beside it is tested the same way, 2 modes against 1
     (``CompletenessCriteria.split_sigmas``). A failing segment without any candidate cluster makes the order grow
     by one more span (``CompletenessCriteria.max_extra_steps``) when that changes the modes in the
-    failing segments. Segments that still fail are named: in a warning when the order cap stopped
+    failing segments; a segment fails here also when the lines of a core of its modes (modes each
+    inside every other's core, not a chain) exceed the noise, and the higher order's verdicts are
+    taken in the failing segments only (elsewhere the mode set had converged). Segments that still fail are named: in a warning when the order cap stopped
     the growth, else in a note (a higher order changed nothing there). Only work limits (orders, evaluations) stop a loop, never the clock:
     the same data give the same result on any machine and load.
     Every cluster of stable poles is judged (:func:`~ema_rig.identification.judge.judge_clusters`);
