@@ -239,3 +239,19 @@ def test_segment_chi_square_is_its_least_squares_fit():
     for columns in (None, whole[sl]):
         t = segment_misfit(f, ys, poles, power=2, variance=var[:, sl], edges=[0, n], pole_columns=columns)
         assert t.ratio[0] == pytest.approx(want, rel=1e-9)
+
+
+def test_segment_cores_chained_and_unchained():
+    # segment_edges' rule by hand, 1 Hz lines 0-400 Hz, modes at 200, 240, 280, 320 Hz, zeta 5 %: core
+    # half-widths segment_hbw x zeta f_n = 40, 48, 56, 64 Hz. Each mode lies inside its neighbour's core
+    # (40 < 48, 40 < 56, 40 < 64), but 280 Hz not inside 200 Hz's nor 200 inside 280's (80 > 40, 56).
+    # Chained: one core 160-384 Hz; the 160 lines below it are one segment (no wider than the median
+    # core, 224 lines); the 17 lines above join it (fewer than min_segment_lines = 24). Unchained: cores
+    # {200, 240} Hz 160-288 and {280, 320} Hz 224-384 Hz, cut at the midpoint 260 Hz of 240 and 280 Hz;
+    # median core 112 lines, so the 160 lines below are two segments of 80.
+    from ema_rig.identification.noise import segment_edges
+
+    f = np.arange(0.0, 401.0)
+    fn, z = np.array([200.0, 240.0, 280.0, 320.0]), np.full(4, 0.05)
+    assert segment_edges(f, fn, z).tolist() == [0, 160, 401]
+    assert segment_edges(f, fn, z, chained=False).tolist() == [0, 80, 160, 260, 401]

@@ -113,7 +113,12 @@ def test_ufffiles_frf_edge_mode_inside_band_b(corpus_dir, identified_at_defaults
     near = x.natural_freq[np.abs(x.natural_freq - 713.85) <= 0.01 * 713.85]
     assert near.size == 1, x.natural_freq
     assert any("feature inside the band" in c.reason and c.accepted for c in x.candidates)
-    assert "held" not in x.std_kind and not any(w.startswith("poor fit") for w in x.warnings)
+    assert not any(w.startswith("poor fit") for w in x.warnings)
+    # the modes 373-687 Hz are ML estimates; the one held mode is 701.5 Hz (0-799.5 Hz: 704.9 Hz), which
+    # the extra order step adds (a 6-pole cluster at zeta 0.13 %): the ML moved it to 703.9 Hz, beyond
+    # its 0.94 Hz half-power half-bandwidth (test_ufffiles_frf_704_hz_in_both_bands)
+    held = [f for f, k in zip(x.natural_freq, x.std_kind, strict=True) if k == "held"]
+    assert all(abs(f - 704.9) <= 0.01 * 704.9 for f in held), held
 
 
 def test_ufffiles_frf_two_bands_changes_inside_their_sigma(corpus_dir, identified_at_defaults):
@@ -136,3 +141,24 @@ def test_ufffiles_frf_two_bands_changes_inside_their_sigma(corpus_dir, identifie
         ok += abs(a.natural_freq[k] - f) <= 2 * float(np.hypot(a.natural_freq_std[k], b.natural_freq_std[j]))
     assert n >= 28, n
     assert ok >= 0.9 * n, (ok, n)
+
+
+def test_ufffiles_frf_704_hz_in_both_bands(corpus_dir, identified_at_defaults):
+    # issue 18, "no mode that only one band supports, away from the edges": 0-799.5 Hz has 704.9 Hz
+    # (zeta 0.5 %, a 58-pole cluster; sdypy-EMA's LSCF on the same lines has a pole at 704.7 Hz, zeta
+    # 0.4 %, at every order 130-157), 79.95-719.55 Hz had none: its one pole at 689.5 Hz stood for
+    # 684.7 and 704.9 Hz, and its residual on 686-714 Hz was 3.9 x the noise (chi-square, p 1e-33
+    # with 100 dof) while the test's segment, 522-719.5 Hz (a chain of eight modes, 400 lines), was at
+    # 1.59 x, below misfit_ratio, so the order growth stopped at 144 (no cluster there; at 160 one at
+    # 701.7 Hz). The extra order step now also asks the modes' own cores (segment_edges
+    # chained=False). Oracle: the other band (the same lines, its own order growth and selection) and
+    # the data's lines; fails before (no mode of B within 1 % of 704.9 Hz).
+    a = identified_at_defaults(corpus_dir / "ufffiles_frf.unv")
+    b = identified_at_defaults(corpus_dir / "ufffiles_frf.unv", (79.95, 719.55))
+    fa = a.natural_freq[np.abs(a.natural_freq - 704.9) <= 0.01 * 704.9]
+    assert fa.size == 1, a.natural_freq
+    near = b.natural_freq[np.abs(b.natural_freq - fa[0]) <= 0.01 * fa[0]]
+    assert near.size == 1, b.natural_freq
+    # and B still has the neighbours of A on either side, once each (no mode traded for another)
+    for f0 in (684.7, 713.85):
+        assert np.sum(np.abs(b.natural_freq - f0) <= 0.01 * f0) == 1, (f0, b.natural_freq)

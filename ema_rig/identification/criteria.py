@@ -328,7 +328,10 @@ class CompletenessCriteria(_Sourced):
     max_extra_steps : int
         Work limit: growth steps of the order beyond the first repeat of the mode set while a
         segment without any candidate cluster fails (1); the step is kept only when the higher
-        order changes the modes in the failing segments.
+        order changes the modes in the failing segments, and its verdicts are taken there only.
+        Here a segment fails also when the lines of a core of its modes (modes each inside every
+        other's core, ``segment_edges(chained=False)``) exceed the noise variance of the test:
+        a chain of modes makes one long segment in which a local misfit is diluted.
     edge_peak_lines : int
         A failing segment at a band edge is put down to a mode outside the band only when its excess
         over the noise is largest in its outermost ``edge_peak_lines`` lines (default 4, the Hann main
@@ -385,8 +388,9 @@ class CompletenessCriteria(_Sourced):
         band-to-band changes of the modes smaller); with the sandwich's block length from the
         scores (``MLCriteria.block_from_scores``) the changes of 56 of 59 modes lie inside their
         combined 2 sigma (with fixed 4-line blocks 48 of 59: a band whose model fits had a sigma
-        that saw only the residual's short-range part). The one-band 704.9 Hz mode stays
-        (benchmarks/results/study_real_bands.txt).
+        that saw only the residual's short-range part). The 704.9 Hz mode, then in 0-799.5 Hz
+        only, is found by both bands since the extra order step also asks the modes' own cores
+        (``max_extra_steps``; benchmarks/results/study_real_bands.txt).
     """
 
     p_value: float = _src(1e-3, "chi-square test p = 0.001 family-wise (Bonferroni), dof = 2 lines x channels - "

@@ -747,14 +747,16 @@ class MisfitTest:
 
 
 def segment_edges(freq: NDArray[np.float64], natural_freq: ArrayLike, damping_ratio: ArrayLike, *,
-                  criteria: CompletenessCriteria = COMPLETENESS_CRITERIA) -> NDArray[np.intp]:
+                  criteria: CompletenessCriteria = COMPLETENESS_CRITERIA, chained: bool = True) -> NDArray[np.intp]:
     """Line indices where the band segments start, shape (n_seg + 1,) (the last is ``n_freq``).
 
     Each mode gets a core of the lines within ``segment_hbw`` half-power half-bandwidths
     ``zeta f_n`` of its natural frequency (at least ``min_segment_lines`` lines); modes whose
     natural frequencies lie inside each other's core share one, other neighbours' cores are cut at
     the midpoint between them. The lines between cores are cut into equal segments no wider than
-    the median core.
+    the median core. With ``chained=False`` a mode joins a core only when it lies inside the core of
+    every mode already in it (``True``: of the nearest one, so that a chain of modes, each inside its
+    neighbour's core, makes one segment of any length).
     """
     f = np.asarray(freq, dtype=np.float64)
     n = f.size
@@ -766,7 +768,7 @@ def segment_edges(freq: NDArray[np.float64], natural_freq: ArrayLike, damping_ra
     half = np.maximum(criteria.segment_hbw * np.maximum(np.abs(zeta) * fn, df), 0.5 * criteria.min_segment_lines * df)
     groups: list[list[int]] = []
     for k in range(fn.size):
-        if groups and fn[k] - fn[groups[-1][-1]] < max(half[k], half[groups[-1][-1]]):
+        if groups and all(fn[k] - fn[j] < max(half[k], half[j]) for j in groups[-1][-1 if chained else 0:]):
             groups[-1].append(k)
         else:
             groups.append([k])
