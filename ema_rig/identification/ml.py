@@ -342,7 +342,8 @@ class _Segment:
         q, r = _qr(a)
         q = np.concatenate([q, fx], axis=1)  # (2n, L)
         qty = q.T @ self.yw  # (L, C)
-        e = self.yw - q @ qty  # residual (2n, C)
+        e = q @ qty
+        np.subtract(self.yw, e, out=e)  # residual (2n, C), in place of the model (one array of the data's size less)
         cost = float(np.sum(e * e))
         return {"cost": cost, "e": e, "theta": theta.copy(), "_q": q, "_r": r, "_d": d, "_qty": qty,
                 # the second-order pole columns as float views (re, im interleaved); _fixed: identity of the basis
@@ -701,7 +702,9 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
     df = float(np.median(np.diff(freq))) if freq.size > 1 else 1.0
     warns: list[str] = []
     # ---- noise variance of every line (n_chan, n_freq), then a separable approximation per segment
-    resid2, model2 = np.abs(y - mod) ** 2, np.abs(mod) ** 2
+    resid2, model2 = np.abs(y - mod), np.abs(mod)
+    resid2 **= 2  # in place: the same numbers, two arrays of the data's size less
+    model2 **= 2
     coh = data.coherence
     if coh is not None:
         n_avg = data.n_averages
