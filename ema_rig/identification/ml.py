@@ -265,7 +265,11 @@ class _Segment:
             return
         cols = self._cols(self.lam0)
         a = np.concatenate([_stack(cols) * self.ww, self.fixed], axis=1)
-        coef = np.linalg.lstsq(a, model_w, rcond=None)[0][a.shape[1] - n_t :]  # (n_t, C)
+        # the minimum-norm least-squares coefficients of the background (``lstsq``'s, rank cut at eps max(shape)
+        # of the largest singular value) through one SVD of the small basis: only their rows are formed
+        u, sv, vt = np.linalg.svd(a, full_matrices=False)
+        rank = sv > np.finfo(float).eps * max(a.shape) * sv[0]
+        coef = (vt[rank][:, a.shape[1] - n_t :].T / sv[rank]) @ (u[:, rank].T @ model_w)  # (n_t, C)
         keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
         self.fixed = np.ascontiguousarray(self.fixed[:, keep])
         self.L = 2 * self.m + self.fixed.shape[1]
