@@ -454,7 +454,8 @@ class _Segment:
         dof = 2 * n  # the residuals are leverage-corrected
         # the noise standard deviation of each line (the same for its Re and Im rows) and channel
         sp = np.ones((1, n_c)) if noise_var is None else np.sqrt(noise_var)  # (n or 1, C)
-        et = (e.reshape(2, n, n_c) / sp).reshape(2 * n, n_c)
+        et = e  # standardised in place (the leverage-corrected residual is a copy, not needed beyond here)
+        np.divide(e.reshape(2, n, n_c), sp, out=e.reshape(2, n, n_c))
         if n_c >= 2 * k:
             # the distinct coefficient rows (c_ka = _C_SIGN * xs[_C_ROW]) times each line's noise sd, (2m, n_l, C)
             xs = cs[0::2].reshape(k, n_c)
