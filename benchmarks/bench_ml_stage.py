@@ -27,7 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _timing import ask_worker, git_head  # benchmarks/_timing.py, beside this script
+from _timing import ask_worker, close_workers, git_head  # benchmarks/_timing.py, beside this script
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -70,63 +70,65 @@ for line in sys.stdin:
 """
 
 
+def _spread(x: list[float], f: str = ".3f") -> str:
+    return f"{statistics.median(x):{f}} ({min(x):{f}}-{max(x):{f}})"
+
+
+def _worker(tree: Path, synth: Path) -> subprocess.Popen[str]:
+    """A worker on ``tree`` (its own ``ema_rig``, one BLAS thread), started and ready for requests."""
+    one = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    # cwd=tree: ``python -c`` puts the working directory first on sys.path, before PYTHONPATH
+    proc = subprocess.Popen([sys.executable, "-c", WORKER, str(tree), str(synth)], text=True, stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, cwd=str(tree), env=dict(os.environ, PYTHONPATH=str(tree), **one))
+    assert proc.stdout is not None
+    word, where = proc.stdout.readline().split()
+    if word != "ready" or not Path(where).resolve().is_relative_to(tree):
+        raise SystemExit(f"the worker on {tree} imported ema_rig from {where}")
+    return proc
+
+
+def _digest(proc: subprocess.Popen[str], case: str) -> list[float]:
+    assert proc.stdin is not None and proc.stdout is not None
+    proc.stdin.write(f"digest {case}\n")
+    proc.stdin.flush()
+    return [float(v) for v in proc.stdout.readline().split()]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--baseline", required=True, type=Path)
     ap.add_argument("--repeat", type=int, default=9)
     ap.add_argument("--cases", default="256,rig", help="comma-separated subset of 256,rig")
     args = ap.parse_args()
-    one = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    sys.path.insert(0, str(REPO))  # the synthetic file written by this tree's ema_rig
+    from bench_refine import synthetic_256  # benchmarks/bench_refine.py, beside this script
+
     with tempfile.TemporaryDirectory() as tmp:
         synth = Path(tmp) / "synthetic_256.uff"
-        subprocess.run([sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); "
-                        "from bench_refine import synthetic_256; from pathlib import Path; "
-                        "synthetic_256(Path(sys.argv[2]))", str(REPO / "benchmarks"), str(synth)],
-                       env=dict(os.environ, PYTHONPATH=str(REPO)), check=True)
-        procs = {}
-        for tag, tree in (("new", REPO), ("old", args.baseline.resolve())):
-            # cwd=tree: ``python -c`` puts the working directory first on sys.path, before PYTHONPATH
-            procs[tag] = subprocess.Popen([sys.executable, "-c", WORKER, str(tree), str(synth)], text=True,
-                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=str(tree),
-                                          env=dict(os.environ, PYTHONPATH=str(tree), **one))
-        for tag, p in procs.items():
-            assert p.stdout is not None
-            ready, where = p.stdout.readline().split()
-            tree = REPO if tag == "new" else args.baseline.resolve()
-            assert ready == "ready" and Path(where).resolve().is_relative_to(tree), (tag, where)
+        synthetic_256(synth)
+        new, old = _worker(REPO, synth), _worker(args.baseline.resolve(), synth)
         print(f"# {time.strftime('%Y-%m-%dT%H:%MZ', time.gmtime())}: new = {REPO} @ {git_head(REPO)}, "
               f"old = {args.baseline} @ {git_head(args.baseline)}; {os.cpu_count()} cores; one BLAS thread; "
               f"load average at start {os.getloadavg()[0]:.1f}")
-        print(f"{'ML stage of':24s} {'':5s} {'old [s]':>22s} {'new [s]':>22s} {'new/old':>18s}  same estimates")
+        print(f"{'ML stage of':10s} {'':5s} {'old [s]':>22s} {'new [s]':>22s} {'new/old':>18s}")
         for case in args.cases.split(","):
-            digests = []
-            for tag in ("old", "new"):
-                p = procs[tag]
-                assert p.stdin is not None and p.stdout is not None
-                p.stdin.write(f"digest {case}\n")
-                p.stdin.flush()
-                digests.append([float(v) for v in p.stdout.readline().split()])
-            a, b = digests
-            worst = max((abs(x - y) / abs(x) for x, y in zip(a, b, strict=True) if x != 0), default=0.0)
-            t: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
+            pairs = zip(_digest(old, case), _digest(new, case), strict=True)
+            worst = max((abs(x - y) / abs(x) for x, y in pairs if x != 0), default=0.0)
+            times: list[tuple[tuple[float, float], tuple[float, float]]] = []
             for i in range(args.repeat):
-                for tag in (("old", "new") if i % 2 == 0 else ("new", "old")):
-                    t[tag].append(ask_worker(procs[tag], case))
-
-            def fmt(x: list[float], f: str = ".3f") -> str:
-                return f"{statistics.median(x):{f}} ({min(x):{f}}-{max(x):{f}})"
-
-            for k, kind in ((0, "wall"), (1, "cpu")):
-                old = [x[k] for x in t["old"]]
-                new = [x[k] for x in t["new"]]
-                ratio = [n / o for o, n in zip(old, new, strict=True)]
-                print(f"{case:24s} {kind:5s} {fmt(old):>22s} {fmt(new):>22s} {fmt(ratio, '.2f'):>18s}  "
-                      f"worst relative change of |pole|, sigma_f, sigma_zeta {worst:.1e}  "
+                if i % 2 == 0:
+                    t_old = ask_worker(old, case)
+                    times.append((t_old, ask_worker(new, case)))
+                else:
+                    t_new = ask_worker(new, case)
+                    times.append((ask_worker(old, case), t_new))
+            for k, kind in enumerate(("wall", "cpu")):
+                o, n = [x[0][k] for x in times], [x[1][k] for x in times]
+                print(f"{case:10s} {kind:5s} {_spread(o):>22s} {_spread(n):>22s} "
+                      f"{_spread([b / a for a, b in zip(o, n, strict=True)], '.2f'):>18s}  "
                       f"(load average now {os.getloadavg()[0]:.1f})", flush=True)
-        for p in procs.values():
-            assert p.stdin is not None
-            p.stdin.close()
-            p.wait()
+            print(f"{case:10s} the two trees' |pole|, sigma_f, sigma_zeta differ by at most {worst:.1e} relative")
+        close_workers([new, old])
 
 
 if __name__ == "__main__":
