@@ -265,7 +265,11 @@ class _Segment:
             return
         cols = self._cols(self.lam0)
         a = np.concatenate([_stack(cols) * self.ww, self.fixed], axis=1)
-        coef = np.linalg.lstsq(a, model_w, rcond=None)[0][a.shape[1] - n_t :]  # (n_t, C)
+        # the minimum-norm least-squares coefficients of the background (``lstsq``'s, rank cut at eps max(shape)
+        # of the largest singular value) through one SVD of the small basis: only their rows are formed
+        u, sv, vt = np.linalg.svd(a, full_matrices=False)
+        rank = sv > np.finfo(float).eps * max(a.shape) * sv[0]
+        coef = (vt[rank][:, a.shape[1] - n_t :].T / sv[rank]) @ (u[:, rank].T @ model_w)  # (n_t, C)
         keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
         self.fixed = np.ascontiguousarray(self.fixed[:, keep])
         self.L = 2 * self.m + self.fixed.shape[1]
@@ -342,7 +346,8 @@ class _Segment:
         q, r = _qr(a)
         q = np.concatenate([q, fx], axis=1)  # (2n, L)
         qty = q.T @ self.yw  # (L, C)
-        e = self.yw - q @ qty  # residual (2n, C)
+        e = q @ qty
+        np.subtract(self.yw, e, out=e)  # residual (2n, C), in place of the model (one array of the data's size less)
         cost = float(np.sum(e * e))
         return {"cost": cost, "e": e, "theta": theta.copy(), "_q": q, "_r": r, "_d": d, "_qty": qty,
                 # the second-order pole columns as float views (re, im interleaved); _fixed: identity of the basis
@@ -377,37 +382,90 @@ class _Segment:
         grad = -np.sum(c2 * (b_u @ e)[idx], axis=1).reshape(k, 2).sum(axis=1)
         out["hess"], out["grad"], out["_bu"], out["_cs"] = 0.5 * (hess + hess.T), grad, b_u, cs
 
+    def _jcj_rows(self, pu: NDArray[np.float64], xw: NDArray[np.float64], et: NDArray[np.float64],
+                  rho: tuple[float, ...], dof: int) -> NDArray[np.float64]:
+        """``J^T S J`` of :meth:`_scores` through the distinct coefficient rows (many channels).
+
+        ``pu`` (4m, 2n) the projected rows p_ka, ``xw`` (2m, n_l, C) the distinct rows times the noise sd of
+        each line (n_l = n, or 1 for equal noise), ``et`` (2n, C) the standardised residuals. With
+        ``f_t(i) = xw[t, i] E^T E / dof`` (or ``xw[t, i] E^T``, whichever product is smaller) and
+        ``Q_d[t, u, i] = <f_t(i), xw_u(i + d)>`` (resp. ``<f_t(i), f_u(i + d)> / dof``), the lag-d sums are
+        ``sum_ab sum_r p_ka[r] p_lb[r + d] sign_ka sign_lb Q_d[t_ka, t_lb, line of r]`` over the rows r of
+        either half (Re, Im) for which r + d is in it too.
+        """
+        k, n2 = 2 * self.m, et.shape[0]
+        n, n_l, n_c = n2 // 2, xw.shape[1], et.shape[1]
+        flat = xw.reshape(-1, n_c)
+        if k * n_l * n2 <= n2 * n_c + k * n_l * n_c:
+            left = (flat @ et.T).reshape(k, n_l, n2)  # rows x rows: M_k = J_k E^T of each distinct row
+            right = left / dof
+        else:
+            left = (flat @ ((et.T @ et) / dof)).reshape(k, n_l, n_c)  # channels x channels
+            right = xw
+        tt = np.tile(_C_ROW, self.m) + 2 * np.repeat(np.arange(self.m), 4)  # the distinct row of each c_ka
+        pa = (pu * np.tile(_C_SIGN, self.m)[:, None]).reshape(2 * k, 2, n)
+
+        def pair_sums(d: int) -> NDArray[np.float64]:
+            if n_l == 1:
+                q = (left[:, 0] @ right[:, 0].T)[tt][:, tt]
+                return np.asarray(q * sum(pa[:, h, : n - d] @ pa[:, h, d:].T for h in range(2)), dtype=np.float64)
+            q = np.einsum("tis,uis->tui", left[:, : n - d], right[:, d:])[tt][:, tt]
+            return np.asarray(sum(np.einsum("ai,bi,abi->ab", pa[:, h, : n - d], pa[:, h, d:], q) for h in range(2)),
+                              dtype=np.float64)
+
+        s4 = pair_sums(0)
+        for lag, rl in enumerate(rho, start=1):
+            if rl != 0.0 and lag < n:
+                g = pair_sums(lag)
+                s4 = s4 + rl * (g + g.T)
+        out: NDArray[np.float64] = s4.reshape(k, 2, k, 2).sum(axis=(1, 3))
+        return out
+
     def _scores(self, out: dict[str, NDArray[np.float64] | float], q: NDArray[np.float64], e: NDArray[np.float64],
                 b_u: NDArray[np.float64], cs: NDArray[np.float64], rho: tuple[float, ...],
                 noise_var: NDArray[np.float64] | None) -> None:
         """Per-line scores, ``J^T S J`` and the noise chi-square into ``out`` (see :meth:`evaluate`; ``b_u``
-        the rows (S_j, D_j) of :meth:`_derivatives`)."""
+        the rows (S_j, D_j) of :meth:`_derivatives`, ``cs`` its factors c_k, shape (2m, 2, C)).
+
+        The Jacobian ``J_k = (I - Q Q^T) V_k`` (2n, C) of each pole parameter is never formed: ``V_k = u_k
+        c_k^T`` has rank 2, so ``J_k[r, c] = sum_a p_ka[r] c_ka[c]`` with ``p_ka`` the rows ``u_k`` projected
+        off the basis (2m distinct rows ``b_u`` projected once) and ``c_ka`` the coefficient rows; the c_ka
+        of the 2m parameters are 2m distinct rows up to sign (``_C_ROW``, ``_C_SIGN``). The weighted
+        channel products of the sandwich's ``J^T S J`` are formed once per distinct row and line (the Re
+        and Im rows of a line share their noise), not per parameter and row: half the products.
+        """
         k = 2 * self.m
-        us = np.empty((k, 2, b_u.shape[1]))  # the derivative factors u_k (rows (S_j, D_j) and (D_j, S_j))
-        us[0::2, 0], us[0::2, 1] = b_u[0::2], b_u[1::2]
-        us[1::2, 0], us[1::2, 1] = b_u[1::2], b_u[0::2]
-        # J_k = V_k - Q Q^T V_k explicitly (k, 2n, C); per-line scores sum_c J_k E. V_k = u_k c_k^T
-        # has rank 2: the projection acts on u_k (2n x 2) before the product with c_k
-        ut = np.swapaxes(us, 1, 2)  # (k, 2n, 2)
-        jac = (ut - q @ (q.T @ ut)) @ cs
+        n = self.jw.size
+        n_c = e.shape[1]
+        pb = b_u - (b_u @ q) @ q.T  # (2m, 2n): the rows b projected off the span of the basis
+        pu = pb[self.idx]  # (2k, 2n): p_ka of parameter k, factor a (row 2k + a)
+        c2 = cs.reshape(2 * k, n_c)  # (2k, C): c_ka
         # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
         # 1985): near a peak the residues take up much of each line's error
         lev = np.minimum(np.sum(q * q, axis=1), 0.9)
         e = e / np.sqrt(1.0 - lev)[:, None]
-        row = np.einsum("krc,rc->kr", jac, e)
-        n = self.jw.size
+        # per-line scores sum_c J_k E: sum_a p_ka[r] (E c_ka)[r]
+        row = (pu * (e @ c2.T).T).reshape(k, 2, 2 * n).sum(axis=1)
         out["line_scores"] = row[:, :n] + row[:, n:]  # (k, n)
         # J^T S J with S the error covariance: between channels as the residuals show it (pooled
         # over the segment's lines: the common part of H1 errors, force noise and leakage of the
         # same modal transients), between lines as the window makes it (lag l: rho[l-1])
         # a variance profile over the lines that the weights do not remove scales rows
         dof = 2 * n  # the residuals are leverage-corrected
-        sp = np.ones((2 * n, 1)) if noise_var is None else np.sqrt(np.concatenate([noise_var, noise_var]))
-        et = e / sp
-        jac = jac * sp[None, :, :]
-        if e.shape[1] <= 2 * n:
+        # the noise standard deviation of each line (the same for its Re and Im rows) and channel
+        sp = np.ones((1, n_c)) if noise_var is None else np.sqrt(noise_var)  # (n or 1, C)
+        et = e  # standardised in place (the leverage-corrected residual is a copy, not needed beyond here)
+        np.divide(e.reshape(2, n, n_c), sp, out=e.reshape(2, n, n_c))
+        if n_c >= 2 * k:
+            # the distinct coefficient rows (c_ka = _C_SIGN * xs[_C_ROW]) times each line's noise sd, (2m, n_l, C)
+            xs = cs[0::2].reshape(k, n_c)
+            jcj = self._jcj_rows(pu, xs[:, None, :] * sp[None, :, :], et, rho, dof)
+        else:
+            # few channels: J_k (scaled by the noise sd) and J_k S as arrays (k, 2n, C); the sums over lines
+            # and channels as one matrix product (BLAS 3) of the flattened (k, 2n C)
+            jac = np.matmul(pu.reshape(k, 2, 2 * n).transpose(0, 2, 1), cs)
+            jac *= np.concatenate([sp, sp]) if sp.shape[0] > 1 else sp
             js = jac @ ((et.T @ et) / dof)
-            # the sums over lines and channels as one matrix product (BLAS 3) of the flattened (k, 2n C)
             jcj = js.reshape(k, -1) @ jac.reshape(k, -1).T
             for lag, rl in enumerate(rho, start=1):
                 if rl == 0.0 or lag >= n:
@@ -416,20 +474,14 @@ class _Segment:
                     a_l, b_l = js[:, half][:, :-lag], jac[:, half][:, lag:]
                     g = a_l.reshape(k, -1) @ b_l.reshape(k, -1).T
                     jcj += rl * (g + g.T)
-        else:
-            # more channels than rows: the same sums through M_k = J_k E^T (rows x rows), one
-            # product over the channels instead of two: sum_c (J_k E^T E)_rc J_lrc = sum M_k M_l
-            mm = jac @ et.T  # (k, 2n, 2n)
-            jcj = (mm.reshape(k, -1) @ mm.reshape(k, -1).T) / dof
-            for lag, rl in enumerate(rho, start=1):
-                if rl == 0.0 or lag >= n:
-                    continue
-                for half in (slice(0, n), slice(n, 2 * n)):
-                    a_l, b_l = mm[:, half][:, :-lag], mm[:, half][:, lag:]
-                    g = (a_l.reshape(k, -1) @ b_l.reshape(k, -1).T) / dof
-                    jcj += rl * (g + g.T)
         out["jcj"] = jcj
         out["chi2_noise"] = float(np.sum(et * et))  # leverage-corrected residual / noise model
+
+
+#: The coefficient rows ``c_ka`` of :meth:`_Segment._scores` for the parameters (Re, Im) of pole j and
+#: factors a = 0, 1, as distinct rows ``s_j (a_j, b_j)`` of the residue (``_C_ROW``, offset by 2j) with a sign.
+_C_ROW = np.array([0, 1, 0, 1])
+_C_SIGN = np.array([1.0, 1.0, 1.0, -1.0])
 
 
 def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], crit: MLCriteria
@@ -655,7 +707,9 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
     df = float(np.median(np.diff(freq))) if freq.size > 1 else 1.0
     warns: list[str] = []
     # ---- noise variance of every line (n_chan, n_freq), then a separable approximation per segment
-    resid2, model2 = np.abs(y - mod) ** 2, np.abs(mod) ** 2
+    resid2, model2 = np.abs(y - mod), np.abs(mod)
+    resid2 **= 2  # in place: the same numbers, two arrays of the data's size less
+    model2 **= 2
     coh = data.coherence
     if coh is not None:
         n_avg = data.n_averages
