@@ -690,7 +690,7 @@ def _mixed_pair(c: Candidate, cands: list[Candidate], params: ModelParams, rig: 
     and at most its modal mass; the partner from :func:`cross_axis_partner` (harmonic lines
     excluded), not yet judged (:func:`_pair_holds`).
     """
-    kinds = {getattr(f, "kind", None) for f in c.failures}  # Failure texts (plain str from old JSON)
+    kinds = {str(getattr(f, "kind", "")) for f in c.failures}  # Failure texts (plain str from old JSON)
     cross = kinds & {"lateral", "axial"}
     if len(cross) != 1 or not kinds <= {"lateral", "axial", "mass"} or c.model_modal_mass is None:
         return None
@@ -741,7 +741,13 @@ def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig, crit:
         cause = f"{c.natural_freq:.1f} Hz: " + next(f for f in c.failures if getattr(f, "kind", None) == "mass units")
     else:
         cause = f"nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}"
-        pair = _mixed_pair(nearest, cands, rig.model, rig, crit)
+        # the partner named: the closest mode in frequency moving the cross-axis sensors more
+        key = next((f"{k}_ratio" for k in ("lateral", "axial") if k in {getattr(f, "kind", "") for f in
+                                                                          nearest.failures}), "")
+        more = [p for p in cands if p.index != nearest.index and key and (getattr(p, key) or 0.0)
+                > max(float(getattr(nearest, key) or 0.0), crit.max_cross_axis_ratio)]
+        pool = [nearest, *([min(more, key=lambda p: abs(p.natural_freq - nearest.natural_freq))] if more else [])]
+        pair = _mixed_pair(nearest, pool, rig.model, rig, crit)
         if pair is not None:  # the true reason: a mixed pair that is no two-mode coupling
             why = ("the two modes' ratios tell different mixings" if not pair.consistent else
                    f"mixing {100 * pair.mixing:.0f} %: the partner holds the larger radial share"
