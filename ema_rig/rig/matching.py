@@ -36,7 +36,11 @@ mass-normalised at the radial driving point, sign-corrected DOFs):
   and the driving point close to +1 (a tilt mode moves them out of phase);
 * **similar radial housing amplitudes**: rigid translation of the housing mass;
 * **cross-axis motion**: lateral and axial housing sensors small against the radial ones
-  (otherwise a lateral or axial mode);
+  (otherwise a lateral or axial mode). Where no mode passes, a mode failing only by it (and by
+  the modal mass the mixing raises) is the radial housing mode strongly mixed with a cross-axis
+  partner when an identified partner's ratio tells the same mixing
+  (:func:`cross_axis_correction`) and the mode holds the larger radial share: a bearing cross
+  coupling beside a lateral or axial housing mode; else the refusal names the mixed pair and why;
 * **spindle/housing ratio**: the spindle radial sensors' signed motion relative to the housing,
   compared with the 3DOF model's ``phi_S / phi_H`` at the candidate's frequency (≈ 0.11 at
   626 Hz); a spindle mode moves the spindle far more;

@@ -682,8 +682,12 @@ def estimate_stiffness(
     inv3 = _plain_inversion(asm.undamped_freq, replace(rig.model, k_MS=kms))
     rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
     hm_damp = hm_std
+    pair_note: tuple[str, ...] = ()
     if m.mixed_partner is not None and asm.cross_axis is not None:
         hm_damp = _uncoupled_pole(hm_std, ident, m.mixed_partner, asm.cross_axis.uncoupled_freq)
+        pair_note = (f"bearing damping read from the mixed pair: the uncoupled housing mode's damping ratio at most "
+                     f"{100 * hm_damp.damping_ratio:.2f} % from both modes' (the mixed mode's own "
+                     f"{100 * hm_std.damping_ratio:.2f} %)",)
     damping = _bearing_damping(hm_damp, params, rel_unc, k_ms_std, damping_model, asm.damping_location)
     return StiffnessResult(
         k_TB=k_tb,
@@ -710,7 +714,7 @@ def estimate_stiffness(
         damping_model=damping_model,
         warnings=asm.warnings + tuple(unknown) + tuple(unresolved_warning(k_tb, float(unc.k_TB_std), kms))
         + tuple(f"identification: {w}" for w in id_warns),
-        notes=asm.notes + tuple(defaults_note(unc)) + tuple(f"identification: {w}" for w in id_notes),
+        notes=asm.notes + pair_note + tuple(defaults_note(unc)) + tuple(f"identification: {w}" for w in id_notes),
         mode_source=source,
         damping=damping,
         inversion_3dof=inv3,

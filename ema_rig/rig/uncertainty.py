@@ -667,7 +667,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       and a term bounding the shift for a partner anywhere in the band. Between 2 and 3 sigma of
       misalignment (misalignment alone or a coupling partly hidden by it, which the data cannot
       tell apart) the identified frequency is inverted and, with a partner telling the same mixing,
-      the coupled reading (its uncoupled frequency) sits at 1 sigma: a term and a note;
+      the coupled reading (its uncoupled frequency) sits at 1 sigma: a term and a note. A strongly
+      mixed pair (``MatchResult.mixed_partner``, the housing mode beyond the matching's cross-axis
+      ratio) is read the same way: the pair's uncoupled frequency with the mixing's std as a term;
     * **modal mass check** (with ``data`` and a driving point): the driving-point modal mass,
       fitted at the identified poles (:func:`ema_rig.rig.fit.driving_point_mass`; the damping ratio
       std of the identification carried into its std), against
