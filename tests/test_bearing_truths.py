@@ -8,17 +8,18 @@ classes over many seeds and counts silent failures.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
 
 import numpy as np
 import pytest
-from rig_truth import TABLE1, RigTruth, rig_text, write_case
+from rig_truth import TABLE1, RigTruth, measurement, rig_text, write_case, write_uff
 
 from ema_rig.cli import main
 from ema_rig.config import ModelParams, load_rig
-from ema_rig.errors import ConfigError
+from ema_rig.errors import ConfigError, MatchingError
 from ema_rig.io.uff import read_uff58
 from ema_rig.rig import stiffness as st
 from ema_rig.rig.damping import bearing_damping
@@ -150,6 +151,54 @@ def test_lateral_partner_pair_measures_the_housing_mass(tmp_path):
     assert not any("m_H tolerance widened" in n for n in res.notes)
     assert res.warnings == () and abs(_z(res, truth)) < 2.0
     assert res.k_TB_std / res.k_TB < 0.03
+
+
+@pytest.mark.parametrize(("lateral_freq", "leak", "seed"), [(635.0, 0.30, 1), (632.0, 0.40, 5)])
+def test_strongly_mixed_lateral_pair_is_decoupled(tmp_path, lateral_freq, leak, seed):
+    # the housing's lateral mode 1-1.5 % above the radial housing mode, a bearing cross stiffness
+    # putting 30-40 % of the housing mode's energy into the lateral motion (r_truth11's "lateral
+    # mode 1-2 % from the housing mode"): both modes move the lateral sensors 0.65-0.75x the radial
+    # ones, so no mode passed the 0.5 cross-axis criterion and the run was refused ("nearest ...:
+    # lateral mode"). The two-mode reduction of the pair gives the uncoupled housing frequency:
+    # the truth's k_TB within 2 sigma, no warning (the pair is a resolved result, not a caveat)
+    truth = RigTruth(k_TB=71.57e6, cross_axis="lateral", lateral_freq=lateral_freq, cross_leak=leak, seed=seed)
+    res = _estimate(tmp_path, "mixed", truth)
+    assert res.housing_mode["lateral_ratio"] > 0.5  # the pair is mixed beyond the old criterion
+    assert any("bearing cross coupling" in n for n in res.notes)
+    assert "lateral coupling" in res.uncertainty.shares
+    assert res.warnings == () and abs(_z(res, truth)) < 2.0
+    # the identified (mixed) frequency is >1 % below the uncoupled one: read plainly, k_TB would
+    # be off by several sigma; the decoupling is doing the work
+    assert res.inverted_freq > 1.01 * res.housing_mode["natural_freq"]
+
+
+def test_mixed_pair_with_a_miscalibrated_lateral_sensor_is_refused_for_its_true_reason(tmp_path):
+    # the strongly mixed pair above, the lateral sensor reading twice the truth (a wrong
+    # sensitivity): the housing mode's lateral/radial ratio doubles, the partner's radial/lateral
+    # halves, so the two tell mixings 16x apart, no two-mode coupling. The refusal names the mixed
+    # pair and why (it said "nearest ...: lateral mode" before)
+    from scipy.linalg import eigh
+
+    truth = RigTruth(k_TB=71.57e6, cross_axis="lateral", lateral_freq=635.0, cross_leak=0.30, seed=1)
+    meas = measurement(truth, FREQ)
+    frf = meas.frf.copy()
+    frf[meas.out.index("14+Z")] *= 2.0
+    uff = write_uff(tmp_path / "gain.uff", dataclasses.replace(meas, frf=frf))
+    rig_path = tmp_path / "gain.toml"
+    rig_path.write_text(truth.rig_file_text(dict(truth.params), ()), encoding="utf-8")
+    rig = load_rig(rig_path)
+    with pytest.raises(MatchingError) as exc:
+        st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False)
+    msg = str(exc.value)
+    assert "radial housing mode is mixed with the lateral mode at" in msg and "different mixings" in msg
+    # the partner named is the truth's lateral-dominated mode of the pair (scipy's eigenvalues of
+    # the truth's M, K: the mode with most kinetic energy in z_H), to the identification's 0.5 %
+    m, k = truth.matrices()
+    lam, phi = eigh(k, m)
+    lat = int(np.argmax(m[5, 5] * phi[5] ** 2))
+    f_lat = math.sqrt(lam[lat]) / (2 * math.pi)
+    named = float(re.search(r"lateral mode at ([0-9.]+) Hz", msg).group(1))
+    assert named == pytest.approx(f_lat, rel=5e-3)
 
 
 def test_unresolved_partner_is_never_silent(tmp_path):

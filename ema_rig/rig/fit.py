@@ -46,7 +46,7 @@ from ..frf import FRFData
 from ..identification.modal import effective_mass, modal_basis, shape_products
 from ..literals import FrfForm
 from .inversion import k_tb_ms_from_housing_freq, model_mode_at
-from .matching import MATCH_CRITERIA
+from .matching import MATCH_CRITERIA, CrossAxisCorrection, cross_axis_correction
 from .model import mass_matrix, stiffness_matrix
 
 __all__ = [
@@ -358,91 +358,6 @@ def spindle_phase(data: FRFData, p: int, q: int, spindle: list[int], poles: NDAr
 
     var = float(grad(r_s) @ c_s @ grad(r_s) + grad(r_p) @ c_p @ grad(r_p))
     return ShapePhase(phase=float(np.angle(r_s / r_p)), phase_std=math.sqrt(max(var, 0.0)), n_spindle=len(spindle))
-
-
-@dataclass(frozen=True, slots=True)
-class CrossAxisCorrection:
-    """Uncoupled radial housing frequency from a cross-coupled partner mode.
-
-    Attributes
-    ----------
-    axis : str
-        ``'axial'`` or ``'lateral'``.
-    ratio : float
-        The housing mode's cross-axis / radial housing amplitude ratio.
-    partner_freq : float
-        The partner mode's frequency [Hz].
-    partner_ratio : float
-        The partner's radial / cross-axis amplitude ratio (``~ ratio`` for a two-mode coupling).
-    mixing : float
-        ``t^2 = ratio^2 m_x / m_eff``: the partner's share over the housing's in the mode.
-    uncoupled_freq, rel_std : float
-        Uncoupled housing frequency [Hz] and its relative standard uncertainty.
-    consistent : bool
-        Both ratios give the same mixing within 3 sigma (a two-mode coupling).
-    """
-
-    axis: str
-    ratio: float
-    partner_freq: float
-    partner_ratio: float
-    mixing: float
-    uncoupled_freq: float
-    rel_std: float
-    consistent: bool = True
-
-
-def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner_ratio: float,
-                          m_cross: float, m_eff: float, *, ratio_std: float, partner_ratio_std: float,
-                          axis: str) -> CrossAxisCorrection:
-    """Two-mode reduction of a bearing cross stiffness.
-
-    The housing mode ``1`` and its partner ``2`` (the housing's axial or lateral rigid-body
-    mode) are, in mass-normalised coordinates, ``cos(t) h + sin(t) p`` and ``-sin(t) h + cos(t) p``
-    of the uncoupled radial housing mode ``h`` (driving-point effective mass ``m_eff``) and the
-    uncoupled cross-axis mode ``p`` (mass ``m_cross``). Mode 1's cross-axis / radial amplitude
-    ratio is ``tan(t) sqrt(m_eff / m_cross)`` and mode 2's radial / cross-axis ratio
-    ``tan(t) sqrt(m_cross / m_eff)``: two estimates of ``tan(t)^2``, combined by inverse variance.
-    The uncoupled eigenvalue is ``cos^2(t) w_1^2 + sin^2(t) w_2^2`` (exact for two modes).
-
-    Parameters
-    ----------
-    f_h : float
-        Identified housing frequency [Hz].
-    ratio : float
-        Its cross-axis / radial housing amplitude ratio.
-    partner_freq : float
-        Partner frequency [Hz].
-    partner_ratio : float
-        The partner's radial / cross-axis amplitude ratio.
-    m_cross, m_eff : float
-        Housing mass along the cross axis and the model's radial effective modal mass [kg].
-    ratio_std, partner_ratio_std : float
-        Standard uncertainties of both ratios (sensor misalignment, cross-axis sensitivity).
-    axis : str
-        ``'axial'`` or ``'lateral'``.
-
-    Returns
-    -------
-    CrossAxisCorrection
-        ``consistent`` False when the two estimates of the mixing differ by more than 3 sigma.
-    """
-    q = m_cross / m_eff
-    t1, u1 = ratio**2 * q, 2 * ratio * ratio_std * q
-    t2, u2 = partner_ratio**2 / q, 2 * partner_ratio * partner_ratio_std / q
-    w1, w2 = 1 / max(u1, 1e-12) ** 2, 1 / max(u2, 1e-12) ** 2
-    t = (w1 * t1 + w2 * t2) / (w1 + w2)
-    u_t = 1 / math.sqrt(w1 + w2)
-    consistent = abs(t1 - t2) <= 3 * math.hypot(u1, u2)
-
-    def fu(x: float) -> float:
-        x = max(x, 0.0)
-        return math.sqrt((f_h**2 + x * partner_freq**2) / (1 + x))
-
-    f_u = fu(t)
-    rel = abs(math.log(fu(t + u_t) / fu(t - u_t))) / 2
-    return CrossAxisCorrection(axis=axis, ratio=ratio, partner_freq=partner_freq, partner_ratio=partner_ratio,
-                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent)
 
 
 @dataclass(frozen=True, slots=True)

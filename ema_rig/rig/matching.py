@@ -36,7 +36,11 @@ mass-normalised at the radial driving point, sign-corrected DOFs):
   and the driving point close to +1 (a tilt mode moves them out of phase);
 * **similar radial housing amplitudes**: rigid translation of the housing mass;
 * **cross-axis motion**: lateral and axial housing sensors small against the radial ones
-  (otherwise a lateral or axial mode);
+  (otherwise a lateral or axial mode). Where no mode passes, a mode failing only by it (and by
+  the modal mass the mixing raises) is the radial housing mode strongly mixed with a cross-axis
+  partner when an identified partner's ratio tells the same mixing
+  (:func:`cross_axis_correction`) and the mode holds the larger radial share: a bearing cross
+  coupling beside a lateral or axial housing mode; else the refusal names the mixed pair and why;
 * **spindle/housing ratio**: the spindle radial sensors' signed motion relative to the housing,
   compared with the 3DOF model's ``phi_S / phi_H`` at the candidate's frequency (≈ 0.11 at
   626 Hz); a spindle mode moves the spindle far more;
@@ -177,6 +181,17 @@ class MatchCriteria:
         the modal mass can resolve (:data:`ema_rig.rig.uncertainty.MASS_RESOLUTION`):
         ``sqrt(1e-3) = 0.032``. Beyond, the pair is not resolved and the one-channel mass with the
         widened m_H tolerance (or a warning) stays.
+    cross_axis_ratio_std : float
+        Standard uncertainty of a measured cross-axis / radial amplitude ratio (0.035). Source: an
+        accelerometer mounted within 2 degrees reads sin(2 deg) = 0.035 of the motion across its axis.
+    mixed_pair_max_mixing : float
+        Where no mode passes, a mode failing only by its cross-axis motion (and by its modal mass,
+        which the mixing raises by ``1 + t^2``) is the radial housing mode mixed with a cross-axis
+        partner when an identified partner tells the same mixing ``t^2`` (two independent ratios
+        within 3 sigma, :func:`cross_axis_correction`) and ``t^2`` is at most this (1): the mode
+        keeps at least half of the radial housing motion of the pair. Source: definition (of the
+        two modes sharing one radial housing motion, the radial housing mode is the one holding the
+        larger share; at exactly 1 either reading gives the same uncoupled frequency).
     """
 
     min_phase_cos: float = 0.2
@@ -199,6 +214,8 @@ class MatchCriteria:
     spindle_search_margin: float = 0.02
     spindle_search_min_fraction: float = 0.5
     pair_max_mass_std: float = 0.03
+    cross_axis_ratio_std: float = 0.035
+    mixed_pair_max_mixing: float = 1.0
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name (see the class docstring)."""
@@ -226,6 +243,8 @@ class MatchCriteria:
             "neighbour_participation": conv,
             "pair_max_mass_std": "linearised std of 1 / |R| valid while its bias (std / m)^2 <= MASS_RESOLUTION "
                                  "(0.1 %): sqrt(1e-3) = 0.032",
+            "cross_axis_ratio_std": "a sensor mounted within 2 degrees: sin(2 deg) = 0.035 of the cross motion",
+            "mixed_pair_max_mixing": "definition: the radial housing mode holds the larger radial share of the pair",
         }
 
 
@@ -272,6 +291,10 @@ class MatchResult:
     warnings : tuple of str
         One-line caveats found while matching (missing driving point, several modes passing,
         a sensor whose polarity looks reversed).
+    mixed_partner : int or None
+        Where the housing mode was matched as one of a strongly mixed pair (it moves the
+        cross-axis sensors beyond :attr:`MatchCriteria.max_cross_axis_ratio`, an identified
+        partner tells the same mixing): the partner's index; else None.
     """
 
     housing_index: int
@@ -286,6 +309,7 @@ class MatchResult:
     neighbours: tuple[int, ...] = ()
     participation: tuple[float, ...] = ()
     warnings: tuple[str, ...] = ()
+    mixed_partner: int | None = None
 
     def __repr__(self) -> str:
         hm: Mapping[str, Any] = self.housing_mode or {}
@@ -305,6 +329,138 @@ class MatchResult:
 
 
 # --------------------------------------------------------------------------- helpers
+
+@dataclass(frozen=True, slots=True)
+class CrossAxisCorrection:
+    """Uncoupled radial housing frequency from a cross-coupled partner mode.
+
+    Attributes
+    ----------
+    axis : str
+        ``'axial'`` or ``'lateral'``.
+    ratio : float
+        The housing mode's cross-axis / radial housing amplitude ratio.
+    partner_freq : float
+        The partner mode's frequency [Hz].
+    partner_ratio : float
+        The partner's radial / cross-axis amplitude ratio (``~ ratio`` for a two-mode coupling).
+    mixing : float
+        ``t^2 = ratio^2 m_x / m_eff``: the partner's share over the housing's in the mode.
+    uncoupled_freq, rel_std : float
+        Uncoupled housing frequency [Hz] and its relative standard uncertainty.
+    consistent : bool
+        Both ratios give the same mixing within 3 sigma (a two-mode coupling).
+    """
+
+    axis: str
+    ratio: float
+    partner_freq: float
+    partner_ratio: float
+    mixing: float
+    uncoupled_freq: float
+    rel_std: float
+    consistent: bool = True
+
+
+def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner_ratio: float,
+                          m_cross: float, m_eff: float, *, ratio_std: float, partner_ratio_std: float,
+                          axis: str) -> CrossAxisCorrection:
+    """Two-mode reduction of a bearing cross stiffness.
+
+    The housing mode ``1`` and its partner ``2`` (the housing's axial or lateral rigid-body
+    mode) are, in mass-normalised coordinates, ``cos(t) h + sin(t) p`` and ``-sin(t) h + cos(t) p``
+    of the uncoupled radial housing mode ``h`` (driving-point effective mass ``m_eff``) and the
+    uncoupled cross-axis mode ``p`` (mass ``m_cross``). Mode 1's cross-axis / radial amplitude
+    ratio is ``tan(t) sqrt(m_eff / m_cross)`` and mode 2's radial / cross-axis ratio
+    ``tan(t) sqrt(m_cross / m_eff)``: two estimates of ``tan(t)^2``, combined by inverse variance.
+    The uncoupled eigenvalue is ``cos^2(t) w_1^2 + sin^2(t) w_2^2`` (exact for two modes).
+
+    Parameters
+    ----------
+    f_h : float
+        Identified housing frequency [Hz].
+    ratio : float
+        Its cross-axis / radial housing amplitude ratio.
+    partner_freq : float
+        Partner frequency [Hz].
+    partner_ratio : float
+        The partner's radial / cross-axis amplitude ratio.
+    m_cross, m_eff : float
+        Housing mass along the cross axis and the model's radial effective modal mass [kg].
+    ratio_std, partner_ratio_std : float
+        Standard uncertainties of both ratios (sensor misalignment, cross-axis sensitivity).
+    axis : str
+        ``'axial'`` or ``'lateral'``.
+
+    Returns
+    -------
+    CrossAxisCorrection
+        ``consistent`` False when the two estimates of the mixing differ by more than 3 sigma.
+    """
+    q = m_cross / m_eff
+    t1, u1 = ratio**2 * q, 2 * ratio * ratio_std * q
+    t2, u2 = partner_ratio**2 / q, 2 * partner_ratio * partner_ratio_std / q
+    w1, w2 = 1 / max(u1, 1e-12) ** 2, 1 / max(u2, 1e-12) ** 2
+    t = (w1 * t1 + w2 * t2) / (w1 + w2)
+    u_t = 1 / math.sqrt(w1 + w2)
+    consistent = abs(t1 - t2) <= 3 * math.hypot(u1, u2)
+
+    def fu(x: float) -> float:
+        x = max(x, 0.0)
+        return math.sqrt((f_h**2 + x * partner_freq**2) / (1 + x))
+
+    f_u = fu(t)
+    rel = abs(math.log(fu(t + u_t) / fu(t - u_t))) / 2
+    return CrossAxisCorrection(axis=axis, ratio=ratio, partner_freq=partner_freq, partner_ratio=partner_ratio,
+                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent)
+
+
+def cross_axis_partner(f_h: float, ratio: float, cands: list[Candidate], key: str, m_cross: float, m_eff: float,
+                       *, min_ratio: float, n_radial: int, ratio_std: float, axis: str,
+                       exclude: int | None = None) -> CrossAxisCorrection | None:
+    """The identified partner of a cross-coupled housing mode, read through :func:`cross_axis_correction`.
+
+    The partner is a mode moving the cross-axis sensors relatively more than the housing mode does
+    (``key`` above ``max(ratio, min_ratio)``); of several, the one whose radial / cross-axis ratio
+    tells the housing mode's mixing most nearly.
+
+    Parameters
+    ----------
+    f_h, ratio : float
+        The housing mode's frequency [Hz] and its cross-axis / radial housing amplitude ratio.
+    cands : list of Candidate
+        The identified modes.
+    key : str
+        ``'axial_ratio'`` or ``'lateral_ratio'``.
+    m_cross, m_eff : float
+        Housing mass along the cross axis and the model's radial effective modal mass [kg].
+    min_ratio : float
+        The partner's cross-axis / radial ratio exceeds this too.
+    n_radial : int
+        Radial housing sensors (the partner's ratio averages over them).
+    ratio_std : float
+        Standard uncertainty of one measured ratio (sensor misalignment).
+    axis : str
+        ``'axial'`` or ``'lateral'``.
+    exclude : int, optional
+        Index of the housing mode itself.
+
+    Returns
+    -------
+    CrossAxisCorrection or None
+        None when no mode qualifies as the partner.
+    """
+    trials = [cross_axis_correction(
+        f_h, ratio, c.natural_freq, 1.0 / float(getattr(c, key)), m_cross, m_eff, ratio_std=ratio_std,
+        partner_ratio_std=ratio_std / math.sqrt(max(n_radial, 1)), axis=axis)
+        for c in cands if c.index != exclude and getattr(c, key) is not None
+        and getattr(c, key) > max(ratio, min_ratio)]
+    if not trials:
+        return None
+    return min(trials, key=lambda x: abs(math.log(max(x.ratio**2 * m_cross / m_eff, 1e-12)
+                                                  / max(x.partner_ratio**2 * m_eff / m_cross, 1e-12))))
+
+
 def _fmt(x: float | None, spec: str = ".3g") -> str:
     return "n/a" if x is None or not np.isfinite(x) else format(x, spec)
 
@@ -389,13 +545,33 @@ def match_modes(
 
     cands = [_judge_housing(c, params, lo, hi, crit) for c in measure(modes, "modes", natural_freq_std)]
     passing = [c for c in cands if not c.failures]
+    mixed: dict[int, CrossAxisCorrection] = {}
     if not passing:
-        raise MatchingError(_refusal(cands, lo, hi, rig), candidates=[c.to_dict() for c in cands], file=file)
+        # no clean housing mode: the radial housing mode strongly mixed with a cross-axis partner
+        # (a bearing cross coupling near a lateral or axial housing mode) still is the housing mode;
+        # the budget inverts the pair's uncoupled frequency (ema_rig.rig.uncertainty.assess)
+        pairs = {c.index: _mixed_pair(c, cands, params, rig, crit) for c in cands}
+        mixed = {i: p for i, p in pairs.items() if p is not None and _pair_holds(cands[i], p, crit)}
+        passing = [c for c in cands if c.index in mixed]
+    if not passing:
+        raise MatchingError(_refusal(cands, lo, hi, rig, crit), candidates=[c.to_dict() for c in cands],
+                            file=file)
     best = min(passing, key=_score)
     hi_idx = best.index
     info = model_mode_at(params, best.natural_freq)
     assert info is not None  # a passing candidate lies inside the model's range
-    cands[hi_idx] = replace(best, status="housing", reason="radial housing mode: " + best.reason)
+    mixed_partner = None
+    if hi_idx in mixed:
+        pm = mixed[hi_idx]
+        mixed_partner = min((c for c in cands if c.index != hi_idx),
+                            key=lambda c: abs(c.natural_freq - pm.partner_freq)).index
+        share = 1.0 / (1.0 + pm.mixing)
+        cands[hi_idx] = replace(best, status="housing", failures=(), reason=(
+            f"radial housing mode mixed with the {pm.axis} mode at {pm.partner_freq:.1f} Hz (radial housing "
+            f"shares {100 * share:.0f} %/{100 * (1 - share):.0f} %, both modes' ratios tell mixing "
+            f"{100 * pm.mixing:.0f} %): bearing cross coupling"))
+    else:
+        cands[hi_idx] = replace(best, status="housing", reason="radial housing mode: " + best.reason)
     for c in passing:
         if c is not best:
             cands[c.index] = replace(c, reason=(
@@ -498,6 +674,7 @@ def match_modes(
         neighbours=neigh,
         participation=part,
         warnings=tuple(warns),
+        mixed_partner=mixed_partner,
     )
 
 
@@ -509,7 +686,41 @@ def _short(msg: str) -> str:
     return msg if len(msg) <= MAX_MESSAGE else msg[: MAX_MESSAGE - 3] + "..."
 
 
-def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig) -> str:
+def _mixed_pair(c: Candidate, cands: list[Candidate], params: ModelParams, rig: RigConfig,
+                crit: MatchCriteria) -> CrossAxisCorrection | None:
+    """Candidate ``c`` read as the radial housing mode mixed with a cross-axis partner, or None.
+
+    Only for a mode inside the model's range whose failures are its cross-axis motion (one axis)
+    and at most its modal mass; the partner from :func:`cross_axis_partner` (harmonic lines
+    excluded), not yet judged (:func:`_pair_holds`).
+    """
+    kinds = {str(getattr(f, "kind", "")) for f in c.failures}  # Failure texts (plain str from old JSON)
+    cross = kinds & {"lateral", "axial"}
+    if len(cross) != 1 or not kinds <= {"lateral", "axial", "mass"} or c.model_modal_mass is None:
+        return None
+    axis = next(iter(cross))
+    other = "axial_ratio" if axis == "lateral" else "lateral_ratio"
+    if (getattr(c, other) or 0.0) > crit.max_cross_axis_ratio:
+        return None
+    n_rad = sum(1 for se in rig.sensors if se.role == "housing" and se.axis == "radial")
+    pool = [p for p in cands if p.harmonic is None]
+    return cross_axis_partner(c.natural_freq, float(getattr(c, f"{axis}_ratio")), pool, f"{axis}_ratio", params.m_H,
+                              c.model_modal_mass, min_ratio=crit.max_cross_axis_ratio, n_radial=n_rad,
+                              ratio_std=crit.cross_axis_ratio_std, axis=axis, exclude=c.index)
+
+
+def _pair_holds(c: Candidate, pair: CrossAxisCorrection, crit: MatchCriteria) -> bool:
+    """Whether the mixed pair is a two-mode coupling of which ``c`` is the radial housing mode.
+
+    Both ratios tell the same mixing, ``c`` holds the larger radial share
+    (:attr:`MatchCriteria.mixed_pair_max_mixing`) and its modal mass over ``1 + t^2`` is the model's.
+    """
+    lo_m, hi_m = crit.mass_ratio_range
+    return (pair.consistent and pair.mixing <= crit.mixed_pair_max_mixing
+            and (c.mass_ratio is None or lo_m <= c.mass_ratio / (1.0 + pair.mixing) <= hi_m))
+
+
+def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig, crit: MatchCriteria) -> str:
     """One short line: why no mode is the housing mode, naming the most likely cause."""
     inside = [c for c in cands if lo < c.natural_freq < hi]
     head = f"no identified mode matches the radial housing mode ({lo:.0f}-{hi:.0f} Hz, {len(cands)} candidates)"
@@ -534,6 +745,21 @@ def _refusal(cands: list[Candidate], lo: float, hi: float, rig: RigConfig) -> st
         cause = f"{c.natural_freq:.1f} Hz: " + next(f for f in c.failures if getattr(f, "kind", None) == "mass units")
     else:
         cause = f"nearest {nearest.natural_freq:.1f} Hz: {nearest.failures[0]}"
+        # the partner named: the closest mode in frequency moving the cross-axis sensors more
+        key = next((f"{k}_ratio" for k in ("lateral", "axial") if k in {getattr(f, "kind", "") for f in
+                                                                          nearest.failures}), "")
+        more = [p for p in cands if p.index != nearest.index and key and (getattr(p, key) or 0.0)
+                > max(float(getattr(nearest, key) or 0.0), crit.max_cross_axis_ratio)]
+        pool = [nearest, *([min(more, key=lambda p: abs(p.natural_freq - nearest.natural_freq))] if more else [])]
+        pair = _mixed_pair(nearest, pool, rig.model, rig, crit)
+        if pair is not None:  # the true reason: a mixed pair that is no two-mode coupling
+            why = ("the two modes' ratios tell different mixings" if not pair.consistent else
+                   f"mixing {100 * pair.mixing:.0f} %: the partner holds the larger radial share"
+                   if pair.mixing > crit.mixed_pair_max_mixing else
+                   "its modal mass over the mixing is not the model's")
+            cause = (f"the radial housing mode is mixed with the {pair.axis} mode at {pair.partner_freq:.1f} Hz "
+                     f"({pair.axis}/radial {pair.ratio:.2f} at {nearest.natural_freq:.1f} Hz, radial/{pair.axis} "
+                     f"{pair.partner_ratio:.2f} there) but {why}")
     return _short(f"{head}; {cause}")
 
 

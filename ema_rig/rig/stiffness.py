@@ -681,7 +681,14 @@ def estimate_stiffness(
     hm_std = _mode_with_std(m.housing_mode, ident, m.housing_index)
     inv3 = _plain_inversion(asm.undamped_freq, replace(rig.model, k_MS=kms))
     rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
-    damping = _bearing_damping(hm_std, params, rel_unc, k_ms_std, damping_model, asm.damping_location)
+    hm_damp = hm_std
+    pair_note: tuple[str, ...] = ()
+    if m.mixed_partner is not None and asm.cross_axis is not None:
+        hm_damp = _uncoupled_pole(hm_std, ident, m.mixed_partner, asm.cross_axis.uncoupled_freq)
+        pair_note = (f"bearing damping read from the mixed pair: the uncoupled housing mode's damping ratio at most "
+                     f"{100 * hm_damp.damping_ratio:.2f} % from both modes' (the mixed mode's own "
+                     f"{100 * hm_std.damping_ratio:.2f} %)",)
+    damping = _bearing_damping(hm_damp, params, rel_unc, k_ms_std, damping_model, asm.damping_location)
     return StiffnessResult(
         k_TB=k_tb,
         k_TB_std=float(unc.k_TB_std) if not unknown else math.nan,
@@ -707,7 +714,7 @@ def estimate_stiffness(
         damping_model=damping_model,
         warnings=asm.warnings + tuple(unknown) + tuple(unresolved_warning(k_tb, float(unc.k_TB_std), kms))
         + tuple(f"identification: {w}" for w in id_warns),
-        notes=asm.notes + tuple(defaults_note(unc)) + tuple(f"identification: {w}" for w in id_notes),
+        notes=asm.notes + pair_note + tuple(defaults_note(unc)) + tuple(f"identification: {w}" for w in id_notes),
         mode_source=source,
         damping=damping,
         inversion_3dof=inv3,
@@ -771,6 +778,40 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
         return {"freq": float(f0), "k_TB": float(k_tb_from_housing_freq(f0, params))}
     except InversionError:
         return None
+
+
+def _uncoupled_pole(hm: MatchedMode, ident: Any, partner: int, f_u: float) -> MatchedMode:
+    """The radial housing mode of a strongly mixed pair, as the bearing's damping reads it.
+
+    In mass-normalised coordinates the pair's damping matrix is the uncoupled one (housing
+    ``2 zeta_h w_h``, cross-axis motion ``c_p >= 0``) turned by the mixing angle; its trace is
+    kept: ``2 zeta_1 w_1 + 2 zeta_2 w_2 = 2 zeta_h w_h + c_p``. So ``(zeta_1 f_1 + zeta_2 f_2) / f_u``
+    bounds the uncoupled housing mode's damping ratio from above (exact for an undamped cross-axis
+    motion), where the mixed mode's own ``zeta_1`` holds only its share of the housing's damping.
+
+    Parameters
+    ----------
+    hm : MatchedMode
+        The identified housing mode (frequency [Hz], damping ratio and their stds).
+    ident : Identification
+        The identification holding the partner (``modes``, ``damping_ratio_std``).
+    partner : int
+        The partner's index in ``ident.modes``.
+    f_u : float
+        The pair's uncoupled housing frequency [Hz].
+
+    Returns
+    -------
+    MatchedMode
+        ``hm`` at ``f_u`` with that damping ratio and its std (both modes' stds, independent).
+    """
+    f1, z1 = float(hm["natural_freq"]), float(hm["damping_ratio"])
+    f2, z2 = float(ident.modes.natural_freq[partner]), float(ident.modes.damping_ratio[partner])
+    arr = getattr(ident, "damping_ratio_std", None)
+    s1 = float(hm.get("damping_ratio_std") or 0.0)
+    s2 = float(arr[partner]) if arr is not None and math.isfinite(float(arr[partner])) else 0.0
+    return hm.with_entries(natural_freq=f_u, damping_ratio=(z1 * f1 + z2 * f2) / f_u,
+                           damping_ratio_std=math.hypot(f1 * s1, f2 * s2) / f_u)
 
 
 def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,

@@ -38,7 +38,6 @@ from .fit import (
     DrivingPointMass,
     HousingMass,
     centre_mass_factor,
-    cross_axis_correction,
     driving_point_mass_of,
     fit_housing_pair_of,
     fit_split_housing,
@@ -55,7 +54,7 @@ from .inversion import (
     k_tb_ms_from_housing_freq,
     model_mode_at,
 )
-from .matching import MATCH_CRITERIA, MatchResult
+from .matching import MATCH_CRITERIA, MatchResult, cross_axis_partner
 
 __all__ = [
     "DAMPING_MODELS",
@@ -466,9 +465,9 @@ def unresolved_warning(k_tb: float, k_tb_std: float, k_ms: float) -> list[str]:
             "k_MS; a bearing far stiffer than the mounting system is bounded from below only)"]
 
 
-CROSS_AXIS_RATIO_STD = 0.035
-"""Standard uncertainty of a measured cross-axis / radial amplitude ratio: an accelerometer
-mounted within 2 degrees reads sin(2 deg) = 0.035 of the motion across its axis."""
+CROSS_AXIS_RATIO_STD = MATCH_CRITERIA.cross_axis_ratio_std
+"""Standard uncertainty of a measured cross-axis / radial amplitude ratio (the matching criteria's
+:attr:`ema_rig.rig.matching.MatchCriteria.cross_axis_ratio_std`: a sensor within 2 degrees)."""
 
 CROSS_AXIS_RATIO = 3 * CROSS_AXIS_RATIO_STD
 """The housing mode moving its axial or lateral sensors more than this (3 sigma of misalignment)
@@ -664,11 +663,13 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     * **cross-axis coupling**: the housing mode moves its axial or lateral sensors more than
       :data:`CROSS_AXIS_RATIO` of the radial ones: with an identified partner whose radial /
       cross-axis ratio tells the same mixing, the uncoupled frequency is recovered
-      (:func:`ema_rig.rig.fit.cross_axis_correction`, a note and a term); otherwise a warning
+      (:func:`ema_rig.rig.matching.cross_axis_correction`, a note and a term); otherwise a warning
       and a term bounding the shift for a partner anywhere in the band. Between 2 and 3 sigma of
       misalignment (misalignment alone or a coupling partly hidden by it, which the data cannot
       tell apart) the identified frequency is inverted and, with a partner telling the same mixing,
-      the coupled reading (its uncoupled frequency) sits at 1 sigma: a term and a note;
+      the coupled reading (its uncoupled frequency) sits at 1 sigma: a term and a note. A strongly
+      mixed pair (``MatchResult.mixed_partner``, the housing mode beyond the matching's cross-axis
+      ratio) is read the same way: the pair's uncoupled frequency with the mixing's std as a term;
     * **modal mass check** (with ``data`` and a driving point): the driving-point modal mass,
       fitted at the identified poles (:func:`ema_rig.rig.fit.driving_point_mass`; the damping ratio
       std of the identification carried into its std), against
@@ -762,18 +763,10 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         hidden = not rho > CROSS_AXIS_RATIO
         # the partner: a mode moving the cross-axis sensors relatively more than the housing mode
         # does, whose radial / cross-axis ratio tells the same mixing (the most consistent one)
-        cands_p = [c for i, c in by_index0.items() if i != m.housing_index and getattr(c, key) is not None
-                   and getattr(c, key) > max(float(rho), CROSS_AXIS_RATIO)]
         n_rad = sum(1 for se in rig.sensors if se.role == "housing" and se.axis == "radial")
-        corr = None
-        if cands_p:
-            trials = [cross_axis_correction(
-                f0, float(rho), c.natural_freq, 1.0 / float(getattr(c, key)), params.m_H,
-                info0.modal_mass, ratio_std=CROSS_AXIS_RATIO_STD,
-                partner_ratio_std=CROSS_AXIS_RATIO_STD / math.sqrt(max(n_rad, 1)), axis=axis) for c in cands_p]
-            corr = min(trials, key=lambda x: abs(math.log(max(x.ratio**2 * params.m_H / info0.modal_mass, 1e-12)
-                                                          / max(x.partner_ratio**2 * info0.modal_mass / params.m_H,
-                                                                1e-12))))
+        corr = cross_axis_partner(f0, float(rho), list(by_index0.values()), key, params.m_H, info0.modal_mass,
+                                  min_ratio=CROSS_AXIS_RATIO, n_radial=n_rad, ratio_std=CROSS_AXIS_RATIO_STD,
+                                  axis=axis, exclude=m.housing_index)
         if hidden:
             if corr is not None and corr.consistent:
                 shift = math.hypot(math.log(corr.uncoupled_freq / f0), corr.rel_std)
