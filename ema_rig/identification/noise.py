@@ -209,9 +209,9 @@ def fit_noise_model(
     of ``|H|^2`` (convexity: tangent and chord per bin) exclude the grid points that cannot be the
     minimum, and only the others (one or two per channel, typically) are evaluated in double
     precision: the best grid point is the one the full double-precision grid gives. Channels are
-    independent and processed in blocks that stay in the processor cache, two blocks at a time in
-    threads from :data:`_NOISE_THREAD_MIN_VALUES` values (a fixed partition: the result is the one-thread
-    result to the bit).
+    independent and processed in blocks that stay in the processor cache; from
+    :data:`_NOISE_THREAD_MIN_VALUES` values, in blocks of :data:`_NOISE_THREAD_BLOCK` channels two at a time
+    in threads (per-channel arithmetic: the result is the one-thread result to the bit).
 
     Examples
     --------
