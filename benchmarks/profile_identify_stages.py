@@ -48,6 +48,22 @@ STAGES = {
 }
 
 
+def load_case(case: str) -> tuple[Any, tuple[float, float]]:
+    """The data and band of ``case``: "256" (the 256-output file of ``bench_refine.py``, 100-1000 Hz) or "rig"
+    (the bundled rig file, 150-1000 Hz)."""
+    from ema_rig.config import load_rig
+    from ema_rig.io.uff import read_uff58
+
+    if case == "256":
+        sys.path.insert(0, str(REPO / "benchmarks"))
+        from bench_refine import synthetic_256
+
+        path = Path(tempfile.mkdtemp()) / "synthetic_256.uff"
+        synthetic_256(path)
+        return read_uff58(path), (100.0, 1000.0)
+    return read_uff58(REPO / "data" / "b6302_1000N_1200rpm.uff", rig=load_rig(REPO / "data" / "rig.toml")), (150.0, 1000.0)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("case", choices=["rig", "256"])
@@ -66,9 +82,6 @@ def main() -> None:
     import ema_rig.identification.ml  # noqa: F401
     import ema_rig.identification.noise  # noqa: F401
     import ema_rig.identification.plscf  # noqa: F401
-    from ema_rig.config import load_rig
-    from ema_rig.io.uff import read_uff58
-
     clock = time.perf_counter if args.wall else time.thread_time if args.thread_clock else time.process_time
     acc: dict[str, float] = defaultdict(float)
     cnt: dict[str, int] = defaultdict(int)
@@ -104,15 +117,7 @@ def main() -> None:
         # identify's own second thread (the LSFD at the ML poles and the completeness test beside the
         # ML's join): run by the caller when it is created
         ident.Job = lambda task, pool, **kw: Job(task, None, **kw)
-    if args.case == "256":
-        from bench_refine import synthetic_256
-
-        path = Path(tempfile.mkdtemp()) / "synthetic_256.uff"
-        synthetic_256(path)
-        data, band = read_uff58(path), (100.0, 1000.0)
-    else:
-        data = read_uff58(REPO / "data" / "b6302_1000N_1200rpm.uff", rig=load_rig(REPO / "data" / "rig.toml"))
-        band = (150.0, 1000.0)
+    data, band = load_case(args.case)
     ident.identify(data, band=band)
     acc.clear()
     cnt.clear()

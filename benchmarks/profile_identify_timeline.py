@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import functools
 import sys
-import tempfile
 import threading
 import time
 import warnings
@@ -33,11 +32,11 @@ def main() -> None:
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     sys.path.insert(0, str(REPO / "benchmarks"))
+    from profile_identify_stages import load_case  # beside this script
+
     import ema_rig.identification.identification as ident
     import ema_rig.identification.ml as ml
     import ema_rig.identification.noise as noise
-    from ema_rig.config import load_rig
-    from ema_rig.io.uff import read_uff58
 
     events: list[tuple[str, str, float, float, float]] = []
 
@@ -63,15 +62,7 @@ def main() -> None:
     for name in ("_whole_basis", "_segment_tail", "_lm"):
         wrap(ml, name)
     wrap(sys.modules["ema_rig.identification.plscf"].PlscfEngine, "poles")
-    if args.case == "256":
-        from bench_refine import synthetic_256
-
-        path = Path(tempfile.mkdtemp()) / "synthetic_256.uff"
-        synthetic_256(path)
-        data, band = read_uff58(path), (100.0, 1000.0)
-    else:
-        data = read_uff58(REPO / "data" / "b6302_1000N_1200rpm.uff", rig=load_rig(REPO / "data" / "rig.toml"))
-        band = (150.0, 1000.0)
+    data, band = load_case(args.case)
     for _ in range(args.calls):
         events.clear()
         t_start = time.perf_counter()
