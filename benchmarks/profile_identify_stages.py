@@ -7,7 +7,10 @@ completeness test with LSFD and the local ML, the reported residues) are wrapped
 ``bench_refine.py`` (100-1000 Hz). Run it with one BLAS thread for numbers that do not depend on
 the machine's other load:
 
-``OPENBLAS_NUM_THREADS=1 PYTHONPATH=. python benchmarks/profile_identify_stages.py [rig|256] [--repeat 10] [--one-thread]``
+``OPENBLAS_NUM_THREADS=1 PYTHONPATH=. python benchmarks/profile_identify_stages.py [rig|256] [--repeat 10] [--one-thread] [--wall]``
+
+``--wall`` counts wall time (``time.perf_counter``) per stage instead: where the caller waits, at the
+default BLAS setting (on a loaded machine it mostly measures waiting for a core).
 
 The counters take the CPU time of the process: a stage that runs while another thread works (the
 noise fit's blocks, the local ML's second thread, the completeness test's segments, the data's
@@ -45,6 +48,22 @@ STAGES = {
 }
 
 
+def load_case(case: str) -> tuple[Any, tuple[float, float]]:
+    """The data and band of ``case``: "256" (the 256-output file of ``bench_refine.py``, 100-1000 Hz) or "rig"
+    (the bundled rig file, 150-1000 Hz)."""
+    from ema_rig.config import load_rig
+    from ema_rig.io.uff import read_uff58
+
+    if case == "256":
+        sys.path.insert(0, str(REPO / "benchmarks"))
+        from bench_refine import synthetic_256
+
+        path = Path(tempfile.mkdtemp()) / "synthetic_256.uff"
+        synthetic_256(path)
+        return read_uff58(path), (100.0, 1000.0)
+    return read_uff58(REPO / "data" / "b6302_1000N_1200rpm.uff", rig=load_rig(REPO / "data" / "rig.toml")), (150.0, 1000.0)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("case", choices=["rig", "256"])
@@ -53,6 +72,8 @@ def main() -> None:
     ap.add_argument("--thread-clock", action="store_true",
                     help="count the CPU time of the calling thread only (the work left on the path the caller waits "
                          "for; on an idle machine the rest runs beside it)")
+    ap.add_argument("--wall", action="store_true",
+                    help="count wall time per stage (perf_counter) instead of CPU time: where the caller waits")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     sys.path.insert(0, str(REPO / "benchmarks"))
@@ -61,10 +82,7 @@ def main() -> None:
     import ema_rig.identification.ml  # noqa: F401
     import ema_rig.identification.noise  # noqa: F401
     import ema_rig.identification.plscf  # noqa: F401
-    from ema_rig.config import load_rig
-    from ema_rig.io.uff import read_uff58
-
-    clock = time.thread_time if args.thread_clock else time.process_time
+    clock = time.perf_counter if args.wall else time.thread_time if args.thread_clock else time.process_time
     acc: dict[str, float] = defaultdict(float)
     cnt: dict[str, int] = defaultdict(int)
 
@@ -99,15 +117,7 @@ def main() -> None:
         # identify's own second thread (the LSFD at the ML poles and the completeness test beside the
         # ML's join): run by the caller when it is created
         ident.Job = lambda task, pool, **kw: Job(task, None, **kw)
-    if args.case == "256":
-        from bench_refine import synthetic_256
-
-        path = Path(tempfile.mkdtemp()) / "synthetic_256.uff"
-        synthetic_256(path)
-        data, band = read_uff58(path), (100.0, 1000.0)
-    else:
-        data = read_uff58(REPO / "data" / "b6302_1000N_1200rpm.uff", rig=load_rig(REPO / "data" / "rig.toml"))
-        band = (150.0, 1000.0)
+    data, band = load_case(args.case)
     ident.identify(data, band=band)
     acc.clear()
     cnt.clear()
@@ -119,7 +129,7 @@ def main() -> None:
     main_cpu = (time.thread_time() - m0) / args.repeat * 1e3
     print(f"{args.case}{' (ema_rig threads off)' if args.one_thread else ''}: identify {cpu:.1f} ms CPU, of it "
           f"{main_cpu:.1f} ms in the calling thread ({wall:.1f} ms wall) per call; stages, "
-          f"{'calling-thread ' if args.thread_clock else ''}CPU ms per identify (inclusive):")
+          f"{'wall' if args.wall else ('calling-thread ' if args.thread_clock else '') + 'CPU'} ms per identify (inclusive):")
     for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
         print(f"  {k:20s} {v / args.repeat * 1e3:8.1f}  ({cnt[k] / args.repeat:.1f} calls)")
 

@@ -145,11 +145,14 @@ def _pools(monkeypatch):
 def test_noise_fit_in_threads_is_the_fit_in_one_thread(monkeypatch):
     """Blocks of channels run in a pool of two threads (issue 18: speed); the answer is the
     one-thread answer to the bit (oracle: the same fit with the pool switched off), for the noise
-    fit and for the completeness test that calls it, so no load or scheduling changes a result."""
+    fit and for the completeness test that calls it, so no load or scheduling changes a result. In threads the
+    blocks hold ``_NOISE_THREAD_BLOCK`` channels, in one thread ``_NOISE_BLOCK``: 300 channels give blocks of
+    128, 128 and 44 against ten of 32 and one of 12, so the answer cannot depend on the partition either."""
     import ema_rig.identification.noise as noise
 
     rng = np.random.default_rng(5)
-    n_chan, n = 100, 600
+    n_chan, n = 300, 600
+    assert noise._NOISE_THREAD_BLOCK % noise._NOISE_BLOCK == 0 and n_chan % noise._NOISE_THREAD_BLOCK != 0
     u = np.exp(rng.uniform(-8.0, 4.0, (n_chan, n)))
     z = (1e-3 + 0.02 * u) * rng.exponential(size=u.shape)
     mask = rng.uniform(size=u.shape) > 0.15
@@ -166,12 +169,14 @@ def test_noise_fit_in_threads_is_the_fit_in_one_thread(monkeypatch):
 
 def test_noise_fit_threads_only_from_its_work_size(monkeypatch):
     """The noise fit's blocks run in threads only from ``_NOISE_THREAD_MIN_VALUES`` values (channels x
-    lines; a work-size rule, measured inside identify: below it the threads contend with identify's own
-    for no wall time). Oracle: the pools the module creates, for fits just below and at the threshold."""
+    lines; a work-size rule, measured on the 256-output file: below it the threads' hand-offs cost more than
+    they save) and more than one block of ``_NOISE_THREAD_BLOCK`` channels. Oracle: the pools the module
+    creates, for fits just below and at the threshold, and at it with one thread's block only."""
     import ema_rig.identification.noise as noise
 
     rng = np.random.default_rng(6)
-    u = np.exp(rng.uniform(-6.0, 3.0, (64, 500)))  # two blocks of 32 channels
+    u = np.exp(rng.uniform(-6.0, 3.0, (160, 500)))  # two blocks of 128 channels in threads
+    assert u.shape[0] > noise._NOISE_THREAD_BLOCK
     z = (1e-3 + 0.01 * u) * rng.exponential(size=u.shape)
     made = _pools(monkeypatch)
     monkeypatch.setattr(noise, "_NOISE_THREAD_MIN_VALUES", u.size + 1)
@@ -182,6 +187,11 @@ def test_noise_fit_threads_only_from_its_work_size(monkeypatch):
     assert len(made) >= 2
     for x_b, x_a in zip(below, at, strict=True):
         assert np.array_equal(x_b, x_a)
+    made.clear()
+    small = noise.fit_noise_model(z[: noise._NOISE_THREAD_BLOCK], u[: noise._NOISE_THREAD_BLOCK])
+    assert made == []  # one block of the threads' size: nothing to share, no pool
+    for x_s, x_a in zip(small, at, strict=True):
+        assert np.array_equal(x_s, x_a[: noise._NOISE_THREAD_BLOCK])
 
 
 def test_noise_fit_of_a_channel_with_a_nan_line_is_nan_and_leaves_the_others():

@@ -209,9 +209,9 @@ def fit_noise_model(
     of ``|H|^2`` (convexity: tangent and chord per bin) exclude the grid points that cannot be the
     minimum, and only the others (one or two per channel, typically) are evaluated in double
     precision: the best grid point is the one the full double-precision grid gives. Channels are
-    independent and processed in blocks that stay in the processor cache, two blocks at a time in
-    threads from :data:`_NOISE_THREAD_MIN_VALUES` values (a fixed partition: the result is the one-thread
-    result to the bit).
+    independent and processed in blocks that stay in the processor cache; from
+    :data:`_NOISE_THREAD_MIN_VALUES` values, in blocks of :data:`_NOISE_THREAD_BLOCK` channels two at a time
+    in threads (per-channel arithmetic: the result is the one-thread result to the bit).
 
     Examples
     --------
@@ -266,30 +266,38 @@ def fit_noise_model(
 #: Channels evaluated together by the noise fit's loops: their lines stay in the processor cache.
 _NOISE_BLOCK = 32
 
+#: Channels per block when :func:`_blocks` runs in threads: each numpy call of a block then lasts long enough
+#: (~0.2 ms on 1801 lines) that the threads gain more than the interpreter lock's hand-offs cost (below
+#: ~0.3 ms two threads lose, ``benchmarks/study_gil_handoff.py``); measured with :data:`_NOISE_THREAD_MIN_VALUES`.
+_NOISE_THREAD_BLOCK = 128
+
 #: Threads of :func:`_blocks` (fixed: the partition into blocks, not the machine, decides the work).
 _NOISE_THREADS = 2
 
-#: Values (channels x lines) of a noise fit from which :func:`_blocks` runs its blocks in threads. Measured
-#: inside the default ``identify`` on the 256-output file of ``bench_refine.py`` and larger copies of it
-#: (2026-12-07, 2 cores, ``chrt -f 10``, 9-20 alternating calls, the answers identical; noise threads on /
-#: off, wall): 256 x 1801 values 0.236 / 0.212 s (the threads contend with identify's own), 256 x 3601
-#: 0.350 / 0.353 s, 512 x 3601 0.788 / 0.793 s, 1024 x 3601 1.183 / 1.275 s; below 2 million values the
-#: threads add 10-25 % CPU time for no wall time. A work-size rule: the same on any machine.
-_NOISE_THREAD_MIN_VALUES = 2_000_000
+#: Values (channels x lines) of a noise fit from which :func:`_blocks` runs its blocks in threads, in blocks of
+#: :data:`_NOISE_THREAD_BLOCK`. Measured on the two 256-output fits of the default ``identify`` on the 256 x 1801
+#: file of ``bench_refine.py`` (``benchmarks/bench_noise_threads.py``, 2026-12-07, 2 cores, one BLAS thread as
+#: inside identify's ML stage, ``chrt -f 10``, load 12-14): one thread, blocks of 32, 97-103 ms wall; two
+#: threads, blocks of 128, 70-75 ms wall (+25 % CPU); two threads, blocks of 32, 96-108 ms (their numpy calls,
+#: ~50 us each, lose the time they gain on the interpreter lock's hand-offs). The 19-channel refit
+#: (34 000 values) stays in one thread. A work-size rule: the same on any machine.
+_NOISE_THREAD_MIN_VALUES = 400_000
 
 
 def _blocks(fn: Callable[[int, int], None], n: int, threads: bool) -> None:
     """Call ``fn(i0, i1)`` for the blocks ``[i0, i1)`` of ``_NOISE_BLOCK`` items of ``0..n``.
 
     With ``threads`` (the fit holds at least :data:`_NOISE_THREAD_MIN_VALUES` values) and more than
-    one block they run in a pool of ``_NOISE_THREADS`` threads (numpy releases the
-    interpreter lock in its loops over the lines). The partition is fixed and every block writes
-    only its own rows, computed by the same operations as in one thread, so the result does not
-    depend on the number of threads, their scheduling or the load of the machine, to the bit. The
-    caller's ``np.errstate`` applies in the threads.
+    :data:`_NOISE_THREAD_BLOCK` items, blocks of that size run in a pool of ``_NOISE_THREADS`` threads
+    (numpy releases the interpreter lock in its loops over the lines). Every block writes only its own
+    rows, each computed by the same operations whatever block holds it (per-row reductions), so the
+    result does not depend on the block size, the number of threads, their scheduling or the load of
+    the machine, to the bit. The caller's ``np.errstate`` applies in the threads.
     """
-    spans = [(i0, min(i0 + _NOISE_BLOCK, n)) for i0 in range(0, n, _NOISE_BLOCK)]
-    if len(spans) < 2 or _NOISE_THREADS < 2 or not threads:
+    two = threads and _NOISE_THREADS > 1 and n > _NOISE_THREAD_BLOCK
+    size = _NOISE_THREAD_BLOCK if two else _NOISE_BLOCK
+    spans = [(i0, min(i0 + size, n)) for i0 in range(0, n, size)]
+    if not two:
         for i0, i1 in spans:
             fn(i0, i1)
         return
