@@ -18,8 +18,11 @@ being split off (it is not split off without the speed either).
 
 from __future__ import annotations
 
+from unittest import mock
+
 import numpy as np
 import pytest
+from test_split_pair import _data_outputs, _pole  # the same modal sum (mobility, one reference)
 
 import ema_rig.identification.identification as ident_mod
 from ema_rig.frf import FRFData
@@ -35,25 +38,14 @@ NOISE = 0.01
 SHAPES = [(1.0, 0.8, 0.5, -0.3), (0.4, -0.6, 1.0, 0.9)]
 
 
-def _pole(fn: float, z: float) -> complex:
-    w = 2 * np.pi * fn
-    return complex(-z * w, w * np.sqrt(1 - z * z))
-
-
 def _data(modes: list[tuple[float, float, float]], seed: int, harmonic: float, f_h: float = 400.0) -> FRFData:
     """Mobility FRFs of the modes ``(f_n [Hz], zeta, amplitude)`` (shapes ``SHAPES``) at 4 outputs, 1 %
     noise, and a line of damping 2e-4 at ``f_h`` [Hz] with ``harmonic`` times each channel's magnitude there."""
-    f = np.arange(300.0, 520.0, 0.5)
-    jw = 2j * np.pi * f
-    h = np.zeros((4, f.size), complex)
-    for (fn, z, a), phi in zip(modes, SHAPES, strict=False):
-        lam = _pole(fn, z)
-        r = a * np.asarray(phi, float)[:, None] / (2j * lam.imag)
-        h += r / (jw - lam) + np.conj(r) / (jw - np.conj(lam))
-    h = jw * h
+    clean = _data_outputs(modes, SHAPES[:len(modes)], seed, 0.0)  # the modal sum, no noise yet
+    f, h = clean.freq, clean.frf[:, 0]
     rng = np.random.default_rng(seed)
     wk, zh, w = 2 * np.pi * f_h, 2e-4, 2 * np.pi * f
-    line = 2j * zh * wk * w / (wk**2 - w**2 + 2j * zh * wk * w)  # peak 1 at 400 Hz
+    line = 2j * zh * wk * w / (wk**2 - w**2 + 2j * zh * wk * w)  # peak 1 at f_h
     at = np.abs(h[:, np.argmin(np.abs(f - f_h))])
     phase = np.exp(2j * np.pi * rng.uniform(size=4))
     h = h + (harmonic * at * phase)[:, None] * line[None, :]
@@ -75,15 +67,9 @@ def _split_one(d: FRFData, fn: float, z: float, speed_hz: float | None, monkeypa
     done = _Completed([kept], (Candidate(kept, True, "physical"),), fitted, _misfit(d, fitted[0], crit.completeness), ())
     bands = () if speed_hz is None else harmonic_bands(
         (float(d.freq[0]), float(d.freq[-1])), speed_hz, MATCH_CRITERIA.harmonic_freq_tol, MATCH_CRITERIA.harmonic_min_order)
-    calls = []
-    real = ident_mod._refit_on
-
-    def counted(*args, **kwargs):
-        calls.append(1)
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(ident_mod, "_refit_on", counted)
-    return done, _split(d, done, True, crit, bands), len(calls)
+    refit = mock.Mock(wraps=ident_mod._refit_on)  # counts the local refits, returns theirs
+    monkeypatch.setattr(ident_mod, "_refit_on", refit)
+    return done, _split(d, done, True, crit, bands), refit.call_count
 
 
 def test_harmonic_bands_follow_the_matching_rule():
