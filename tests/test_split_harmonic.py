@@ -12,8 +12,8 @@ damping ratio 2e-4 (``ema_rig.simulate``'s harmonic lines: a nearly undamped lin
 lines, of 10-20 % of the local FRF magnitude (the simulator's 9th harmonic at 1800 rpm: 5-17 %).
 Oracle: the simulated modes' true poles. A limit found on the way: the matching's width
 (``MatchCriteria.harmonic_freq_tol``, 0.2 % of f) holds the harmonic's peak lines, not its skirt; at 1 %
-noise a line of 20 % of the local magnitude 2-6 Hz beside a pair still keeps its second mode from
-being split off (it is not split off without the speed either).
+noise a line of 20 % of the local magnitude at 396 Hz (6 Hz below the pair of the last test) still
+keeps its second mode from being split off (it is not split off without the speed either).
 """
 
 from __future__ import annotations
