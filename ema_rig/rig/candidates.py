@@ -239,9 +239,24 @@ def harmonic_order(freq: float, speed_hz: float, tol_hz: float, min_order: float
     """Order ``k`` of the shaft-speed harmonic at ``freq`` [Hz], or None.
 
     ``freq`` is the harmonic ``k = max(1, round(freq / speed_hz))`` when ``|freq - k speed_hz| <= tol_hz``
-    and ``freq >= min_order * speed_hz`` (``MatchCriteria.harmonic_freq_tol``, ``harmonic_sigmas``,
-    ``harmonic_min_order`` set ``tol_hz`` and ``min_order``). A mode is a harmonic line when this holds
-    and its damping is tiny (:func:`measure_candidates`); a line of the FRF when this holds.
+    and ``freq >= min_order * speed_hz``. A mode is a harmonic line when this holds and its damping
+    is tiny (:func:`measure_candidates`); a line of the FRF when this holds (:func:`harmonic_bands`).
+
+    Parameters
+    ----------
+    freq : float
+        Frequency [Hz] of a mode or a line.
+    speed_hz : float
+        Shaft speed [Hz], positive.
+    tol_hz : float
+        Tolerance [Hz]: ``MatchCriteria.harmonic_freq_tol * freq``, widened to ``harmonic_sigmas``
+        standard deviations of an identified frequency.
+    min_order : float
+        ``MatchCriteria.harmonic_min_order``: below ``min_order * speed_hz`` nothing is a harmonic.
+
+    Returns
+    -------
+    int or None
     """
     if freq < min_order * speed_hz:
         return None
