@@ -4,6 +4,11 @@ Functions
 ---------
 measure_candidates
     Shape, scale and harmonic metrics of every mode of a :class:`ModalModel`, no decision yet.
+harmonic_order
+    Order of the shaft-speed harmonic at a frequency, or None: the one rule of "a harmonic line".
+harmonic_bands
+    The frequency intervals that rule calls harmonic in a band (the lines identify leaves out of
+    the split test's own-lines test).
 find_dof
     Index of the DOF with a target's node and axis (sign ignored): "does this DOF match that
     sensor", the one definition matching uses.
@@ -35,7 +40,7 @@ from ..dof import DOF
 from ..errors import MatchingError
 from ..identification.modal import ModalModel, effective_mass, shape_products
 
-__all__ = ["Candidate", "find_dof", "measure_candidates", "sensor_groups"]
+__all__ = ["Candidate", "find_dof", "harmonic_bands", "harmonic_order", "measure_candidates", "sensor_groups"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,6 +235,70 @@ def _polarity_suspect(phi: NDArray[np.complex128], p: int | None, h_rad: list[in
     return str(out_dofs[h_rad[hits[0]]]) if len(hits) == 1 else None
 
 
+def harmonic_order(freq: float, speed_hz: float, tol_hz: float, min_order: float) -> int | None:
+    """Order ``k`` of the shaft-speed harmonic at ``freq`` [Hz], or None.
+
+    ``freq`` is the harmonic ``k = max(1, round(freq / speed_hz))`` when ``|freq - k speed_hz| <= tol_hz``
+    and ``freq >= min_order * speed_hz``. A mode is a harmonic line when this holds and its damping
+    is tiny (:func:`measure_candidates`); a line of the FRF when this holds (:func:`harmonic_bands`).
+
+    Parameters
+    ----------
+    freq : float
+        Frequency [Hz] of a mode or a line.
+    speed_hz : float
+        Shaft speed [Hz], positive.
+    tol_hz : float
+        Tolerance [Hz]: ``MatchCriteria.harmonic_freq_tol * freq``, widened to ``harmonic_sigmas``
+        standard deviations of an identified frequency.
+    min_order : float
+        ``MatchCriteria.harmonic_min_order``: below ``min_order * speed_hz`` nothing is a harmonic.
+
+    Returns
+    -------
+    int or None
+    """
+    if freq < min_order * speed_hz:
+        return None
+    k = max(1, round(freq / speed_hz))
+    return int(k) if abs(freq - k * speed_hz) <= tol_hz else None
+
+
+def harmonic_bands(band: tuple[float, float], speed_hz: float, freq_tol: float,
+                   min_order: float) -> tuple[tuple[float, float], ...]:
+    """The intervals [Hz] of ``band`` that :func:`harmonic_order` calls shaft harmonics.
+
+    With the relative tolerance ``tol_hz = freq_tol * f`` of a line (no frequency uncertainty), the
+    harmonic ``k`` holds the frequencies ``f`` with ``|f - k speed_hz| <= freq_tol f``:
+    ``k speed_hz / (1 + freq_tol) <= f <= k speed_hz / (1 - freq_tol)`` (``freq_tol < 1 / (2 k + 1)``,
+    so ``round(f / speed_hz) = k`` there), above ``min_order * speed_hz``.
+
+    Parameters
+    ----------
+    band : (float, float)
+        ``(freq_lower, freq_upper)`` [Hz].
+    speed_hz : float
+        Shaft speed [Hz], positive.
+    freq_tol : float
+        ``MatchCriteria.harmonic_freq_tol`` (relative).
+    min_order : float
+        ``MatchCriteria.harmonic_min_order``.
+
+    Returns
+    -------
+    tuple of (float, float)
+        ``(f_lo, f_hi)`` [Hz] per harmonic that overlaps ``band``, in frequency order.
+    """
+    if not speed_hz > 0:
+        raise ValueError(f"speed_hz must be a positive shaft speed [Hz], got {speed_hz!r}")
+    out = []
+    for k in range(1, int(band[1] * (1 + freq_tol) / speed_hz) + 1):
+        lo, hi = max(k * speed_hz / (1 + freq_tol), min_order * speed_hz), k * speed_hz / (1 - freq_tol)
+        if lo <= hi and hi >= band[0] and lo <= band[1]:
+            out.append((float(lo), float(hi)))
+    return tuple(out)
+
+
 def measure_candidates(
     modes: ModalModel,
     rig: RigConfig,
@@ -303,11 +372,9 @@ def measure_candidates(
         fn, z = float(modes.natural_freq[r]), float(modes.damping_ratio[r])
         sd = None if natural_freq_std is None else _clean(float(natural_freq_std[r]))
         harmonic = None
-        if speed_hz is not None and fn >= harmonic_min_order * speed_hz:
-            k = max(1, round(fn / speed_hz))
+        if speed_hz is not None and z < harmonic_max_damping:
             tol = harmonic_freq_tol * fn if sd is None else max(harmonic_freq_tol * fn, harmonic_sigmas * sd)
-            if abs(fn - k * speed_hz) <= tol and z < harmonic_max_damping:
-                harmonic = int(k)
+            harmonic = harmonic_order(fn, speed_hz, tol, harmonic_min_order)
         metrics: dict[str, Any] = {}
         if h_rad:
             metrics = dict(_shape_metrics(shapes[r], p, groups))

@@ -83,7 +83,7 @@ from ..errors import EmaRigError, IdentificationError, InversionError, band_erro
 from ..frf import FRFData
 from ..identification import Identification, Selection, identify
 from ..literals import DampingModel
-from .candidates import find_dof
+from .candidates import find_dof, harmonic_bands
 from .damping import BearingDamping, bearing_damping
 from .fit import HousingMass, HousingRigidBody, housing_rigid_body, housing_tilt
 from .inversion import (
@@ -160,12 +160,21 @@ def _file_of(data: FRFData) -> str | None:
 
 
 def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, progress: bool,
-              rig: RigConfig) -> Any:
-    """PolyMAX (and, when the rig file's ``[identification] refine`` is true, the ML refinement)."""
+              rig: RigConfig, speed_hz: float | None = None) -> Any:
+    """PolyMAX (and, when the rig file's ``[identification] refine`` is true, the ML refinement).
+
+    With the shaft speed ``speed_hz`` [Hz] the lines matching calls harmonics
+    (:func:`~ema_rig.rig.candidates.harmonic_bands` with :data:`MATCH_CRITERIA`) are left out of the
+    split test's own-lines test (``identify(harmonic_bands=...)``).
+    """
     cfg = rig.identification
     if cfg.get("n_averages") is not None:
         data = data.replace(n_averages=float(cfg["n_averages"]))
-    return identify(data, band=band, max_order=max_order, progress=progress, refine=bool(cfg.get("refine", False)))
+    c = MATCH_CRITERIA
+    harmonics = (() if speed_hz is None
+                 else harmonic_bands(band, speed_hz, c.harmonic_freq_tol, c.harmonic_min_order))
+    return identify(data, band=band, max_order=max_order, progress=progress, refine=bool(cfg.get("refine", False)),
+                    harmonic_bands=harmonics)
 
 
 def _max_order(rig: RigConfig, max_order: int | None) -> int | None:
@@ -200,7 +209,7 @@ def _identify_and_match(
     else:
         b = default_band(data, rig, band)
         try:
-            ident = _identify(data, b, mo, progress, rig)
+            ident = _identify(data, b, mo, progress, rig, speed_hz)
         except EmaRigError as exc:
             if exc.file is None and file is not None:
                 exc.file = file
@@ -217,7 +226,7 @@ def _identify_and_match(
             if hi > info.spindle_freq * (1.0 + c.spindle_search_margin) and lo > b[1] * c.spindle_search_min_fraction:
                 s_band = (lo, hi)
                 try:
-                    s_ident = _identify(data, s_band, mo, progress, rig)
+                    s_ident = _identify(data, s_band, mo, progress, rig, speed_hz)
                 except EmaRigError as exc:
                     logger.info("spindle band %.0f-%.0f Hz not identified: %s", lo, hi, exc)
                     s_ident = None
