@@ -614,10 +614,12 @@ def identify(
         prev: list[SelectedMode] | None = None
         history = []
         prev_order = prev_n
+        judged_basis: list[LsfdBasis] = []  # the judgement's last LSFD basis: the fit of the accepted modes takes it over
         while True:
             stab = stabilized(n)
             clusters = cluster_poles(stab, criteria=stab_crit)
-            candidates = judge_clusters(stab, data, clusters=clusters, criteria=crit.judge)
+            judged_basis.clear()
+            candidates = judge_clusters(stab, data, clusters=clusters, criteria=crit.judge, basis_out=judged_basis)
             cur = [c.mode for c in candidates if c.accepted]
             history.append(f"{n}: {len(cur)}")
             if prev is None:
@@ -642,7 +644,7 @@ def identify(
         # ---- complete: the residual of the model consistent with the noise in every segment ----
         if cur:
             judged, judged_c = cur, candidates
-            done = _complete(data, cur, candidates, residuals, crit)
+            done = _complete(data, cur, candidates, residuals, crit, judged_basis[0] if judged_basis else None)
             cur, candidates, fitted = done.modes, done.candidates, done.fitted
             step_i = tried = 0
             last_fail = done.test.failing()
@@ -658,7 +660,8 @@ def identify(
                 n_new = tried = min(n + span, cap)
                 stab_new = stabilized(n_new)
                 clusters = cluster_poles(stab_new, criteria=stab_crit)
-                cand_new = judge_clusters(stab_new, data, clusters=clusters, criteria=crit.judge)
+                judged_basis.clear()
+                cand_new = judge_clusters(stab_new, data, clusters=clusters, criteria=crit.judge, basis_out=judged_basis)
                 history.append(f"{n_new}: {sum(c.accepted for c in cand_new)}")
 
                 def inside(x: float, fails: list[tuple[float, float]] = fails) -> bool:
@@ -676,7 +679,7 @@ def identify(
                 if not acc or _same_modes(where_failing(acc), where_failing(judged)):
                     break  # the higher order changed nothing where the residual exceeds the noise
                 judged, judged_c = acc, cand_new
-                trial = _complete(data, acc, cand_new, residuals, crit)
+                trial = _complete(data, acc, cand_new, residuals, crit, judged_basis[0] if judged_basis else None)
                 n, stab = n_new, stab_new
                 changed = not _same_modes(trial.modes, cur) or trial.test.failing() != last_fail
                 cur, candidates, done, fitted = trial.modes, trial.candidates, trial, trial.fitted
@@ -814,19 +817,22 @@ def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
 
 
 def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
-               test: tuple[CompletenessCriteria, list[MisfitTest]] | None = None) -> _Fitted:
+               test: tuple[CompletenessCriteria, list[MisfitTest]] | None = None,
+               basis: LsfdBasis | None = None) -> _Fitted:
     """LSFD at the modes' PolyMAX poles, the local ML, LSFD at the ML poles; the PolyMAX poles (re, im)
     and the basis of the returned LSFD model (for the weighted residues at its poles).
 
     With ``test`` (criteria, a list) the completeness test of the returned model (:func:`_misfit`) is
     appended to the list: it needs the ML poles only (not the LSFD at them), so it is formed beside that
     fit and while a second thread may still form the ML's scores and covariances (the same numbers as
-    after them).
+    after them). ``basis``: an LSFD basis and factor formed before (the judgement's last fit), taken over
+    when it belongs to the modes' PolyMAX poles (the same numbers).
     """
     syn = np.empty_like(data.frf, dtype=np.complex128)  # the LSFD model's FRFs on the data's lines
     # data checked by identify
     bases: list[LsfdBasis] = []
-    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn, basis_out=bases)
+    model = _lsfd_checked(data, [m.pole for m in modes], residuals=residuals, model_out=syn, basis_out=bases,
+                          basis=basis)
     polymax = [[float(p.real), float(p.imag)] for p in model.poles]
     # one BLAS thread throughout: the threads below use the other core
     with single_threaded():
@@ -888,11 +894,12 @@ def _lsfd_at(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: N
     return model, basis
 
 
-def _fit_tested(data: FRFData, modes: Sequence[SelectedMode], residuals: bool, cc: CompletenessCriteria
-                ) -> tuple[_Fitted, MisfitTest]:
-    """:func:`_fit_modes` and the completeness test of its model (:func:`_misfit`), formed alongside."""
+def _fit_tested(data: FRFData, modes: Sequence[SelectedMode], residuals: bool, cc: CompletenessCriteria,
+                basis: LsfdBasis | None = None) -> tuple[_Fitted, MisfitTest]:
+    """:func:`_fit_modes` and the completeness test of its model (:func:`_misfit`), formed alongside
+    (``basis``: as for :func:`_fit_modes`)."""
     out: list[MisfitTest] = []
-    fitted = _fit_modes(data, modes, residuals, (cc, out))
+    fitted = _fit_modes(data, modes, residuals, (cc, out), basis)
     return fitted, out[0]
 
 
@@ -953,7 +960,7 @@ def _failing_locally(data: FRFData, done: _Completed, cc: CompletenessCriteria) 
 
 
 def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candidate, ...], residuals: bool,
-              crit: IdentificationCriteria) -> _Completed:
+              crit: IdentificationCriteria, basis: LsfdBasis | None = None) -> _Completed:
     """Test the accepted modes' residual per segment; in a failing segment add a rejected candidate.
 
     A candidate lying in a failing segment (a cluster stable at ``min_poles`` orders at least,
@@ -965,11 +972,12 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
     estimate and a candidate count of the whole band). With ``local_evidence=False`` the old rule:
     the global F test (:meth:`~ema_rig.identification.criteria.JudgeCriteria.support_threshold`)
     and the segment passing the residual test with it. The strongest candidates (most poles) are
-    tried first, at most ``max_added`` per segment.
+    tried first, at most ``max_added`` per segment. ``basis``: the judgement's last LSFD basis
+    (:func:`_fit_modes`).
     """
     cc = crit.completeness
     modes = _unique_modes(modes)
-    fitted, test = _fit_tested(data, modes, residuals, cc)
+    fitted, test = _fit_tested(data, modes, residuals, cc, basis)
     added: list[float] = []
     feats = _ml_features(data, modes, fitted[1], crit) if cc.local_evidence and cc.ml_features else []
     # the segments to search: the failing ones, and those put down to a mode beyond the band edge when the

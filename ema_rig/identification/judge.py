@@ -62,7 +62,7 @@ from .._blas import single_threaded
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
 from .criteria import JUDGE_CRITERIA, JudgeCriteria
-from .lsfd import _output_chunks, _projector, rows_times
+from .lsfd import LsfdBasis, _output_chunks, _projector, rows_times
 from .mac import mac, mpc
 from .modal import pole_residue_basis
 from .stabilization import (
@@ -129,7 +129,8 @@ class Candidate:
         return d
 
 
-def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
+def _fit(data: FRFData, poles: NDArray[np.complex128], basis_out: list[LsfdBasis] | None = None
+         ) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
     """Residues (n_modes, n_out, n_in), the F statistic, the peak share and the residual dof of every mode.
 
     The peak share is ``||H_k|| / ||H||`` over the lines within one half-power bandwidth (at
@@ -142,7 +143,9 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], ND
     The fit is :func:`~ema_rig.identification.lsfd.lsfd`'s (same basis with residual terms,
     same minimum-norm solve), run over chunks of outputs; only per-line sums (residual and
     ``|H|^2``, summed over channels) and each mode's term energy near its peak are kept, so
-    the work arrays stay a fraction of the data. Call it on one BLAS thread.
+    the work arrays stay a fraction of the data. Call it on one BLAS thread. With ``basis_out`` (a list)
+    the fit's basis and factor are appended to it (:class:`~ema_rig.identification.lsfd.LsfdBasis`: an LSFD
+    at the same poles, in the same order, on the same lines takes them over: the same numbers).
     """
     n = poles.size
     p = _FORM_POWER[data.frf_form]
@@ -169,6 +172,8 @@ def _fit(data: FRFData, poles: NDArray[np.complex128]) -> tuple[NDArray[Any], ND
     y2 = np.zeros(n_f)  # |H|^2 per line, summed over channels
     t2 = np.zeros(n)  # energy of each mode's own term on its near lines, all channels
     uk, proj = _projector(a)
+    if basis_out is not None:
+        basis_out.append(LsfdBasis(f, poles, p, True, a, scale, uk, proj))
     for o0, o1, yv in _output_chunks(h):
         xs = rows_times(rows_times(yv, uk), proj.T)  # scaled unknowns (chunk, n_in, n_unk)
         x[o0:o1] = xs
@@ -241,6 +246,7 @@ def judge_clusters(
     fit: bool = True,
     clusters: list[NDArray[np.intp]] | None = None,
     criteria: JudgeCriteria | None = None,
+    basis_out: list[LsfdBasis] | None = None,
 ) -> tuple[Candidate, ...]:
     """Judge every cluster of stable poles of ``stab`` against the data ``data``.
 
@@ -263,6 +269,10 @@ def judge_clusters(
         Rows of ``stab`` per cluster (default :func:`~ema_rig.identification.stabilization.cluster_poles`).
     criteria : JudgeCriteria, optional
         Every threshold with its source (default :data:`~ema_rig.identification.criteria.JUDGE_CRITERIA`).
+    basis_out : list, optional
+        Receives the basis and factor of the last LSFD fit of the rules 4-7
+        (:class:`~ema_rig.identification.lsfd.LsfdBasis`, poles in the order of the candidates; nothing
+        without a fit): when those poles are the accepted modes', the LSFD at them takes it over.
 
     Returns
     -------
@@ -319,13 +329,15 @@ def judge_clusters(
     mpcs = np.full(len(modes), np.nan)
     support = np.full(len(modes), np.nan)
     peak = np.full(len(modes), np.nan)
+    last: list[LsfdBasis] = []  # the basis of the last fit
     for _ in range(4 if fit else 0):
         alive = [i for i in range(len(modes)) if verdict[i] is None]
         if not alive:
             break
         poles = np.array([modes[i].pole for i in alive])
+        last.clear()
         with single_threaded():
-            res, sup, shr, dof = _fit(data, poles)
+            res, sup, shr, dof = _fit(data, poles, last if basis_out is not None else None)
         need = np.asarray(crit.support_threshold(n_chan, dof, len(alive)), dtype=float)
         mp = shape_mpc(res)
         mpcs[alive] = mp
@@ -384,6 +396,8 @@ def judge_clusters(
         out.append(Candidate(mode=m, accepted=v is None, reason=v or "physical", mpc=float(mpcs[i]),
                              support=float(support[i]), persistence=float(persistence[i]),
                              peak_share=float(peak[i])))
+    if basis_out is not None:
+        basis_out.extend(last)
     return tuple(out)
 
 

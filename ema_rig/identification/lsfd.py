@@ -182,7 +182,7 @@ def model_order(poles: ArrayLike) -> NDArray[np.complex128]:
 def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
                   variance: NDArray[np.float64] | None = None,
                   model_out: NDArray[np.complex128] | None = None,
-                  basis_out: list[LsfdBasis] | None = None) -> ModalModel:
+                  basis_out: list[LsfdBasis] | None = None, basis: LsfdBasis | None = None) -> ModalModel:
     """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
 
     For callers that checked the data once for several steps (``identify``); same parameters,
@@ -193,9 +193,12 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
     :meth:`~ema_rig.identification.modal.ModalModel.synthesize` gives, without forming it again),
     the data at a line the fit leaves out (0 Hz with a lower residual, where the model is infinite).
     With ``basis_out`` (a list) the fit's basis and factor are appended to it (:class:`LsfdBasis`; not
-    when a common line profile of the weights changed the factor).
+    when a common line profile of the weights changed the factor). ``basis``: an earlier fit's basis and
+    factor (e.g. the judgement's, :func:`~ema_rig.identification.judge.judge_clusters`), used when it
+    belongs to these poles and lines (the same numbers).
     """
-    return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out, basis_out=basis_out)[0]
+    return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out, basis_out=basis_out,
+                basis=basis)[0]
 
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
