@@ -734,7 +734,7 @@ def identify(
     modes = _unique_modes(sel.modes)
     if fitted is None:
         fitted = _fit_modes(data, modes, residuals)
-    model, ml, polymax, basis = fitted
+    model, ml, polymax, basis, _columns = fitted
     model = _reported_model(data, model, residual_test, crit.completeness, residuals, basis)
     warnings += list(ml.warnings)
     meta = dict(model.meta)
@@ -788,9 +788,10 @@ def identify(
     return cast("Identification", remove_window_damping(ident, data))  # issue 18: an exponential window's damping
 
 
-#: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im) and the LSFD basis of the
-#: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles).
-_Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None]
+#: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im), the LSFD basis of the
+#: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles) and the
+#: model's pole columns on every line (:func:`_pole_columns`, formed for its completeness test; None: not formed).
+_Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None, NDArray[np.complex128] | None]
 #: the local refits of one stage, keyed by (poles, lines) (:func:`_refit_on`): the stage's tests repeat some
 _Refits = dict[tuple[bytes, bytes], NDArray[np.complex128] | None]
 
@@ -853,9 +854,11 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
             with in_callers_limit(), np.errstate(**err):
                 return _lsfd_at(data, start, start_basis, poles, residuals)
 
-        def misfit_at(crit: CompletenessCriteria) -> MisfitTest:
+        def misfit_at(crit: CompletenessCriteria) -> tuple[MisfitTest, NDArray[np.complex128] | None]:
             with in_callers_limit(), np.errstate(**err):
-                return _misfit_at(data, _model_poles(start, poles), crit)
+                lam = _model_poles(start, poles)
+                cols = _pole_columns(data, lam)  # kept for the later tests at these poles
+                return _misfit_at(data, lam, crit, cols), cols
 
         tested_job = None if cc is None else Job(partial(misfit_at, cc), side)
         fit_job = Job(lsfd_at, side, later=True)
@@ -863,10 +866,10 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
             side.shutdown(wait=False)  # its thread ends once the tasks are done (or taken back)
         ml = staged.finish()
         model, basis = fit_job.result()
-        tested = None if tested_job is None else tested_job.result()
+        tested, columns = (None, None) if tested_job is None else tested_job.result()
     if test is not None and tested is not None:
         test[1].append(tested)
-    return model, ml, polymax, basis
+    return model, ml, polymax, basis, columns
 
 
 #: FRF values (channels x lines) from which :func:`_fit_modes` hands the completeness test at the ML poles
@@ -929,11 +932,25 @@ def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> Mis
     return _misfit_at(data, model.poles, crit)
 
 
-def _misfit_at(data: FRFData, poles: NDArray[np.complex128], crit: CompletenessCriteria) -> MisfitTest:
-    """:func:`_misfit` of the model with the poles ``poles`` (shape (n_modes,) [rad/s], in the model's order)."""
+def _misfit_at(data: FRFData, poles: NDArray[np.complex128], crit: CompletenessCriteria,
+               columns: NDArray[np.complex128] | None = None) -> MisfitTest:
+    """:func:`_misfit` of the model with the poles ``poles`` (shape (n_modes,) [rad/s], in the model's order);
+    ``columns`` their :func:`_pole_columns` when the caller has them."""
     with single_threaded():  # many small factorizations: threads only add hand-off time
         return segment_misfit(data.freq, data.frf, poles, power=_FORM_POWER[data.frf_form],
-                              coherence=data.coherence, n_averages=data.n_averages, criteria=crit)
+                              coherence=data.coherence, n_averages=data.n_averages, criteria=crit,
+                              pole_columns=columns)
+
+
+def _pole_columns(data: FRFData, poles: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
+    """The pole columns of ``poles`` on every line of ``data``, shape (n_freq, 2 n_modes), complex (None without a
+    pole): :func:`~ema_rig.identification.modal.modal_basis` without residual terms, the numbers
+    :func:`~ema_rig.identification.noise.segment_misfit` forms for them (its ``pole_columns``)."""
+    lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128))
+    if not lam.size:
+        return None
+    jw = np.asarray(2j * np.pi * np.asarray(data.freq, dtype=np.float64), dtype=np.complex128)
+    return modal_basis(jw, lam, _FORM_POWER[data.frf_form], residuals=False)
 
 
 def _failing_locally(data: FRFData, done: _Completed, cc: CompletenessCriteria) -> list[tuple[float, float]]:
@@ -955,7 +972,8 @@ def _failing_locally(data: FRFData, done: _Completed, cc: CompletenessCriteria) 
     n_chan = data.n_out * data.n_in
     with single_threaded():
         t = segment_misfit(data.freq, data.frf.reshape(n_chan, -1), lam, power=_FORM_POWER[data.frf_form],
-                           variance=done.test.variance, edges=edges, criteria=cc)
+                           variance=done.test.variance, edges=edges, criteria=cc,
+                           pole_columns=done.fitted[4])  # those of the test, at the same poles
     return fails + [(a, b) for a, b in t.failing() if not any(lo <= a and b <= hi for lo, hi in fails)]
 
 
@@ -1386,8 +1404,10 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
             if m is None or k in split_k or ml.kind[k] != "ml":
                 continue
             if cols is None or cols[0] != len(model):  # the model grows by the modes split off
-                cols = (len(model), modal_basis(jw, np.asarray(model, dtype=np.complex128), _FORM_POWER[data.frf_form],
-                                                residuals=False))
+                lam_m = np.asarray(model, dtype=np.complex128)
+                # the test's columns when the model's poles are the test's, in its order (the same numbers)
+                cols = (len(model), done.fitted[4] if done.fitted[4] is not None and np.array_equal(lam_m, done.fitted[0].poles)
+                        else modal_basis(jw, lam_m, _FORM_POWER[data.frf_form], residuals=False))
             c_new = _split_start(data, model, k, m, done.test, cc, memo, cols[1], harmonic)
             if c_new is None:
                 continue
