@@ -1040,7 +1040,7 @@ def _complete(data: FRFData, modes: list[SelectedMode], candidates: tuple[Candid
             trial = _unique_modes([*modes, c.mode])
             if cc.local_evidence:
                 # the evidence of the lines near it alone (the same in any band that holds them)
-                sl = _local_lines(f, c, cc)
+                sl = _local_lines(f, c, cc, df)
                 res = (_nested_test(data, model_poles, c.mode.pole, sl, test.variance, cc,
                                     [cands[j].natural_freq for j in pool], memo)
                        if int(sl.sum()) >= cc.min_segment_lines and test.variance is not None else None)
@@ -1218,10 +1218,13 @@ def _refit_on(data: FRFData, poles: NDArray[np.complex128], sl: NDArray[np.bool_
     return out
 
 
-def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria) -> NDArray[np.bool_]:
+def _local_lines(f: NDArray[np.float64], c: Candidate, cc: CompletenessCriteria, df: float | None = None
+                 ) -> NDArray[np.bool_]:
     """The lines of candidate ``c``'s own evidence: within ``local_hbw`` half-power half-bandwidths of
-    it, at least ``min_segment_lines / 2`` lines each side (set by the candidate, not by the band)."""
-    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
+    it, at least ``min_segment_lines / 2`` lines each side (set by the candidate, not by the band).
+    ``df``: the median line spacing of ``f`` [Hz] when the caller has it (0 for a single line)."""
+    if df is None:
+        df = float(np.median(np.diff(f))) if f.size > 1 else 0.0
     half = max(cc.local_hbw * c.damping_ratio * c.natural_freq, 0.5 * cc.min_segment_lines * df)
     sel: NDArray[np.bool_] = (f >= c.natural_freq - half) & (f <= c.natural_freq + half)
     return sel
@@ -1347,6 +1350,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     cands = list(done.candidates)
     current = [complex(p) for p in ml.poles]
     model = list(current)
+    df = float(np.median(np.diff(f))) if f.size > 1 else 0.0  # the line spacing of every _local_lines below
     added: list[str] = []
     pool = [i for i, c in enumerate(cands) if not c.accepted and c.mode.n_poles >= jc.min_poles
             and 0 < c.damping_ratio <= jc.max_damping and f[0] < c.natural_freq < f[-1]
@@ -1370,7 +1374,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
             continue
         i = max(near, key=lambda j: (cands[j].mode.n_poles, -abs(cands[j].natural_freq - f_pm)))
         c = cands[i]
-        sl = _local_lines(f, c, cc)
+        sl = _local_lines(f, c, cc, df)
         if int(sl.sum()) < cc.min_segment_lines:
             continue
         res = _nested_test(data, model, c.mode.pole, sl, done.test.variance, cc, [cands[j].natural_freq for j in pool],
@@ -1399,29 +1403,30 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
         harmonic = np.zeros(f.size, dtype=bool)  # the lines of known shaft harmonics
         for lo, hi in harmonic_bands:
             harmonic |= (f >= lo) & (f <= hi)
-        for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
-            m = by_pole.get(p_start)
-            if m is None or k in split_k or ml.kind[k] != "ml":
-                continue
-            if cols is None or cols[0] != len(model):  # the model grows by the modes split off
-                lam_m = np.asarray(model, dtype=np.complex128)
-                # the test's columns when the model's poles are the test's, in its order (the same numbers)
-                cols = (len(model), done.fitted[4] if done.fitted[4] is not None and np.array_equal(lam_m, done.fitted[0].poles)
-                        else modal_basis(jw, lam_m, _FORM_POWER[data.frf_form], residuals=False))
-            c_new = _split_start(data, model, k, m, done.test, cc, memo, cols[1], harmonic)
-            if c_new is None:
-                continue
-            c, stat, need, q, dof_l, sl = c_new
-            model.append(c.mode.pole)
-            cands.append(replace(c, support=stat, reason=(
-                f"physical: the lines of {m.natural_freq:.6g} Hz exceed the noise and need two modes there "
-                f"(nested F test on {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz, the second pole started one half-power "
-                f"half-bandwidth beside the ML estimate: F = {stat:.3g} >= {need:.3g} with {q:.0f}, {dof_l:.0f} dof, "
-                f"2 starts tested)")))
-            added.append(f"a second mode started at {c.natural_freq:.6g} Hz beside {m.natural_freq:.6g} Hz (its lines "
-                         "exceed the noise)")
-            modes.append(c.mode)
-            at_misfit.append((abs(current[k]) / (2 * np.pi), c.mode))
+        with single_threaded():  # one BLAS limit for the tests of every mode below (each sets its own otherwise)
+            for k, p_start in enumerate(complex(*p) for p in done.fitted[2]):
+                m = by_pole.get(p_start)
+                if m is None or k in split_k or ml.kind[k] != "ml":
+                    continue
+                if cols is None or cols[0] != len(model):  # the model grows by the modes split off
+                    lam_m, known = np.asarray(model, dtype=np.complex128), done.fitted[4]
+                    # the test's columns when the model's poles are the test's, in its order (the same numbers)
+                    cols = (len(model), known if known is not None and np.array_equal(lam_m, done.fitted[0].poles)
+                            else modal_basis(jw, lam_m, _FORM_POWER[data.frf_form], residuals=False))
+                c_new = _split_start(data, model, k, m, done.test, cc, memo, cols[1], harmonic, df)
+                if c_new is None:
+                    continue
+                c, stat, need, q, dof_l, sl = c_new
+                model.append(c.mode.pole)
+                cands.append(replace(c, support=stat, reason=(
+                    f"physical: the lines of {m.natural_freq:.6g} Hz exceed the noise and need two modes there "
+                    f"(nested F test on {f[sl][0]:.6g}..{f[sl][-1]:.6g} Hz, the second pole started one half-power "
+                    f"half-bandwidth beside the ML estimate: F = {stat:.3g} >= {need:.3g} with {q:.0f}, {dof_l:.0f} dof, "
+                    f"2 starts tested)")))
+                added.append(f"a second mode started at {c.natural_freq:.6g} Hz beside {m.natural_freq:.6g} Hz (its lines "
+                             "exceed the noise)")
+                modes.append(c.mode)
+                at_misfit.append((abs(current[k]) / (2 * np.pi), c.mode))
     if not added:
         return done
     modes = _unique_modes(modes)
@@ -1448,7 +1453,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
 def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMode, test: MisfitTest,
                  cc: CompletenessCriteria, memo: _Refits | None = None,
                  model_columns: NDArray[np.complex128] | None = None, harmonic: NDArray[np.bool_] | None = None,
-                 ) -> tuple[Candidate, float, float, float, float, NDArray[np.bool_]] | None:
+                 df: float | None = None) -> tuple[Candidate, float, float, float, float, NDArray[np.bool_]] | None:
     """A second mode beside the model's mode ``k`` (accepted mode ``m``) whose own lines misfit, or None.
 
     The lines of the mode (:func:`_local_lines` at its ML pole) fail the chi-square test of the
@@ -1472,7 +1477,7 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
     left out of the two chi-square tests (a harmonic's sharp line is a feature no pole of the
     structure explains; their degrees of freedom count the lines kept); the refits and the F tests
     take every own line (on the lines kept, the local ML took 1.5-3x the CPU time: rig file 1800
-    rpm, 1526-2000 Hz).
+    rpm, 1526-2000 Hz). ``df``: the median line spacing [Hz] when the caller has it (:func:`_local_lines`).
     """
     var = test.variance
     if var is None:
@@ -1483,7 +1488,7 @@ def _split_start(data: FRFData, model: Sequence[complex], k: int, m: SelectedMod
     if not 0 < zeta:
         return None
     own = Candidate(replace(m, pole=lam, natural_freq=fn, damping_ratio=zeta), accepted=False, reason="")
-    sl = _local_lines(f, own, cc)
+    sl = _local_lines(f, own, cc, df)
     # own lines cut by the band's edge: their misfit may be the skirt of a mode beyond the edge, which
     # the lines cannot tell from a second mode (the band-edge rule of segment_misfit)
     if bool(sl[0]) or bool(sl[-1]):
@@ -1553,7 +1558,7 @@ def _one_line(data: FRFData, done: _Completed, residuals: bool, crit: Identifica
         c = cands[i]
         c_ml = replace(c, mode=replace(c.mode, pole=lam, natural_freq=abs(lam) / (2 * np.pi),
                                        damping_ratio=-lam.real / abs(lam)))
-        sl = _local_lines(f, c_ml, cc)
+        sl = _local_lines(f, c_ml, cc, df)
         if int(sl.sum()) < cc.min_segment_lines:
             continue
         others = [complex(p) for j, p in enumerate(ml.poles) if j != k]
