@@ -647,7 +647,7 @@ def _newton_block(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
         r, t, wr = r_buf[:k], t_buf[:k], w_buf[:k]
         np.multiply(np.exp(x)[:, None], unw if full else unw[rows], out=r)
         r += 1.0
-        np.reciprocal(r, out=r)
+        np.divide(1.0, r, out=r)  # 1 / r: the same numbers as np.reciprocal, in the vectorised division loop
         np.subtract(1.0, r, out=t)
         np.multiply(wz if full else wz[rows], r, out=wr)
         c = cnt if full else cnt[rows]
