@@ -105,9 +105,9 @@ def test_close_pair_one_reference_2_percent_noise_both_found():
         assert ident.residual_test is not None and ident.residual_test.passed
 
 
-def test_noise_only_segment_adds_no_mode():
-    # twenty times the noise in 300-360 Hz, where there is no mode: the segment fails the test and
-    # is named (a note: a higher order changed nothing there), but no candidate passes the F test
+def _noise_only_segment():
+    """The five-mode system at reference 0 (1 % noise) with twenty times the noise in 300-360 Hz, where there
+    is no mode: the system and the FRFs."""
     sys5 = five_mode_system(close_pair=False)
     d = sys5.frf(FREQ, inputs=[0], noise=0.01, rng=np.random.default_rng(5))
     rng = np.random.default_rng(6)
@@ -116,7 +116,14 @@ def test_noise_only_segment_adds_no_mode():
     rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=2, keepdims=True))
     h[:, :, sel] += 0.2 * rms * (rng.standard_normal(h[:, :, sel].shape)
                                  + 1j * rng.standard_normal(h[:, :, sel].shape)) / np.sqrt(2)
-    ident = identify(d.replace(frf=h), band=(50, 950))
+    return sys5, d.replace(frf=h)
+
+
+def test_noise_only_segment_adds_no_mode():
+    # twenty times the noise in 300-360 Hz, where there is no mode: the segment fails the test and
+    # is named (a note: a higher order changed nothing there), but no candidate passes the F test
+    sys5, noisy = _noise_only_segment()
+    ident = identify(noisy, band=(50, 950))
     truth = sys5.natural_freq[sys5.natural_freq < 950]
     truth = truth[np.abs(sys5.mode_shapes[: truth.size, 0]) > 1e-6]  # mode 4 has a node at reference 0
     assert ident.natural_freq.size == truth.size, np.round(ident.natural_freq, 2)
@@ -255,3 +262,33 @@ def test_segment_cores_chained_and_unchained():
     fn, z = np.array([200.0, 240.0, 280.0, 320.0]), np.full(4, 0.05)
     assert segment_edges(f, fn, z).tolist() == [0, 160, 401]
     assert segment_edges(f, fn, z, chained=False).tolist() == [0, 80, 160, 260, 401]
+
+
+def test_failing_locally_without_a_chain_is_the_tests_failing_segments(monkeypatch):
+    """Where no mode chains (the unchained cores are the chained segments), the local cores' failures are
+    the completeness test's own: ``_failing_locally`` takes them without a second segment test (issue 18:
+    speed). Oracle: the segment test it replaced, run on the unchained cores against the test's variance,
+    on data whose test fails (:func:`_noise_only_segment`: twenty times the noise in 300-360 Hz)."""
+    import ema_rig.identification.identification as ident_mod
+    from ema_rig.frf import FORM_POWER
+    from ema_rig.identification.noise import segment_edges
+
+    _sys5, noisy = _noise_only_segment()
+    real = ident_mod._failing_locally
+    seen = []
+
+    def oracle(data, done, cc):
+        lam = done.fitted[0].poles
+        fn, zeta = np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam)
+        edges = segment_edges(data.freq, fn, zeta, criteria=cc, chained=False)
+        t = segment_misfit(data.freq, data.frf.reshape(data.n_out * data.n_in, -1), lam,
+                           power=FORM_POWER[data.frf_form], variance=done.test.variance, edges=edges, criteria=cc)
+        fails = done.test.failing()
+        got = real(data, done, cc)
+        seen.append((edges.tolist() == segment_edges(data.freq, fn, zeta, criteria=cc).tolist(), fails))
+        assert got == fails + [(a, b) for a, b in t.failing() if not any(lo <= a and b <= hi for lo, hi in fails)]
+        return got
+
+    monkeypatch.setattr(ident_mod, "_failing_locally", oracle)
+    identify(noisy, band=(50, 950))
+    assert any(same and fails for same, fails in seen), seen  # the shortcut taken, on a failing test

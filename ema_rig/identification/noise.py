@@ -425,23 +425,32 @@ def _bin_sums(wz: NDArray[np.float64], unw: NDArray[np.float64], e_lo: int, n_b:
     np.maximum(idx, (first + 1)[:, None], out=idx)  # values below the binned octaves: bin 1
     if not all_pos:
         np.copyto(idx, np.broadcast_to(first[:, None], idx.shape), where=~pos)
-    flat = idx.ravel()
     m = n_chan * n_b
-
-    def binned(w: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.asarray(np.bincount(flat, w.ravel(), m), dtype=np.float64).reshape(n_chan, n_b)
-
-    # v = 1 / u and ln u of the positive u (0 where u = 0: those lines are in bin 0, whose sums for
-    # t, the line count included, the bounds do not use)
+    n_l = unw.shape[1]
+    # the summands of every line side by side, (n_chan, n_l, 7): 1, z, z u, z / u, u, 1 / u, ln u; v = 1 / u
+    # and ln u of the positive u (0 where u = 0: those lines are in bin 0, whose sums for t, the line
+    # count included, the bounds do not use)
+    w = np.empty((n_chan, n_l, 7))
+    w[:, :, 0] = 1.0
+    w[:, :, 1] = wz
+    np.multiply(wz, unw, out=w[:, :, 2])
     if all_pos:
-        inv = 1.0 / unw
-        lnu = np.log(unw)
+        np.divide(1.0, unw, out=w[:, :, 5])
+        np.log(unw, out=w[:, :, 6])
     else:
-        inv = 1.0 / np.where(pos, unw, np.inf)
-        lnu = np.log(np.where(pos, unw, 1.0))
-    count = np.bincount(flat, minlength=m).astype(np.float64).reshape(n_chan, n_b)
-    st_s = np.concatenate([binned(wz), binned(wz * unw), binned(wz * inv)], axis=1)
-    st_t = np.concatenate([count, binned(unw), binned(inv), binned(lnu)], axis=1)
+        np.divide(1.0, np.where(pos, unw, np.inf), out=w[:, :, 5])
+        np.log(np.where(pos, unw, 1.0), out=w[:, :, 6])
+    np.multiply(wz, w[:, :, 5], out=w[:, :, 3])
+    w[:, :, 4] = unw
+    # all seven sums in one pass: the product with the lines' one-hot bin matrix adds each line's summands
+    # to its bin in line order: the additions of np.bincount, the same numbers, in one pass instead of seven
+    from scipy.sparse import csc_array
+
+    n_v = idx.size
+    onehot = csc_array((np.ones(n_v), idx.ravel(), np.arange(n_v + 1)), shape=(m, n_v))
+    sums = np.asarray(onehot @ w.reshape(n_v, 7)).reshape(n_chan, n_b, 7).transpose(0, 2, 1)
+    st_s = sums[:, 1:4].reshape(n_chan, 3 * n_b)
+    st_t = sums[:, [0, 4, 5, 6]].reshape(n_chan, 4 * n_b)
     return st_s, st_t
 
 
@@ -647,7 +656,7 @@ def _newton_block(wz: NDArray[np.float64], unw: NDArray[np.float64], cnt: NDArra
         r, t, wr = r_buf[:k], t_buf[:k], w_buf[:k]
         np.multiply(np.exp(x)[:, None], unw if full else unw[rows], out=r)
         r += 1.0
-        np.reciprocal(r, out=r)
+        np.divide(1.0, r, out=r)  # 1 / r: the same numbers as np.reciprocal, in the vectorised division loop
         np.subtract(1.0, r, out=t)
         np.multiply(wz if full else wz[rows], r, out=wr)
         c = cnt if full else cnt[rows]
