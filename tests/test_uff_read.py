@@ -301,3 +301,38 @@ def test_file_channel_without_sensor_is_ignored_with_warning(tmp_path: Path, rig
     with pytest.warns(UnitWarning, match=r"response 99\+Z has no \[\[sensor\]\] entry"):
         d = read_uff58(p, rig=rig)
     assert d.n_out == 8 and d.meta["ignored_channels"] == ["dataset 16: 99+Z (no rig sensor)"]
+
+
+@pytest.mark.parametrize("odt", [2, 4], ids=["real-single", "real-double"])
+def test_real_valued_frf_is_refused_not_read_with_zero_imaginary(tmp_path: Path, odt: int) -> None:
+    # pyuff writes both as its real type; the ordinate data type named in the message is the file's
+    """An FRF is complex: a dataset of function type 4 stored as real values (a magnitude here) was read
+    on 4ff7088 as an FRF with zero imaginary part, and ``modes`` printed modes from it with exit 0."""
+    mag = np.abs(_truth(1, 1)[0, 0])
+    path = _write(tmp_path / "mag.uff", [_set(1, 2, 1, 2, mag, ord_data_type=odt)])
+    assert read_uff(path)[0].status == "read"  # the record itself is well framed: read_uff keeps it
+    with pytest.raises(UFFError, match=r"dataset 0: FRF stored as real values \(ordinate data type [24]"):
+        read_uff58(path)
+    from ema_rig.io.uff import inspect_uff
+
+    ds = inspect_uff(path)["datasets"][0]
+    assert ds["status"] == "refused" and "real values" in ds["reason"] and ds["num_pts"] is None
+
+
+@pytest.mark.parametrize(("code", "name"), [(19, "rpm"), (20, "order"), (8, "displacement")])
+def test_frf_abscissa_code_that_is_no_frequency_is_refused(tmp_path: Path, code: int, name: str) -> None:
+    """Without a unit label the abscissa code 19 (rpm), 20 (order) or a response quantity was read as Hz on
+    4ff7088 (an rpm axis would put every mode 60x too high)."""
+    truth = _truth(1, 1)[0, 0]
+    path = _write(tmp_path / "x.uff", [_set(1, 2, 1, 2, truth, abscissa_spec_data_type=code,
+                                             abscissa_axis_units_lab="NONE")])
+    with pytest.raises(UFFError, match=rf"dataset 0: abscissa specific data type {code} \({name}\) is not a freq"):
+        read_uff58(path)
+    # an rpm code contradicting a frequency label is refused as well; the plain frequency code reads as Hz
+    path = _write(tmp_path / "y.uff", [_set(1, 2, 1, 2, truth, abscissa_spec_data_type=19)])
+    with pytest.raises(UFFError, match="contradicts its frequency unit label 'Hz'"):
+        read_uff58(path)
+    for ok_code in (0, 1, 18):
+        path = _write(tmp_path / "z.uff", [_set(1, 2, 1, 2, truth, abscissa_spec_data_type=ok_code,
+                                                 abscissa_axis_units_lab="NONE")])
+        np.testing.assert_array_equal(read_uff58(path).freq, FREQ)  # exact: 0.5 Hz steps

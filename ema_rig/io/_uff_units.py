@@ -10,6 +10,7 @@ force) gives the quantity. Code and label must agree; when they do not, the rig 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -207,15 +208,66 @@ def _j(notes: list[str]) -> str:
     return "" if not notes else "; " + "; ".join(notes)
 
 
+_FREQ_ABSCISSA_CODES = (0, 1, 18)
+"""Abscissa specific data type codes an FRF's abscissa may carry: unknown, general, frequency."""
+_NOT_FREQ_WITH_LABEL = (17, 19, 20)
+"""Codes that contradict a frequency unit label: time, rpm (a shaft-speed axis), order."""
+
+
+def frf_header_problem(h: Mapping[str, Any]) -> str | None:
+    """Why the header of a dataset-58 FRF (function type 4) cannot be read as an FRF, or None.
+
+    An FRF is complex: an FRF dataset of real values (ordinate data type 2 or 4) holds a
+    magnitude, a real part or (Re, Im) pairs under a wrong type code, never the FRF itself
+    (the UFF corpus' ``ufffiles_case{1,2,5,6}`` hold the complex FRF of their ``case{3,4,7,8}``
+    twins as interleaved pairs: 1602 real "lines" for 801, up to twice the frequency). Its
+    abscissa must be a frequency (:func:`abscissa_factor`).
+
+    Parameters
+    ----------
+    h : mapping
+        The parsed dataset-58 header (``ord_data_type``, ``abscissa_spec_data_type``, labels).
+
+    Returns
+    -------
+    str or None
+        One line naming the field and value, for the refusal.
+    """
+    odt = h.get("ord_data_type")
+    if odt in (2, 4):
+        return (f"FRF stored as real values (ordinate data type {odt}, real {'single' if odt == 2 else 'double'}): "
+                "an FRF is complex (type 5 or 6); the values (a magnitude, a real part or (Re, Im) pairs under a "
+                "wrong type code) are not read rather than taken as an FRF with zero imaginary part")
+    try:
+        abscissa_factor(dict(h))
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 def abscissa_factor(h: dict[str, Any]) -> float:
-    """Factor from the file's abscissa unit to Hz (ValueError if it is not a frequency or unreadable)."""
+    """Factor from the file's abscissa unit to Hz (ValueError if it is not a frequency or unreadable).
+
+    Without a unit label the abscissa specific data type code decides: 18 (frequency), 0
+    (unknown) or 1 (general) are read as Hz; any other code (rpm 19, order 20, time 17, a
+    response quantity) is refused, not taken as Hz. A frequency label (``Hz``, ``rad/s``,
+    ``rpm`` ...) converts, unless the code says time, rpm or order.
+    """
     code = h["abscissa_spec_data_type"]
     lab = h["abscissa_axis_units_lab"]
     u = parse_unit(lab, "abscissa unit label")
     if code == 17 or (u is not None and u.quantity == "time"):
         raise ValueError(f"abscissa is time (code {code}, unit {lab!r}), not frequency")
     if u is None:
+        if code not in _FREQ_ABSCISSA_CODES:
+            raise ValueError(
+                f"abscissa specific data type {_code_name(code)} is not a frequency (18) and no unit label says "
+                "otherwise: the abscissa is not read rather than taken as Hz"
+            )
         return 1.0
+    if code in _NOT_FREQ_WITH_LABEL:
+        raise ValueError(f"abscissa specific data type {_code_name(code)} contradicts its frequency unit label "
+                         f"{lab!r}: the abscissa is not read rather than guessed")
     if u.quantity != "frequency":
         raise ValueError(f"abscissa unit {lab!r} is not a frequency unit (Hz, kHz, rad/s, 1/s)")
     return u.factor

@@ -405,6 +405,10 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
             except ValueError as exc:
                 d.update(status="refused", reason=str(exc), num_pts=None)
                 break
+        else:  # a real-valued FRF, an abscissa in rpm or orders: refused by read_uff58 too
+            problem = _uff_units.frf_header_problem(r.header)
+            if problem is not None:
+                d.update(status="refused", reason=problem, num_pts=None)
     if r.type == 58:
         d["function"] = FUNCTION_TYPES.get(r.function_type) if r.function_type is not None else None
         d["num_pts_header"] = r.num_pts_header
@@ -615,6 +619,9 @@ def _frf_datasets(uf: UFFFile, src: str, pref: str | None,
             continue
         if r.status != "read":
             raise UFFError(f"FRF dataset refused: {r.reason}", file=src, dataset=r.index)
+        problem = _uff_units.frf_header_problem(r.header)
+        if problem is not None:
+            raise UFFError(problem, file=src, dataset=r.index)
         if r.response is None or r.reference is None:
             raise UFFError(
                 "response or reference DOF missing: " + "; ".join(r.notes), file=src, dataset=r.index
