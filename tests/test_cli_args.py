@@ -34,6 +34,7 @@ _REFUSED = [
     ("simulate --speed nan", "--speed"),
     ("simulate --speed inf", "--speed"),
     ("simulate --speed -1", "--speed"),
+    ("simulate --speed 1e6", "--speed"),  # accepted on 4ff7088: no rolling-element bearing runs at 1e6 rpm
     ("simulate --seed -1", "--seed"),
     ("simulate --seed 1.5", "--seed"),
     ("simulate --noise nan", "--noise"),
@@ -51,6 +52,7 @@ _REFUSED = [
     ("stiffness --speed inf", "--speed"),
     ("stiffness --speed nan", "--speed"),
     ("stiffness --speed -600", "--speed"),
+    ("stiffness --speed 1e6", "--speed"),  # accepted silently on 4ff7088 (harmonics at 16.7 kHz: no effect)
     ("stiffness --k-ms nan", "--k-ms"),
     ("stiffness --k-ms inf", "--k-ms"),
     ("stiffness --k-ms 0", "--k-ms"),
@@ -230,3 +232,31 @@ def test_averages_reach_the_default_estimate(monkeypatch: pytest.MonkeyPatch) ->
     assert main(["modes", uff, "--averages", "12.5"]) == EXIT_ERROR
     assert main(["modes", uff, "--averages", "0.5"]) == EXIT_USAGE  # below one average: a usage error
     assert seen == [12.5]
+
+
+def test_speed_range_is_the_campaign_keys_with_its_source(capsys):
+    """``--speed`` and a campaign's ``speed`` share one range (ema_rig.config), and the refusal names its source."""
+    from ema_rig.config import CONDITION_RANGES
+
+    p = build_parser()
+    hi = CONDITION_RANGES["speed"].hi
+    assert p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--speed", f"{hi:g}"]).speed == hi
+    with pytest.raises(SystemExit):
+        p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--speed", f"{hi * 1.01:g}"])
+    assert "dental air-turbine" in capsys.readouterr().err
+
+
+def test_speed_above_every_band_warns_that_it_changes_nothing(capsys):
+    """--speed only rejects shaft-harmonic lines: a shaft frequency above the bands identified changes nothing."""
+    from types import SimpleNamespace
+
+    from ema_rig.commands.stiffness import _warn_idle_speed
+
+    res = SimpleNamespace(file="m.uff", band=(150.0, 1000.0), spindle_band=(1500.0, 2200.0))
+    _warn_idle_speed(1e5, res)  # 1666.7 Hz: inside the spindle band, harmonics there are rejected
+    _warn_idle_speed(1200.0, res)
+    _warn_idle_speed(0.0, res)
+    assert capsys.readouterr().err == ""
+    _warn_idle_speed(2e5, res)  # 3333 Hz, above 2200 Hz
+    err = capsys.readouterr().err
+    assert err.startswith("warning: m.uff: --speed 200000 rpm: the shaft frequency 3333.33 Hz") and "2200 Hz" in err

@@ -12,6 +12,8 @@ finite_float, positive_float, nonneg_float
     A finite float; one > 0; one >= 0.
 positive_stiffness
     A stiffness > 0 [N/m] where ``inf`` is allowed (a rigid steel disk).
+shaft_speed
+    A shaft speed [rpm] in ``ema_rig.config.CONDITION_RANGES["speed"]`` (0 = not rotating).
 nonneg_int, positive_int, model_order
     An integer >= 0; >= 1; a PolyMAX model order >= 2 (orders step by 2 for one reference).
 number
@@ -27,6 +29,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from ..config import CONDITION_RANGES
 from ..io.units import response_unit
 
 
@@ -48,6 +51,7 @@ def number(
     lo_open: bool = False,
     allow_inf: bool = False,
     unit: str = "",
+    source: str = "",
 ) -> Callable[[str], Any]:
     """An argparse ``type=`` that parses ``kind`` (int or float) and checks its range.
 
@@ -63,13 +67,15 @@ def number(
         Accept ``inf`` (floats only, still checked against the bounds).
     unit : str, optional
         Unit named in the message, e.g. ``"Hz"``.
+    source : str, optional
+        Where the bounds come from, named in the message (``"... (source)"``).
 
     Returns
     -------
     callable
         ``f(text) -> int | float`` raising :class:`argparse.ArgumentTypeError`.
     """
-    desc = _describe(kind, lo, hi, lo_open, allow_inf) + (f" [{unit}]" if unit else "")
+    desc = _describe(kind, lo, hi, lo_open, allow_inf) + (f" [{unit}]" if unit else "") + (f" ({source})" if source else "")
 
     def parse(text: str) -> Any:
         try:
@@ -95,6 +101,9 @@ positive_stiffness = number(float, lo=0.0, lo_open=True, allow_inf=True, unit="N
 nonneg_int = number(int, lo=0)
 positive_int = number(int, lo=1)
 model_order = number(int, lo=2)  # the upper limit depends on the data: identify checks it
+#: ``--speed RPM``: a shaft speed in the range a campaign's ``speed`` key has (one definition, ema_rig.config)
+shaft_speed = number(float, lo=CONDITION_RANGES["speed"].lo, hi=CONDITION_RANGES["speed"].hi,
+                     unit=CONDITION_RANGES["speed"].unit, source=CONDITION_RANGES["speed"].source)
 
 
 class BandAction(argparse.Action):
@@ -110,7 +119,7 @@ class BandAction(argparse.Action):
 
 
 __all__ = ["BandAction", "add_units_argument", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
-           "positive_float", "positive_int", "positive_stiffness"]
+           "positive_float", "positive_int", "positive_stiffness", "shaft_speed"]
 
 
 def units(text: str) -> str:
