@@ -260,3 +260,14 @@ def test_speed_above_every_band_warns_that_it_changes_nothing(capsys):
     _warn_idle_speed(2e5, res)  # 3333 Hz, above 2200 Hz
     err = capsys.readouterr().err
     assert err.startswith("warning: m.uff: --speed 200000 rpm: the shaft frequency 3333.33 Hz") and "2200 Hz" in err
+
+
+def test_python_dash_m_runs_the_command_line(tmp_path):
+    """``python -m ema_rig`` is the installed ``ema-rig`` (4ff7088: "No module named ema_rig.__main__")."""
+    import subprocess
+    import sys
+
+    env = {**__import__("os").environ, "PYTHONPATH": str(REPO)}
+    done = subprocess.run([sys.executable, "-m", "ema_rig", "inspect", str(tmp_path / "none.uff")],
+                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
+    assert done.returncode == EXIT_ERROR and done.stderr.strip() == f"error: {tmp_path / 'none.uff'}: file not found"
