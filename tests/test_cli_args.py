@@ -56,6 +56,9 @@ _REFUSED = [
     ("stiffness --k-ms nan", "--k-ms"),
     ("stiffness --k-ms inf", "--k-ms"),
     ("stiffness --k-ms 0", "--k-ms"),
+    # accepted on 4ff7088: k_TB inverted with a k_MS 1000x off (71.6 -> 44.0 MN/m on the bundled 1200 rpm file)
+    ("stiffness --k-ms 114e9", "--k-ms"),
+    ("stiffness --k-ms 114", "--k-ms"),
     ("stiffness --k-ms-std -1", "--k-ms-std"),
     ("stiffness --k-ms-std inf", "--k-ms-std"),
     ("stiffness --band 1000 100", "--band"),
@@ -271,3 +274,12 @@ def test_python_dash_m_runs_the_command_line(tmp_path):
     done = subprocess.run([sys.executable, "-m", "ema_rig", "inspect", str(tmp_path / "none.uff")],
                           capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
     assert done.returncode == EXIT_ERROR and done.stderr.strip() == f"error: {tmp_path / 'none.uff'}: file not found"
+
+
+def test_k_ms_option_has_the_rig_files_range_and_hint(capsys):
+    """--k-ms is checked like the rig file's [model] k_MS (one definition: ema_rig.config.implausible)."""
+    p = build_parser()
+    assert p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--k-ms", "1.14e8"]).k_ms == 1.14e8
+    with pytest.raises(SystemExit):
+        p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--k-ms", "114e9"])
+    assert "did you mean 1.14e+08 N/m?" in capsys.readouterr().err

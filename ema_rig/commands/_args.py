@@ -12,6 +12,8 @@ finite_float, positive_float, nonneg_float
     A finite float; one > 0; one >= 0.
 positive_stiffness
     A stiffness > 0 [N/m] where ``inf`` is allowed (a rigid steel disk).
+mounting_stiffness
+    ``--k-ms``: a k_MS [N/m] inside the rig file's plausible range (Table 1 of the paper x/÷ 100).
 shaft_speed
     A shaft speed [rpm] in ``ema_rig.config.CONDITION_RANGES["speed"]`` (0 = not rotating).
 nonneg_int, positive_int, model_order
@@ -29,7 +31,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..config import CONDITION_RANGES
+from ..config import CONDITION_RANGES, implausible
 from ..io.units import response_unit
 
 
@@ -101,6 +103,21 @@ positive_stiffness = number(float, lo=0.0, lo_open=True, allow_inf=True, unit="N
 nonneg_int = number(int, lo=0)
 positive_int = number(int, lo=1)
 model_order = number(int, lo=2)  # the upper limit depends on the data: identify checks it
+
+
+def mounting_stiffness(text: str) -> float:
+    """``--k-ms V`` [N/m]: a finite positive number inside the rig file's plausible range of ``k_MS``.
+
+    The range and its message are the rig file's ``[model] k_MS`` check (:func:`ema_rig.config.implausible`):
+    a k_MS typed in MN/m, or with three zeros too many, would invert another k_TB without a word.
+    """
+    value = float(positive_float(text))
+    why = implausible("k_MS", value)
+    if why is not None:
+        raise argparse.ArgumentTypeError(f"got {text!r}: {why}")
+    return value
+
+
 #: ``--speed RPM``: a shaft speed in the range a campaign's ``speed`` key has (one definition, ema_rig.config)
 shaft_speed = number(float, lo=CONDITION_RANGES["speed"].lo, hi=CONDITION_RANGES["speed"].hi,
                      unit=CONDITION_RANGES["speed"].unit, source=CONDITION_RANGES["speed"].source)
@@ -119,7 +136,7 @@ class BandAction(argparse.Action):
 
 
 __all__ = ["BandAction", "add_units_argument", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
-           "positive_float", "positive_int", "positive_stiffness", "shaft_speed"]
+           "positive_float", "positive_int", "positive_stiffness", "mounting_stiffness", "shaft_speed"]
 
 
 def units(text: str) -> str:

@@ -16,7 +16,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stiffness``."""
     parser.add_argument("file", metavar="FILE", help="UFF58 measurement (FRFs of the eight sensors)")
     parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
-    parser.add_argument("--k-ms", type=_args.positive_float, default=None, metavar="V",
+    parser.add_argument("--k-ms", type=_args.mounting_stiffness, default=None, metavar="V",
                         help="mounting stiffness k_MS [N/m] from 'ema-rig calibrate' (default: the rig file's)")
     parser.add_argument("--k-ms-std", type=_args.nonneg_float, default=None, metavar="V",
                         help="standard uncertainty of k_MS [N/m] (default: the rig file's relative value)")
