@@ -283,3 +283,15 @@ def test_k_ms_option_has_the_rig_files_range_and_hint(capsys):
     with pytest.raises(SystemExit):
         p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--k-ms", "114e9"])
     assert "did you mean 1.14e+08 N/m?" in capsys.readouterr().err
+
+
+def test_explicit_band_narrowed_to_the_data_is_said(capsys):
+    """stiffness / calibrate clip --band to the data (modes refuses it): 4ff7088 did it without a word
+    (calibrate --band 700 5000 on the bundled 0-2000 Hz disk file identified in 700..2000 Hz, exit 0, silent)."""
+    from ema_rig.commands._args import note_clipped_band
+
+    note_clipped_band((700.0, 1100.0), [700.0, 1100.0], "d.uff")  # as asked: nothing to say
+    note_clipped_band(None, [150.0, 1000.0], "d.uff")  # no --band: the rig file's or default band
+    assert capsys.readouterr().err == ""
+    note_clipped_band((700.0, 5000.0), [700.0, 2000.0], "d.uff")
+    assert capsys.readouterr().err == "note: d.uff: --band 700 5000 extends beyond the data: identified in 700..2000 Hz\n"

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -136,7 +137,7 @@ class BandAction(argparse.Action):
 
 
 __all__ = ["BandAction", "add_units_argument", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
-           "positive_float", "positive_int", "positive_stiffness", "mounting_stiffness", "shaft_speed"]
+           "positive_float", "positive_int", "positive_stiffness", "mounting_stiffness", "note_clipped_band", "shaft_speed"]
 
 
 def units(text: str) -> str:
@@ -154,6 +155,18 @@ def add_units_argument(parser: argparse.ArgumentParser) -> None:
                         help="response unit of FRF datasets that carry no unit label, e.g. g, m/s^2, mm/s (per N "
                              "unless the file says otherwise; default: the rig file's [units] ordinate). A unit "
                              "label in the file always wins")
+
+
+def note_clipped_band(requested: Sequence[float] | None, used: Sequence[float] | None, file: object) -> None:
+    """A ``note:`` line on stderr when an explicit ``--band`` was narrowed to the data's lines.
+
+    ``stiffness`` and ``calibrate`` clip their band to the data (``modes`` refuses a band that
+    extends beyond them); the band identified is then not the one asked for, and says so.
+    """
+    if requested is None or used is None or tuple(map(float, used)) == tuple(map(float, requested)):
+        return
+    print(f"note: {file}: --band {requested[0]:g} {requested[1]:g} extends beyond the data: identified in "
+          f"{used[0]:g}..{used[1]:g} Hz", file=sys.stderr)
 
 
 def pm(std: float | None, scale: float = 1.0) -> str:

@@ -178,6 +178,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     print(summary(res))
     print_caveats(res)
+    _args.note_clipped_band(args.band, res.band, res.file or args.file)
     _warn_idle_speed(args.speed, res)
     if args.json:
         write_json(args.json, res.to_dict())
