@@ -952,9 +952,9 @@ MODEL_RANGES: dict[str, KeyRange] = {
 #: Plausible ranges of the measurement conditions of a campaign.
 CONDITION_RANGES: dict[str, KeyRange] = {
     "radial_load": KeyRange(0.0, 1e8, "N", "above the static load ratings of the largest bearings (~1e7 N)"),
-    "speed": KeyRange(0.0, 5e5, "rpm", "the fastest rolling-element bearings in service, the ball bearings of dental "
-                      "air-turbine handpieces, run at 3.5-4.5e5 rpm; above 5e5 rpm the value is in another "
-                      "unit or mistyped"),
+    "speed": KeyRange(0.0, 5e5, "rpm", "the ball bearings of dental air turbines, the fastest rolling bearings "
+                      "in service, run at 3.5-4.5e5 rpm"),
+    "shaft_position": KeyRange(-360.0, 360.0, "deg", "an angle of the shaft within one turn either way"),
     "k_disk": KeyRange(1e3, 1e15, "N/m", "a steel disk is far stiffer than the bearing it replaces "
                        "(1e7-1e10 N/m)"),
 }

@@ -481,6 +481,9 @@ _BIG = "1" + "0" * 400
         ('file = "m1.uff"', "file = 1", "measurement[0].file", "string"),
         ('file = "m1.uff"', 'file = ""', "measurement[0].file", "empty"),
         ('id = "m1"', "id = 1", "measurement[0].id", "string"),
+        # accepted on 4ff7088: a shaft speed no rolling bearing runs at, an angle of 28 turns
+        ("speed = 600.0\n", "speed = 6e5\n", "measurement[0].speed", "dental air turbines"),
+        ("speed = 600.0\n", "speed = 600.0\nshaft_position = 1e4\n", "measurement[0].shaft_position", "one turn"),
         ("speed = 600.0\n", "speed = 600.0\ntags = [1]\n", "measurement[0].tags", "strings"),
         ("max_order = 16", "max_order = true", "defaults.max_order", "integer"),
         ("max_order = 16", "max_order = 16.0", "defaults.max_order", "integer"),
