@@ -336,3 +336,11 @@ def test_frf_abscissa_code_that_is_no_frequency_is_refused(tmp_path: Path, code:
         path = _write(tmp_path / "z.uff", [_set(1, 2, 1, 2, truth, abscissa_spec_data_type=ok_code,
                                                  abscissa_axis_units_lab="NONE")])
         np.testing.assert_array_equal(read_uff58(path).freq, FREQ)  # exact: 0.5 Hz steps
+
+
+def test_units_option_in_conflict_with_the_code_is_named_as_the_users(tmp_path: Path) -> None:
+    """--units g on a velocity-coded file: 4ff7088 blamed "the unit label 'g'", which the file does not have."""
+    path = _write(tmp_path / "v.uff", [_set(1, 2, 1, 2, _truth(1, 1)[0, 0], ordinate_spec_data_type=11,
+                                             ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE")])
+    with pytest.raises(UFFError, match=r"type 11 \(velocity\) says mobility .* 'g' was given by the user \(--units"):
+        read_uff58(path, units="g")

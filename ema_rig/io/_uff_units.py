@@ -69,7 +69,11 @@ def decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str |
     num_lab = str(h.get("ordinate_axis_units_lab", ""))
     if assumed is not None and is_no_label(num_lab):
         h = {**h, "ordinate_axis_units_lab": assumed}
-        dec = _decide(h, units164, preference)
+        try:
+            dec = _decide(h, units164, preference)
+        except ValueError as exc:  # the label named is not the file's: say where it came from
+            raise ValueError(f"{exc}; the file has no unit label: {assumed!r} was given by the user (--units or "
+                             "the rig file's [units] ordinate)") from None
         dec = UnitDecision(dec.frf_form, dec.factor,
                            f"{dec.text}; the file has no unit label: {assumed!r} given by the user (--units or "
                            "the rig file's [units] ordinate)")
