@@ -344,3 +344,28 @@ def test_units_option_in_conflict_with_the_code_is_named_as_the_users(tmp_path: 
                                              ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE")])
     with pytest.raises(UFFError, match=r"type 11 \(velocity\) says mobility .* 'g' was given by the user \(--units"):
         read_uff58(path, units="g")
+
+
+def test_unlabelled_denominator_takes_the_force_unit_of_dataset_164(tmp_path: Path) -> None:
+    """An inch-pound file (dataset 164: length 39.37 in/m, force 0.2248 lbf/N) whose FRF ordinate is labelled
+    'g' and whose denominator is not labelled: the denominator is in the file's force unit, lbf. 4ff7088 took
+    it as N: every FRF 4.448x too large (modal masses 4.448x too small), with 'dataset 164 not applied'."""
+    import pyuff
+
+    lbf = 4.4482216152605  # N, exact by definition
+    truth = _truth(1, 1)[0, 0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        u164 = pyuff.prepare_164(units_code=2, units_description="Inch (pound f)", temp_mode=2,
+                                 length=1 / 0.0254, force=1 / lbf, temp=1.8, temp_offset=459.67)
+    u164["type"] = 164
+    frf = _set(1, 2, 1, 2, truth, ordinate_axis_units_lab="g", orddenom_axis_units_lab="NONE",
+               orddenom_force_unit_exp=1)
+    path = _write(tmp_path / "inch.uff", [u164, frf])
+    d = read_uff58(path)
+    # g / lbf in SI: 9.80665 / 4.4482216152605 = 2.2046 (m/s^2)/N; pyuff's 12 digits (164 factors too)
+    np.testing.assert_allclose(d.frf[0, 0], truth * G0 / lbf, rtol=1e-10)
+    assert "force unit of dataset 164" in d.meta["unit_decisions"][0]
+    # a labelled denominator still wins over dataset 164
+    path = _write(tmp_path / "inch_n.uff", [u164, _set(1, 2, 1, 2, truth, ordinate_axis_units_lab="g")])
+    np.testing.assert_allclose(read_uff58(path).frf[0, 0], truth * G0, rtol=RTOL_PYUFF)

@@ -129,6 +129,7 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
     label_form: FrfForm | None = None
     label_factor: float | None = None
     label_text = ""
+    den164 = False  # the unlabelled denominator is in the force unit of dataset 164
     if pn is not None:
         dims, fac = pn.dims, pn.factor
         if dims[2] == -1:  # the ordinate label already holds the whole FRF unit (per force)
@@ -141,6 +142,18 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
                 label_text = f"labels {num_lab!r} / {den_lab!r}"
             elif den_lab_given:
                 raise ValueError(f"denominator unit label {den_lab!r} is not a force unit (N, kN, lbf)")
+            elif units164 is not None:
+                # the file's unit system (dataset 164) holds for what no label states: an
+                # unlabelled force is in its force unit (lbf in an inch-pound file), not N
+                d_force = h["orddenom_force_unit_exp"] or 1
+                if abs(d_force) > MAX_UNIT_POWER:
+                    raise UnitRangeError(f"denominator force unit exponent {d_force} out of range (at most "
+                                         f"{MAX_UNIT_POWER} in magnitude) for the dataset 164 conversion")
+                ff = units164["force_factor"]
+                fac = fac * ff**d_force
+                den164 = True
+                label_text = (f"label {num_lab!r} per the force unit of dataset 164 ({units164['unit_description']}: "
+                              f"force factor {ff:.10g}; denominator not labelled)")
             else:
                 label_text = f"label {num_lab!r} per N (denominator not labelled)"
         else:
@@ -173,7 +186,7 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         text = f"{form} from {label_text}: x {label_factor:.10g} to SI"
         if code_form is not None:
             text += f" (ordinate code {_code_name(num_code)} agrees)"
-        if units164 is not None:
+        if units164 is not None and not den164:
             text += f"; dataset 164 ({units164['unit_description']}) not applied, the label is explicit"
         return UnitDecision(form, label_factor, text + _j(notes))
     # from the code: the unit system of dataset 164, else SI
