@@ -369,3 +369,20 @@ def test_unlabelled_denominator_takes_the_force_unit_of_dataset_164(tmp_path: Pa
     # a labelled denominator still wins over dataset 164
     path = _write(tmp_path / "inch_n.uff", [u164, _set(1, 2, 1, 2, truth, ordinate_axis_units_lab="g")])
     np.testing.assert_allclose(read_uff58(path).frf[0, 0], truth * G0, rtol=RTOL_PYUFF)
+
+
+@pytest.mark.parametrize(("den", "factor"), [("lbf", 1 / 4.4482216152605), ("kN", 1e-3)])
+def test_labelled_denominator_counts_without_an_ordinate_label(tmp_path: Path, den: str, factor: float) -> None:
+    """Ordinate code 12 without a unit label, denominator labelled 'lbf' (or 'kN'): 4ff7088 read the values per N
+    and wrote "no unit label ... SI (m, N) assumed" (4.448x or 1000x too large)."""
+    truth = _truth(1, 1)[0, 0]
+    path = _write(tmp_path / "d.uff", [_set(1, 2, 1, 2, truth, ordinate_axis_units_lab="NONE",
+                                             orddenom_axis_units_lab=den)])
+    d = read_uff58(path)
+    np.testing.assert_allclose(d.frf[0, 0], truth * factor, rtol=RTOL_PYUFF)  # exact unit definitions
+    assert f"per '{den}' (denominator label)" in d.meta["unit_decisions"][0]
+    assert "SI (m) assumed for the ordinate" in d.meta["units_assumed"]  # the ordinate's unit is still assumed
+    path = _write(tmp_path / "e.uff", [_set(1, 2, 1, 2, truth, ordinate_axis_units_lab="NONE",
+                                             orddenom_axis_units_lab="m/s^2")])
+    with pytest.raises(UFFError, match="denominator unit label 'm/s\\^2' is not a force unit"):
+        read_uff58(path)

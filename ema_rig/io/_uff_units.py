@@ -44,6 +44,8 @@ class UnitDecision:
 
 SI_ASSUMED = "no unit label and no dataset 164: SI (m, N) assumed"
 """The unit decision of a dataset whose units nothing in the file states."""
+ORDINATE_SI_ASSUMED = "no ordinate unit label and no dataset 164: SI (m) assumed for the ordinate"
+"""The unit decision of a dataset whose file states the denominator's unit only (a label, lbf or kN)."""
 
 
 def _code_name(code: int) -> str:
@@ -189,14 +191,23 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         if units164 is not None and not den164:
             text += f"; dataset 164 ({units164['unit_description']}) not applied, the label is explicit"
         return UnitDecision(form, label_factor, text + _j(notes))
-    # from the code: the unit system of dataset 164, else SI
+    # from the code: the unit system of dataset 164, else SI; a labelled denominator (lbf, kN) still counts
     text = f"{form} from ordinate code {_code_name(num_code)}"
+    den_fac, den_text = 1.0, ""
+    if pd is not None:
+        if pd.dims != (0, 0, 1):
+            raise ValueError(f"denominator unit label {den_lab!r} is not a force unit (N, kN, lbf)")
+        den_fac = 1.0 / pd.factor
+        den_text = f"; per {den_lab!r} (denominator label): x {den_fac:.10g}"
     if units164 is None:
-        return UnitDecision(form, 1.0, text + "; " + SI_ASSUMED + _j(notes))
+        if pd is None:
+            return UnitDecision(form, 1.0, text + "; " + SI_ASSUMED + _j(notes))
+        return UnitDecision(form, den_fac, text + "; " + ORDINATE_SI_ASSUMED + den_text + " to SI" + _j(notes))
     n_len = h["ordinate_len_unit_exp"] or 1
     n_force = h["ordinate_force_unit_exp"]
-    d_len = h["orddenom_len_unit_exp"]
-    d_force = h["orddenom_force_unit_exp"] or 1
+    # a labelled denominator replaces dataset 164's unit for it (exponents 0: its factor is den_fac)
+    d_len = h["orddenom_len_unit_exp"] if pd is None else 0
+    d_force = (h["orddenom_force_unit_exp"] or 1) if pd is None else 0
     for name, e in (("ordinate length", n_len), ("ordinate force", n_force),
                     ("denominator length", d_len), ("denominator force", d_force)):
         if abs(e) > MAX_UNIT_POWER:
@@ -216,9 +227,10 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         )
     text += (
         f"; units of dataset 164 ({units164['unit_description']}: length factor {lf:.10g}, force factor "
-        f"{ff:.10g}) with exponents length {n_len - d_len}, force {n_force - d_force}: x {fac:.10g} to SI"
+        f"{ff:.10g}) with exponents length {n_len - d_len}, force {n_force - d_force}: x {fac:.10g}"
+        + den_text + " to SI"
     )
-    return UnitDecision(form, fac, text + _j(notes))
+    return UnitDecision(form, fac * den_fac, text + _j(notes))
 
 
 def _j(notes: list[str]) -> str:

@@ -573,8 +573,11 @@ def read_uff58(
         "rig": None if rig is None else rig.path,
     }
     n_assumed = sum(_uff_units.SI_ASSUMED in d for d in decisions)
-    if n_assumed:  # the caveat for every result in kg, m or N (effective masses, residues, shapes)
-        meta["units_assumed"] = f"{n_assumed} of {len(decisions)} FRF datasets: {_uff_units.SI_ASSUMED}"
+    n_ordinate = sum(_uff_units.ORDINATE_SI_ASSUMED in d for d in decisions)
+    if n_assumed or n_ordinate:  # the caveat for every result in kg, m or N (effective masses, residues, shapes)
+        meta["units_assumed"] = "; ".join(
+            f"{n} of {len(decisions)} FRF datasets: {what}"
+            for n, what in ((n_assumed, _uff_units.SI_ASSUMED), (n_ordinate, _uff_units.ORDINATE_SI_ASSUMED)) if n)
     if history is not None:
         meta["processing"] = history  # issue 18: window, averaging, band (dataset 1858)
     frf.setflags(write=False)  # built here and frozen: FRFData keeps it without a copy
