@@ -485,8 +485,9 @@ def read_uff58(
         ``ids`` (id lines per dataset index), ``rig`` (rig file path or None),
         ``units_assumed`` (a sentence, present only when datasets state no units: SI assumed), and
         ``processing`` (:class:`~ema_rig.processing.ProcessingHistory` from the datasets 1858
-        before the FRFs, present only when every FRF has the same one; its ``n_averages`` fills
-        ``n_averages`` when no id line gives it).
+        before the FRFs, present only when every FRF has the same one; when no id line gives another
+        count, ``n_averages`` is its equivalent number of independent averages,
+        :meth:`~ema_rig.processing.ProcessingHistory.independent_averages`: overlapped segments count less).
 
     Raises
     ------
@@ -556,8 +557,9 @@ def read_uff58(
     q_used = {q for q, _ in q_pairs.values()}
     ignored_datasets = [s for s in ignored_datasets if not any(s.startswith(f"dataset {q}:") for q in q_used)]
     notes += q_notes + h_notes
-    if history is not None and n_avg is None:
-        n_avg = history.n_averages
+    if history is not None and (n_avg is None or n_avg == history.n_averages):
+        # the segments the history (and an id line) count, overlapped, count less (Welch 1967)
+        n_avg = history.independent_averages()
     # ---- end processing history ----
     meta: dict[str, Any] = {
         "source": src,
