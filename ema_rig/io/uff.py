@@ -549,7 +549,8 @@ def read_uff58(
     attached = set(coh.datasets)
     ignored_datasets += [f"dataset {r.index}: function type 6 (coherence), not attached" for r in coh_recs
                          if r.index not in attached]
-    n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
+    n_count, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
+    n_avg: float | None = n_count
     notes += list(coh.notes) + ([avg_note] if avg_note else [])
     # ---- processing history from datasets 1858 (issue 18; see _uff_1858) ----
     q_pairs, q_notes = _uff_1858.qualify(uf.records)
