@@ -86,6 +86,40 @@ PLAUSIBLE_SPAN = 100.0
 rigs of another size pass, a unit slip (N/m for MN/m, kN/m, g or t for kg: factors 1e3, 1e6) does not."""
 
 
+def implausible(key: str, v: float) -> str | None:
+    """Why the rig parameter ``key`` = ``v`` (SI) is implausible, with the unit it was probably meant in; None
+    when it lies within Table 1 of the paper ×/÷ :data:`PLAUSIBLE_SPAN`.
+
+    Parameters
+    ----------
+    key : {'m_H', 'm_S', 'm_F', 'k_MS', 'k_AS', 'k_S', 'k_B'}
+    v : float
+        The value [kg or N/m].
+
+    Returns
+    -------
+    str or None
+        E.g. ``k_MS = 114 N/m is implausible for a mounting stiffness (...); did you mean 114e6 (MN/m)?``
+    """
+    ref, what = _TABLE1[key]
+    lo, hi = ref / PLAUSIBLE_SPAN, ref * PLAUSIBLE_SPAN
+    if lo <= v <= hi:
+        return None
+    mass = key.startswith("m_")
+    unit = "kg" if mass else "N/m"
+    # a unit slip (MN/m or kN/m typed as N/m, g or t as kg) or three or six zeros too many
+    scales = ((1e-3, "g"), (1e3, "t")) if mass else ((1e6, "MN/m"), (1e3, "kN/m"), (1e-3, ""), (1e-6, ""))
+    hint = ""
+    for f, name in scales:
+        if lo <= v * f <= hi:
+            hint = (f"; did you mean {v * f:g} kg ({v:g} {name})?" if mass
+                    else f"; did you mean {v * f:g} N/m?" if f < 1
+                    else f"; did you mean {v:g}e{round(math.log10(f)):d} ({name})?")
+            break
+    return (f"{key} = {v:g} {unit} is implausible for {what} (expected {lo:g} .. {hi:g} {unit}, "
+            f"Table 1 of the paper x/÷ {PLAUSIBLE_SPAN:g}){hint}")
+
+
 def check_plausible(model: ModelParams, file: str | None) -> None:
     """Refuse a rig parameter outside its plausible range, with the unit it was probably meant in.
 
@@ -94,22 +128,10 @@ def check_plausible(model: ModelParams, file: str | None) -> None:
     ConfigError
         E.g. ``k_MS = 114 N/m is implausible for a mounting stiffness; did you mean 114e6 (MN/m)?``
     """
-    for key, (ref, what) in _TABLE1.items():
-        v = float(getattr(model, key))
-        lo, hi = ref / PLAUSIBLE_SPAN, ref * PLAUSIBLE_SPAN
-        if lo <= v <= hi:
-            continue
-        mass = key.startswith("m_")
-        unit = "kg" if mass else "N/m"
-        scales = ((1e-3, "g"), (1e3, "t")) if mass else ((1e6, "MN/m"), (1e3, "kN/m"))
-        hint = ""
-        for f, name in scales:
-            if lo <= v * f <= hi:
-                hint = (f"; did you mean {v * f:g} kg ({v:g} {name})?" if mass
-                        else f"; did you mean {v:g}e{round(math.log10(f)):d} ({name})?")
-                break
-        raise ConfigError(f"{key} = {v:g} {unit} is implausible for {what} (expected {lo:g} .. {hi:g} {unit}, "
-                          f"Table 1 of the paper x/÷ {PLAUSIBLE_SPAN:g}){hint}", file=file, key=f"model.{key}")
+    for key in _TABLE1:
+        why = implausible(key, float(getattr(model, key)))
+        if why is not None:
+            raise ConfigError(why, file=file, key=f"model.{key}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -930,7 +952,9 @@ MODEL_RANGES: dict[str, KeyRange] = {
 #: Plausible ranges of the measurement conditions of a campaign.
 CONDITION_RANGES: dict[str, KeyRange] = {
     "radial_load": KeyRange(0.0, 1e8, "N", "above the static load ratings of the largest bearings (~1e7 N)"),
-    "speed": KeyRange(0.0, 1e6, "rpm", "above the fastest spindles (~3e5 rpm)"),
+    "speed": KeyRange(0.0, 5e5, "rpm", "the ball bearings of dental air turbines, the fastest rolling bearings "
+                      "in service, run at 3.5-4.5e5 rpm"),
+    "shaft_position": KeyRange(-360.0, 360.0, "deg", "an angle of the shaft within one turn either way"),
     "k_disk": KeyRange(1e3, 1e15, "N/m", "a steel disk is far stiffer than the bearing it replaces "
                        "(1e7-1e10 N/m)"),
 }

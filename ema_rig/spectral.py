@@ -52,6 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from .dof import DOF, as_dof
 from .frf import FRFData
 from .literals import Estimator, FrfForm
+from .processing import independent_averages
 
 ESTIMATORS: tuple[str, ...] = ("H1", "H2", "Hv")
 LOW_COHERENCE = 0.8
@@ -390,9 +391,12 @@ def estimate_frf(
         warn.append(f"exponential window: every pole is {added:.4g} rad/s more damped in this FRF; a "
                     f"damping ratio identified from it is too high by {added:.4g} / (2 pi f_n)")
     info = dict(meta or {})
-    info.update(estimator=estimator, window=window, segment=nseg, overlap=ov, added_damping=added)
+    info.update(estimator=estimator, window=window, segment=nseg, overlap=ov, added_damping=added, n_segments=n_avg)
+    # overlapped segments are not independent: the FRFs carry the independent number (the coherence-based
+    # noise variance needs it), the estimate and its history the count of segments averaged
+    n_ind = independent_averages(w_y, step, int(starts.size), n_rec)
     data = FRFData(freq, np.asarray(h, dtype=np.complex128), tuple(as_dof(d) for d in out_dofs), tuple(as_dof(d) for d in in_dofs), frf_form,
-                   meta=info, n_averages=n_avg)
+                   meta=info, n_averages=n_ind)
     coh.setflags(write=False)
     return FRFEstimate(data, coh, estimator, window, nseg, ov, n_avg, added, tuple(warn))
 

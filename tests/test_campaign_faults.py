@@ -481,6 +481,9 @@ _BIG = "1" + "0" * 400
         ('file = "m1.uff"', "file = 1", "measurement[0].file", "string"),
         ('file = "m1.uff"', 'file = ""', "measurement[0].file", "empty"),
         ('id = "m1"', "id = 1", "measurement[0].id", "string"),
+        # accepted on 4ff7088: a shaft speed no rolling bearing runs at, an angle of 28 turns
+        ("speed = 600.0\n", "speed = 6e5\n", "measurement[0].speed", "dental air turbines"),
+        ("speed = 600.0\n", "speed = 600.0\nshaft_position = 1e4\n", "measurement[0].shaft_position", "one turn"),
         ("speed = 600.0\n", "speed = 600.0\ntags = [1]\n", "measurement[0].tags", "strings"),
         ("max_order = 16", "max_order = true", "defaults.max_order", "integer"),
         ("max_order = 16", "max_order = 16.0", "defaults.max_order", "integer"),
@@ -741,3 +744,22 @@ def test_figures_drawn_from_the_computation(small: Path, tmp_path: Path, monkeyp
     assert {p.name: p.read_bytes() for p in (out / "measurements").iterdir()} == first
     calls.clear()
     assert run(d / "campaign.toml", out_dir=out).reused == 2 and calls == []  # nothing to draw, nothing identified
+
+
+def test_failed_calibration_is_a_warning_of_every_row(small: Path, tmp_path: Path, capsys) -> None:
+    """A steel-disk file that cannot be read: the rows fall back on the rig file's k_MS. On 4ff7088 the rows
+    said nothing (no warning; only the exit code 3 and one line on stderr told it, and the CSV not at all)."""
+    d = tmp_path / "c"
+    shutil.copytree(small, d)
+    (d / "disk.uff").write_text("not a UFF file\n", encoding="utf-8")
+    assert main(["campaign", str(d / "campaign.toml"), "-o", str(d / "out")]) == 3
+    assert "calibration failed" in capsys.readouterr().err
+    k_ms = load_rig(d / "rig.toml").model.k_MS
+    for mid in K_TB:
+        row = json.loads((d / "out" / "results" / f"{mid}.json").read_text())
+        assert row["status"] == "ok" and row["k_MS"] == k_ms  # the documented fallback
+        assert any("taken from the rig file" in w and "disk.uff" in w for w in row["warnings"]), row["warnings"]
+    # the reused rows of a second run keep it
+    assert main(["campaign", str(d / "campaign.toml"), "-o", str(d / "out")]) == 3
+    row = json.loads((d / "out" / "results" / "m1.json").read_text())
+    assert any("taken from the rig file" in w for w in row["warnings"])

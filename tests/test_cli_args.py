@@ -34,6 +34,7 @@ _REFUSED = [
     ("simulate --speed nan", "--speed"),
     ("simulate --speed inf", "--speed"),
     ("simulate --speed -1", "--speed"),
+    ("simulate --speed 1e6", "--speed"),  # accepted on 4ff7088: no rolling-element bearing runs at 1e6 rpm
     ("simulate --seed -1", "--seed"),
     ("simulate --seed 1.5", "--seed"),
     ("simulate --noise nan", "--noise"),
@@ -51,9 +52,13 @@ _REFUSED = [
     ("stiffness --speed inf", "--speed"),
     ("stiffness --speed nan", "--speed"),
     ("stiffness --speed -600", "--speed"),
+    ("stiffness --speed 1e6", "--speed"),  # accepted silently on 4ff7088 (harmonics at 16.7 kHz: no effect)
     ("stiffness --k-ms nan", "--k-ms"),
     ("stiffness --k-ms inf", "--k-ms"),
     ("stiffness --k-ms 0", "--k-ms"),
+    # accepted on 4ff7088: k_TB inverted with a k_MS 1000x off (71.6 -> 44.0 MN/m on the bundled 1200 rpm file)
+    ("stiffness --k-ms 114e9", "--k-ms"),
+    ("stiffness --k-ms 114", "--k-ms"),
     ("stiffness --k-ms-std -1", "--k-ms-std"),
     ("stiffness --k-ms-std inf", "--k-ms-std"),
     ("stiffness --band 1000 100", "--band"),
@@ -230,3 +235,63 @@ def test_averages_reach_the_default_estimate(monkeypatch: pytest.MonkeyPatch) ->
     assert main(["modes", uff, "--averages", "12.5"]) == EXIT_ERROR
     assert main(["modes", uff, "--averages", "0.5"]) == EXIT_USAGE  # below one average: a usage error
     assert seen == [12.5]
+
+
+def test_speed_range_is_the_campaign_keys_with_its_source(capsys):
+    """``--speed`` and a campaign's ``speed`` share one range (ema_rig.config), and the refusal names its source."""
+    from ema_rig.config import CONDITION_RANGES
+
+    p = build_parser()
+    hi = CONDITION_RANGES["speed"].hi
+    assert p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--speed", f"{hi:g}"]).speed == hi
+    with pytest.raises(SystemExit):
+        p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--speed", f"{hi * 1.01:g}"])
+    assert "dental air turbines" in capsys.readouterr().err
+
+
+def test_speed_above_every_band_warns_that_it_changes_nothing(capsys):
+    """--speed only rejects shaft-harmonic lines: a shaft frequency above the bands identified changes nothing."""
+    from types import SimpleNamespace
+
+    from ema_rig.commands.stiffness import _warn_idle_speed
+
+    res = SimpleNamespace(file="m.uff", band=(150.0, 1000.0), spindle_band=(1500.0, 2200.0))
+    _warn_idle_speed(1e5, res)  # 1666.7 Hz: inside the spindle band, harmonics there are rejected
+    _warn_idle_speed(1200.0, res)
+    _warn_idle_speed(0.0, res)
+    assert capsys.readouterr().err == ""
+    _warn_idle_speed(2e5, res)  # 3333 Hz, above 2200 Hz
+    err = capsys.readouterr().err
+    assert err.startswith("warning: m.uff: --speed 200000 rpm: the shaft frequency 3333.33 Hz") and "2200 Hz" in err
+
+
+def test_python_dash_m_runs_the_command_line(tmp_path):
+    """``python -m ema_rig`` is the installed ``ema-rig`` (4ff7088: "No module named ema_rig.__main__")."""
+    import subprocess
+    import sys
+
+    env = {**__import__("os").environ, "PYTHONPATH": str(REPO)}
+    done = subprocess.run([sys.executable, "-m", "ema_rig", "inspect", str(tmp_path / "none.uff")],
+                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
+    assert done.returncode == EXIT_ERROR and done.stderr.strip() == f"error: {tmp_path / 'none.uff'}: file not found"
+
+
+def test_k_ms_option_has_the_rig_files_range_and_hint(capsys):
+    """--k-ms is checked like the rig file's [model] k_MS (one definition: ema_rig.config.implausible)."""
+    p = build_parser()
+    assert p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--k-ms", "1.14e8"]).k_ms == 1.14e8
+    with pytest.raises(SystemExit):
+        p.parse_args(["stiffness", "f.uff", "--rig", "r.toml", "--k-ms", "114e9"])
+    assert "did you mean 1.14e+08 N/m?" in capsys.readouterr().err
+
+
+def test_explicit_band_narrowed_to_the_data_is_said(capsys):
+    """stiffness / calibrate clip --band to the data (modes refuses it): 4ff7088 did it without a word
+    (calibrate --band 700 5000 on the bundled 0-2000 Hz disk file identified in 700..2000 Hz, exit 0, silent)."""
+    from ema_rig.commands._args import note_clipped_band
+
+    note_clipped_band((700.0, 1100.0), [700.0, 1100.0], "d.uff")  # as asked: nothing to say
+    note_clipped_band(None, [150.0, 1000.0], "d.uff")  # no --band: the rig file's or default band
+    assert capsys.readouterr().err == ""
+    note_clipped_band((700.0, 5000.0), [700.0, 2000.0], "d.uff")
+    assert capsys.readouterr().err == "note: d.uff: --band 700 5000 extends beyond the data: identified in 700..2000 Hz\n"

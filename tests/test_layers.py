@@ -57,7 +57,7 @@ LAYERS: tuple[tuple[int, str], ...] = (
     # 6: the campaign run (process every measurement, then write the outputs) and its facade
     (6, "ema_rig.campaign.runner"), (6, "ema_rig.campaign"),
     # 7: commands and the command line; the package facade re-exports from every layer
-    (7, "ema_rig.commands"), (7, "ema_rig.cli"), (7, "ema_rig"),
+    (7, "ema_rig.commands"), (7, "ema_rig.cli"), (7, "ema_rig.__main__"), (7, "ema_rig"),
 )
 LAYER_NAMES = ("foundations", "io", "identification", "rig", "campaign core", "outputs", "campaign run",
                "commands")

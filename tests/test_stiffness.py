@@ -155,6 +155,24 @@ def test_calibrate_soft_disk_from_rig_file(rig_toml_text, monkeypatch):
     # the rigid-disk convention on the same data would be 9.1 % low: the key matters
     plain = st.calibrate(_data_from(mm), parse_rig(tomllib.loads(rig_toml_text)))
     np.testing.assert_allclose(plain.k_MS / k_ms, 1 / 1.1, rtol=1e-6)
+    # the paper's bound itself (10x) is no caveat
+    assert not any("steel disk" in w for w in res.warnings + res2.warnings)
+
+
+def test_calibrate_disk_softer_than_the_papers_warns(rig_toml_text, monkeypatch):
+    """A disk only 1.3x the mounting it calibrates: no word on 4ff7088 (`calibrate data/disk.uff --k-disk 1.5e8`,
+    one zero short, gave k_MS = 474 MN/m, 4.2x the rig's, +/- 0.3 %, exit 0). The closed form's own sensitivity
+    is the oracle: 1 % in k_disk is k_MS / k_disk % in k_MS (d ln k_MS / d ln k_disk)."""
+    rig = parse_rig(tomllib.loads(rig_toml_text))
+    k_ms, k_disk = 114e6, 1.5e8
+    f_disk = _disk_freq_by_hand(rig.model, 1.0 / (1.0 / k_ms + 1.0 / k_disk))
+    mm = modal(rig_modes(rig.model, f_disk))
+    _fake_identify(monkeypatch, mm, 0.5)
+    res = st.calibrate(_data_from(mm), rig, k_disk=k_disk)
+    np.testing.assert_allclose(res.k_MS, k_ms, rtol=1e-6)  # the closed form itself is right (exact modes)
+    w = [w for w in res.warnings if "steel disk" in w]
+    assert len(w) == 1 and "only 1.3x" in w[0] and "1 % in k_disk is 0.76 % in k_MS" in w[0], w
+    assert "k_disk_std is not given" in w[0]
 
 
 @pytest.mark.parametrize(

@@ -42,8 +42,11 @@ FRF_FILES = {
     "pyuff_non_ascii_frf.uff": "accelerance",  # Latin-1 label (1/N)*(m/s²)
     "ufffiles_151_164_58_55_inch.unv": "accelerance",  # code 12, dataset 164 inch/lbf
     "ufffiles_two_58b.ufb": "accelerance",
-    **{f"ufffiles_case{i}_{k}.unv": "accelerance" for i in range(1, 9) for k in ("ascii", "binary")},
+    **{f"ufffiles_case{i}_{k}.unv": "accelerance" for i in (3, 4, 7, 8) for k in ("ascii", "binary")},
 }
+# FRF files whose FRF is stored as real values (ordinate data type 2 or 4): the complex FRF of their
+# complex twin (case 1 -> 3, 2 -> 4, 5 -> 7, 6 -> 8) as interleaved (Re, Im) pairs, twice num_pts
+REAL_FRF_TWINS = {1: 3, 2: 4, 5: 7, 6: 8}
 
 
 def _entry(name: str) -> dict:
@@ -194,6 +197,20 @@ def test_corpus_frf_assembly(corpus_dir: Path, name: str) -> None:
     entry = _entry(name)
     assert d.n_freq == entry["npts_per_set"][0]
     assert len(d.meta["unit_decisions"]) == d.n_out * d.n_in == entry["n58"]
+
+
+@pytest.mark.parametrize("case", sorted(REAL_FRF_TWINS))
+def test_corpus_real_valued_frf_is_refused(corpus_dir: Path, case: int) -> None:
+    """4ff7088 read these as accelerance FRFs of 1602 real lines with zero imaginary part, up to twice the
+    frequency of the data (0-400 Hz for 0-200 Hz): the values are the complex twin's (Re, Im) pairs."""
+    name = f"ufffiles_case{case}_ascii.unv"
+    real = read_uff(corpus_dir / name)[0]
+    twin = read_uff(corpus_dir / f"ufffiles_case{REAL_FRF_TWINS[case]}_ascii.unv")[0]
+    # the independent reading of what the values are: the twin's complex FRF, pair by pair (same digits)
+    np.testing.assert_array_equal(real.y[0::2] + 1j * real.y[1::2], twin.y)
+    for kind in ("ascii", "binary"):
+        with pytest.raises(UFFError, match=r"dataset 0: FRF stored as real values"):
+            read_uff58(corpus_dir / f"ufffiles_case{case}_{kind}.unv")
 
 
 def test_corpus_utf8_unit_garbled_is_refused(corpus_dir: Path) -> None:

@@ -301,3 +301,88 @@ def test_file_channel_without_sensor_is_ignored_with_warning(tmp_path: Path, rig
     with pytest.warns(UnitWarning, match=r"response 99\+Z has no \[\[sensor\]\] entry"):
         d = read_uff58(p, rig=rig)
     assert d.n_out == 8 and d.meta["ignored_channels"] == ["dataset 16: 99+Z (no rig sensor)"]
+
+
+@pytest.mark.parametrize("odt", [2, 4], ids=["real-single", "real-double"])
+def test_real_valued_frf_is_refused_not_read_with_zero_imaginary(tmp_path: Path, odt: int) -> None:
+    # pyuff writes both as its real type; the ordinate data type named in the message is the file's
+    """An FRF is complex: a dataset of function type 4 stored as real values (a magnitude here) was read
+    on 4ff7088 as an FRF with zero imaginary part, and ``modes`` printed modes from it with exit 0."""
+    mag = np.abs(_truth(1, 1)[0, 0])
+    path = _write(tmp_path / "mag.uff", [_set(1, 2, 1, 2, mag, ord_data_type=odt)])
+    assert read_uff(path)[0].status == "read"  # the record itself is well framed: read_uff keeps it
+    with pytest.raises(UFFError, match=r"dataset 0: FRF stored as real values \(ordinate data type [24]"):
+        read_uff58(path)
+    from ema_rig.io.uff import inspect_uff
+
+    ds = inspect_uff(path)["datasets"][0]
+    assert ds["status"] == "refused" and "real values" in ds["reason"] and ds["num_pts"] is None
+
+
+@pytest.mark.parametrize(("code", "name"), [(19, "rpm"), (20, "order"), (8, "displacement")])
+def test_frf_abscissa_code_that_is_no_frequency_is_refused(tmp_path: Path, code: int, name: str) -> None:
+    """Without a unit label the abscissa code 19 (rpm), 20 (order) or a response quantity was read as Hz on
+    4ff7088 (an rpm axis would put every mode 60x too high)."""
+    truth = _truth(1, 1)[0, 0]
+    path = _write(tmp_path / "x.uff", [_set(1, 2, 1, 2, truth, abscissa_spec_data_type=code,
+                                             abscissa_axis_units_lab="NONE")])
+    with pytest.raises(UFFError, match=rf"dataset 0: abscissa specific data type {code} \({name}\) is not a freq"):
+        read_uff58(path)
+    # an rpm code contradicting a frequency label is refused as well; the plain frequency code reads as Hz
+    path = _write(tmp_path / "y.uff", [_set(1, 2, 1, 2, truth, abscissa_spec_data_type=19)])
+    with pytest.raises(UFFError, match="contradicts its frequency unit label 'Hz'"):
+        read_uff58(path)
+    for ok_code in (0, 1, 18):
+        path = _write(tmp_path / "z.uff", [_set(1, 2, 1, 2, truth, abscissa_spec_data_type=ok_code,
+                                                 abscissa_axis_units_lab="NONE")])
+        np.testing.assert_array_equal(read_uff58(path).freq, FREQ)  # exact: 0.5 Hz steps
+
+
+def test_units_option_in_conflict_with_the_code_is_named_as_the_users(tmp_path: Path) -> None:
+    """--units g on a velocity-coded file: 4ff7088 blamed "the unit label 'g'", which the file does not have."""
+    path = _write(tmp_path / "v.uff", [_set(1, 2, 1, 2, _truth(1, 1)[0, 0], ordinate_spec_data_type=11,
+                                             ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE")])
+    with pytest.raises(UFFError, match=r"type 11 \(velocity\) says mobility .* 'g' was given by the user \(--units"):
+        read_uff58(path, units="g")
+
+
+def test_unlabelled_denominator_takes_the_force_unit_of_dataset_164(tmp_path: Path) -> None:
+    """An inch-pound file (dataset 164: length 39.37 in/m, force 0.2248 lbf/N) whose FRF ordinate is labelled
+    'g' and whose denominator is not labelled: the denominator is in the file's force unit, lbf. 4ff7088 took
+    it as N: every FRF 4.448x too large (modal masses 4.448x too small), with 'dataset 164 not applied'."""
+    import pyuff
+
+    lbf = 4.4482216152605  # N, exact by definition
+    truth = _truth(1, 1)[0, 0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        u164 = pyuff.prepare_164(units_code=2, units_description="Inch (pound f)", temp_mode=2,
+                                 length=1 / 0.0254, force=1 / lbf, temp=1.8, temp_offset=459.67)
+    u164["type"] = 164
+    frf = _set(1, 2, 1, 2, truth, ordinate_axis_units_lab="g", orddenom_axis_units_lab="NONE",
+               orddenom_force_unit_exp=1)
+    path = _write(tmp_path / "inch.uff", [u164, frf])
+    d = read_uff58(path)
+    # g / lbf in SI: 9.80665 / 4.4482216152605 = 2.2046 (m/s^2)/N; pyuff's 12 digits (164 factors too)
+    np.testing.assert_allclose(d.frf[0, 0], truth * G0 / lbf, rtol=1e-10)
+    assert "force unit of dataset 164" in d.meta["unit_decisions"][0]
+    # a labelled denominator still wins over dataset 164
+    path = _write(tmp_path / "inch_n.uff", [u164, _set(1, 2, 1, 2, truth, ordinate_axis_units_lab="g")])
+    np.testing.assert_allclose(read_uff58(path).frf[0, 0], truth * G0, rtol=RTOL_PYUFF)
+
+
+@pytest.mark.parametrize(("den", "factor"), [("lbf", 1 / 4.4482216152605), ("kN", 1e-3)])
+def test_labelled_denominator_counts_without_an_ordinate_label(tmp_path: Path, den: str, factor: float) -> None:
+    """Ordinate code 12 without a unit label, denominator labelled 'lbf' (or 'kN'): 4ff7088 read the values per N
+    and wrote "no unit label ... SI (m, N) assumed" (4.448x or 1000x too large)."""
+    truth = _truth(1, 1)[0, 0]
+    path = _write(tmp_path / "d.uff", [_set(1, 2, 1, 2, truth, ordinate_axis_units_lab="NONE",
+                                             orddenom_axis_units_lab=den)])
+    d = read_uff58(path)
+    np.testing.assert_allclose(d.frf[0, 0], truth * factor, rtol=RTOL_PYUFF)  # exact unit definitions
+    assert f"per '{den}' (denominator label)" in d.meta["unit_decisions"][0]
+    assert "SI (m) assumed for the ordinate" in d.meta["units_assumed"]  # the ordinate's unit is still assumed
+    path = _write(tmp_path / "e.uff", [_set(1, 2, 1, 2, truth, ordinate_axis_units_lab="NONE",
+                                             orddenom_axis_units_lab="m/s^2")])
+    with pytest.raises(UFFError, match="denominator unit label 'm/s\\^2' is not a force unit"):
+        read_uff58(path)

@@ -524,10 +524,18 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     reused = len(rows)
     bar = _progress(progress, len(cfg.measurements), reused)
 
+    # a k_TB computed with the rig file's k_MS because the calibration failed says so in its own row
+    # (its key holds that k_MS: a reused row was computed with the same one, and carries the line too)
+    calib_warning = (None if calib is None or calib["status"] == "ok" else
+                     f"k_MS {k_ms / 1e6:.2f} MN/m taken from the rig file: the steel-disk calibration "
+                     f"{cfg.calibration} failed ({calib['error']})")
+
     def finish(m: Measurement, key: str | None, result: dict[str, Any]) -> None:
         blank = {c: math.nan for c in COLUMNS} | {"mode_source": "", "c_TB_kind": ""}  # every column in every row, errors included
         row = {**blank, "warnings": [], **m.conditions(), **result,
                "cache_key": key if _cacheable(result) else None}
+        if calib_warning is not None and row.get("status") == "ok":
+            row["warnings"] = [*row["warnings"], calib_warning]
         rows[m.id] = row
         path = result_path(m.id)
         if path is not None:

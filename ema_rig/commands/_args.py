@@ -12,6 +12,10 @@ finite_float, positive_float, nonneg_float
     A finite float; one > 0; one >= 0.
 positive_stiffness
     A stiffness > 0 [N/m] where ``inf`` is allowed (a rigid steel disk).
+mounting_stiffness
+    ``--k-ms``: a k_MS [N/m] inside the rig file's plausible range (Table 1 of the paper x/÷ 100).
+shaft_speed
+    A shaft speed [rpm] in ``ema_rig.config.CONDITION_RANGES["speed"]`` (0 = not rotating).
 nonneg_int, positive_int, model_order
     An integer >= 0; >= 1; a PolyMAX model order >= 2 (orders step by 2 for one reference).
 number
@@ -24,9 +28,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from ..config import CONDITION_RANGES, implausible
 from ..io.units import response_unit
 
 
@@ -48,6 +54,7 @@ def number(
     lo_open: bool = False,
     allow_inf: bool = False,
     unit: str = "",
+    source: str = "",
 ) -> Callable[[str], Any]:
     """An argparse ``type=`` that parses ``kind`` (int or float) and checks its range.
 
@@ -63,13 +70,15 @@ def number(
         Accept ``inf`` (floats only, still checked against the bounds).
     unit : str, optional
         Unit named in the message, e.g. ``"Hz"``.
+    source : str, optional
+        Where the bounds come from, named in the message (``"... (source)"``).
 
     Returns
     -------
     callable
         ``f(text) -> int | float`` raising :class:`argparse.ArgumentTypeError`.
     """
-    desc = _describe(kind, lo, hi, lo_open, allow_inf) + (f" [{unit}]" if unit else "")
+    desc = _describe(kind, lo, hi, lo_open, allow_inf) + (f" [{unit}]" if unit else "") + (f" ({source})" if source else "")
 
     def parse(text: str) -> Any:
         try:
@@ -97,6 +106,24 @@ positive_int = number(int, lo=1)
 model_order = number(int, lo=2)  # the upper limit depends on the data: identify checks it
 
 
+def mounting_stiffness(text: str) -> float:
+    """``--k-ms V`` [N/m]: a finite positive number inside the rig file's plausible range of ``k_MS``.
+
+    The range and its message are the rig file's ``[model] k_MS`` check (:func:`ema_rig.config.implausible`):
+    a k_MS typed in MN/m, or with three zeros too many, would invert another k_TB without a word.
+    """
+    value = float(positive_float(text))
+    why = implausible("k_MS", value)
+    if why is not None:
+        raise argparse.ArgumentTypeError(f"got {text!r}: {why}")
+    return value
+
+
+#: ``--speed RPM``: a shaft speed in the range a campaign's ``speed`` key has (one definition, ema_rig.config)
+shaft_speed = number(float, lo=CONDITION_RANGES["speed"].lo, hi=CONDITION_RANGES["speed"].hi,
+                     unit=CONDITION_RANGES["speed"].unit, source=CONDITION_RANGES["speed"].source)
+
+
 class BandAction(argparse.Action):
     """``--band LO HI`` [Hz]: two finite frequencies with ``0 <= LO < HI`` (use with ``nargs=2``)."""
 
@@ -110,7 +137,7 @@ class BandAction(argparse.Action):
 
 
 __all__ = ["BandAction", "add_units_argument", "finite_float", "nonneg_float", "nonneg_int", "model_order", "number",
-           "positive_float", "positive_int", "positive_stiffness"]
+           "positive_float", "positive_int", "positive_stiffness", "mounting_stiffness", "note_clipped_band", "shaft_speed"]
 
 
 def units(text: str) -> str:
@@ -128,6 +155,18 @@ def add_units_argument(parser: argparse.ArgumentParser) -> None:
                         help="response unit of FRF datasets that carry no unit label, e.g. g, m/s^2, mm/s (per N "
                              "unless the file says otherwise; default: the rig file's [units] ordinate). A unit "
                              "label in the file always wins")
+
+
+def note_clipped_band(requested: Sequence[float] | None, used: Sequence[float] | None, file: object) -> None:
+    """A ``note:`` line on stderr when an explicit ``--band`` was narrowed to the data's lines.
+
+    ``stiffness`` and ``calibrate`` clip their band to the data (``modes`` refuses a band that
+    extends beyond them); the band identified is then not the one asked for, and says so.
+    """
+    if requested is None or used is None or tuple(map(float, used)) == tuple(map(float, requested)):
+        return
+    print(f"note: {file}: --band {requested[0]:g} {requested[1]:g} extends beyond the data: identified in "
+          f"{used[0]:g}..{used[1]:g} Hz", file=sys.stderr)
 
 
 def pm(std: float | None, scale: float = 1.0) -> str:

@@ -71,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; use --k-ms {res.k_MS:.6g} --k-ms-std "
           f"{res.k_MS_std:.3g} with 'ema-rig stiffness'")
     print_caveats(res)
+    _args.note_clipped_band(args.band, res.band, res.file or args.file)
     if args.json:
         write_json(args.json, res.to_dict())
         print(f"wrote {args.json}")

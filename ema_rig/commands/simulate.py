@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--noise", type=_NOISE, nargs="?", const=0.01, default=0.01, metavar="LEVEL",
                         help="relative complex noise level (default 0.01; 0 = noise-free)")
     parser.add_argument("--seed", type=_args.nonneg_int, default=0, help="noise seed (default 0)")
-    parser.add_argument("--speed", type=_args.nonneg_float, default=0.0, metavar="RPM",
+    parser.add_argument("--speed", type=_args.shaft_speed, default=0.0, metavar="RPM",
                         help="shaft speed [rpm]; > 0 adds lines at multiples of the speed")
     parser.add_argument("--binary", action="store_true", help="write binary 58b datasets")
     parser.add_argument("--single", action="store_true", help="single precision (smaller files)")

@@ -16,11 +16,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``ema-rig stiffness``."""
     parser.add_argument("file", metavar="FILE", help="UFF58 measurement (FRFs of the eight sensors)")
     parser.add_argument("--rig", required=True, metavar="R", help="rig file (TOML; see README, 'The rig file')")
-    parser.add_argument("--k-ms", type=_args.positive_float, default=None, metavar="V",
+    parser.add_argument("--k-ms", type=_args.mounting_stiffness, default=None, metavar="V",
                         help="mounting stiffness k_MS [N/m] from 'ema-rig calibrate' (default: the rig file's)")
     parser.add_argument("--k-ms-std", type=_args.nonneg_float, default=None, metavar="V",
                         help="standard uncertainty of k_MS [N/m] (default: the rig file's relative value)")
-    parser.add_argument("--speed", type=_args.nonneg_float, default=None, metavar="RPM",
+    parser.add_argument("--speed", type=_args.shaft_speed, default=None, metavar="RPM",
                         help="shaft speed in rpm when the bearing rotates (rejects harmonic lines)")
     parser.add_argument("--band", type=_args.finite_float, nargs=2, action=_args.BandAction, default=None,
                         metavar=("LO", "HI"),
@@ -128,6 +128,18 @@ def print_caveats(res: Any) -> None:
         print(f"note: {res.file or '-'}: {n}", file=sys.stderr)
 
 
+def _warn_idle_speed(speed_rpm: float | None, res: Any) -> None:
+    """A ``warning:`` line when ``--speed`` can change nothing: its shaft frequency lies above every band
+    identified, so no shaft harmonic falls in one (the option's only use is to reject harmonic lines)."""
+    if not speed_rpm:
+        return
+    tops = [b[1] for b in (res.band, getattr(res, "spindle_band", None)) if b is not None]
+    if tops and speed_rpm / 60.0 > max(tops):
+        print(f"warning: {res.file or '-'}: --speed {speed_rpm:g} rpm: the shaft frequency {speed_rpm / 60.0:.6g} Hz "
+              f"lies above the identified band (up to {max(tops):g} Hz): no shaft harmonic falls in it and the "
+              "speed changes nothing (is it in rpm?)", file=sys.stderr)
+
+
 def write_refusal(path: str, file: str, exc: Any) -> None:
     """JSON of a refused match: the one-line error, every candidate, empty warnings."""
     write_json(path, {"file": str(file), "error": exc.message, "warnings": [],
@@ -166,6 +178,8 @@ def run(args: argparse.Namespace) -> int:
         raise
     print(summary(res))
     print_caveats(res)
+    _args.note_clipped_band(args.band, res.band, res.file or args.file)
+    _warn_idle_speed(args.speed, res)
     if args.json:
         write_json(args.json, res.to_dict())
         print(f"wrote {args.json}")

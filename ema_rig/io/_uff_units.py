@@ -10,6 +10,7 @@ force) gives the quantity. Code and label must agree; when they do not, the rig 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,6 +44,8 @@ class UnitDecision:
 
 SI_ASSUMED = "no unit label and no dataset 164: SI (m, N) assumed"
 """The unit decision of a dataset whose units nothing in the file states."""
+ORDINATE_SI_ASSUMED = "no ordinate unit label and no dataset 164: SI (m) assumed for the ordinate"
+"""The unit decision of a dataset whose file states the denominator's unit only (a label, lbf or kN)."""
 
 
 def _code_name(code: int) -> str:
@@ -68,7 +71,11 @@ def decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str |
     num_lab = str(h.get("ordinate_axis_units_lab", ""))
     if assumed is not None and is_no_label(num_lab):
         h = {**h, "ordinate_axis_units_lab": assumed}
-        dec = _decide(h, units164, preference)
+        try:
+            dec = _decide(h, units164, preference)
+        except ValueError as exc:  # the label named is not the file's: say where it came from
+            raise ValueError(f"{exc}; the file has no unit label: {assumed!r} was given by the user (--units or "
+                             "the rig file's [units] ordinate)") from None
         dec = UnitDecision(dec.frf_form, dec.factor,
                            f"{dec.text}; the file has no unit label: {assumed!r} given by the user (--units or "
                            "the rig file's [units] ordinate)")
@@ -124,6 +131,7 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
     label_form: FrfForm | None = None
     label_factor: float | None = None
     label_text = ""
+    den164 = False  # the unlabelled denominator is in the force unit of dataset 164
     if pn is not None:
         dims, fac = pn.dims, pn.factor
         if dims[2] == -1:  # the ordinate label already holds the whole FRF unit (per force)
@@ -136,6 +144,18 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
                 label_text = f"labels {num_lab!r} / {den_lab!r}"
             elif den_lab_given:
                 raise ValueError(f"denominator unit label {den_lab!r} is not a force unit (N, kN, lbf)")
+            elif units164 is not None:
+                # the file's unit system (dataset 164) holds for what no label states: an
+                # unlabelled force is in its force unit (lbf in an inch-pound file), not N
+                d_force = h["orddenom_force_unit_exp"] or 1
+                if abs(d_force) > MAX_UNIT_POWER:
+                    raise UnitRangeError(f"denominator force unit exponent {d_force} out of range (at most "
+                                         f"{MAX_UNIT_POWER} in magnitude) for the dataset 164 conversion")
+                ff = units164["force_factor"]
+                fac = fac * ff**d_force
+                den164 = True
+                label_text = (f"label {num_lab!r} per the force unit of dataset 164 ({units164['unit_description']}: "
+                              f"force factor {ff:.10g}; denominator not labelled)")
             else:
                 label_text = f"label {num_lab!r} per N (denominator not labelled)"
         else:
@@ -168,17 +188,26 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         text = f"{form} from {label_text}: x {label_factor:.10g} to SI"
         if code_form is not None:
             text += f" (ordinate code {_code_name(num_code)} agrees)"
-        if units164 is not None:
+        if units164 is not None and not den164:
             text += f"; dataset 164 ({units164['unit_description']}) not applied, the label is explicit"
         return UnitDecision(form, label_factor, text + _j(notes))
-    # from the code: the unit system of dataset 164, else SI
+    # from the code: the unit system of dataset 164, else SI; a labelled denominator (lbf, kN) still counts
     text = f"{form} from ordinate code {_code_name(num_code)}"
+    den_fac, den_text = 1.0, ""
+    if pd is not None:
+        if pd.dims != (0, 0, 1):
+            raise ValueError(f"denominator unit label {den_lab!r} is not a force unit (N, kN, lbf)")
+        den_fac = 1.0 / pd.factor
+        den_text = f"; per {den_lab!r} (denominator label): x {den_fac:.10g}"
     if units164 is None:
-        return UnitDecision(form, 1.0, text + "; " + SI_ASSUMED + _j(notes))
+        if pd is None:
+            return UnitDecision(form, 1.0, text + "; " + SI_ASSUMED + _j(notes))
+        return UnitDecision(form, den_fac, text + "; " + ORDINATE_SI_ASSUMED + den_text + " to SI" + _j(notes))
     n_len = h["ordinate_len_unit_exp"] or 1
     n_force = h["ordinate_force_unit_exp"]
-    d_len = h["orddenom_len_unit_exp"]
-    d_force = h["orddenom_force_unit_exp"] or 1
+    # a labelled denominator replaces dataset 164's unit for it (exponents 0: its factor is den_fac)
+    d_len = h["orddenom_len_unit_exp"] if pd is None else 0
+    d_force = (h["orddenom_force_unit_exp"] or 1) if pd is None else 0
     for name, e in (("ordinate length", n_len), ("ordinate force", n_force),
                     ("denominator length", d_len), ("denominator force", d_force)):
         if abs(e) > MAX_UNIT_POWER:
@@ -198,24 +227,76 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         )
     text += (
         f"; units of dataset 164 ({units164['unit_description']}: length factor {lf:.10g}, force factor "
-        f"{ff:.10g}) with exponents length {n_len - d_len}, force {n_force - d_force}: x {fac:.10g} to SI"
+        f"{ff:.10g}) with exponents length {n_len - d_len}, force {n_force - d_force}: x {fac:.10g}"
+        + den_text + " to SI"
     )
-    return UnitDecision(form, fac, text + _j(notes))
+    return UnitDecision(form, fac * den_fac, text + _j(notes))
 
 
 def _j(notes: list[str]) -> str:
     return "" if not notes else "; " + "; ".join(notes)
 
 
+_FREQ_ABSCISSA_CODES = (0, 1, 18)
+"""Abscissa specific data type codes an FRF's abscissa may carry: unknown, general, frequency."""
+_NOT_FREQ_WITH_LABEL = (17, 19, 20)
+"""Codes that contradict a frequency unit label: time, rpm (a shaft-speed axis), order."""
+
+
+def frf_header_problem(h: Mapping[str, Any]) -> str | None:
+    """Why the header of a dataset-58 FRF (function type 4) cannot be read as an FRF, or None.
+
+    An FRF is complex: an FRF dataset of real values (ordinate data type 2 or 4) holds a
+    magnitude, a real part or (Re, Im) pairs under a wrong type code, never the FRF itself
+    (the UFF corpus' ``ufffiles_case{1,2,5,6}`` hold the complex FRF of their ``case{3,4,7,8}``
+    twins as interleaved pairs: 1602 real "lines" for 801, up to twice the frequency). Its
+    abscissa must be a frequency (:func:`abscissa_factor`).
+
+    Parameters
+    ----------
+    h : mapping
+        The parsed dataset-58 header (``ord_data_type``, ``abscissa_spec_data_type``, labels).
+
+    Returns
+    -------
+    str or None
+        One line naming the field and value, for the refusal.
+    """
+    odt = h.get("ord_data_type")
+    if odt in (2, 4):
+        return (f"FRF stored as real values (ordinate data type {odt}, real {'single' if odt == 2 else 'double'}): "
+                "an FRF is complex (type 5 or 6); the values (a magnitude, a real part or (Re, Im) pairs under a "
+                "wrong type code) are not read rather than taken as an FRF with zero imaginary part")
+    try:
+        abscissa_factor(dict(h))
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 def abscissa_factor(h: dict[str, Any]) -> float:
-    """Factor from the file's abscissa unit to Hz (ValueError if it is not a frequency or unreadable)."""
+    """Factor from the file's abscissa unit to Hz (ValueError if it is not a frequency or unreadable).
+
+    Without a unit label the abscissa specific data type code decides: 18 (frequency), 0
+    (unknown) or 1 (general) are read as Hz; any other code (rpm 19, order 20, time 17, a
+    response quantity) is refused, not taken as Hz. A frequency label (``Hz``, ``rad/s``,
+    ``rpm`` ...) converts, unless the code says time, rpm or order.
+    """
     code = h["abscissa_spec_data_type"]
     lab = h["abscissa_axis_units_lab"]
     u = parse_unit(lab, "abscissa unit label")
     if code == 17 or (u is not None and u.quantity == "time"):
         raise ValueError(f"abscissa is time (code {code}, unit {lab!r}), not frequency")
     if u is None:
+        if code not in _FREQ_ABSCISSA_CODES:
+            raise ValueError(
+                f"abscissa specific data type {_code_name(code)} is not a frequency (18) and no unit label says "
+                "otherwise: the abscissa is not read rather than taken as Hz"
+            )
         return 1.0
+    if code in _NOT_FREQ_WITH_LABEL:
+        raise ValueError(f"abscissa specific data type {_code_name(code)} contradicts its frequency unit label "
+                         f"{lab!r}: the abscissa is not read rather than guessed")
     if u.quantity != "frequency":
         raise ValueError(f"abscissa unit {lab!r} is not a frequency unit (Hz, kHz, rad/s, 1/s)")
     return u.factor

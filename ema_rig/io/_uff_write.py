@@ -88,13 +88,13 @@ def dataset_bytes(
     x : ndarray, shape (n,)
         Abscissa in Hz (non-negative, increasing).
     y : ndarray, shape (n,)
-        Complex FRF values in the unit ``unit_label`` per N; written as real data (ordinate type
-        2 or 4) when every imaginary part is exactly 0.
+        Complex FRF values in the unit ``unit_label`` per N; always written as complex data
+        (ordinate type 5 or 6), also when every imaginary part is 0: ``read_uff58`` refuses an FRF
+        stored as real values (a magnitude, a real part or misdeclared (Re, Im) pairs).
     """
     n = x.size
     code, _ = _FORM_CODE[frf_form]
-    is_real = not np.any(y.imag)
-    ord_type = (4 if double else 2) if is_real else (6 if double else 5)
+    ord_type = 6 if double else 5
     head = [
         *(line80(s) for s in ids),
         f"{4:5d}{1:10d}{0:5d}{0:10d} {'NONE':<10}{response.node:10d}{response.direction:4d} "
@@ -107,7 +107,7 @@ def dataset_bytes(
         fmt_axis(13, 0, 1, "Force", force_label),
         fmt_axis(0, 0, 0, "NONE", "NONE"),
     ]
-    parts = [y.real] if is_real else [y.real, y.imag]
+    parts = [y.real, y.imag]
     cols = parts if even else [x, *parts]
     if binary:
         fdt = "<f8" if double else "<f4"
@@ -124,9 +124,9 @@ def dataset_bytes(
         if even:
             fmts = ["%20.12E"] * 4
         else:  # 2(E13.5,E20.12) real, E13.5,2E20.12 complex
-            fmts = ["%13.6E", "%20.12E"] * 2 if is_real else ["%13.6E", "%20.12E", "%20.12E"]
+            fmts = ["%13.6E", "%20.12E", "%20.12E"]
     else:
-        fmts = ["%13.5E"] * 6 if even else (["%13.6E", "%13.5E"] * 3 if is_real else ["%13.6E", "%13.5E", "%13.5E"] * 2)
+        fmts = ["%13.5E"] * 6 if even else ["%13.6E", "%13.5E", "%13.5E"] * 2
     body = format_values(flat, fmts)
     text = "    -1\n" + f"{58:6d}" + "\n" + "\n".join(head) + "\n" + body + "    -1\n"
     return text.encode("utf-8")

@@ -405,6 +405,10 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
             except ValueError as exc:
                 d.update(status="refused", reason=str(exc), num_pts=None)
                 break
+        else:  # a real-valued FRF, an abscissa in rpm or orders: refused by read_uff58 too
+            problem = _uff_units.frf_header_problem(r.header)
+            if problem is not None:
+                d.update(status="refused", reason=problem, num_pts=None)
     if r.type == 58:
         d["function"] = FUNCTION_TYPES.get(r.function_type) if r.function_type is not None else None
         d["num_pts_header"] = r.num_pts_header
@@ -481,8 +485,9 @@ def read_uff58(
         ``ids`` (id lines per dataset index), ``rig`` (rig file path or None),
         ``units_assumed`` (a sentence, present only when datasets state no units: SI assumed), and
         ``processing`` (:class:`~ema_rig.processing.ProcessingHistory` from the datasets 1858
-        before the FRFs, present only when every FRF has the same one; its ``n_averages`` fills
-        ``n_averages`` when no id line gives it).
+        before the FRFs, present only when every FRF has the same one; when no id line gives another
+        count, ``n_averages`` is its equivalent number of independent averages,
+        :meth:`~ema_rig.processing.ProcessingHistory.independent_averages`: overlapped segments count less).
 
     Raises
     ------
@@ -544,7 +549,8 @@ def read_uff58(
     attached = set(coh.datasets)
     ignored_datasets += [f"dataset {r.index}: function type 6 (coherence), not attached" for r in coh_recs
                          if r.index not in attached]
-    n_avg, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
+    n_count, avg_note = _uff_coherence.n_averages([r.ids for r in uf.records if r.index in ids or r.index in attached])
+    n_avg: float | None = n_count
     notes += list(coh.notes) + ([avg_note] if avg_note else [])
     # ---- processing history from datasets 1858 (issue 18; see _uff_1858) ----
     q_pairs, q_notes = _uff_1858.qualify(uf.records)
@@ -552,8 +558,9 @@ def read_uff58(
     q_used = {q for q, _ in q_pairs.values()}
     ignored_datasets = [s for s in ignored_datasets if not any(s.startswith(f"dataset {q}:") for q in q_used)]
     notes += q_notes + h_notes
-    if history is not None and n_avg is None:
-        n_avg = history.n_averages
+    if history is not None and (n_avg is None or n_avg == history.n_averages):
+        # the segments the history (and an id line) count, overlapped, count less (Welch 1967)
+        n_avg = history.independent_averages()
     # ---- end processing history ----
     meta: dict[str, Any] = {
         "source": src,
@@ -569,8 +576,11 @@ def read_uff58(
         "rig": None if rig is None else rig.path,
     }
     n_assumed = sum(_uff_units.SI_ASSUMED in d for d in decisions)
-    if n_assumed:  # the caveat for every result in kg, m or N (effective masses, residues, shapes)
-        meta["units_assumed"] = f"{n_assumed} of {len(decisions)} FRF datasets: {_uff_units.SI_ASSUMED}"
+    n_ordinate = sum(_uff_units.ORDINATE_SI_ASSUMED in d for d in decisions)
+    if n_assumed or n_ordinate:  # the caveat for every result in kg, m or N (effective masses, residues, shapes)
+        meta["units_assumed"] = "; ".join(
+            f"{n} of {len(decisions)} FRF datasets: {what}"
+            for n, what in ((n_assumed, _uff_units.SI_ASSUMED), (n_ordinate, _uff_units.ORDINATE_SI_ASSUMED)) if n)
     if history is not None:
         meta["processing"] = history  # issue 18: window, averaging, band (dataset 1858)
     frf.setflags(write=False)  # built here and frozen: FRFData keeps it without a copy
@@ -615,6 +625,9 @@ def _frf_datasets(uf: UFFFile, src: str, pref: str | None,
             continue
         if r.status != "read":
             raise UFFError(f"FRF dataset refused: {r.reason}", file=src, dataset=r.index)
+        problem = _uff_units.frf_header_problem(r.header)
+        if problem is not None:
+            raise UFFError(problem, file=src, dataset=r.index)
         if r.response is None or r.reference is None:
             raise UFFError(
                 "response or reference DOF missing: " + "; ".join(r.notes), file=src, dataset=r.index

@@ -87,6 +87,7 @@ from .candidates import find_dof, harmonic_bands
 from .damping import BearingDamping, bearing_damping
 from .fit import HousingMass, HousingRigidBody, housing_rigid_body, housing_tilt
 from .inversion import (
+    DISK_STIFFNESS_RATIO,
     KmsCalibration,
     RigFit,
     calibrate_k_ms,
@@ -945,10 +946,20 @@ def calibrate(
         exc.file = exc.file or file
         raise
     notes = []
+    disk_warns: tuple[str, ...] = ()
     if k_disk is None:
         notes.append(
             f"steel disk assumed rigid (paper: at least 10x k_MS): k_MS may be up to 10 % low; "
             f"model-form term {100 * cal.disk_std / cal.k_MS:.1f} % in k_MS_std (give the disk stiffness)"
+        )
+    elif k_disk < DISK_STIFFNESS_RATIO * cal.k_MS:
+        # 1/k_MS = 1/k_TB+MS - 1/k_disk: d ln k_MS / d ln k_disk = k_MS / k_disk, > 1/10 for a disk softer than
+        # the paper's; a k_disk typed one zero short (1.5e8 for 1.5e9) quadruples k_MS without a word
+        disk_warns = (
+            f"the steel disk ({k_disk:.4g} N/m) is only {k_disk / cal.k_MS:.2g}x the k_MS it gives, not the paper's "
+            f"at least {DISK_STIFFNESS_RATIO:g}x: k_MS rests on k_disk (1 % in k_disk is "
+            f"{cal.k_MS / k_disk:.2g} % in k_MS)"
+            + ("" if k_disk_std else "; k_disk_std is not given, so none of that is in k_MS_std"),
         )
     return CalibrationResult(
         k_MS=float(cal.k_MS),
@@ -962,7 +973,7 @@ def calibrate(
         band=b,
         file=file,
         k_MS_std_measured=float(meas),
-        warnings=asm.warnings + ((
+        warnings=asm.warnings + disk_warns + ((
             "the housing mode's standard uncertainty is unknown (see the identification warnings), so "
             "k_MS_std_measured and k_MS_std are NaN",) if math.isnan(f_meas) else ())
         + tuple(f"identification: {w}" for w in id_warns),
