@@ -59,7 +59,8 @@ one root-finding problem per order.
 **Poles and participation factors.** The roots of order ``n`` are those of ``det A(z)``:
 eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
-``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond) by
+``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond; several:
+from degree 32 when the orders end at a degree of 64-100) by
 default the Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`:
 O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to round-off; up to degree
 200: all those orders in one batch of sweeps,
@@ -1023,7 +1024,7 @@ def plscf(
         Show a tqdm progress bar over the orders.
     root_finder : {'aberth', 'eig'}, optional
         ``'aberth'`` (default): roots of each order of degree >= 64 (one reference: >= 48
-        when the orders reach 64) by the Aberth-Ehrlich
+        when the orders reach 64; several: >= 32 when the orders end at degree 64-100) by the Aberth-Ehrlich
         iteration started from the previous order's roots (several times faster; an order
         that does not converge falls back to the companion eigenvalues), smaller orders by
         the companion eigenvalues. ``'eig'``: companion eigenvalues
