@@ -137,7 +137,9 @@ _CHAIN_FROM_DEGREE_ONE = 48
 #: 18.1 / 15.5 / 15.4 / 15.4 ms; even orders to 100 (9 calls) 54.2 / 52.3 / 53.9 / 56.7 and to
 #: 200 (5 calls) 237 -> 239 ms at 32: within the noise (the chain is most of those calls
 #: anyway). A separate chain for degrees 32-62 (not joined to the one from 64) gained nothing
-#: at order 50 (13.0 against 13.0 ms): the gain is the sweeps the joined chain shares.
+#: at order 50 (13.0 against 13.0 ms): the gain is the sweeps the joined chain shares. Paired
+#: against 4ff7088 in two worker processes (benchmarks/bench_plscf_vs_tree.py, 15 pairs, load 6.5-7.7):
+#: every order to 40 17.9 -> 15.3 ms CPU (0.86 per pair), even orders to 50 0.97 and 0.99.
 _CHAIN_FROM_DEGREE_MIMO = 32
 
 #: Highest degree of the computed orders for which :data:`_CHAIN_FROM_DEGREE_MIMO` applies: up to
