@@ -8,7 +8,7 @@ other processes take on a shared machine). The parent asks them in alternating o
 ...) so load drifts stay out of the ratio, and compares the two trees' poles of every order as
 sets (each pole to its nearest partner; stable and unstable poles apart).
 
-Run: ``python benchmarks/bench_plscf_vs_tree.py --baseline /tmp/old [--repeat 9] [--cases 1:50,2:50]`` with the
+Run: ``python benchmarks/bench_plscf_vs_tree.py --baseline /tmp/old [--repeat 9] [--cases 1:50,2:50,2:40a]`` with the
 baseline a checkout of the reference commit (``git archive f95e2e5 | tar -x -C /tmp/old``).
 """
 
@@ -43,8 +43,10 @@ with threadpool_limits(limits=1, user_api="blas"):
     print("ready", ema_rig.__file__, flush=True)
     for line in sys.stdin:
         n_in, mo, out = line.split()
+        every = mo.endswith("a")  # every order 1..N (the default orders of several references)
+        mo = mo.rstrip("a")
         t0, c0 = time.perf_counter(), time.process_time()
-        ps = plscf(data[int(n_in)], max_order=int(mo), orders=range(2, int(mo) + 1, 2))
+        ps = plscf(data[int(n_in)], max_order=int(mo), orders=range(1 if every else 2, int(mo) + 1, 1 if every else 2))
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         if out != "-":  # written before the answer: the parent reads it next
             np.savez(out, order=ps.order, pole=ps.pole, fallbacks=ps.meta["fallbacks"])
@@ -72,9 +74,9 @@ def main() -> None:
     ap.add_argument("--baseline", required=True, type=Path)
     ap.add_argument("--repeat", type=int, default=9, help="alternating pairs per case (default 9; 5 at N = 200)")
     ap.add_argument("--cases", default=",".join(f"{a}:{b}" for a, b in CASES),
-                    help="references:max order, comma-separated (default all: %(default)s)")
+                    help="references:max order, comma-separated; 'Na': every order 1..N (default all: %(default)s)")
     args = ap.parse_args()
-    cases = [(int(a), int(b)) for a, b in (c.split(":") for c in args.cases.split(","))]
+    cases = [(int(a), b) for a, b in (c.split(":") for c in args.cases.split(","))]  # b: "N" or "Na" (every order)
     trees = {"new": REPO, "old": args.baseline.resolve()}
     one = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     procs = {tag: subprocess.Popen([sys.executable, "-c", WORKER, str(REPO / "benchmarks")], text=True,
@@ -86,12 +88,12 @@ def main() -> None:
         ready, where = p.stdout.readline().split()
         assert ready == "ready" and Path(where).resolve().is_relative_to(trees[tag]), (tag, where)
 
-    def ask(tag: str, n_in: int, mo: int, out: str = "-") -> tuple[float, float]:
+    def ask(tag: str, n_in: int, mo: str, out: str = "-") -> tuple[float, float]:
         return ask_worker(procs[tag], f"{n_in} {mo} {out}")
 
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: new = {REPO} @ {git_head(REPO)}, "
           f"old = {args.baseline}; {os.cpu_count()} cores, BLAS 1 thread, load average {os.getloadavg()[0]:.1f}")
-    print("plscf on bench_plscf.py's data (8 outputs x 4000 lines), even orders 2..N; median (min-max) of alternating")
+    print("plscf on bench_plscf.py's data (8 outputs x 4000 lines), even orders 2..N (Na: every order 1..N); median (min-max) of alternating")
     print("calls; new/old per pair; poles: largest relative distance of a new pole to the nearest old one, same order")
     print(f"{'refs':>4} {'N':>4} {'kind':>4} | {'old [ms]':>22} | {'new [ms]':>22} | {'new/old':>18} | poles stable / unstable, counts")
     with tempfile.TemporaryDirectory() as tmp:
@@ -102,7 +104,7 @@ def main() -> None:
             pa, pb = (dict(np.load(files[t])) for t in ("new", "old"))
             stable, unstable, same = set_distance(pa, pb)
             t: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
-            for i in range(args.repeat if mo < 200 else max(3, args.repeat // 2)):
+            for i in range(args.repeat if int(mo.rstrip("a")) < 200 else max(3, args.repeat // 2)):
                 for tag in (("old", "new") if i % 2 == 0 else ("new", "old")):
                     t[tag].append(ask(tag, n_in, mo))
 

@@ -58,15 +58,39 @@ def test_root_finders_agree(system):
     data = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(3))
     warm = plscf(data, max_order=40)
     eig = plscf(data, max_order=40, root_finder="eig", threads=2)
-    # orders 32..40 (degree >= 64) by the warm-started iteration, none fell back
-    assert warm.meta["aberth_orders"] == 9 and warm.meta["fallbacks"] == 0
+    # the orders reach degree 64 (and stay <= 100): orders 16..40 (degree 32-80) by the batched
+    # warm-started iteration (the chain from degree 32), none fell back; orders 1..15 by the companion QR
+    assert warm.meta["aberth_orders"] == 25 and warm.meta["fallbacks"] == 0
+    assert eig.meta["aberth_orders"] == 0
     np.testing.assert_array_equal(warm.order, eig.order)
     for n in warm.orders:
-        a, b = warm.pole[warm.at_order(n)], eig.pole[eig.at_order(n)]
+        ia, ib = warm.at_order(n), eig.at_order(n)
         # warm-started Aberth iteration and companion QR find the same roots (round-off only)
-        np.testing.assert_allclose(a, b, rtol=1e-9)
+        np.testing.assert_allclose(warm.pole[ia], eig.pole[ib], rtol=1e-9)
+        # and the same participation vectors (unit norm, NaN for the unstable poles): null vectors of
+        # A(z) at poles that agree to round-off (measured 1.4e-12 here, 3.4e-13 on the bench_plscf data)
+        pa, pb = warm.participation[ia], eig.participation[ib]
+        np.testing.assert_array_equal(np.isnan(pa), np.isnan(pb))
+        np.testing.assert_allclose(pa[~np.isnan(pa)], pb[~np.isnan(pb)], rtol=0, atol=1e-9)
     with pytest.raises(ValueError, match="root_finder"):
         plscf(data, max_order=4, root_finder="roots")
+
+
+def test_two_references_chain_start_by_top_degree(system):
+    """Two references: the batched chain starts at degree 32 only while the orders end at degree
+    64-100 (``_CHAIN_FROM_DEGREE_MIMO``, ``_CHAIN_LOW_TOP_MIMO``), at 64 when they go on beyond."""
+    data = system.frf(FREQ, inputs=(0, 1), noise=0.01, rng=np.random.default_rng(5))
+    ends_at_100 = plscf(data, max_order=50, orders=range(2, 51, 2))
+    beyond = plscf(data, max_order=52, orders=range(2, 53, 2))
+    eig = plscf(data, max_order=52, orders=range(2, 53, 2), root_finder="eig", threads=1)
+    # even orders 16..50 (degree 32-100) against 32..52 (degree 64-104), no fallback
+    assert ends_at_100.meta["aberth_orders"] == 18 and ends_at_100.meta["fallbacks"] == 0
+    assert beyond.meta["aberth_orders"] == 11 and beyond.meta["fallbacks"] == 0
+    for ps in (ends_at_100, beyond):
+        for n in ps.orders:
+            # the companion eigenvalues of the same denominators (QR: an independent method);
+            # round-off only, as in test_root_finders_agree
+            np.testing.assert_allclose(ps.pole[ps.at_order(n)], eig.pole[eig.at_order(n)], rtol=1e-9)
 
 
 def test_one_reference_root_finders_agree_at_every_order(system):
@@ -221,10 +245,24 @@ def test_two_reference_coefficients_poles_and_participation(system):
     np.testing.assert_array_equal(high[-1], np.eye(n_in))
 
     ps = plscf(data, max_order=n, orders=range(2, n + 1, 2))
-    # orders 32, 34, 36 (degree >= 64) go the warm-started way; an order that the iteration does
-    # not accept falls back to the companion eigenvalues, so every order is checked below
-    assert ps.meta["aberth_orders"] >= 1 and ps.meta["aberth_orders"] + ps.meta["fallbacks"] == 3
+    # the orders reach degree 64 (72): orders 16..36 (degree 32-72) go the warm-started way (the
+    # batched chain from degree 32); an order that the iteration does not accept falls back to the
+    # companion eigenvalues, so every order is checked below
+    assert ps.meta["aberth_orders"] >= 1 and ps.meta["aberth_orders"] + ps.meta["fallbacks"] == 11
     f_hi = FREQ[-1]
+    for order in (16, 24):
+        # the chain below degree 64: every unstable pole (a root of A_low as found, not polished) on
+        # the oracle's block-companion eigenvalues, round-off only as below, and as many
+        mo, _ = _textbook_reduced_matrix(data, order)
+        xl = np.linalg.solve(mo[n_in:, n_in:], -mo[n_in:, :n_in])
+        low_t = np.concatenate([np.eye(n_in)[None], xl.reshape(order, n_in, n_in)])
+        s_low = np.log(1 / _block_companion_roots(low_t[::-1])) / dt
+        oracle = s_low[(s_low.real >= 0) & (s_low.imag > 0) & (np.abs(s_low) / (2 * np.pi) <= f_hi)]
+        got = ps.pole[ps.at_order(order)]
+        got = got[got.real >= 0]
+        assert got.size == oracle.size
+        d = np.abs(got[:, None] - oracle[None, :]).min(axis=1) / np.abs(got)
+        assert d.max() < 3e-10, d.max()
     for order in (32, 34, n):
         if order == n:
             xl, xh = x_low, x_high

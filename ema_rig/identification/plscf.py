@@ -59,7 +59,8 @@ one root-finding problem per order.
 **Poles and participation factors.** The roots of order ``n`` are those of ``det A(z)``:
 eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
 (``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
-``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond) by
+``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond; several:
+from degree 32 when the orders end at a degree of 64-100) by
 default the Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`:
 O(N^2) per sweep instead of the O(N^3) QR iteration, same roots to round-off; up to degree
 200: all those orders in one batch of sweeps,
@@ -125,6 +126,30 @@ _ABERTH_MIN_DEGREE = 64
 #: 6.16, up to 80 6.38 against 7.60, up to 100 11.3 against 12.5 ms (from 40: 12.5, from 56:
 #: 11.5 against 12.1 ms at 100).
 _CHAIN_FROM_DEGREE_ONE = 48
+
+#: Several references: when the computed orders reach a degree ``n n_in`` of
+#: :data:`_ABERTH_MIN_DEGREE` but not beyond :data:`_CHAIN_LOW_TOP_MIMO`, the chain starts at this
+#: degree instead (as :data:`_CHAIN_FROM_DEGREE_ONE`). Measured on the two-reference denominators of
+#: benchmarks/bench_plscf.py (whole ``plscf`` calls, thread CPU, BLAS one thread, alternating
+#: in one process, 15 calls each, load 4-6, 2026-12-07): even orders to 50, start at degree
+#: 64 / 24 / 32 / 40: median 17.0 / 14.6 / 14.5 / 14.5 ms (minima 13.8 / 12.7 / 12.8 / 13.4;
+#: a second run 13.0 -> 12.1 ms at 32); every order to 40 (the default orders), median
+#: 18.1 / 15.5 / 15.4 / 15.4 ms; even orders to 100 (9 calls) 54.2 / 52.3 / 53.9 / 56.7 and to
+#: 200 (5 calls) 237 -> 239 ms at 32: within the noise (the chain is most of those calls
+#: anyway). A separate chain for degrees 32-62 (not joined to the one from 64) gained nothing
+#: at order 50 (13.0 against 13.0 ms): the gain is the sweeps the joined chain shares. Paired
+#: against 4ff7088 in two worker processes (benchmarks/bench_plscf_vs_tree.py, 15 pairs, load 6.5-7.7):
+#: every order to 40 17.9 -> 15.3 ms CPU (0.86 per pair), even orders to 50 0.97 and 0.99.
+_CHAIN_FROM_DEGREE_MIMO = 32
+
+#: Highest degree of the computed orders for which :data:`_CHAIN_FROM_DEGREE_MIMO` applies: up to
+#: degree 100 a chain sweep costs mostly its fixed cost (see :mod:`._roots`), which the lower
+#: orders share; above, nothing was gained (orders to 100 and 200 above) and the longer chain
+#: 32-200 left one order to the eigenvalue fallback (degree 36 at max order 100 and 200; 40-200
+#: none, 48-200 degree 60), while no chain ending at degree <= 100 fell back (two references,
+#: bench_plscf data with seeds 0-2, max orders 32-50, even and every order, whole band,
+#: 200-1200 and 100-700 Hz: 180 calls, no fallback).
+_CHAIN_LOW_TOP_MIMO = 100
 
 #: Up to this degree (of det A: n_in x order) the orders from :data:`_ABERTH_MIN_DEGREE` on are rooted
 #: together (:func:`~._roots.aberth_chain`: one batch of sweeps for all orders, each started from
@@ -1001,7 +1026,7 @@ def plscf(
         Show a tqdm progress bar over the orders.
     root_finder : {'aberth', 'eig'}, optional
         ``'aberth'`` (default): roots of each order of degree >= 64 (one reference: >= 48
-        when the orders reach 64) by the Aberth-Ehrlich
+        when the orders reach 64; several: >= 32 when the orders end at degree 64-100) by the Aberth-Ehrlich
         iteration started from the previous order's roots (several times faster; an order
         that does not converge falls back to the companion eigenvalues), smaller orders by
         the companion eigenvalues. ``'eig'``: companion eigenvalues
@@ -1183,6 +1208,8 @@ class PlscfEngine:
         if n_in == 1:
             if order_list[-1] >= _ABERTH_MIN_DEGREE:
                 aberth_from = _CHAIN_FROM_DEGREE_ONE  # the chain goes on past _ABERTH_MIN_DEGREE
+        elif _ABERTH_MIN_DEGREE <= order_list[-1] * n_in <= _CHAIN_LOW_TOP_MIMO:
+            aberth_from = _CHAIN_FROM_DEGREE_MIMO  # likewise for several references
         try:
             with single_threaded():
                 for n in solvable():
