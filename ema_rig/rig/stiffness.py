@@ -98,6 +98,7 @@ from .matched_mode import MatchedMode
 from .matching import MATCH_CRITERIA, MatchResult, match_modes
 from .uncertainty import (
     DEFAULT_REL_UNCERTAINTY,
+    MASS_WARN_RATIO,
     StiffnessUncertainty,
     assess_housing_mode,
     defaults_note,
@@ -692,10 +693,14 @@ def estimate_stiffness(
     rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
     hm_damp = hm_std
     pair_note: tuple[str, ...] = ()
-    if m.mixed_partner is not None and asm.cross_axis is not None:
-        hm_damp = _uncoupled_pole(hm_std, ident, m.mixed_partner, asm.cross_axis.uncoupled_freq)
-        pair_note = (f"bearing damping read from the mixed pair: the uncoupled housing mode's damping ratio at most "
-                     f"{100 * hm_damp.damping_ratio:.2f} % from both modes' (the mixed mode's own "
+    group = _damping_group(m, hm_std)
+    if group:
+        mixed = m.mixed_partner is not None and asm.cross_axis is not None
+        hm_damp = _uncoupled_pole(hm_std, ident, group, asm.cross_axis.uncoupled_freq if mixed else f_h)
+        fs = ", ".join(f"{float(ident.modes.natural_freq[i]):.1f}" for i in group)
+        pair_note = (f"bearing damping read from the {'mixed pair' if mixed else 'modes sharing the radial housing motion'}"
+                     f" (with {fs} Hz): the uncoupled housing mode's damping ratio at most "
+                     f"{100 * hm_damp.damping_ratio:.2f} % from their damping trace (the housing mode's own "
                      f"{100 * hm_std.damping_ratio:.2f} %)",)
     damping = _bearing_damping(hm_damp, params, rel_unc, k_ms_std, damping_model, asm.damping_location)
     return StiffnessResult(
@@ -789,38 +794,72 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
         return None
 
 
-def _uncoupled_pole(hm: MatchedMode, ident: Any, partner: int, f_u: float) -> MatchedMode:
-    """The radial housing mode of a strongly mixed pair, as the bearing's damping reads it.
+def _damping_group(m: MatchResult, hm: Mapping[str, Any]) -> tuple[int, ...]:
+    """The identified modes that share the housing's radial motion, and with it the bearing's damping.
 
-    In mass-normalised coordinates the pair's damping matrix is the uncoupled one (housing
-    ``2 zeta_h w_h``, cross-axis motion ``c_p >= 0``) turned by the mixing angle; its trace is
-    kept: ``2 zeta_1 w_1 + 2 zeta_2 w_2 = 2 zeta_h w_h + c_p``. So ``(zeta_1 f_1 + zeta_2 f_2) / f_u``
-    bounds the uncoupled housing mode's damping ratio from above (exact for an undamped cross-axis
-    motion), where the mixed mode's own ``zeta_1`` holds only its share of the housing's damping.
+    The strongly mixed pair's partner (``m.mixed_partner``); else, where the housing mode's driving-point
+    modal mass exceeds the model's by more than :data:`~ema_rig.rig.uncertainty.MASS_WARN_RATIO`
+    (the mode holds only part of the housing's participation, so only part of the bearing's damping),
+    its alternatives and close neighbours that move the radial housing sensors (``m.alternatives``,
+    ``m.neighbours``, sorted); else none (the housing mode holds all of it).
+
+    Parameters
+    ----------
+    m : MatchResult
+        The matching (partner, alternatives, neighbours: indices into the identified modes).
+    hm : mapping
+        The housing mode (``modal_mass`` and ``model_modal_mass`` [kg] when measured).
+
+    Returns
+    -------
+    tuple of int
+        Indices of the partners in the identified modes; empty when the mode is read alone.
+    """
+    if m.mixed_partner is not None:
+        return (int(m.mixed_partner),)
+    mass, model = hm.get("modal_mass"), hm.get("model_modal_mass")
+    if mass is None or model is None or not (math.isfinite(float(mass)) and float(model) > 0):
+        return ()
+    if float(mass) / float(model) <= MASS_WARN_RATIO:
+        return ()
+    return tuple(sorted({int(i) for i in (*m.alternatives, *m.neighbours)} - {int(m.housing_index)}))
+
+
+def _uncoupled_pole(hm: MatchedMode, ident: Any, partners: tuple[int, ...], f_u: float) -> MatchedMode:
+    """The radial housing mode shared with other modes, as the bearing's damping reads it.
+
+    In mass-normalised coordinates the group's damping matrix is the uncoupled one (housing
+    ``2 zeta_h w_h``, the partners' own motions ``c_p >= 0``) turned by the mixing; its trace is
+    kept: ``sum_i 2 zeta_i w_i = 2 zeta_h w_h + sum_p c_p``. So ``sum_i zeta_i f_i / f_u`` bounds the
+    uncoupled housing mode's damping ratio from above (exact for undamped partners), where the housing
+    mode's own ``zeta_1`` holds only its share of the housing's damping: a strongly mixed pair (the
+    housing's lateral motion), or a frame part / appendage that shares the radial housing motion.
 
     Parameters
     ----------
     hm : MatchedMode
         The identified housing mode (frequency [Hz], damping ratio and their stds).
     ident : Identification
-        The identification holding the partner (``modes``, ``damping_ratio_std``).
-    partner : int
-        The partner's index in ``ident.modes``.
+        The identification holding the partners (``modes``, ``damping_ratio_std``).
+    partners : tuple of int
+        The partners' indices in ``ident.modes``.
     f_u : float
-        The pair's uncoupled housing frequency [Hz].
+        The group's uncoupled housing frequency [Hz].
 
     Returns
     -------
     MatchedMode
-        ``hm`` at ``f_u`` with that damping ratio and its std (both modes' stds, independent).
+        ``hm`` at ``f_u`` with that damping ratio and its std (every mode's std, independent).
     """
     f1, z1 = float(hm["natural_freq"]), float(hm["damping_ratio"])
-    f2, z2 = float(ident.modes.natural_freq[partner]), float(ident.modes.damping_ratio[partner])
     arr = getattr(ident, "damping_ratio_std", None)
-    s1 = float(hm.get("damping_ratio_std") or 0.0)
-    s2 = float(arr[partner]) if arr is not None and math.isfinite(float(arr[partner])) else 0.0
-    return hm.with_entries(natural_freq=f_u, damping_ratio=(z1 * f1 + z2 * f2) / f_u,
-                           damping_ratio_std=math.hypot(f1 * s1, f2 * s2) / f_u)
+    trace, var = z1 * f1, (f1 * float(hm.get("damping_ratio_std") or 0.0)) ** 2
+    for j in partners:
+        f2, z2 = float(ident.modes.natural_freq[j]), float(ident.modes.damping_ratio[j])
+        s2 = float(arr[j]) if arr is not None and math.isfinite(float(arr[j])) else 0.0
+        trace += z2 * f2
+        var += (f2 * s2) ** 2
+    return hm.with_entries(natural_freq=f_u, damping_ratio=trace / f_u, damping_ratio_std=math.sqrt(var) / f_u)
 
 
 def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
