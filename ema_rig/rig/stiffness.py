@@ -693,7 +693,7 @@ def estimate_stiffness(
     rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
     hm_damp = hm_std
     pair_note: tuple[str, ...] = ()
-    group = _damping_group(m, hm_std)
+    group = _damping_group(m, asm)
     if group:
         mixed = m.mixed_partner is not None and asm.cross_axis is not None
         hm_damp = _uncoupled_pole(hm_std, ident, group, asm.cross_axis.uncoupled_freq if mixed else f_h)
@@ -794,35 +794,36 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
         return None
 
 
-def _damping_group(m: MatchResult, hm: Mapping[str, Any]) -> tuple[int, ...]:
+def _damping_group(m: MatchResult, asm: Any) -> tuple[int, ...]:
     """The identified modes that share the housing's radial motion, and with it the bearing's damping.
 
-    The strongly mixed pair's partner (``m.mixed_partner``); else, where the housing mode's driving-point
-    modal mass exceeds the model's by more than :data:`~ema_rig.rig.uncertainty.MASS_WARN_RATIO`
-    (the mode holds only part of the housing's participation, so only part of the bearing's damping),
-    its alternatives and close neighbours that move the radial housing sensors (``m.alternatives``,
-    ``m.neighbours``, sorted); else none (the housing mode holds all of it).
+    The strongly mixed pair's partner (``m.mixed_partner``); else the modes the assessment found to
+    share the radial housing motion (``asm.sharing``: a part on its own spring fitted with the housing,
+    or the split-mass group); else, where the housing mode's effective modal mass exceeds the model's by
+    more than :data:`~ema_rig.rig.uncertainty.MASS_WARN_RATIO` (``asm.mass_ratio``: the mode holds only
+    part of the housing's participation, so only part of the bearing's damping), its alternatives and
+    close neighbours that move the radial housing sensors (``m.alternatives``, ``m.neighbours``); else
+    none (the housing mode holds all of it).
 
     Parameters
     ----------
     m : MatchResult
         The matching (partner, alternatives, neighbours: indices into the identified modes).
-    hm : mapping
-        The housing mode (``modal_mass`` and ``model_modal_mass`` [kg] when measured).
+    asm : Assessment
+        The housing mode's assessment (``sharing``, ``mass_ratio``).
 
     Returns
     -------
     tuple of int
-        Indices of the partners in the identified modes; empty when the mode is read alone.
+        Indices of the partners in the identified modes, sorted; empty when the mode is read alone.
     """
     if m.mixed_partner is not None:
         return (int(m.mixed_partner),)
-    mass, model = hm.get("modal_mass"), hm.get("model_modal_mass")
-    if mass is None or model is None or not (math.isfinite(float(mass)) and float(model) > 0):
-        return ()
-    if float(mass) / float(model) <= MASS_WARN_RATIO:
-        return ()
-    return tuple(sorted({int(i) for i in (*m.alternatives, *m.neighbours)} - {int(m.housing_index)}))
+    group = set(getattr(asm, "sharing", ()) or ())
+    ratio = getattr(asm, "mass_ratio", None)
+    if not group and ratio is not None and math.isfinite(float(ratio)) and float(ratio) > MASS_WARN_RATIO:
+        group = {int(i) for i in (*m.alternatives, *m.neighbours)}
+    return tuple(sorted(group - {int(m.housing_index)}))
 
 
 def _uncoupled_pole(hm: MatchedMode, ident: Any, partners: tuple[int, ...], f_u: float) -> MatchedMode:

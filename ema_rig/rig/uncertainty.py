@@ -584,6 +584,10 @@ class Assessment:
     damping_location : DampingLocation or None
         The bearing's measured share of the housing mode's damping (:func:`_damping_location`);
         None where the data do not tell where the damping sits.
+    sharing : tuple of int
+        Indices (in the identified modes) of the modes found to share the radial housing motion with the
+        housing mode (a part of the housing on its own spring fitted with it, or the split-mass group);
+        empty where none was.
     """
 
     abs_freq: float
@@ -600,6 +604,7 @@ class Assessment:
     housing_mass: Any = None
     m_H_budget: tuple[float, dict[str, float]] | None = None
     damping_location: DampingLocation | None = None
+    sharing: tuple[int, ...] = ()
 
 
 def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> float | None:
@@ -1211,6 +1216,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         warnings=tuple(warns), mass_ratio=ratio, notes=tuple(notes), m_H=m_h_new, m_H_rel_std=m_h_rel,
         m_H_budget=m_h_budget,
         cross_axis=cross, modal_mass=dpm, housing_mass=housing_mass, damping_location=loc,
+        sharing=tuple(int(i) for i in used),
     )
 
 

@@ -1,0 +1,53 @@
+"""c_TB's upper bound where the housing mode shares the radial housing motion with another mode.
+
+A flexible frame part between the frame and the air springs, its own frequency 1-3 % from the
+housing mode, couples to the housing through the air springs: the housing's radial motion, and
+with it the bearing's dashpot, is spread over two modes. Read from the housing mode's own damping
+ratio (the model's modal mass, all of the damping in the bearing) c_TB was an upper bound that
+did not hold: on 4ff7088 the fresh seeds 24-35 of the study's frame-part family broke it in 4 of 12
+(``benchmarks/results/study_unseen_truths_r_truth11.txt``; seed 25 1004 +/- 58 N s/m against the
+dashpot's 1250, z -4.2; seed 29 729 +/- 33 against 883, z -4.6), each under a k_TB warning (a
+warning on k_TB does not make a wrong c_TB right). The group's damping trace is kept by the
+mixing (``sum_i 2 zeta_i w_i = 2 zeta_h w_h + the partners' own``): read from it the bound holds.
+
+Oracle: the truth generator of ``benchmarks/study_unseen_truths.py`` (a lumped M, K, C of the rig
+with the frame part, solved directly at every line; it imports nothing from ema_rig), whose
+bearing dashpot ``Truth.c_TB`` is the value to bound.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ema_rig.config import load_rig
+from ema_rig.io.uff import read_uff58
+from ema_rig.rig import stiffness as st
+
+pytest.importorskip("pyuff")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import study_unseen_truths as gen  # noqa: E402  (the independent truth generator)
+
+
+@pytest.mark.parametrize("seed", [25, 29])  # 25: the split-mass group; 29: two modes pass as housing mode
+def test_c_tb_bound_holds_where_a_frame_part_shares_the_housing_motion(tmp_path, seed):
+    truth, _ = gen.families()["frame part 1-3 % from the housing mode"](seed)
+    rig_path = tmp_path / "rig.toml"
+    rig_path.write_text(truth.rig_text(), encoding="utf-8")
+    uff = tmp_path / "m.uff"
+    gen.write_uff(uff, gen.FREQ, truth.frf(gen.FREQ))
+    rig = load_rig(rig_path)
+    res = st.estimate_stiffness(read_uff58(uff, rig=rig), rig)
+    assert res.warnings  # k_TB is caveated (the shared motion), as before
+    d = res.damping
+    assert d is not None and d.kind == "upper bound"
+    # the bound holds to its own 2 sigma (broken on 4ff7088: z -4.2 / -4.6) ...
+    assert truth.c_TB <= res.c_TB + 2 * res.c_TB_std
+    # ... and is not vacuous: the partner's own damping (the frame part's, 0.3 % structural) makes
+    # it 1.4-1.6x the dashpot on these seeds
+    assert res.c_TB < 2.0 * truth.c_TB
+    assert any("from their damping trace" in n for n in res.notes)
+    assert np.isfinite(res.c_TB_std) and res.c_TB_std > 0
