@@ -369,6 +369,10 @@ class StiffnessResult:
         ``m_H`` measured from the driving-point modal mass with its std, the rig file's, and which
         the inversion used (:class:`ema_rig.rig.fit.HousingMass`); None without a clean housing
         mode at a radial driving point.
+    damping_partners : tuple of int
+        Indices (in ``identification.modes``) of the modes whose damping ``c_TB`` reads together with
+        the housing mode's (their damping trace): the strongly mixed pair's partner, or the modes
+        sharing the radial housing motion; empty where the housing mode is read alone.
     """
 
     k_TB: float
@@ -398,6 +402,7 @@ class StiffnessResult:
     inversion_3dof: dict[str, float] | None = None
     rigid_body: HousingRigidBody | None = None
     housing_mass: HousingMass | None = None
+    damping_partners: tuple[int, ...] = ()
 
     @property
     def c_TB(self) -> float:
@@ -480,7 +485,17 @@ class StiffnessResult:
             "inversion_3dof": None if self.inversion_3dof is None else dict(self.inversion_3dof),
             "housing_rigid_body": None if self.rigid_body is None else self.rigid_body.to_dict(),
             "housing_mass": None if self.housing_mass is None else self.housing_mass.to_dict(),
+            "mixed_partner": self._mode_entry(self.match.mixed_partner),
+            "c_TB_partners": [self._mode_entry(i) for i in self.damping_partners],
         }
+
+    def _mode_entry(self, index: int | None) -> dict[str, Any] | None:
+        """``{index, natural_freq [Hz], damping_ratio}`` of identified mode ``index`` (None when absent)."""
+        if index is None or self.identification is None:
+            return None
+        modes = self.identification.modes
+        return {"index": int(index), "natural_freq": float(modes.natural_freq[index]),
+                "damping_ratio": float(modes.damping_ratio[index])}
 
 
 def _damping_keys(d: Any) -> dict[str, Any]:
@@ -734,6 +749,7 @@ def estimate_stiffness(
         inversion_3dof=inv3,
         rigid_body=rigid,
         housing_mass=hmass,
+        damping_partners=group,
     )
 
 
