@@ -350,6 +350,9 @@ class CrossAxisCorrection:
         Uncoupled housing frequency [Hz] and its relative standard uncertainty.
     consistent : bool
         Both ratios give the same mixing within 3 sigma (a two-mode coupling).
+    mixing_std : float
+        Standard uncertainty of ``mixing`` (the two ratios' estimates combined by inverse variance);
+        NaN when not given.
     """
 
     axis: str
@@ -360,6 +363,7 @@ class CrossAxisCorrection:
     uncoupled_freq: float
     rel_std: float
     consistent: bool = True
+    mixing_std: float = math.nan
 
 
 def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner_ratio: float,
@@ -412,7 +416,8 @@ def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner
     f_u = fu(t)
     rel = abs(math.log(fu(t + u_t) / fu(t - u_t))) / 2
     return CrossAxisCorrection(axis=axis, ratio=ratio, partner_freq=partner_freq, partner_ratio=partner_ratio,
-                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent)
+                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent,
+                               mixing_std=u_t)
 
 
 def cross_axis_partner(f_h: float, ratio: float, cands: list[Candidate], key: str, m_cross: float, m_eff: float,

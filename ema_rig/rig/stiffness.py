@@ -711,12 +711,17 @@ def estimate_stiffness(
     group = _damping_group(m, asm)
     if group:
         mixed = m.mixed_partner is not None and asm.cross_axis is not None
-        hm_damp = _uncoupled_pole(hm_std, ident, group, asm.cross_axis.uncoupled_freq if mixed else f_h)
+        cross = asm.cross_axis if mixed else None
+        hm_damp, trace = _uncoupled_pole(hm_std, ident, group, f_h if cross is None else cross.uncoupled_freq,
+                                         mixing=None if cross is None else (cross.mixing, cross.mixing_std))
         fs = ", ".join(f"{float(ident.modes.natural_freq[i]):.1f}" for i in group)
+        how = ("their damping trace" if cross is None or trace is None else
+               f"the pair's damping split by its mixing {100 * cross.mixing:.0f} % (their damping trace, "
+               f"{100 * trace:.2f} %, bounds it)")
         pair_note = (f"bearing damping read from the {'mixed pair' if mixed else 'modes sharing the radial housing motion'}"
-                     f" (with {fs} Hz): the uncoupled housing mode's damping ratio at most "
-                     f"{100 * hm_damp.damping_ratio:.2f} % from their damping trace (the housing mode's own "
-                     f"{100 * hm_std.damping_ratio:.2f} %)",)
+                     f" (with {fs} Hz): the uncoupled housing mode's damping ratio "
+                     f"{100 * hm_damp.damping_ratio:.2f} % from {how}; the housing mode's own "
+                     f"{100 * hm_std.damping_ratio:.2f} %",)
     damping = _bearing_damping(hm_damp, params, rel_unc, k_ms_std, damping_model, asm.damping_location)
     return StiffnessResult(
         k_TB=k_tb,
@@ -842,7 +847,8 @@ def _damping_group(m: MatchResult, asm: Any) -> tuple[int, ...]:
     return tuple(sorted(group - {int(m.housing_index)}))
 
 
-def _uncoupled_pole(hm: MatchedMode, ident: Any, partners: tuple[int, ...], f_u: float) -> MatchedMode:
+def _uncoupled_pole(hm: MatchedMode, ident: Any, partners: tuple[int, ...], f_u: float, *,
+                    mixing: tuple[float, float] | None = None) -> tuple[MatchedMode, float | None]:
     """The radial housing mode shared with other modes, as the bearing's damping reads it.
 
     In mass-normalised coordinates the group's damping matrix is the uncoupled one (housing
@@ -851,6 +857,15 @@ def _uncoupled_pole(hm: MatchedMode, ident: Any, partners: tuple[int, ...], f_u:
     uncoupled housing mode's damping ratio from above (exact for undamped partners), where the housing
     mode's own ``zeta_1`` holds only its share of the housing's damping: a strongly mixed pair (the
     housing's lateral motion), or a frame part / appendage that shares the radial housing motion.
+
+    Where the pair's mixing ``t^2 = tan^2(theta)`` is measured (a cross-axis pair: two independent
+    amplitude ratios), the diagonal of the turned matrix splits it: ``zeta_1 f_1 = cos^2 a + sin^2 b``,
+    ``zeta_2 f_2 = sin^2 a + cos^2 b`` (``a = zeta_h f_u``, ``b`` the partner's own), so
+    ``a = (zeta_1 f_1 - t^2 zeta_2 f_2) / (1 - t^2)``, at most the trace (``b >= 0``). It is first order
+    in the damping: the turned matrix's off-diagonal ``beta = sin cos (a - b)`` couples the two close
+    poles, which moves each one's damping by ``beta^2 (d_1 - d_2) / ((f_2 - f_1)^2 + (d_1 - d_2)^2)``
+    (``d_i = zeta_i f_i``; the second-order term of the pair's 2x2 eigenvalues): that term, times
+    ``(1 + t^2) / (1 - t^2)``, is a std of the split beside the modes' and the mixing's.
 
     Parameters
     ----------
@@ -862,21 +877,44 @@ def _uncoupled_pole(hm: MatchedMode, ident: Any, partners: tuple[int, ...], f_u:
         The partners' indices in ``ident.modes``.
     f_u : float
         The group's uncoupled housing frequency [Hz].
+    mixing : (float, float), optional
+        The pair's measured mixing ``t^2`` and its std (one partner only); None: the trace.
 
     Returns
     -------
     MatchedMode
-        ``hm`` at ``f_u`` with that damping ratio and its std (every mode's std, independent).
+        ``hm`` at ``f_u`` with that damping ratio and its std (every mode's std, the mixing's and the
+        split's second-order term, independent).
+    float or None
+        The trace's damping ratio (the bound) where the pair was split; else None.
     """
     f1, z1 = float(hm["natural_freq"]), float(hm["damping_ratio"])
+    s1 = float(hm.get("damping_ratio_std") or 0.0)
     arr = getattr(ident, "damping_ratio_std", None)
-    trace, var = z1 * f1, (f1 * float(hm.get("damping_ratio_std") or 0.0)) ** 2
+    rows = [(f1, z1, s1)]
     for j in partners:
-        f2, z2 = float(ident.modes.natural_freq[j]), float(ident.modes.damping_ratio[j])
         s2 = float(arr[j]) if arr is not None and math.isfinite(float(arr[j])) else 0.0
-        trace += z2 * f2
-        var += (f2 * s2) ** 2
-    return hm.with_entries(natural_freq=f_u, damping_ratio=trace / f_u, damping_ratio_std=math.sqrt(var) / f_u)
+        rows.append((float(ident.modes.natural_freq[j]), float(ident.modes.damping_ratio[j]), s2))
+    trace = sum(f * z for f, z, _ in rows)
+    trace_std = math.sqrt(sum((f * s) ** 2 for f, _, s in rows))
+    t2, u2 = (math.nan, math.nan) if mixing is None else (float(mixing[0]), float(mixing[1]))
+    if len(rows) == 2 and 0.0 <= t2 < 1.0:
+        (fa, za, sa), (fb, zb, sb) = rows
+        split = (za * fa - t2 * zb * fb) / (1.0 - t2)
+        if 0.0 < split <= trace:
+            du = (za * fa - zb * fb) / (1.0 - t2) ** 2 * (u2 if math.isfinite(u2) else 0.0)
+            # the dropped coupling: the turned matrix's off-diagonal beta = sin cos (a - b) moves each
+            # mode's damping by beta^2 (d_1 - d_2) / (df^2 + (d_1 - d_2)^2) at second order (the pair's
+            # 2x2 eigenvalues, d_i = zeta_i f_i, df = f_2 - f_1), the split by (1 + t^2) / (1 - t^2) that
+            part = (zb * fb - t2 * za * fa) / (1.0 - t2)  # b, the partner's own
+            beta2 = t2 / (1.0 + t2) ** 2 * (split - part) ** 2
+            dd = za * fa - zb * fb
+            den = (fb - fa) ** 2 + dd**2
+            second = beta2 * abs(dd) / den * (1.0 + t2) / (1.0 - t2) if den > 0 else math.inf
+            std = math.sqrt((fa * sa / (1.0 - t2)) ** 2 + (t2 * fb * sb / (1.0 - t2)) ** 2 + du**2 + second**2)
+            return (hm.with_entries(natural_freq=f_u, damping_ratio=split / f_u, damping_ratio_std=std / f_u),
+                    trace / f_u)
+    return hm.with_entries(natural_freq=f_u, damping_ratio=trace / f_u, damping_ratio_std=trace_std / f_u), None
 
 
 def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
