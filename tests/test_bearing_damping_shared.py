@@ -91,3 +91,23 @@ def test_mixed_lateral_pair_c_tb_split_by_the_mixing(tmp_path):
     f_lat = float(np.sqrt(lam[int(np.argmax(m[5, 5] * phi[5] ** 2))]) / (2 * np.pi))
     assert partner["natural_freq"] == pytest.approx(f_lat, rel=5e-3)
     assert any("split by its mixing" in n for n in doc["notes"])
+
+
+def test_a_second_housing_mode_of_another_shape_is_no_polarity_warning(tmp_path):
+    # r_truth12's family "second housing mode 1-4 % from the radial one, another shape", seed 46: an
+    # ovalisation-like mode (the driving point 11 against 12 and 13) at 741 Hz beside the housing mode.
+    # k_TB was right (z +0.07) but the run warned "741.3 Hz would be a clean radial translation with
+    # 11+Y reversed: check the polarity of 11+Y" -- while the housing mode itself read 11, 12 and 13 in
+    # phase, which a reversed 11+Y would not. The warning sent the user to a sensor that is fine
+    truth, _ = gen.families()[
+        "second housing mode 1-4 % from the radial one, another shape (ovalisation-like), 5-20 kg"](46)
+    rig_path = tmp_path / "rig.toml"
+    rig_path.write_text(truth.rig_text(), encoding="utf-8")
+    uff = tmp_path / "m.uff"
+    gen.write_uff(uff, gen.FREQ, truth.frf(gen.FREQ))
+    rig = load_rig(rig_path)
+    res = st.estimate_stiffness(read_uff58(uff, rig=rig), rig)
+    assert not any("polarity" in w for w in res.warnings)
+    assert res.warnings == () and abs(res.k_TB - truth.k_TB) <= 2 * res.k_TB_std
+    # the candidate still records which flip would make that mode a translation (for the drill-down)
+    assert any(c.polarity_suspect == "11+Y" for c in res.match.candidates)
