@@ -33,7 +33,12 @@ from ..config import MODEL_KEYS, ModelParams, RigConfig
 from ..errors import InversionError, MatchingError
 from ..literals import KIND_DEFAULT, KIND_MEASURED, KIND_MODEL, KIND_RIG, KINDS, DampingModel
 from .candidates import find_dof, sensor_groups
-from .damping import BEARING_DAMPING_MODELS, bearing_mode_phase, bearing_reading_freq
+from .damping import (
+    BEARING_DAMPING_MODELS,
+    bearing_damped_mass_factor,
+    bearing_mode_phase,
+    bearing_reading_freq,
+)
 from .fit import (
     DrivingPointMass,
     HousingMass,
@@ -828,6 +833,9 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     p_ref = None if data is None else _find(data.out_dofs, rig.radial)
     dpm0 = None
     pair_fit = None
+    # where the phase says the bearing holds the damping (viscous model), the mass reading is the damped
+    # model's (_mass_of_damped_pole); the same location reads the pole below
+    loc0 = _damping_location(m, modes, rig, data) if damping_model == "viscous" else None
     if q_ref is not None and p_ref is not None and info0 is not None:
         dpm0 = driving_point_mass_of(data, p_ref, q_ref, modes.poles, m.housing_index)
         if dpm0 is not None and m.neighbours and cross is None:
@@ -837,6 +845,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
             dpm0 = _pair_mass_or(dpm0, pair_fit, notes)
         if dpm0 is not None:
             dpm0 = _mass_at_centre(dpm0, modes, rig, m.housing_index, hm, notes)
+            dpm0 = _mass_of_damped_pole(dpm0, f_abs, zeta, params, loc0, notes)
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
     # partners that may carry the housing participation missing from its mode: in-phase radial
     # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
@@ -1198,8 +1207,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     # only on a clean housing mode (its mass measured above): beside overlapping modes the identified
     # residues' phases trade (the 12-coordinate truth with 10 % hysteretic damping everywhere, real
     # modes, read +9.9 +/- 1.8 deg beside the tilt and flexible modes)
-    loc = (_damping_location(m, modes, rig, data) if damping_model == "viscous" and housing_mass is not None
-           else None)
+    loc = loc0 if housing_mass is not None else None
     if loc is not None:
         # the data say where the damping sits: the pole read with the bearing's share of it. The masses
         # above stay read at |lambda| (the undamped model there reproduces the pole's magnitude and its
@@ -1299,6 +1307,51 @@ class DampingLocation:
     rel_std: float
     note: str
     share_span_std: float = 0.0
+
+
+def _mass_of_damped_pole(dpm: DrivingPointMass, f_abs: float, zeta: float, params: ModelParams,
+                         loc: DampingLocation | None, notes: list[str]) -> DrivingPointMass:
+    """The driving-point modal mass with a bearing dashpot's reading bias removed.
+
+    A dashpot in the bearing (in series with ``k_MS``) makes the modal fit read the mass low by
+    O(zeta^2) (:func:`ema_rig.rig.damping.bearing_damped_mass_factor`; the study's very heavy bearing
+    damping, zeta 10-20 %: -4 ... -7 %, read as ``m_H`` -6 % beyond its tolerance and k_TB -11 % at
+    z -2.6, silent). Where the phase places the damping (``loc``), the mass is divided by the factor at
+    the bearing's share of it; the share is a lower bound (:class:`DampingLocation`), so the factor's
+    span up to all of the damping in the bearing enters the mass's std (one-sided rectangular). Without
+    ``loc`` the mass stays as read (proportional damping reads it right).
+
+    Parameters
+    ----------
+    dpm : DrivingPointMass
+        The measured driving-point modal mass [kg] and its std.
+    f_abs, zeta : float
+        The housing mode's ``|lambda| / 2 pi`` [Hz] and identified damping ratio.
+    params : ModelParams
+        Rig parameters.
+    loc : DampingLocation or None
+        The bearing's measured share of the damping.
+    notes : list of str
+        Appended to where the correction exceeds the mass's own std.
+
+    Returns
+    -------
+    DrivingPointMass
+    """
+    if loc is None or not zeta > 0:
+        return dpm
+    q = bearing_damped_mass_factor(f_abs, loc.share * zeta, params)
+    q_all = bearing_damped_mass_factor(f_abs, zeta, params)
+    if q == 1.0 and q_all == 1.0:
+        return dpm
+    mass = dpm.modal_mass / q
+    u_span = abs(q / q_all - 1.0) / math.sqrt(3.0)
+    std = mass * math.hypot(dpm.modal_mass_std / dpm.modal_mass, u_span)
+    if abs(1.0 - q) > dpm.modal_mass_std / dpm.modal_mass:
+        notes.append(f"driving-point modal mass {dpm.modal_mass:.4g} kg read at a pole damped in the bearing "
+                     f"(share {loc.share:.2f} of zeta {100 * zeta:.1f} %): the damped 3DOF model reads it "
+                     f"{100 * (q - 1):+.1f} %, so {mass:.4g} +/- {std:.2g} kg")
+    return replace(dpm, modal_mass=mass, modal_mass_std=std)
 
 
 def _damping_location(m: MatchResult, modes: Any, rig: RigConfig, data: Any) -> DampingLocation | None:
