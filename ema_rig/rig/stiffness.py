@@ -708,17 +708,17 @@ def estimate_stiffness(
     rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
     hm_damp = hm_std
     pair_note: tuple[str, ...] = ()
-    group = _damping_group(m, asm)
+    group = _damping_group(m, asm, ident.modes.natural_freq)
     if group:
-        mixed = m.mixed_partner is not None and asm.cross_axis is not None
-        cross = asm.cross_axis if mixed else None
+        cross = asm.cross_axis
+        mixed = cross is not None
         hm_damp, trace = _uncoupled_pole(hm_std, ident, group, f_h if cross is None else cross.uncoupled_freq,
                                          mixing=None if cross is None else (cross.mixing, cross.mixing_std))
         fs = ", ".join(f"{float(ident.modes.natural_freq[i]):.1f}" for i in group)
         how = ("their damping trace" if cross is None or trace is None else
                f"the pair's damping split by its mixing {100 * cross.mixing:.0f} % (their damping trace, "
                f"{100 * trace:.2f} %, bounds it)")
-        pair_note = (f"bearing damping read from the {'mixed pair' if mixed else 'modes sharing the radial housing motion'}"
+        pair_note = (f"bearing damping read from the {'pair coupled through the bearing' if mixed else 'modes sharing the radial housing motion'}"
                      f" (with {fs} Hz): the uncoupled housing mode's damping ratio "
                      f"{100 * hm_damp.damping_ratio:.2f} % from {how}; the housing mode's own "
                      f"{100 * hm_std.damping_ratio:.2f} %",)
@@ -815,10 +815,12 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
         return None
 
 
-def _damping_group(m: MatchResult, asm: Any) -> tuple[int, ...]:
+def _damping_group(m: MatchResult, asm: Any, freqs: Any) -> tuple[int, ...]:
     """The identified modes that share the housing's radial motion, and with it the bearing's damping.
 
-    The strongly mixed pair's partner (``m.mixed_partner``); else the modes the assessment found to
+    The strongly mixed pair's partner (``m.mixed_partner``) or the cross-axis partner of a corrected
+    bearing cross coupling (``asm.cross_axis``: the identified mode nearest its frequency); else the
+    modes the assessment found to
     share the radial housing motion (``asm.sharing``: a part on its own spring fitted with the housing,
     or the split-mass group); else, where the housing mode's effective modal mass exceeds the model's by
     more than :data:`~ema_rig.rig.uncertainty.MASS_WARN_RATIO` (``asm.mass_ratio``: the mode holds only
@@ -831,7 +833,9 @@ def _damping_group(m: MatchResult, asm: Any) -> tuple[int, ...]:
     m : MatchResult
         The matching (partner, alternatives, neighbours: indices into the identified modes).
     asm : Assessment
-        The housing mode's assessment (``sharing``, ``mass_ratio``).
+        The housing mode's assessment (``cross_axis``, ``sharing``, ``mass_ratio``).
+    freqs : array_like
+        The identified modes' natural frequencies [Hz].
 
     Returns
     -------
@@ -840,6 +844,9 @@ def _damping_group(m: MatchResult, asm: Any) -> tuple[int, ...]:
     """
     if m.mixed_partner is not None:
         return (int(m.mixed_partner),)
+    cross = getattr(asm, "cross_axis", None)
+    if cross is not None and len(freqs):
+        return (min(range(len(freqs)), key=lambda i: abs(float(freqs[i]) - float(cross.partner_freq))),)
     group = set(getattr(asm, "sharing", ()) or ())
     ratio = getattr(asm, "mass_ratio", None)
     if not group and ratio is not None and math.isfinite(float(ratio)) and float(ratio) > MASS_WARN_RATIO:
