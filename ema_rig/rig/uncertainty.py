@@ -1210,10 +1210,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
     loc = loc0 if housing_mass is not None else None
     if loc is not None:
         # the data say where the damping sits: the pole read with the bearing's share of it. The masses
-        # above stay read at |lambda| (the undamped model there reproduces the pole's magnitude and its
-        # residue to O(zeta^2): m_H -0.9 ... +0.2 % on the study's tight-tolerance bearing-damped truths,
-        # -2.3 % at zeta 9 %, k_TB 1.8e8, within its 1.7 % std; read at the shifted frequency +1 ... +3 %
-        # on the former), so the reading enters as a factor on the frequency inverted
+        # above stay read at |lambda| (the undamped model there reproduces the pole's magnitude; its
+        # residue's O(zeta^2) is the damped model's reading, removed by _mass_of_damped_pole: the
+        # -2.3 % at zeta 9 %, k_TB 1.8e8 of the tight-tolerance truths, -5.9 % at zeta 16 % of the very
+        # heavy ones; read at the shifted frequency +1 ... +3 %), so the reading enters as a factor on
+        # the frequency inverted
         f_inv *= loc.factor
         terms["damping location"] = loc.rel_std
         notes.append(loc.note)
