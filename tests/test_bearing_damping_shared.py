@@ -114,14 +114,14 @@ def test_a_second_housing_mode_of_another_shape_is_no_polarity_warning(tmp_path)
     assert any(c.polarity_suspect == "11+Y" for c in res.match.candidates)
 
 
-@pytest.mark.parametrize("seed", [37, 43])
-def test_mass_read_at_a_pole_damped_in_the_bearing(tmp_path, seed):
+def test_mass_read_at_a_pole_damped_in_the_bearing(tmp_path):
     # r_truth12's "very heavy bearing damping zeta 10-20 %": a dashpot in the bearing, in series with
     # k_MS, makes the modal fit read the driving-point mass low by O(zeta^2) (the residue carries the
     # series element's Z'(s)). On 4ff7088 seed 37 read m_H 2.414 kg against the truth's 2.566 (-5.9 %,
     # used as measured), k_TB -11.2 % at z -2.61 and c_TB -18 % at z -3.36, all silent; seed 43 k_TB
-    # -9.5 % at z -2.26. Read through the damped 3DOF model the mass, k_TB and c_TB are the truth's
-    truth, _ = gen.families()["very heavy bearing damping zeta 10-20 %"](seed)
+    # -9.5 % at z -2.26 (benchmarks/results/study_unseen_truths_r_truth12.txt). Read through the damped
+    # 3DOF model the mass, k_TB and c_TB are the truth's
+    truth, _ = gen.families()["very heavy bearing damping zeta 10-20 %"](37)
     res = _estimate(tmp_path, truth)
     assert res.warnings == ()
     assert abs(res.k_TB - truth.k_TB) <= 2 * res.k_TB_std
