@@ -92,6 +92,13 @@ class Truth:
     mass_scale: float = 1.0  # another rig: Table 1's masses (and the axial spindle mass) times this
     stiff_scale: float = 1.0  # ... and Table 1's stiffnesses times this (the rig file states the scaled values)
     seed: int = 0
+    # r_truth12: a second housing mode near the radial one with another shape (ovalisation-like: the
+    # driving point against the other two radial sensors), an independent modal term of its own mass at
+    # the driving point, observed and forced (reciprocity) through the same pattern
+    second_ratio: float | None = None  # its frequency / the housing mode's (None: absent)
+    second_mass: float = 10.0  # kg, its modal mass at the driving point (pattern 1 there)
+    second_zeta: float = 0.01
+    second_shape: tuple[float, ...] = (1.0, -0.8, -0.8, 0.15, 0.1, 0.05, 0.05, 0.02)  # per sensor, physical +axis
 
     @property
     def table(self) -> dict[str, float]:
@@ -203,6 +210,12 @@ class Truth:
             om = 2 * math.pi * fr
             x = np.linalg.solve(k - om**2 * m + 1j * om * c + self.bearing(om) * ee, f)
             out[:, i] = -(om**2) * x[list(obs)] * sign
+        if self.second_ratio is not None:
+            w2 = 2 * math.pi * self._housing_freq_3dof() * self.second_ratio
+            om = 2 * math.pi * freq
+            shape = np.asarray(self.second_shape) * sign  # the pattern along each sensor's positive axis
+            q = -(om**2) / (self.second_mass * (w2**2 - om**2 + 2j * self.second_zeta * w2 * om))
+            out += np.outer(shape * shape[0], q)
         rng = np.random.default_rng(self.seed)
         scale = self.noise * (np.abs(out) + 1e-3 * np.abs(out).max(axis=1, keepdims=True)) / math.sqrt(2)
         out += scale * (rng.standard_normal(out.shape) + 1j * rng.standard_normal(out.shape))
@@ -406,6 +419,22 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         "structure damped 0.5-1 % (the spindle's support too), bearing zeta 3-8 %": lambda s: (
             Truth(k_TB=_logk(s, 20, 3e7, 2e8), zeta_H=float(_r(s, 20).uniform(0.03, 0.08)),
                   structure_zeta=float(_r(s, 20).uniform(0.005, 0.01)), seed=s), None),
+        # r_truth12 (seeds 36+): rigs the rules were not developed on
+        "second housing mode 1-4 % from the radial one, another shape (ovalisation-like), 5-20 kg": lambda s: (
+            Truth(k_TB=_logk(s, 21, 3e7, 2e8),
+                  second_ratio=1 + (1 if _r(s, 21).uniform() < 0.5 else -1) * float(_r(s, 22).uniform(0.01, 0.04)),
+                  second_mass=float(_r(s, 23).uniform(5.0, 20.0)), seed=s), None),
+        "spindle sensor masses 80-200 g each, NOT declared": lambda s: (
+            Truth(k_TB=_logk(s, 24, 3e7, 2e8), spindle_sensor_mass=float(_r(s, 24).uniform(0.080, 0.200)), seed=s),
+            None),
+        "softer mounting k_MS 0.3-0.6 x Table 1 (the rig file states it)": lambda s: (
+            Truth(k_TB=_logk(s, 25, 3e7, 2e8), k_MS=TABLE1["k_MS"] * float(_r(s, 25).uniform(0.3, 0.6)), seed=s),
+            None),
+        "very heavy bearing damping zeta 10-20 %": lambda s: (
+            Truth(k_TB=_logk(s, 26, 3e7, 2e8), zeta_H=float(_r(s, 26).uniform(0.10, 0.20)), seed=s), None),
+        "hysteretic bearing eta 20-40 %": lambda s: (
+            Truth(k_TB=_logk(s, 27, 3e7, 2e8), zeta_H=0.0, bearing_loss=float(_r(s, 27).uniform(0.20, 0.40)),
+                  seed=s), None),
         "bearing zeta 3-8 % with support damping zeta 1-3 %": lambda s: (
             Truth(k_TB=_logk(s, 19, 3e7, 2e8), zeta_H=float(_r(s, 19).uniform(0.03, 0.08)),
                   support_zeta=float(_r(s, 19).uniform(0.01, 0.03)), seed=s), None),

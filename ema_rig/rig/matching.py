@@ -350,6 +350,9 @@ class CrossAxisCorrection:
         Uncoupled housing frequency [Hz] and its relative standard uncertainty.
     consistent : bool
         Both ratios give the same mixing within 3 sigma (a two-mode coupling).
+    mixing_std : float
+        Standard uncertainty of ``mixing`` (the two ratios' estimates combined by inverse variance);
+        NaN when not given.
     """
 
     axis: str
@@ -360,6 +363,7 @@ class CrossAxisCorrection:
     uncoupled_freq: float
     rel_std: float
     consistent: bool = True
+    mixing_std: float = math.nan
 
 
 def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner_ratio: float,
@@ -412,7 +416,8 @@ def cross_axis_correction(f_h: float, ratio: float, partner_freq: float, partner
     f_u = fu(t)
     rel = abs(math.log(fu(t + u_t) / fu(t - u_t))) / 2
     return CrossAxisCorrection(axis=axis, ratio=ratio, partner_freq=partner_freq, partner_ratio=partner_ratio,
-                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent)
+                               mixing=t, uncoupled_freq=f_u, rel_std=rel, consistent=consistent,
+                               mixing_std=u_t)
 
 
 def cross_axis_partner(f_h: float, ratio: float, cands: list[Candidate], key: str, m_cross: float, m_eff: float,
@@ -603,12 +608,11 @@ def match_modes(
             f"{len(alts) + 1} modes pass the housing criteria: chose {best.natural_freq:.1f} Hz "
             f"(closest effective modal mass) over {fs} Hz"
         )
-    for c in cands:
-        if c.index != hi_idx and c.polarity_suspect and c.model_modal_mass is not None:
-            warns.append(
-                f"{c.natural_freq:.1f} Hz would be a clean radial translation with {c.polarity_suspect} "
-                f"reversed: check the polarity of {c.polarity_suspect}"
-            )
+    # another mode that would be a clean radial translation with one sensor flipped (its
+    # ``polarity_suspect``, kept in the candidates) is no caveat here: the chosen housing mode moves
+    # every radial housing sensor in phase (``min_phase_cos``), which a reversed sensor would not; such
+    # a mode is a shape of its own (an ovalisation-like mode: the driving point against the other two
+    # radial sensors; r_truth12's second housing mode, seed 46, warned "check the polarity of 11+Y")
     part = tuple(float(c.participation or 0.0) for c in cands)
     f_h, z_h = best.natural_freq, best.damping_ratio
     neigh = tuple(

@@ -99,6 +99,7 @@ from .matched_mode import MatchedMode
 from .matching import MATCH_CRITERIA, MatchResult, match_modes
 from .uncertainty import (
     DEFAULT_REL_UNCERTAINTY,
+    MASS_WARN_RATIO,
     StiffnessUncertainty,
     assess_housing_mode,
     defaults_note,
@@ -369,6 +370,10 @@ class StiffnessResult:
         ``m_H`` measured from the driving-point modal mass with its std, the rig file's, and which
         the inversion used (:class:`ema_rig.rig.fit.HousingMass`); None without a clean housing
         mode at a radial driving point.
+    damping_partners : tuple of int
+        Indices (in ``identification.modes``) of the modes whose damping ``c_TB`` reads together with
+        the housing mode's (their damping trace): the strongly mixed pair's partner, or the modes
+        sharing the radial housing motion; empty where the housing mode is read alone.
     """
 
     k_TB: float
@@ -398,6 +403,7 @@ class StiffnessResult:
     inversion_3dof: dict[str, float] | None = None
     rigid_body: HousingRigidBody | None = None
     housing_mass: HousingMass | None = None
+    damping_partners: tuple[int, ...] = ()
 
     @property
     def c_TB(self) -> float:
@@ -480,7 +486,17 @@ class StiffnessResult:
             "inversion_3dof": None if self.inversion_3dof is None else dict(self.inversion_3dof),
             "housing_rigid_body": None if self.rigid_body is None else self.rigid_body.to_dict(),
             "housing_mass": None if self.housing_mass is None else self.housing_mass.to_dict(),
+            "mixed_partner": self._mode_entry(self.match.mixed_partner),
+            "c_TB_partners": [self._mode_entry(i) for i in self.damping_partners],
         }
+
+    def _mode_entry(self, index: int | None) -> dict[str, Any] | None:
+        """``{index, natural_freq [Hz], damping_ratio}`` of identified mode ``index`` (None when absent)."""
+        if index is None or self.identification is None:
+            return None
+        modes = self.identification.modes
+        return {"index": int(index), "natural_freq": float(modes.natural_freq[index]),
+                "damping_ratio": float(modes.damping_ratio[index])}
 
 
 def _damping_keys(d: Any) -> dict[str, Any]:
@@ -693,11 +709,20 @@ def estimate_stiffness(
     rigid = _rigid_body(m, asm, params, rel_unc, ident.modes, rig)
     hm_damp = hm_std
     pair_note: tuple[str, ...] = ()
-    if m.mixed_partner is not None and asm.cross_axis is not None:
-        hm_damp = _uncoupled_pole(hm_std, ident, m.mixed_partner, asm.cross_axis.uncoupled_freq)
-        pair_note = (f"bearing damping read from the mixed pair: the uncoupled housing mode's damping ratio at most "
-                     f"{100 * hm_damp.damping_ratio:.2f} % from both modes' (the mixed mode's own "
-                     f"{100 * hm_std.damping_ratio:.2f} %)",)
+    group = _damping_group(m, asm, ident.modes.natural_freq)
+    if group:
+        cross = asm.cross_axis
+        mixed = cross is not None
+        hm_damp, trace = _uncoupled_pole(hm_std, ident, group, f_h if cross is None else cross.uncoupled_freq,
+                                         mixing=None if cross is None else (cross.mixing, cross.mixing_std))
+        fs = ", ".join(f"{float(ident.modes.natural_freq[i]):.1f}" for i in group)
+        how = ("their damping trace" if cross is None or trace is None else
+               f"the pair's damping split by its mixing {100 * cross.mixing:.0f} % (their damping trace, "
+               f"{100 * trace:.2f} %, bounds it)")
+        pair_note = (f"bearing damping read from the {'pair coupled through the bearing' if mixed else 'modes sharing the radial housing motion'}"
+                     f" (with {fs} Hz): the uncoupled housing mode's damping ratio "
+                     f"{100 * hm_damp.damping_ratio:.2f} % from {how}; the housing mode's own "
+                     f"{100 * hm_std.damping_ratio:.2f} %",)
     damping = _bearing_damping(hm_damp, params, rel_unc, k_ms_std, damping_model, asm.damping_location)
     return StiffnessResult(
         k_TB=k_tb,
@@ -730,6 +755,7 @@ def estimate_stiffness(
         inversion_3dof=inv3,
         rigid_body=rigid,
         housing_mass=hmass,
+        damping_partners=group,
     )
 
 
@@ -790,38 +816,113 @@ def _plain_inversion(f0: float, params: Any) -> dict[str, float] | None:
         return None
 
 
-def _uncoupled_pole(hm: MatchedMode, ident: Any, partner: int, f_u: float) -> MatchedMode:
-    """The radial housing mode of a strongly mixed pair, as the bearing's damping reads it.
+def _damping_group(m: MatchResult, asm: Any, freqs: Any) -> tuple[int, ...]:
+    """The identified modes that share the housing's radial motion, and with it the bearing's damping.
 
-    In mass-normalised coordinates the pair's damping matrix is the uncoupled one (housing
-    ``2 zeta_h w_h``, cross-axis motion ``c_p >= 0``) turned by the mixing angle; its trace is
-    kept: ``2 zeta_1 w_1 + 2 zeta_2 w_2 = 2 zeta_h w_h + c_p``. So ``(zeta_1 f_1 + zeta_2 f_2) / f_u``
-    bounds the uncoupled housing mode's damping ratio from above (exact for an undamped cross-axis
-    motion), where the mixed mode's own ``zeta_1`` holds only its share of the housing's damping.
+    The strongly mixed pair's partner (``m.mixed_partner``) or the cross-axis partner of a corrected
+    bearing cross coupling (``asm.cross_axis``: the identified mode nearest its frequency); else the
+    modes the assessment found to
+    share the radial housing motion (``asm.sharing``: a part on its own spring fitted with the housing,
+    or the split-mass group); else, where the housing mode's effective modal mass exceeds the model's by
+    more than :data:`~ema_rig.rig.uncertainty.MASS_WARN_RATIO` (``asm.mass_ratio``: the mode holds only
+    part of the housing's participation, so only part of the bearing's damping), its alternatives and
+    close neighbours that move the radial housing sensors (``m.alternatives``, ``m.neighbours``); else
+    none (the housing mode holds all of it).
+
+    Parameters
+    ----------
+    m : MatchResult
+        The matching (partner, alternatives, neighbours: indices into the identified modes).
+    asm : Assessment
+        The housing mode's assessment (``cross_axis``, ``sharing``, ``mass_ratio``).
+    freqs : array_like
+        The identified modes' natural frequencies [Hz].
+
+    Returns
+    -------
+    tuple of int
+        Indices of the partners in the identified modes, sorted; empty when the mode is read alone.
+    """
+    if m.mixed_partner is not None:
+        return (int(m.mixed_partner),)
+    cross = getattr(asm, "cross_axis", None)
+    if cross is not None and len(freqs):
+        return (min(range(len(freqs)), key=lambda i: abs(float(freqs[i]) - float(cross.partner_freq))),)
+    group = set(getattr(asm, "sharing", ()) or ())
+    ratio = getattr(asm, "mass_ratio", None)
+    if not group and ratio is not None and math.isfinite(float(ratio)) and float(ratio) > MASS_WARN_RATIO:
+        group = {int(i) for i in (*m.alternatives, *m.neighbours)}
+    return tuple(sorted(group - {int(m.housing_index)}))
+
+
+def _uncoupled_pole(hm: MatchedMode, ident: Any, partners: tuple[int, ...], f_u: float, *,
+                    mixing: tuple[float, float] | None = None) -> tuple[MatchedMode, float | None]:
+    """The radial housing mode shared with other modes, as the bearing's damping reads it.
+
+    In mass-normalised coordinates the group's damping matrix is the uncoupled one (housing
+    ``2 zeta_h w_h``, the partners' own motions ``c_p >= 0``) turned by the mixing; its trace is
+    kept: ``sum_i 2 zeta_i w_i = 2 zeta_h w_h + sum_p c_p``. So ``sum_i zeta_i f_i / f_u`` bounds the
+    uncoupled housing mode's damping ratio from above (exact for undamped partners), where the housing
+    mode's own ``zeta_1`` holds only its share of the housing's damping: a strongly mixed pair (the
+    housing's lateral motion), or a frame part / appendage that shares the radial housing motion.
+
+    Where the pair's mixing ``t^2 = tan^2(theta)`` is measured (a cross-axis pair: two independent
+    amplitude ratios), the diagonal of the turned matrix splits it: ``zeta_1 f_1 = cos^2 a + sin^2 b``,
+    ``zeta_2 f_2 = sin^2 a + cos^2 b`` (``a = zeta_h f_u``, ``b`` the partner's own), so
+    ``a = (zeta_1 f_1 - t^2 zeta_2 f_2) / (1 - t^2)``, at most the trace (``b >= 0``). It is first order
+    in the damping: the turned matrix's off-diagonal ``beta = sin cos (a - b)`` couples the two close
+    poles, which moves each one's damping by ``beta^2 (d_1 - d_2) / ((f_2 - f_1)^2 + (d_1 - d_2)^2)``
+    (``d_i = zeta_i f_i``; the second-order term of the pair's 2x2 eigenvalues): that term, times
+    ``(1 + t^2) / (1 - t^2)``, is a std of the split beside the modes' and the mixing's.
 
     Parameters
     ----------
     hm : MatchedMode
         The identified housing mode (frequency [Hz], damping ratio and their stds).
     ident : Identification
-        The identification holding the partner (``modes``, ``damping_ratio_std``).
-    partner : int
-        The partner's index in ``ident.modes``.
+        The identification holding the partners (``modes``, ``damping_ratio_std``).
+    partners : tuple of int
+        The partners' indices in ``ident.modes``.
     f_u : float
-        The pair's uncoupled housing frequency [Hz].
+        The group's uncoupled housing frequency [Hz].
+    mixing : (float, float), optional
+        The pair's measured mixing ``t^2`` and its std (one partner only); None: the trace.
 
     Returns
     -------
     MatchedMode
-        ``hm`` at ``f_u`` with that damping ratio and its std (both modes' stds, independent).
+        ``hm`` at ``f_u`` with that damping ratio and its std (every mode's std, the mixing's and the
+        split's second-order term, independent).
+    float or None
+        The trace's damping ratio (the bound) where the pair was split; else None.
     """
     f1, z1 = float(hm["natural_freq"]), float(hm["damping_ratio"])
-    f2, z2 = float(ident.modes.natural_freq[partner]), float(ident.modes.damping_ratio[partner])
-    arr = getattr(ident, "damping_ratio_std", None)
     s1 = float(hm.get("damping_ratio_std") or 0.0)
-    s2 = float(arr[partner]) if arr is not None and math.isfinite(float(arr[partner])) else 0.0
-    return hm.with_entries(natural_freq=f_u, damping_ratio=(z1 * f1 + z2 * f2) / f_u,
-                           damping_ratio_std=math.hypot(f1 * s1, f2 * s2) / f_u)
+    arr = getattr(ident, "damping_ratio_std", None)
+    rows = [(f1, z1, s1)]
+    for j in partners:
+        s2 = float(arr[j]) if arr is not None and math.isfinite(float(arr[j])) else 0.0
+        rows.append((float(ident.modes.natural_freq[j]), float(ident.modes.damping_ratio[j]), s2))
+    trace = sum(f * z for f, z, _ in rows)
+    trace_std = math.sqrt(sum((f * s) ** 2 for f, _, s in rows))
+    t2, u2 = (math.nan, math.nan) if mixing is None else (float(mixing[0]), float(mixing[1]))
+    if len(rows) == 2 and 0.0 <= t2 < 1.0:
+        (fa, za, sa), (fb, zb, sb) = rows
+        split = (za * fa - t2 * zb * fb) / (1.0 - t2)
+        if 0.0 < split <= trace:
+            du = (za * fa - zb * fb) / (1.0 - t2) ** 2 * (u2 if math.isfinite(u2) else 0.0)
+            # the dropped coupling: the turned matrix's off-diagonal beta = sin cos (a - b) moves each
+            # mode's damping by beta^2 (d_1 - d_2) / (df^2 + (d_1 - d_2)^2) at second order (the pair's
+            # 2x2 eigenvalues, d_i = zeta_i f_i, df = f_2 - f_1), the split by (1 + t^2) / (1 - t^2) that
+            part = (zb * fb - t2 * za * fa) / (1.0 - t2)  # b, the partner's own
+            beta2 = t2 / (1.0 + t2) ** 2 * (split - part) ** 2
+            dd = za * fa - zb * fb
+            den = (fb - fa) ** 2 + dd**2
+            second = beta2 * abs(dd) / den * (1.0 + t2) / (1.0 - t2) if den > 0 else math.inf
+            std = math.sqrt((fa * sa / (1.0 - t2)) ** 2 + (t2 * fb * sb / (1.0 - t2)) ** 2 + du**2 + second**2)
+            return (hm.with_entries(natural_freq=f_u, damping_ratio=split / f_u, damping_ratio_std=std / f_u),
+                    trace / f_u)
+    return hm.with_entries(natural_freq=f_u, damping_ratio=trace / f_u, damping_ratio_std=trace_std / f_u), None
 
 
 def _bearing_damping(hm: Mapping[str, Any], params: Any, rel_unc: dict[str, float], k_ms_std: float | None,
