@@ -97,8 +97,8 @@ if TYPE_CHECKING:
     from matplotlib.axis import Axis
     from matplotlib.figure import Figure
 
-__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "kept_figure", "palette_indices", "render_png", "reuse_axes",
-           "semilogy", "warm_up"]
+__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "gc_paused", "kept_figure", "palette_indices", "render_png",
+           "reuse_axes", "semilogy", "warm_up"]
 
 #: zlib level of :func:`render_png`'s PNG data. Level 3 against zlib's default 6, the bundled demo's 63
 #: figures encoded at each (``benchmarks/results/demo.txt``, 2026-12-07 x_fig8): 57 palette figures 145
@@ -141,13 +141,13 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
         The PNG image, the same pixels ``fig.savefig(format="png", dpi=dpi)`` gives (before the
         palette).
     """
-    with _gc_paused():
+    with gc_paused():
         return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout,
                            compress_level=compress_level)
 
 
 @contextlib.contextmanager
-def _gc_paused() -> Iterator[None]:
+def gc_paused() -> Iterator[None]:
     """Python's cyclic garbage collector held off for the block (as it was before, afterwards).
 
     Drawing a report figure allocates tens of thousands of short-lived objects (transforms, paths,
@@ -676,7 +676,7 @@ def warm_up(dpi: float) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    with _gc_paused():
+    with gc_paused():
         fig = Figure(figsize=(2.0, 1.5), dpi=dpi)
         ax = fig.add_subplot()
         semilogy(ax, [1.0, 2.0], [1.0, 1e3], label="a")  # mathtext tick labels: the grammar
