@@ -97,8 +97,8 @@ if TYPE_CHECKING:
     from matplotlib.axis import Axis
     from matplotlib.figure import Figure
 
-__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "gc_paused", "kept_figure", "palette_indices", "render_png",
-           "reuse_axes", "semilogy", "warm_up"]
+__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "gc_paused", "kept_figure", "palette_indices", "plot_line",
+           "render_png", "reuse_axes", "semilogy", "warm_up"]
 
 #: zlib level of :func:`render_png`'s PNG data. Level 3 against zlib's default 6, the bundled demo's 63
 #: figures encoded at each (``benchmarks/results/demo.txt``, 2026-12-07 x_fig8): 57 palette figures 145
@@ -744,9 +744,13 @@ def reuse_axes(fig: Figure, signature: str) -> list[Axes] | None:
         fig.set_label(signature)
         return None
     for ax in fig.axes:
+        # the data lines drawn by :func:`semilogy` and :func:`plot_line`, as they were made: taken
+        # again (new data only) by the next call with the same style (:func:`_spare_line`)
+        spare = [ln for ln in ax.lines if ln.__dict__.get("_ema_rig_made") == _line_state(ln)]
         for group in (ax.lines, ax.collections, ax.patches, ax.texts, ax.images, ax.artists, ax.tables):
             for child in list(group):
                 child.remove()
+        ax._ema_rig_spare = spare
         if ax.legend_ is not None:
             ax.legend_.remove()
         ax.containers.clear()
@@ -784,10 +788,74 @@ def semilogy(ax: Axes, *args: Any, **kwargs: Any) -> list[Any]:
     y = ax.yaxis
     if (ax.get_yscale() == "log" and y.isDefault_majloc and y.isDefault_minloc and y.isDefault_majfmt
             and y.isDefault_minfmt and getattr(y.get_transform(), "base", None) == 10):
-        lines: list[Any] = ax.plot(*args, **kwargs)
-        return lines
+        return plot_line(ax, *args, **kwargs)
     made: list[Any] = ax.semilogy(*args, **kwargs)
     return made
+
+
+#: The properties of a line the plot functions set (``Axes.plot`` keywords) or that a drawing reads
+#: and a caller might change afterwards: a kept line is taken again only when they are as made.
+_LINE_STATE = ("color", "linewidth", "linestyle", "dashes", "drawstyle", "marker", "markersize", "markeredgewidth",
+               "markeredgecolor", "markerfacecolor", "markerfacecoloralt", "fillstyle", "markevery", "alpha",
+               "zorder", "label", "visible", "clip_on", "antialiased", "solid_capstyle", "solid_joinstyle",
+               "dash_capstyle", "dash_joinstyle", "gapcolor", "path_effects", "sketch_params", "snap",
+               "rasterized", "agg_filter", "gid", "url", "picker", "pickradius", "in_layout", "animated")
+
+
+def _line_state(line: Any) -> tuple[Any, ...]:
+    """What of ``line`` a kept one must still have to be taken again (:data:`_LINE_STATE`, its transform, clip).
+
+    The clip box only as there or not: ``set_clip_path`` makes a new one each time (the axes patch's
+    transform composed anew), the same box.
+    """
+    dashes = line._unscaled_dash_pattern  # the on/off sequence "dashes" sets and "linestyle" names
+    return (*(repr(getattr(line, f"get_{k}")()) if k != "dashes" else repr(dashes) for k in _LINE_STATE),
+            id(line.get_transform()), id(line.get_clip_path()), line.get_clip_box() is None)
+
+
+def plot_line(ax: Axes, x: Any, y: Any, **style: Any) -> list[Any]:
+    """``ax.plot(x, y, **style)`` for one line with its colour given, taking a line of a kept figure again.
+
+    The axes of a kept figure (:func:`reuse_axes`) keep the data lines they had, as made: the first
+    one made with the same ``style`` (its label aside) that nothing changed since is given ``x``,
+    ``y`` (``set_data``) and the label and added back where ``Axes.plot`` would add a new one (data limits, autoscale
+    request), instead of building a new ``Line2D`` through ``Axes.plot``'s argument parsing: the
+    same artist, the same pixels (``tests/test_plot_reuse.py``). Lines taken again come back in the
+    order they were made, so the axes' children are in the order ``Axes.plot`` gives. With no colour
+    given ``Axes.plot`` is called (it takes one from the property cycle).
+
+    Parameters
+    ----------
+    ax : Axes
+    x, y : array_like, shape (n,)
+        Data coordinates.
+    **style
+        ``Axes.plot`` keywords; must include ``color``.
+
+    Returns
+    -------
+    list of Line2D
+        One line, as ``Axes.plot``.
+    """
+    key = repr(sorted((k, v) for k, v in style.items() if k != "label"))
+    spare: list[Any] = ax.__dict__.get("_ema_rig_spare") or []
+    line = next((ln for ln in spare if ln.__dict__.get("_ema_rig_style") == key), None) if "color" in style else None
+    if line is None:
+        made: list[Any] = ax.plot(x, y, **style)
+        if "color" in style and len(made) == 1:
+            made[0]._ema_rig_style = key
+            made[0]._ema_rig_made = _line_state(made[0])
+        return made
+    spare.remove(line)
+    label = style.get("label")
+    if label is not None and str(label) != line.get_label():  # None: the "_child<n>" label add_line gave it
+        line.set_label(label)
+        line._ema_rig_made = _line_state(line)
+    line.set_data(np.asarray(x), np.asarray(y))
+    ax.add_line(line)
+    ax._request_autoscale_view("x")
+    ax._request_autoscale_view("y")
+    return [line]
 
 
 def collapse_minor_ticks(fig: Figure) -> int:
