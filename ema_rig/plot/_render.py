@@ -210,7 +210,7 @@ def _draw(fig: Figure, canvas: Any, reuse_layout: bool) -> None:
         fig.set_layout_engine("none")
     # the minor ticks where the axes are drawn: a log axis' locator asks how much room it has
     collapse_minor_ticks(fig)
-    with _axes_replayed(fig):
+    with _axes_replayed(fig), _legend_boxes_once(fig):
         canvas.draw()
     if constrained:
         fig.set_layout_engine(engine)  # switched off for this draw only: laid out again if drawn again
@@ -1203,6 +1203,56 @@ def _ticks_once(axis: Any) -> Iterator[None]:
         yield
     finally:
         del axis._update_ticks, axis._get_ticklabel_bboxes
+
+
+@contextlib.contextmanager
+def _legend_boxes_once(fig: Figure) -> Iterator[None]:
+    """The boxes of every legend of ``fig`` worked out once within the block (a draw of a finished figure).
+
+    A legend is a tree of offset boxes (a packer of columns, each a packer of rows, each a packer
+    of a handle's drawing area and a text area), and matplotlib works out the size of every box of
+    it from its children's at each level of the draw: the legend's extent first (the whole tree),
+    then each box again when it is drawn (its own subtree), a text's size as often as it has
+    ancestors. Within the block the second time takes the first's, per renderer: nothing a box's
+    size reads (texts, handle sizes, pads in points, dpi) changes during a draw, only where the
+    boxes are put (their offsets, not part of a size). The same numbers, so the same pixels
+    (``tests/test_plot_render.py``).
+    """
+    from matplotlib.offsetbox import OffsetBox
+
+    patched: list[tuple[Any, str]] = []
+
+    def once(box: Any, name: str) -> None:
+        own = getattr(box, name)
+        memo: dict[int, Any] = {}
+
+        def call(renderer: Any) -> Any:
+            key = id(renderer)
+            if key not in memo:
+                memo[key] = own(renderer)
+            return memo[key]
+
+        setattr(box, name, call)
+        patched.append((box, name))
+
+    def walk(box: Any) -> None:
+        if not isinstance(box, OffsetBox):
+            return
+        once(box, "get_bbox")
+        if type(box)._get_bbox_and_child_offsets is not OffsetBox._get_bbox_and_child_offsets:
+            once(box, "_get_bbox_and_child_offsets")
+        for child in box.get_children():
+            walk(child)
+
+    legends = [*(ax.get_legend() for ax in fig.axes), *fig.legends]
+    for leg in legends:
+        if leg is not None and isinstance(getattr(leg, "_legend_box", None), OffsetBox):
+            walk(leg._legend_box)
+    try:
+        yield
+    finally:
+        for box, name in patched:
+            del box.__dict__[name]
 
 
 # ----------------------------------------------------------------------------- layout reuse
