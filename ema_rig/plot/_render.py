@@ -197,6 +197,8 @@ def _draw(fig: Figure, canvas: Any, reuse_layout: bool) -> None:
     """Lay ``fig`` out (or take a kept layout) and draw it on ``canvas`` (:func:`render_png`)."""
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
+    for ax in fig.axes:  # the kept lines not taken again (:func:`plot_line`): the figure is finished
+        ax.__dict__.pop("_ema_rig_spare", None)
     engine = fig.get_layout_engine()
     constrained = isinstance(engine, ConstrainedLayoutEngine)
     reused = constrained and reuse_layout and _reuse_layout(fig)
@@ -821,8 +823,9 @@ def plot_line(ax: Axes, x: Any, y: Any, **style: Any) -> list[Any]:
     ``y`` (``set_data``) and the label and added back where ``Axes.plot`` would add a new one (data limits, autoscale
     request), instead of building a new ``Line2D`` through ``Axes.plot``'s argument parsing: the
     same artist, the same pixels (``tests/test_plot_reuse.py``). Lines taken again come back in the
-    order they were made, so the axes' children are in the order ``Axes.plot`` gives. With no colour
-    given ``Axes.plot`` is called (it takes one from the property cycle).
+    order they were made, so the axes' children are in the order ``Axes.plot`` gives. Kept lines not
+    taken again are dropped when the figure is rendered (:func:`render_png`). With no colour given
+    ``Axes.plot`` is called (it takes one from the property cycle).
 
     Parameters
     ----------
