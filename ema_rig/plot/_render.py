@@ -752,7 +752,7 @@ def reuse_axes(fig: Figure, signature: str) -> list[Axes] | None:
         for group in (ax.lines, ax.collections, ax.patches, ax.texts, ax.images, ax.artists, ax.tables):
             for child in list(group):
                 child.remove()
-        ax._ema_rig_spare = spare
+        ax.__dict__["_ema_rig_spare"] = spare
         if ax.legend_ is not None:
             ax.legend_.remove()
         ax.containers.clear()
@@ -856,8 +856,9 @@ def plot_line(ax: Axes, x: Any, y: Any, **style: Any) -> list[Any]:
         line._ema_rig_made = _line_state(line)
     line.set_data(np.asarray(x), np.asarray(y))
     ax.add_line(line)
-    ax._request_autoscale_view("x")
-    ax._request_autoscale_view("y")
+    axes: Any = ax  # as Axes.plot does after adding its lines (private)
+    axes._request_autoscale_view("x")
+    axes._request_autoscale_view("y")
     return [line]
 
 
@@ -1242,15 +1243,17 @@ def _legend_boxes_once(fig: Figure) -> Iterator[None]:
         if not isinstance(box, OffsetBox):
             return
         once(box, "get_bbox")
-        if type(box)._get_bbox_and_child_offsets is not OffsetBox._get_bbox_and_child_offsets:
-            once(box, "_get_bbox_and_child_offsets")
+        name = "_get_bbox_and_child_offsets"  # private: untyped
+        if getattr(type(box), name) is not getattr(OffsetBox, name):
+            once(box, name)
         for child in box.get_children():
             walk(child)
 
     legends = [*(ax.get_legend() for ax in fig.axes), *fig.legends]
     for leg in legends:
-        if leg is not None and isinstance(getattr(leg, "_legend_box", None), OffsetBox):
-            walk(leg._legend_box)
+        box = getattr(leg, "_legend_box", None)  # private: untyped
+        if isinstance(box, OffsetBox):
+            walk(box)
     try:
         yield
     finally:
