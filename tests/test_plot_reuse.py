@@ -32,17 +32,22 @@ def _in_new_thread(fn):
     return out[0]
 
 
-def test_a_reused_figure_draws_what_a_new_one_draws(tmp_path: Path, rig_toml_text: str) -> None:
-    # two measurements far apart in k_TB (housing mode, limits, tick labels, titles all differ);
-    # oracle: matplotlib drawing the second measurement on figures built for it alone
+def _two_measurements(tmp_path: Path, rig_toml_text: str):
+    """Two simulated measurements far apart in k_TB, and a function drawing a measurement's figures."""
     d = simulated_6302_campaign(tmp_path, rig_toml_text, {"a300": 4.0e7, "b900": 9.0e7}, seed=41)
     cfg = load_campaign(d / "campaign.toml")
-    first, second = cfg.measurements
     row = {"status": "ok"}
 
     def draw(m):
         return measurement_figures(m, row, cfg, k_ms=cfg.rig.model.k_MS, k_ms_std=None)
 
+    return cfg.measurements, draw
+
+
+def test_a_reused_figure_draws_what_a_new_one_draws(tmp_path: Path, rig_toml_text: str) -> None:
+    # two measurements far apart in k_TB (housing mode, limits, tick labels, titles all differ);
+    # oracle: matplotlib drawing the second measurement on figures built for it alone
+    (first, second), draw = _two_measurements(tmp_path, rig_toml_text)
     reused = _in_new_thread(lambda: (draw(first), draw(second))[1])  # on the figures of the first
     fresh = _in_new_thread(lambda: draw(second))
     assert set(reused.png) == set(fresh.png) == {"stabilization", "model", "synthesis"}
@@ -66,14 +71,7 @@ def test_figures_of_a_measurement_drawn_again_after_another_are_the_same_bytes(t
     # A, B, A in one worker (kept figures, kept lines, kept layouts, replayed axes, glyph caches):
     # nothing of B may be left in A's second drawing. Oracle: A's first drawing, byte for byte
     # (the PNG encoding is deterministic: the same pixels and palette give the same bytes)
-    d = simulated_6302_campaign(tmp_path, rig_toml_text, {"a300": 4.0e7, "b900": 9.0e7}, seed=41)
-    cfg = load_campaign(d / "campaign.toml")
-    a, b = cfg.measurements
-    row = {"status": "ok"}
-
-    def draw(m):
-        return measurement_figures(m, row, cfg, k_ms=cfg.rig.model.k_MS, k_ms_std=None)
-
+    (a, b), draw = _two_measurements(tmp_path, rig_toml_text)
     first, middle, again = _in_new_thread(lambda: (draw(a), draw(b), draw(a)))
     assert set(first.png) == set(again.png) == {"stabilization", "model", "synthesis"}
     for kind in first.png:
