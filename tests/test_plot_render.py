@@ -678,3 +678,39 @@ def test_a_layout_with_ticks_worked_out_once_per_pass_places_the_axes_as_matplot
     render_png(_squeezed(), dpi=100, colors=None, reuse_layout=False)
     mpl_own, memo = counts
     assert memo <= mpl_own // 4  # measured: 8 updates (4 axes, 2 passes) against 52
+
+
+def test_legend_boxes_worked_out_once_per_draw_are_the_pixels_matplotlib_draws():
+    # a legend of two columns with a title, lines, markers and a patch, in a figure drawn by Agg:
+    # oracle matplotlib's own draw of the same figure on a plain Agg canvas (same size, dpi)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from ema_rig.plot._render import _legend_boxes_once
+
+    def figure(label: str):
+        fig = Figure(figsize=(4.0, 3.0), dpi=80)
+        ax = fig.add_subplot()
+        ax.plot([0, 1], [0, 1], color="k", lw=1.0, label="measured")
+        ax.plot([0, 1], [1, 0], ls="none", marker="o", color="C3", label=label)
+        ax.axvspan(0.2, 0.4, alpha=0.3, label="band")
+        ax.legend(ncols=2, title="legend title", loc="upper center", fontsize=8, framealpha=0.9)
+        return fig
+
+    def pixels(fig, once: bool) -> np.ndarray:
+        canvas = FigureCanvasAgg(fig)
+        if once:
+            with _legend_boxes_once(fig):
+                canvas.draw()
+        else:
+            canvas.draw()
+        return np.asarray(canvas.buffer_rgba()).copy()
+
+    fig = figure("poles (12)")
+    assert np.array_equal(pixels(fig, True), pixels(figure("poles (12)"), False))
+    # nothing kept past the draw: a legend entry made longer is measured again
+    fig.axes[0].get_legend().get_texts()[1].set_text("poles of a much longer label (1234)")
+    wider = figure("poles of a much longer label (1234)")
+    assert np.array_equal(pixels(fig, True), pixels(wider, False))
+    box = fig.axes[0].get_legend()._legend_box
+    assert "get_bbox" not in box.__dict__ and "_get_bbox_and_child_offsets" not in box.__dict__

@@ -32,17 +32,22 @@ def _in_new_thread(fn):
     return out[0]
 
 
-def test_a_reused_figure_draws_what_a_new_one_draws(tmp_path: Path, rig_toml_text: str) -> None:
-    # two measurements far apart in k_TB (housing mode, limits, tick labels, titles all differ);
-    # oracle: matplotlib drawing the second measurement on figures built for it alone
+def _two_measurements(tmp_path: Path, rig_toml_text: str):
+    """Two simulated measurements far apart in k_TB, and a function drawing a measurement's figures."""
     d = simulated_6302_campaign(tmp_path, rig_toml_text, {"a300": 4.0e7, "b900": 9.0e7}, seed=41)
     cfg = load_campaign(d / "campaign.toml")
-    first, second = cfg.measurements
     row = {"status": "ok"}
 
     def draw(m):
         return measurement_figures(m, row, cfg, k_ms=cfg.rig.model.k_MS, k_ms_std=None)
 
+    return cfg.measurements, draw
+
+
+def test_a_reused_figure_draws_what_a_new_one_draws(tmp_path: Path, rig_toml_text: str) -> None:
+    # two measurements far apart in k_TB (housing mode, limits, tick labels, titles all differ);
+    # oracle: matplotlib drawing the second measurement on figures built for it alone
+    (first, second), draw = _two_measurements(tmp_path, rig_toml_text)
     reused = _in_new_thread(lambda: (draw(first), draw(second))[1])  # on the figures of the first
     fresh = _in_new_thread(lambda: draw(second))
     assert set(reused.png) == set(fresh.png) == {"stabilization", "model", "synthesis"}
@@ -59,3 +64,39 @@ def test_a_reused_figure_draws_what_a_new_one_draws(tmp_path: Path, rig_toml_tex
     # and the premise: the two measurements' figures differ
     first_only = _in_new_thread(lambda: draw(first))
     assert any((np.abs(_pixels(first_only.png[k]) - _pixels(fresh.png[k])) > 16).sum() > 1000 for k in fresh.png)
+
+
+def test_figures_of_a_measurement_drawn_again_after_another_are_the_same_bytes(tmp_path: Path,
+                                                                             rig_toml_text: str) -> None:
+    # A, B, A in one worker (kept figures, kept lines, kept layouts, replayed axes, glyph caches):
+    # nothing of B may be left in A's second drawing. Oracle: A's first drawing, byte for byte
+    # (the PNG encoding is deterministic: the same pixels and palette give the same bytes)
+    (a, b), draw = _two_measurements(tmp_path, rig_toml_text)
+    first, middle, again = _in_new_thread(lambda: (draw(a), draw(b), draw(a)))
+    assert set(first.png) == set(again.png) == {"stabilization", "model", "synthesis"}
+    for kind in first.png:
+        assert first.png[kind] == again.png[kind], kind
+        assert middle.png[kind] != first.png[kind], kind  # the premise: B's figures are other pictures
+
+
+def test_a_kept_line_changed_after_it_was_drawn_is_not_taken_again() -> None:
+    # plot_line takes a kept axes' line again only as it was made: one a caller changed afterwards
+    # (colour, width, visibility) is dropped and a new one made with the style asked for
+    from matplotlib.figure import Figure
+
+    from ema_rig.plot._render import plot_line, reuse_axes
+
+    fig = Figure(figsize=(3, 2))
+    assert reuse_axes(fig, "ema_rig.test") is None
+    ax = fig.add_subplot()
+    (kept,) = plot_line(ax, [0.0, 1.0], [0.0, 1.0], color="k", lw=1.0)
+    (changed,) = plot_line(ax, [0.0, 1.0], [1.0, 0.0], color="k", lw=0.5)
+    changed.set_color("r")
+    assert reuse_axes(fig, "ema_rig.test") == [ax]
+    (again,) = plot_line(ax, [0.0, 2.0], [0.0, 3.0], color="k", lw=1.0)
+    (other,) = plot_line(ax, [0.0, 2.0], [3.0, 0.0], color="k", lw=0.5)
+    assert again is kept and other is not changed
+    assert other.get_color() == "k" and list(ax.lines) == [again, other]
+    assert np.array_equal(again.get_xdata(), [0.0, 2.0]) and np.array_equal(again.get_ydata(), [0.0, 3.0])
+    ax.autoscale_view()
+    assert ax.get_ylim()[1] >= 3.0  # the data limits and autoscale took the new data in

@@ -134,7 +134,7 @@ def measurement_figures(
     """
     from ..identification import identify
     from ..io.uff import read_uff58
-    from ..plot._render import kept_figure
+    from ..plot._render import gc_paused, kept_figure
     from ..plot.rig import plot_rig_fit
     from ..plot.stabilization import plot_stabilization
     from ..plot.synthesis import plot_synthesis
@@ -193,11 +193,14 @@ def measurement_figures(
             data, ident.modes, channels=channels, phase=True,
             figure=kept_figure("synthesis", (_SIZE[0], 1.0 + 3.0 * n_rows)), dpi=DPI,
             title=f"{plain(m.id)}: measured vs synthesised FRFs, {lo:.0f}–{hi:.0f} Hz").figure
-    for kind, draw in drawers.items():
-        try:
-            png[kind] = png_bytes(draw())
-        except (ValueError, KeyError, EmaRigError) as exc:  # a figure that cannot be drawn: said, not hidden
-            warns.append(f"{kind} figure not drawn: {exc}")
+    # the collector held off while building the figures too, as while rendering them (gc_paused):
+    # its passes would walk the worker's long-lived objects (caches, kept figures) again and again
+    with gc_paused():
+        for kind, draw in drawers.items():
+            try:
+                png[kind] = png_bytes(draw())
+            except (ValueError, KeyError, EmaRigError) as exc:  # a figure that cannot be drawn: said, not hidden
+                warns.append(f"{kind} figure not drawn: {exc}")
     return MeasurementFigures(png, tuple(warns), cands)
 
 

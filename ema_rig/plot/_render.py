@@ -97,8 +97,8 @@ if TYPE_CHECKING:
     from matplotlib.axis import Axis
     from matplotlib.figure import Figure
 
-__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "kept_figure", "palette_indices", "render_png", "reuse_axes",
-           "semilogy", "warm_up"]
+__all__ = ["PNG_LEVEL", "collapse_minor_ticks", "fixed_layout", "gc_paused", "kept_figure", "palette_indices", "plot_line",
+           "render_png", "reuse_axes", "semilogy", "warm_up"]
 
 #: zlib level of :func:`render_png`'s PNG data. Level 3 against zlib's default 6, the bundled demo's 63
 #: figures encoded at each (``benchmarks/results/demo.txt``, 2026-12-07 x_fig8): 57 palette figures 145
@@ -141,13 +141,13 @@ def render_png(fig: Figure, *, dpi: float, colors: int | None = 128, optimize: b
         The PNG image, the same pixels ``fig.savefig(format="png", dpi=dpi)`` gives (before the
         palette).
     """
-    with _gc_paused():
+    with gc_paused():
         return _render_png(fig, dpi=dpi, colors=colors, optimize=optimize, reuse_layout=reuse_layout,
                            compress_level=compress_level)
 
 
 @contextlib.contextmanager
-def _gc_paused() -> Iterator[None]:
+def gc_paused() -> Iterator[None]:
     """Python's cyclic garbage collector held off for the block (as it was before, afterwards).
 
     Drawing a report figure allocates tens of thousands of short-lived objects (transforms, paths,
@@ -197,6 +197,8 @@ def _draw(fig: Figure, canvas: Any, reuse_layout: bool) -> None:
     """Lay ``fig`` out (or take a kept layout) and draw it on ``canvas`` (:func:`render_png`)."""
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
+    for ax in fig.axes:  # the kept lines not taken again (:func:`plot_line`): the figure is finished
+        ax.__dict__.pop("_ema_rig_spare", None)
     engine = fig.get_layout_engine()
     constrained = isinstance(engine, ConstrainedLayoutEngine)
     reused = constrained and reuse_layout and _reuse_layout(fig)
@@ -210,7 +212,7 @@ def _draw(fig: Figure, canvas: Any, reuse_layout: bool) -> None:
         fig.set_layout_engine("none")
     # the minor ticks where the axes are drawn: a log axis' locator asks how much room it has
     collapse_minor_ticks(fig)
-    with _axes_replayed(fig):
+    with _axes_replayed(fig), _legend_boxes_once(fig):
         canvas.draw()
     if constrained:
         fig.set_layout_engine(engine)  # switched off for this draw only: laid out again if drawn again
@@ -676,7 +678,7 @@ def warm_up(dpi: float) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    with _gc_paused():
+    with gc_paused():
         fig = Figure(figsize=(2.0, 1.5), dpi=dpi)
         ax = fig.add_subplot()
         semilogy(ax, [1.0, 2.0], [1.0, 1e3], label="a")  # mathtext tick labels: the grammar
@@ -744,9 +746,13 @@ def reuse_axes(fig: Figure, signature: str) -> list[Axes] | None:
         fig.set_label(signature)
         return None
     for ax in fig.axes:
+        # the data lines drawn by :func:`semilogy` and :func:`plot_line`, as they were made: taken
+        # again (new data only) by the next call with the same style (:func:`_spare_line`)
+        spare = [ln for ln in ax.lines if ln.__dict__.get("_ema_rig_made") == _line_state(ln)]
         for group in (ax.lines, ax.collections, ax.patches, ax.texts, ax.images, ax.artists, ax.tables):
             for child in list(group):
                 child.remove()
+        ax.__dict__["_ema_rig_spare"] = spare
         if ax.legend_ is not None:
             ax.legend_.remove()
         ax.containers.clear()
@@ -784,10 +790,76 @@ def semilogy(ax: Axes, *args: Any, **kwargs: Any) -> list[Any]:
     y = ax.yaxis
     if (ax.get_yscale() == "log" and y.isDefault_majloc and y.isDefault_minloc and y.isDefault_majfmt
             and y.isDefault_minfmt and getattr(y.get_transform(), "base", None) == 10):
-        lines: list[Any] = ax.plot(*args, **kwargs)
-        return lines
+        return plot_line(ax, *args, **kwargs)
     made: list[Any] = ax.semilogy(*args, **kwargs)
     return made
+
+
+#: The properties of a line the plot functions set (``Axes.plot`` keywords) or that a drawing reads
+#: and a caller might change afterwards: a kept line is taken again only when they are as made.
+_LINE_STATE = ("color", "linewidth", "linestyle", "dashes", "drawstyle", "marker", "markersize", "markeredgewidth",
+               "markeredgecolor", "markerfacecolor", "markerfacecoloralt", "fillstyle", "markevery", "alpha",
+               "zorder", "label", "visible", "clip_on", "antialiased", "solid_capstyle", "solid_joinstyle",
+               "dash_capstyle", "dash_joinstyle", "gapcolor", "path_effects", "sketch_params", "snap",
+               "rasterized", "agg_filter", "gid", "url", "picker", "pickradius", "in_layout", "animated")
+
+
+def _line_state(line: Any) -> tuple[Any, ...]:
+    """What of ``line`` a kept one must still have to be taken again (:data:`_LINE_STATE`, its transform, clip).
+
+    The clip box only as there or not: ``set_clip_path`` makes a new one each time (the axes patch's
+    transform composed anew), the same box.
+    """
+    dashes = line._unscaled_dash_pattern  # the on/off sequence "dashes" sets and "linestyle" names
+    return (*(repr(getattr(line, f"get_{k}")()) if k != "dashes" else repr(dashes) for k in _LINE_STATE),
+            id(line.get_transform()), id(line.get_clip_path()), line.get_clip_box() is None)
+
+
+def plot_line(ax: Axes, x: Any, y: Any, **style: Any) -> list[Any]:
+    """``ax.plot(x, y, **style)`` for one line with its colour given, taking a line of a kept figure again.
+
+    The axes of a kept figure (:func:`reuse_axes`) keep the data lines they had, as made: the first
+    one made with the same ``style`` (its label aside) that nothing changed since is given ``x``,
+    ``y`` (``set_data``) and the label and added back where ``Axes.plot`` would add a new one (data limits, autoscale
+    request), instead of building a new ``Line2D`` through ``Axes.plot``'s argument parsing: the
+    same artist, the same pixels (``tests/test_plot_reuse.py``). Lines taken again come back in the
+    order they were made, so the axes' children are in the order ``Axes.plot`` gives. Kept lines not
+    taken again are dropped when the figure is rendered (:func:`render_png`). With no colour given
+    ``Axes.plot`` is called (it takes one from the property cycle).
+
+    Parameters
+    ----------
+    ax : Axes
+    x, y : array_like, shape (n,)
+        Data coordinates.
+    **style
+        ``Axes.plot`` keywords; must include ``color``.
+
+    Returns
+    -------
+    list of Line2D
+        One line, as ``Axes.plot``.
+    """
+    key = repr(sorted((k, v) for k, v in style.items() if k != "label"))
+    spare: list[Any] = ax.__dict__.get("_ema_rig_spare") or []
+    line = next((ln for ln in spare if ln.__dict__.get("_ema_rig_style") == key), None) if "color" in style else None
+    if line is None:
+        made: list[Any] = ax.plot(x, y, **style)
+        if "color" in style and len(made) == 1:
+            made[0]._ema_rig_style = key
+            made[0]._ema_rig_made = _line_state(made[0])
+        return made
+    spare.remove(line)
+    label = style.get("label")
+    if label is not None and str(label) != line.get_label():  # None: the "_child<n>" label add_line gave it
+        line.set_label(label)
+        line._ema_rig_made = _line_state(line)
+    line.set_data(np.asarray(x), np.asarray(y))
+    ax.add_line(line)
+    axes: Any = ax  # as Axes.plot does after adding its lines (private)
+    axes._request_autoscale_view("x")
+    axes._request_autoscale_view("y")
+    return [line]
 
 
 def collapse_minor_ticks(fig: Figure) -> int:
@@ -1135,6 +1207,58 @@ def _ticks_once(axis: Any) -> Iterator[None]:
         yield
     finally:
         del axis._update_ticks, axis._get_ticklabel_bboxes
+
+
+@contextlib.contextmanager
+def _legend_boxes_once(fig: Figure) -> Iterator[None]:
+    """The boxes of every legend of ``fig`` worked out once within the block (a draw of a finished figure).
+
+    A legend is a tree of offset boxes (a packer of columns, each a packer of rows, each a packer
+    of a handle's drawing area and a text area), and matplotlib works out the size of every box of
+    it from its children's at each level of the draw: the legend's extent first (the whole tree),
+    then each box again when it is drawn (its own subtree), a text's size as often as it has
+    ancestors. Within the block the second time takes the first's, per renderer: nothing a box's
+    size reads (texts, handle sizes, pads in points, dpi) changes during a draw, only where the
+    boxes are put (their offsets, not part of a size). The same numbers, so the same pixels
+    (``tests/test_plot_render.py``).
+    """
+    from matplotlib.offsetbox import OffsetBox
+
+    patched: list[tuple[Any, str]] = []
+
+    def once(box: Any, name: str) -> None:
+        own = getattr(box, name)
+        memo: dict[int, Any] = {}
+
+        def call(renderer: Any) -> Any:
+            key = id(renderer)
+            if key not in memo:
+                memo[key] = own(renderer)
+            return memo[key]
+
+        setattr(box, name, call)
+        patched.append((box, name))
+
+    def walk(box: Any) -> None:
+        if not isinstance(box, OffsetBox):
+            return
+        once(box, "get_bbox")
+        name = "_get_bbox_and_child_offsets"  # private: untyped
+        if getattr(type(box), name) is not getattr(OffsetBox, name):
+            once(box, name)
+        for child in box.get_children():
+            walk(child)
+
+    legends = [*(ax.get_legend() for ax in fig.axes), *fig.legends]
+    for leg in legends:
+        box = getattr(leg, "_legend_box", None)  # private: untyped
+        if isinstance(box, OffsetBox):
+            walk(box)
+    try:
+        yield
+    finally:
+        for box, name in patched:
+            del box.__dict__[name]
 
 
 # ----------------------------------------------------------------------------- layout reuse

@@ -27,7 +27,7 @@ import numpy as np
 from .._atomic import atomic_path
 from .._text import plain
 from ..rig.model import HOUSING, SPINDLE, RigModel
-from ._render import fixed_layout, reuse_axes, semilogy
+from ._render import fixed_layout, plot_line, reuse_axes, semilogy
 from .synthesis import phase_centre, phase_line
 
 if TYPE_CHECKING:
@@ -225,10 +225,10 @@ def plot_rig_fit(
             c = phase_centre(data.frf_form)
             for i in idx:
                 h = data.frf[i, q, sel]
-                (ln,) = pax.plot(*phase_line(f, h, c), color=_MEAS, lw=0.9)
+                (ln,) = plot_line(pax, *phase_line(f, h, c), color=_MEAS, lw=0.9)
                 artists["measured"].append(ln)
             for (_, _, _, style), hm in zip(models, h_models, strict=True):
-                (lm,) = pax.plot(*phase_line(ff, hm[row], c), zorder=1, **style)
+                (lm,) = plot_line(pax, *phase_line(ff, hm[row], c), zorder=1, **style)
                 artists["model"].append(lm)
             pax.set_ylim(c - 190.0, c + 190.0)
             pax.set_yticks(c + np.array([-180.0, -90.0, 0.0, 90.0, 180.0]))
@@ -269,8 +269,8 @@ def plot_rig_fit(
         st = c["status"]
         col = _STATUS_COLOR.get(st, "0.45")
         mk = {"housing": "v", "spindle": "s"}.get(st, "x")
-        ax_c.plot([x, x], [0.0, 0.28], color=col, lw=1.0)
-        (pt,) = ax_c.plot([x], [0.28], marker=mk, color=col, ms=7, ls="none")
+        plot_line(ax_c, [x, x], [0.0, 0.28], color=col, lw=1.0)
+        (pt,) = plot_line(ax_c, [x], [0.28], marker=mk, color=col, ms=7, ls="none")
         artists["candidates"].append(pt)
         lab = "housing mode" if st == "housing" else ("spindle mode" if st == "spindle" else short_reason(c["reason"]))
         text = f"{x:.0f} Hz {lab}"

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ._render import reuse_axes, semilogy
+from ._render import plot_line, reuse_axes, semilogy
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -145,7 +145,7 @@ class StabilizationPlot:
         n_max = max(orders) if orders else 1
         for c in rejected:
             # grey dotted over the whole height, a cross at the top of the orders where it was stable
-            (ln,) = ax.plot([c.natural_freq] * 2, [0, n_max], color=self.colors.get("rejected", "#666666"),
+            (ln,) = plot_line(ax, [c.natural_freq] * 2, [0, n_max], color=self.colors.get("rejected", "#666666"),
                             lw=1.0, ls=":", alpha=0.9, zorder=1, marker="x", markevery=[1], ms=7, mew=1.5)
             self.rejected_lines.append(ln)
         if selection is None or not (selection.modes if mode_freq is None else len(mode_freq)):
@@ -321,7 +321,8 @@ def plot_stabilization(
         marker, filled, text = _MARKERS[letter]
         c = colors[letter]
         size = markersize * (0.7 if letter in ("o", "u") else 1.0)
-        (ln,) = ax.plot(
+        (ln,) = plot_line(
+            ax,
             fn[rows],
             order[rows],
             ls="none",

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..identification.window_damping import with_window_damping
-from ._render import fixed_layout, reuse_axes, semilogy
+from ._render import fixed_layout, plot_line, reuse_axes, semilogy
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -248,8 +248,8 @@ def plot_synthesis(
         if paxs is not None:
             pax = paxs[k // ncol][k % ncol]
             c = phase_centre(meas.frf_form)
-            pax.plot(*phase_line(meas.freq, meas.frf[i, j], c), color="k", lw=0.9)
-            pax.plot(*phase_line(meas.freq, syn.frf[i, j], c), color=synthesised, lw=0.9, ls="--")
+            plot_line(pax, *phase_line(meas.freq, meas.frf[i, j], c), color="k", lw=0.9)
+            plot_line(pax, *phase_line(meas.freq, syn.frf[i, j], c), color=synthesised, lw=0.9, ls="--")
             _vspan(pax, lo, hi, color=span, alpha=0.06, lw=0)
             pax.set_ylim(c - 190, c + 190)
             pax.set_yticks(c + np.array([-180, -90, 0, 90, 180]))
