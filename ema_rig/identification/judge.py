@@ -145,7 +145,8 @@ def _fit(data: FRFData, poles: NDArray[np.complex128], basis_out: list[LsfdBasis
     ``|H|^2``, summed over channels) and each mode's term energy near its peak are kept, so
     the work arrays stay a fraction of the data. Call it on one BLAS thread. With ``basis_out`` (a list)
     the fit's basis and factor are appended to it (:class:`~ema_rig.identification.lsfd.LsfdBasis`: an LSFD
-    at the same poles, in the same order, on the same lines takes them over: the same numbers).
+    at the same poles, in the same order, on the same lines takes them over, and an unweighted one of the same
+    FRFs the unknowns: the same numbers).
     """
     n = poles.size
     p = _FORM_POWER[data.frf_form]
@@ -172,8 +173,6 @@ def _fit(data: FRFData, poles: NDArray[np.complex128], basis_out: list[LsfdBasis
     y2 = np.zeros(n_f)  # |H|^2 per line, summed over channels
     t2 = np.zeros(n)  # energy of each mode's own term on its near lines, all channels
     uk, proj = _projector(a)
-    if basis_out is not None:
-        basis_out.append(LsfdBasis(f, poles, p, True, a, scale, uk, proj))
     for o0, o1, yv in _output_chunks(h):
         xs = rows_times(rows_times(yv, uk), proj.T)  # scaled unknowns (chunk, n_in, n_unk)
         x[o0:o1] = xs
@@ -212,6 +211,9 @@ def _fit(data: FRFData, poles: NDArray[np.complex128], basis_out: list[LsfdBasis
     xk = np.stack([xc[:n], xc[n : 2 * n]], axis=1)  # (n, 2, n_chan)
     d_rss = np.einsum("kic,kic->k", xk, np.linalg.solve(blk, xk))
     support = np.maximum(d_rss, 0.0) / (2 * n_chan) / sigma2
+    if basis_out is not None:
+        # the unknowns of the unit-norm basis too: an unweighted LSFD of the same FRFs takes them over
+        basis_out.append(LsfdBasis(f, poles, p, True, a, scale, uk, proj, x.copy(), data.frf))
     x /= scale
     res = x[:, :, :n] + 1j * x[:, :, n : 2 * n]
     return np.moveaxis(res, 2, 0), support, share, dof

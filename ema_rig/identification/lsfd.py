@@ -140,6 +140,12 @@ class LsfdBasis:
         :func:`~ema_rig.identification.modal.pole_residue_basis` of ``poles`` on ``freq``.
     uk, proj : ndarray, shapes (2 n_freq, rank) and (n_unknown, rank)
         The factor of ``a`` (:func:`_projector`).
+    unknowns : ndarray, shape (n_out, n_in, n_unknown), optional
+        The unknowns of the unit-norm basis (before the division by ``scale``) of the unweighted fit of
+        the FRFs ``frf``, when the fit that formed the basis kept them (the judgement's): an unweighted
+        fit of the same FRFs takes them over (the same numbers).
+    frf : ndarray, shape (n_out, n_in, n_freq), complex, optional
+        The FRFs those unknowns fit: the data's (read-only) array itself, compared by identity.
     """
 
     freq: NDArray[np.float64]
@@ -150,6 +156,8 @@ class LsfdBasis:
     scale: NDArray[np.float64]
     uk: NDArray[np.float64]
     proj: NDArray[np.float64]
+    unknowns: NDArray[np.float64] | None = None
+    frf: NDArray[np.complex128] | None = None
 
     def matches(self, freq: NDArray[np.float64], poles: NDArray[np.complex128], power: int, residuals: bool) -> bool:
         """Whether this is the basis of ``poles`` (sorted as :func:`_fit` sorts them) on the lines ``freq``."""
@@ -317,6 +325,8 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         cn = np.sqrt(np.einsum("kj,kj->j", aw, aw))
         cn = np.where(cn > 0, cn, 1.0)
         aw = aw / cn
+    # the unweighted fit of the same FRFs formed with the basis (the judgement's): its unknowns
+    known = basis.unknowns if reuse and weights is None and basis is not None and basis.frf is data.frf else None
     with single_threaded():
         if reuse and common is None:
             assert basis is not None
@@ -326,7 +336,9 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         if basis_out is not None and common is None:
             basis_out.append(LsfdBasis(f, lam, p, bool(residuals), a, scale, uk, proj))
         for o0, o1, yv in _output_chunks(h):
-            if weights is None or common is not None:
+            if known is not None:
+                xs = known[o0:o1]  # the same products of the same chunks (cn is 1 unweighted)
+            elif weights is None or common is not None:
                 xs = rows_times(rows_times(yv if common is None else yv * common, uk), proj.T) / cn  # (chunk, n_in, n_unk)
             else:
                 xs = _weighted_solve(uk, proj, yv, np.repeat(weights[o0:o1], 2, axis=2))

@@ -332,16 +332,16 @@ class _Segment:
         a = np.empty((2 * n, 2 * m))
         a[:n, 0::2], a[:n, 1::2], a[n:, 0::2], a[n:, 1::2] = b1.real[:, :m], b1.real[:, m:], b1.imag[:, :m], b1.imag[:, m:]
         a *= self.ww
-        d = np.linalg.norm(a, axis=0)
+        d = np.sqrt(np.add.reduce(a * a, 0))  # np.linalg.norm(a, axis=0)'s numbers, without its checks
         d = np.where(d > 0, d, 1.0)
         # the background basis is orthonormal already: only the pole columns' part orthogonal to it
         # (projected out twice, "twice is enough": Giraud et al., Numer. Math. 101, 2005) is
         # factored; its Q and the background are an orthonormal basis of the whole span, its R
         # gives the poles' coefficients
         fx = self.fixed
-        a = a / d
+        a /= d  # a is this call's own array: in place
         if fx.shape[1]:
-            a = a - fx @ (fx.T @ a)
+            a -= fx @ (fx.T @ a)
             a -= fx @ (fx.T @ a)
         q, r = _qr(a)
         q = np.concatenate([q, fx], axis=1)  # (2n, L)
