@@ -3,6 +3,7 @@
 * The judgement's last LSFD fit (:func:`~ema_rig.identification.judge.judge_clusters` with ``basis_out``)
   is of the accepted modes' PolyMAX poles: the LSFD at those poles in ``_fit_modes`` takes over its basis
   and SVD factor instead of forming them again.
+* With the basis come the judgement's unknowns (its fit of the same FRFs): that LSFD takes them over too.
 * The model's pole columns on every line, formed once for its completeness test (``_pole_columns``), are
   those :func:`~ema_rig.identification.noise.segment_misfit` forms itself.
 
@@ -38,11 +39,13 @@ def rig() -> Any:
 
 def test_judge_basis_taken_over_same_numbers(rig: Any, monkeypatch: pytest.MonkeyPatch) -> None:
     handed: list[tuple[LsfdBasis, Any, Any]] = []
+    frfs: list[Any] = []
 
     def spy(data: Any, poles: Any, **kw: Any) -> Any:
         out = _lsfd_checked(data, poles, **kw)
         if kw.get("basis") is not None:
             handed.append((kw["basis"], out, _lsfd_checked(data, poles, residuals=kw.get("residuals", True))))
+            frfs.append(data.frf)
         return out
 
     monkeypatch.setattr(idm, "_lsfd_checked", spy)
@@ -50,6 +53,7 @@ def test_judge_basis_taken_over_same_numbers(rig: Any, monkeypatch: pytest.Monke
     assert handed, "the judgement's basis was not handed to the LSFD at the accepted modes"
     basis, out, fresh = handed[0]
     assert np.array_equal(basis.poles, out.poles)  # it is the basis of these poles: it was used
+    assert basis.unknowns is not None and basis.frf is frfs[0]  # with the judgement's unknowns of these FRFs
     for _, got, oracle in handed:
         for name in ("poles", "residues", "lower_residual", "upper_residual", "fit_error"):
             assert np.array_equal(getattr(got, name), getattr(oracle, name)), name
