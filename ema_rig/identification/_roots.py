@@ -650,10 +650,12 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     only when the largest root of all could overflow the highest degree.
     """
     az = np.abs(z)
-    risky = None
+    risky = None  # the polynomials with roots whose powers may overflow
+    counts = np.diff(cuts)
     if z.size and float(deg[uo].max()) * math.log10(max(float(az.max()), 1.0)) > 150:
-        zmax = np.maximum.reduceat(az, cuts[:-1])
-        risky = deg[uo] * np.log10(np.maximum(zmax, 1.0)) > 150  # a power of some root may overflow
+        own = np.repeat(uo, counts) if own is None else own
+        over = deg[own] * np.log10(np.maximum(az, 1.0)) > 150  # the roots
+        risky = np.logical_or.reduceat(over, cuts[:-1])
     base, big = _block_powers(z, n)
     kb = big.shape[0]
     basef = base.view(np.float64)  # (b, 2 m): real and imaginary parts side by side
@@ -668,11 +670,11 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     p = inner[:kb].sum(axis=0)
     r = p / inner[kb:].sum(axis=0)
     small = np.zeros(z.size, dtype=bool)
-    counts = np.diff(cuts)
     near = np.flatnonzero(~(np.abs(r) > _NEAR * az))  # NaN (p = p' = 0) counts as near
-    tested = test if risky is None else test & ~risky
-    if not tested.all():
-        near = near[np.repeat(tested, counts)[near]]
+    if not test.all():
+        near = near[np.repeat(test, counts)[near]]
+    if risky is not None:  # those roots are tested below, on the reversed polynomial
+        near = near[~over[near]]
     if near.size:
         own = (np.repeat(uo, counts) if own is None else own)[near]
         if abs_sums is None:
@@ -685,16 +687,26 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
         cand = pn <= tol * abs_sums[own] * np.maximum(az[near], 1.0) ** dn
         near, own, tol, pn = near[cand], own[cand], tol[cand], pn[cand]
         if near.size:
-            bound = (np.einsum("mkb,bm->km", abs_blocks[own], np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
-            small[near] = pn <= tol * bound
+            # the roots stay grouped by polynomial: one real product with each polynomial's blocks
+            # (no gathered copy of the blocks per root)
+            ab = np.abs(base[:, near])
+            ab *= 1.0  # (contiguous)
+            terms = np.empty((big.shape[0], near.size))
+            gc = np.flatnonzero(own[1:] != own[:-1]).tolist()
+            for a, b in zip([0, *[g + 1 for g in gc]], [*[g + 1 for g in gc], near.size], strict=True):
+                np.matmul(abs_blocks[own[a]], ab[:, a:b], out=terms[:, a:b])
+            terms *= np.abs(big[:, near])
+            small[near] = pn <= tol * terms.sum(axis=0)
     if risky is not None:
         for u in np.flatnonzero(risky).tolist():
-            # the roots outside the unit circle of this polynomial on its reversed polynomial
+            # the roots of this polynomial whose powers may overflow: on its reversed polynomial
+            # (as _ratio_prepared: outside the unit circle); the others keep the direct values
             a, b = cl[u], cl[u + 1]
             i = int(uo[u])
+            sel = a + np.flatnonzero(over[a:b])
             if i not in prepared:
                 prepared[i] = _prepare_both(coefs[i])
-            r[a:b], small[a:b] = _ratio_prepared(*prepared[i], int(deg[i]), z[a:b], bool(test[u]))
+            r[sel], small[sel] = _ratio_prepared(*prepared[i], int(deg[i]), z[sel], bool(test[u]))
     return r, small
 
 
