@@ -523,8 +523,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
     padded = np.zeros((k, n + 1))
     for i, c in enumerate(coefs):
         padded[i, : c.size] = c
-    blocks, abs_blocks = coefficient_blocks(padded)
-    abs_sums = abs_blocks.sum(axis=(1, 2))
+    abs_sums = np.abs(padded).sum(axis=1)  # the bound's upper limit (_chain_ratio)
     table = np.full((k, n), _FAR, dtype=np.complex128)  # roots of polynomial i in row i
     flat = table.reshape(-1)
     s_prev = np.full(k * n, np.nan, dtype=np.complex128)
@@ -564,7 +563,11 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             # the active roots are grouped by polynomial (flat order): slices of each
             cuts = np.concatenate([[0], np.flatnonzero(own[1:] != own[:-1]) + 1, [act.size]])
             uo = own[cuts[:-1]]
-            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, n, uo, cuts, z, sweeps[uo] > 0, prepared,
+            # the active polynomials' blocks, cut for the highest ACTIVE degree (not the chain's):
+            # the sweeps of the lower orders form shorter tables of powers and fewer products
+            na = int(deg[uo].max())
+            blocks, abs_blocks = coefficient_blocks(padded[uo, : na + 1])
+            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, na, uo, cuts, z, sweeps[uo] > 0, prepared,
                                     own, abs_sums)
             if small.any():
                 pending[act[small]] = False
@@ -635,15 +638,17 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
                  own: NDArray[Any] | None = None, abs_sums: NDArray[Any] | None = None) -> tuple[NDArray[Any], NDArray[Any]]:
     """Newton ratio and rounding flag (as :func:`_ratio`) of the roots ``z``, grouped by polynomial.
 
-    ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``. The
+    ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``;
+    ``blocks[t]`` and ``abs_blocks[t]`` are its blocks (:func:`coefficient_blocks` of the
+    polynomials ``uo`` at degree ``n``). The
     two power tables are formed once for all roots; each polynomial's blocks multiply its own
     slice (one small real matrix product per polynomial, written in place). Direct evaluation
     while no power can overflow (as :func:`_ratio_prepared`); otherwise each polynomial goes
     through :func:`_ratio_prepared`, which evaluates the roots outside the unit circle on the
     reversed polynomial; its blocked coefficients (:func:`_prepare_both`) are formed once per
     polynomial and kept in ``prepared`` (polynomial index -> blocks) for the sweeps that follow.
-    ``own`` (the polynomial of each root) and ``abs_sums`` (``abs_blocks.sum(axis=(1, 2))``), when
-    the caller holds them, spare forming them again; the results do not depend on them.
+    ``own`` (the polynomial of each root) and ``abs_sums`` (``sum_j |c_j|`` of every polynomial, by
+    polynomial index), when the caller holds them, spare forming them again.
 
     A sweep of :func:`aberth_chain` evaluates a few hundred roots of ~10 polynomials: its cost is
     mostly the fixed cost of the array operations, so the overflow test per polynomial is made
@@ -662,9 +667,9 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     inner = np.empty((2 * kb, z.size), dtype=np.complex128)
     innerf = inner.view(np.float64)
     cl = cuts.tolist()
-    for t, i in enumerate(uo.tolist()):
+    for t in range(uo.size):
         a, b = 2 * cl[t], 2 * cl[t + 1]
-        np.matmul(blocks[i], basef[:, a:b], out=innerf[:, a:b])
+        np.matmul(blocks[t], basef[:, a:b], out=innerf[:, a:b])
     inner[:kb] *= big
     inner[kb:] *= big
     p = inner[:kb].sum(axis=0)
@@ -676,25 +681,23 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     if risky is not None:  # those roots are tested below, on the reversed polynomial
         near = near[~over[near]]
     if near.size:
-        own = (np.repeat(uo, counts) if own is None else own)[near]
-        if abs_sums is None:
-            abs_sums = abs_blocks.sum(axis=(1, 2))
+        slot = np.repeat(np.arange(uo.size), counts)[near]  # each root's polynomial, its place in uo
         # first against the bound's upper limit (see _ratio_part): only the roots that pass it
-        # gather their coefficient blocks
-        dn = deg[own]
+        # go on to the bound itself
+        dn = deg[uo[slot]]
         tol = 4.0 * _EPS * dn
         pn = np.abs(p[near])
-        cand = pn <= tol * abs_sums[own] * np.maximum(az[near], 1.0) ** dn
-        near, own, tol, pn = near[cand], own[cand], tol[cand], pn[cand]
+        sums = abs_blocks.sum(axis=(1, 2)) if abs_sums is None else abs_sums[uo]
+        cand = pn <= tol * sums[slot] * np.maximum(az[near], 1.0) ** dn
+        near, slot, tol, pn = near[cand], slot[cand], tol[cand], pn[cand]
         if near.size:
             # the roots stay grouped by polynomial: one real product with each polynomial's blocks
             # (no gathered copy of the blocks per root)
             ab = np.abs(base[:, near])
-            ab *= 1.0  # (contiguous)
             terms = np.empty((big.shape[0], near.size))
-            gc = np.flatnonzero(own[1:] != own[:-1]).tolist()
+            gc = np.flatnonzero(slot[1:] != slot[:-1]).tolist()
             for a, b in zip([0, *[g + 1 for g in gc]], [*[g + 1 for g in gc], near.size], strict=True):
-                np.matmul(abs_blocks[own[a]], ab[:, a:b], out=terms[:, a:b])
+                np.matmul(abs_blocks[slot[a]], ab[:, a:b], out=terms[:, a:b])
             terms *= np.abs(big[:, near])
             small[near] = pn <= tol * terms.sum(axis=0)
     if risky is not None:
