@@ -724,6 +724,9 @@ def _chain_repulsion(zr: NDArray[Any], pos: NDArray[Any], table: NDArray[Any], o
     the complex division does.
     """
     m, n = zr.size, table.shape[1]
+    if m:  # the parts of the rows in use only (a chain's table holds every polynomial)
+        o0 = int(own.min())
+        table, own = table[o0 : int(own.max()) + 1], own - o0
     tr, ti = np.ascontiguousarray(table.real), np.ascontiguousarray(table.imag)
     out = np.empty(m, dtype=np.complex128)
     step = max(1, _REPULSION_BLOCK // max(n, 1))
