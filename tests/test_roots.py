@@ -277,7 +277,7 @@ def test_chain_ratio_with_blocks_at_the_active_degree_against_horner():
     for t, i in enumerate(uo):
         padded[t, : degrees[i] + 1] = coefs[i]
     blocks, abs_blocks = _roots.coefficient_blocks(padded)
-    zs, off = [], []
+    zs = []
     for i in uo:
         r = _companion_roots(coefs[i])
         r = r[np.argsort(np.abs(r))][-12:]  # the 12 largest: the far one among them
