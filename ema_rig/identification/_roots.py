@@ -642,11 +642,13 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     ``blocks[t]`` and ``abs_blocks[t]`` are its blocks (:func:`coefficient_blocks` of the
     polynomials ``uo`` at degree ``n``). The
     two power tables are formed once for all roots; each polynomial's blocks multiply its own
-    slice (one small real matrix product per polynomial, written in place). Direct evaluation
-    while no power can overflow (as :func:`_ratio_prepared`); otherwise each polynomial goes
-    through :func:`_ratio_prepared`, which evaluates the roots outside the unit circle on the
-    reversed polynomial; its blocked coefficients (:func:`_prepare_both`) are formed once per
-    polynomial and kept in ``prepared`` (polynomial index -> blocks) for the sweeps that follow.
+    slice (one small real matrix product per polynomial, written in place), and the rounding
+    bound of the roots near convergence likewise (one product per polynomial, no per-root copy
+    of its blocks). Direct evaluation wherever no power can overflow (as
+    :func:`_ratio_prepared`); the roots whose powers may (``d log10 |z| > 150``) go through
+    :func:`_ratio_prepared` on their polynomial's reversed coefficients (:func:`_prepare_both`,
+    formed once per polynomial and kept in ``prepared``, polynomial index -> blocks, for the
+    sweeps that follow), the polynomial's other roots keep their direct values.
     ``own`` (the polynomial of each root) and ``abs_sums`` (``sum_j |c_j|`` of every polynomial, by
     polynomial index), when the caller holds them, spare forming them again.
 
