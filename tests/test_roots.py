@@ -273,9 +273,9 @@ def test_chain_ratio_with_blocks_at_the_active_degree_against_horner():
     coefs[3] = np.convolve(coefs[3][:-1], [-far, 1.0])  # (z - 60) times a degree-89 polynomial
     uo = np.array([1, 2, 3])
     na = int(degrees[uo].max())
-    padded = np.zeros((uo.size, na + 1))
-    for t, i in enumerate(uo):
-        padded[t, : degrees[i] + 1] = coefs[i]
+    padded = np.zeros((degrees.size, na + 1))  # every polynomial cut at degree 90 (as the chain's
+    for i in uo:  # blocks of one layout: the inactive ones' are not read)
+        padded[i, : degrees[i] + 1] = coefs[i]
     blocks, abs_blocks = _roots.coefficient_blocks(padded)
     zs = []
     for i in uo:

@@ -524,6 +524,7 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
     for i, c in enumerate(coefs):
         padded[i, : c.size] = c
     abs_sums = np.abs(padded).sum(axis=1)  # the bound's upper limit (_chain_ratio)
+    cut: dict[tuple[int, int], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}  # blocks by layout
     table = np.full((k, n), _FAR, dtype=np.complex128)  # roots of polynomial i in row i
     flat = table.reshape(-1)
     s_prev = np.full(k * n, np.nan, dtype=np.complex128)
@@ -564,9 +565,15 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             cuts = np.concatenate([[0], np.flatnonzero(own[1:] != own[:-1]) + 1, [act.size]])
             uo = own[cuts[:-1]]
             # the active polynomials' blocks, cut for the highest ACTIVE degree (not the chain's):
-            # the sweeps of the lower orders form shorter tables of powers and fewer products
+            # the sweeps of the lower orders form shorter tables of powers and fewer products.
+            # Every polynomial's blocks in one layout (b, K) are formed once, up to the highest
+            # degree with that layout (zeros above a polynomial's degree change nothing)
             na = int(deg[uo].max())
-            blocks, abs_blocks = coefficient_blocks(padded[uo, : na + 1])
+            bw = math.isqrt(na) + 1
+            layout = (bw, -(-(na + 1) // bw))
+            if layout not in cut:
+                cut[layout] = coefficient_blocks(padded[:, : min(n, bw * layout[1] - 1) + 1])
+            blocks, abs_blocks = cut[layout]
             r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, na, uo, cuts, z, sweeps[uo] > 0, prepared,
                                     own, abs_sums)
             if small.any():
@@ -632,6 +639,16 @@ def _chain_reuse(fa: NDArray[Any], n: int, copied: int, d_old: int) -> tuple[NDA
     return cand[ok], at[ok]
 
 
+#: Roots near convergence per polynomial from which :func:`_chain_ratio` forms their rounding
+#: bound by one product per polynomial rather than one over blocks gathered per root: a product
+#: call costs ~3 us, the gather ~0.2 us per root at the blocks of degree 100-200 (one thread).
+#: On the recorded chains of benchmarks/bench_plscf.py (CPU, 31-41 alternating runs against
+#: 4ff7088): products per polynomial always made the two-reference chain of degrees 64-100 (ten
+#: orders started in two sweeps) 5-9 % slower, with this crossover 2 % (4: 4 %); the
+#: one-reference chain of degrees 48-200 13-16 % faster either way.
+_BOUND_GROUP = 16
+
+
 def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDArray[Any]], deg: NDArray[Any],
                  n: int, uo: NDArray[Any], cuts: NDArray[Any], z: NDArray[Any],
                  test: NDArray[Any], prepared: dict[int, tuple[_Prepared, _Prepared]],
@@ -639,8 +656,8 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     """Newton ratio and rounding flag (as :func:`_ratio`) of the roots ``z``, grouped by polynomial.
 
     ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``;
-    ``blocks[t]`` and ``abs_blocks[t]`` are its blocks (:func:`coefficient_blocks` of the
-    polynomials ``uo`` at degree ``n``). The
+    ``blocks[uo[t]]`` and ``abs_blocks[uo[t]]`` are its blocks (:func:`coefficient_blocks` at
+    degree ``n``, at least the degree of every polynomial ``uo``). The
     two power tables are formed once for all roots; each polynomial's blocks multiply its own
     slice (one small real matrix product per polynomial, written in place), and the rounding
     bound of the roots near convergence likewise (one product per polynomial, no per-root copy
@@ -649,8 +666,8 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     :func:`_ratio_prepared` on their polynomial's reversed coefficients (:func:`_prepare_both`,
     formed once per polynomial and kept in ``prepared``, polynomial index -> blocks, for the
     sweeps that follow), the polynomial's other roots keep their direct values.
-    ``own`` (the polynomial of each root) and ``abs_sums`` (``sum_j |c_j|`` of every polynomial, by
-    polynomial index), when the caller holds them, spare forming them again.
+    ``own`` (the polynomial of each root) and ``abs_sums`` (``sum_j |c_j|`` of every polynomial),
+    when the caller holds them, spare forming them again.
 
     A sweep of :func:`aberth_chain` evaluates a few hundred roots of ~10 polynomials: its cost is
     mostly the fixed cost of the array operations, so the overflow test per polynomial is made
@@ -669,9 +686,9 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     inner = np.empty((2 * kb, z.size), dtype=np.complex128)
     innerf = inner.view(np.float64)
     cl = cuts.tolist()
-    for t in range(uo.size):
+    for t, i in enumerate(uo.tolist()):
         a, b = 2 * cl[t], 2 * cl[t + 1]
-        np.matmul(blocks[t], basef[:, a:b], out=innerf[:, a:b])
+        np.matmul(blocks[i], basef[:, a:b], out=innerf[:, a:b])
     inner[:kb] *= big
     inner[kb:] *= big
     p = inner[:kb].sum(axis=0)
@@ -683,23 +700,27 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     if risky is not None:  # those roots are tested below, on the reversed polynomial
         near = near[~over[near]]
     if near.size:
-        slot = np.repeat(np.arange(uo.size), counts)[near]  # each root's polynomial, its place in uo
+        own = (np.repeat(uo, counts) if own is None else own)[near]
+        if abs_sums is None:
+            abs_sums = abs_blocks.sum(axis=(1, 2))
         # first against the bound's upper limit (see _ratio_part): only the roots that pass it
         # go on to the bound itself
-        dn = deg[uo[slot]]
+        dn = deg[own]
         tol = 4.0 * _EPS * dn
         pn = np.abs(p[near])
-        sums = abs_blocks.sum(axis=(1, 2)) if abs_sums is None else abs_sums[uo]
-        cand = pn <= tol * sums[slot] * np.maximum(az[near], 1.0) ** dn
-        near, slot, tol, pn = near[cand], slot[cand], tol[cand], pn[cand]
+        cand = pn <= tol * abs_sums[own] * np.maximum(az[near], 1.0) ** dn
+        near, own, tol, pn = near[cand], own[cand], tol[cand], pn[cand]
         if near.size:
-            # the roots stay grouped by polynomial: one real product with each polynomial's blocks
-            # (no gathered copy of the blocks per root)
             ab = np.abs(base[:, near])
-            terms = np.empty((big.shape[0], near.size))
-            gc = np.flatnonzero(slot[1:] != slot[:-1]).tolist()
-            for a, b in zip([0, *[g + 1 for g in gc]], [*[g + 1 for g in gc], near.size], strict=True):
-                np.matmul(abs_blocks[slot[a]], ab[:, a:b], out=terms[:, a:b])
+            gc = np.flatnonzero(own[1:] != own[:-1]).tolist() if near.size >= _BOUND_GROUP else None
+            if gc is not None and near.size >= _BOUND_GROUP * (len(gc) + 1):
+                # the roots stay grouped by polynomial: one real product with each polynomial's
+                # blocks (no gathered copy of the blocks per root)
+                terms = np.empty((big.shape[0], near.size))
+                for a, b in zip([0, *[g + 1 for g in gc]], [*[g + 1 for g in gc], near.size], strict=True):
+                    np.matmul(abs_blocks[own[a]], ab[:, a:b], out=terms[:, a:b])
+            else:  # few roots per polynomial: one product over the gathered blocks
+                terms = np.einsum("mkb,bm->km", abs_blocks[own], ab)
             terms *= np.abs(big[:, near])
             small[near] = pn <= tol * terms.sum(axis=0)
     if risky is not None:
