@@ -524,7 +524,8 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
     for i, c in enumerate(coefs):
         padded[i, : c.size] = c
     abs_sums = np.abs(padded).sum(axis=1)  # the bound's upper limit (_chain_ratio)
-    cut: dict[tuple[int, int], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}  # blocks by layout
+    layout = (0, 0)  # (b, K) of the blocks below
+    blocks = abs_blocks = np.zeros((0, 0, 0))
     table = np.full((k, n), _FAR, dtype=np.complex128)  # roots of polynomial i in row i
     flat = table.reshape(-1)
     s_prev = np.full(k * n, np.nan, dtype=np.complex128)
@@ -566,14 +567,14 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             uo = own[cuts[:-1]]
             # the active polynomials' blocks, cut for the highest ACTIVE degree (not the chain's):
             # the sweeps of the lower orders form shorter tables of powers and fewer products.
-            # Every polynomial's blocks in one layout (b, K) are formed once, up to the highest
-            # degree with that layout (zeros above a polynomial's degree change nothing)
+            # The blocks of one layout (b, K) are formed when it begins, for every polynomial up
+            # to the highest degree that has it (zeros above a polynomial's degree change nothing)
             na = int(deg[uo].max())
             bw = math.isqrt(na) + 1
-            layout = (bw, -(-(na + 1) // bw))
-            if layout not in cut:
-                cut[layout] = coefficient_blocks(padded[:, : min(n, bw * layout[1] - 1) + 1])
-            blocks, abs_blocks = cut[layout]
+            if (bw, -(-(na + 1) // bw)) != layout:
+                layout = (bw, -(-(na + 1) // bw))
+                top = min(n, bw * layout[1] - 1)
+                blocks, abs_blocks = coefficient_blocks(padded[: int(np.searchsorted(deg, top, side="right")), : top + 1])
             r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, na, uo, cuts, z, sweeps[uo] > 0, prepared,
                                     own, abs_sums)
             if small.any():
