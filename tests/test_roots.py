@@ -257,6 +257,62 @@ def test_blocked_evaluation_of_several_polynomials_against_horner():
         np.testing.assert_allclose(dp[sel], np.polyval(dc[::-1], z[sel]), rtol=0, atol=1e-14 * dscale.max())
 
 
+def test_chain_ratio_with_blocks_at_the_active_degree_against_horner():
+    # one sweep of a chain as aberth_chain makes it: the active polynomials (degrees 40, 57, 90,
+    # polynomials 1-3 of a chain of degrees 30-200) with their blocks cut for the highest ACTIVE
+    # degree (90), not the chain's; and one root of the degree-90 polynomial at modulus 60 (90 log10 60 > 150: its
+    # powers would overflow), which alone goes through the reversed polynomial. Ratios against
+    # Horner (numpy.polyval), rounding flags against the acceptance rule written out: each root
+    # of numpy.roots is at rounding level (4 N eps sum |c_j| |z|^j), a point 1e-8 relative from
+    # it is not. A block cut for the wrong degree, a root given another polynomial's blocks or
+    # the far root evaluated directly (inf / inf: NaN) fails by O(1)
+    rng = np.random.default_rng(17)
+    degrees = np.array([30, 40, 57, 90, 200])
+    coefs = [rng.standard_normal(d + 1) for d in degrees]
+    far = 60.0
+    coefs[3] = np.convolve(coefs[3][:-1], [-far, 1.0])  # (z - 60) times a degree-89 polynomial
+    uo = np.array([1, 2, 3])
+    na = int(degrees[uo].max())
+    padded = np.zeros((degrees.size, na + 1))  # every polynomial cut at degree 90 (as the chain's
+    for i in uo:  # blocks of one layout: the inactive ones' are not read)
+        padded[i, : degrees[i] + 1] = coefs[i]
+    blocks, abs_blocks = _roots.coefficient_blocks(padded)
+    zs = []
+    for i in uo:
+        r = _companion_roots(coefs[i])
+        r = r[np.argsort(np.abs(r))][-12:]  # the 12 largest: the far one among them
+        zs.append(np.concatenate([r, r * (1 + 1e-8)]))
+    z = np.concatenate(zs)
+    cuts = np.concatenate([[0], np.cumsum([x.size for x in zs])])
+    reversed_roots = []
+    ratio = _roots._ratio_prepared
+
+    def counted(*args):
+        reversed_roots.append(args[3].copy())
+        return ratio(*args)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_roots, "_ratio_prepared", counted)
+        with np.errstate(all="ignore"):
+            r, small = _roots._chain_ratio(blocks, abs_blocks, coefs, degrees, na, uo, cuts, z,
+                                           np.ones(uo.size, dtype=bool), {})
+    # the far root (and its neighbour 1e-8 away) only, on the reversed polynomial
+    assert len(reversed_roots) == 1 and reversed_roots[0].size == 2
+    assert np.all(np.abs(reversed_roots[0]) > 59)
+    for t, i in enumerate(uo):
+        c = coefs[i]
+        sl = slice(cuts[t], cuts[t + 1])
+        at, zt, rt = small[sl], z[sl], r[sl]
+        half = zt.size // 2
+        assert at[:half].all() and not at[half:].any()
+        # 1e-8 from a root, p is ~1e-8 |z p'| and both evaluations (blocked, Horner) err by a few
+        # hundred eps of the sum of moduli: the two ratios agree to ~1e-8 relative (measured
+        # <= 1.1e-8); 1e-6 leaves room for another BLAS's rounding, a wrong block or power is O(1)
+        dc = c[1:] * np.arange(1, c.size)
+        want = np.polyval(c[::-1], zt[half:]) / np.polyval(dc[::-1], zt[half:])
+        np.testing.assert_allclose(rt[half:], want, rtol=1e-6)
+
+
 @pytest.mark.parametrize("n", [20, 150])
 def test_self_repulsion_against_the_definition(n):
     # p'' / (2 p') at every root of p against the sum over the other roots (numpy.roots). Both

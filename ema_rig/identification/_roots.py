@@ -523,8 +523,9 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
     padded = np.zeros((k, n + 1))
     for i, c in enumerate(coefs):
         padded[i, : c.size] = c
-    blocks, abs_blocks = coefficient_blocks(padded)
-    abs_sums = abs_blocks.sum(axis=(1, 2))
+    abs_sums = np.abs(padded).sum(axis=1)  # the bound's upper limit (_chain_ratio)
+    layout = (0, 0)  # (b, K) of the blocks below
+    blocks = abs_blocks = np.zeros((0, 0, 0))
     table = np.full((k, n), _FAR, dtype=np.complex128)  # roots of polynomial i in row i
     flat = table.reshape(-1)
     s_prev = np.full(k * n, np.nan, dtype=np.complex128)
@@ -564,7 +565,17 @@ def aberth_chain(coefs: list[NDArray[np.float64]], start: NDArray[np.complex128]
             # the active roots are grouped by polynomial (flat order): slices of each
             cuts = np.concatenate([[0], np.flatnonzero(own[1:] != own[:-1]) + 1, [act.size]])
             uo = own[cuts[:-1]]
-            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, n, uo, cuts, z, sweeps[uo] > 0, prepared,
+            # the active polynomials' blocks, cut for the highest ACTIVE degree (not the chain's):
+            # the sweeps of the lower orders form shorter tables of powers and fewer products.
+            # The blocks of one layout (b, K) are formed when it begins, for every polynomial up
+            # to the highest degree that has it (zeros above a polynomial's degree change nothing)
+            na = int(deg[uo].max())
+            bw = math.isqrt(na) + 1
+            if (bw, -(-(na + 1) // bw)) != layout:
+                layout = (bw, -(-(na + 1) // bw))
+                top = min(n, bw * layout[1] - 1)
+                blocks, abs_blocks = coefficient_blocks(padded[: int(np.searchsorted(deg, top, side="right")), : top + 1])
+            r, small = _chain_ratio(blocks, abs_blocks, coefs, deg, na, uo, cuts, z, sweeps[uo] > 0, prepared,
                                     own, abs_sums)
             if small.any():
                 pending[act[small]] = False
@@ -629,31 +640,47 @@ def _chain_reuse(fa: NDArray[Any], n: int, copied: int, d_old: int) -> tuple[NDA
     return cand[ok], at[ok]
 
 
+#: Roots near convergence per polynomial from which :func:`_chain_ratio` forms their rounding
+#: bound by one product per polynomial rather than one over blocks gathered per root: a product
+#: call costs ~3 us, the gather ~0.2 us per root at the blocks of degree 100-200 (one thread).
+#: On the recorded chains of benchmarks/bench_plscf.py (CPU, 31-41 alternating runs against
+#: 4ff7088): products per polynomial always made the two-reference chain of degrees 64-100 (ten
+#: orders started in two sweeps) 5-9 % slower, with this crossover 2 % (4: 4 %); the
+#: one-reference chain of degrees 48-200 13-16 % faster either way.
+_BOUND_GROUP = 16
+
+
 def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDArray[Any]], deg: NDArray[Any],
                  n: int, uo: NDArray[Any], cuts: NDArray[Any], z: NDArray[Any],
                  test: NDArray[Any], prepared: dict[int, tuple[_Prepared, _Prepared]],
                  own: NDArray[Any] | None = None, abs_sums: NDArray[Any] | None = None) -> tuple[NDArray[Any], NDArray[Any]]:
     """Newton ratio and rounding flag (as :func:`_ratio`) of the roots ``z``, grouped by polynomial.
 
-    ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``. The
+    ``z[cuts[t]:cuts[t + 1]]`` are roots of polynomial ``uo[t]``, tested where ``test[t]``;
+    ``blocks[uo[t]]`` and ``abs_blocks[uo[t]]`` are its blocks (:func:`coefficient_blocks` at
+    degree ``n``, at least the degree of every polynomial ``uo``). The
     two power tables are formed once for all roots; each polynomial's blocks multiply its own
-    slice (one small real matrix product per polynomial, written in place). Direct evaluation
-    while no power can overflow (as :func:`_ratio_prepared`); otherwise each polynomial goes
-    through :func:`_ratio_prepared`, which evaluates the roots outside the unit circle on the
-    reversed polynomial; its blocked coefficients (:func:`_prepare_both`) are formed once per
-    polynomial and kept in ``prepared`` (polynomial index -> blocks) for the sweeps that follow.
-    ``own`` (the polynomial of each root) and ``abs_sums`` (``abs_blocks.sum(axis=(1, 2))``), when
-    the caller holds them, spare forming them again; the results do not depend on them.
+    slice (one small real matrix product per polynomial, written in place), and the rounding
+    bound of the roots near convergence likewise (one product per polynomial, no per-root copy
+    of its blocks). Direct evaluation wherever no power can overflow (as
+    :func:`_ratio_prepared`); the roots whose powers may (``d log10 |z| > 150``) go through
+    :func:`_ratio_prepared` on their polynomial's reversed coefficients (:func:`_prepare_both`,
+    formed once per polynomial and kept in ``prepared``, polynomial index -> blocks, for the
+    sweeps that follow), the polynomial's other roots keep their direct values.
+    ``own`` (the polynomial of each root) and ``abs_sums`` (``sum_j |c_j|`` of every polynomial),
+    when the caller holds them, spare forming them again.
 
     A sweep of :func:`aberth_chain` evaluates a few hundred roots of ~10 polynomials: its cost is
     mostly the fixed cost of the array operations, so the overflow test per polynomial is made
     only when the largest root of all could overflow the highest degree.
     """
     az = np.abs(z)
-    risky = None
+    risky = None  # the polynomials with roots whose powers may overflow
+    counts = np.diff(cuts)
     if z.size and float(deg[uo].max()) * math.log10(max(float(az.max()), 1.0)) > 150:
-        zmax = np.maximum.reduceat(az, cuts[:-1])
-        risky = deg[uo] * np.log10(np.maximum(zmax, 1.0)) > 150  # a power of some root may overflow
+        own = np.repeat(uo, counts) if own is None else own
+        over = deg[own] * np.log10(np.maximum(az, 1.0)) > 150  # the roots
+        risky = np.logical_or.reduceat(over, cuts[:-1])
     base, big = _block_powers(z, n)
     kb = big.shape[0]
     basef = base.view(np.float64)  # (b, 2 m): real and imaginary parts side by side
@@ -668,33 +695,45 @@ def _chain_ratio(blocks: NDArray[Any], abs_blocks: NDArray[Any], coefs: list[NDA
     p = inner[:kb].sum(axis=0)
     r = p / inner[kb:].sum(axis=0)
     small = np.zeros(z.size, dtype=bool)
-    counts = np.diff(cuts)
     near = np.flatnonzero(~(np.abs(r) > _NEAR * az))  # NaN (p = p' = 0) counts as near
-    tested = test if risky is None else test & ~risky
-    if not tested.all():
-        near = near[np.repeat(tested, counts)[near]]
+    if not test.all():
+        near = near[np.repeat(test, counts)[near]]
+    if risky is not None:  # those roots are tested below, on the reversed polynomial
+        near = near[~over[near]]
     if near.size:
         own = (np.repeat(uo, counts) if own is None else own)[near]
         if abs_sums is None:
             abs_sums = abs_blocks.sum(axis=(1, 2))
         # first against the bound's upper limit (see _ratio_part): only the roots that pass it
-        # gather their coefficient blocks
+        # go on to the bound itself
         dn = deg[own]
         tol = 4.0 * _EPS * dn
         pn = np.abs(p[near])
         cand = pn <= tol * abs_sums[own] * np.maximum(az[near], 1.0) ** dn
         near, own, tol, pn = near[cand], own[cand], tol[cand], pn[cand]
         if near.size:
-            bound = (np.einsum("mkb,bm->km", abs_blocks[own], np.abs(base[:, near])) * np.abs(big[:, near])).sum(axis=0)
-            small[near] = pn <= tol * bound
+            ab = np.abs(base[:, near])
+            gc = np.flatnonzero(own[1:] != own[:-1]).tolist() if near.size >= _BOUND_GROUP else None
+            if gc is not None and near.size >= _BOUND_GROUP * (len(gc) + 1):
+                # the roots stay grouped by polynomial: one real product with each polynomial's
+                # blocks (no gathered copy of the blocks per root)
+                terms = np.empty((big.shape[0], near.size))
+                for a, b in zip([0, *[g + 1 for g in gc]], [*[g + 1 for g in gc], near.size], strict=True):
+                    np.matmul(abs_blocks[own[a]], ab[:, a:b], out=terms[:, a:b])
+            else:  # few roots per polynomial: one product over the gathered blocks
+                terms = np.einsum("mkb,bm->km", abs_blocks[own], ab)
+            terms *= np.abs(big[:, near])
+            small[near] = pn <= tol * terms.sum(axis=0)
     if risky is not None:
         for u in np.flatnonzero(risky).tolist():
-            # the roots outside the unit circle of this polynomial on its reversed polynomial
+            # the roots of this polynomial whose powers may overflow: on its reversed polynomial
+            # (as _ratio_prepared: outside the unit circle); the others keep the direct values
             a, b = cl[u], cl[u + 1]
             i = int(uo[u])
+            sel = a + np.flatnonzero(over[a:b])
             if i not in prepared:
                 prepared[i] = _prepare_both(coefs[i])
-            r[a:b], small[a:b] = _ratio_prepared(*prepared[i], int(deg[i]), z[a:b], bool(test[u]))
+            r[sel], small[sel] = _ratio_prepared(*prepared[i], int(deg[i]), z[sel], bool(test[u]))
     return r, small
 
 
@@ -709,6 +748,9 @@ def _chain_repulsion(zr: NDArray[Any], pos: NDArray[Any], table: NDArray[Any], o
     the complex division does.
     """
     m, n = zr.size, table.shape[1]
+    if m:  # the parts of the rows in use only (a chain's table holds every polynomial)
+        o0 = int(own.min())
+        table, own = table[o0 : int(own.max()) + 1], own - o0
     tr, ti = np.ascontiguousarray(table.real), np.ascontiguousarray(table.imag)
     out = np.empty(m, dtype=np.complex128)
     step = max(1, _REPULSION_BLOCK // max(n, 1))
