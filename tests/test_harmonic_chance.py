@@ -73,3 +73,21 @@ def test_low_speed_housing_mode_is_matched(tmp_path):
     # at 240 rpm the housing mode sits between windows (626 / 4 = 156.5): no warning
     res4 = st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False, speed_hz=4.0)
     assert res4.k_TB == res.k_TB and not any("harmonic windows" in w for w in res4.warnings)
+
+
+def test_reversed_excitation_polarity_warns_once(tmp_path):
+    # the rig file declares the excitation 11-Y, the file (and the truth) push along 11+Y: every FRF
+    # is flipped, k_TB unchanged (sign-free); 85b2494 said nothing. The truth's housing mode has a
+    # real positive driving-point constant phi_p^2 (rig_truth: real modes, reciprocity), so the
+    # flipped one is negative: one warning naming the polarity
+    truth = RigTruth(k_TB=71.57e6, seed=3)
+    uff, rig_path = write_case(tmp_path, "pol", truth, np.arange(0.0, 1100.25, 0.5))
+    rig = load_rig(rig_path)
+    ok = st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False)
+    assert not any("polarity" in w for w in ok.warnings)
+    rig_path.write_text(rig_path.read_text(encoding="utf-8").replace('radial = "11+Y"', 'radial = "11-Y"'),
+                        encoding="utf-8")
+    rig = load_rig(rig_path)
+    res = st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False)
+    assert res.k_TB == pytest.approx(ok.k_TB, rel=1e-9)
+    assert sum("driving-point modal constant" in w and "11-Y" in w for w in res.warnings) == 1

@@ -61,7 +61,7 @@ from numpy.typing import NDArray
 
 from ..config import ModelParams, RigConfig
 from ..errors import MatchingError
-from ..identification.modal import ModalModel
+from ..identification.modal import ModalModel, shape_products
 from .candidates import Candidate, find_dof, measure_candidates
 from .failures import Failure
 from .inversion import ModelModeInfo, housing_freq_bounds, model_mode_at
@@ -154,6 +154,15 @@ class MatchCriteria:
         no evidence, the mode stays a candidate and the match warns once when such a mode is the
         housing mode, an alternative or a close neighbour. Source: false-alarm probability
         p = 0.05, the conventional significance level of a one-sided test.
+    driving_point_min_cos : float
+        The housing mode's driving-point modal constant ``2 j w_d R_pp = phi_p^2`` is real and
+        positive for a real mode (with the response and the reference written with one sign;
+        negative with opposite signs). When the ``cos`` of its phase from the expected sign is below
+        this (0: the constant has the opposite sign, more than 90 degrees off), the match warns of a
+        reversed excitation or driving-point polarity, which flips every FRF and leaves every other
+        check blind. Source: definition (the sign of ``phi_p^2``); only the housing mode is used:
+        weakly participating modes' constants have noisy phases (85, -107, 122 degrees at 287, 301
+        and 410 Hz on a ``tests/rig_truth.py`` rig, the housing mode's 0).
     polarity_min_cos : float
         A reversed sensor is suspected when flipping its sign makes every radial housing sensor
         in phase to this ``cos`` (0.9, within 26 degrees) with similar amplitudes. Convention.
@@ -225,6 +234,7 @@ class MatchCriteria:
     cross_axis_ratio_std: float = 0.035
     mixed_pair_max_mixing: float = 1.0
     harmonic_max_chance: float = 0.05
+    driving_point_min_cos: float = 0.0
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name (see the class docstring)."""
@@ -244,6 +254,8 @@ class MatchCriteria:
             "harmonic_max_damping": conv,
             "harmonic_max_chance": "false-alarm probability p = 0.05 (conventional significance level) that a "
                                    "mode at a random frequency falls inside a window: covered fraction 2 tol / f_shaft",
+            "driving_point_min_cos": "definition: a real mode's driving-point modal constant phi_p^2 is positive "
+                                     "(cos 0: the opposite sign)",
             "polarity_min_cos": conv,
             "spindle_freq_tol": "paper sect. 2-3: FE housing mode 530 Hz vs measured 626 Hz (-15 %)",
             "min_spindle_ratio": "definition: the spindle moves more than the housing (paper Fig. 4)",
@@ -613,6 +625,10 @@ def match_modes(
             f"no radial driving-point FRF ({rig.radial}): effective modal mass estimated from the "
             "radial housing transfer FRFs (rigid housing assumed); the housing mode rests on shape"
         )
+    else:
+        pol = _driving_point_polarity(modes, hi_idx, rig, crit)
+        if pol:
+            warns.append(pol)
     alts = tuple(c.index for c in passing if c is not best)
     if alts:
         fs = ", ".join(f"{modes.natural_freq[i]:.1f}" for i in alts)
@@ -696,6 +712,31 @@ def match_modes(
         warnings=tuple(warns),
         mixed_partner=mixed_partner,
     )
+
+
+def _driving_point_polarity(modes: ModalModel, index: int, rig: RigConfig, crit: MatchCriteria) -> str | None:
+    """A warning when the housing mode's driving-point modal constant has the wrong sign, else None.
+
+    ``2 j w_d R_pp = phi_p^2`` (:func:`~ema_rig.identification.modal.shape_products`) is positive for
+    a real mode when the response and the reference DOF are written with one sign (negative with
+    opposite signs). Its ``cos`` of the phase from that sign below ``crit.driving_point_min_cos``:
+    the excitation (or the driving-point sensor) polarity is reversed, every FRF flipped.
+    """
+    ref = rig.radial.positive()
+    p, q = find_dof(modes.out_dofs, ref), find_dof(modes.in_dofs, ref)
+    if p is None or q is None:
+        return None
+    a = complex(shape_products(modes.poles[index:index + 1], modes.residues[index:index + 1, p, q])[0])
+    sign = 1.0 if modes.out_dofs[p] == modes.in_dofs[q] else -1.0
+    if not (abs(a) > 0 and math.isfinite(abs(a))):
+        return None
+    cos = sign * a.real / abs(a)
+    if cos >= crit.driving_point_min_cos:
+        return None
+    return (f"the housing mode's driving-point modal constant at {modes.out_dofs[p]} / {modes.in_dofs[q]} is "
+            f"negative (phase {math.degrees(math.atan2(sign * a.imag, sign * a.real)):.0f} deg from positive): "
+            f"check the polarity of the excitation (rig file: {rig.radial}; reversed, it flips every FRF) and of the "
+            "driving-point sensor (k_TB does not depend on the sign)")
 
 
 def _ambiguous_harmonics(cands: list[Candidate], used: tuple[int, ...], speed_hz: float | None,
