@@ -6,6 +6,9 @@ measure_candidates
     Shape, scale and harmonic metrics of every mode of a :class:`ModalModel`, no decision yet.
 harmonic_order
     Order of the shaft-speed harmonic at a frequency, or None: the one rule of "a harmonic line".
+harmonic_chance
+    Chance that a mode at a random frequency falls inside a harmonic's window: when it is not
+    small the window is no evidence of a harmonic.
 harmonic_bands
     The frequency intervals that rule calls harmonic in a band (the lines identify leaves out of
     the split test's own-lines test).
@@ -40,7 +43,7 @@ from ..dof import DOF
 from ..errors import MatchingError
 from ..identification.modal import ModalModel, effective_mass, shape_products
 
-__all__ = ["Candidate", "find_dof", "harmonic_bands", "harmonic_order", "measure_candidates", "sensor_groups"]
+__all__ = ["Candidate", "find_dof", "harmonic_bands", "harmonic_chance", "harmonic_order", "measure_candidates", "sensor_groups"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,6 +91,11 @@ class Candidate:
         Radial housing participation ``mean_p |phi_p phi_q|`` [1/kg].
     harmonic : int or None
         Order of the shaft-speed harmonic this line sits on (rotating bearing).
+    harmonic_ambiguous : int or None
+        Order of the harmonic whose window this lightly damped mode sits in when the windows
+        cover so much of the frequency axis (:func:`harmonic_chance` above
+        ``MatchCriteria.harmonic_max_chance``, low shaft speeds) that a mode at any frequency would
+        sit in one: not taken as a harmonic (``harmonic`` is None), and matching warns.
     model_modal_mass, model_spindle_ratio : float or None
         The 3DOF model's housing mode tuned to this frequency (None outside its range).
     mass_ratio : float or None
@@ -114,6 +122,7 @@ class Candidate:
     mass_source: str | None = None
     participation: float | None = None
     harmonic: int | None = None
+    harmonic_ambiguous: int | None = None
     model_modal_mass: float | None = None
     model_spindle_ratio: float | None = None
     mass_ratio: float | None = None
@@ -264,6 +273,30 @@ def harmonic_order(freq: float, speed_hz: float, tol_hz: float, min_order: float
     return int(k) if abs(freq - k * speed_hz) <= tol_hz else None
 
 
+def harmonic_chance(speed_hz: float, tol_hz: float) -> float:
+    """Chance that a mode at a random frequency lies inside a harmonic's window of ``+-tol_hz``.
+
+    The windows ``k speed_hz +- tol_hz`` cover the fraction ``2 tol_hz / speed_hz`` of the
+    frequency axis near the mode (capped at 1: overlapping windows cover everything). A mode
+    inside a window is evidence of a harmonic line only when this chance is small (matching
+    compares it with ``MatchCriteria.harmonic_max_chance``); at low shaft speeds it reaches 1
+    (``tol_hz = 2e-3 f``: every frequency above ``250 speed_hz``).
+
+    Parameters
+    ----------
+    speed_hz : float
+        Shaft speed [Hz], positive.
+    tol_hz : float
+        Half-width [Hz] of the window at the mode (:func:`harmonic_order`'s ``tol_hz``).
+
+    Returns
+    -------
+    float
+        The covered fraction, in [0, 1].
+    """
+    return min(1.0, 2.0 * tol_hz / speed_hz)
+
+
 def harmonic_bands(band: tuple[float, float], speed_hz: float, freq_tol: float,
                    min_order: float) -> tuple[tuple[float, float], ...]:
     """The intervals [Hz] of ``band`` that :func:`harmonic_order` calls shaft harmonics.
@@ -272,6 +305,11 @@ def harmonic_bands(band: tuple[float, float], speed_hz: float, freq_tol: float,
     harmonic ``k`` holds the frequencies ``f`` with ``|f - k speed_hz| <= freq_tol f``:
     ``k speed_hz / (1 + freq_tol) <= f <= k speed_hz / (1 - freq_tol)`` (``freq_tol < 1 / (2 k + 1)``,
     so ``round(f / speed_hz) = k`` there), above ``min_order * speed_hz``.
+
+    The windows are kept whatever :func:`harmonic_chance` says: they put no mode on a harmonic, they
+    only leave out of a chi-square test the lines where a shaft harmonic would sit if there is one
+    (fewer lines, fewer degrees of freedom, the test stays valid). At low shaft speeds they can
+    cover the whole band, which leaves the split test's own-lines test no line.
 
     Parameters
     ----------
@@ -312,6 +350,7 @@ def measure_candidates(
     harmonic_sigmas: float = 3.0,
     harmonic_min_order: float = 0.5,
     polarity_min_cos: float = 0.9,
+    harmonic_max_chance: float = 0.05,
 ) -> list[Candidate]:
     """Shape, scale and harmonic metrics of every mode (status ``'rejected'``, no reason yet).
 
@@ -329,8 +368,10 @@ def measure_candidates(
         Shaft speed [Hz] of a rotating bearing.
     harmonic_freq_tol, harmonic_max_damping, min_amplitude_ratio : float
         See :class:`ema_rig.rig.matching.MatchCriteria`.
-    harmonic_sigmas, harmonic_min_order, polarity_min_cos : float, optional
-        See :class:`ema_rig.rig.matching.MatchCriteria` (defaults: its defaults).
+    harmonic_sigmas, harmonic_min_order, polarity_min_cos, harmonic_max_chance : float, optional
+        See :class:`ema_rig.rig.matching.MatchCriteria` (defaults: its defaults). A lightly damped
+        mode inside a harmonic's window is a harmonic only when :func:`harmonic_chance` is at most
+        ``harmonic_max_chance``; else its ``harmonic_ambiguous`` holds the order.
 
     Returns
     -------
@@ -371,10 +412,13 @@ def measure_candidates(
     for r in range(modes.n_modes):
         fn, z = float(modes.natural_freq[r]), float(modes.damping_ratio[r])
         sd = None if natural_freq_std is None else _clean(float(natural_freq_std[r]))
-        harmonic = None
+        harmonic = ambiguous = None
         if speed_hz is not None and z < harmonic_max_damping:
             tol = harmonic_freq_tol * fn if sd is None else max(harmonic_freq_tol * fn, harmonic_sigmas * sd)
             harmonic = harmonic_order(fn, speed_hz, tol, harmonic_min_order)
+            if harmonic is not None and harmonic_chance(speed_hz, tol) > harmonic_max_chance:
+                # a mode anywhere would sit in some window this often: no evidence of a harmonic
+                harmonic, ambiguous = None, harmonic
         metrics: dict[str, Any] = {}
         if h_rad:
             metrics = dict(_shape_metrics(shapes[r], p, groups))
@@ -383,6 +427,7 @@ def measure_candidates(
         out.append(Candidate(
             index=r, source=source, natural_freq=fn, damping_ratio=z, natural_freq_std=sd,
             radial_sensors=bool(h_rad), modal_mass=None if mass is None else _clean(float(mass[r])),
-            mass_source=mass_source, participation=_clean(float(part[r])), harmonic=harmonic, **metrics,
+            mass_source=mass_source, participation=_clean(float(part[r])), harmonic=harmonic,
+            harmonic_ambiguous=ambiguous, **metrics,
         ))
     return out

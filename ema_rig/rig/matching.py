@@ -61,7 +61,7 @@ from numpy.typing import NDArray
 
 from ..config import ModelParams, RigConfig
 from ..errors import MatchingError
-from ..identification.modal import ModalModel
+from ..identification.modal import ModalModel, shape_products
 from .candidates import Candidate, find_dof, measure_candidates
 from .failures import Failure
 from .inversion import ModelModeInfo, housing_freq_bounds, model_mode_at
@@ -146,6 +146,23 @@ class MatchCriteria:
         harmonic by more than the spacing of harmonics). Convention.
     harmonic_max_damping : float
         A harmonic line is nearly undamped: damping ratio below this. Convention (5e-3).
+    harmonic_max_chance : float
+        A lightly damped mode inside a harmonic's window is called a harmonic only when a mode at
+        a random frequency would fall inside a window with at most this probability: the covered
+        fraction ``2 tol_hz / f_shaft`` (:func:`~ema_rig.rig.candidates.harmonic_chance`). Above it
+        (low shaft speeds: every frequency above ``250 f_shaft`` is inside a window) the window is
+        no evidence, the mode stays a candidate and the match warns once when such a mode is the
+        housing mode, an alternative or a close neighbour. Source: false-alarm probability
+        p = 0.05, the conventional significance level of a one-sided test.
+    driving_point_min_cos : float
+        The housing mode's driving-point modal constant ``2 j w_d R_pp = phi_p^2`` is real and
+        positive for a real mode (with the response and the reference written with one sign;
+        negative with opposite signs). When the ``cos`` of its phase from the expected sign is below
+        this (0: the constant has the opposite sign, more than 90 degrees off), the match warns of a
+        reversed excitation or driving-point polarity, which flips every FRF and leaves every other
+        check blind. Source: definition (the sign of ``phi_p^2``); only the housing mode is used:
+        weakly participating modes' constants have noisy phases (85, -107, 122 degrees at 287, 301
+        and 410 Hz on a ``tests/rig_truth.py`` rig, the housing mode's 0).
     polarity_min_cos : float
         A reversed sensor is suspected when flipping its sign makes every radial housing sensor
         in phase to this ``cos`` (0.9, within 26 degrees) with similar amplitudes. Convention.
@@ -216,6 +233,8 @@ class MatchCriteria:
     pair_max_mass_std: float = 0.03
     cross_axis_ratio_std: float = 0.035
     mixed_pair_max_mixing: float = 1.0
+    harmonic_max_chance: float = 0.05
+    driving_point_min_cos: float = 0.0
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name (see the class docstring)."""
@@ -233,6 +252,10 @@ class MatchCriteria:
             "harmonic_sigmas": "3 sigma: two-sided p = 0.0027 for a normal frequency estimate",
             "harmonic_min_order": conv,
             "harmonic_max_damping": conv,
+            "harmonic_max_chance": "false-alarm probability p = 0.05 (conventional significance level) that a "
+                                   "mode at a random frequency falls inside a window: covered fraction 2 tol / f_shaft",
+            "driving_point_min_cos": "definition: a real mode's driving-point modal constant phi_p^2 is positive "
+                                     "(cos 0: the opposite sign)",
             "polarity_min_cos": conv,
             "spindle_freq_tol": "paper sect. 2-3: FE housing mode 530 Hz vs measured 626 Hz (-15 %)",
             "min_spindle_ratio": "definition: the spindle moves more than the housing (paper Fig. 4)",
@@ -546,7 +569,8 @@ def match_modes(
         return measure_candidates(mm, rig, source, nf_std, speed_hz, harmonic_freq_tol=crit.harmonic_freq_tol,
                                   harmonic_max_damping=crit.harmonic_max_damping,
                                   min_amplitude_ratio=crit.min_amplitude_ratio, harmonic_sigmas=crit.harmonic_sigmas,
-                                  harmonic_min_order=crit.harmonic_min_order, polarity_min_cos=crit.polarity_min_cos)
+                                  harmonic_min_order=crit.harmonic_min_order, polarity_min_cos=crit.polarity_min_cos,
+                                  harmonic_max_chance=crit.harmonic_max_chance)
 
     cands = [_judge_housing(c, params, lo, hi, crit) for c in measure(modes, "modes", natural_freq_std)]
     passing = [c for c in cands if not c.failures]
@@ -601,6 +625,10 @@ def match_modes(
             f"no radial driving-point FRF ({rig.radial}): effective modal mass estimated from the "
             "radial housing transfer FRFs (rigid housing assumed); the housing mode rests on shape"
         )
+    else:
+        pol = _driving_point_polarity(modes, hi_idx, rig, crit)
+        if pol:
+            warns.append(pol)
     alts = tuple(c.index for c in passing if c is not best)
     if alts:
         fs = ", ".join(f"{modes.natural_freq[i]:.1f}" for i in alts)
@@ -622,6 +650,10 @@ def match_modes(
         and abs(c.natural_freq - f_h) <= crit.neighbour_bandwidths * max(c.damping_ratio * c.natural_freq
                                                                          + z_h * f_h, 1e-9)
     )
+
+    amb = _ambiguous_harmonics(cands, (hi_idx, *alts, *neigh), speed_hz, crit)
+    if amb:
+        warns.append(amb)
 
     # ---- spindle bending mode, predicted by the model tuned to the housing mode
     extra: list[Candidate] = []
@@ -680,6 +712,52 @@ def match_modes(
         warnings=tuple(warns),
         mixed_partner=mixed_partner,
     )
+
+
+def _driving_point_polarity(modes: ModalModel, index: int, rig: RigConfig, crit: MatchCriteria) -> str | None:
+    """A warning when the housing mode's driving-point modal constant has the wrong sign, else None.
+
+    ``2 j w_d R_pp = phi_p^2`` (:func:`~ema_rig.identification.modal.shape_products`) is positive for
+    a real mode when the response and the reference DOF are written with one sign (negative with
+    opposite signs). Its ``cos`` of the phase from that sign below ``crit.driving_point_min_cos``:
+    the excitation (or the driving-point sensor) polarity is reversed, every FRF flipped.
+    """
+    ref = rig.radial.positive()
+    p, q = find_dof(modes.out_dofs, ref), find_dof(modes.in_dofs, ref)
+    if p is None or q is None:
+        return None
+    a = complex(shape_products(modes.poles[index:index + 1], modes.residues[index:index + 1, p, q])[0])
+    sign = 1.0 if modes.out_dofs[p] == modes.in_dofs[q] else -1.0
+    if not (abs(a) > 0 and math.isfinite(abs(a))):
+        return None
+    cos = sign * a.real / abs(a)
+    if cos >= crit.driving_point_min_cos:
+        return None
+    return (f"the housing mode's driving-point modal constant at {modes.out_dofs[p]} / {modes.in_dofs[q]} is "
+            f"negative (phase {math.degrees(math.atan2(sign * a.imag, sign * a.real)):.0f} deg from positive): "
+            f"check the polarity of the excitation (rig file: {rig.radial}; reversed, it flips every FRF) and of the "
+            "driving-point sensor (k_TB does not depend on the sign)")
+
+
+def _ambiguous_harmonics(cands: list[Candidate], used: tuple[int, ...], speed_hz: float | None,
+                         crit: MatchCriteria) -> str | None:
+    """One warning for the measurement when a mode the result uses sits in a harmonic's window that is no evidence.
+
+    ``used``: the housing mode, the passing alternatives and the close neighbours (indices into
+    ``cands``). Their ``harmonic_ambiguous`` (:func:`~ema_rig.rig.candidates.measure_candidates`) marks
+    a lightly damped mode inside a window where the windows cover more than
+    ``crit.harmonic_max_chance`` of the frequency axis: kept as a mode, though a harmonic line there
+    could not be told apart. None when no used mode is marked (every normal run).
+    """
+    hit = [cands[i] for i in used if cands[i].harmonic_ambiguous is not None]
+    if not hit or speed_hz is None:
+        return None
+    desc = ", ".join(f"{c.natural_freq:.1f} Hz (damping {100 * c.damping_ratio:.2f} %, near {c.harmonic_ambiguous} x)"
+                     for c in hit)
+    return (f"shaft speed {speed_hz:.3g} Hz: the harmonic windows (+-{100 * crit.harmonic_freq_tol:.1f} % of the "
+            f"frequency) cover more than {100 * crit.harmonic_max_chance:.0f} % of the frequency axis, so a mode's "
+            f"place on a harmonic is no evidence of a harmonic line; kept as modes: {desc} - check they are not "
+            "shaft harmonics (e.g. a measurement at another speed)")
 
 
 MAX_MESSAGE = 300
