@@ -2,7 +2,7 @@
 
 A lightly damped mode inside ``|f - k f_shaft| <= tol`` is called a shaft harmonic only when a mode
 at a random frequency would rarely be there by chance: the windows cover ``2 tol / f_shaft`` of the
-frequency axis (``MatchCriteria.harmonic_max_chance``, p = 0.05). At 120 rpm (2 Hz) the 0.2 %
+frequency axis (``MatchCriteria.harmonic_max_chance``, 1/3: a Bayes factor of 3). At 120 rpm (2 Hz) the 0.2 %
 windows cover everything above 500 Hz, and 85b2494 rejected a 0.3 %-damped housing mode as the
 313th harmonic (refusal); the truth (``tests/rig_truth.py``, no ema_rig) says it is the housing mode.
 """
@@ -39,22 +39,23 @@ def test_chance_is_the_covered_fraction():
     assert hits == pytest.approx(0.1, abs=0.01)
     # overlapping windows cover everything: capped at 1
     assert harmonic_chance(1.0, 0.75) == 1.0
-    assert MATCH_CRITERIA.harmonic_max_chance == 0.05 and "p = 0.05" in MATCH_CRITERIA.sources()["harmonic_max_chance"]
+    assert MATCH_CRITERIA.harmonic_max_chance == pytest.approx(1 / 3, rel=1e-15)
+    assert "Jeffreys" in MATCH_CRITERIA.sources()["harmonic_max_chance"]
 
 
 def test_boundary_of_the_rule(rig):
     # an undamped line exactly on harmonic k with the 0.2 % window: chance 2 * 2e-3 * k = 0.004 k,
-    # 0.048 at k = 12 (a harmonic), 0.052 at k = 13 (no evidence: kept, and it passes as housing-like)
+    # 0.332 at k = 83 (a harmonic), 0.336 at k = 84 (no evidence: kept, and it passes as housing-like)
     line = _housing_shape(rig.model, 600.0)
     h = _housing_shape(rig.model, 626.0)
     mm = _modal([(600.0, 2e-4, line), (626.0, 0.02, h)])
-    res = match_modes(mm, rig, speed_hz=50.0)
+    res = match_modes(mm, rig, speed_hz=600.0 / 83)
     c = next(c for c in res.candidates if c.natural_freq < 610)
-    assert c.harmonic == 12 and c.harmonic_ambiguous is None and "harmonic" in c.reason
+    assert c.harmonic == 83 and c.harmonic_ambiguous is None and "harmonic" in c.reason
     assert not any("harmonic windows" in w for w in res.warnings)
-    res = match_modes(mm, rig, speed_hz=600.0 / 13)
+    res = match_modes(mm, rig, speed_hz=600.0 / 84)
     c = next(c for c in res.candidates if c.natural_freq < 610)
-    assert c.harmonic is None and c.harmonic_ambiguous == 13
+    assert c.harmonic is None and c.harmonic_ambiguous == 84
     # the line now passes the housing criteria beside 626 Hz: one warning for the measurement
     assert sum("harmonic windows" in w for w in res.warnings) == 1
 

@@ -350,7 +350,7 @@ def measure_candidates(
     harmonic_sigmas: float = 3.0,
     harmonic_min_order: float = 0.5,
     polarity_min_cos: float = 0.9,
-    harmonic_max_chance: float = 0.05,
+    harmonic_max_chance: float = 1.0 / 3.0,
 ) -> list[Candidate]:
     """Shape, scale and harmonic metrics of every mode (status ``'rejected'``, no reason yet).
 

@@ -152,8 +152,12 @@ class MatchCriteria:
         fraction ``2 tol_hz / f_shaft`` (:func:`~ema_rig.rig.candidates.harmonic_chance`). Above it
         (low shaft speeds: every frequency above ``250 f_shaft`` is inside a window) the window is
         no evidence, the mode stays a candidate and the match warns once when such a mode is the
-        housing mode, an alternative or a close neighbour. Source: false-alarm probability
-        p = 0.05, the conventional significance level of a one-sided test.
+        housing mode, an alternative or a close neighbour. Source: a harmonic line lies inside a
+        window with certainty, a mode at a random frequency with this chance, so the window's
+        likelihood ratio (Bayes factor) is ``1 / chance``; 1/3 asks for a factor of at least 3,
+        Jeffreys' "substantial" evidence (H. Jeffreys, *Theory of Probability*, 3rd ed. 1961,
+        App. B; "positive" in Kass & Raftery, JASA 90, 1995). The damping (below
+        ``harmonic_max_damping``) is the other half of the evidence, so no stricter level is asked.
     driving_point_min_cos : float
         The housing mode's driving-point modal constant ``2 j w_d R_pp = phi_p^2`` is real and
         positive for a real mode (with the response and the reference written with one sign;
@@ -233,7 +237,7 @@ class MatchCriteria:
     pair_max_mass_std: float = 0.03
     cross_axis_ratio_std: float = 0.035
     mixed_pair_max_mixing: float = 1.0
-    harmonic_max_chance: float = 0.05
+    harmonic_max_chance: float = 1.0 / 3.0
     driving_point_min_cos: float = 0.0
 
     def sources(self) -> dict[str, str]:
@@ -252,8 +256,9 @@ class MatchCriteria:
             "harmonic_sigmas": "3 sigma: two-sided p = 0.0027 for a normal frequency estimate",
             "harmonic_min_order": conv,
             "harmonic_max_damping": conv,
-            "harmonic_max_chance": "false-alarm probability p = 0.05 (conventional significance level) that a "
-                                   "mode at a random frequency falls inside a window: covered fraction 2 tol / f_shaft",
+            "harmonic_max_chance": "Bayes factor >= 3 of the window (Jeffreys 1961, App. B, 'substantial'; Kass & "
+                                   "Raftery 1995): a harmonic is inside a window with certainty, a mode at a random "
+                                   "frequency with the covered fraction 2 tol / f_shaft",
             "driving_point_min_cos": "definition: a real mode's driving-point modal constant phi_p^2 is positive "
                                      "(cos 0: the opposite sign)",
             "polarity_min_cos": conv,
