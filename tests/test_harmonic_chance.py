@@ -18,7 +18,7 @@ from rig_truth import RigTruth, write_case
 from ema_rig.config import load_rig, parse_rig
 from ema_rig.io.uff import read_uff58
 from ema_rig.rig import stiffness as st
-from ema_rig.rig.candidates import harmonic_chance, harmonic_order
+from ema_rig.rig.candidates import harmonic_bands, harmonic_chance, harmonic_order
 from ema_rig.rig.matching import MATCH_CRITERIA, match_modes
 
 
@@ -92,3 +92,36 @@ def test_reversed_excitation_polarity_warns_once(tmp_path):
     res = st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False)
     assert res.k_TB == pytest.approx(ok.k_TB, rel=1e-9)
     assert sum("driving-point modal constant" in w and "11-Y" in w for w in res.warnings) == 1
+
+
+def test_split_test_keeps_the_lines_of_harmonics_that_are_no_evidence(tmp_path, monkeypatch):
+    # one rule for modes and lines: the split test leaves out only the windows that are evidence,
+    # k <= harmonic_max_chance / (2 harmonic_freq_tol) = (1/3) / 4e-3 = 83.3. 1a73dd8 left out every
+    # window, at 120 rpm (2 Hz) every line above 500 Hz: the own-lines test of the 626 Hz housing mode
+    # had no line left
+    c = MATCH_CRITERIA
+    bands = harmonic_bands((100.0, 1000.0), 2.0, c.harmonic_freq_tol, c.harmonic_min_order, c.harmonic_max_chance)
+    assert bands[-1][0] < 166.0 < bands[-1][1] and bands[-1][1] < 167.0  # the 83rd harmonic is the last
+    full = harmonic_bands((100.0, 1000.0), 2.0, c.harmonic_freq_tol, c.harmonic_min_order)  # every window
+    assert full[-1][1] >= 1000.0 and full[-1][0] <= 1000.0  # up to the band's top, the 500th harmonic and on
+    # at 1200 rpm (20 Hz) every harmonic of a 150-1000 Hz band is evidence (50 <= 83): all listed
+    assert harmonic_bands((150.0, 1000.0), 20.0, c.harmonic_freq_tol, c.harmonic_min_order,
+                          c.harmonic_max_chance) == harmonic_bands((150.0, 1000.0), 20.0, c.harmonic_freq_tol,
+                                                                   c.harmonic_min_order)
+    # what estimate_stiffness hands to identify at 120 rpm
+    truth = RigTruth(k_TB=71.57e6, seed=3, zeta=0.003)
+    uff, rig_path = write_case(tmp_path, "slow", truth, np.arange(0.0, 1100.25, 0.5))
+    rig = load_rig(rig_path)
+    seen: list[tuple[tuple[float, float], ...]] = []
+
+    class _Stop(Exception):
+        pass
+
+    def spy(*a, **kw):
+        seen.append(kw["harmonic_bands"])
+        raise _Stop
+
+    monkeypatch.setattr(st, "identify", spy)
+    with pytest.raises(_Stop):
+        st.estimate_stiffness(read_uff58(uff, rig=rig), rig, spindle=False, speed_hz=2.0)
+    assert seen and seen[0] and max(hi for _, hi in seen[0]) < 167.0

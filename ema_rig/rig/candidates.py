@@ -298,7 +298,7 @@ def harmonic_chance(speed_hz: float, tol_hz: float) -> float:
 
 
 def harmonic_bands(band: tuple[float, float], speed_hz: float, freq_tol: float,
-                   min_order: float) -> tuple[tuple[float, float], ...]:
+                   min_order: float, max_chance: float = 1.0) -> tuple[tuple[float, float], ...]:
     """The intervals [Hz] of ``band`` that :func:`harmonic_order` calls shaft harmonics.
 
     With the relative tolerance ``tol_hz = freq_tol * f`` of a line (no frequency uncertainty), the
@@ -306,10 +306,12 @@ def harmonic_bands(band: tuple[float, float], speed_hz: float, freq_tol: float,
     ``k speed_hz / (1 + freq_tol) <= f <= k speed_hz / (1 - freq_tol)`` (``freq_tol < 1 / (2 k + 1)``,
     so ``round(f / speed_hz) = k`` there), above ``min_order * speed_hz``.
 
-    The windows are kept whatever :func:`harmonic_chance` says: they put no mode on a harmonic, they
-    only leave out of a chi-square test the lines where a shaft harmonic would sit if there is one
-    (fewer lines, fewer degrees of freedom, the test stays valid). At low shaft speeds they can
-    cover the whole band, which leaves the split test's own-lines test no line.
+    Only the harmonics whose windows are evidence are listed: :func:`harmonic_chance` at the
+    harmonic (``2 freq_tol k``) at most ``max_chance``, the rule by which matching calls a mode a
+    harmonic line (one rule for modes and lines). Above that order (``k > max_chance / (2 freq_tol)``,
+    83 with the defaults) the windows cover so much of the axis that a line's place on one says
+    nothing; leaving them out would leave the split test's own-lines test no line at low shaft
+    speeds (every line above ``250 speed_hz`` is inside a window), so they stay in the test.
 
     Parameters
     ----------
@@ -321,6 +323,8 @@ def harmonic_bands(band: tuple[float, float], speed_hz: float, freq_tol: float,
         ``MatchCriteria.harmonic_freq_tol`` (relative).
     min_order : float
         ``MatchCriteria.harmonic_min_order``.
+    max_chance : float, optional
+        ``MatchCriteria.harmonic_max_chance``; 1 (default) lists every harmonic.
 
     Returns
     -------
@@ -331,6 +335,8 @@ def harmonic_bands(band: tuple[float, float], speed_hz: float, freq_tol: float,
         raise ValueError(f"speed_hz must be a positive shaft speed [Hz], got {speed_hz!r}")
     out = []
     for k in range(1, int(band[1] * (1 + freq_tol) / speed_hz) + 1):
+        if harmonic_chance(speed_hz, freq_tol * k * speed_hz) > max_chance:
+            break  # and every higher order: the chance grows with k
         lo, hi = max(k * speed_hz / (1 + freq_tol), min_order * speed_hz), k * speed_hz / (1 - freq_tol)
         if lo <= hi and hi >= band[0] and lo <= band[1]:
             out.append((float(lo), float(hi)))

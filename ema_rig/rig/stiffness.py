@@ -174,7 +174,7 @@ def _identify(data: FRFData, band: tuple[float, float], max_order: int | None, p
         data = data.replace(n_averages=float(cfg["n_averages"]))
     c = MATCH_CRITERIA
     harmonics = (() if speed_hz is None
-                 else harmonic_bands(band, speed_hz, c.harmonic_freq_tol, c.harmonic_min_order))
+                 else harmonic_bands(band, speed_hz, c.harmonic_freq_tol, c.harmonic_min_order, c.harmonic_max_chance))
     return identify(data, band=band, max_order=max_order, progress=progress, refine=bool(cfg.get("refine", False)),
                     harmonic_bands=harmonics)
 
