@@ -49,8 +49,8 @@ from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
 from .ml import LocalML, StagedML, local_ml_staged
-from .modal import ModalModel, modal_basis
-from .noise import MisfitTest, segment_edges, segment_misfit
+from .modal import ModalModel
+from .noise import MisfitTest, segment_edges, segment_misfit, segment_pole_columns
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
 from .refine import refine as refine_model
@@ -944,13 +944,9 @@ def _misfit_at(data: FRFData, poles: NDArray[np.complex128], crit: CompletenessC
 
 def _pole_columns(data: FRFData, poles: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
     """The pole columns of ``poles`` on every line of ``data``, shape (n_freq, 2 n_modes), complex (None without a
-    pole): :func:`~ema_rig.identification.modal.modal_basis` without residual terms, the numbers
+    pole): :func:`~ema_rig.identification.noise.segment_pole_columns` at the data's FRF form, the columns
     :func:`~ema_rig.identification.noise.segment_misfit` forms for them (its ``pole_columns``)."""
-    lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128))
-    if not lam.size:
-        return None
-    jw = np.asarray(2j * np.pi * np.asarray(data.freq, dtype=np.float64), dtype=np.complex128)
-    return modal_basis(jw, lam, _FORM_POWER[data.frf_form], residuals=False)
+    return segment_pole_columns(data.freq, poles, _FORM_POWER[data.frf_form])
 
 
 def _failing_locally(data: FRFData, done: _Completed, cc: CompletenessCriteria) -> list[tuple[float, float]]:
@@ -1402,8 +1398,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
     n_cluster_split = len(added)
     at_misfit: list[tuple[float, SelectedMode]] = []  # (the split mode's ML frequency [Hz], the second mode)
     if cc.split_misfit and data.n_out * data.n_in >= cc.split_min_channels:
-        jw = np.asarray(2j * np.pi * f, dtype=np.complex128)
-        cols: tuple[int, NDArray[np.complex128]] | None = None  # the model's pole columns on every line
+        cols: tuple[int, NDArray[np.complex128] | None] | None = None  # the model's pole columns on every line
         harmonic = np.zeros(f.size, dtype=bool)  # the lines of known shaft harmonics
         for lo, hi in harmonic_bands:
             harmonic |= (f >= lo) & (f <= hi)
@@ -1416,7 +1411,7 @@ def _split(data: FRFData, done: _Completed, residuals: bool, crit: Identificatio
                     lam_m, known = np.asarray(model, dtype=np.complex128), done.fitted[4]
                     # the test's columns when the model's poles are the test's, in its order (the same numbers)
                     cols = (len(model), known if known is not None and np.array_equal(lam_m, done.fitted[0].poles)
-                            else modal_basis(jw, lam_m, _FORM_POWER[data.frf_form], residuals=False))
+                            else _pole_columns(data, lam_m))
                 c_new = _split_start(data, model, k, m, done.test, cc, memo, cols[1], harmonic, df)
                 if c_new is None:
                     continue

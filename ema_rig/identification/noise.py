@@ -828,6 +828,32 @@ def segment_edges(freq: NDArray[np.float64], natural_freq: ArrayLike, damping_ra
     return np.asarray(out, dtype=np.intp)
 
 
+def segment_pole_columns(freq: ArrayLike, poles: ArrayLike, power: int) -> NDArray[np.complex128] | None:
+    """The pole columns of ``poles`` on every line, as :func:`segment_misfit` forms them (its ``pole_columns``).
+
+    :func:`~ema_rig.identification.modal.modal_basis` without residual terms at ``j 2 pi freq``.
+
+    Parameters
+    ----------
+    freq : array_like, shape (n_freq,)
+        Lines [Hz].
+    poles : array_like, shape (n_modes,), complex
+        Poles [rad/s].
+    power : int
+        Power of ``j omega`` of the FRF form (0 receptance, 1 mobility, 2 accelerance).
+
+    Returns
+    -------
+    ndarray, shape (n_freq, 2 n_modes), complex, or None
+        None without a pole.
+    """
+    lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128))
+    if not lam.size:
+        return None
+    jw = np.asarray(2j * np.pi * np.asarray(freq, dtype=np.float64), dtype=np.complex128)
+    return modal_basis(jw, lam, power, residuals=False)
+
+
 def segment_misfit(
     freq: NDArray[np.float64],
     frf: NDArray[np.complex128],
@@ -909,8 +935,8 @@ def segment_misfit(
     n_seg = edges.size - 1
     # the pole columns on every line, formed once: each segment's fit takes its lines' rows and its poles'
     # columns (the numbers pole_residue_basis forms on those lines, before the columns are scaled)
-    if lam.size and pole_columns is None:
-        pole_columns = modal_basis(np.asarray(2j * np.pi * f, dtype=np.complex128), lam, power, residuals=False)
+    if pole_columns is None:
+        pole_columns = segment_pole_columns(f, lam, power)
     # |residual|^2 and |model|^2 of every line (0 on lines left out), formed segment by segment
     resid2 = np.zeros(y.shape)
     model2 = np.zeros(y.shape)
@@ -1054,4 +1080,4 @@ def segment_misfit(
 
 
 __all__ = ["COHERENCE_MAX", "NOISE_SOURCES", "MisfitTest", "NoiseModel", "check_coherence", "coherence_variance",
-           "fit_noise_model", "segment_edges", "segment_misfit"]
+           "fit_noise_model", "segment_edges", "segment_misfit", "segment_pole_columns"]
