@@ -12,10 +12,16 @@ top-level stages.
 once per order (the solve and the root step), as microseconds per order over bands of orders:
 where each millisecond of an order goes as the order grows.
 
+``--sweeps`` adds, for the highest N, the batched Aberth chain of that call (``aberth_chain``, recorded
+and replayed alone ``--repeat`` times, the fastest kept): per sweep the roots still iterating and the
+CPU time until the next sweep's evaluation, and a least-squares line through them: the fixed cost of
+a sweep (array calls whatever the number of roots) and the cost per root and sweep. The chain's
+time is about ``sweeps x fixed + root-sweeps x per root``: which of the two a change must cut.
+
 ``--refs 1`` profiles the one-reference rows of ``bench_plscf.py`` the same way (the per-order
 table's orders are then the degrees as well; its "warm_start" row is empty there).
 
-Run: ``python benchmarks/profile_plscf_mimo.py [--repeat N] [--per-order] [--refs 1|2] [ORDER ...]`` (default 50 100 200).
+Run: ``python benchmarks/profile_plscf_mimo.py [--repeat N] [--per-order] [--sweeps] [--refs 1|2] [ORDER ...]`` (default 50 100 200).
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 from bench_plscf import blas_threads, call_ema, ema_data, make_arrays  # beside this script
 
 #: (stage, nested) in the order the engine runs them
@@ -54,11 +61,73 @@ BY_DEGREE = {"warm_start", "aberth", "aberth_warm"}
 BANDS = [(2, 30), (32, 50), (52, 100), (102, 150), (152, 200)]
 
 
+def sweep_table(data: Any, max_order: int, repeat: int) -> None:
+    """Per sweep of the batched Aberth chain of ``plscf(data, max_order=max_order)``: roots and CPU time.
+
+    The chain call is recorded during one ``plscf`` call and replayed alone; each sweep is timed from
+    its evaluation (``_chain_ratio``) to the next sweep's (the last to the chain's end), thread CPU,
+    the fastest of ``repeat`` replays. The line ``time = fixed + per_root x roots`` is fitted by least
+    squares over the sweeps.
+    """
+    mod = importlib.import_module("ema_rig.identification.plscf")
+    roots = importlib.import_module("ema_rig.identification._roots")
+    calls: list[tuple[list[Any], Any]] = []
+    chain0 = mod.aberth_chain
+
+    def record(coefs: list[Any], start: Any) -> Any:
+        calls.append((list(coefs), start.copy()))
+        return chain0(coefs, start)
+
+    mod.aberth_chain = record
+    try:
+        call_ema(data, max_order, even=True)
+    finally:
+        mod.aberth_chain = chain0
+    if not calls:
+        print(f"\nN={max_order}: no batched chain (every order by companion eigenvalues or one by one)")
+        return
+    coefs, start = calls[0]
+    ratio0 = roots._chain_ratio
+    marks: list[tuple[float, int]] = []
+
+    def mark(*a: Any, **k: Any) -> Any:
+        marks.append((time.thread_time(), int(a[7].size)))  # a[7]: the roots evaluated in this sweep
+        return ratio0(*a, **k)
+
+    best: tuple[float, list[tuple[float, int]], float] | None = None
+    roots._chain_ratio = mark
+    try:
+        for _ in range(repeat):
+            marks.clear()
+            t0 = time.thread_time()
+            roots.aberth_chain(coefs, start)
+            t1 = time.thread_time()
+            if best is None or t1 - t0 < best[0]:
+                best = (t1 - t0, list(marks), t1)
+    finally:
+        roots._chain_ratio = ratio0
+    assert best is not None
+    total, m, t_end = best
+    active = np.array([a for _, a in m], dtype=float)
+    times = np.diff([t for t, _ in m] + [t_end])
+    per_root, fixed = np.polyfit(active, times, 1)
+    degs = [c.size - 1 for c in coefs]
+    print(f"\nbatched chain at N={max_order}: {len(degs)} polynomials of degree {degs[0]}-{degs[-1]}, {active.size} sweeps, "
+          f"{int(active.sum())} root-sweeps ({active.sum() / sum(degs):.1f} per root), {total * 1e3:.2f} ms CPU "
+          f"(fastest of {repeat} replays)")
+    print("sweep   roots    ms")
+    for i, (a, t) in enumerate(zip(active, times, strict=True)):
+        print(f"{i + 1:>5} {int(a):>7} {t * 1e3:>5.2f}")
+    print(f"fit: {fixed * 1e3:.3f} ms fixed per sweep + {per_root * 1e6:.2f} us per root and sweep: "
+          f"{active.size * fixed * 1e3:.2f} ms fixed, {active.sum() * per_root * 1e3:.2f} ms per root of the {total * 1e3:.2f} ms")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("orders", nargs="*", type=int, default=[50, 100, 200])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--per-order", action="store_true", help="microseconds per order of the per-order stages")
+    ap.add_argument("--sweeps", action="store_true", help="per sweep of the batched chain at the highest N: roots, CPU time, fit")
     ap.add_argument("--refs", type=int, choices=(1, 2), default=2, help="references (default 2; 1: bench_plscf's main rows)")
     args = ap.parse_args()
     mod = importlib.import_module("ema_rig.identification.plscf")
@@ -142,6 +211,9 @@ def main() -> int:
             n_ord = len(range(a, b + 1, 2))
             sums.append(sum(v for (_, o), v in per_order.items() if a <= o <= b) / n_ord * 1e6)
         print(f"{'sum':<22}" + "".join(f"{v:12.0f}" for v in sums))
+    if args.sweeps:
+        with blas_threads(1):
+            sweep_table(data, max(args.orders), args.repeat)
     return 0
 
 
