@@ -557,10 +557,11 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         t = Truth(k_TB=_logk(s, 31, 3e7, 2e8), seed=s)
         return Truth(k_TB=t.k_TB, df=round(_bw(t) / float(_r(s, 31).uniform(3.0, 5.0)), 3), seed=s), None
 
-    def band_edge(s: int) -> tuple[Truth, Truth | None]:
-        t = Truth(k_TB=_logk(s, 32, 3e7, 2e8), seed=s)
-        r = _r(s, 32)
-        x = float(r.uniform(1.0, 3.0)) * _bw(t)
+    def band_edge(s: int, lo: float, hi: float, salt: int) -> tuple[Truth, Truth | None]:
+        """The rig file's band ends lo-hi half-power bandwidths beyond the housing mode (above or below)."""
+        t = Truth(k_TB=_logk(s, salt, 3e7, 2e8), seed=s)
+        r = _r(s, salt)
+        x = float(r.uniform(lo, hi)) * _bw(t)
         f = t._housing_freq_3dof()
         band = (150.0, f + x) if r.uniform() < 0.5 else (f - x, 1000.0)
         return Truth(k_TB=t.k_TB, band=band, seed=s), None
@@ -581,21 +582,10 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         return Truth(k_TB=_logk(s, 35, 3e7, 2e8), shaker_mass=float(r.uniform(0.1, 0.5)),
                      shaker_c=float(r.uniform(50.0, 300.0)), force_noise=float(r.uniform(0.02, 0.05)), seed=s), None
 
-    def leak(s: int) -> tuple[Truth, Truth | None]:
-        t = Truth(k_TB=_logk(s, 43, 3e7, 2e8), seed=s)
-        return Truth(k_TB=t.k_TB, df=round(_bw(t) / float(_r(s, 43).uniform(2.0, 4.0)), 3), hann=True, seed=s), None
-
-    def leak_n(s: int, lo: float, hi: float) -> tuple[Truth, Truth | None]:
-        t = Truth(k_TB=_logk(s, 47, 3e7, 2e8), seed=s)
-        return Truth(k_TB=t.k_TB, df=round(_bw(t) / float(_r(s, 47).uniform(lo, hi)), 3), hann=True, seed=s), None
-
-    def band_edge_close(s: int) -> tuple[Truth, Truth | None]:
-        t = Truth(k_TB=_logk(s, 39, 3e7, 2e8), seed=s)
-        r = _r(s, 39)
-        x = float(r.uniform(0.3, 1.0)) * _bw(t)
-        f = t._housing_freq_3dof()
-        band = (150.0, f + x) if r.uniform() < 0.5 else (f - x, 1000.0)
-        return Truth(k_TB=t.k_TB, band=band, seed=s), None
+    def leak_n(s: int, lo: float, hi: float, salt: int) -> tuple[Truth, Truth | None]:
+        """A Hann-windowed random test with lo-hi lines across the housing mode's half-power band."""
+        t = Truth(k_TB=_logk(s, salt, 3e7, 2e8), seed=s)
+        return Truth(k_TB=t.k_TB, df=round(_bw(t) / float(_r(s, salt).uniform(lo, hi)), 3), hann=True, seed=s), None
 
     def aniso_damped(s: int) -> tuple[Truth, Truth | None]:
         r = _r(s, 40)
@@ -623,13 +613,13 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         "r13 radial accelerometer 12+Y 5-15 deg off its axis (towards the axial)": lambda s: (
             Truth(k_TB=_logk(s, 37, 3e7, 2e8), tilt=((1, XH, float(_r(s, 37).uniform(5.0, 15.0))),), seed=s), None),
         "r13 coarse resolution: 3-5 lines across the housing mode's half-power band": coarse,
-        "r13 housing mode 1-3 half-power bandwidths inside the band's edge": band_edge,
+        "r13 housing mode 1-3 half-power bandwidths inside the band's edge": lambda s: band_edge(s, 1.0, 3.0, 32),
         "r13 shaker force drop-out at resonance (armature 0.1-0.5 kg, back-EMF 50-300 N s/m), H1 of 30 averages "
         "with coherence": shaker,
         "r13 second shaker on 15+X in the file, the rig file names 11+Y only": lambda s: (
             Truth(k_TB=_logk(s, 38, 3e7, 2e8), second_ref=True, seed=s), None),
         "r13 spindle bending mode 1-5 % from the housing mode (0.5-2 kg)": spindle,
-        "r13 Hann-windowed random test, 2-4 lines across the half-power band (leakage)": leak,
+        "r13 Hann-windowed random test, 2-4 lines across the half-power band (leakage)": lambda s: leak_n(s, 2, 4, 43),
         "r13 radial housing sensor 12+Y written 12-Y in the rig file (sign reversed there only)": lambda s: (
             Truth(k_TB=_logk(s, 44, 3e7, 2e8), rig_flip=("12+Y",), seed=s), None),
         "r13 spindle sensor 21+Y written 21-Y in the rig file (sign reversed there only)": lambda s: (
@@ -640,7 +630,7 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         "r13 Hann-windowed random test, 3-5 lines across the half-power band (leakage)": lambda s: leak_n(s, 3.0, 5.0),
         "r13 Hann-windowed random test, 5-10 lines across the half-power band (leakage)": lambda s: leak_n(s, 5.0, 10.0),
         "r13 spindle bending mode 5-15 % from the housing mode (0.5-2 kg)": spindle_far,
-        "r13 housing mode 0.3-1 half-power bandwidth inside the band's edge": band_edge_close,
+        "r13 housing mode 0.3-1 half-power bandwidth inside the band's edge": lambda s: band_edge(s, 0.3, 1.0, 39),
         "r13 anisotropic bearing (as above) with bearing zeta 3-8 %": aniso_damped,
         "r13 shaker force drop-out (armature 0.2-0.5 kg) with bearing zeta 3-8 %": shaker_damped,
     }
