@@ -627,8 +627,8 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         "r13 spindle sensor 21+Y reversed in the rig file, bearing zeta 3-8 %": lambda s: (
             Truth(k_TB=_logk(s, 46, 3e7, 2e8), rig_flip=("21+Y",), zeta_H=float(_r(s, 46).uniform(0.03, 0.08)),
                   seed=s), None),
-        "r13 Hann-windowed random test, 3-5 lines across the half-power band (leakage)": lambda s: leak_n(s, 3.0, 5.0),
-        "r13 Hann-windowed random test, 5-10 lines across the half-power band (leakage)": lambda s: leak_n(s, 5.0, 10.0),
+        "r13 Hann-windowed random test, 3-5 lines across the half-power band (leakage)": lambda s: leak_n(s, 3, 5, 47),
+        "r13 Hann-windowed random test, 5-10 lines across the half-power band (leakage)": lambda s: leak_n(s, 5, 10, 47),
         "r13 spindle bending mode 5-15 % from the housing mode (0.5-2 kg)": spindle_far,
         "r13 housing mode 0.3-1 half-power bandwidth inside the band's edge": lambda s: band_edge(s, 0.3, 1.0, 39),
         "r13 anisotropic bearing (as above) with bearing zeta 3-8 %": aniso_damped,
