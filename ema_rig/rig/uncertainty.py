@@ -828,6 +828,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       masses; a 20 % off rig file gave k_TB +40 ... +139 % behind this warning before). One reading
       alone keeps the warning and the term.
 
+    * **resolution** (with ``data``): lines coarse against the housing mode's half-power band
+      (:func:`_resolution`): the driving-point mass's std carries the windowed spectrum's resolution
+      bias (:func:`_mass_at_resolution`); a warning where a pole lies inside one resolution bandwidth
+      or the effective mass is off (:func:`_resolution_warning`).
+
     Parameters
     ----------
     m : MatchResult
