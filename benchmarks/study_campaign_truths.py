@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import study_unseen_truths as gen  # noqa: E402  (the independent truth generator)
 
 LOADS = tuple(float(x) for x in np.geomspace(100.0, 3000.0, 8))  # N
+EXTRA: list[float] = []  # --extra-load: measurements at loads outside 100-3000 N (r_truth13)
 
 
 def truths(seed: int) -> tuple[list[gen.Truth], gen.Truth]:
@@ -45,15 +46,21 @@ def truths(seed: int) -> tuple[list[gen.Truth], gen.Truth]:
     k_1000 = float(10 ** r.uniform(math.log10(6e7), math.log10(1.5e8)))
     k_ms = gen.TABLE1["k_MS"] * float(r.uniform(0.85, 1.15))
     rows = []
-    for i, f in enumerate(LOADS):
-        zeta = math.exp(math.log(0.08) + (math.log(0.015) - math.log(0.08)) * math.log(f / 100.0) / math.log(30.0))
+    for i, f in enumerate(_loads()):
+        fz = min(max(f, 100.0), 3000.0)  # outside 100-3000 N the damping stays at its end's value
+        zeta = math.exp(math.log(0.08) + (math.log(0.015) - math.log(0.08)) * math.log(fz / 100.0) / math.log(30.0))
         rows.append(gen.Truth(k_TB=k_1000 * (f / 1000.0) ** (1.0 / 3.0), k_MS=k_ms, zeta_H=zeta, seed=100 * seed + i))
     return rows, gen.Truth(k_TB=math.inf, k_MS=k_ms, seed=100 * seed + 99)
 
 
+def _loads() -> tuple[float, ...]:
+    """The campaign's loads [N]: the eight of :data:`LOADS` and any ``--extra-load``."""
+    return LOADS + tuple(EXTRA)
+
+
 def campaign_text(ids: list[str]) -> str:
     text = 'rig = "rig.toml"\ncalibration = "disk.uff"\ntitle = "load-dependent bearing"\n\n[bearings.b]\nlabel = "b"\n'
-    for i, (mid, f) in enumerate(zip(ids, LOADS, strict=True)):
+    for i, (mid, f) in enumerate(zip(ids, _loads(), strict=True)):
         text += (f'\n[[measurement]]\nid = "{mid}"\nfile = "{mid}.uff"\nbearing = "b"\nradial_load = {f!r}\n'
                  f"speed = 0.0\nshaft_position = 0.0\nrepeat = {i + 1}\n")
     return text
@@ -65,7 +72,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed-offset", type=int, default=36)
     ap.add_argument("--tree", type=Path, default=gen.ROOT)
     ap.add_argument("-o", "--out", type=Path, default=None)
+    ap.add_argument("--extra-load", type=float, action="append", default=[],
+                    help="a further measurement at this load [N] (repeatable; k_TB ~ F^1/3 extrapolated)")
     a = ap.parse_args(argv)
+    EXTRA[:] = a.extra_load
     tree = a.tree.resolve()
     lines = ["| seed | load N | k_TB true | k_TB table | err % | sigma % | z | c_TB table vs true | warnings |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -75,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
         rows, disk = truths(seed)
         with tempfile.TemporaryDirectory() as tmpd:
             tmp = Path(tmpd)
-            ids = [f"s{seed}_{int(f)}N" for f in LOADS]
+            ids = [f"s{seed}_{int(f)}N" for f in _loads()]
             (tmp / "rig.toml").write_text(rows[0].rig_text(), encoding="utf-8")
             gen.write_uff(tmp / "disk.uff", gen.FREQ, disk.frf(gen.FREQ))
             for mid, t in zip(ids, rows, strict=True):
@@ -91,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
                 failed += len(rows)
                 continue
             got = {row["id"]: row for row in csv.DictReader(table.open(encoding="utf-8"))}
-        for mid, f, t in zip(ids, LOADS, rows, strict=True):
+        for mid, f, t in zip(ids, _loads(), rows, strict=True):
             row = got.get(mid)
             if row is None or row["status"] != "ok" or not row["k_TB [N/m]"]:
                 lines.append(f"| {seed} | {f:.0f} | {t.k_TB:.4g} | - | - | - | - | - | "
@@ -120,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
                          f"{100 * s / k:.2f} | {z:+.2f} | {c_txt} | {w[:300].replace('|', '/')} |")
             print(lines[-1], flush=True)
     head = (f"ema_rig tree: {tree}; seeds {a.seed_offset}..{a.seed_offset + a.seeds - 1}, loads "
-            f"{', '.join(f'{f:.0f}' for f in LOADS)} N; python -m ema_rig.cli campaign at its defaults\n"
+            f"{', '.join(f'{f:.0f}' for f in _loads())} N; python -m ema_rig.cli campaign at its defaults\n"
             f"rows {len(zs) + failed}: refused/failed {failed}, warned {warned}, SILENT (no warning, |z| > 2) {silent}, "
             f"max |z| {max(zs) if zs else math.nan:.2f}, c_TB wrong (bound broken or measured outside 2 sigma) {broken}\n\n")
     text = head + "\n".join(lines) + "\n"

@@ -64,7 +64,7 @@ SENSORS = (("11+Y", "housing", "radial"), ("12+Y", "housing", "radial"), ("13-Y"
            ("22+Y", "spindle", "radial"), ("23+X", "spindle", "axial"))
 
 # DOF indices of the lumped model
-YH, YS, YF, ZH, XH, XS, QP = range(7)
+YH, YS, YF, ZH, XH, XS, QP, ZS, QS = range(9)  # ZS, QS only in the 9-DOF truths (r_truth13)
 
 
 @dataclass(frozen=True)
@@ -99,6 +99,21 @@ class Truth:
     second_mass: float = 10.0  # kg, its modal mass at the driving point (pattern 1 there)
     second_zeta: float = 0.01
     second_shape: tuple[float, ...] = (1.0, -0.8, -0.8, 0.15, 0.1, 0.05, 0.05, 0.02)  # per sensor, physical +axis
+    # r_truth13 (seeds 60+): physics none of the families above has
+    aniso_delta: float = 0.0  # anisotropic bearing: k_2 / k_1 - 1 of the principal stiffnesses (0: isotropic)
+    aniso_deg: float = 0.0  # angle of the principal axis k_1 from the radial (load, Y) direction, degrees
+    tilt: tuple[tuple[int, int, float], ...] = ()  # (sensor index, DOF it leans towards, degrees off its axis)
+    df: float = 0.5  # Hz, line spacing of the measurement
+    band: tuple[float, float] | None = None  # the rig file's [identification] band (None: 150-1000 Hz scaled)
+    shaker_mass: float = 0.0  # kg, armature + stinger behind the force gauge (0: an ideal force, no drop-out)
+    shaker_c: float = 0.0  # N s/m, the voltage-driven shaker's back-EMF damping (Bl)^2 / R
+    force_noise: float = 0.03  # force gauge noise relative to the electrical force's level (shaker truths)
+    n_avg: int = 30  # averages of the H1 estimate (shaker truths)
+    second_ref: bool = False  # a second shaker on 15+X; its FRFs in the file too, the rig file names one
+    spindle_ratio: float | None = None  # spindle bending mode (y_S held... on y_S) / housing mode (None: absent)
+    spindle_mass: float = 1.0  # kg, its modal mass (on a spring to y_S; 22+Y reads it)
+    rig_flip: tuple[str, ...] = ()  # sensors whose sign the rig file states reversed (the file's DOF as mounted)
+    hann: bool = False  # the lines are a Hann-windowed random test's expected H1 (leakage), record 1 / df
 
     @property
     def table(self) -> dict[str, float]:
@@ -107,6 +122,16 @@ class Truth:
                for key, val in TABLE1.items()}
         out["k_MS"] = self.k_MS
         return out
+
+    @property
+    def freq(self) -> NDArray[np.float64]:
+        """The measurement's lines, Hz (the bundled files' 0.5 Hz grid unless ``df`` says otherwise)."""
+        return FREQ if self.df == 0.5 else np.arange(0.0, 1100.0 + self.df / 2, self.df)
+
+    @property
+    def n_dof(self) -> int:
+        """7, or 9 with the spindle's lateral translation (anisotropic bearing) and its bending mode."""
+        return 9 if (self.aniso_delta or self.spindle_ratio is not None) else 7
 
     @property
     def freq_scale(self) -> float:
@@ -124,7 +149,7 @@ class Truth:
         """M, K, C (7 x 7); the flexible frame DOF is stiff and massless-free when absent."""
         p = self.table
         m_xs = 1.5 * self.mass_scale
-        n = 7
+        n = self.n_dof
         m = np.zeros((n, n))
         k = np.zeros((n, n))
         c = np.zeros((n, n))
@@ -141,6 +166,14 @@ class Truth:
         for i, mv in ((YH, mh), (YS, p["m_S"] + ms), (YF, p["m_F"]), (ZH, mh), (XH, mh), (XS, m_xs + ms),
                       (QP, self.m_P)):
             m[i, i] = mv
+        if n > 7:  # the spindle's lateral translation (its radial mass) and a bending mode on y_S
+            m[ZS, ZS] = p["m_S"] + ms
+            m[QS, QS] = self.spindle_mass
+            spring(ZS, None, p["k_S"], k)  # the spindle's bending stiffness laterally (the frame held)
+            if self.spindle_ratio is not None:
+                spring(QS, YS, self.spindle_mass * (2 * math.pi * self._housing_freq_3dof() * self.spindle_ratio) ** 2, k)
+            else:
+                spring(QS, None, 1.0, k)
         k_tbms = self.k_TB_MS
         spring(YF, None, p["k_B"], k)
         spring(YF, YS, p["k_S"], k)
@@ -151,7 +184,10 @@ class Truth:
             w2 = (2 * math.pi * self._housing_freq_3dof() * self.frame_ratio) ** 2
             spring(YF, QP, w2 * self.m_P - p["k_AS"], k)  # frame mode (housing held) at frame_ratio x f_H
             spring(QP, YH, p["k_AS"], k)
-        spring(ZH, None, mh * (2 * math.pi * self.lat_freq) ** 2, k)
+        if self.aniso_delta:  # the housing's lateral motion rides on the bearing (below) and the air springs
+            spring(ZH, None, p["k_AS"], k)
+        else:
+            spring(ZH, None, mh * (2 * math.pi * self.lat_freq) ** 2, k)
         k_ax = mh * (2 * math.pi * self.ax_freq) ** 2
         spring(XH, XS, k_ax, k)
         spring(XS, None, m_xs * (2 * math.pi * self.sp_ax_freq) ** 2, k)
@@ -159,7 +195,7 @@ class Truth:
         # housing's lateral and axial motion (a rigid translation of the rig stays force-free)
         e = np.zeros(n)
         e[YH], e[YS] = 1.0, -1.0
-        for a, kb in ((ZH, k[ZH, ZH]), (XH, k[XH, XH])):
+        for a, kb in (((XH, k[XH, XH]),) if self.aniso_delta else ((ZH, k[ZH, ZH]), (XH, k[XH, XH]))):
             kc = 0.03 * math.sqrt(k_tbms * kb)
             u = np.zeros(n)
             u[a] = 1.0
@@ -196,29 +232,144 @@ class Truth:
         return float(math.sqrt(lam[1]) / (2 * math.pi))
 
     def frf(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
-        """Accelerance [m/s^2/N] at the eight sensors (sign as mounted), shape (8, n_freq)."""
-        m, k, c = self.matrices()
-        obs = (YH, YH, YH, ZH, XH, YS, YS, XS)
+        """Accelerance [m/s^2/N] at the eight sensors (sign as mounted), shape (8, n_freq); with
+        ``second_ref`` shape (16, n_freq), the axial shaker's eight after the radial one's."""
+        h = self._leaked(freq) if self.hann else self._frf_exact(freq)
+        if self.shaker_mass > 0:
+            return self._h1(freq, h)[0]
+        rng = np.random.default_rng(self.seed)
+        out = h[:8]
+        scale = self.noise * (np.abs(out) + 1e-3 * np.abs(out).max(axis=1, keepdims=True)) / math.sqrt(2)
+        out += scale * (rng.standard_normal(out.shape) + 1j * rng.standard_normal(out.shape))
+        if h.shape[0] > 8:  # the second reference's noise after the first's (the first unchanged)
+            o2 = h[8:]
+            scale = self.noise * (np.abs(o2) + 1e-3 * np.abs(o2).max(axis=1, keepdims=True)) / math.sqrt(2)
+            o2 += scale * (rng.standard_normal(o2.shape) + 1j * rng.standard_normal(o2.shape))
+        return h
+
+    def _leaked(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
+        """Expected H1 of a Hann-windowed random test with records of 1 / df s: the true FRF averaged
+        over the window's spectral power |W(f - nu)|^2 (white excitation; Bendat & Piersol, Random Data,
+        sect. 11.5: leakage), on a grid of df / 16 over +-8 lines; H(-nu) = conj H(nu)."""
+        df = float(freq[1] - freq[0])
+        sub = 16
+        nu = np.arange(-8 * sub, (freq.size - 1) * sub + 8 * sub + 1) * (df / sub)
+        h_pos = self._frf_exact(np.abs(nu))
+        h_fine = np.where(nu < 0, np.conj(h_pos), h_pos)
+        x = np.arange(-8 * sub, 8 * sub + 1) / sub  # offset in lines
+        w = np.sinc(x) + 0.5 * np.sinc(x - 1) + 0.5 * np.sinc(x + 1)  # Hann window's spectrum (T = 1 / df)
+        w2 = w**2 / (w**2).sum()
+        out = np.empty((h_fine.shape[0], freq.size), dtype=complex)
+        for i in range(freq.size):
+            out[:, i] = h_fine[:, i * sub: i * sub + x.size] @ w2
+        return out
+
+    def coherence(self, freq: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """Ordinary coherence of the H1 estimate (shaker truths), shape (8, n_freq); else None."""
+        return self._h1(freq, self._frf_exact(freq))[1] if self.shaker_mass > 0 else None
+
+    def force_ratio(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
+        """Force into the structure / the shaker's electrical force: 1 / (1 + Z_a Y_dp), shape (n_freq,).
+
+        A voltage-driven shaker (armature and stinger ``shaker_mass``, back-EMF damping ``shaker_c``)
+        pushing the driving point through a stiff stinger: its impedance Z_a = c_e + j w m_a loads
+        the structure's driving-point mobility Y_dp = A_dp / (j w), so the force drops at resonance
+        (McConnell & Varoto, Vibration Testing, ch. 8: the force drop-out)."""
+        h = self._frf_exact(freq)[0]
+        om = 2 * math.pi * freq
+        mob = np.zeros_like(h)
+        nz = om > 0
+        mob[nz] = h[nz] / (1j * om[nz])
+        return 1.0 / (1.0 + (self.shaker_c + 1j * om * self.shaker_mass) * mob)
+
+    def _h1(self, freq: NDArray[np.float64], h: NDArray[np.complex128]
+            ) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
+        """H1 = S_xf / S_ff over ``n_avg`` random-excitation averages and its coherence, shape (8, n_freq) each.
+
+        Per average and line: electrical force F_e ~ CN(0, 1), force into the structure F = g F_e
+        (:meth:`force_ratio`), gauge reading F + n_f (n_f ~ CN(0, force_noise^2)), responses
+        A F + n_o (n_o ~ CN(0, (0.1 noise max|A_o|)^2): a floor 60 dB under the channel's peak at 1 %)."""
+        rng = np.random.default_rng(self.seed)
+        g = self.force_ratio(freq)
+        a = h[:8]
+        na = self.n_avg
+
+        def cn(shape: tuple[int, ...]) -> NDArray[np.complex128]:
+            return (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) / math.sqrt(2)
+
+        fe = cn((na, freq.size))
+        f_true = g * fe
+        f_meas = f_true + self.force_noise * cn((na, freq.size))
+        floor = 0.1 * self.noise * np.abs(a).max(axis=1, keepdims=True)
+        x = a[None, :, :] * f_true[:, None, :] + floor[None] * cn((na, 8, freq.size))
+        sxf = (x * np.conj(f_meas)[:, None, :]).sum(axis=0)
+        sff = (np.abs(f_meas) ** 2).sum(axis=0)
+        sxx = (np.abs(x) ** 2).sum(axis=0)
+        h1 = sxf / sff
+        coh = np.abs(sxf) ** 2 / np.maximum(sxx * sff, 1e-300)
+        return h1, np.clip(coh, 0.0, 1.0)
+
+    def bearing_2d(self, om: float) -> NDArray[np.complex128]:
+        """Anisotropic bearing (principal k_1, k_2 = k_1 (1 + aniso_delta), k_1's axis aniso_deg off Y),
+        with its dashpot (isotropic) and loss, in series with an isotropic k_MS: 2 x 2 over (y, z) [N/m].
+        k_1 is chosen so that the bearing's Y-Y stiffness k_1 cos^2 + k_2 sin^2 is the truth's k_TB."""
+        th = math.radians(self.aniso_deg)
+        k1 = self.k_TB / (1 + self.aniso_delta * math.sin(th) ** 2)
+        rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+        kb = rot @ np.diag([k1, k1 * (1 + self.aniso_delta)]) @ rot.T * (1 + 1j * self.bearing_loss)
+        kb = kb + 1j * om * self.c_TB * np.eye(2)
+        return np.linalg.inv(np.linalg.inv(kb) + np.eye(2) / self.k_MS)
+
+    def _obs(self) -> tuple[list[int], NDArray[np.float64]]:
+        """Observed DOF per sensor and the (8, n_dof) observation matrix (sign as mounted, tilts)."""
+        obs = [YH, YH, YH, ZH, XH, YS, QS if self.spindle_ratio is not None else YS, XS]
         sign = np.array([1, 1, -1, 1, 1, 1, 1, 1], dtype=float)
-        out = np.zeros((8, freq.size), dtype=complex)
-        f = np.zeros(7)
-        f[YH] = 1.0
-        e = np.zeros(7)
+        c = np.zeros((8, self.n_dof))
+        for s, i in enumerate(obs):
+            c[s, i] = sign[s]
+        for s, towards, deg in self.tilt:  # the sensor leans deg off its axis towards another DOF
+            c[s] *= math.cos(math.radians(deg))
+            c[s, towards] += math.sin(math.radians(deg))
+        return obs, c
+
+    def _frf_exact(self, freq: NDArray[np.float64]) -> NDArray[np.complex128]:
+        """Noise-free accelerance, shape (8 or 16, n_freq) (see :meth:`frf`)."""
+        m, k, c = self.matrices()
+        n = self.n_dof
+        obs, cobs = self._obs()
+        sign = np.array([1, 1, -1, 1, 1, 1, 1, 1], dtype=float)
+        plain = n == 7 and not self.tilt and not self.second_ref and self.spindle_ratio is None
+        out = np.zeros((16 if self.second_ref else 8, freq.size), dtype=complex)
+        f = np.zeros((n, 2))
+        f[YH, 0] = 1.0
+        f[XH, 1] = 1.0  # the second shaker, along 15+X
+        e = np.zeros(n)
         e[YH], e[YS] = 1.0, -1.0
         ee = np.outer(e, e)
+        ebig = np.zeros((2, n))
+        ebig[0, YH], ebig[0, YS] = 1.0, -1.0
+        if n > 7:
+            ebig[1, ZH], ebig[1, ZS] = 1.0, -1.0
         for i, fr in enumerate(freq):
             om = 2 * math.pi * fr
-            x = np.linalg.solve(k - om**2 * m + 1j * om * c + self.bearing(om) * ee, f)
-            out[:, i] = -(om**2) * x[list(obs)] * sign
+            if plain:
+                x = np.linalg.solve(k - om**2 * m + 1j * om * c + self.bearing(om) * ee, f[:, 0])
+                out[:, i] = -(om**2) * x[list(obs)] * sign
+                continue
+            if self.aniso_delta:
+                kb = ebig.T @ self.bearing_2d(om) @ ebig
+            else:
+                kb = self.bearing(om) * ee
+            x2 = np.linalg.solve(k - om**2 * m + 1j * om * c + kb, f)
+            out[:8, i] = -(om**2) * (cobs @ x2[:, 0])
+            if self.second_ref:
+                out[8:, i] = -(om**2) * (cobs @ x2[:, 1])
         if self.second_ratio is not None:
             w2 = 2 * math.pi * self._housing_freq_3dof() * self.second_ratio
             om = 2 * math.pi * freq
             shape = np.asarray(self.second_shape) * sign  # the pattern along each sensor's positive axis
             q = -(om**2) / (self.second_mass * (w2**2 - om**2 + 2j * self.second_zeta * w2 * om))
-            out += np.outer(shape * shape[0], q)
-        rng = np.random.default_rng(self.seed)
-        scale = self.noise * (np.abs(out) + 1e-3 * np.abs(out).max(axis=1, keepdims=True)) / math.sqrt(2)
-        out += scale * (rng.standard_normal(out.shape) + 1j * rng.standard_normal(out.shape))
+            out[:8] += np.outer(shape * shape[0], q)
         return out
 
     def rig_text(self, k_MS: float | None = None, k_MS_rel: float | None = None) -> str:
@@ -233,30 +384,50 @@ class Truth:
         text += '\n[excitation]\nradial = "11+Y"\n\n[uncertainty]\n'
         text += "".join(f"{key} = {val!r}\n" for key, val in tol.items())
         fs = self.freq_scale  # the rig's modes move with sqrt(k/m): so does its band (inside the file's grid)
-        text += (f"\n[identification]\nband = [{150.0 * fs:.1f}, {min(1000.0 * fs, 1050.0):.1f}]\n"
+        lo, hi = self.band if self.band is not None else (150.0 * fs, min(1000.0 * fs, 1050.0))
+        text += (f"\n[identification]\nband = [{lo:.1f}, {hi:.1f}]\n"
                  f"k_MS_band = [{min(700.0 * fs, 900.0):.1f}, 1100.0]\n")
         for dof, role, axis in SENSORS:
+            if dof in self.rig_flip:
+                dof = dof[:2] + ("+" if dof[2] == "-" else "-") + dof[3:]
             text += f'\n[[sensor]]\ndof = "{dof}"\nrole = "{role}"\naxis = "{axis}"\n'
             if role == "housing" and self.sensor_mass > 0 and self.declare_sensor_mass:
                 text += f"mass = {self.sensor_mass!r}\n"
         return text
 
 
-def write_uff(path: Path, freq: NDArray[np.float64], frf: NDArray[np.complex128]) -> None:
+def write_uff(path: Path, freq: NDArray[np.float64], frf: NDArray[np.complex128],
+              coherence: NDArray[np.float64] | None = None, n_avg: int = 0) -> None:
+    """UFF58 of the accelerances (rows 8-15, when given, for the second reference 15+X) and, when
+    given, their coherence (function type 6; the id line says the number of averages)."""
     import pyuff
 
     dirs = {"X": 1, "Y": 2, "Z": 3}
     sets = []
-    for (dof, _, _), h in zip(SENSORS, frf, strict=True):
+    refs = [(11, 2), (15, 1)]
+    for row, h in enumerate(frf):
+        dof = SENSORS[row % 8][0]
+        ref_node, ref_dir = refs[row // 8]
         node, sgn, axis = int(dof[:2]), (-1 if dof[2] == "-" else 1), dof[3]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             sets.append(pyuff.prepare_58(
-                binary=0, func_type=4, rsp_node=node, rsp_dir=sgn * dirs[axis], ref_node=11, ref_dir=2,
+                binary=0, func_type=4, rsp_node=node, rsp_dir=sgn * dirs[axis], ref_node=ref_node, ref_dir=ref_dir,
                 ord_data_type=6, abscissa_spacing=1, abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
                 ordinate_spec_data_type=12, ordinate_axis_units_lab="m/s^2", orddenom_spec_data_type=13,
-                orddenom_axis_units_lab="N", data=h, x=freq, id1="unseen_truth", id2="NONE", id3="NONE",
-                id4="NONE", id5="NONE"))
+                orddenom_axis_units_lab="N", data=h, x=freq, id1="unseen_truth",
+                id2=f"Averages: {n_avg}" if n_avg else "NONE", id3="NONE", id4="NONE", id5="NONE"))
+    for row, g in enumerate(coherence if coherence is not None else []):
+        dof = SENSORS[row][0]
+        node, sgn, axis = int(dof[:2]), (-1 if dof[2] == "-" else 1), dof[3]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sets.append(pyuff.prepare_58(
+                binary=0, func_type=6, rsp_node=node, rsp_dir=sgn * dirs[axis], ref_node=11, ref_dir=2,
+                ord_data_type=4, abscissa_spacing=1, abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
+                ordinate_spec_data_type=0, ordinate_axis_units_lab="NONE", orddenom_spec_data_type=0,
+                orddenom_axis_units_lab="NONE", data=g.astype(float), x=freq, id1="unseen_truth coherence",
+                id2=f"Averages: {n_avg}", id3="NONE", id4="NONE", id5="NONE"))
     with contextlib.redirect_stdout(io.StringIO()):
         pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
 
@@ -292,7 +463,7 @@ def run(tmp: Path, name: str, family: str, t: Truth, calibrate_from: Truth | Non
     rig = tmp / f"{name}.toml"
     if calibrate_from is not None:  # k_MS from `calibrate` on a steel-disk truth of the same rig
         disk_uff = tmp / f"{name}_disk.uff"
-        write_uff(disk_uff, FREQ, calibrate_from.frf(FREQ))
+        write_uff(disk_uff, calibrate_from.freq, calibrate_from.frf(calibrate_from.freq))
         rig.write_text(t.rig_text(), encoding="utf-8")
         rc, res, err = cli("calibrate", str(disk_uff), "--rig", str(rig))
         if rc != 0 or res is None:
@@ -305,7 +476,8 @@ def run(tmp: Path, name: str, family: str, t: Truth, calibrate_from: Truth | Non
         rig.write_text(t.rig_text(), encoding="utf-8")
         cal = []
     uff = tmp / f"{name}.uff"
-    write_uff(uff, FREQ, t.frf(FREQ))
+    fr = t.freq
+    write_uff(uff, fr, t.frf(fr), t.coherence(fr), t.n_avg if t.shaker_mass > 0 else 0)
     rc, res, err = cli("stiffness", str(uff), "--rig", str(rig))
     if rc != 0 or res is None:
         return Row(family, t, rc, math.nan, math.nan, "", cal, err)
@@ -377,7 +549,93 @@ def families() -> dict[str, Callable[[int], tuple[Truth, Truth | None]]]:
         return Truth(k_TB=t.k_TB, lat_freq=t._housing_freq_3dof() * (1 + sign * float(r.uniform(0.01, 0.02))),
                      seed=s), None
 
-    return {
+    def _bw(t: Truth) -> float:
+        """Half-power bandwidth [Hz] of the housing mode: 2 zeta f with the bearing's and the structure's zeta."""
+        return 2 * (t.zeta_H + t.structure_zeta) * t._housing_freq_3dof()
+
+    def coarse(s: int) -> tuple[Truth, Truth | None]:
+        t = Truth(k_TB=_logk(s, 31, 3e7, 2e8), seed=s)
+        return Truth(k_TB=t.k_TB, df=round(_bw(t) / float(_r(s, 31).uniform(3.0, 5.0)), 3), seed=s), None
+
+    def band_edge(s: int, lo: float, hi: float, salt: int) -> tuple[Truth, Truth | None]:
+        """The rig file's band ends lo-hi half-power bandwidths beyond the housing mode (above or below)."""
+        t = Truth(k_TB=_logk(s, salt, 3e7, 2e8), seed=s)
+        r = _r(s, salt)
+        x = float(r.uniform(lo, hi)) * _bw(t)
+        f = t._housing_freq_3dof()
+        band = (150.0, f + x) if r.uniform() < 0.5 else (f - x, 1000.0)
+        return Truth(k_TB=t.k_TB, band=band, seed=s), None
+
+    def aniso(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 33)
+        d = (1 if r.uniform() < 0.5 else -1) * float(r.uniform(0.02, 0.06))
+        return Truth(k_TB=_logk(s, 33, 3e7, 2e8), aniso_delta=d, aniso_deg=float(r.uniform(5.0, 25.0)), seed=s), None
+
+    def spindle(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 34)
+        ratio = 1 + (1 if r.uniform() < 0.5 else -1) * float(r.uniform(0.01, 0.05))
+        return Truth(k_TB=_logk(s, 34, 3e7, 2e8), spindle_ratio=ratio, spindle_mass=float(r.uniform(0.5, 2.0)),
+                     seed=s), None
+
+    def shaker(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 35)
+        return Truth(k_TB=_logk(s, 35, 3e7, 2e8), shaker_mass=float(r.uniform(0.1, 0.5)),
+                     shaker_c=float(r.uniform(50.0, 300.0)), force_noise=float(r.uniform(0.02, 0.05)), seed=s), None
+
+    def leak_n(s: int, lo: float, hi: float, salt: int) -> tuple[Truth, Truth | None]:
+        """A Hann-windowed random test with lo-hi lines across the housing mode's half-power band."""
+        t = Truth(k_TB=_logk(s, salt, 3e7, 2e8), seed=s)
+        return Truth(k_TB=t.k_TB, df=round(_bw(t) / float(_r(s, salt).uniform(lo, hi)), 3), hann=True, seed=s), None
+
+    def aniso_damped(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 40)
+        d = (1 if r.uniform() < 0.5 else -1) * float(r.uniform(0.02, 0.06))
+        return Truth(k_TB=_logk(s, 40, 3e7, 2e8), aniso_delta=d, aniso_deg=float(r.uniform(5.0, 25.0)),
+                     zeta_H=float(r.uniform(0.03, 0.08)), seed=s), None
+
+    def shaker_damped(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 41)
+        return Truth(k_TB=_logk(s, 41, 3e7, 2e8), shaker_mass=float(r.uniform(0.2, 0.5)),
+                     shaker_c=float(r.uniform(50.0, 300.0)), force_noise=float(r.uniform(0.02, 0.05)),
+                     zeta_H=float(r.uniform(0.03, 0.08)), seed=s), None
+
+    def spindle_far(s: int) -> tuple[Truth, Truth | None]:
+        r = _r(s, 42)
+        ratio = 1 + (1 if r.uniform() < 0.5 else -1) * float(r.uniform(0.05, 0.15))
+        return Truth(k_TB=_logk(s, 42, 3e7, 2e8), spindle_ratio=ratio, spindle_mass=float(r.uniform(0.5, 2.0)),
+                     seed=s), None
+
+    new13 = {
+        # r_truth13 (seeds 60+): physics none of the families above has
+        "r13 anisotropic bearing: k_2/k_1 1 +- 2-6 %, principal axis 5-25 deg off the load direction": aniso,
+        "r13 driving-point accelerometer 11+Y 5-15 deg off its axis (towards the lateral)": lambda s: (
+            Truth(k_TB=_logk(s, 36, 3e7, 2e8), tilt=((0, ZH, float(_r(s, 36).uniform(5.0, 15.0))),), seed=s), None),
+        "r13 radial accelerometer 12+Y 5-15 deg off its axis (towards the axial)": lambda s: (
+            Truth(k_TB=_logk(s, 37, 3e7, 2e8), tilt=((1, XH, float(_r(s, 37).uniform(5.0, 15.0))),), seed=s), None),
+        "r13 coarse resolution: 3-5 lines across the housing mode's half-power band": coarse,
+        "r13 housing mode 1-3 half-power bandwidths inside the band's edge": lambda s: band_edge(s, 1.0, 3.0, 32),
+        "r13 shaker force drop-out at resonance (armature 0.1-0.5 kg, back-EMF 50-300 N s/m), H1 of 30 averages "
+        "with coherence": shaker,
+        "r13 second shaker on 15+X in the file, the rig file names 11+Y only": lambda s: (
+            Truth(k_TB=_logk(s, 38, 3e7, 2e8), second_ref=True, seed=s), None),
+        "r13 spindle bending mode 1-5 % from the housing mode (0.5-2 kg)": spindle,
+        "r13 Hann-windowed random test, 2-4 lines across the half-power band (leakage)": lambda s: leak_n(s, 2, 4, 43),
+        "r13 radial housing sensor 12+Y written 12-Y in the rig file (sign reversed there only)": lambda s: (
+            Truth(k_TB=_logk(s, 44, 3e7, 2e8), rig_flip=("12+Y",), seed=s), None),
+        "r13 spindle sensor 21+Y written 21-Y in the rig file (sign reversed there only)": lambda s: (
+            Truth(k_TB=_logk(s, 45, 3e7, 2e8), rig_flip=("21+Y",), seed=s), None),
+        "r13 spindle sensor 21+Y reversed in the rig file, bearing zeta 3-8 %": lambda s: (
+            Truth(k_TB=_logk(s, 46, 3e7, 2e8), rig_flip=("21+Y",), zeta_H=float(_r(s, 46).uniform(0.03, 0.08)),
+                  seed=s), None),
+        "r13 Hann-windowed random test, 3-5 lines across the half-power band (leakage)": lambda s: leak_n(s, 3, 5, 47),
+        "r13 Hann-windowed random test, 5-10 lines across the half-power band (leakage)": lambda s: leak_n(s, 5, 10, 47),
+        "r13 spindle bending mode 5-15 % from the housing mode (0.5-2 kg)": spindle_far,
+        "r13 housing mode 0.3-1 half-power bandwidth inside the band's edge": lambda s: band_edge(s, 0.3, 1.0, 39),
+        "r13 anisotropic bearing (as above) with bearing zeta 3-8 %": aniso_damped,
+        "r13 shaker force drop-out (armature 0.2-0.5 kg) with bearing zeta 3-8 %": shaker_damped,
+    }
+
+    return new13 | {
         "k_TB 1e7..1e9 (log-uniform)": lambda s: (Truth(k_TB=_logk(s, 1), seed=s), None),
         "k_TB 1e7..1e9 (log-spaced grid over the seeds)": lambda s: (Truth(k_TB=_grid(s), seed=s), None),
         "frame part 1-3 % from the housing mode": frame,

@@ -410,6 +410,27 @@ def _eigh(k: NDArray[np.float64], m: NDArray[np.float64]) -> tuple[NDArray[np.fl
     return lam, li.T @ v
 
 
+def hann_leaked_frf(truth: RigTruth, freq: NDArray[np.float64], sub: int = 16, half: int = 8) -> NDArray[np.complex128]:
+    """Expected H1 of a Hann-windowed random test with records of ``1 / df`` s, shape (8, n_freq).
+
+    With white excitation the cross- and auto-spectra are the true ones averaged over the window's
+    spectral power ``|W(f - nu)|^2`` (Bendat & Piersol, *Random Data*, 4th ed. 2010, ch. 8:
+    resolution bias), so ``H1(f) = sum_nu H(nu) |W(f - nu)|^2 / sum_nu |W(f - nu)|^2``. ``W`` is the
+    Hann window's spectrum, ``sinc(x) + (sinc(x - 1) + sinc(x + 1)) / 2`` with ``x`` in lines, on a
+    grid of ``df / sub`` over ``+-half`` lines; ``H(-nu) = conj H(nu)``. ``freq`` uniform from 0."""
+    df = float(freq[1] - freq[0])
+    nu = np.arange(-half * sub, (freq.size - 1) * sub + half * sub + 1) * (df / sub)
+    h_pos = truth.frf(np.abs(nu))
+    h_fine = np.where(nu < 0, np.conj(h_pos), h_pos)
+    x = np.arange(-half * sub, half * sub + 1) / sub
+    w = np.sinc(x) + 0.5 * np.sinc(x - 1) + 0.5 * np.sinc(x + 1)
+    w2 = w**2 / (w**2).sum()
+    out = np.empty((h_fine.shape[0], freq.size), dtype=complex)
+    for i in range(freq.size):
+        out[:, i] = h_fine[:, i * sub: i * sub + x.size] @ w2
+    return out
+
+
 @dataclass(frozen=True)
 class Measurement:
     """Noisy accelerance of the kept sensors for the radial shaker (no ema_rig types).
@@ -431,16 +452,18 @@ def measurement(
     drop: tuple[str, ...] = (),
     flip: tuple[str, ...] = (),
     scale: float = 1.0,
+    hann: bool = False,
 ) -> Measurement:
     """Noisy FRFs (outputs in :data:`OUT` order minus ``drop``; one reference 11+Y).
 
     ``noise`` is the relative std of complex Gaussian noise on each line, ``floor`` an additive
     floor relative to the median magnitude of the channel; ``flip`` reverses the sign of sensors
     (a wrongly mounted or wired accelerometer) and ``scale`` multiplies every value (1 / g: a file
-    in g read as m/s^2).
+    in g read as m/s^2); ``hann`` gives the lines of a Hann-windowed random test (leakage,
+    :func:`hann_leaked_frf`) instead of the exact FRF.
     """
     rng = np.random.default_rng(truth.seed)
-    h = truth.frf(freq)
+    h = hann_leaked_frf(truth, freq) if hann else truth.frf(freq)
     mag = np.abs(h)
     floor_abs = floor * np.median(mag, axis=1, keepdims=True)
     sd = noise * mag + floor_abs

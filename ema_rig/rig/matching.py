@@ -213,6 +213,18 @@ class MatchCriteria:
         keeps at least half of the radial housing motion of the pair. Source: definition (of the
         two modes sharing one radial housing motion, the radial housing mode is the one holding the
         larger share; at exactly 1 either reading gives the same uncoupled frequency).
+    resolution_lines : float
+        Resolution bandwidth of a measured spectrum in lines (1.5): the equivalent noise bandwidth
+        of a Hann window, the window of random excitation (F. J. Harris, "On the use of windows for
+        harmonic analysis with the discrete Fourier transform", Proc. IEEE 66(1), 1978, Table 1:
+        1.50 bins). Two poles closer than this are not resolved by the spectrum.
+    min_bandwidth_resolutions : float
+        A resonance is resolved when its half-power bandwidth ``2 zeta f`` spans at least this many
+        resolution bandwidths (4). Source: the resolution bias of a windowed spectrum at a resonance
+        peak is ``-(1/3) (B_e / B_r)^2`` (J. S. Bendat & A. G. Piersol, *Random Data*, 4th ed. 2010,
+        ch. 8, resolution bias), -2 % at ``B_e = B_r / 4``, their guideline; below, leakage smears
+        the peak, and a modal fit splits it into poles about a line apart
+        (``benchmarks/results/study_unseen_truths_r_truth13.txt``, Hann-windowed truths).
     """
 
     min_phase_cos: float = 0.2
@@ -239,6 +251,8 @@ class MatchCriteria:
     mixed_pair_max_mixing: float = 1.0
     harmonic_max_chance: float = 1.0 / 3.0
     driving_point_min_cos: float = 0.0
+    resolution_lines: float = 1.5
+    min_bandwidth_resolutions: float = 4.0
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name (see the class docstring)."""
@@ -273,6 +287,10 @@ class MatchCriteria:
                                  "(0.1 %): sqrt(1e-3) = 0.032",
             "cross_axis_ratio_std": "a sensor mounted within 2 degrees: sin(2 deg) = 0.035 of the cross motion",
             "mixed_pair_max_mixing": "definition: the radial housing mode holds the larger radial share of the pair",
+            "resolution_lines": "equivalent noise bandwidth of a Hann window, 1.50 bins (Harris, Proc. IEEE 66(1), "
+                                "1978, Table 1)",
+            "min_bandwidth_resolutions": "resolution bias of a windowed resonance peak -(1/3) (B_e / B_r)^2, -2 % at "
+                                         "B_e = B_r / 4 (Bendat & Piersol, Random Data, 4th ed. 2010, ch. 8)",
         }
 
 

@@ -48,6 +48,10 @@ resolved silently; it is either covered by a stated model-form term *and* a warn
   (a split housing mass: an appendage, a load arm), the uncoupled frequency is recovered from
   the group's driving-point compliance and the result placed between both readings;
 * effective modal mass off the model's by more than 10 %: warning and a term ``|ln r| / 4``;
+* the housing mode on lines coarse against its half-power band (under
+  ``MatchCriteria.min_bandwidth_resolutions`` Hann resolution bandwidths): the driving-point mass's std
+  carries the resolution bias, and where a pole lies inside one resolution bandwidth or the mass is off,
+  a warning names the leakage and the line spacing that resolves the mode;
 * a ``k_TB`` whose 2-sigma interval reaches 0 (:data:`~ema_rig.rig.uncertainty.UNRESOLVED_SIGMAS`): warning
   that the measurement does not resolve it (a bearing far stiffer than the mounting system);
 * damping: the declared model (viscous default) gives the undamped frequency; the

@@ -636,6 +636,116 @@ def _uncoupled_freq(params: Any, freqs: list[float], parts: list[float]) -> floa
     return f
 
 
+def _resolution(data: Any, f_h: float, zeta: float) -> tuple[float, float, float] | None:
+    """``(df, B_e, B_r)`` [Hz] where the housing mode is coarse against the measurement's lines, else None.
+
+    ``df`` the line spacing, ``B_e = MatchCriteria.resolution_lines df`` the spectrum's resolution
+    bandwidth (a Hann window), ``B_r = 2 zeta f_h`` the housing mode's half-power bandwidth; returned
+    only when ``B_r`` spans fewer than ``MatchCriteria.min_bandwidth_resolutions`` resolution
+    bandwidths, where a windowed spectrum biases the peak (resolution bias ``-(1/3) (B_e / B_r)^2``).
+    """
+    freq = None if data is None else getattr(data, "freq", None)
+    if freq is None or len(freq) < 2 or not zeta > 0:
+        return None
+    df = float(abs(freq[1] - freq[0]))
+    b_e = MATCH_CRITERIA.resolution_lines * df
+    b_r = 2.0 * zeta * f_h
+    if not (df > 0 and b_r < MATCH_CRITERIA.min_bandwidth_resolutions * b_e):
+        return None
+    return df, b_e, b_r
+
+
+def _resolution_warning(m: MatchResult, modes: Any, data: Any, zeta: float, mass_off: bool) -> str | None:
+    """The warning for a housing mode read on lines too coarse for it (leakage), else None.
+
+    A windowed spectrum whose lines are coarse against the housing mode's half-power bandwidth
+    (:func:`_resolution`) smears the peak: the modal fit reads the damping high and the modal mass
+    off, or places two poles about a line apart where there is one mode, whose shares of the residue
+    read as a coupling, a split housing mass or a missing participation that the rig does not have
+    (Hann-windowed truths at 3-5 lines across the half-power band: every housing mode split, its pair
+    1.1-1.2 lines apart, warned only of coupling and mass; at 2-2.5 lines the 12-coordinate truth's
+    mass 0.87-0.91x the model's, warned as a missing part; ``benchmarks/results/study_unseen_truths_r_truth13.txt``).
+    Warned where the data show it: another pole closer than one resolution bandwidth
+    (``MatchCriteria.resolution_lines``, which such a spectrum does not resolve), or the effective
+    modal mass off the model's (``mass_off``); coarse lines alone, where the readings agree, are not.
+
+    Parameters
+    ----------
+    m : MatchResult
+    modes : ModalModel
+        The identified modes ``m`` indexes.
+    data : FRFData or None
+        The measurement (its line spacing); None: no warning.
+    zeta : float
+        The housing mode's identified damping ratio.
+    mass_off : bool
+        Whether the effective modal mass is off the model's beyond :data:`MASS_WARN_RATIO`.
+
+    Returns
+    -------
+    str or None
+    """
+    f_h = float(modes.natural_freq[m.housing_index])
+    res = _resolution(data, f_h, zeta)
+    if res is None:
+        return None
+    df, b_e, b_r = res
+    near = [float(f) for i, f in enumerate(modes.natural_freq) if i != m.housing_index and abs(float(f) - f_h) < b_e]
+    if not near and not mass_off:
+        return None
+    n_min = MATCH_CRITERIA.min_bandwidth_resolutions * MATCH_CRITERIA.resolution_lines
+    head = (f"the housing mode's half-power band spans {b_r / df:.1f} lines of {df:.3g} Hz (under {n_min:g}: "
+            f"{MATCH_CRITERIA.min_bandwidth_resolutions:g} resolution bandwidths of a Hann window): a windowed "
+            "spectrum smears its peak (leakage), ")
+    if near:
+        f_j = min(near, key=lambda f: abs(f - f_h))
+        why = (f"and the pole at {f_j:.1f} Hz, {abs(f_j - f_h) / df:.2f} lines away, is not resolved from it: the "
+               "pair may be one mode split by the fit, its coupling or mass readings the resolution's, not the rig's")
+    else:
+        why = "which biases the modal mass and damping read from it: the mass may be off by the resolution, not the rig"
+    return head + why + f"; measure with lines of at most {b_r / n_min:.2g} Hz"
+
+
+def _mass_at_resolution(dpm: DrivingPointMass, f_abs: float, zeta: float, data: Any,
+                        notes: list[str]) -> DrivingPointMass:
+    """The driving-point modal mass with the spectrum's resolution bias in its std.
+
+    Where the housing mode's half-power band spans few lines (:func:`_resolution`), a windowed
+    spectrum (leakage) biases the peak by up to ``eps = (1/3) (B_e / B_r)^2`` and the modal fit
+    trades the damping against the residue: the mass read at the fitted pole carries that bias (the
+    12-coordinate truth of ``tests/rig_truth.py``, Hann-windowed at 3.1 lines across the half-power
+    band: mass -4.6 %, used as m_H, k_TB -4.6 % at sigma 4.1 %). Exact lines carry none, so the bias
+    is a one-sided rectangular std ``eps / sqrt(3)`` (the convention of :func:`_mass_of_damped_pole`).
+
+    Parameters
+    ----------
+    dpm : DrivingPointMass
+        The measured driving-point modal mass [kg] and its std.
+    f_abs, zeta : float
+        The housing mode's ``|lambda| / 2 pi`` [Hz] and identified damping ratio.
+    data : FRFData or None
+        The measurement (its line spacing).
+    notes : list of str
+        Appended to where the bias's std exceeds the mass's own.
+
+    Returns
+    -------
+    DrivingPointMass
+    """
+    res = _resolution(data, f_abs, zeta)
+    if res is None:
+        return dpm
+    df, b_e, b_r = res
+    eps = (b_e / b_r) ** 2 / 3.0
+    u = eps / math.sqrt(3.0)
+    std = dpm.modal_mass * math.hypot(dpm.modal_mass_std / dpm.modal_mass, u)
+    if u > dpm.modal_mass_std / dpm.modal_mass:
+        notes.append(f"driving-point modal mass {dpm.modal_mass:.4g} kg read on lines of {df:.3g} Hz, the housing "
+                     f"mode's half-power band {b_r / df:.1f} lines: a windowed spectrum biases it by up to "
+                     f"{100 * eps:.1f} % (resolution bias), so +/- {std:.2g} kg")
+    return replace(dpm, modal_mass_std=std)
+
+
 def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_model: DampingModel = "viscous",
                         file: str | None = None, data: Any = None, bearing: bool = True) -> Assessment:
     """Frequency to invert and the model-form terms and warnings of one matched housing mode.
@@ -717,6 +827,11 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
       the housing) and the measured ``m_H`` is used as in the modal mass check (a note naming both
       masses; a 20 % off rig file gave k_TB +40 ... +139 % behind this warning before). One reading
       alone keeps the warning and the term.
+
+    * **resolution** (with ``data``): lines coarse against the housing mode's half-power band
+      (:func:`_resolution`): the driving-point mass's std carries the windowed spectrum's resolution
+      bias (:func:`_mass_at_resolution`); a warning where a pole lies inside one resolution bandwidth
+      or the effective mass is off (:func:`_resolution_warning`).
 
     Parameters
     ----------
@@ -846,6 +961,7 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
         if dpm0 is not None:
             dpm0 = _mass_at_centre(dpm0, modes, rig, m.housing_index, hm, notes)
             dpm0 = _mass_of_damped_pole(dpm0, f_abs, zeta, params, loc0, notes)
+            dpm0 = _mass_at_resolution(dpm0, f_abs, zeta, data, notes)
             ratio = dpm0.modal_mass / (info0.modal_mass * (1 + t_mix))
     # partners that may carry the housing participation missing from its mode: in-phase radial
     # housing motion, within +-25 % (a heavier appendage splits the pair further than a few
@@ -1196,6 +1312,10 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                 f"mode at {fn:.1f} Hz moves the radial housing sensors within a few half-power bandwidths "
                 f"of the housing mode: possible coupling (term {100 * term:.2f} % of the frequency)"
             )
+    leak = _resolution_warning(m, modes, data, zeta, dpm is None and ratio is not None
+                               and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO))
+    if leak is not None:
+        warns.append(leak)
     if dpm is None and ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
         terms["effective mass"] = abs(math.log(ratio)) / 4.0
         warns.append(
