@@ -50,7 +50,7 @@ from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
 from .ml import LocalML, StagedML, local_ml_staged
 from .modal import ModalModel
-from .noise import MisfitTest, segment_edges, segment_misfit, segment_pole_columns
+from .noise import MisfitTest, SegmentFits, segment_edges, segment_misfit, segment_pole_columns
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
 from .refine import refine as refine_model
@@ -734,7 +734,7 @@ def identify(
     modes = _unique_modes(sel.modes)
     if fitted is None:
         fitted = _fit_modes(data, modes, residuals)
-    model, ml, polymax, basis, _columns = fitted
+    model, ml, polymax, basis = fitted[:4]
     model = _reported_model(data, model, residual_test, crit.completeness, residuals, basis)
     warnings += list(ml.warnings)
     meta = dict(model.meta)
@@ -789,9 +789,11 @@ def identify(
 
 
 #: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im), the LSFD basis of the
-#: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles) and the
-#: model's pole columns on every line (:func:`_pole_columns`, formed for its completeness test; None: not formed).
-_Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None, NDArray[np.complex128] | None]
+#: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles), the
+#: model's pole columns on every line (:func:`_pole_columns`, formed for its completeness test; None: not formed)
+#: and that test's local fits by segment (:data:`~ema_rig.identification.noise.SegmentFits`; None: not formed).
+_Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None, NDArray[np.complex128] | None,
+                SegmentFits | None]
 #: the local refits of one stage, keyed by (poles, lines) (:func:`_refit_on`): the stage's tests repeat some
 _Refits = dict[tuple[bytes, bytes], NDArray[np.complex128] | None]
 
@@ -854,11 +856,13 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
             with in_callers_limit(), np.errstate(**err):
                 return _lsfd_at(data, start, start_basis, poles, residuals)
 
-        def misfit_at(crit: CompletenessCriteria) -> tuple[MisfitTest, NDArray[np.complex128] | None]:
+        def misfit_at(crit: CompletenessCriteria
+                      ) -> tuple[MisfitTest, NDArray[np.complex128] | None, SegmentFits]:
             with in_callers_limit(), np.errstate(**err):
                 lam = _model_poles(start, poles)
                 cols = _pole_columns(data, lam)  # kept for the later tests at these poles
-                return _misfit_at(data, lam, crit, cols), cols
+                fits: SegmentFits = {}  # and the local fits of its segments (the cores of _failing_locally)
+                return _misfit_at(data, lam, crit, cols, fits), cols, fits
 
         tested_job = None if cc is None else Job(partial(misfit_at, cc), side)
         fit_job = Job(lsfd_at, side, later=True)
@@ -866,10 +870,10 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
             side.shutdown(wait=False)  # its thread ends once the tasks are done (or taken back)
         ml = staged.finish()
         model, basis = fit_job.result()
-        tested, columns = (None, None) if tested_job is None else tested_job.result()
+        tested, columns, fits = (None, None, None) if tested_job is None else tested_job.result()
     if test is not None and tested is not None:
         test[1].append(tested)
-    return model, ml, polymax, basis, columns
+    return model, ml, polymax, basis, columns, fits
 
 
 #: FRF values (channels x lines) from which :func:`_fit_modes` hands the completeness test at the ML poles
@@ -933,13 +937,14 @@ def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> Mis
 
 
 def _misfit_at(data: FRFData, poles: NDArray[np.complex128], crit: CompletenessCriteria,
-               columns: NDArray[np.complex128] | None = None) -> MisfitTest:
+               columns: NDArray[np.complex128] | None = None, fits: SegmentFits | None = None) -> MisfitTest:
     """:func:`_misfit` of the model with the poles ``poles`` (shape (n_modes,) [rad/s], in the model's order);
-    ``columns`` their :func:`_pole_columns` when the caller has them."""
+    ``columns`` their :func:`_pole_columns` when the caller has them; ``fits`` receives the local fits of the
+    test's segments (``segment_misfit(segment_fits=...)``)."""
     with single_threaded():  # many small factorizations: threads only add hand-off time
         return segment_misfit(data.freq, data.frf, poles, power=_FORM_POWER[data.frf_form],
                               coherence=data.coherence, n_averages=data.n_averages, criteria=crit,
-                              pole_columns=columns)
+                              pole_columns=columns, segment_fits=fits)
 
 
 def _pole_columns(data: FRFData, poles: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
@@ -965,15 +970,20 @@ def _failing_locally(data: FRFData, done: _Completed, cc: CompletenessCriteria) 
     lam = done.fitted[0].poles
     fn, zeta = np.abs(lam) / (2 * np.pi), -lam.real / np.maximum(np.abs(lam), 1e-300)
     edges = segment_edges(data.freq, fn, zeta, criteria=cc, chained=False)
-    if np.array_equal(edges, segment_edges(data.freq, fn, zeta, criteria=cc)):
-        # no chain: the cores are the test's own segments (``done.test`` is the test of these poles on the default,
-        # chained, segments), so the same local fits against the same variance fail exactly where it fails
+    # ``done.test`` is the test of these poles on the default, chained, segments of the data's lines: its
+    # segments' first lines and the end are those edges
+    chained = np.append(np.searchsorted(data.freq, done.test.freq_lower), data.freq.size)
+    if np.array_equal(edges, chained):
+        # no chain: the cores are the test's own segments, so the same local fits against the same variance
+        # fail exactly where it fails
         return fails
     n_chan = data.n_out * data.n_in
     with single_threaded():
+        # the pole columns of the test, at the same poles, and the local fits of its segments: a core that is
+        # one of them is not fitted again (the same numbers)
         t = segment_misfit(data.freq, data.frf.reshape(n_chan, -1), lam, power=_FORM_POWER[data.frf_form],
                            variance=done.test.variance, edges=edges, criteria=cc,
-                           pole_columns=done.fitted[4])  # those of the test, at the same poles
+                           pole_columns=done.fitted[4], segment_fits=done.fitted[5])
     return fails + [(a, b) for a, b in t.failing() if not any(lo <= a and b <= hi for lo, hi in fails)]
 
 

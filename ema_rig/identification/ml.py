@@ -225,9 +225,14 @@ class _Segment:
         for d in range(n_poly // 2):
             poly += [u**d + 0j, 1j * u**d]
         # the band's other modes at their (fixed) poles, residues free: their tails are no polynomial
-        for lam in others.tolist():
-            b1 = self._cols(np.array([lam]))
-            poly += [b1[:, 0], b1[:, 1]]
+        if others.size and self.window is None:
+            # one call for all: without a window their columns are formed elementwise (the same numbers as
+            # one by one; a window's quadrature sums keep one call per pole)
+            poly += list(self._cols(np.asarray(others, dtype=np.complex128)).T)
+        else:
+            for lam in others.tolist():
+                b1 = self._cols(np.array([lam]))
+                poly += [b1[:, 0], b1[:, 1]]
         # the pole-free columns do not depend on the poles: one orthonormal basis of their weighted
         # span, cut at its numerical rank. Over a few dozen lines the tails of far modes and the
         # polynomial are nearly collinear (condition 1e16 on dam0): a basis of that rank projects the
