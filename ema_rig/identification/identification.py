@@ -317,16 +317,26 @@ def _beyond_the_band(data: FRFData, band: tuple[float, float] | None) -> str:
     return "widen the band to include it"
 
 
-def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyond: str) -> list[str]:
+def _edge_magnitude(data: FRFData, crit: ResultCriteria) -> NDArray[np.float64]:
+    """The magnitude :func:`_skirt_warnings` and :func:`_low_edge` test, shape (n_freq,): rms over the channels,
+    running median of ``crit.skirt_lines`` lines."""
+    from scipy.ndimage import median_filter
+
+    mag: NDArray[np.float64] = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))),
+                                             size=int(crit.skirt_lines), mode="nearest")
+    return mag
+
+
+def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyond: str,
+                    mag: NDArray[np.float64] | None = None) -> list[str]:
     """A warning when the FRFs rise towards the upper band edge as the skirt of a mode above the band does.
 
     Above the highest mode (beyond ``edge_hbw`` half-power half-bandwidths), the lines from the minimum
     of the magnitude (rms over the channels, running median of ``skirt_lines``) to the band's end are
     tested: a rise more than ``skirt_rise`` times the upper residual's ``(f_edge / f_min)^p`` with a
-    median relative synthesis error above ``poor_fit`` there. ``data`` are cut to the band.
+    median relative synthesis error above ``poor_fit`` there. ``data`` are cut to the band; ``mag`` their
+    :func:`_edge_magnitude` when the caller has it.
     """
-    from scipy.ndimage import median_filter
-
     f = data.freq
     n_s = int(crit.skirt_lines)
     if model.n_modes == 0 or f.size < 2 * n_s:
@@ -335,12 +345,14 @@ def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyo
     start = int(np.searchsorted(f, model.natural_freq[r] * (1 + crit.edge_hbw * model.damping_ratio[r])))
     if start > f.size - n_s:
         return []
-    mag = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))), size=n_s, mode="nearest")
+    mag = _edge_magnitude(data, crit) if mag is None else mag
     i = start + int(np.argmin(mag[start:]))
     if f.size - i < n_s or not mag[i] > 0 or not f[i] > 0:
         return []
     rise = float(mag[-1] / mag[i])
     ur_rise = float((f[-1] / f[i]) ** _FORM_POWER[data.frf_form])
+    if rise <= crit.skirt_rise * ur_rise:
+        return []  # (the synthesis error is tested only for a rise)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.abs(data.frf[:, :, i:] - model.synthesize(f[i:]).frf) / np.abs(data.frf[:, :, i:])
     err = float(np.nanmedian(np.where(np.isfinite(rel), rel, np.nan))) if np.any(np.isfinite(rel)) else 0.0
@@ -352,7 +364,8 @@ def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyo
             "far from the band, so the synthesis and the residues near that edge are biased"]
 
 
-def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[float, str] | None:
+def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria,
+              mag: NDArray[np.float64] | None = None) -> tuple[float, str] | None:
     """Where the band should start, and why, when the FRFs fall from the lower band edge more than the
     lower residual can (the mirror of :func:`_skirt_warnings`); None when they do not.
 
@@ -361,11 +374,9 @@ def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[f
     are tested: a fall more than ``skirt_rise`` times the lower residual's own ``(f_min / f_start)^(2 - p)``
     with a median relative synthesis error above ``poor_fit`` there. At 0 Hz that is the DC line (an
     offset, drift, or a sensor's high-pass), which no mode or residual term represents and which
-    biases the whole fit. ``data`` are cut to the band. Returns the frequency of that minimum [Hz]
-    and the finding.
+    biases the whole fit. ``data`` are cut to the band; ``mag`` their :func:`_edge_magnitude` when the
+    caller has it. Returns the frequency of that minimum [Hz] and the finding.
     """
-    from scipy.ndimage import median_filter
-
     f = data.freq
     n_s = int(crit.skirt_lines)
     if model.n_modes == 0 or f.size < 2 * n_s:
@@ -374,7 +385,7 @@ def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[f
     stop = int(np.searchsorted(f, model.natural_freq[r] * (1 - crit.edge_hbw * model.damping_ratio[r])))
     if stop < n_s:
         return None
-    mag = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))), size=n_s, mode="nearest")
+    mag = _edge_magnitude(data, crit) if mag is None else mag
     i = int(np.argmin(mag[:stop]))
     if i < n_s or not mag[i] > 0:
         return None
@@ -384,6 +395,8 @@ def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[f
         lr_fall = float((f[i] / f[0]) ** (2 - p))
     else:  # at 0 Hz the lower residual of mobility or receptance is infinite: it can follow any fall
         lr_fall = 1.0 if p == 2 else float("inf")
+    if fall <= crit.skirt_rise * lr_fall:
+        return None  # (the synthesis error is tested only for a fall)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.abs(data.frf[:, :, : i + 1] - model.synthesize(f[: i + 1]).frf) / np.abs(data.frf[:, :, : i + 1])
     err = float(np.nanmedian(np.where(np.isfinite(rel), rel, np.nan))) if np.any(np.isfinite(rel)) else 0.0
@@ -747,8 +760,9 @@ def identify(
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
                         f"(above {100 * crit.result.poor_fit:.0f} %); modes may be missing or the data noisy")
     warnings += _edge_warnings(model, stab.band, crit.result)
-    warnings += _skirt_warnings(data, model, crit.result, beyond)
-    low = _low_edge(data, model, crit.result)
+    mag = _edge_magnitude(data, crit.result)  # the magnitude both edge tests read
+    warnings += _skirt_warnings(data, model, crit.result, beyond, mag)
+    low = _low_edge(data, model, crit.result, mag)
     if low is not None and not default_band:
         hi_f = stab.band[1]
         warnings.append(f"{low[1]}; start the band above it, e.g. band=({low[0]:.3g}, {hi_f:.6g}) Hz "
