@@ -490,12 +490,14 @@ def _weighted_solve(uk: NDArray[np.float64], proj: NDArray[np.float64], yv: NDAr
             flat += w2[:, k0 : k0 + step] @ (u[:, :, None] * u[:, None, :]).reshape(u.shape[0], r * r)
         gram = flat.reshape(n_c, r, r)
     else:
-        # few channels: each channel's weighted basis times the basis (batches of 32 MB)
+        # few channels: each channel's weighted basis times the basis, one channel at a time in one work array
+        # (the same BLAS product per channel as a batched one, whose work array of every channel outgrows the cache)
         gram = np.empty((n_c, r, r))
         ukt = np.ascontiguousarray(uk.T)
-        step = max(1, int((32 << 20) // max(8 * r * n_r, 1)))
-        for c0 in range(0, n_c, step):
-            gram[c0 : c0 + step] = (ukt[None, :, :] * w2[c0 : c0 + step, None, :]) @ uk
+        tmp = np.empty_like(ukt)
+        for c in range(n_c):
+            np.multiply(ukt, w2[c], out=tmp)
+            np.matmul(tmp, uk, out=gram[c])
     rhs = (w2 * yc) @ uk  # (channels, r)
     d = np.sqrt(np.maximum(np.einsum("cii->ci", gram), 0.0))
     d = np.where(d > 0, d, 1.0)
