@@ -308,16 +308,18 @@ class _Segment:
 
         ``prev`` is an earlier result of this segment (e.g. the last of :func:`_lm`): when it was
         formed at the same ``theta`` on the same background basis, its projection, residual and
-        derivative columns are taken over and only what it lacks is formed (the same numbers).
+        derivative columns are taken over and only what it lacks is formed; at the same ``theta`` on
+        another background basis (the whole-basis fit started at the cut estimate), its pole columns
+        (the same numbers).
         With ``cost_only`` the result holds the cost and residual only (``"hess"`` and ``"grad"``
         missing): a trial point of :func:`_lm`, completed by a second call with it as ``prev``
         when it is accepted.
         """
-        if (prev is not None and prev.get("_fixed") is self.fixed
-                and np.array_equal(np.asarray(prev["theta"]), theta)):
+        same = prev is not None and np.array_equal(np.asarray(prev["theta"]), theta)
+        if same and prev is not None and prev.get("_fixed") is self.fixed:
             out = dict(prev)
         else:
-            out = self._project(theta)
+            out = self._project(theta, prev if same else None)
         if cost_only:
             return out
         if "hess" not in out:
@@ -327,11 +329,17 @@ class _Segment:
                          np.asarray(out["_cs"]), rho, noise_var)
         return out
 
-    def _project(self, theta: NDArray[np.float64]) -> dict[str, NDArray[np.float64] | float]:
+    def _project(self, theta: NDArray[np.float64], at: dict[str, NDArray[np.float64] | float] | None = None
+                 ) -> dict[str, NDArray[np.float64] | float]:
         """Projection of the data on the span of the pole and background columns at ``theta``: the cost,
-        the residual and what :meth:`_derivatives` takes from it (see :meth:`evaluate`)."""
+        the residual and what :meth:`_derivatives` takes from it (see :meth:`evaluate`); ``at`` an earlier
+        result at the same ``theta``, whose pole columns are taken over."""
         lam = self.poles(theta)
-        b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
+        if at is None:
+            b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
+        else:
+            b1 = np.asarray(at["_b1"]).view(np.complex128)
+            pos2, neg2 = np.asarray(at["_pos2"]).view(np.complex128), np.asarray(at["_neg2"]).view(np.complex128)
         m, n = lam.size, self.jw.size
         # weighted pole columns (2n, 2m): Re R_r, Im R_r interleaved per pole, the rows (Re, Im) stacked
         a = np.empty((2 * n, 2 * m))
@@ -355,8 +363,10 @@ class _Segment:
         np.subtract(self.yw, e, out=e)  # residual (2n, C), in place of the model (one array of the data's size less)
         cost = float(np.sum(e * e))
         return {"cost": cost, "e": e, "theta": theta.copy(), "_q": q, "_r": r, "_d": d, "_qty": qty,
-                # the second-order pole columns as float views (re, im interleaved); _fixed: identity of the basis
-                "_pos2": pos2.view(np.float64), "_neg2": neg2.view(np.float64), "_fixed": self.fixed}
+                # the pole columns and their second-order ones as float views (re, im interleaved); _fixed: identity
+                # of the basis
+                "_b1": b1.view(np.float64), "_pos2": pos2.view(np.float64), "_neg2": neg2.view(np.float64),
+                "_fixed": self.fixed}
 
     def _derivatives(self, out: dict[str, NDArray[np.float64] | float]) -> None:
         """Gauss-Newton matrix ``"hess"`` and gradient ``"grad"`` of the cost into ``out`` (a :meth:`_project`)."""
@@ -489,12 +499,14 @@ _C_ROW = np.array([0, 1, 0, 1])
 _C_SIGN = np.array([1.0, 1.0, 1.0, -1.0])
 
 
-def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], crit: MLCriteria
+def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], crit: MLCriteria,
+        start: dict[str, NDArray[np.float64] | float] | None = None
         ) -> tuple[NDArray[np.float64], int, dict[str, NDArray[np.float64] | float] | None]:
     """Levenberg-Marquardt on the free parameters (Gauss-Newton matrix, Marquardt scaling).
 
     Returns the parameters, the evaluations spent and the last evaluation at them (None when no
-    parameter is free), which :meth:`_Segment.evaluate` takes over (``prev``).
+    parameter is free), which :meth:`_Segment.evaluate` takes over (``prev``). ``start``: an earlier
+    evaluation of the segment, taken over at ``theta0`` as :meth:`_Segment.evaluate` takes ``prev``.
 
     Convergence: the iterations stop when an accepted step lowers the cost by at most
     ``crit.lm_rtol`` of it, or when the Gauss-Newton model predicts a reduction of at most
@@ -516,7 +528,7 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
     theta = theta0.copy()
     if idx.size == 0:
         return theta, 0, None
-    cur = seg.evaluate(theta)
+    cur = seg.evaluate(theta, prev=start)
     n_eval = 1
     mu = 1e-4
     dof = max(seg.yw.size - seg.L * seg.yw.shape[1] - idx.size, 1)  # residual dof: real equations - parameters
@@ -819,7 +831,7 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
             whole: Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
             if free.any() and n_cut > 0:
                 whole = Job(partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
-                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big,
+                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb, last), big,
                             later=True)
             # the poles are final here (the next segments take them as their fixed neighbours); the
             # scores, covariances and warnings of the segment follow from them alone, so a second
@@ -976,15 +988,17 @@ def _segment_tail(seg: _Segment, theta: NDArray[np.float64], last: dict[str, NDA
 
 def _whole_basis(seg: _Segment, full_basis: NDArray[np.float64], theta: NDArray[np.float64], free: NDArray[np.bool_],
                  lam0: NDArray[np.complex128], lines: tuple[float, float], df: float, crit: MLCriteria,
-                 rho: tuple[float, ...], nv: NDArray[np.float64], nb: int
+                 rho: tuple[float, ...], nv: NDArray[np.float64], nb: int,
+                 last: dict[str, NDArray[np.float64] | float] | None = None
                  ) -> tuple[NDArray[np.complex128], NDArray[np.float64], int]:
     """The segment ``seg`` (a copy, changed here) fitted again on its whole background basis ``full_basis``,
     started at its cut estimate ``theta``: per mode (pole on the whole basis, pole on the cut basis),
     NaN where the whole-basis fit cannot hold it (``_check`` against ``lam0``, the lines ``lines`` [Hz]);
     the (f, zeta) standard deviations of that fit (:func:`_basis_stds`, blocks of ``nb`` lines); the
-    evaluations spent. Shape (m, 2) each."""
+    evaluations spent. Shape (m, 2) each. ``last``: the cut fit's last evaluation (its pole columns are taken over
+    where it was formed at ``theta``: the same numbers)."""
     seg.restore_basis(full_basis)
-    th_w, k, last_w = _lm(seg, theta, free, crit)
+    th_w, k, last_w = _lm(seg, theta, free, crit, last)
     bad_w = _check(seg.poles(th_w), lam0, free, lines, df, crit.move_hbw)
     std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv, prev=last_w), th_w, nb,
                         crit.block_from_scores)
