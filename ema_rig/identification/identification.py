@@ -866,16 +866,19 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
         poles = staged.poles
         cc = None if test is None else test[0]
 
+        # the model's poles and their columns on every line, formed once: the test takes them, and the LSFD at
+        # those poles its basis (kept for the later tests at these poles)
+        lam = _model_poles(start, poles)
+        cols = _pole_columns(data, lam)
+
         def lsfd_at() -> tuple[ModalModel, LsfdBasis | None]:
             with in_callers_limit(), np.errstate(**err):
-                return _lsfd_at(data, start, start_basis, poles, residuals)
+                return _lsfd_at(data, start, start_basis, poles, residuals, cols)
 
         def misfit_at(crit: CompletenessCriteria
                       ) -> tuple[MisfitTest, NDArray[np.complex128] | None, SegmentFits]:
             with in_callers_limit(), np.errstate(**err):
-                lam = _model_poles(start, poles)
-                cols = _pole_columns(data, lam)  # kept for the later tests at these poles
-                fits: SegmentFits = {}  # and the local fits of its segments (the cores of _failing_locally)
+                fits: SegmentFits = {}  # the local fits of its segments (the cores of _failing_locally)
                 return _misfit_at(data, lam, crit, cols, fits), cols, fits
 
         tested_job = None if cc is None else Job(partial(misfit_at, cc), side)
@@ -906,11 +909,12 @@ def _model_poles(model: ModalModel, poles: NDArray[np.complex128]) -> NDArray[np
 
 
 def _lsfd_at(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],
-             residuals: bool) -> tuple[ModalModel, LsfdBasis | None]:
-    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles)."""
+             residuals: bool, columns: NDArray[np.complex128] | None = None) -> tuple[ModalModel, LsfdBasis | None]:
+    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles);
+    ``columns`` the :func:`_pole_columns` of ``_model_poles(model, poles)`` when the caller has them."""
     if np.any(poles != model.poles):
         bases: list[LsfdBasis] = []
-        model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases)
+        model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases, pole_columns=columns)
         basis = bases[0] if bases else None
     return model, basis
 
