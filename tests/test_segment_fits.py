@@ -4,7 +4,7 @@ The completeness test's local fits by segment are kept (:data:`~ema_rig.identifi
 that ``_failing_locally`` (the modes' unchained cores against the test's variance) fits only the cores that
 are no segment of the test (issue 18: speed). Oracle: the same test formed without any fit taken over, to the
 bit (the same operations on the same lines), on the bundled rig file, whose cores split one chain of the test
-(a case ``tests/test_completeness.py`` does not reach).
+(identify's use: ``test_failing_locally_takes_the_tests_fits_into_the_cores`` in ``tests/test_completeness.py``).
 """
 
 from __future__ import annotations
@@ -61,29 +61,3 @@ def test_taken_over_fits_are_the_fits_formed_here():
     other = lam * (1 + 1e-9)
     _same(segment_misfit(d.freq, d.frf, other, power=p, criteria=cc, segment_fits=fits),
           segment_misfit(d.freq, d.frf, other, power=p, criteria=cc))
-
-
-def test_identify_takes_the_tests_fits_into_the_cores(monkeypatch):
-    """identify's ``_failing_locally`` on the rig file gives what the segment test without any taken-over fit
-    gives on the unchained cores (the rule it replaced)."""
-    import ema_rig.identification.identification as ident_mod
-
-    d = _rig()
-    real = ident_mod._failing_locally
-    seen = []
-
-    def oracle(data, done, cc):
-        lam = done.fitted[0].poles
-        fn, zeta = np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam)
-        edges = segment_edges(data.freq, fn, zeta, criteria=cc, chained=False)
-        t = segment_misfit(data.freq, data.frf.reshape(data.n_out * data.n_in, -1), lam,
-                           power=FORM_POWER[data.frf_form], variance=done.test.variance, edges=edges, criteria=cc)
-        fails = done.test.failing()
-        got = real(data, done, cc)
-        seen.append(not np.array_equal(edges, segment_edges(data.freq, fn, zeta, criteria=cc)))
-        assert got == fails + [(a, b) for a, b in t.failing() if not any(lo <= a and b <= hi for lo, hi in fails)]
-        return got
-
-    monkeypatch.setattr(ident_mod, "_failing_locally", oracle)
-    identify(d, band=(150.0, 1000.0))
-    assert any(seen)  # the cores split a chain: the taken-over fits were used
