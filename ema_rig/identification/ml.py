@@ -395,7 +395,7 @@ class _Segment:
         hess = (g_b * (c2 @ c2.T)).reshape(k, 2, k, 2).sum(axis=(1, 3))
         # J^T r with r = model - data: sum over lines and channels of u E c
         grad = -np.sum(c2 * (b_u @ e)[idx], axis=1).reshape(k, 2).sum(axis=1)
-        out["hess"], out["grad"], out["_bu"], out["_cs"] = 0.5 * (hess + hess.T), grad, b_u, cs
+        out["hess"], out["grad"], out["_bu"], out["_cs"], out["_qb"] = 0.5 * (hess + hess.T), grad, b_u, cs, qb
 
     def _jcj_rows(self, pu: NDArray[np.float64], xw: NDArray[np.float64], et: NDArray[np.float64],
                   rho: tuple[float, ...], dof: int) -> NDArray[np.float64]:
@@ -452,7 +452,9 @@ class _Segment:
         k = 2 * self.m
         n = self.jw.size
         n_c = e.shape[1]
-        pb = b_u - (b_u @ q) @ q.T  # (2m, 2n): the rows b projected off the span of the basis
+        # the rows b projected off the span of the basis, (2m, 2n), with Q^T b of :meth:`_derivatives` (the same product)
+        qb = out.get("_qb")
+        pb = b_u - (b_u @ q if qb is None else np.asarray(qb)) @ q.T
         pu = pb[self.idx]  # (2k, 2n): p_ka of parameter k, factor a (row 2k + a)
         c2 = cs.reshape(2 * k, n_c)  # (2k, C): c_ka
         # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
