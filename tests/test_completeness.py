@@ -264,16 +264,14 @@ def test_segment_cores_chained_and_unchained():
     assert segment_edges(f, fn, z, chained=False).tolist() == [0, 80, 160, 260, 401]
 
 
-def test_failing_locally_without_a_chain_is_the_tests_failing_segments(monkeypatch):
-    """Where no mode chains (the unchained cores are the chained segments), the local cores' failures are
-    the completeness test's own: ``_failing_locally`` takes them without a second segment test (issue 18:
-    speed). Oracle: the segment test it replaced, run on the unchained cores against the test's variance,
-    on data whose test fails (:func:`_noise_only_segment`: twenty times the noise in 300-360 Hz)."""
+def _failing_locally_checked(monkeypatch, data, band):
+    """identify ``data`` in ``band`` with ``_failing_locally`` checked against its oracle, the segment test on
+    the unchained cores against the completeness test's variance, without any local fit taken over; returns
+    per call (whether the cores are the chained segments, the completeness test's failing segments)."""
     import ema_rig.identification.identification as ident_mod
     from ema_rig.frf import FORM_POWER
     from ema_rig.identification.noise import segment_edges
 
-    _sys5, noisy = _noise_only_segment()
     real = ident_mod._failing_locally
     seen = []
 
@@ -290,5 +288,30 @@ def test_failing_locally_without_a_chain_is_the_tests_failing_segments(monkeypat
         return got
 
     monkeypatch.setattr(ident_mod, "_failing_locally", oracle)
-    identify(noisy, band=(50, 950))
+    identify(data, band=band)
+    return seen
+
+
+def test_failing_locally_without_a_chain_is_the_tests_failing_segments(monkeypatch):
+    """Where no mode chains (the unchained cores are the chained segments), the local cores' failures are
+    the completeness test's own: ``_failing_locally`` takes them without a second segment test (issue 18:
+    speed). Oracle: the segment test it replaced, run on the unchained cores against the test's variance,
+    on data whose test fails (:func:`_noise_only_segment`: twenty times the noise in 300-360 Hz)."""
+    _sys5, noisy = _noise_only_segment()
+    seen = _failing_locally_checked(monkeypatch, noisy, (50, 950))
     assert any(same and fails for same, fails in seen), seen  # the shortcut taken, on a failing test
+
+
+def test_failing_locally_takes_the_tests_fits_into_the_cores(monkeypatch):
+    """Where the cores split a chain (the bundled rig file at 150-1000 Hz), ``_failing_locally`` fits only the
+    cores that are no segment of the completeness test and takes the others' local fits from it
+    (``segment_misfit(segment_fits=...)``, issue 18: speed): the oracle as above, without any fit taken over."""
+    from pathlib import Path
+
+    from ema_rig.config import load_rig
+    from ema_rig.io.uff import read_uff58
+
+    data_dir = Path(__file__).resolve().parent.parent / "data"
+    d = read_uff58(data_dir / "b6302_1000N_1200rpm.uff", rig=load_rig(data_dir / "rig.toml"))
+    seen = _failing_locally_checked(monkeypatch, d, (150.0, 1000.0))
+    assert any(not same for same, _fails in seen), seen  # cores that split a chain: fits taken over and formed

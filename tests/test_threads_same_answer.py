@@ -153,7 +153,7 @@ def test_the_completeness_test_formed_beside_the_lsfd_is_the_test_of_the_fitted_
                           damping_ratio=-p.real / abs(p), natural_freq_std=0.01, damping_ratio_std=1e-4, n_poles=20,
                           participation=(1 + 0j,)) for p in start[::-1]]
     monkeypatch.setattr(idm, "_AT_POLES_THREAD_MIN_VALUES", threshold)
-    (model, ml, _, _, _), test = idm._fit_tested(data, modes, True, COMPLETENESS_CRITERIA)
+    (model, ml, *_), test = idm._fit_tested(data, modes, True, COMPLETENESS_CRITERIA)
     assert np.any(ml.poles != model_order(start)) and "ml" in ml.kind  # the ML moved the poles
     fitted = lsfd(data, ml.poles)
     oracle = idm._misfit(data, fitted, COMPLETENESS_CRITERIA)

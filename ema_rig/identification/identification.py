@@ -50,7 +50,7 @@ from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
 from .ml import LocalML, StagedML, local_ml_staged
 from .modal import ModalModel
-from .noise import MisfitTest, segment_edges, segment_misfit, segment_pole_columns
+from .noise import MisfitTest, SegmentFits, segment_edges, segment_misfit, segment_pole_columns
 from .plscf import PlscfEngine, PoleSet, check_data, default_max_order, source_of
 from .refine import Refinement
 from .refine import refine as refine_model
@@ -317,16 +317,26 @@ def _beyond_the_band(data: FRFData, band: tuple[float, float] | None) -> str:
     return "widen the band to include it"
 
 
-def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyond: str) -> list[str]:
+def _edge_magnitude(data: FRFData, crit: ResultCriteria) -> NDArray[np.float64]:
+    """The magnitude :func:`_skirt_warnings` and :func:`_low_edge` test, shape (n_freq,): rms over the channels,
+    running median of ``crit.skirt_lines`` lines."""
+    from scipy.ndimage import median_filter
+
+    mag: NDArray[np.float64] = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))),
+                                             size=int(crit.skirt_lines), mode="nearest")
+    return mag
+
+
+def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyond: str,
+                    mag: NDArray[np.float64] | None = None) -> list[str]:
     """A warning when the FRFs rise towards the upper band edge as the skirt of a mode above the band does.
 
     Above the highest mode (beyond ``edge_hbw`` half-power half-bandwidths), the lines from the minimum
     of the magnitude (rms over the channels, running median of ``skirt_lines``) to the band's end are
     tested: a rise more than ``skirt_rise`` times the upper residual's ``(f_edge / f_min)^p`` with a
-    median relative synthesis error above ``poor_fit`` there. ``data`` are cut to the band.
+    median relative synthesis error above ``poor_fit`` there. ``data`` are cut to the band; ``mag`` their
+    :func:`_edge_magnitude` when the caller has it.
     """
-    from scipy.ndimage import median_filter
-
     f = data.freq
     n_s = int(crit.skirt_lines)
     if model.n_modes == 0 or f.size < 2 * n_s:
@@ -335,12 +345,14 @@ def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyo
     start = int(np.searchsorted(f, model.natural_freq[r] * (1 + crit.edge_hbw * model.damping_ratio[r])))
     if start > f.size - n_s:
         return []
-    mag = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))), size=n_s, mode="nearest")
+    mag = _edge_magnitude(data, crit) if mag is None else mag
     i = start + int(np.argmin(mag[start:]))
     if f.size - i < n_s or not mag[i] > 0 or not f[i] > 0:
         return []
     rise = float(mag[-1] / mag[i])
     ur_rise = float((f[-1] / f[i]) ** _FORM_POWER[data.frf_form])
+    if rise <= crit.skirt_rise * ur_rise:
+        return []  # (the synthesis error is tested only for a rise)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.abs(data.frf[:, :, i:] - model.synthesize(f[i:]).frf) / np.abs(data.frf[:, :, i:])
     err = float(np.nanmedian(np.where(np.isfinite(rel), rel, np.nan))) if np.any(np.isfinite(rel)) else 0.0
@@ -352,7 +364,8 @@ def _skirt_warnings(data: FRFData, model: ModalModel, crit: ResultCriteria, beyo
             "far from the band, so the synthesis and the residues near that edge are biased"]
 
 
-def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[float, str] | None:
+def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria,
+              mag: NDArray[np.float64] | None = None) -> tuple[float, str] | None:
     """Where the band should start, and why, when the FRFs fall from the lower band edge more than the
     lower residual can (the mirror of :func:`_skirt_warnings`); None when they do not.
 
@@ -361,11 +374,9 @@ def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[f
     are tested: a fall more than ``skirt_rise`` times the lower residual's own ``(f_min / f_start)^(2 - p)``
     with a median relative synthesis error above ``poor_fit`` there. At 0 Hz that is the DC line (an
     offset, drift, or a sensor's high-pass), which no mode or residual term represents and which
-    biases the whole fit. ``data`` are cut to the band. Returns the frequency of that minimum [Hz]
-    and the finding.
+    biases the whole fit. ``data`` are cut to the band; ``mag`` their :func:`_edge_magnitude` when the
+    caller has it. Returns the frequency of that minimum [Hz] and the finding.
     """
-    from scipy.ndimage import median_filter
-
     f = data.freq
     n_s = int(crit.skirt_lines)
     if model.n_modes == 0 or f.size < 2 * n_s:
@@ -374,7 +385,7 @@ def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[f
     stop = int(np.searchsorted(f, model.natural_freq[r] * (1 - crit.edge_hbw * model.damping_ratio[r])))
     if stop < n_s:
         return None
-    mag = median_filter(np.sqrt(np.mean(np.abs(data.frf) ** 2, axis=(0, 1))), size=n_s, mode="nearest")
+    mag = _edge_magnitude(data, crit) if mag is None else mag
     i = int(np.argmin(mag[:stop]))
     if i < n_s or not mag[i] > 0:
         return None
@@ -384,6 +395,8 @@ def _low_edge(data: FRFData, model: ModalModel, crit: ResultCriteria) -> tuple[f
         lr_fall = float((f[i] / f[0]) ** (2 - p))
     else:  # at 0 Hz the lower residual of mobility or receptance is infinite: it can follow any fall
         lr_fall = 1.0 if p == 2 else float("inf")
+    if fall <= crit.skirt_rise * lr_fall:
+        return None  # (the synthesis error is tested only for a fall)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.abs(data.frf[:, :, : i + 1] - model.synthesize(f[: i + 1]).frf) / np.abs(data.frf[:, :, : i + 1])
     err = float(np.nanmedian(np.where(np.isfinite(rel), rel, np.nan))) if np.any(np.isfinite(rel)) else 0.0
@@ -734,7 +747,7 @@ def identify(
     modes = _unique_modes(sel.modes)
     if fitted is None:
         fitted = _fit_modes(data, modes, residuals)
-    model, ml, polymax, basis, _columns = fitted
+    model, ml, polymax, basis = fitted[:4]
     model = _reported_model(data, model, residual_test, crit.completeness, residuals, basis)
     warnings += list(ml.warnings)
     meta = dict(model.meta)
@@ -747,8 +760,9 @@ def identify(
         warnings.append(f"poor fit: median synthesis error {100 * med:.0f} % over {fit.size} channel(s) "
                         f"(above {100 * crit.result.poor_fit:.0f} %); modes may be missing or the data noisy")
     warnings += _edge_warnings(model, stab.band, crit.result)
-    warnings += _skirt_warnings(data, model, crit.result, beyond)
-    low = _low_edge(data, model, crit.result)
+    mag = _edge_magnitude(data, crit.result)  # the magnitude both edge tests read
+    warnings += _skirt_warnings(data, model, crit.result, beyond, mag)
+    low = _low_edge(data, model, crit.result, mag)
     if low is not None and not default_band:
         hi_f = stab.band[1]
         warnings.append(f"{low[1]}; start the band above it, e.g. band=({low[0]:.3g}, {hi_f:.6g}) Hz "
@@ -789,9 +803,11 @@ def identify(
 
 
 #: The LSFD model at the ML poles, the local ML, the PolyMAX poles (re, im), the LSFD basis of the
-#: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles) and the
-#: model's pole columns on every line (:func:`_pole_columns`, formed for its completeness test; None: not formed).
-_Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None, NDArray[np.complex128] | None]
+#: model (:class:`~ema_rig.identification.lsfd.LsfdBasis`, for the weighted residues at the same poles), the
+#: model's pole columns on every line (:func:`_pole_columns`, formed for its completeness test; None: not formed)
+#: and that test's local fits by segment (:data:`~ema_rig.identification.noise.SegmentFits`; None: not formed).
+_Fitted = tuple[ModalModel, LocalML, list[list[float]], LsfdBasis | None, NDArray[np.complex128] | None,
+                SegmentFits | None]
 #: the local refits of one stage, keyed by (poles, lines) (:func:`_refit_on`): the stage's tests repeat some
 _Refits = dict[tuple[bytes, bytes], NDArray[np.complex128] | None]
 
@@ -850,15 +866,20 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
         poles = staged.poles
         cc = None if test is None else test[0]
 
+        # the model's poles and their columns on every line, formed once: the test takes them, and the LSFD at
+        # those poles its basis (kept for the later tests at these poles)
+        lam = _model_poles(start, poles)
+        cols = _pole_columns(data, lam)
+
         def lsfd_at() -> tuple[ModalModel, LsfdBasis | None]:
             with in_callers_limit(), np.errstate(**err):
-                return _lsfd_at(data, start, start_basis, poles, residuals)
+                return _lsfd_at(data, start, start_basis, poles, residuals, cols)
 
-        def misfit_at(crit: CompletenessCriteria) -> tuple[MisfitTest, NDArray[np.complex128] | None]:
+        def misfit_at(crit: CompletenessCriteria
+                      ) -> tuple[MisfitTest, NDArray[np.complex128] | None, SegmentFits]:
             with in_callers_limit(), np.errstate(**err):
-                lam = _model_poles(start, poles)
-                cols = _pole_columns(data, lam)  # kept for the later tests at these poles
-                return _misfit_at(data, lam, crit, cols), cols
+                fits: SegmentFits = {}  # the local fits of its segments (the cores of _failing_locally)
+                return _misfit_at(data, lam, crit, cols, fits), cols, fits
 
         tested_job = None if cc is None else Job(partial(misfit_at, cc), side)
         fit_job = Job(lsfd_at, side, later=True)
@@ -866,10 +887,10 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
             side.shutdown(wait=False)  # its thread ends once the tasks are done (or taken back)
         ml = staged.finish()
         model, basis = fit_job.result()
-        tested, columns = (None, None) if tested_job is None else tested_job.result()
+        tested, columns, fits = (None, None, None) if tested_job is None else tested_job.result()
     if test is not None and tested is not None:
         test[1].append(tested)
-    return model, ml, polymax, basis, columns
+    return model, ml, polymax, basis, columns, fits
 
 
 #: FRF values (channels x lines) from which :func:`_fit_modes` hands the completeness test at the ML poles
@@ -888,11 +909,12 @@ def _model_poles(model: ModalModel, poles: NDArray[np.complex128]) -> NDArray[np
 
 
 def _lsfd_at(data: FRFData, model: ModalModel, basis: LsfdBasis | None, poles: NDArray[np.complex128],
-             residuals: bool) -> tuple[ModalModel, LsfdBasis | None]:
-    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles)."""
+             residuals: bool, columns: NDArray[np.complex128] | None = None) -> tuple[ModalModel, LsfdBasis | None]:
+    """The LSFD model at ``poles`` and its basis (``model`` and its ``basis`` when they are its poles);
+    ``columns`` the :func:`_pole_columns` of ``_model_poles(model, poles)`` when the caller has them."""
     if np.any(poles != model.poles):
         bases: list[LsfdBasis] = []
-        model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases)
+        model = _lsfd_checked(data, poles, residuals=residuals, basis_out=bases, pole_columns=columns)
         basis = bases[0] if bases else None
     return model, basis
 
@@ -933,13 +955,14 @@ def _misfit(data: FRFData, model: ModalModel, crit: CompletenessCriteria) -> Mis
 
 
 def _misfit_at(data: FRFData, poles: NDArray[np.complex128], crit: CompletenessCriteria,
-               columns: NDArray[np.complex128] | None = None) -> MisfitTest:
+               columns: NDArray[np.complex128] | None = None, fits: SegmentFits | None = None) -> MisfitTest:
     """:func:`_misfit` of the model with the poles ``poles`` (shape (n_modes,) [rad/s], in the model's order);
-    ``columns`` their :func:`_pole_columns` when the caller has them."""
+    ``columns`` their :func:`_pole_columns` when the caller has them; ``fits`` receives the local fits of the
+    test's segments (``segment_misfit(segment_fits=...)``)."""
     with single_threaded():  # many small factorizations: threads only add hand-off time
         return segment_misfit(data.freq, data.frf, poles, power=_FORM_POWER[data.frf_form],
                               coherence=data.coherence, n_averages=data.n_averages, criteria=crit,
-                              pole_columns=columns)
+                              pole_columns=columns, segment_fits=fits)
 
 
 def _pole_columns(data: FRFData, poles: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
@@ -965,15 +988,20 @@ def _failing_locally(data: FRFData, done: _Completed, cc: CompletenessCriteria) 
     lam = done.fitted[0].poles
     fn, zeta = np.abs(lam) / (2 * np.pi), -lam.real / np.maximum(np.abs(lam), 1e-300)
     edges = segment_edges(data.freq, fn, zeta, criteria=cc, chained=False)
-    if np.array_equal(edges, segment_edges(data.freq, fn, zeta, criteria=cc)):
-        # no chain: the cores are the test's own segments (``done.test`` is the test of these poles on the default,
-        # chained, segments), so the same local fits against the same variance fail exactly where it fails
+    # ``done.test`` is the test of these poles on the default, chained, segments of the data's lines: its
+    # segments' first lines and the end are those edges
+    chained = np.append(np.searchsorted(data.freq, done.test.freq_lower), data.freq.size)
+    if np.array_equal(edges, chained):
+        # no chain: the cores are the test's own segments, so the same local fits against the same variance
+        # fail exactly where it fails
         return fails
     n_chan = data.n_out * data.n_in
     with single_threaded():
+        # the pole columns of the test, at the same poles, and the local fits of its segments: a core that is
+        # one of them is not fitted again (the same numbers)
         t = segment_misfit(data.freq, data.frf.reshape(n_chan, -1), lam, power=_FORM_POWER[data.frf_form],
                            variance=done.test.variance, edges=edges, criteria=cc,
-                           pole_columns=done.fitted[4])  # those of the test, at the same poles
+                           pole_columns=done.fitted[4], segment_fits=done.fitted[5])
     return fails + [(a, b) for a, b in t.failing() if not any(lo <= a and b <= hi for lo, hi in fails)]
 
 

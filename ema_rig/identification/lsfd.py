@@ -190,7 +190,8 @@ def model_order(poles: ArrayLike) -> NDArray[np.complex128]:
 def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
                   variance: NDArray[np.float64] | None = None,
                   model_out: NDArray[np.complex128] | None = None,
-                  basis_out: list[LsfdBasis] | None = None, basis: LsfdBasis | None = None) -> ModalModel:
+                  basis_out: list[LsfdBasis] | None = None, basis: LsfdBasis | None = None,
+                  pole_columns: NDArray[np.complex128] | None = None) -> ModalModel:
     """:func:`lsfd` on data already validated and cut by :func:`~ema_rig.identification.plscf.check_data`.
 
     For callers that checked the data once for several steps (``identify``); same parameters,
@@ -203,10 +204,11 @@ def _lsfd_checked(data: FRFData, poles: ArrayLike, *, residuals: bool = True,
     With ``basis_out`` (a list) the fit's basis and factor are appended to it (:class:`LsfdBasis`; not
     when a common line profile of the weights changed the factor). ``basis``: an earlier fit's basis and
     factor (e.g. the judgement's, :func:`~ema_rig.identification.judge.judge_clusters`), used when it
-    belongs to these poles and lines (the same numbers).
+    belongs to these poles and lines (the same numbers). ``pole_columns``: the poles' columns on the data's
+    lines when the caller has them (:func:`_fit`).
     """
     return _fit(data, poles, residuals=residuals, variance=variance, model_out=model_out, basis_out=basis_out,
-                basis=basis)[0]
+                basis=basis, pole_columns=pole_columns)[0]
 
 
 def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.float64], *,
@@ -268,14 +270,17 @@ def _lsfd_noise_weighted(data: FRFData, poles: ArrayLike, variance: NDArray[np.f
 
 def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: NDArray[np.float64] | None = None,
          score: NDArray[np.float64] | None = None, model_out: NDArray[np.complex128] | None = None,
-         basis: LsfdBasis | None = None, basis_out: list[LsfdBasis] | None = None
-         ) -> tuple[ModalModel, NDArray[np.float64]]:
+         basis: LsfdBasis | None = None, basis_out: list[LsfdBasis] | None = None,
+         pole_columns: NDArray[np.complex128] | None = None) -> tuple[ModalModel, NDArray[np.float64]]:
     """The fit of :func:`_lsfd_checked` and, with ``score`` (a variance like ``variance``), the median
     over the lines of ``|e|^2 / score`` per channel, shape (n_out, n_in) (NaN without such a line;
     empty without ``score``). With ``model_out`` (shape of ``data.frf``, complex) the fitted model's
     FRFs are written into it (the data at a line the fit leaves out). ``basis`` an earlier fit's
     basis and factor, used when it belongs to these poles and lines; ``basis_out`` (a list) receives
-    this fit's (:class:`LsfdBasis`)."""
+    this fit's (:class:`LsfdBasis`). ``pole_columns``, shape (n_freq, 2 n_modes), complex: the poles' columns
+    on ``data.freq`` in the order of the model (:func:`model_order`), :func:`~ema_rig.identification.modal.modal_basis`
+    without residual columns (e.g. :func:`~ema_rig.identification.noise.segment_pole_columns`), when the
+    caller has them: the basis is formed from them (the same numbers)."""
     lam = np.atleast_1d(np.asarray(poles, dtype=np.complex128)).ravel()
     src = source_of(data)
     if lam.size == 0:
@@ -308,7 +313,8 @@ def _fit(data: FRFData, poles: ArrayLike, *, residuals: bool = True, variance: N
         assert basis is not None
         a, scale = basis.a, basis.scale
     else:
-        a, scale = pole_residue_basis(f, lam, p, residuals=residuals)
+        a, scale = pole_residue_basis(f, lam, p, residuals=residuals,
+                                      pole_columns=None if pole_columns is None else pole_columns[off:])
     n_out, n_in, _ = h.shape
     x = np.empty((n_out, n_in, n_unk))
     num = np.empty((n_out, n_in))
@@ -490,12 +496,14 @@ def _weighted_solve(uk: NDArray[np.float64], proj: NDArray[np.float64], yv: NDAr
             flat += w2[:, k0 : k0 + step] @ (u[:, :, None] * u[:, None, :]).reshape(u.shape[0], r * r)
         gram = flat.reshape(n_c, r, r)
     else:
-        # few channels: each channel's weighted basis times the basis (batches of 32 MB)
+        # few channels: each channel's weighted basis times the basis, one channel at a time in one work array
+        # (the same BLAS product per channel as a batched one, whose work array of every channel outgrows the cache)
         gram = np.empty((n_c, r, r))
         ukt = np.ascontiguousarray(uk.T)
-        step = max(1, int((32 << 20) // max(8 * r * n_r, 1)))
-        for c0 in range(0, n_c, step):
-            gram[c0 : c0 + step] = (ukt[None, :, :] * w2[c0 : c0 + step, None, :]) @ uk
+        tmp = np.empty_like(ukt)
+        for c in range(n_c):
+            np.multiply(ukt, w2[c], out=tmp)
+            np.matmul(tmp, uk, out=gram[c])
     rhs = (w2 * yc) @ uk  # (channels, r)
     d = np.sqrt(np.maximum(np.einsum("cii->ci", gram), 0.0))
     d = np.where(d > 0, d, 1.0)

@@ -225,9 +225,14 @@ class _Segment:
         for d in range(n_poly // 2):
             poly += [u**d + 0j, 1j * u**d]
         # the band's other modes at their (fixed) poles, residues free: their tails are no polynomial
-        for lam in others.tolist():
-            b1 = self._cols(np.array([lam]))
-            poly += [b1[:, 0], b1[:, 1]]
+        if others.size and self.window is None:
+            # one call for all: without a window their columns are formed elementwise (the same numbers as
+            # one by one; a window's quadrature sums keep one call per pole)
+            poly += list(self._cols(np.asarray(others, dtype=np.complex128)).T)
+        else:
+            for lam in others.tolist():
+                b1 = self._cols(np.array([lam]))
+                poly += [b1[:, 0], b1[:, 1]]
         # the pole-free columns do not depend on the poles: one orthonormal basis of their weighted
         # span, cut at its numerical rank. Over a few dozen lines the tails of far modes and the
         # polynomial are nearly collinear (condition 1e16 on dam0): a basis of that rank projects the
@@ -303,16 +308,18 @@ class _Segment:
 
         ``prev`` is an earlier result of this segment (e.g. the last of :func:`_lm`): when it was
         formed at the same ``theta`` on the same background basis, its projection, residual and
-        derivative columns are taken over and only what it lacks is formed (the same numbers).
+        derivative columns are taken over and only what it lacks is formed; at the same ``theta`` on
+        another background basis (the whole-basis fit started at the cut estimate), its pole columns
+        (the same numbers).
         With ``cost_only`` the result holds the cost and residual only (``"hess"`` and ``"grad"``
         missing): a trial point of :func:`_lm`, completed by a second call with it as ``prev``
         when it is accepted.
         """
-        if (prev is not None and prev.get("_fixed") is self.fixed
-                and np.array_equal(np.asarray(prev["theta"]), theta)):
+        same = prev is not None and np.array_equal(np.asarray(prev["theta"]), theta)
+        if same and prev is not None and prev.get("_fixed") is self.fixed:
             out = dict(prev)
         else:
-            out = self._project(theta)
+            out = self._project(theta, prev if same else None)
         if cost_only:
             return out
         if "hess" not in out:
@@ -322,11 +329,17 @@ class _Segment:
                          np.asarray(out["_cs"]), rho, noise_var)
         return out
 
-    def _project(self, theta: NDArray[np.float64]) -> dict[str, NDArray[np.float64] | float]:
+    def _project(self, theta: NDArray[np.float64], at: dict[str, NDArray[np.float64] | float] | None = None
+                 ) -> dict[str, NDArray[np.float64] | float]:
         """Projection of the data on the span of the pole and background columns at ``theta``: the cost,
-        the residual and what :meth:`_derivatives` takes from it (see :meth:`evaluate`)."""
+        the residual and what :meth:`_derivatives` takes from it (see :meth:`evaluate`); ``at`` an earlier
+        result at the same ``theta``, whose pole columns are taken over."""
         lam = self.poles(theta)
-        b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
+        if at is None:
+            b1, pos2, neg2 = pole_basis_with_derivative(self.jw, lam, self.power, window=self.window)
+        else:
+            b1 = np.asarray(at["_b1"]).view(np.complex128)
+            pos2, neg2 = np.asarray(at["_pos2"]).view(np.complex128), np.asarray(at["_neg2"]).view(np.complex128)
         m, n = lam.size, self.jw.size
         # weighted pole columns (2n, 2m): Re R_r, Im R_r interleaved per pole, the rows (Re, Im) stacked
         a = np.empty((2 * n, 2 * m))
@@ -350,8 +363,10 @@ class _Segment:
         np.subtract(self.yw, e, out=e)  # residual (2n, C), in place of the model (one array of the data's size less)
         cost = float(np.sum(e * e))
         return {"cost": cost, "e": e, "theta": theta.copy(), "_q": q, "_r": r, "_d": d, "_qty": qty,
-                # the second-order pole columns as float views (re, im interleaved); _fixed: identity of the basis
-                "_pos2": pos2.view(np.float64), "_neg2": neg2.view(np.float64), "_fixed": self.fixed}
+                # the pole columns and their second-order ones as float views (re, im interleaved); _fixed: identity
+                # of the basis
+                "_b1": b1.view(np.float64), "_pos2": pos2.view(np.float64), "_neg2": neg2.view(np.float64),
+                "_fixed": self.fixed}
 
     def _derivatives(self, out: dict[str, NDArray[np.float64] | float]) -> None:
         """Gauss-Newton matrix ``"hess"`` and gradient ``"grad"`` of the cost into ``out`` (a :meth:`_project`)."""
@@ -380,7 +395,7 @@ class _Segment:
         hess = (g_b * (c2 @ c2.T)).reshape(k, 2, k, 2).sum(axis=(1, 3))
         # J^T r with r = model - data: sum over lines and channels of u E c
         grad = -np.sum(c2 * (b_u @ e)[idx], axis=1).reshape(k, 2).sum(axis=1)
-        out["hess"], out["grad"], out["_bu"], out["_cs"] = 0.5 * (hess + hess.T), grad, b_u, cs
+        out["hess"], out["grad"], out["_bu"], out["_cs"], out["_qb"] = 0.5 * (hess + hess.T), grad, b_u, cs, qb
 
     def _jcj_rows(self, pu: NDArray[np.float64], xw: NDArray[np.float64], et: NDArray[np.float64],
                   rho: tuple[float, ...], dof: int) -> NDArray[np.float64]:
@@ -437,7 +452,9 @@ class _Segment:
         k = 2 * self.m
         n = self.jw.size
         n_c = e.shape[1]
-        pb = b_u - (b_u @ q) @ q.T  # (2m, 2n): the rows b projected off the span of the basis
+        # the rows b projected off the span of the basis, (2m, 2n), with Q^T b of :meth:`_derivatives` (the same product)
+        qb = out.get("_qb")
+        pb = b_u - (b_u @ q if qb is None else np.asarray(qb)) @ q.T
         pu = pb[self.idx]  # (2k, 2n): p_ka of parameter k, factor a (row 2k + a)
         c2 = cs.reshape(2 * k, n_c)  # (2k, C): c_ka
         # residuals corrected for the leverage of the linear parameters (HC2, MacKinnon & White
@@ -484,12 +501,14 @@ _C_ROW = np.array([0, 1, 0, 1])
 _C_SIGN = np.array([1.0, 1.0, 1.0, -1.0])
 
 
-def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], crit: MLCriteria
+def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], crit: MLCriteria,
+        start: dict[str, NDArray[np.float64] | float] | None = None
         ) -> tuple[NDArray[np.float64], int, dict[str, NDArray[np.float64] | float] | None]:
     """Levenberg-Marquardt on the free parameters (Gauss-Newton matrix, Marquardt scaling).
 
     Returns the parameters, the evaluations spent and the last evaluation at them (None when no
-    parameter is free), which :meth:`_Segment.evaluate` takes over (``prev``).
+    parameter is free), which :meth:`_Segment.evaluate` takes over (``prev``). ``start``: an earlier
+    evaluation of the segment, taken over at ``theta0`` as :meth:`_Segment.evaluate` takes ``prev``.
 
     Convergence: the iterations stop when an accepted step lowers the cost by at most
     ``crit.lm_rtol`` of it, or when the Gauss-Newton model predicts a reduction of at most
@@ -511,7 +530,7 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
     theta = theta0.copy()
     if idx.size == 0:
         return theta, 0, None
-    cur = seg.evaluate(theta)
+    cur = seg.evaluate(theta, prev=start)
     n_eval = 1
     mu = 1e-4
     dof = max(seg.yw.size - seg.L * seg.yw.shape[1] - idx.size, 1)  # residual dof: real equations - parameters
@@ -814,7 +833,7 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
             whole: Job[tuple[NDArray[np.complex128], NDArray[np.float64], int]] | None = None
             if free.any() and n_cut > 0:
                 whole = Job(partial(_whole_basis, copy.copy(seg), full_basis, theta, free.copy(), lam0[rs_arr],
-                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb), big,
+                                     (float(freq[i0]), float(freq[i1 - 1])), df, criteria, rho, nv, nb, last), big,
                             later=True)
             # the poles are final here (the next segments take them as their fixed neighbours); the
             # scores, covariances and warnings of the segment follow from them alone, so a second
@@ -971,15 +990,17 @@ def _segment_tail(seg: _Segment, theta: NDArray[np.float64], last: dict[str, NDA
 
 def _whole_basis(seg: _Segment, full_basis: NDArray[np.float64], theta: NDArray[np.float64], free: NDArray[np.bool_],
                  lam0: NDArray[np.complex128], lines: tuple[float, float], df: float, crit: MLCriteria,
-                 rho: tuple[float, ...], nv: NDArray[np.float64], nb: int
+                 rho: tuple[float, ...], nv: NDArray[np.float64], nb: int,
+                 last: dict[str, NDArray[np.float64] | float] | None = None
                  ) -> tuple[NDArray[np.complex128], NDArray[np.float64], int]:
     """The segment ``seg`` (a copy, changed here) fitted again on its whole background basis ``full_basis``,
     started at its cut estimate ``theta``: per mode (pole on the whole basis, pole on the cut basis),
     NaN where the whole-basis fit cannot hold it (``_check`` against ``lam0``, the lines ``lines`` [Hz]);
     the (f, zeta) standard deviations of that fit (:func:`_basis_stds`, blocks of ``nb`` lines); the
-    evaluations spent. Shape (m, 2) each."""
+    evaluations spent. Shape (m, 2) each. ``last``: the cut fit's last evaluation (its pole columns are taken over
+    where it was formed at ``theta``: the same numbers)."""
     seg.restore_basis(full_basis)
-    th_w, k, last_w = _lm(seg, theta, free, crit)
+    th_w, k, last_w = _lm(seg, theta, free, crit, last)
     bad_w = _check(seg.poles(th_w), lam0, free, lines, df, crit.move_hbw)
     std_w = _basis_stds(seg, seg.evaluate(th_w, scores=True, rho=rho, noise_var=nv, prev=last_w), th_w, nb,
                         crit.block_from_scores)

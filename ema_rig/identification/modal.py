@@ -578,7 +578,8 @@ def effective_mass(poles: NDArray[np.complex128], residues_pp: NDArray[np.comple
 
 
 def pole_residue_basis(
-    f: NDArray[np.float64], lam: NDArray[np.complex128], p: int, *, residuals: bool = True
+    f: NDArray[np.float64], lam: NDArray[np.complex128], p: int, *, residuals: bool = True,
+    pole_columns: NDArray[np.complex128] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The pole-residue basis of the modal model, real, with unit-norm columns, and the column norms.
 
@@ -599,6 +600,9 @@ def pole_residue_basis(
         Form power of the data (0 receptance, 1 mobility, 2 accelerance).
     residuals : bool
         Append the lower and upper residual columns.
+    pole_columns : ndarray, shape (n_freq, 2 n_modes), complex, optional
+        :func:`modal_basis` of ``lam`` on ``f`` without residual columns, when the caller has it (the
+        same numbers: its columns are formed elementwise).
 
     Returns
     -------
@@ -609,7 +613,15 @@ def pole_residue_basis(
         Column norms (1 for an all-zero column): unknowns of ``a`` divided by ``scale`` are
         the physical ones.
     """
-    basis = modal_basis(np.asarray(2j * np.pi * f, dtype=np.complex128), lam, p, residuals=residuals)  # (n_freq, n_unknown) complex
+    jw = np.asarray(2j * np.pi * f, dtype=np.complex128)
+    if pole_columns is None:
+        basis = modal_basis(jw, lam, p, residuals=residuals)  # (n_freq, n_unknown) complex
+    elif residuals:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lr, ur = residual_columns(jw, p)
+        basis = np.concatenate([pole_columns, lr[:, None], ur[:, None]], axis=1)  # modal_basis's concatenation
+    else:
+        basis = pole_columns
     return unit_real_basis(basis)
 
 

@@ -854,6 +854,13 @@ def segment_pole_columns(freq: ArrayLike, poles: ArrayLike, power: int) -> NDArr
     return modal_basis(jw, lam, power, residuals=False)
 
 
+#: The local fits of :func:`segment_misfit` by segment, for a later call on the same lines and poles (its
+#: ``segment_fits``): key (the poles' bytes, number of lines, first line, line after the last), value
+#: (|residual|^2 and |model|^2 of the segment's lines, shape (n_chan, lines), the fit's real parameters per
+#: channel, the lines fitted, the segment's own modes).
+SegmentFits = dict[tuple[bytes, int, int, int], tuple[NDArray[np.float64], NDArray[np.float64], float, float, float]]
+
+
 def segment_misfit(
     freq: NDArray[np.float64],
     frf: NDArray[np.complex128],
@@ -866,6 +873,7 @@ def segment_misfit(
     edges: ArrayLike | None = None,
     criteria: CompletenessCriteria = COMPLETENESS_CRITERIA,
     pole_columns: NDArray[np.complex128] | None = None,
+    segment_fits: SegmentFits | None = None,
 ) -> MisfitTest:
     """Do given poles explain the FRFs to the noise? A chi-square test per band segment and channel.
 
@@ -905,6 +913,10 @@ def segment_misfit(
     pole_columns : ndarray, shape (n_freq, 2 n_modes), complex, optional
         :func:`~ema_rig.identification.modal.modal_basis` of ``poles`` on ``freq`` without residual columns,
         when the caller has it (e.g. its rows of a larger set of lines: the same numbers); default formed here.
+    segment_fits : dict, optional
+        The local fits of an earlier call on the same ``freq``, ``frf``, ``power``, ``pole_columns`` and
+        criteria (:data:`SegmentFits`): a segment of the same lines and poles is taken from it instead of
+        being fitted again (the same numbers), and the segments fitted here are added to it.
 
     Returns
     -------
@@ -944,8 +956,20 @@ def segment_misfit(
     lines = np.zeros(n_seg)
     m_seg = np.zeros(n_seg)
 
+    poles_key = lam.tobytes()
+
     def fit_segment(s_i: int) -> None:
         i0, i1 = int(edges[s_i]), int(edges[s_i + 1])
+        key = (poles_key, f.size, i0, i1)
+        known = None if segment_fits is None else segment_fits.get(key)
+        if known is not None:  # the same local fit, formed by an earlier call
+            resid2[:, i0:i1], model2[:, i0:i1], n_par[s_i], lines[s_i], m_seg[s_i] = known
+            return
+        fit_lines(s_i, i0, i1)
+        if segment_fits is not None:  # views of this call's arrays, never written after the fits
+            segment_fits[key] = (resid2[:, i0:i1], model2[:, i0:i1], n_par[s_i], lines[s_i], m_seg[s_i])
+
+    def fit_lines(s_i: int, i0: int, i1: int) -> None:
         sel = np.arange(i0, i1)[ok[i0:i1]]
         n_l = sel.size
         idx: NDArray[np.intp] | slice = slice(i0, i1) if n_l == i1 - i0 else sel
@@ -1079,5 +1103,5 @@ def segment_misfit(
     return MisfitTest(f[edges[:-1]], f[edges[1:] - 1], r_p, r_w, p, dof_p, fail, float(alpha), source, edge, var)
 
 
-__all__ = ["COHERENCE_MAX", "NOISE_SOURCES", "MisfitTest", "NoiseModel", "check_coherence", "coherence_variance",
+__all__ = ["COHERENCE_MAX", "NOISE_SOURCES", "MisfitTest", "NoiseModel", "SegmentFits", "check_coherence", "coherence_variance",
            "fit_noise_model", "segment_edges", "segment_misfit", "segment_pole_columns"]
