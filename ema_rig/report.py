@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import _atomic
-from ._text import inert
+from ._text import inert, std_text
 from ._version import version
 from .campaign.drilldown import KINDS
 
@@ -105,6 +105,16 @@ def _fmt(v: Any, unit: str = "") -> str:
             return format(v, unit)
         return f"{v:.4g}"
     return _h(str(v))
+
+
+def _fmt_std(v: Any, unit: str = "") -> str:
+    """An uncertainty cell: two significant digits (:func:`~ema_rig._text.std_text`), never a rounded 0.
+
+    ``unit`` ``"N/m"`` prints it in MN/m, as :func:`_fmt` prints the value beside it.
+    """
+    if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+        return _fmt(None)
+    return std_text(v / 1e6 if unit == "N/m" else float(v))
 
 
 def _caption(name: str) -> str:
@@ -193,10 +203,10 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         cells = [
             ("l", f"<a href='#{anchor(i)}'>{_fmt(r['id'])}</a>"), ("l", _fmt(r["bearing"])), ("", _fmt(r["radial_load"])), ("", _fmt(r["speed"])),
             ("", _fmt(r["shaft_position"])), ("", _fmt(r["repeat"])), ("", _fmt(r["k_TB"], "N/m")),
-            ("", _fmt(r.get("k_TB_std_measured", math.nan), "N/m")),
-            ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
-            ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
-            ("", _c_tb_mark(r) + _fmt(r.get("c_TB", math.nan), ".0f")), ("", _fmt(r.get("c_TB_std", math.nan), ".0f")),
+            ("", _fmt_std(r.get("k_TB_std_measured", math.nan), "N/m")),
+            ("", _fmt_std(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
+            ("", _fmt_std(r["housing_freq_std"])), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
+            ("", _c_tb_mark(r) + _fmt(r.get("c_TB", math.nan), ".0f")), ("", _fmt_std(r.get("c_TB_std", math.nan))),
             ("l", _h(_source(r))),
             ("", str(len(_unique(r.get("warnings") or ())))),
             ("l", _h(status)),
@@ -250,7 +260,7 @@ def _rigid_body_line(rb: Mapping[str, Any]) -> str:
     parts = []
     if rb.get("axial_stiffness") is not None:
         parts.append(f"axial {_fmt(float(rb['axial_stiffness']), 'N/m')} ± "
-                     f"{_fmt(float(rb.get('axial_stiffness_std') or math.nan), 'N/m')} MN/m")
+                     f"{_fmt_std(float(rb.get('axial_stiffness_std') or math.nan), 'N/m')} MN/m")
     tilt = rb.get("tilt_stiffness")
     if isinstance(tilt, Mapping):
         for ax in ("x", "z"):
@@ -275,11 +285,12 @@ def _measurement_section(i: int, r: Mapping[str, Any],
             f"bearing {_fmt(r['bearing'])} · {_fmt(r['radial_load'])} N · {_fmt(r['speed'])} rpm</p>")
     parts = [head]
     if ok:
-        parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m (total) · "
-                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz (measured)"
+        parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt_std(r['k_TB_std'], 'N/m')}</b> MN/m (total; "
+                     f"± {_fmt_std(r.get('k_TB_std_measured', math.nan), 'N/m')} measured) · "
+                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt_std(r['housing_freq_std'])} Hz (measured)"
                      f" · from {_h(_SOURCE_TEXT.get(_source(r), _source(r)))} · "
                      f"bearing damping {_h(_c_tb(r))}, loss factor "
-                     f"{_fmt(r.get('loss_factor', math.nan), '.4f')} ± {_fmt(r.get('loss_factor_std', math.nan), '.4f')}"
+                     f"{_fmt(r.get('loss_factor', math.nan), '.4f')} ± {_fmt_std(r.get('loss_factor_std', math.nan))}"
                      "</p>")
         parts.append(_comparison(r.get("detail")))
     else:

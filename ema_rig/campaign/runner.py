@@ -42,7 +42,7 @@ import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import (
     FIRST_COMPLETED,
     BrokenExecutor,
@@ -502,22 +502,38 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     rows: dict[str, dict[str, Any]] = {}
     todo: list[tuple[Measurement, MeasurementTask, str]] = []
     failed_input: list[tuple[Measurement, dict[str, Any]]] = []
+    digests: dict[str, str] = {}
+    cached_rows: list[tuple[Measurement, dict[str, Any]]] = []
     for m in cfg.measurements:
         try:
             t = MeasurementTask(kind="measurement", file=m.file, rig=rig, k_ms=k_ms, k_ms_std=k_ms_std,
                                 speed_hz=m.speed / 60.0 if m.speed > 0 else None, band=cfg.band,
                                 max_order=cfg.max_order, selection=read_selection(m))
-            key = task_key(t, file_digest(m.file))
+            digests[m.id] = file_digest(m.file)
+            key = task_key(t, digests[m.id])
         except EmaRigError as exc:  # missing, unreadable or not a regular file: checked every run
             failed_input.append((m, {"status": "error", "error": str(exc), "error_kind": "input"}))
             continue
         path = result_path(m.id)
         cached = None if (force or path is None) else _load_cached(path, key, row=True)
         if cached is not None:
-            # the conditions (bearing, load, tags ...) do not change the computation but are today's
-            rows[m.id] = {**cached, **m.conditions()}
+            cached_rows.append((m, cached))
         else:
             todo.append((m, t, key))
+    # a file whose content another measurement holds too is computed as often as it is listed, but
+    # its rows are one measurement: a campaign-wide fact, so never taken from (or kept in) a cached row
+    same_data = same_content_warnings(cfg.measurements, digests)
+    for m, cached in cached_rows:
+        # the conditions (bearing, load, tags ...) do not change the computation but are today's
+        row = {**cached, **m.conditions()}
+        kept = [w for w in (row.get("warnings") or []) if not str(w).startswith(SAME_CONTENT)]
+        now = kept + ([same_data[m.id]] if m.id in same_data and row.get("status") == "ok" else [])
+        if now != list(row.get("warnings") or []):
+            row["warnings"] = now
+            path = result_path(m.id)
+            if path is not None:  # results/<id>.json stays the row the table shows
+                _atomic.write_json(path, row)
+        rows[m.id] = row
     if executor is not None or jobs > 1:
         # longest first: a long measurement started last would keep one worker busy alone at the end
         todo.sort(key=lambda mtk: _expected_cost(mtk[0].file, result_path(mtk[0].id)), reverse=True)
@@ -536,6 +552,8 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
                "cache_key": key if _cacheable(result) else None}
         if calib_warning is not None and row.get("status") == "ok":
             row["warnings"] = [*row["warnings"], calib_warning]
+        if m.id in same_data and row.get("status") == "ok":
+            row["warnings"] = [*row["warnings"], same_data[m.id]]
         rows[m.id] = row
         path = result_path(m.id)
         if path is not None:
@@ -636,6 +654,56 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     return result
 
 
+#: Start of the warning of a row whose file content another measurement of the campaign holds too.
+SAME_CONTENT = "same file content as measurement"
+
+
+def same_content_warnings(measurements: Sequence[Measurement], digests: Mapping[str, str]) -> dict[str, str]:
+    """Id -> a warning for every measurement whose file content another measurement holds too.
+
+    Two rows computed from one file are one measurement: under other conditions (bearing, load,
+    speed, shaft position) at least one of them was given the wrong file and shows another
+    condition's k_TB; under the same conditions they are no independent repeats (their spread is 0).
+
+    Parameters
+    ----------
+    measurements : sequence of Measurement
+        The campaign's measurements, in campaign order.
+    digests : mapping of str to str
+        Measurement id -> SHA-256 of its file's content (:func:`file_digest`); ids without one are
+        left out.
+
+    Returns
+    -------
+    dict of str to str
+        One line per measurement sharing its content, naming the others (id and file).
+    """
+    groups: dict[str, list[Measurement]] = {}
+    for m in measurements:
+        if m.id in digests:
+            groups.setdefault(digests[m.id], []).append(m)
+    out: dict[str, str] = {}
+    for group in groups.values():
+        for m in group if len(group) > 1 else ():
+            others = [o for o in group if o is not m]
+            alike = all(_same_conditions(o, m) for o in others)
+            why = ("the same data, not an independent repeat" if alike else
+                   "under other conditions (bearing, load, speed or shaft position): one of them is the wrong "
+                   "file, and its k_TB belongs to the other's conditions")
+            names = ", ".join(f"{o.id!r} ({o.file})" for o in others)
+            out[m.id] = f"{SAME_CONTENT} {names}: {why}"
+    return out
+
+
+def _same_conditions(a: Measurement, b: Measurement) -> bool:
+    """Same bearing, radial load, speed and shaft position (a value not given, NaN, equals NaN)."""
+    def same(x: float, y: float) -> bool:
+        return x == y or (math.isnan(x) and math.isnan(y))
+
+    return a.bearing == b.bearing and all(same(getattr(a, k), getattr(b, k))
+                                          for k in ("radial_load", "speed", "shaft_position"))
+
+
 def read_selection(m: Measurement) -> str | None:
     """The text of a measurement's mode selection (None without one).
 
@@ -697,5 +765,5 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
     return lambda n: None
 
 
-__all__ = ["CALIBRATION_NAME", "MeasurementTask", "check_out_folder", "file_digest", "make_pool", "process_measurement", "run",
-           "task_key"]
+__all__ = ["CALIBRATION_NAME", "SAME_CONTENT", "MeasurementTask", "check_out_folder", "file_digest", "make_pool", "process_measurement", "run",
+           "same_content_warnings", "task_key"]

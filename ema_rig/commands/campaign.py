@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from .._text import std_text
 from ..campaign import load_campaign
 from ..campaign import run as run_files
 from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
@@ -32,6 +33,8 @@ def _cell(v: Any, kind: str) -> str:
         return "-"
     if kind == "MN":
         return f"{v / 1e6:.2f}"
+    if kind == "MN±":  # an uncertainty: two significant digits, never a rounded 0.00
+        return std_text(v / 1e6)
     if kind == "f":
         return f"{v:.1f}"
     if kind == "g":
@@ -45,7 +48,7 @@ def print_table(result: Any) -> None:
     """Print the campaign table (k_TB in MN/m) to stdout."""
     cols = [("id", "id", "s"), ("bearing", "bearing", "s"), ("load N", "radial_load", "g"),
             ("rpm", "speed", "g"), ("pos", "shaft_position", "g"), ("rep", "repeat", "g"),
-            ("k_TB MN/m", "k_TB", "MN"), ("± meas.", "k_TB_std_measured", "MN"), ("± total", "k_TB_std", "MN"),
+            ("k_TB MN/m", "k_TB", "MN"), ("± meas.", "k_TB_std_measured", "MN±"), ("± total", "k_TB_std", "MN±"),
             ("f_H Hz", "housing_freq", "f"), ("warn", "warnings", "n"), ("status", "status", "s")]
     table = [[h for h, _, _ in cols]]
     errors = []
