@@ -348,8 +348,7 @@ def plot_repeatability(rows: Sequence[Row]) -> Figure | None:
     ax.axhline(0, color="k", lw=0.8)
     ax.set_xticks(range(len(labels)), labels, fontsize=7, rotation=30, ha="right")
     ax.set_ylabel("deviation from condition mean [%]")
-    ax.set_title("Repeatability (grey bar: mean ±1σ measured of the estimates; model tolerances common to all)",
-                 fontsize=10)
+    ax.set_title("Repeatability (grey bar: mean ±1σ measured; model tolerances common to all)", fontsize=10)
     ax.grid(True, axis="y", alpha=0.3)
     return fig
 
