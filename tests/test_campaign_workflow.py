@@ -138,7 +138,12 @@ def _half_bars(ax) -> list[float]:
 
 
 def test_figures_show_the_tables_measured_and_total(tmp_path: Path) -> None:
-    from ema_rig.plot.campaign import measured_std, plot_k_vs_load, plot_repeatability, plot_speed_effect
+    from ema_rig.plot.campaign import (
+        measured_std,
+        plot_k_vs_load,
+        plot_repeatability,
+        plot_speed_effect,
+    )
 
     # total 2 MN/m (rig tolerances), measured 0.3 MN/m of which the f_H term is 0.1 MN/m
     rows = [_row(1000.0, 600.0, 7.0e7 + r * 1e5, 2e6, 3e5, 1e5, repeat=r) for r in (1, 2)]
@@ -151,3 +156,42 @@ def test_figures_show_the_tables_measured_and_total(tmp_path: Path) -> None:
     assert set(_half_bars(plot_speed_effect(speed_rows, "6302").axes[0])) == {0.3}
     legend = [t.get_text() for t in plot_k_vs_load(rows, "6302").axes[0].get_legend().get_texts()]
     assert any("±1σ total" in t for t in legend), legend
+
+
+def test_updated_code_is_not_served_from_the_cache(copied_campaign: Path, tmp_path: Path) -> None:
+    """A re-run after an update that keeps the version number (every commit of a source tree or an
+    editable install is 0.1.0) reused every row computed by the old code: the old k_TB, silently."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    import ema_rig
+
+    pkg = tmp_path / "site"
+    shutil.copytree(Path(ema_rig.__file__).parent, pkg / "ema_rig", ignore=shutil.ignore_patterns("__pycache__"))
+    d = copied_campaign
+    (tmp_path / "one.toml").write_text(
+        f'rig = "{(d / "rig.toml").as_posix()}"\n[defaults]\nmax_order = 24\n[output]\nmeasurement_figures = false\n'
+        f'[[measurement]]\nfile = "{(d / "a500.uff").as_posix()}"\nbearing = "6302"\nradial_load = 500.0\n',
+        encoding="utf-8")
+    code = ("import json, sys; from ema_rig.campaign import run; r = run(sys.argv[1], out_dir=sys.argv[2], "
+            "report=False); print(json.dumps([r.computed, r.rows[0]['k_TB']]))")
+    env = {**os.environ, "PYTHONPATH": str(pkg), "OMP_NUM_THREADS": "1"}
+
+    def campaign() -> tuple[int, float]:
+        done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "one.toml"), str(tmp_path / "out")],
+                              env=env, capture_output=True, text=True, check=True, cwd=tmp_path)
+        computed, k_tb = json.loads(done.stdout.strip().splitlines()[-1])
+        return int(computed), float(k_tb)
+
+    first = campaign()
+    assert first[0] == 1 and abs(first[1] / K_TRUE["a500"] - 1) < 0.01
+    # the update: a stiffness that comes out twice as large (any change of the code that computes a row)
+    with open(pkg / "ema_rig" / "rig" / "stiffness.py", "a", encoding="utf-8") as fh:
+        fh.write("\n\n_old_estimate = estimate_stiffness\n\n\ndef estimate_stiffness(*args, **kwargs):  # type: ignore\n"
+                 "    res = _old_estimate(*args, **kwargs)\n"
+                 "    return replace(res, k_TB=2 * res.k_TB)\n")  # the module's own dataclasses.replace
+    again = campaign()
+    assert again[0] == 1  # computed again by the new code, not reused
+    assert again[1] == pytest.approx(2 * first[1], rel=1e-12)  # the same data and settings through the new code

@@ -4,7 +4,7 @@ What one computation depends on is a single frozen dataclass, :class:`Measuremen
 resolved rig (its content: model parameters, sensors, ``[identification]``, ``[units]``,
 ``[uncertainty]``), k_MS and its uncertainty, the speed, band and order, the kind of computation.
 The worker receives exactly that object (it never re-reads the rig file), and the cache key is
-the hash of every one of its fields plus the file's content hash and the ema_rig version, so
+the hash of every one of its fields plus the file's content hash, the ema_rig version and its code, so
 nothing that changes a result can be left out of the key by accident.
 
 Only results that depend on the data are cached: a good result, or an ema_rig error about the
@@ -59,7 +59,7 @@ from typing import Any
 from .. import _atomic
 from .._blas import single_threaded
 from .._progress import progress_bar
-from .._version import version
+from .._version import code_fingerprint, version
 from ..config import RigConfig, read_regular_file
 from ..errors import EmaRigError
 from .drilldown import DPI, KINDS, measurement_figures
@@ -142,11 +142,13 @@ def task_key(task: MeasurementTask, digest: str) -> str:
 
     Every field of the task except the file name enters the key (recursively; only fields marked
     ``metadata={"cache_key": False}``, such as the rig's path, are left out), with the file's
-    content hash, the ema_rig version and the key schema.
+    content hash, the ema_rig version, the hash of its sources (:func:`~ema_rig._version.code_fingerprint`:
+    an update that keeps the version computes again) and the key schema.
     """
     fields = _canonical(task)
     fields.pop("file")
-    payload = {"task": fields, "digest": digest, "version": version(), "schema": _KEY_SCHEMA}
+    payload = {"task": fields, "digest": digest, "version": version(), "code": code_fingerprint(),
+               "schema": _KEY_SCHEMA}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
@@ -403,7 +405,7 @@ def run(
     -----
     A measurement is reused when its JSON result exists and its key - the hash of the file
     content and of every field of its :class:`MeasurementTask` (the rig's content, k_MS, band,
-    order, speed) and the ema_rig version - is unchanged, so a run killed halfway loses only the
+    order, speed) and the ema_rig version and code - is unchanged, so a run killed halfway loses only the
     measurements in flight. Failures of the infrastructure are never reused.
     """
     cfg = campaign if isinstance(campaign, CampaignConfig) else load_campaign(campaign)
