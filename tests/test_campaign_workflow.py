@@ -58,7 +58,8 @@ def test_one_file_under_two_measurements_is_warned(copied_campaign: Path, tmp_pa
     d = copied_campaign
     assert filecmp.cmp(d / "a500.uff", d / "c1500.uff", shallow=False)  # the oracle: the bytes are the same
     out = tmp_path / "out"
-    rows = {r["id"]: r for r in run(d / "campaign.toml", out_dir=out).rows}
+    result = run(d / "campaign.toml", out_dir=out)
+    rows = {r["id"]: r for r in result.rows}
     assert all(r["status"] == "ok" for r in rows.values())
     # the copy's row shows the 500 N file's k_TB (within 1 %: the simulator's radial dynamics are the
     # 3DOF model's): a number for 1500 N that is not a 1500 N measurement, so it must carry a warning
@@ -72,6 +73,13 @@ def test_one_file_under_two_measurements_is_warned(copied_campaign: Path, tmp_pa
     assert csv_text.count(SAME_CONTENT) == 2
     assert SAME_CONTENT in (out / "results" / "c1500.json").read_text(encoding="utf-8")
     assert (out / "report.html").read_text(encoding="utf-8").count(SAME_CONTENT) >= 2
+    # the notebook's table: both ± labelled as the report labels them, and the rows' warnings counted
+    # (it showed one unlabelled ±, the total, and no warnings at all)
+    table = result._repr_html_()
+    assert "<th>± measured [MN/m]</th>" in table and "<th>± total [MN/m]</th>" in table
+    cells = re.findall(r"<tr><td>c1500</td>(.*?)</tr>", table)[0]
+    assert f"<td>{std_text(rows['c1500']['k_TB_std_measured'] / 1e6)}</td>" in cells
+    assert f"<td>{len(rows['c1500']['warnings'])}</td><td>ok</td>" in cells
 
     # a re-run reuses the rows and keeps the line; once the copy is gone from the campaign, the
     # reused row of a500 drops it (a fact of the campaign, not of the cached computation)
