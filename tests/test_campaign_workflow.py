@@ -203,3 +203,22 @@ def test_updated_code_is_not_served_from_the_cache(copied_campaign: Path, tmp_pa
     again = campaign()
     assert again[0] == 1  # computed again by the new code, not reused
     assert again[1] == pytest.approx(2 * first[1], rel=1e-12)  # the same data and settings through the new code
+
+
+def test_failed_replay_names_the_selection_file(copied_campaign: Path, tmp_path: Path) -> None:
+    """A selection from ``[defaults]`` that finds no mode: the error row named the data file only."""
+    import json
+
+    d = copied_campaign
+    pole = complex(-0.02 * 2 * math.pi * 400.0, 2 * math.pi * 400.0 * math.sqrt(1 - 0.02**2))
+    picks = tmp_path / "picks at 400 Hz.json"  # no mode of the simulated rig lies within 3 % of 400 Hz
+    picks.write_text(json.dumps({"format": "ema_rig.selection/1", "band": [150.0, 1000.0], "max_order": 24,
+                                 "modes": [{"order": 10, "index": 0, "pole": [pole.real, pole.imag],
+                                            "natural_freq": 400.0, "damping_ratio": 0.02}]}), encoding="utf-8")
+    (tmp_path / "c.toml").write_text(
+        f'rig = "{(d / "rig.toml").as_posix()}"\n[defaults]\nmax_order = 24\nselection = "{picks.as_posix()}"\n'
+        f'[[measurement]]\nfile = "{(d / "b1000.uff").as_posix()}"\nbearing = "6302"\nradial_load = 1000.0\n',
+        encoding="utf-8")
+    (row,) = run(tmp_path / "c.toml").rows
+    assert row["status"] == "error" and "400 Hz" in row["error"]
+    assert str(picks) in row["error"], row["error"]

@@ -51,7 +51,7 @@ from concurrent.futures import (
     ProcessPoolExecutor,
     wait,
 )
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -104,6 +104,8 @@ class MeasurementTask:
     selection : str or None
         A saved mode selection (its JSON text: the content enters the key) replayed instead of
         the automatic identification.
+    selection_file : str or None
+        Where that selection was read from, named in an error (not in the key: the content is).
     """
 
     kind: str
@@ -116,6 +118,7 @@ class MeasurementTask:
     band: tuple[float, float] | None = None
     max_order: int | None = None
     selection: str | None = None
+    selection_file: str | None = field(default=None, metadata={"cache_key": False})
 
 
 def _canonical(obj: Any) -> Any:
@@ -215,7 +218,10 @@ def _process(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | N
         with single_threaded():
             out, computed = _compute(task)
     except EmaRigError as exc:
-        out = {"status": "error", "error": str(exc), "error_kind": "data"}
+        # a replayed selection comes from the campaign file's [defaults], [bearings] or the measurement:
+        # the error names it, since the data alone may be fine
+        replay = "" if task.selection_file is None else f" (mode selection replayed: {task.selection_file})"
+        out = {"status": "error", "error": str(exc) + replay, "error_kind": "data"}
     except Exception as exc:  # a bug or an unexpected file: reported, logged, never cached
         logger.exception("%s failed unexpectedly", task.file)
         out = {"status": "error", "error": f"internal error ({type(exc).__name__}): {exc}", "error_kind": "internal"}
@@ -510,7 +516,8 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
         try:
             t = MeasurementTask(kind="measurement", file=m.file, rig=rig, k_ms=k_ms, k_ms_std=k_ms_std,
                                 speed_hz=m.speed / 60.0 if m.speed > 0 else None, band=cfg.band,
-                                max_order=cfg.max_order, selection=read_selection(m))
+                                max_order=cfg.max_order, selection=read_selection(m),
+                                selection_file=None if m.selection is None else str(m.selection))
             digests[m.id] = file_digest(m.file)
             key = task_key(t, digests[m.id])
         except EmaRigError as exc:  # missing, unreadable or not a regular file: checked every run
