@@ -150,6 +150,7 @@ def test_figures_show_the_tables_measured_and_total(tmp_path: Path) -> None:
         measured_std,
         plot_k_vs_load,
         plot_repeatability,
+        plot_rotating_vs_static,
         plot_speed_effect,
     )
 
@@ -162,6 +163,10 @@ def test_figures_show_the_tables_measured_and_total(tmp_path: Path) -> None:
     assert "measured" in ax.get_title()
     speed_rows = [_row(1000.0, s, 7.0e7, 2e6, 3e5, 1e5) for s in (600.0, 1200.0)]
     assert set(_half_bars(plot_speed_effect(speed_rows, "6302").axes[0])) == {0.3}
+    static = [_row(1000.0, 0.0, 7.7e7, 2e6, 3e5, 1e5)]
+    fig, change = plot_rotating_vs_static(speed_rows + static, "6302")
+    assert set(_half_bars(fig.axes[0])) == {0.3} and "measured" in fig.axes[0].get_ylabel()
+    assert change == pytest.approx(100 * (7.0 / 7.7 - 1))
     legend = [t.get_text() for t in plot_k_vs_load(rows, "6302").axes[0].get_legend().get_texts()]
     assert any("±1σ total" in t for t in legend), legend
 
