@@ -227,3 +227,30 @@ def test_failed_replay_names_the_selection_file(copied_campaign: Path, tmp_path:
     (row,) = run(tmp_path / "c.toml").rows
     assert row["status"] == "error" and "400 Hz" in row["error"]
     assert str(picks) in row["error"], row["error"]
+
+
+def test_interrupted_rerun_leaves_no_stale_table(copied_campaign: Path, tmp_path: Path) -> None:
+    """A re-run stopped after a measurement file was replaced kept the previous campaign.csv, with the
+    replaced file's old k_TB (the report was removed, the table not)."""
+    d = tmp_path / "c"
+    shutil.copytree(copied_campaign, d)
+    (d / "c.toml").write_text('rig = "rig.toml"\n[defaults]\nmax_order = 24\n[output]\nmeasurement_figures = false\n'
+                              '[[measurement]]\nfile = "a500.uff"\nbearing = "6302"\nradial_load = 500.0\n'
+                              '[[measurement]]\nfile = "b1000.uff"\nbearing = "6302"\nradial_load = 1000.0\n',
+                              encoding="utf-8")
+    out = tmp_path / "out"
+    run(d / "c.toml", out_dir=out)
+    assert (out / "campaign.csv").is_file() and (out / "report.html").is_file()
+    shutil.copyfile(d / "b1000.uff", d / "a500.uff")  # the 500 N file replaced (a re-export, a fix)
+
+    def stop(done: int, total: int) -> None:
+        raise KeyboardInterrupt  # Ctrl-C as the first measurement of the re-run finishes
+
+    with pytest.raises(KeyboardInterrupt):
+        run(d / "c.toml", out_dir=out, progress=stop)
+    assert not (out / "report.html").exists()
+    assert not (out / "campaign.csv").exists()  # no table with the old file's k_TB
+    # resumed: the table is the new one
+    res = run(d / "c.toml", out_dir=out)
+    assert res.rows[0]["k_TB"] == pytest.approx(res.rows[1]["k_TB"], rel=1e-12)  # the same bytes now
+    assert "a500" in (out / "campaign.csv").read_text(encoding="utf-8")

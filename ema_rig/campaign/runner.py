@@ -572,8 +572,10 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     for m, outcome in failed_input:
         finish(m, None, outcome)
     if todo and out is not None and report:
-        # the rows change: the previous report must not look current while (or if) this run stops
-        (out / "report.html").unlink(missing_ok=True)
+        # the rows change: the previous report and table must not look current while (or if) this run
+        # stops (a script reading campaign.csv after a killed re-run read the replaced files' old k_TB)
+        for name in ("report.html", "campaign.csv"):
+            (out / name).unlink(missing_ok=True)
     drill_down = out is not None and report and cfg.measurement_figures
     # a measurement computed now whose figures cannot be reused is drawn by its worker, from the
     # computation (no second identification); its figures wait in `drawn` for the output phase
