@@ -311,9 +311,13 @@ def _measurement_section(i: int, r: Mapping[str, Any],
     detail = r.get("detail")
     cands = detail.get("candidates") if isinstance(detail, Mapping) else None
     if isinstance(cands, list) and cands:
-        parts.append(_candidate_table(cands, "Modes matched to the 3DOF model (the housing mode is the one kept):"))
+        # the stiffness result's candidates carry the identification's measured std (the table's ± f_H)
+        parts.append(_candidate_table(cands, "Modes matched to the 3DOF model (the housing mode is the one kept):",
+                                      spread=False))
     if figs and figs[2]:
-        parts.append(_candidate_table(figs[2], "Identification: every cluster of stable poles and its verdict:"))
+        # the drill-down's clusters carry the spread of their poles over the model orders: no uncertainty
+        parts.append(_candidate_table(figs[2], "Identification: every cluster of stable poles and its verdict:",
+                                      spread=True))
     parts.append("</section>")
     return "\n".join(parts)
 
@@ -334,10 +338,16 @@ def _unique(warnings: Any) -> list[str]:
     return list(dict.fromkeys(str(w) for w in warnings))
 
 
-def _candidate_table(cands: list[Any], title: str) -> str:
-    """Candidate modes with their verdict and the reason."""
+def _candidate_table(cands: list[Any], title: str, *, spread: bool) -> str:
+    """Candidate modes with their verdict and the reason.
+
+    ``spread``: their ``natural_freq_std`` is the spread of a cluster's poles over the model orders
+    (the drill-down's clusters), else the measured standard uncertainty (the matched candidates,
+    the same number as the table's ± f_H); the column is headed by what it holds.
+    """
     verdict_key = "verdict" if any(isinstance(c, Mapping) and "verdict" in c for c in cands) else "status"
-    rows = ["<table class='cand'><tr><th>f [Hz]</th><th>order spread f [Hz]</th><th>ζ [%]</th><th class='l'>verdict</th>"
+    std_head = "order spread f [Hz]" if spread else "± f measured [Hz]"
+    rows = [f"<table class='cand'><tr><th>f [Hz]</th><th>{std_head}</th><th>ζ [%]</th><th class='l'>verdict</th>"
             "<th class='l'>reason</th></tr>"]
     for c in cands:
         if not isinstance(c, Mapping):
@@ -345,7 +355,9 @@ def _candidate_table(cands: list[Any], title: str) -> str:
         z = c.get("damping_ratio")
         verdict = str(c.get(verdict_key, ""))
         cls = " class='chosen'" if verdict in ("housing", "chosen", "selected") else ""
-        rows.append(f"<tr{cls}><td>{_fmt(c.get('natural_freq'), '.2f')}</td><td>{_fmt(c.get('natural_freq_std'), '.3f')}"
+        f_std = c.get("natural_freq_std")
+        rows.append(f"<tr{cls}><td>{_fmt(c.get('natural_freq'), '.2f')}</td>"
+                    f"<td>{_fmt(f_std, '.3f') if spread else _fmt_std(f_std)}"
                     f"</td><td>{_fmt(z * 100 if isinstance(z, float) else z, '.2f')}</td>"
                     f"<td class='l'>{_h(verdict)}</td>"
                     f"<td class='reason'>{_h(str(c.get('reason', '')))}</td></tr>")

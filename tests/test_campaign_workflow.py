@@ -72,7 +72,11 @@ def test_one_file_under_two_measurements_is_warned(copied_campaign: Path, tmp_pa
     csv_text = (out / "campaign.csv").read_text(encoding="utf-8")
     assert csv_text.count(SAME_CONTENT) == 2
     assert SAME_CONTENT in (out / "results" / "c1500.json").read_text(encoding="utf-8")
-    assert (out / "report.html").read_text(encoding="utf-8").count(SAME_CONTENT) >= 2
+    report = (out / "report.html").read_text(encoding="utf-8")
+    assert report.count(SAME_CONTENT) >= 2
+    # the matched candidates carry the measured std (the table's ± f_H), headed "order spread" before
+    assert "order spread" not in report and report.count("<th>± f measured [Hz]</th>") == 3
+    assert f"<td>{std_text(rows['b1000']['housing_freq_std'])}</td>" in report
     # the notebook's table: both ± labelled as the report labels them, and the rows' warnings counted
     # (it showed one unlabelled ±, the total, and no warnings at all)
     table = result._repr_html_()
