@@ -174,7 +174,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         f"<span class='kpi'><b>{n_ok}</b> / {len(rows)} measurements analysed</span>",
         f"<span class='kpi'><b>{len(rows) - n_ok}</b> failed</span>",
         f"<span class='kpi'>k_MS used: <b>{result.k_MS / 1e6:.2f}</b> MN/m"
-        + (f" ± {result.k_MS_std / 1e6:.2f}" if result.k_MS_std else "")
+        + (f" ± {std_text(result.k_MS_std / 1e6)}" if result.k_MS_std else "")
         + (" (steel-disk calibration)" if result.calibration and result.calibration.get("status") == "ok"
            else " (rig file)")
         + "</span></p>",
