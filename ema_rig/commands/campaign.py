@@ -81,8 +81,11 @@ def run_campaign(campaign: str, out: str | None, jobs: int, force: bool) -> int:
     out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
     result = run_files(cfg, out_dir=out_dir, jobs=jobs, force=force, progress=True)
     print_table(result)
+    calibrated = result.calibration is not None and result.calibration.get("status") == "ok"
+    k_ms_std = "" if not result.k_MS_std else f" ± {std_text(result.k_MS_std / 1e6)} (total)"
     print(f"\n{len(result.rows) - result.n_failed}/{len(result.rows)} measurements ok "
-          f"({result.computed} computed, {result.reused} reused); k_MS = {result.k_MS / 1e6:.2f} MN/m")
+          f"({result.computed} computed, {result.reused} reused); k_MS = {result.k_MS / 1e6:.2f}{k_ms_std} MN/m "
+          f"({'steel-disk calibration' if calibrated else 'rig file'})")
     per_measurement = [k for k in result.files if "/" in k]  # "<id>/<kind>": one line for them all
     for kind, path in result.files.items():
         if "/" not in kind:
