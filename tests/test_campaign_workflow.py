@@ -258,3 +258,30 @@ def test_interrupted_rerun_leaves_no_stale_table(copied_campaign: Path, tmp_path
     res = run(d / "c.toml", out_dir=out)
     assert res.rows[0]["k_TB"] == pytest.approx(res.rows[1]["k_TB"], rel=1e-12)  # the same bytes now
     assert "a500" in (out / "campaign.csv").read_text(encoding="utf-8")
+
+
+def test_hand_pick_on_a_changed_file_is_warned(rig_file: Path, tmp_path: Path) -> None:
+    """Poles picked by hand on a file, replayed after the file changed: replayed by the nearest mode
+    with mode_source "replay" and no warning before, as if the picks had been found."""
+    from ema_rig.identification import identify
+    from ema_rig.identification.stabilization import Selection, select_poles
+    from ema_rig.io.uff import read_uff58
+    from ema_rig.rig.stiffness import estimate_stiffness
+    from ema_rig.simulate import simulate_measurement, write_measurement
+
+    rig = load_rig(rig_file)
+    f = tmp_path / "m.uff"
+    write_measurement(simulate_measurement(rig, k_tb=7.0e7, noise=0.01, seed=1, extra_modes=False), f, rig=rig)
+    data = read_uff58(f, rig=rig)
+    ident = identify(data, band=(150.0, 1000.0), max_order=40)
+    # the user's picks: the automatic modes' representative poles, picked by hand on the chart
+    picks = select_poles(ident.stabilization, [(m.order, m.index) for m in ident.selection.modes], source=str(f))
+    picks = Selection.from_json(picks.to_json())  # saved and loaded, as the notebook and a campaign do
+
+    same = estimate_stiffness(data, rig, selection=picks, max_order=40)
+    assert same.mode_source == "pick" and not [w for w in same.warnings if "picked by hand" in w]
+    # the file is replaced by another measurement of the same bearing (another noise draw)
+    write_measurement(simulate_measurement(rig, k_tb=7.0e7, noise=0.01, seed=2, extra_modes=False), f, rig=rig)
+    changed = estimate_stiffness(read_uff58(f, rig=rig), rig, selection=picks, max_order=40)
+    assert changed.mode_source == "replay"
+    assert [w for w in changed.warnings if "picked by hand on this file" in w], changed.warnings
