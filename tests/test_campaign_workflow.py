@@ -285,3 +285,31 @@ def test_hand_pick_on_a_changed_file_is_warned(rig_file: Path, tmp_path: Path) -
     changed = estimate_stiffness(read_uff58(f, rig=rig), rig, selection=picks, max_order=40)
     assert changed.mode_source == "replay"
     assert [w for w in changed.warnings if "picked by hand on this file" in w], changed.warnings
+
+
+def test_unreadable_moment_is_not_cached(copied_campaign: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A file the worker could not read at that moment (EIO on a network share, EACCES, no memory) was
+    cached as an error of the data: the next run reused it for the same bytes instead of reading them."""
+    import errno
+    import os
+    import types
+
+    import ema_rig.io.uff as uff
+
+    d = copied_campaign
+    (tmp_path / "c.toml").write_text(
+        f'rig = "{(d / "rig.toml").as_posix()}"\n[defaults]\nmax_order = 24\n[output]\nmeasurement_figures = false\n'
+        f'[[measurement]]\nfile = "{(d / "b1000.uff").as_posix()}"\nbearing = "6302"\nradial_load = 1000.0\n',
+        encoding="utf-8")
+
+    def failing_open(path, *args, **kwargs):  # the reader's open only: the runner's digest reads fine
+        raise OSError(errno.EIO, os.strerror(errno.EIO), str(path))
+
+    monkeypatch.setattr(uff, "os", types.SimpleNamespace(**{**vars(os), "open": failing_open}))
+    out = tmp_path / "out"
+    (row,) = run(tmp_path / "c.toml", out_dir=out, report=False).rows
+    assert row["status"] == "error" and "Input/output error" in row["error"]
+    monkeypatch.undo()
+    again = run(tmp_path / "c.toml", out_dir=out, report=False)
+    assert again.reused == 0 and again.rows[0]["status"] == "ok"  # read again, not the cached error
+    assert again.rows[0]["k_TB"] == pytest.approx(K_TRUE["b1000"], rel=0.01)

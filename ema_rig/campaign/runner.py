@@ -9,7 +9,9 @@ nothing that changes a result can be left out of the key by accident.
 
 Only results that depend on the data are cached: a good result, or an ema_rig error about the
 data (bad file, no housing mode). Infrastructure failures (a worker killed, an interruption, an
-unexpected exception) are reported in the row but never reused: the next run computes them again.
+unexpected exception, a file the worker could not read at that moment: I/O, permission, memory,
+:class:`~ema_rig.errors.FileAccessError`) are reported in the row but never reused: the next run
+computes them again.
 
 Pool workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and a
 watchdog thread on the parent's process id everywhere but Windows).
@@ -61,7 +63,7 @@ from .._blas import single_threaded
 from .._progress import progress_bar
 from .._version import code_fingerprint, version
 from ..config import RigConfig, read_regular_file
-from ..errors import EmaRigError
+from ..errors import EmaRigError, FileAccessError
 from .drilldown import DPI, KINDS, measurement_figures
 from .outputs import MANIFEST, MEASUREMENT_DIR, figures_to_draw, write_outputs
 from .result import COLUMNS, CampaignResult
@@ -201,7 +203,8 @@ def process_measurement(task: MeasurementTask) -> dict[str, Any]:
     -------
     dict
         ``status`` ("ok" or "error"), ``error`` (message), ``error_kind`` ("" / "data" for an
-        ema_rig error about the data / "internal" for anything else), ``warnings``, the result
+        ema_rig error about the data / "infrastructure" for a file that could not be read at that
+        moment / "internal" for anything else), ``warnings``, the result
         columns, ``detail`` and ``elapsed_s``. Errors are returned, never raised, so that one bad
         file does not stop a campaign; ``KeyboardInterrupt`` and ``SystemExit`` propagate.
     """
@@ -221,7 +224,9 @@ def _process(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | N
         # a replayed selection comes from the campaign file's [defaults], [bearings] or the measurement:
         # the error names it, since the data alone may be fine
         replay = "" if task.selection_file is None else f" (mode selection replayed: {task.selection_file})"
-        out = {"status": "error", "error": str(exc) + replay, "error_kind": "data"}
+        # a file that could not be read now (I/O, permission, memory) says nothing of its content: not cached
+        kind = "infrastructure" if isinstance(exc, FileAccessError) else "data"
+        out = {"status": "error", "error": str(exc) + replay, "error_kind": kind}
     except Exception as exc:  # a bug or an unexpected file: reported, logged, never cached
         logger.exception("%s failed unexpectedly", task.file)
         out = {"status": "error", "error": f"internal error ({type(exc).__name__}): {exc}", "error_kind": "internal"}
