@@ -97,6 +97,8 @@ class FileAccessError(UFFError):
         What failed (the operating system's words).
     file : str or path-like, optional
         The UFF file.
+    dataset : int, optional
+        0-based index of the dataset in file order (None: the whole file could not be read).
     """
 
 
