@@ -186,7 +186,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     for name, path in figures.items():
         parts.append(f"<figure>{_img(path, name)}<figcaption>{_h(_caption(name))}</figcaption></figure>")
     parts.append("<h2 id='results'>Results</h2><p class='muted'>Stiffness in MN/m (= N/µm); ± is one standard "
-                 "uncertainty (measured: from the identified housing frequency; total: with the rig-file tolerances "
+                 "uncertainty (measured: from the identified housing frequency, and the housing mass where the measured one was used; total: with the rig-file tolerances "
                  "and model-form terms); frequencies are undamped natural frequencies |λ|/2π; c_TB marked ≤ is an "
                  "upper bound (all of the housing mode's damping read as the bearing's), its ± the bound's own. "
                  "Each id links to the measurement's own section (figures, candidate modes, warnings).</p>")

@@ -63,8 +63,8 @@ def print_table(result: Any) -> None:
         print("  ".join(c.rjust(w) if cols[i][2] != "s" else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))))
         if j == 0:
             print("  ".join("-" * w for w in widths))
-    print("± meas.: from the identified housing frequency; ± total: with the rig-file tolerances and "
-          "model-form terms (one standard uncertainty)")
+    print("± meas.: from the identified housing frequency (and the housing mass where the measured one was used); "
+          "± total: with the rig-file tolerances and model-form terms (one standard uncertainty)")
     if warned:
         print("warnings:")
         print("\n".join(warned))
