@@ -313,3 +313,19 @@ def test_unreadable_moment_is_not_cached(copied_campaign: Path, tmp_path: Path, 
     again = run(tmp_path / "c.toml", out_dir=out, report=False)
     assert again.reused == 0 and again.rows[0]["status"] == "ok"  # read again, not the cached error
     assert again.rows[0]["k_TB"] == pytest.approx(K_TRUE["b1000"], rel=0.01)
+
+
+@pytest.mark.parametrize(("typo", "key", "hint"), [
+    ("radial_load = 500.0", "radial_laod = 500.0", "radial_load"),
+    ("max_order = 24", "max_ordre = 24", "max_order"),
+])
+def test_misspelt_campaign_key_names_the_nearest(copied_campaign: Path, tmp_path: Path, typo: str, key: str,
+                                                 hint: str) -> None:
+    """A misspelt key was refused with the list of allowed keys only (a misspelt option got "did you mean")."""
+    from ema_rig.campaign import load_campaign
+    from ema_rig.errors import ConfigError
+
+    text = (copied_campaign / "campaign.toml").read_text(encoding="utf-8").replace(typo, key, 1)
+    (copied_campaign / "typo.toml").write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError, match=f"unknown key; did you mean {hint}\\? allowed keys here are"):
+        load_campaign(copied_campaign / "typo.toml")
