@@ -21,10 +21,13 @@ inert
     A string with control and bidirectional characters escaped.
 csv_cell
     A CSV cell value that a spreadsheet does not evaluate.
+std_text
+    A standard uncertainty with two significant digits, never rounded to 0.
 """
 
 from __future__ import annotations
 
+import math
 import unicodedata
 from typing import Any
 
@@ -122,4 +125,36 @@ def plain(text: Any) -> str:
     return str(text).replace("$", r"\$")
 
 
-__all__ = ["BIDI_CONTROLS", "csv_cell", "inert", "plain", "unsafe"]
+def std_text(std: float) -> str:
+    """A standard uncertainty for print: two significant digits in fixed point, never a rounded 0.
+
+    A ± printed with the value's fixed decimals reads 0.00 when the uncertainty is below the last
+    digit (k_TB ``70.000 +/- 0.000 (measured)`` at 0.05 % noise), as if the value were exact.
+
+    Parameters
+    ----------
+    std : float
+        The uncertainty, in the unit it is printed in (>= 0; NaN or inf printed as such).
+
+    Returns
+    -------
+    str
+        ``0.00044``, ``0.0048``, ``2.7``, ``35``, ``1240``; ``0`` only for an exact 0.
+
+    Examples
+    --------
+    >>> std_text(0.004834), std_text(2.7366), std_text(104.13), std_text(0.0)
+    ('0.0048', '2.7', '104', '0')
+    """
+    x = float(std)
+    if not math.isfinite(x) or x == 0.0:
+        return f"{x:g}"
+    decimals = max(0, 1 - math.floor(math.log10(abs(x))))
+    text = f"{x:.{decimals}f}"
+    if float(text) != 0.0 and len(text.replace("-", "").replace(".", "").lstrip("0")) > 2 and decimals > 0:
+        # rounding carried into a new digit (0.0995 -> 0.100): one decimal fewer keeps two digits
+        text = f"{x:.{decimals - 1}f}"
+    return text
+
+
+__all__ = ["BIDI_CONTROLS", "csv_cell", "inert", "plain", "std_text", "unsafe"]

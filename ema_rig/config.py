@@ -50,6 +50,7 @@ load_rig, parse_rig
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import stat
@@ -452,8 +453,11 @@ def check_keys(table: Mapping[str, Any], allowed: tuple[str, ...], where: str, f
     for k in table:
         if k not in allowed:
             key = f"{where}.{k}" if where else k
+            # a misspelt key (radial_laod, bnad) names its nearest allowed key, as a misspelt option does
+            near = difflib.get_close_matches(str(k), allowed, n=1, cutoff=0.6)
+            hint = f"did you mean {near[0]}? " if near else ""
             raise ConfigError(
-                f"unknown key; allowed keys here are {', '.join(allowed)}", file=file, key=key
+                f"unknown key; {hint}allowed keys here are {', '.join(allowed)}", file=file, key=key
             )
 
 

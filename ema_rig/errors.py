@@ -10,6 +10,9 @@ EmaRigError
     Base class; carries the offending ``file`` (may be None).
 UFFError
     A UFF file or one of its datasets cannot be read or written (``dataset`` is its 0-based index).
+FileAccessError
+    A UFF file could not be read at this moment (missing, I/O, permission, memory): not a fault of
+    its content, so a result cache must not keep it.
 ConfigError
     A rig or campaign TOML file is invalid (``key`` names the offending key path).
 IdentificationError
@@ -79,6 +82,24 @@ class UFFError(EmaRigError, ValueError):
         where = f"dataset {self.dataset}: " if self.dataset is not None else ""
         head = f"{self.file}: " if self.file else ""
         return f"{head}{where}{self.message}"
+
+
+class FileAccessError(UFFError):
+    """A UFF file could not be read at this moment: missing, an I/O or permission error, no memory.
+
+    Nothing about the file's content: the same bytes may read fine on the next run (a network
+    share back, another worker count). A campaign reports it in the row and computes the
+    measurement again on the next run instead of reusing the error (its key is the content's).
+
+    Parameters
+    ----------
+    message : str
+        What failed (the operating system's words).
+    file : str or path-like, optional
+        The UFF file.
+    dataset : int, optional
+        0-based index of the dataset in file order (None: the whole file could not be read).
+    """
 
 
 class ConfigError(EmaRigError, ValueError):
@@ -211,6 +232,7 @@ __all__ = [
     "BandError",
     "ConfigError",
     "EmaRigError",
+    "FileAccessError",
     "IdentificationError",
     "IdentificationWarning",
     "InversionError",

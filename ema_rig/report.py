@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import _atomic
-from ._text import inert
+from ._text import inert, std_text
 from ._version import version
 from .campaign.drilldown import KINDS
 
@@ -107,6 +107,16 @@ def _fmt(v: Any, unit: str = "") -> str:
     return _h(str(v))
 
 
+def _fmt_std(v: Any, unit: str = "") -> str:
+    """An uncertainty cell: two significant digits (:func:`~ema_rig._text.std_text`), never a rounded 0.
+
+    ``unit`` ``"N/m"`` prints it in MN/m, as :func:`_fmt` prints the value beside it.
+    """
+    if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+        return _fmt(None)
+    return std_text(v / 1e6 if unit == "N/m" else float(v))
+
+
 def _caption(name: str) -> str:
     for k, v in _CAPTIONS.items():
         if name.startswith(k):
@@ -164,7 +174,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         f"<span class='kpi'><b>{n_ok}</b> / {len(rows)} measurements analysed</span>",
         f"<span class='kpi'><b>{len(rows) - n_ok}</b> failed</span>",
         f"<span class='kpi'>k_MS used: <b>{result.k_MS / 1e6:.2f}</b> MN/m"
-        + (f" ± {result.k_MS_std / 1e6:.2f}" if result.k_MS_std else "")
+        + (f" ± {std_text(result.k_MS_std / 1e6)}" if result.k_MS_std else "")
         + (" (steel-disk calibration)" if result.calibration and result.calibration.get("status") == "ok"
            else " (rig file)")
         + "</span></p>",
@@ -176,7 +186,7 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
     for name, path in figures.items():
         parts.append(f"<figure>{_img(path, name)}<figcaption>{_h(_caption(name))}</figcaption></figure>")
     parts.append("<h2 id='results'>Results</h2><p class='muted'>Stiffness in MN/m (= N/µm); ± is one standard "
-                 "uncertainty (measured: from the identified housing frequency; total: with the rig-file tolerances "
+                 "uncertainty (measured: from the identified housing frequency, and the housing mass where the measured one was used; total: with the rig-file tolerances "
                  "and model-form terms); frequencies are undamped natural frequencies |λ|/2π; c_TB marked ≤ is an "
                  "upper bound (all of the housing mode's damping read as the bearing's), its ± the bound's own. "
                  "Each id links to the measurement's own section (figures, candidate modes, warnings).</p>")
@@ -193,10 +203,10 @@ def render_report(result: CampaignResult, figures: Mapping[str, str | PathLike[s
         cells = [
             ("l", f"<a href='#{anchor(i)}'>{_fmt(r['id'])}</a>"), ("l", _fmt(r["bearing"])), ("", _fmt(r["radial_load"])), ("", _fmt(r["speed"])),
             ("", _fmt(r["shaft_position"])), ("", _fmt(r["repeat"])), ("", _fmt(r["k_TB"], "N/m")),
-            ("", _fmt(r.get("k_TB_std_measured", math.nan), "N/m")),
-            ("", _fmt(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
-            ("", _fmt(r["housing_freq_std"], ".2f")), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
-            ("", _c_tb_mark(r) + _fmt(r.get("c_TB", math.nan), ".0f")), ("", _fmt(r.get("c_TB_std", math.nan), ".0f")),
+            ("", _fmt_std(r.get("k_TB_std_measured", math.nan), "N/m")),
+            ("", _fmt_std(r["k_TB_std"], "N/m")), ("", _fmt(r["k_TB_MS"], "N/m")), ("", _fmt(r["housing_freq"], ".1f")),
+            ("", _fmt_std(r["housing_freq_std"])), ("", _fmt(damp, ".2f")), ("", _fmt(r["spindle_freq"], ".1f")),
+            ("", _c_tb_mark(r) + _fmt(r.get("c_TB", math.nan), ".0f")), ("", _fmt_std(r.get("c_TB_std", math.nan))),
             ("l", _h(_source(r))),
             ("", str(len(_unique(r.get("warnings") or ())))),
             ("l", _h(status)),
@@ -250,7 +260,7 @@ def _rigid_body_line(rb: Mapping[str, Any]) -> str:
     parts = []
     if rb.get("axial_stiffness") is not None:
         parts.append(f"axial {_fmt(float(rb['axial_stiffness']), 'N/m')} ± "
-                     f"{_fmt(float(rb.get('axial_stiffness_std') or math.nan), 'N/m')} MN/m")
+                     f"{_fmt_std(float(rb.get('axial_stiffness_std') or math.nan), 'N/m')} MN/m")
     tilt = rb.get("tilt_stiffness")
     if isinstance(tilt, Mapping):
         for ax in ("x", "z"):
@@ -275,11 +285,12 @@ def _measurement_section(i: int, r: Mapping[str, Any],
             f"bearing {_fmt(r['bearing'])} · {_fmt(r['radial_load'])} N · {_fmt(r['speed'])} rpm</p>")
     parts = [head]
     if ok:
-        parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt(r['k_TB_std'], 'N/m')}</b> MN/m (total) · "
-                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt(r['housing_freq_std'], '.2f')} Hz (measured)"
+        parts.append(f"<p>k_TB = <b>{_fmt(r['k_TB'], 'N/m')} ± {_fmt_std(r['k_TB_std'], 'N/m')}</b> MN/m (total; "
+                     f"± {_fmt_std(r.get('k_TB_std_measured', math.nan), 'N/m')} measured) · "
+                     f"housing mode {_fmt(r['housing_freq'], '.2f')} ± {_fmt_std(r['housing_freq_std'])} Hz (measured)"
                      f" · from {_h(_SOURCE_TEXT.get(_source(r), _source(r)))} · "
                      f"bearing damping {_h(_c_tb(r))}, loss factor "
-                     f"{_fmt(r.get('loss_factor', math.nan), '.4f')} ± {_fmt(r.get('loss_factor_std', math.nan), '.4f')}"
+                     f"{_fmt(r.get('loss_factor', math.nan), '.4f')} ± {_fmt_std(r.get('loss_factor_std', math.nan))}"
                      "</p>")
         parts.append(_comparison(r.get("detail")))
     else:
@@ -300,9 +311,13 @@ def _measurement_section(i: int, r: Mapping[str, Any],
     detail = r.get("detail")
     cands = detail.get("candidates") if isinstance(detail, Mapping) else None
     if isinstance(cands, list) and cands:
-        parts.append(_candidate_table(cands, "Modes matched to the 3DOF model (the housing mode is the one kept):"))
+        # the stiffness result's candidates carry the identification's measured std (the table's ± f_H)
+        parts.append(_candidate_table(cands, "Modes matched to the 3DOF model (the housing mode is the one kept):",
+                                      spread=False))
     if figs and figs[2]:
-        parts.append(_candidate_table(figs[2], "Identification: every cluster of stable poles and its verdict:"))
+        # the drill-down's clusters carry the spread of their poles over the model orders: no uncertainty
+        parts.append(_candidate_table(figs[2], "Identification: every cluster of stable poles and its verdict:",
+                                      spread=True))
     parts.append("</section>")
     return "\n".join(parts)
 
@@ -323,10 +338,16 @@ def _unique(warnings: Any) -> list[str]:
     return list(dict.fromkeys(str(w) for w in warnings))
 
 
-def _candidate_table(cands: list[Any], title: str) -> str:
-    """Candidate modes with their verdict and the reason."""
+def _candidate_table(cands: list[Any], title: str, *, spread: bool) -> str:
+    """Candidate modes with their verdict and the reason.
+
+    ``spread``: their ``natural_freq_std`` is the spread of a cluster's poles over the model orders
+    (the drill-down's clusters), else the measured standard uncertainty (the matched candidates,
+    the same number as the table's ± f_H); the column is headed by what it holds.
+    """
     verdict_key = "verdict" if any(isinstance(c, Mapping) and "verdict" in c for c in cands) else "status"
-    rows = ["<table class='cand'><tr><th>f [Hz]</th><th>order spread f [Hz]</th><th>ζ [%]</th><th class='l'>verdict</th>"
+    std_head = "order spread f [Hz]" if spread else "± f measured [Hz]"
+    rows = [f"<table class='cand'><tr><th>f [Hz]</th><th>{std_head}</th><th>ζ [%]</th><th class='l'>verdict</th>"
             "<th class='l'>reason</th></tr>"]
     for c in cands:
         if not isinstance(c, Mapping):
@@ -334,7 +355,9 @@ def _candidate_table(cands: list[Any], title: str) -> str:
         z = c.get("damping_ratio")
         verdict = str(c.get(verdict_key, ""))
         cls = " class='chosen'" if verdict in ("housing", "chosen", "selected") else ""
-        rows.append(f"<tr{cls}><td>{_fmt(c.get('natural_freq'), '.2f')}</td><td>{_fmt(c.get('natural_freq_std'), '.3f')}"
+        f_std = c.get("natural_freq_std")
+        rows.append(f"<tr{cls}><td>{_fmt(c.get('natural_freq'), '.2f')}</td>"
+                    f"<td>{_fmt(f_std, '.3f') if spread else _fmt_std(f_std)}"
                     f"</td><td>{_fmt(z * 100 if isinstance(z, float) else z, '.2f')}</td>"
                     f"<td class='l'>{_h(verdict)}</td>"
                     f"<td class='reason'>{_h(str(c.get('reason', '')))}</td></tr>")

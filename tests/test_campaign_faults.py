@@ -531,7 +531,8 @@ def test_every_task_field_enters_the_key(small: Path) -> None:
         "band": (150.0, 999.0), "max_order": 18, "rig": dataclasses.replace(rig, model=other_model),
         "selection": '{"format": "ema_rig.selection/1"}',  # the selection's text: its content is the key
     }
-    assert set(changed) | {"file"} == {f.name for f in dataclasses.fields(MeasurementTask)}
+    # the file and the selection's file enter by their content (digest, selection text), named in errors only
+    assert set(changed) | {"file", "selection_file"} == {f.name for f in dataclasses.fields(MeasurementTask)}
     key = task_key(base, "digest")
     for name, value in changed.items():
         assert task_key(dataclasses.replace(base, **{name: value}), "digest") != key, name
@@ -539,6 +540,7 @@ def test_every_task_field_enters_the_key(small: Path) -> None:
     # the rig's content counts, not its path; the file's content counts, not its name
     assert task_key(dataclasses.replace(base, rig=dataclasses.replace(rig, path="/elsewhere/rig.toml"),
                                         file=Path("/elsewhere/m.uff")), "digest") == key
+    assert task_key(dataclasses.replace(base, selection_file="/elsewhere/picks.json"), "digest") == key
 
 
 def test_moved_rig_file_with_the_same_content_is_reused(small: Path, tmp_path: Path) -> None:

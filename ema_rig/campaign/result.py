@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from .._optional import import_optional
-from .._text import csv_cell
+from .._text import csv_cell, std_text
 from .schema import CampaignConfig
 
 #: Column order of the campaign table.
@@ -85,13 +85,16 @@ class CampaignResult:
                 f"out_dir={str(self.out_dir) if self.out_dir else None!r})")
 
     def _repr_html_(self) -> str:
-        """The summary table in Jupyter (id, conditions, k_TB ± std in MN/m, housing mode, status)."""
+        """The summary table in Jupyter: id, conditions, k_TB with its measured and total ± in MN/m (as
+        the report and the console label them), housing mode, the number of warnings, status."""
         head = "".join(f"<th>{html.escape(h)}</th>" for h in
-                       ("id", "bearing", "load [N]", "speed [rpm]", "k_TB [MN/m]", "± [MN/m]", "f_H [Hz]", "status"))
+                       ("id", "bearing", "load [N]", "speed [rpm]", "k_TB [MN/m]", "± measured [MN/m]",
+                        "± total [MN/m]", "f_H [Hz]", "warnings", "status"))
         body = []
         for r in self.rows:
             cells = (r["id"], r["bearing"], f"{r['radial_load']:g}", f"{r['speed']:g}", f"{r['k_TB'] / 1e6:.2f}",
-                     f"{r['k_TB_std'] / 1e6:.2f}", f"{r['housing_freq']:.1f}",
+                     std_text(r.get("k_TB_std_measured", math.nan) / 1e6), std_text(r["k_TB_std"] / 1e6),
+                     f"{r['housing_freq']:.1f}", len(r.get("warnings") or ()),
                      "ok" if r["status"] == "ok" else f"error: {r['error']}")
             body.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in cells) + "</tr>")
         return f"<p>{html.escape(repr(self))}</p><table><tr>{head}</tr>{''.join(body)}</table>"

@@ -4,12 +4,14 @@ What one computation depends on is a single frozen dataclass, :class:`Measuremen
 resolved rig (its content: model parameters, sensors, ``[identification]``, ``[units]``,
 ``[uncertainty]``), k_MS and its uncertainty, the speed, band and order, the kind of computation.
 The worker receives exactly that object (it never re-reads the rig file), and the cache key is
-the hash of every one of its fields plus the file's content hash and the ema_rig version, so
+the hash of every one of its fields plus the file's content hash, the ema_rig version and its code, so
 nothing that changes a result can be left out of the key by accident.
 
 Only results that depend on the data are cached: a good result, or an ema_rig error about the
 data (bad file, no housing mode). Infrastructure failures (a worker killed, an interruption, an
-unexpected exception) are reported in the row but never reused: the next run computes them again.
+unexpected exception, a file the worker could not read at that moment: I/O, permission, memory,
+:class:`~ema_rig.errors.FileAccessError`) are reported in the row but never reused: the next run
+computes them again.
 
 Pool workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and a
 watchdog thread on the parent's process id everywhere but Windows).
@@ -42,7 +44,7 @@ import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import (
     FIRST_COMPLETED,
     BrokenExecutor,
@@ -51,7 +53,7 @@ from concurrent.futures import (
     ProcessPoolExecutor,
     wait,
 )
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -59,9 +61,9 @@ from typing import Any
 from .. import _atomic
 from .._blas import single_threaded
 from .._progress import progress_bar
-from .._version import version
+from .._version import code_fingerprint, version
 from ..config import RigConfig, read_regular_file
-from ..errors import EmaRigError
+from ..errors import EmaRigError, FileAccessError
 from .drilldown import DPI, KINDS, measurement_figures
 from .outputs import MANIFEST, MEASUREMENT_DIR, figures_to_draw, write_outputs
 from .result import COLUMNS, CampaignResult
@@ -104,6 +106,8 @@ class MeasurementTask:
     selection : str or None
         A saved mode selection (its JSON text: the content enters the key) replayed instead of
         the automatic identification.
+    selection_file : str or None
+        Where that selection was read from, named in an error (not in the key: the content is).
     """
 
     kind: str
@@ -116,6 +120,7 @@ class MeasurementTask:
     band: tuple[float, float] | None = None
     max_order: int | None = None
     selection: str | None = None
+    selection_file: str | None = field(default=None, metadata={"cache_key": False})
 
 
 def _canonical(obj: Any) -> Any:
@@ -142,11 +147,13 @@ def task_key(task: MeasurementTask, digest: str) -> str:
 
     Every field of the task except the file name enters the key (recursively; only fields marked
     ``metadata={"cache_key": False}``, such as the rig's path, are left out), with the file's
-    content hash, the ema_rig version and the key schema.
+    content hash, the ema_rig version, the hash of its sources (:func:`~ema_rig._version.code_fingerprint`:
+    an update that keeps the version computes again) and the key schema.
     """
     fields = _canonical(task)
     fields.pop("file")
-    payload = {"task": fields, "digest": digest, "version": version(), "schema": _KEY_SCHEMA}
+    payload = {"task": fields, "digest": digest, "version": version(), "code": code_fingerprint(),
+               "schema": _KEY_SCHEMA}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
@@ -196,7 +203,8 @@ def process_measurement(task: MeasurementTask) -> dict[str, Any]:
     -------
     dict
         ``status`` ("ok" or "error"), ``error`` (message), ``error_kind`` ("" / "data" for an
-        ema_rig error about the data / "internal" for anything else), ``warnings``, the result
+        ema_rig error about the data / "infrastructure" for a file that could not be read at that
+        moment / "internal" for anything else), ``warnings``, the result
         columns, ``detail`` and ``elapsed_s``. Errors are returned, never raised, so that one bad
         file does not stop a campaign; ``KeyboardInterrupt`` and ``SystemExit`` propagate.
     """
@@ -213,7 +221,12 @@ def _process(task: MeasurementTask) -> tuple[dict[str, Any], tuple[Any, Any] | N
         with single_threaded():
             out, computed = _compute(task)
     except EmaRigError as exc:
-        out = {"status": "error", "error": str(exc), "error_kind": "data"}
+        # a replayed selection comes from the campaign file's [defaults], [bearings] or the measurement:
+        # the error names it, since the data alone may be fine
+        replay = "" if task.selection_file is None else f" (mode selection replayed: {task.selection_file})"
+        # a file that could not be read now (I/O, permission, memory) says nothing of its content: not cached
+        kind = "infrastructure" if isinstance(exc, FileAccessError) else "data"
+        out = {"status": "error", "error": str(exc) + replay, "error_kind": kind}
     except Exception as exc:  # a bug or an unexpected file: reported, logged, never cached
         logger.exception("%s failed unexpectedly", task.file)
         out = {"status": "error", "error": f"internal error ({type(exc).__name__}): {exc}", "error_kind": "internal"}
@@ -403,7 +416,7 @@ def run(
     -----
     A measurement is reused when its JSON result exists and its key - the hash of the file
     content and of every field of its :class:`MeasurementTask` (the rig's content, k_MS, band,
-    order, speed) and the ema_rig version - is unchanged, so a run killed halfway loses only the
+    order, speed) and the ema_rig version and code - is unchanged, so a run killed halfway loses only the
     measurements in flight. Failures of the infrastructure are never reused.
     """
     cfg = campaign if isinstance(campaign, CampaignConfig) else load_campaign(campaign)
@@ -502,22 +515,39 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     rows: dict[str, dict[str, Any]] = {}
     todo: list[tuple[Measurement, MeasurementTask, str]] = []
     failed_input: list[tuple[Measurement, dict[str, Any]]] = []
+    digests: dict[str, str] = {}
+    cached_rows: list[tuple[Measurement, dict[str, Any]]] = []
     for m in cfg.measurements:
         try:
             t = MeasurementTask(kind="measurement", file=m.file, rig=rig, k_ms=k_ms, k_ms_std=k_ms_std,
                                 speed_hz=m.speed / 60.0 if m.speed > 0 else None, band=cfg.band,
-                                max_order=cfg.max_order, selection=read_selection(m))
-            key = task_key(t, file_digest(m.file))
+                                max_order=cfg.max_order, selection=read_selection(m),
+                                selection_file=None if m.selection is None else str(m.selection))
+            digests[m.id] = file_digest(m.file)
+            key = task_key(t, digests[m.id])
         except EmaRigError as exc:  # missing, unreadable or not a regular file: checked every run
             failed_input.append((m, {"status": "error", "error": str(exc), "error_kind": "input"}))
             continue
         path = result_path(m.id)
         cached = None if (force or path is None) else _load_cached(path, key, row=True)
         if cached is not None:
-            # the conditions (bearing, load, tags ...) do not change the computation but are today's
-            rows[m.id] = {**cached, **m.conditions()}
+            cached_rows.append((m, cached))
         else:
             todo.append((m, t, key))
+    # a file whose content another measurement holds too is computed as often as it is listed, but
+    # its rows are one measurement: a campaign-wide fact, so never taken from (or kept in) a cached row
+    same_data = same_content_warnings(cfg.measurements, digests)
+    for m, cached in cached_rows:
+        # the conditions (bearing, load, tags ...) do not change the computation but are today's
+        row = {**cached, **m.conditions()}
+        kept = [w for w in (row.get("warnings") or []) if not str(w).startswith(SAME_CONTENT)]
+        now = kept + ([same_data[m.id]] if m.id in same_data and row.get("status") == "ok" else [])
+        if now != list(row.get("warnings") or []):
+            row["warnings"] = now
+            path = result_path(m.id)
+            if path is not None:  # results/<id>.json stays the row the table shows
+                _atomic.write_json(path, row)
+        rows[m.id] = row
     if executor is not None or jobs > 1:
         # longest first: a long measurement started last would keep one worker busy alone at the end
         todo.sort(key=lambda mtk: _expected_cost(mtk[0].file, result_path(mtk[0].id)), reverse=True)
@@ -536,6 +566,8 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
                "cache_key": key if _cacheable(result) else None}
         if calib_warning is not None and row.get("status") == "ok":
             row["warnings"] = [*row["warnings"], calib_warning]
+        if m.id in same_data and row.get("status") == "ok":
+            row["warnings"] = [*row["warnings"], same_data[m.id]]
         rows[m.id] = row
         path = result_path(m.id)
         if path is not None:
@@ -545,8 +577,10 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     for m, outcome in failed_input:
         finish(m, None, outcome)
     if todo and out is not None and report:
-        # the rows change: the previous report must not look current while (or if) this run stops
-        (out / "report.html").unlink(missing_ok=True)
+        # the rows change: the previous report and table must not look current while (or if) this run
+        # stops (a script reading campaign.csv after a killed re-run read the replaced files' old k_TB)
+        for name in ("report.html", "campaign.csv"):
+            (out / name).unlink(missing_ok=True)
     drill_down = out is not None and report and cfg.measurement_figures
     # a measurement computed now whose figures cannot be reused is drawn by its worker, from the
     # computation (no second identification); its figures wait in `drawn` for the output phase
@@ -636,6 +670,56 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     return result
 
 
+#: Start of the warning of a row whose file content another measurement of the campaign holds too.
+SAME_CONTENT = "same file content as measurement"
+
+
+def same_content_warnings(measurements: Sequence[Measurement], digests: Mapping[str, str]) -> dict[str, str]:
+    """Id -> a warning for every measurement whose file content another measurement holds too.
+
+    Two rows computed from one file are one measurement: under other conditions (bearing, load,
+    speed, shaft position) at least one of them was given the wrong file and shows another
+    condition's k_TB; under the same conditions they are no independent repeats (their spread is 0).
+
+    Parameters
+    ----------
+    measurements : sequence of Measurement
+        The campaign's measurements, in campaign order.
+    digests : mapping of str to str
+        Measurement id -> SHA-256 of its file's content (:func:`file_digest`); ids without one are
+        left out.
+
+    Returns
+    -------
+    dict of str to str
+        One line per measurement sharing its content, naming the others (id and file).
+    """
+    groups: dict[str, list[Measurement]] = {}
+    for m in measurements:
+        if m.id in digests:
+            groups.setdefault(digests[m.id], []).append(m)
+    out: dict[str, str] = {}
+    for group in groups.values():
+        for m in group if len(group) > 1 else ():
+            others = [o for o in group if o is not m]
+            alike = all(_same_conditions(o, m) for o in others)
+            why = ("the same data, not an independent repeat" if alike else
+                   "under other conditions (bearing, load, speed or shaft position): one of them is the wrong "
+                   "file, and its k_TB belongs to the other's conditions")
+            names = ", ".join(f"{o.id!r} ({o.file})" for o in others)
+            out[m.id] = f"{SAME_CONTENT} {names}: {why}"
+    return out
+
+
+def _same_conditions(a: Measurement, b: Measurement) -> bool:
+    """Same bearing, radial load, speed and shaft position (a value not given, NaN, equals NaN)."""
+    def same(x: float, y: float) -> bool:
+        return x == y or (math.isnan(x) and math.isnan(y))
+
+    return a.bearing == b.bearing and all(same(getattr(a, k), getattr(b, k))
+                                          for k in ("radial_load", "speed", "shaft_position"))
+
+
 def read_selection(m: Measurement) -> str | None:
     """The text of a measurement's mode selection (None without one).
 
@@ -697,5 +781,5 @@ def _progress(progress: bool | Callable[[int, int], None], total: int, initial: 
     return lambda n: None
 
 
-__all__ = ["CALIBRATION_NAME", "MeasurementTask", "check_out_folder", "file_digest", "make_pool", "process_measurement", "run",
-           "task_key"]
+__all__ = ["CALIBRATION_NAME", "SAME_CONTENT", "MeasurementTask", "check_out_folder", "file_digest", "make_pool", "process_measurement", "run",
+           "same_content_warnings", "task_key"]

@@ -32,6 +32,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from .._text import std_text
 from ..config import CONDITION_RANGES, implausible
 from ..io.units import response_unit
 
@@ -173,4 +174,4 @@ def pm(std: float | None, scale: float = 1.0) -> str:
     """`` +/- <std>`` with two significant digits (never a rounded 0.000), or nothing without a std."""
     if std is None or not (std == std):
         return ""
-    return f" +/- {scale * std:.2g}"
+    return f" +/- {std_text(scale * std)}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .._atomic import write_json
+from .._text import std_text
 from ..config import load_rig
 from ..errors import EmaRigError, MatchingError
 from . import _args
@@ -65,8 +66,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"file          {res.file or '-'}")
     print(f"housing mode  {hm['natural_freq']:.2f}{_args.pm(sd)} Hz, damping "
           f"{100 * hm['damping_ratio']:.2f}{_args.pm(hm.get('damping_ratio_std'), 100)} % (steel disk)")
-    print(f"k_MS          {res.k_MS / 1e6:.3f} +/- {res.k_MS_std_measured / 1e6:.3f} (measured) "
-          f"+/- {res.k_MS_std / 1e6:.3f} (total) MN/m (1 sigma)"
+    print(f"k_MS          {res.k_MS / 1e6:.3f} +/- {std_text(res.k_MS_std_measured / 1e6)} (measured) "
+          f"+/- {std_text(res.k_MS_std / 1e6)} (total) MN/m (1 sigma)"
           + (", disk assumed rigid" if res.k_disk is None else f", disk {res.k_disk / 1e6:.0f} MN/m in series"))
     print(f"rig file k_MS {rig.model.k_MS / 1e6:.2f} MN/m; use --k-ms {res.k_MS:.6g} --k-ms-std "
           f"{res.k_MS_std:.3g} with 'ema-rig stiffness'")

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from .._text import std_text
 from ..campaign import load_campaign
 from ..campaign import run as run_files
 from ..cli import EXIT_ERROR, EXIT_OK, EXIT_PARTIAL
@@ -32,6 +33,8 @@ def _cell(v: Any, kind: str) -> str:
         return "-"
     if kind == "MN":
         return f"{v / 1e6:.2f}"
+    if kind == "MN±":  # an uncertainty: two significant digits, never a rounded 0.00
+        return std_text(v / 1e6)
     if kind == "f":
         return f"{v:.1f}"
     if kind == "g":
@@ -45,7 +48,7 @@ def print_table(result: Any) -> None:
     """Print the campaign table (k_TB in MN/m) to stdout."""
     cols = [("id", "id", "s"), ("bearing", "bearing", "s"), ("load N", "radial_load", "g"),
             ("rpm", "speed", "g"), ("pos", "shaft_position", "g"), ("rep", "repeat", "g"),
-            ("k_TB MN/m", "k_TB", "MN"), ("± meas.", "k_TB_std_measured", "MN"), ("± total", "k_TB_std", "MN"),
+            ("k_TB MN/m", "k_TB", "MN"), ("± meas.", "k_TB_std_measured", "MN±"), ("± total", "k_TB_std", "MN±"),
             ("f_H Hz", "housing_freq", "f"), ("warn", "warnings", "n"), ("status", "status", "s")]
     table = [[h for h, _, _ in cols]]
     errors = []
@@ -60,8 +63,8 @@ def print_table(result: Any) -> None:
         print("  ".join(c.rjust(w) if cols[i][2] != "s" else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))))
         if j == 0:
             print("  ".join("-" * w for w in widths))
-    print("± meas.: from the identified housing frequency; ± total: with the rig-file tolerances and "
-          "model-form terms (one standard uncertainty)")
+    print("± meas.: from the identified housing frequency (and the housing mass where the measured one was used); "
+          "± total: with the rig-file tolerances and model-form terms (one standard uncertainty)")
     if warned:
         print("warnings:")
         print("\n".join(warned))
@@ -78,8 +81,11 @@ def run_campaign(campaign: str, out: str | None, jobs: int, force: bool) -> int:
     out_dir = Path(out) if out else Path(campaign).with_name(Path(campaign).stem + "-out")
     result = run_files(cfg, out_dir=out_dir, jobs=jobs, force=force, progress=True)
     print_table(result)
+    calibrated = result.calibration is not None and result.calibration.get("status") == "ok"
+    k_ms_std = "" if not result.k_MS_std else f" ± {std_text(result.k_MS_std / 1e6)} (total)"
     print(f"\n{len(result.rows) - result.n_failed}/{len(result.rows)} measurements ok "
-          f"({result.computed} computed, {result.reused} reused); k_MS = {result.k_MS / 1e6:.2f} MN/m")
+          f"({result.computed} computed, {result.reused} reused); k_MS = {result.k_MS / 1e6:.2f}{k_ms_std} MN/m "
+          f"({'steel-disk calibration' if calibrated else 'rig file'})")
     per_measurement = [k for k in result.files if "/" in k]  # "<id>/<kind>": one line for them all
     for kind, path in result.files.items():
         if "/" not in kind:

@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 from .._atomic import commit_staged, write_json
+from .._text import std_text
 from ..config import load_rig
 from ..errors import EmaRigError, MatchingError
 from . import _args
@@ -63,9 +64,9 @@ def summary(res: Any) -> str:
                             f"{100 * sm['damping_ratio']:.2f}{_args.pm(sm.get('damping_ratio_std'), 100)} %"),
         f"k_MS          {res.k_MS / 1e6:.2f} MN/m",
         f"k_TB+MS       {res.k_TB_MS / 1e6:.3f} MN/m",
-        f"k_TB          {res.k_TB / 1e6:.3f} +/- {res.k_TB_std_measured / 1e6:.3f} (measured) "
-        f"+/- {res.k_TB_std / 1e6:.3f} (total) MN/m (1 sigma, {100 * res.k_TB_std_measured / res.k_TB:.2f} % / "
-        f"{100 * res.k_TB_std / res.k_TB:.2f} %)",
+        f"k_TB          {res.k_TB / 1e6:.3f} +/- {std_text(res.k_TB_std_measured / 1e6)} (measured) "
+        f"+/- {std_text(res.k_TB_std / 1e6)} (total) MN/m (1 sigma, {std_text(100 * res.k_TB_std_measured / res.k_TB)} % / "
+        f"{std_text(100 * res.k_TB_std / res.k_TB)} %)",
         "3DOF inv.     " + ("outside the model's range" if res.inversion_3dof is None else
                             f"k_TB {res.inversion_3dof['k_TB'] / 1e6:.3f} MN/m at {res.inversion_3dof['freq']:.2f} Hz "
                             "(identified frequency, rig-file m_H, no correction)"),

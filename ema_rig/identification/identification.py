@@ -20,6 +20,7 @@ Identification
 from __future__ import annotations
 
 import html
+import os
 import warnings as _warnings
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -618,6 +619,7 @@ def identify(
         warnings += [f"mode at {m.natural_freq:.2f} Hz tracked from the replayed selection by frequency order "
                      f"(no mode within {100 * near_tol:g} % of a selected one): check it on the chart"
                      for m in sel.modes if m.provenance == "tracked"]
+        warnings += _picks_not_found(selection, sel, src)
     else:
         # grow the order until the accepted mode set holds over one span of orders
         start = min(default_max_order(n_in), cap)
@@ -1769,6 +1771,36 @@ def _why(data: FRFData) -> str:
 
 #: Clause of the refusal when a user's order cap stopped the search below the default cap.
 LOW_CAP_HINT = "the order cap may be too low"
+
+
+def _picks_not_found(selection: Selection, resolved: Selection, src: str | None) -> list[str]:
+    """A warning when poles picked by hand on these very data are not found again.
+
+    A selection replays exactly (provenance kept) on the data it was made on and by nearest
+    frequency elsewhere (:func:`~ema_rig.identification.stabilization.resolve_selection`). When the
+    selection names this file as its source but a hand-picked pole is not among its poles, the file
+    (or the band or order) changed since the pick: the mode used is the nearest one found, not the
+    pole the user chose, and a number computed from it carries this line.
+
+    Returns
+    -------
+    list of str
+        One line, or none (other data, no hand pick, or every pick found exactly).
+    """
+    if selection.source is None or src is None:
+        return []
+    try:
+        same = os.path.realpath(selection.source) == os.path.realpath(src)
+    except (OSError, ValueError):
+        return []
+    kept = {(m.order, m.index, m.pole) for m in resolved.modes if m.provenance == "manual"}
+    lost = [m for m in selection.modes if m.provenance == "manual" and (m.order, m.index, m.pole) not in kept]
+    if not same or not lost:
+        return []
+    freqs = ", ".join(f"{m.natural_freq:.2f}" for m in lost)
+    return [f"the selection was picked by hand on this file, but its pole(s) at {freqs} Hz are not among this "
+            "identification's poles (the file, or the band or order, changed since the pick): replayed by the "
+            "nearest mode instead; pick again on the chart"]
 
 
 def _require_stable(stab: StabilizationData, n: int, src: str | None, data: FRFData, *,

@@ -53,7 +53,7 @@ from numpy.typing import NDArray
 
 from .._atomic import atomic_path
 from ..dof import DOF
-from ..errors import UFFError, UnitWarning
+from ..errors import FileAccessError, UFFError, UnitWarning
 from ..frf import FRFData
 from ..processing import ProcessingHistory
 from . import _uff_1858, _uff_coherence, _uff_parse, _uff_units, _uff_write
@@ -285,9 +285,9 @@ def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
     try:
         st = os.stat(p)
     except FileNotFoundError:
-        raise UFFError("file not found", file=p) from None
+        raise FileAccessError("file not found", file=p) from None
     except OSError as exc:
-        raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+        raise FileAccessError(f"cannot read: {exc.strerror or exc}", file=p) from None
     if stat.S_ISDIR(st.st_mode):
         raise UFFError("is a directory, expected a UFF file", file=p)
     if not stat.S_ISREG(st.st_mode):
@@ -299,7 +299,7 @@ def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
     try:
         fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     except OSError as exc:
-        raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+        raise FileAccessError(f"cannot read: {exc.strerror or exc}", file=p) from None
     with os.fdopen(fd, "rb", buffering=0) as fh:
         try:
             st = os.fstat(fh.fileno())
@@ -320,9 +320,9 @@ def _load_bytes(path: str | PathLike[str]) -> tuple[Path, bytes]:
                 fh.seek(0)
                 buf = fh.read()  # one bytes object of the file's size, no intermediate copies
         except MemoryError:
-            raise UFFError(f"not enough memory to read {st.st_size} bytes", file=p) from None
+            raise FileAccessError(f"not enough memory to read {st.st_size} bytes", file=p) from None
         except OSError as exc:
-            raise UFFError(f"cannot read: {exc.strerror or exc}", file=p) from None
+            raise FileAccessError(f"cannot read: {exc.strerror or exc}", file=p) from None
     if len(buf) > MAX_FILE_BYTES:
         raise UFFError(f"file grew past the limit of {MAX_FILE_BYTES} bytes while being read", file=p)
     return p, buf

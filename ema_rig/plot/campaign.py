@@ -18,7 +18,9 @@ plot_repeatability
     Deviation of each repeat from its condition's mean.
 
 All functions take the result rows and return a matplotlib Figure (never shown).
-Error bars are +/- one standard uncertainty (k_TB_std). Names that come from the campaign file
+Error bars are +/- one standard uncertainty, labelled as the table labels it: the total (``k_TB_std``)
+where estimates are compared with a bound or a curve, the measured part (``k_TB_std_measured``) where
+they are compared with one another (speeds, repeats: the rig-model tolerances are common to all). Names that come from the campaign file
 (bearings, repeats) are escaped for matplotlib's mathtext, so a ``$`` is drawn as a ``$``.
 """
 
@@ -106,7 +108,7 @@ def plot_k_vs_load(rows: Sequence[Row], bearing: str, *, info: BearingInfo | Non
         k = np.array([r["k_TB"] for r in rs]) / _MN
         s = np.array([r["k_TB_std"] for r in rs]) / _MN
         m, c = markers[name]
-        ax.errorbar(f, k, yerr=s, fmt=m, color=c, capsize=3, ms=5, label=f"measured, {name} (±1σ)")
+        ax.errorbar(f, k, yerr=s, fmt=m, color=c, capsize=3, ms=5, label=f"measured, {name} (±1σ total)")
     loads = np.array([r["radial_load"] for r in sel])
     if loads.size and np.any(loads > 0):
         fl = np.linspace(max(loads[loads > 0].min() * 0.8, 1.0), loads.max() * 1.15, 100)
@@ -139,7 +141,8 @@ def plot_rotating_vs_static(
 ) -> tuple[Figure, float]:
     """Rotating versus non-rotating stiffness of one bearing.
 
-    Non-rotating measurements are shown per shaft position, rotating ones per speed; the mean
+    Non-rotating measurements are shown per shaft position, rotating ones per speed, each with its
+    measured ±1σ (:func:`measured_std`: the rig-model tolerances shift both groups alike); the mean
     change (rotating mean / non-rotating mean - 1) is written in the title (the paper measured
     -8.8 %). On a real campaign it is a measurement. When every compared measurement is synthetic
     (``planted`` holds its true k_TB), the title says the change was recovered and gives the value
@@ -179,7 +182,8 @@ def plot_rotating_vs_static(
             else:
                 pos = r["shaft_position"]
                 lab = f"pos {pos:.0f}°" if _finite(pos) else "static"
-            ax.errorbar([x], [r["k_TB"] / _MN], yerr=[r["k_TB_std"] / _MN], fmt=fmt, color=color, capsize=3)
+            # a comparison of conditions: the measured ± (the rig-model tolerances shift both groups alike)
+            ax.errorbar([x], [r["k_TB"] / _MN], yerr=[measured_std(r) / _MN], fmt=fmt, color=color, capsize=3)
             labels.append(lab + (f" #{r['repeat']}" if r["repeat"] != 1 else ""))
             x += 1
     change = math.nan
@@ -191,7 +195,7 @@ def plot_rotating_vs_static(
         ax.axhline(mr / _MN, color="C0", ls="--", lw=1, label=f"rotating mean {mr / _MN:.1f} MN/m")
         ax.legend(fontsize=8)
     ax.set_xticks(range(len(labels)), labels, rotation=45, ha="right", fontsize=8)
-    ax.set_ylabel("bearing stiffness k_TB [MN/m]")
+    ax.set_ylabel("bearing stiffness k_TB [MN/m] (±1σ measured)")
     load_txt = f" at {', '.join(f'{v:g}' for v in sorted(loads))} N" if loads else ""
     ttl = f"Bearing {plain(bearing)}{load_txt}: rotating vs non-rotating"
     if math.isfinite(change):
@@ -215,12 +219,17 @@ def _key(x: Any) -> float:
 
 
 def measured_std(row: Row) -> float:
-    """The part of ``k_TB_std`` [N/m] that comes from the measurement (the identified housing frequency).
+    """The part of ``k_TB_std`` [N/m] that comes from the measurement: the table's "± measured".
 
-    The rig-model tolerances (masses, stiffnesses) and k_MS are the same for every measurement of
-    a campaign: they shift all estimates together and cannot hide or create a difference between
-    conditions, so a comparison of conditions needs only this part. NaN when the row has no budget.
+    The row's ``k_TB_std_measured`` (the identified housing frequency, and the housing mass where
+    the inversion used the measured one); a row without that column (written before it existed)
+    falls back to its budget's ``f_H`` term. The rig-model tolerances (masses, stiffnesses) and
+    k_MS are the same for every measurement of a campaign: they shift all estimates together and
+    cannot hide or create a difference between conditions, so a comparison of conditions needs
+    only this part. NaN when the row has neither.
     """
+    if _finite(row.get("k_TB_std_measured")):
+        return float(row["k_TB_std_measured"])
     detail = row.get("detail")
     if isinstance(detail, dict):
         for t in detail.get("uncertainty_terms") or ():
@@ -295,7 +304,7 @@ def plot_validation(rows: Sequence[Row], bearing: str, info: BearingInfo) -> Fig
         off = (i - (len(by_rep) - 1) / 2) * 0.012 * (hi_x - lo_x or 1.0)
         ax.errorbar([r["radial_load"] + off for r in rs], [r["k_TB"] / _MN for r in rs],
                     yerr=[r["k_TB_std"] / _MN for r in rs], fmt=mk[i % len(mk)] + "-", color=f"C{i}",
-                    capsize=3, ms=6, lw=1, label=f"repeat {rep} (±1σ)")
+                    capsize=3, ms=6, lw=1, label=f"repeat {rep} (±1σ total)")
     inside = sum(
         1 for r in sel
         if info.k_lower is not None and info.k_upper is not None and info.k_lower <= r["k_TB"] <= info.k_upper
@@ -313,8 +322,10 @@ def plot_validation(rows: Sequence[Row], bearing: str, info: BearingInfo) -> Fig
 def plot_repeatability(rows: Sequence[Row]) -> Figure | None:
     """Deviation of each repeat from the mean of its condition, in %.
 
-    A condition is (bearing, radial load, speed, shaft position). Returns None when no condition
-    was measured more than once.
+    A condition is (bearing, radial load, speed, shaft position). The grey bar beside each is the
+    mean measured uncertainty of its repeats (:func:`measured_std`, in % of their mean): what the
+    deviations are to be compared with, since the rig-model tolerances are the same for every
+    repeat. Returns None when no condition was measured more than once.
     """
     groups: dict[tuple[Any, ...], list[Row]] = defaultdict(list)
     for r in _ok(rows):
@@ -330,14 +341,16 @@ def plot_repeatability(rows: Sequence[Row]) -> Figure | None:
         vals = np.array([r["k_TB"] for r in rs])
         dev = 100 * (vals / vals.mean() - 1)
         ax.plot(np.full(dev.size, i), dev, "o", color="C0")
-        rel = 100 * np.array([r["k_TB_std"] for r in rs]) / vals.mean()
-        ax.errorbar([i + 0.15], [0.0], yerr=[rel.mean()], fmt="none", ecolor="0.5", capsize=3)
+        # the repeats' differences: the rig-model tolerances, common to all of them, cancel
+        rel = 100 * np.array([measured_std(r) for r in rs]) / vals.mean()
+        if np.all(np.isfinite(rel)):
+            ax.errorbar([i + 0.15], [0.0], yerr=[rel.mean()], fmt="none", ecolor="0.5", capsize=3)
         b, load, speed, _pos = k
         labels.append(f"{plain(b)}\n{load:g} N, {speed:g} rpm")
     ax.axhline(0, color="k", lw=0.8)
     ax.set_xticks(range(len(labels)), labels, fontsize=7, rotation=30, ha="right")
     ax.set_ylabel("deviation from condition mean [%]")
-    ax.set_title("Repeatability (grey bar: mean ±1σ of the estimates)", fontsize=10)
+    ax.set_title("Repeatability (grey bar: mean ±1σ measured; model tolerances common to all)", fontsize=10)
     ax.grid(True, axis="y", alpha=0.3)
     return fig
 

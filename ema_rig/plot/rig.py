@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._atomic import atomic_path
-from .._text import plain
+from .._text import plain, std_text
 from ..rig.model import HOUSING, SPINDLE, RigModel
 from ._render import fixed_layout, plot_line, reuse_axes, semilogy
 from .synthesis import phase_centre, phase_line
@@ -247,9 +247,9 @@ def plot_rig_fit(
     k_tb = getattr(result, "k_TB", None)
     if k_tb is not None:
         txt = (f"$k_{{TB+MS}}$ = {model.k_TB_MS / 1e6:.2f} MN/m\n"
-               f"$k_{{TB}}$ = {k_tb / 1e6:.2f} ± {result.k_TB_std / 1e6:.2f} MN/m")
+               f"$k_{{TB}}$ = {k_tb / 1e6:.2f} ± {std_text(result.k_TB_std / 1e6)} MN/m (±1σ total)")
     else:
-        txt = f"$k_{{MS}}$ = {result.k_MS / 1e6:.2f} ± {result.k_MS_std / 1e6:.2f} MN/m (steel disk)"
+        txt = f"$k_{{MS}}$ = {result.k_MS / 1e6:.2f} ± {std_text(result.k_MS_std / 1e6)} MN/m (±1σ total; steel disk)"
     ax_h.text(0.99, 0.97, txt, transform=ax_h.transAxes, va="top", ha="right", fontsize=9,
               bbox={"fc": "white", "ec": "0.7", "alpha": 0.9})
 

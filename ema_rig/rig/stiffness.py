@@ -82,6 +82,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from .._text import std_text
 from ..config import RigConfig
 from ..errors import EmaRigError, IdentificationError, InversionError, band_error
 from ..frf import FRFData
@@ -443,8 +444,8 @@ class StiffnessResult:
     def __repr__(self) -> str:
         """k_TB with its measured and total standard uncertainty, the housing mode, the warnings."""
         hm = self.housing_mode
-        lines = [f"StiffnessResult(k_TB = {self.k_TB / 1e6:.3f} MN/m ± {self.k_TB_std_measured / 1e6:.3f} measured "
-                 f"± {self.k_TB_std / 1e6:.3f} total; housing mode {hm.get('natural_freq', math.nan):.2f} Hz; "
+        lines = [f"StiffnessResult(k_TB = {self.k_TB / 1e6:.3f} MN/m ± {std_text(self.k_TB_std_measured / 1e6)} measured "
+                 f"± {std_text(self.k_TB_std / 1e6)} total; housing mode {hm.get('natural_freq', math.nan):.2f} Hz; "
                  f"file {self.file})"]
         return "\n".join([*lines, *(f"  warning: {w}" for w in self.warnings)])
 
@@ -561,8 +562,8 @@ class CalibrationResult:
 
     def __repr__(self) -> str:
         """k_MS with its measured and total standard uncertainty and the warnings."""
-        lines = [f"CalibrationResult(k_MS = {self.k_MS / 1e6:.3f} MN/m ± {self.k_MS_std_measured / 1e6:.3f} measured "
-                 f"± {self.k_MS_std / 1e6:.3f} total; file {self.file})"]
+        lines = [f"CalibrationResult(k_MS = {self.k_MS / 1e6:.3f} MN/m ± {std_text(self.k_MS_std_measured / 1e6)} measured "
+                 f"± {std_text(self.k_MS_std / 1e6)} total; file {self.file})"]
         return "\n".join([*lines, *(f"  warning: {w}" for w in self.warnings)])
 
     @property
