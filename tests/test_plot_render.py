@@ -13,6 +13,10 @@ from PIL import Image  # noqa: E402
 
 from ema_rig.plot._render import collapse_minor_ticks, render_png  # noqa: E402
 
+# the oracle of every comparison here is matplotlib's savefig with its texts at whole pixels, as the
+# report renderer places them (conftest.mpl_texts_on_whole_pixels)
+pytestmark = pytest.mark.usefixtures("mpl_texts_on_whole_pixels")
+
 
 def _figure(scale: float = 1.0):
     from matplotlib.figure import Figure
