@@ -175,7 +175,7 @@ def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, 
 
     fig.set_dpi(dpi)
     canvas = _canvas(fig, float(dpi), FigureCanvasAgg)
-    with _layouts_kept(canvas.get_renderer()):
+    with _layouts_kept(canvas.get_renderer()), _locs_once(fig):
         _draw(fig, canvas, reuse_layout)
     w, h = canvas.get_width_height()
     rgba = canvas.buffer_rgba()
@@ -1183,6 +1183,50 @@ def _figure_ticks_once(fig: Figure) -> Iterator[None]:
 
 
 @contextlib.contextmanager
+def _locs_once(fig: Figure) -> Iterator[None]:
+    """Every axis' major and minor tick locations worked out once per state within the block.
+
+    A finished report figure's tick locations are asked for again and again between its last
+    change and its PNG: the keys of a kept layout (:func:`fixed_layout`, once per kept layout tried,
+    and the layout's own passes), whether a log axis' minor ticks carry labels (twice), the minor
+    ticks collapsed (:func:`collapse_minor_ticks`), an axis' replay key (:func:`_axes_replayed`) and
+    matplotlib's own tick update: each time the locator (a log locator: every decade's candidates
+    formatted to pick the ticks) and, for the minor ones, the major locator again to drop those
+    that coincide. Within the block an axis' locations are kept under everything a locator reads
+    that can change there: the locators themselves (a layout puts stand-ins in, the collapse a
+    ``NullLocator``), the view limits, the axes' box [px] and the dpi (a locator takes as many
+    ticks as the axis has room for). Each caller gets its own copy; the kept ones go with the
+    block. The same locations, so the same pixels.
+    """
+    patched: list[Any] = []
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if "get_majorticklocs" in axis.__dict__:
+                continue  # within another such block: its memo holds
+            memo: dict[Any, Any] = {}
+            for name in ("get_majorticklocs", "get_minorticklocs"):
+                setattr(axis, name, _locs_kept(axis, name, getattr(axis, name), memo))
+            patched.append(axis)
+    try:
+        yield
+    finally:
+        for axis in patched:
+            del axis.get_majorticklocs, axis.get_minorticklocs
+
+
+def _locs_kept(axis: Any, name: str, own: Any, memo: dict[Any, Any]) -> Any:
+    """``own`` (an axis' ``get_majorticklocs`` or ``get_minorticklocs``) kept in ``memo`` (:func:`_locs_once`)."""
+    def call() -> Any:
+        key = (name, axis.major.locator, axis.minor.locator, tuple(axis.get_view_interval()),
+               tuple(axis.axes.bbox.bounds), float(axis.get_figure(root=True).dpi), axis.remove_overlapping_locs)
+        if key not in memo:
+            memo[key] = own()
+        return copy.copy(memo[key])
+
+    return call
+
+
+@contextlib.contextmanager
 def _ticks_once(axis: Any) -> Iterator[None]:
     """The axis' ticks and tick label boxes worked out once within the block (a draw of a finished figure).
 
@@ -1456,6 +1500,11 @@ def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
     bool
         True when a kept layout was applied, False when the layout was computed.
     """
+    with _locs_once(fig):
+        return _fixed_layout(fig, reserve)
+
+
+def _fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
     engine = fig.get_layout_engine()
