@@ -55,11 +55,13 @@ figure draws the same pixels as a new one (``tests/test_plot_reuse.py``: identic
 simulated measurements drawn in sequence).
 
 Most texts of a figure come again figure after figure (tick labels, axis labels, legends), and
-matplotlib shapes each and renders its glyphs with FreeType at every draw: the canvases here
-keep the glyph bitmaps of every text (:func:`_text_cached`) and blend them again, the same
-pixels. A text not drawn before is mostly glyphs drawn before: each glyph's bitmap is kept by
-font, size, rotation and its position within the pixel (1/64 px, as FreeType takes it), and each
-text's shaping by its string and font. The palette is the figure's own colours, the most frequent
+matplotlib shapes each and renders its glyphs with FreeType at every draw: the canvases here draw
+every text with its origin at the nearest whole pixel (as matplotlib's Agg renderer did up to
+3.10; a text moves by at most half a pixel), keep the glyph bitmaps of every text
+(:func:`_text_cached`) and blend them again wherever the text comes again, the pixels
+matplotlib draws for the text at that whole pixel. A text not drawn before is mostly glyphs drawn
+before: each glyph's bitmap is kept by font, size, rotation and its position within the pixel
+(1/64 px, as FreeType takes it), and each text's shaping by its string and font. The palette is the figure's own colours, the most frequent
 and then those farthest from the chosen ones (:func:`palette_indices`): exact where a figure has
 few colours, within a few levels of 255 elsewhere, in a third to a half of the time of PIL's
 adaptive palettes.
@@ -74,7 +76,9 @@ once per draw instead of three to five times (label and title placement measure 
 A text's layout (its lines measured, its box rotated and aligned) does not depend on where it is
 drawn, and matplotlib makes it anew at each draw and each measure of the text: during a render
 the layouts are kept per renderer under everything they read (:func:`_layouts_kept`): 200 per
-measurement's three figures, 18 of them new (bundled demo). The PNG data is zlib's level 3
+measurement's three figures, 18 of them new (bundled demo). An axis' tick locations are worked out once
+per state over a fixed layout and over a render (:func:`_locs_once`): the layout keys, the
+minor-tick collapse, the replay keys and matplotlib's tick update ask for them in turn. The PNG data is zlib's level 3
 (:data:`PNG_LEVEL`): lossless as any level, half the encoding time of level 6.
 """
 
