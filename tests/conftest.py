@@ -153,3 +153,24 @@ def rig_file(tmp_path: Path, rig_toml_text: str) -> Path:
     p = tmp_path / "rig.toml"
     p.write_text(rig_toml_text, encoding="utf-8")
     return p
+
+
+@pytest.fixture
+def mpl_texts_on_whole_pixels(monkeypatch):
+    """matplotlib's own Agg renderer drawing each text with its origin at the nearest whole pixel.
+
+    The oracle of the report renderer's texts (:func:`ema_rig.plot._render._text_cached` places
+    them so, as matplotlib's Agg renderer did up to 3.10): matplotlib 3.11's ``draw_text`` itself,
+    given the rounded origin, so every glyph is shaped and rendered by matplotlib and FreeType.
+    """
+    import math
+
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    own = RendererAgg.draw_text
+
+    def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+        h = self.height
+        return own(self, gc, math.floor(x + 0.5), h - math.floor(h - y + 0.5), s, prop, angle, ismath, mtext)
+
+    monkeypatch.setattr(RendererAgg, "draw_text", draw_text)

@@ -33,6 +33,7 @@ def test_jobs_2_outputs_match_jobs_1(campaign_dir: Path, tmp_path: Path) -> None
     assert html2.count("data:image/png;base64,") == html1.count("data:image/png;base64,") >= len(drawn)
 
 
+@pytest.mark.usefixtures("mpl_texts_on_whole_pixels")  # savefig: texts at whole pixels, as drawn
 def test_a_pool_draws_every_other_campaign_figure(campaign_dir: Path, tmp_path: Path) -> None:
     # write_outputs with an idle pool: one task, the 2nd, 4th ... campaign figure, drawn in its
     # worker (a thread here: its own canvases, as a forked worker); every figure written once

@@ -13,6 +13,10 @@ from PIL import Image  # noqa: E402
 
 from ema_rig.plot._render import collapse_minor_ticks, render_png  # noqa: E402
 
+# the oracle of every comparison here is matplotlib's savefig with its texts at whole pixels, as the
+# report renderer places them (conftest.mpl_texts_on_whole_pixels)
+pytestmark = pytest.mark.usefixtures("mpl_texts_on_whole_pixels")
+
 
 def _figure(scale: float = 1.0):
     from matplotlib.figure import Figure
@@ -408,6 +412,34 @@ def test_new_texts_drawn_from_kept_glyphs_are_the_pixels_matplotlib_draws(monkey
     # the same pixels; a glyph taken for another position within its pixel, or placed a pixel
     # off, changes dozens of pixels
     assert np.abs(got - want).max() == 0
+
+def test_texts_drawn_elsewhere_within_their_pixel_render_no_glyph_again(monkeypatch):
+    # the log tick labels of a magnitude axis whose limits follow the data land at another place
+    # within their pixel at every measurement: drawn at the nearest whole pixel, each is the bitmaps
+    # kept when it was drawn before anywhere (on 7b8cca3 every glyph was rendered again at the new
+    # subpixel offset). Oracle: matplotlib's savefig with its texts at whole pixels (conftest)
+    from matplotlib.figure import Figure
+
+    from ema_rig.plot import _render
+
+    def figure(shift_px: float):
+        fig = Figure(figsize=(4.0, 3.0), dpi=72)
+        ax = fig.add_axes((0.2, 0.2, 0.7, 0.7))
+        ax.semilogy([1.0, 2.0], [1e-3, 1e2], color="k")
+        ax.set_ylim(1e-3 * 10 ** (shift_px / 150.0), 1e2)  # every y tick label moves by a fraction of a pixel
+        for k, txt in enumerate(("$k_{TB}$ = 1.25 MN/m", "287.0 Hz")):
+            ax.text(0.1 + shift_px / 201.6, 0.3 + 0.3 * k, txt, transform=ax.transAxes, rotation=90 * k)
+        return fig
+
+    render_png(figure(0.0), dpi=72, colors=None)
+    texts, glyphs = set(_render._TEXTS), set(_render._GLYPHS)
+    for shift in (0.23, 0.61):
+        got = _pixels(render_png(figure(shift), dpi=72, colors=None))
+        assert set(_render._TEXTS) == texts and set(_render._GLYPHS) == glyphs  # nothing rendered again
+        want = _savefig_pixels(figure(shift), 72)
+        assert got.shape == want.shape
+        assert np.abs(got - want).max() == 0
+
 
 def test_fixed_layout_of_an_axis_with_labelled_minor_ticks_is_matplotlibs(monkeypatch):
     """A log axis spanning under a decade labels its minor ticks (wider than the major ones, and

@@ -113,7 +113,7 @@ def _png_pixels(fig, dpi: float, fast: bool) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
 
 
-@pytest.mark.usefixtures("mplcleanup")
+@pytest.mark.usefixtures("mplcleanup", "mpl_texts_on_whole_pixels")  # savefig: texts at whole pixels, as drawn
 def test_a_fixed_layout_is_computed_once_and_draws_what_matplotlib_draws(monkeypatch) -> None:
     """The report's synthesis figure (``dpi=``): one layout for two measurements whose lowest magnitude
     labels land at different places, and the picture matplotlib's own savefig draws with the axes there.

@@ -366,7 +366,8 @@ def test_plot_rig_fit_phase(rig, monkeypatch, mplcleanup):
     assert all(np.isfinite(ln.get_ydata()).all() for ln in model if ln.axes is p.axes["housing_phase"])
 
 
-def test_plot_rig_fit_fixed_layout_is_computed_once_and_draws_what_matplotlib_draws(rig, monkeypatch, mplcleanup):
+def test_plot_rig_fit_fixed_layout_is_computed_once_and_draws_what_matplotlib_draws(rig, monkeypatch, mplcleanup,
+                                                                                    mpl_texts_on_whole_pixels):
     """The report's figure (``dpi=``): one layout for two measurements whose magnitude tick labels land
     at other places (the second 4x the first: log10 4 = 0.6 decade), and the picture matplotlib's own
     savefig draws with the axes there. Oracles: matplotlib's constrained layout of the figure built

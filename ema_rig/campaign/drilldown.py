@@ -45,7 +45,7 @@ KINDS: dict[str, str] = {
                  "sensor of each kind (housing/spindle, radial/lateral/axial); shaded: the identification band.",
 }
 #: Bump when the drawing changes (size, resolution, content): every per-measurement figure is redrawn.
-_DRAW_VERSION = 9
+_DRAW_VERSION = 10  # 10: texts at whole pixels (ema_rig.plot._render._text_cached)
 #: Pixel density and size of the embedded figures: at least 1000 px wide (readable on screen; issue 20).
 DPI = 80
 _SIZE = (12.8, 5.6)

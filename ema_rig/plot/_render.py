@@ -55,11 +55,13 @@ figure draws the same pixels as a new one (``tests/test_plot_reuse.py``: identic
 simulated measurements drawn in sequence).
 
 Most texts of a figure come again figure after figure (tick labels, axis labels, legends), and
-matplotlib shapes each and renders its glyphs with FreeType at every draw: the canvases here
-keep the glyph bitmaps of every text (:func:`_text_cached`) and blend them again, the same
-pixels. A text not drawn before is mostly glyphs drawn before: each glyph's bitmap is kept by
-font, size, rotation and its position within the pixel (1/64 px, as FreeType takes it), and each
-text's shaping by its string and font. The palette is the figure's own colours, the most frequent
+matplotlib shapes each and renders its glyphs with FreeType at every draw: the canvases here draw
+every text with its origin at the nearest whole pixel (as matplotlib's Agg renderer did up to
+3.10; a text moves by at most half a pixel), keep the glyph bitmaps of every text
+(:func:`_text_cached`) and blend them again wherever the text comes again, the pixels
+matplotlib draws for the text at that whole pixel. A text not drawn before is mostly glyphs drawn
+before: each glyph's bitmap is kept by font, size, rotation and its position within the pixel
+(1/64 px, as FreeType takes it), and each text's shaping by its string and font. The palette is the figure's own colours, the most frequent
 and then those farthest from the chosen ones (:func:`palette_indices`): exact where a figure has
 few colours, within a few levels of 255 elsewhere, in a third to a half of the time of PIL's
 adaptive palettes.
@@ -74,7 +76,9 @@ once per draw instead of three to five times (label and title placement measure 
 A text's layout (its lines measured, its box rotated and aligned) does not depend on where it is
 drawn, and matplotlib makes it anew at each draw and each measure of the text: during a render
 the layouts are kept per renderer under everything they read (:func:`_layouts_kept`): 200 per
-measurement's three figures, 18 of them new (bundled demo). The PNG data is zlib's level 3
+measurement's three figures, 18 of them new (bundled demo). An axis' tick locations are worked out once
+per state over a fixed layout and over a render (:func:`_locs_once`): the layout keys, the
+minor-tick collapse, the replay keys and matplotlib's tick update ask for them in turn. The PNG data is zlib's level 3
 (:data:`PNG_LEVEL`): lossless as any level, half the encoding time of level 6.
 """
 
@@ -175,7 +179,7 @@ def _render_png(fig: Figure, *, dpi: float, colors: int | None, optimize: bool, 
 
     fig.set_dpi(dpi)
     canvas = _canvas(fig, float(dpi), FigureCanvasAgg)
-    with _layouts_kept(canvas.get_renderer()):
+    with _layouts_kept(canvas.get_renderer()), _locs_once(fig):
         _draw(fig, canvas, reuse_layout)
     w, h = canvas.get_width_height()
     rgba = canvas.buffer_rgba()
@@ -486,15 +490,22 @@ _SHAPES: dict[Any, Any] = {}
 def _text_cached(canvas_class: Any) -> Any:
     """``canvas_class`` (an Agg canvas) whose renderer draws a text seen before from its glyph bitmaps.
 
-    Report figures of one kind draw the same texts at the same places measurement after
-    measurement (tick labels, axis labels, legends): matplotlib lays each text out (shaping) and
-    renders every glyph of it with FreeType at every draw. The renderer here keeps, per text, font,
-    size, angle and position within its pixel, the glyph bitmaps and their offsets, and only
-    blends them onto the canvas when the text comes again: a glyph rendered at an origin whole
-    pixels away is the same bitmap that many pixels away (the same pixels as matplotlib's draw:
-    ``tests/test_plot_render.py``). Texts
-    with rules (mathtext fractions, roots) are drawn by matplotlib. Needs matplotlib's glyph-wise
-    Agg text drawing (3.11); with another the canvas class is returned unchanged.
+    Report figures of one kind draw the same texts measurement after measurement (tick labels,
+    axis labels, legends, the log tick labels of magnitude axes whose limits follow the data):
+    matplotlib lays each text out (shaping) and renders every glyph of it with FreeType at every
+    draw. The renderer here draws every text with its origin at the nearest whole pixel, as
+    matplotlib's Agg renderer did up to 3.10 (it rendered a text's glyphs into one bitmap and
+    placed that at a rounded position): a text moves by at most half a pixel, its glyphs are
+    rendered as matplotlib renders them there, and a text drawn before anywhere is the same
+    bitmaps whole pixels away. The renderer keeps, per text, font, size and angle, the glyph
+    bitmaps and their offsets, and only blends them onto the canvas when the text comes again
+    (the pixels of matplotlib's own draw of the text at that whole pixel:
+    ``tests/test_plot_render.py``). Drawn at the exact place, a text not drawn before at the same
+    position within its pixel (every log tick label of a magnitude axis whose limits follow the
+    data) was rendered glyph by glyph again: 57 of the 82 texts each measurement's figures drew
+    in the bundled demo, a tenth of their drawing time. Texts with rules (mathtext fractions,
+    roots) are drawn by matplotlib. Needs matplotlib's glyph-wise Agg text drawing (3.11); with
+    another the canvas class is returned unchanged.
     """
     from matplotlib import rcParams
     from matplotlib.backends import backend_agg
@@ -512,8 +523,10 @@ def _text_cached(canvas_class: Any) -> Any:
                 super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
                 return None
             up = self.height - y  # FreeType's y is upwards
-            ix, iy = math.floor(x), math.floor(up)
-            fx, fy = x - ix, up - iy  # exact: where the text sits within its pixel
+            # the text's origin at the nearest whole pixel (:func:`_text_cached`): its bitmaps
+            # are then those of every other place it was drawn at
+            ix, iy = math.floor(x + 0.5), math.floor(up + 0.5)
+            fx = fy = 0.0
             features = mtext.get_fontfeatures() if mtext is not None and hasattr(mtext, "get_fontfeatures") else None
             language = mtext.get_language() if mtext is not None and hasattr(mtext, "get_language") else None
             key = (s, bool(ismath), _font_key(prop), float(angle), float(self.dpi), bool(gc.get_antialiased()),
@@ -1174,6 +1187,50 @@ def _figure_ticks_once(fig: Figure) -> Iterator[None]:
 
 
 @contextlib.contextmanager
+def _locs_once(fig: Figure) -> Iterator[None]:
+    """Every axis' major and minor tick locations worked out once per state within the block.
+
+    A finished report figure's tick locations are asked for again and again between its last
+    change and its PNG: the keys of a kept layout (:func:`fixed_layout`, once per kept layout tried,
+    and the layout's own passes), whether a log axis' minor ticks carry labels (twice), the minor
+    ticks collapsed (:func:`collapse_minor_ticks`), an axis' replay key (:func:`_axes_replayed`) and
+    matplotlib's own tick update: each time the locator (a log locator: every decade's candidates
+    formatted to pick the ticks) and, for the minor ones, the major locator again to drop those
+    that coincide. Within the block an axis' locations are kept under everything a locator reads
+    that can change there: the locators themselves (a layout puts stand-ins in, the collapse a
+    ``NullLocator``), the view limits, the axes' box [px] and the dpi (a locator takes as many
+    ticks as the axis has room for). Each caller gets its own copy; the kept ones go with the
+    block. The same locations, so the same pixels.
+    """
+    patched: list[Any] = []
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if "get_majorticklocs" in axis.__dict__:
+                continue  # within another such block: its memo holds
+            memo: dict[Any, Any] = {}
+            for name in ("get_majorticklocs", "get_minorticklocs"):
+                setattr(axis, name, _locs_kept(axis, name, getattr(axis, name), memo))
+            patched.append(axis)
+    try:
+        yield
+    finally:
+        for axis in patched:
+            del axis.get_majorticklocs, axis.get_minorticklocs
+
+
+def _locs_kept(axis: Any, name: str, own: Any, memo: dict[Any, Any]) -> Any:
+    """``own`` (an axis' ``get_majorticklocs`` or ``get_minorticklocs``) kept in ``memo`` (:func:`_locs_once`)."""
+    def call() -> Any:
+        key = (name, axis.major.locator, axis.minor.locator, tuple(axis.get_view_interval()),
+               tuple(axis.axes.bbox.bounds), float(axis.get_figure(root=True).dpi), axis.remove_overlapping_locs)
+        if key not in memo:
+            memo[key] = own()
+        return copy.copy(memo[key])
+
+    return call
+
+
+@contextlib.contextmanager
 def _ticks_once(axis: Any) -> Iterator[None]:
     """The axis' ticks and tick label boxes worked out once within the block (a draw of a finished figure).
 
@@ -1447,6 +1504,11 @@ def fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
     bool
         True when a kept layout was applied, False when the layout was computed.
     """
+    with _locs_once(fig):
+        return _fixed_layout(fig, reserve)
+
+
+def _fixed_layout(fig: Figure, reserve: list[Axis]) -> bool:
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
     engine = fig.get_layout_engine()
