@@ -77,7 +77,8 @@ def _jump_fractions(h: NDArray[Any]) -> NDArray[np.float64]:
     near = k[~(np.abs(wk.real) > 1e-12 * np.abs(wk.imag))]
     if near.size:
         jump.ravel()[near] = np.abs(np.angle(w.ravel()[near])) > np.pi / 2
-    return np.mean(jump, axis=-1)
+    out: NDArray[np.float64] = np.mean(jump, axis=-1)
+    return out
 
 
 def _phase_findings(data: FRFData) -> list[str]:

@@ -431,18 +431,18 @@ def _bin_sums(wz: NDArray[np.float64], unw: NDArray[np.float64], e_lo: int, n_b:
     # the summands of every line, one row each (contiguous): z, z u, z / u, u, 1 / u, ln u; v = 1 / u and
     # ln u of the positive u (0 where u = 0: those lines are in bin 0, whose sums for t, the line count
     # included, the bounds do not use)
-    w = np.empty((6, n_chan, unw.shape[1]))
-    w[0] = wz
-    np.multiply(wz, unw, out=w[1])
+    w3 = np.empty((6, n_chan, unw.shape[1]))
+    w3[0] = wz
+    np.multiply(wz, unw, out=w3[1])
     if all_pos:
-        np.divide(1.0, unw, out=w[4])
-        np.log(unw, out=w[5])
+        np.divide(1.0, unw, out=w3[4])
+        np.log(unw, out=w3[5])
     else:
-        np.divide(1.0, np.where(pos, unw, np.inf), out=w[4])
-        np.log(np.where(pos, unw, 1.0), out=w[5])
-    np.multiply(wz, w[4], out=w[2])
-    w[3] = unw
-    w = w.reshape(6, n_v)
+        np.divide(1.0, np.where(pos, unw, np.inf), out=w3[4])
+        np.log(np.where(pos, unw, 1.0), out=w3[5])
+    np.multiply(wz, w3[4], out=w3[2])
+    w3[3] = unw
+    w = w3.reshape(6, n_v)
     # each sum adds its lines' summands into their bins in line order (np.bincount)
     sums = np.empty((7, m))
     sums[3] = np.bincount(flat, minlength=m)  # the line count
