@@ -451,3 +451,27 @@ def test_result_does_not_depend_on_the_clock(tmp_path, monkeypatch):
     da.pop("elapsed_s", None), db.pop("elapsed_s", None)
     assert json.dumps(da, sort_keys=True) == json.dumps(db, sort_keys=True)
     assert any(m["natural_freq"] > 0 for m in da["modes"])
+
+
+def test_phase_jump_fractions_of_all_frfs_are_those_of_each_frf():
+    """diagnose_frf's phase-jump fractions of every FRF at once (the sign of Re(h[1:] conj h[:-1]), the
+    angle itself only where it can round to 90 degrees) are the per-FRF fractions of the angle.
+
+    Oracle: ``|np.angle(h[1:] conj h[:-1])| > pi / 2`` counted per FRF, written out here. Lines: noise, and
+    0, -0, NaN, inf, subnormal and 1e300 parts (the angle's special cases: atan2(0, -0) = pi, a huge
+    imaginary part beside a tiny negative real one rounds to 90 degrees). Exact equality is the claim.
+    """
+    from ema_rig.identification.diagnose import _jump_fractions
+
+    rng = np.random.default_rng(2)
+    special = np.array([0.0, -0.0, np.nan, np.inf, -np.inf, 5e-324, -5e-324, 1e-300, -1e-17, 1e300, 1.0, -1.0])
+    for _ in range(50):
+        h = rng.standard_normal((3, 2, 60)) + 1j * rng.standard_normal((3, 2, 60))
+        k = rng.integers(0, h.size, 60)
+        flat = h.reshape(-1)  # a view: its parts set apart (re + 1j im would turn -0 into 0 and inf * 1j into NaN)
+        flat.real[k], flat.imag[k] = rng.choice(special, 60), rng.choice(special, 60)
+        with np.errstate(all="ignore"):  # products of inf and 0 or NaN: NaN in both
+            want = np.array([[np.mean(np.abs(np.angle(h[o, i, 1:] * np.conj(h[o, i, :-1]))) > np.pi / 2)
+                              for i in range(2)] for o in range(3)])
+            got = _jump_fractions(h)
+        assert np.array_equal(got, want)

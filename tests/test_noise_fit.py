@@ -241,3 +241,46 @@ def test_bound_coefficients_from_the_cache_are_those_formed_anew():
     c_t[0] = 0.0
     assert np.array_equal(warm[0], c_s.transpose(1, 0, 2).reshape(3 * n_b, -1))
     assert np.array_equal(warm[1], c_t.transpose(1, 0, 2).reshape(4 * n_b, -1))
+
+
+def test_bin_sums_are_the_sums_over_the_lines_binned_by_frexp():
+    """The bounds' per-bin sums (``noise._bin_sums``, bin index read off the float's bits, np.bincount per sum)
+    are the sums of each bin's lines (issue 18: the faster screen bins every line where its definition puts it).
+
+    Oracle: the bin of each line from its definition with ``np.frexp`` (``u = mant 2**ex``: bin
+    ``kb (ex - e_lo) + floor(2 kb mant) - kb + 2``, at least 1; bin 0 for ``u = 0``), the sums by ``np.add.at``
+    in line order, written out here. Lines: ``u`` exactly 0, exactly on the bins' edges (binary fractions),
+    subnormal, below the binned octaves, and spread over 40 octaves. Exact equality is the claim: the same
+    additions in the same order.
+    """
+    import ema_rig.identification.noise as noise
+
+    rng = np.random.default_rng(5)
+    n_chan, n = 6, 400
+    kb = noise._BOUND_BINS
+    u = np.exp(rng.uniform(-20.0, 8.0, (n_chan, n)))
+    u[0, :12] = 0.0
+    u[1, :40] = np.ldexp(np.tile(np.arange(kb) / (2 * kb) + 0.5, 10), np.repeat(np.arange(-5, 5), kb))  # edges
+    u[2, :5] = [5e-324, 1e-310, 2.0**-1022, 2.0**-1000, 1e-200]  # subnormal and far below the binned octaves
+    z = rng.exponential(size=u.shape)
+    e_hi, e_lo = int(np.frexp(u.max())[1]), -25
+    n_b = 2 + (e_hi - e_lo + 1) * kb
+    with np.errstate(divide="ignore", over="ignore"):  # 1 / u of the subnormal u: inf in both
+        st_s, st_t = noise._bin_sums(z, u, e_lo, n_b)
+        mant, ex = np.frexp(u)
+        idx = np.maximum(kb * (ex - e_lo) + np.floor(2 * kb * mant).astype(int) - kb + 2, 1)
+        idx = np.where(u > 0, idx, 0)
+        pos = u > 0
+        v = np.where(pos, 1.0 / np.where(pos, u, 1.0), 0.0)
+        lg = np.where(pos, np.log(np.where(pos, u, 1.0)), 0.0)
+    for c in range(n_chan):
+        want_s = np.zeros((3, n_b))
+        want_t = np.zeros((4, n_b))
+        with np.errstate(over="ignore"):
+            terms = (z[c], z[c] * u[c], z[c] * v[c])
+        for k, term in enumerate(terms):
+            np.add.at(want_s[k], idx[c], term)
+        for k, term in enumerate((np.ones(n), u[c], v[c], lg[c])):
+            np.add.at(want_t[k], idx[c], term)
+        assert np.array_equal(st_s[c], want_s.ravel()), c
+        assert np.array_equal(st_t[c], want_t.ravel()), c

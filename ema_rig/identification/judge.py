@@ -178,11 +178,13 @@ def _fit(data: FRFData, poles: NDArray[np.complex128], basis_out: list[LsfdBasis
         x[o0:o1] = xs
         e = rows_times(xs, a.T)
         np.subtract(yv, e, out=e)
-        e2 = e.reshape(-1, n_f, 2)
-        line += np.einsum("cfk,cfk->f", e2, e2)
+        # per line, summed over the channels: the squares of each real row summed over the channels first (the
+        # rows contiguous: one pass, where the sum over (channel, Re/Im) per line ran an inner loop of two)
+        e2 = e.reshape(-1, 2 * n_f)
+        line += np.einsum("cj,cj->j", e2, e2).reshape(n_f, 2).sum(axis=1)
         del e, e2
-        y = yv.reshape(-1, n_f, 2)
-        y2 += np.einsum("cfk,cfk->f", y, y)
+        y = yv.reshape(-1, 2 * n_f)
+        y2 += np.einsum("cj,cj->j", y, y).reshape(n_f, 2).sum(axis=1)
         for k, rows in enumerate(near_rows):
             kk = np.array([k, n + k])
             term = xs[:, :, kk] @ a[rows][:, kk].T  # (chunk, n_in, rows)
