@@ -126,6 +126,22 @@ def test_stiffness_json_keys_and_units(tmp_path, capsys):
     assert isinstance(doc["c_TB_kind"], str)
 
 
+def test_stiffness_json_spindle_null_and_refused_match(tmp_path, capsys):
+    # DESIGN §3.2: "the spindle one may be null" - the key stays, as null, when the spindle is skipped
+    doc = _run_json(tmp_path, capsys, "stiffness", str(BEARING), "--rig", str(RIG), "--no-spindle")
+    assert "spindle_mode" in doc and doc["spindle_mode"] is None
+    assert doc["housing_mode"]["natural_freq"] == pytest.approx(_truth(BEARING)["f_H"], rel=1e-3)
+    # no housing mode in 250-450 Hz: exit 1, one error line, and --json still writes the error and
+    # every candidate (the help's promise), with the warnings list
+    out = tmp_path / "refused.json"
+    code = main(["stiffness", str(BEARING), "--rig", str(RIG), "--band", "250", "450", "--no-spindle",
+                 "--json", str(out)])
+    assert code == 1
+    assert _error_line(capsys).startswith(f"error: {BEARING}: ")
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    assert isinstance(doc["error"], str) and doc["candidates"] and _is_warnings(doc["warnings"])
+
+
 def test_calibrate_json_keys_and_units(tmp_path, capsys):
     doc = _run_json(tmp_path, capsys, "calibrate", str(DISK), "--rig", str(RIG))
     assert _is_warnings(doc["warnings"])
