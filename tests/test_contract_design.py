@@ -84,6 +84,9 @@ def test_modes_json_keys_and_units(tmp_path, capsys):
             assert _positive_finite(m[key]), (key, m[key])  # std: never 0 (README "Uncertainty of a mode")
         assert 150.0 <= m["natural_freq"] <= 1000.0  # the rig file's band [Hz]
         assert m["damping_ratio"] <= 0.2  # a fraction: the judgement keeps (0, 20 %]
+        assert "natural_freq_spread" in m  # the order spread stays a diagnostic beside the std, never as it
+    # issue 18: every printed +/- says what it is; the JSON labels its std "measured"
+    assert isinstance(doc["std"], str) and doc["std"].startswith("measured")
     truth = _truth(BEARING)
     housing = min(doc["modes"], key=lambda m: abs(m["natural_freq"] - truth["f_H"]))
     # units: Hz (not rad/s) and a fraction (not %): 0.1 % of f_H and 10 % of zeta are many sigma wide
