@@ -163,7 +163,6 @@ def _campaign(tmp_path: Path) -> Path:
     (d / "broken.uff").write_text("not a UFF file\n", encoding="utf-8")
     (d / "campaign.toml").write_text(
         'rig = "rig.toml"\ncalibration = "disk.uff"\n'
-        "[output]\nmeasurement_figures = false\n"
         f'[[measurement]]\nfile = "{BEARING.name}"\nbearing = "6302"\nradial_load = 1000.0\nspeed = 600.0\n'
         '[[measurement]]\nfile = "broken.uff"\nbearing = "6302"\nradial_load = 1500.0\n',
         encoding="utf-8")
