@@ -153,6 +153,15 @@ def test_calibrate_json_keys_and_units(tmp_path, capsys):
     assert abs(doc["k_MS"] - truth["k_MS"]) <= 2.0 * doc["k_MS_std"]
     assert doc["housing_mode"]["natural_freq"] == pytest.approx(truth["f_H"], rel=1e-3)  # Hz
     assert doc["k_MS"] == pytest.approx(_k_tb_ms_closed_form(doc["housing_mode"]["natural_freq"]), rel=1e-9)
+    # the measured part is the identified frequency's std through the slope dk/df of the same closed form
+    # (central difference over +/-1e-3 Hz: truncation ~1e-9 relative); the nested `calibration` block
+    # carries the same key and must say the same (on 6819a0d it held the frequency's model-form terms
+    # too: 84.8e3 against 13.8e3 N/m)
+    f, u_f = doc["housing_mode"]["natural_freq"], doc["housing_mode"]["natural_freq_std"]
+    slope = (_k_tb_ms_closed_form(f + 1e-3) - _k_tb_ms_closed_form(f - 1e-3)) / 2e-3
+    assert doc["k_MS_std_measured"] == pytest.approx(abs(slope) * u_f, rel=1e-6)
+    assert doc["calibration"]["k_MS_std_measured"] == pytest.approx(doc["k_MS_std_measured"], rel=1e-12)
+    assert doc["calibration"]["k_MS_std"] == doc["k_MS_std"]
 
 
 def _campaign(tmp_path: Path) -> Path:
