@@ -24,7 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign", metavar="CAMPAIGN.toml", help="campaign file")
     parser.add_argument("-o", "--out", default=None, metavar="DIR",
                         help="output folder (default: <campaign stem>-out beside the campaign file)")
-    parser.add_argument("--jobs", "-j", type=_args.positive_int, default=1, metavar="N", help="parallel worker processes")
+    parser.add_argument("--jobs", "-j", type=_args.positive_int, default=1, metavar="N",
+                        help="parallel worker processes (default 1)")
     parser.add_argument("--force", action="store_true", help="recompute measurements even if unchanged")
 
 

@@ -280,10 +280,12 @@ class KmsCalibration:
     Attributes
     ----------
     k_MS, k_MS_std : float
-        Mounting stiffness and its total standard uncertainty [N/m]: the measured term (housing
-        frequency) and the disk term combined.
+        Mounting stiffness and its total standard uncertainty [N/m]: the frequency term (``f_disk_std``
+        through the slope) and the disk term combined.
     f_disk, f_disk_std : float
-        Housing-mode natural frequency with the disk mounted and its std [Hz].
+        Housing-mode natural frequency with the disk mounted and its std [Hz] (from
+        :func:`ema_rig.rig.stiffness.calibrate`: the measured std and the frequency's model-form
+        terms combined).
     k_TB_MS : float
         Combined stiffness from the disk frequency [N/m] (= k_MS when the disk is rigid).
     k_disk : float or None
@@ -291,7 +293,7 @@ class KmsCalibration:
     k_disk_std : float or None
         Standard uncertainty of ``k_disk`` [N/m] (None: not given, taken as 0).
     k_MS_std_measured : float
-        The part of ``k_MS_std`` from the identified frequency alone [N/m].
+        The part of ``k_MS_std`` from the identified frequency's measured std alone [N/m].
     disk_std : float
         The part from the disk [N/m]: ``k_disk_std`` propagated through the series relation,
         or, with the disk assumed rigid, the model-form term of :func:`calibrate_k_ms`.

@@ -1048,6 +1048,9 @@ def calibrate(
                              k_disk_std=k_disk_std)
         meas = (math.nan if math.isnan(f_meas) else
                 calibrate_k_ms(f_d, rig.model, f_disk_std=f_meas, k_disk=k_disk).k_MS_std_measured)
+        # the frequency std given above also carries the model-form terms: its k_MS_std_measured is
+        # the measured part alone, the same number as the result's own (JSON `calibration` block)
+        cal = replace(cal, k_MS_std_measured=float(meas))
     except InversionError as exc:
         exc.file = exc.file or file
         raise
