@@ -63,6 +63,10 @@ def test_exact_lines_at_the_same_spacing_are_not_warned(tmp_path):
 def test_resolution_criteria_are_sourced():
     src = MATCH_CRITERIA.sources()
     assert "Harris" in src["resolution_lines"] and "Bendat" in src["min_bandwidth_resolutions"]
+    from ema_rig.identification.criteria import COMPLETENESS_CRITERIA
+
+    src = COMPLETENESS_CRITERIA.sources()
+    assert "Harris" in src["resolution_lines"] and "Allemang" in src["resolution_mac"]
 
 
 def test_mode_split_by_leakage_is_reported_once(tmp_path):

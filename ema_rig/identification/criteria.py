@@ -34,7 +34,9 @@ Allemang, "The modal assurance criterion - twenty years of use and abuse", Sound
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
+from types import MappingProxyType
 from typing import Any
 
 
@@ -298,6 +300,18 @@ class MLCriteria:
 ML_CRITERIA = MLCriteria()
 
 
+#: Equivalent noise bandwidth [bins] of the windows a processing history names (``FRFData.meta["window"]``;
+#: :func:`ema_rig.processing.window_code`'s names): Harris, "On the use of windows for harmonic analysis
+#: with the discrete Fourier transform", Proc. IEEE 66(1), 1978, table 1 (rectangle 1.00, Hamming 1.36,
+#: Hann 1.50); the flat top 3.77 (Heinzel, Ruediger & Schilling, "Spectrum and spectral density estimation
+#: by the DFT", AEI 2002, HFT/"flattop" of the analysers). A transient's windows (force, exponential, an
+#: impact record) leave the record's rectangle: 1.00. Any other name, or none: the Hann window's
+#: (``CompletenessCriteria.resolution_lines``).
+WINDOW_ENBW: Mapping[str, float] = MappingProxyType({"hann": 1.5, "hanning": 1.5, "hamming": 1.36, "flattop": 3.77, "rect": 1.0,
+                                 "rectangular": 1.0, "uniform": 1.0, "none": 1.0, "force": 1.0,
+                                 "exponential": 1.0, "impact": 1.0})
+
+
 @dataclass(frozen=True, slots=True)
 class CompletenessCriteria(_Sourced):
     """When the mode set is complete: the residual is consistent with the noise estimate.
@@ -435,7 +449,7 @@ class CompletenessCriteria(_Sourced):
                                    "response), two close modes one of rank two, which needs two channels; on ufffiles_frf (one "
                                    "FRF) all 5 second modes split_misfit proposed at 0-799.5 Hz were held by the band's ML at "
                                    "their start and undone, at 1.9x the identify's CPU (benchmarks/results/study_disk_pair.txt)")
-    resolution_lines: float = _src(1.5, "equivalent noise bandwidth of a Hann window, 1.50 bins (Harris, Proc. IEEE 66(1), "
+    resolution_lines: float = _src(WINDOW_ENBW["hann"], "equivalent noise bandwidth of a Hann window, 1.50 bins (Harris, Proc. IEEE 66(1), "
                                    "1978, table 1): the resolution bandwidth of a random test's spectrum, the Hann window "
                                    "the common one, taken where the processing history names none (a UFF without "
                                    "dataset 1858)")
@@ -509,17 +523,6 @@ class IdentificationCriteria:
         return {f"{stage}.{k}": v for stage in ("stabilization", "judge", "completeness", "result")
                 for k, v in getattr(self, stage).sources().items()}
 
-
-#: Equivalent noise bandwidth [bins] of the windows a processing history names (``FRFData.meta["window"]``;
-#: :func:`ema_rig.processing.window_code`'s names): Harris, "On the use of windows for harmonic analysis
-#: with the discrete Fourier transform", Proc. IEEE 66(1), 1978, table 1 (rectangle 1.00, Hamming 1.36,
-#: Hann 1.50); the flat top 3.77 (Heinzel, Ruediger & Schilling, "Spectrum and spectral density estimation
-#: by the DFT", AEI 2002, HFT/"flattop" of the analysers). A transient's windows (force, exponential, an
-#: impact record) leave the record's rectangle: 1.00. Any other name, or none: the Hann window's
-#: (``CompletenessCriteria.resolution_lines``).
-WINDOW_ENBW: dict[str, float] = {"hann": 1.5, "hanning": 1.5, "hamming": 1.36, "flattop": 3.77, "rect": 1.0,
-                                 "rectangular": 1.0, "uniform": 1.0, "none": 1.0, "force": 1.0,
-                                 "exponential": 1.0, "impact": 1.0}
 
 #: Defaults of each stage.
 STABILIZATION_CRITERIA = StabilizationCriteria()
