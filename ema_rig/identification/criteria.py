@@ -412,7 +412,8 @@ class CompletenessCriteria(_Sourced):
         (``resolution_mac``) cannot be told apart by the spectrum: a Hann-windowed random test's
         leakage smears a lightly damped mode whose half-power band spans a few lines into two poles
         about a line apart (r_truth13, ``tests/rig_truth.py`` ``hann_leaked_frf``). They are reported
-        as one mode (the one holding the larger residue; ``identification._leakage_merged``).
+        as one mode (the one holding the larger residue; ``identification._leakage_merged``), on
+        ``split_min_channels`` channels at least.
     resolution_mac : float
         Shape MAC (the residues of every output and reference) above which two such modes are the same
         shape (0.9).

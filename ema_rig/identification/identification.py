@@ -1625,13 +1625,17 @@ def _leakage_merged(data: FRFData, done: _Completed, residuals: bool, crit: Iden
     damped mode over about its resolution bandwidth, and its leakage is fitted as poles about a line
     apart. Of each group the mode with the largest residue (Frobenius norm) is kept and the model
     refitted without the others (its ML then fits the one pole to the lines the group held); a
-    message per group names the resolution and the line spacing that would resolve the modes.
+    message per group names the resolution and the line spacing that would resolve the modes. Not
+    done on fewer than ``CompletenessCriteria.split_min_channels`` channels (outputs x references):
+    the residues of one channel have one shape.
     """
     cc = crit.completeness
     f = data.freq
     model, ml = done.fitted[0], done.fitted[1]
-    if f.size < 2 or len(done.modes) < 2 or model.residues.shape[0] != len(done.modes):
-        return done
+    n_chan = model.residues.shape[1] * model.residues.shape[2]
+    if (f.size < 2 or len(done.modes) < 2 or model.residues.shape[0] != len(done.modes)
+            or n_chan < cc.split_min_channels):
+        return done  # one channel's residues have one shape: its MAC cannot tell one mode from two
     df = float(np.median(np.diff(f)))
     window = data.meta.get("window")
     enbw = WINDOW_ENBW.get(str(window).lower(), cc.resolution_lines) if window else cc.resolution_lines
@@ -1671,7 +1675,11 @@ def _leakage_merged(data: FRFData, done: _Completed, residuals: bool, crit: Iden
                     f"and leakage of a windowed spectrum splits one lightly damped mode into poles about a line apart; "
                     f"lines of at most {span / enbw:.3g} Hz would resolve two modes that far apart")
     modes = [m for m in done.modes if m.pole not in drop]
-    fitted, test = _fit_tested(data, modes, residuals, cc)
+    try:
+        fitted, test = _fit_tested(data, modes, residuals, cc)
+    except IdentificationError:  # the refit failed (its ML left the band): the modes as fitted, the caveat said
+        return replace(done, merged=tuple(x.replace("reported as one mode", "NOT refitted as one mode (the refit "
+                                                    "failed), each reported") for x in msgs))
     return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=test, merged=tuple(msgs))
 
 
