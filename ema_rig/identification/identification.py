@@ -1680,7 +1680,10 @@ def _leakage_merged(data: FRFData, done: _Completed, residuals: bool, crit: Iden
     except IdentificationError:  # the refit failed (its ML left the band): the modes as fitted, the caveat said
         return replace(done, merged=tuple(x.replace("reported as one mode", "NOT refitted as one mode (the refit "
                                                     "failed), each reported") for x in msgs))
-    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=test, merged=tuple(msgs))
+    gone = [m.natural_freq for m in done.modes if m.pole in drop]  # their PolyMAX frequencies, as the notes name them
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=test, merged=tuple(msgs),
+                   added=tuple(a for a in done.added if not any(abs(a - v) < 1e-9 for v in gone)),
+                   split=tuple(x for x in done.split if not any(f"{v:.6g} Hz beside" in x for v in gone)))
 
 
 def _unresolved(modes: Sequence[SelectedMode], ml: LocalML, f: NDArray[np.float64],
