@@ -34,7 +34,9 @@ Allemang, "The modal assurance criterion - twenty years of use and abuse", Sound
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
+from types import MappingProxyType
 from typing import Any
 
 
@@ -298,6 +300,18 @@ class MLCriteria:
 ML_CRITERIA = MLCriteria()
 
 
+#: Equivalent noise bandwidth [bins] of the windows a processing history names (``FRFData.meta["window"]``;
+#: :func:`ema_rig.processing.window_code`'s names): Harris, "On the use of windows for harmonic analysis
+#: with the discrete Fourier transform", Proc. IEEE 66(1), 1978, table 1 (rectangle 1.00, Hamming 1.36,
+#: Hann 1.50); the flat top 3.77 (Heinzel, Ruediger & Schilling, "Spectrum and spectral density estimation
+#: by the DFT", AEI 2002, HFT/"flattop" of the analysers). A transient's windows (force, exponential, an
+#: impact record) leave the record's rectangle: 1.00. Any other name, or none: the Hann window's
+#: (``CompletenessCriteria.resolution_lines``).
+WINDOW_ENBW: Mapping[str, float] = MappingProxyType({"hann": 1.5, "hanning": 1.5, "hamming": 1.36, "flattop": 3.77, "rect": 1.0,
+                                 "rectangular": 1.0, "uniform": 1.0, "none": 1.0, "force": 1.0,
+                                 "exponential": 1.0, "impact": 1.0})
+
+
 @dataclass(frozen=True, slots=True)
 class CompletenessCriteria(_Sourced):
     """When the mode set is complete: the residual is consistent with the noise estimate.
@@ -391,6 +405,18 @@ class CompletenessCriteria(_Sourced):
         that saw only the residual's short-range part). The 704.9 Hz mode, then in 0-799.5 Hz
         only, is found by both bands since the extra order step also asks the modes' own cores
         (``max_extra_steps``; benchmarks/results/study_real_bands.txt).
+    resolution_lines : float
+        Resolution bandwidth of the spectrum in lines where its window is Hann or not recorded (1.5,
+        the Hann window's equivalent noise bandwidth; a window the processing history names gives its
+        own, :data:`WINDOW_ENBW`). Two accepted modes closer than it with the same shape
+        (``resolution_mac``) cannot be told apart by the spectrum: a Hann-windowed random test's
+        leakage smears a lightly damped mode whose half-power band spans a few lines into two poles
+        about a line apart (r_truth13, ``tests/rig_truth.py`` ``hann_leaked_frf``). They are reported
+        as one mode (the one holding the larger residue; ``identification._leakage_merged``), on
+        ``split_min_channels`` channels at least.
+    resolution_mac : float
+        Shape MAC (the residues of every output and reference) above which two such modes are the same
+        shape (0.9).
     """
 
     p_value: float = _src(1e-3, "chi-square test p = 0.001 family-wise (Bonferroni), dof = 2 lines x channels - "
@@ -424,6 +450,11 @@ class CompletenessCriteria(_Sourced):
                                    "response), two close modes one of rank two, which needs two channels; on ufffiles_frf (one "
                                    "FRF) all 5 second modes split_misfit proposed at 0-799.5 Hz were held by the band's ML at "
                                    "their start and undone, at 1.9x the identify's CPU (benchmarks/results/study_disk_pair.txt)")
+    resolution_lines: float = _src(WINDOW_ENBW["hann"], "equivalent noise bandwidth of a Hann window, 1.50 bins (Harris, Proc. IEEE 66(1), "
+                                   "1978, table 1): the resolution bandwidth of a random test's spectrum, the Hann window "
+                                   "the common one, taken where the processing history names none (a UFF without "
+                                   "dataset 1858)")
+    resolution_mac: float = _src(0.9, "MAC above 0.9: the same vector (Allemang 2003; JudgeCriteria.dup_participation_mac)")
     ml_features: bool = _src(True, "on: on ufffiles_frf 79.95-719.55 Hz it adds the 713.7 Hz mode of 0-799.5 Hz (held modes "
                              "8 -> 0) and, with MLCriteria.block_from_scores, frequency changes inside their 2 sigma are "
                              "56/59 (off: 4 modes in one band only; benchmarks/study_real_bands.py); the candidate is where "
@@ -509,6 +540,7 @@ __all__ = [
     "JUDGE_CRITERIA",
     "RESULT_CRITERIA",
     "STABILIZATION_CRITERIA",
+    "WINDOW_ENBW",
     "CompletenessCriteria",
     "IdentificationCriteria",
     "JudgeCriteria",

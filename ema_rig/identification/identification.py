@@ -40,6 +40,7 @@ from ..processing import processing_history, usable_band
 from .criteria import (
     ML_CRITERIA,
     RESULT_CRITERIA,
+    WINDOW_ENBW,
     CompletenessCriteria,
     IdentificationCriteria,
     ResultCriteria,
@@ -703,7 +704,9 @@ def identify(
                 last_fail = done.test.failing()
                 fails = _failing_locally(data, done, crit.completeness)
             done = _one_line(data, _split(data, done, residuals, crit, harmonic_bands), residuals, crit)
+            done = _leakage_merged(data, done, residuals, crit)
             cur, candidates, fitted = done.modes, done.candidates, done.fitted
+            warnings += list(done.merged)
             if done.split:
                 notes.append("modes the ML had merged into one, split where the lines near them need both (nested F "
                              "test): " + ", ".join(done.split))
@@ -825,6 +828,7 @@ class _Completed:
     added: tuple[float, ...]
     dropped: tuple[float, ...] = ()
     split: tuple[str, ...] = ()
+    merged: tuple[str, ...] = ()
 
 
 def _unique_modes(modes: Sequence[SelectedMode]) -> list[SelectedMode]:
@@ -1608,6 +1612,78 @@ def _one_line(data: FRFData, done: _Completed, residuals: bool, crit: Identifica
                    split=tuple(x for x in done.split if not any(g in x for g in gone)),
                    added=tuple(a for a in done.added if not any(abs(a - cands[by_pole[p]].natural_freq) < 1e-9
                                                                   for p in drop)))
+
+
+def _leakage_merged(data: FRFData, done: _Completed, residuals: bool, crit: IdentificationCriteria) -> _Completed:
+    """``done`` with each group of accepted modes the spectrum cannot tell apart reported as one mode.
+
+    Accepted modes whose ML natural frequencies lie closer than one resolution bandwidth of the
+    spectrum (``CompletenessCriteria.resolution_lines`` line spacings where the window is Hann or not
+    recorded, else the named window's :data:`~ema_rig.identification.criteria.WINDOW_ENBW`), each to
+    the next, with the same shape (MAC of their residues over every output and reference above
+    ``CompletenessCriteria.resolution_mac``) are one group: a windowed spectrum smears one lightly
+    damped mode over about its resolution bandwidth, and its leakage is fitted as poles about a line
+    apart. Of each group the mode with the largest residue (Frobenius norm) is kept and the model
+    refitted without the others (its ML then fits the one pole to the lines the group held); a
+    message per group names the resolution and the line spacing that would resolve the modes. Not
+    done on fewer than ``CompletenessCriteria.split_min_channels`` channels (outputs x references):
+    the residues of one channel have one shape.
+    """
+    cc = crit.completeness
+    f = data.freq
+    model, ml = done.fitted[0], done.fitted[1]
+    n_chan = model.residues.shape[1] * model.residues.shape[2]
+    if (f.size < 2 or len(done.modes) < 2 or model.residues.shape[0] != len(done.modes)
+            or n_chan < cc.split_min_channels):
+        return done  # one channel's residues have one shape: its MAC cannot tell one mode from two
+    df = float(np.median(np.diff(f)))
+    window = data.meta.get("window")
+    enbw = WINDOW_ENBW.get(str(window).lower(), cc.resolution_lines) if window else cc.resolution_lines
+    fn = np.abs(np.asarray(ml.poles)) / (2 * np.pi)
+    res = model.residues.reshape(len(done.modes), -1)
+    norm = np.linalg.norm(res, axis=1)
+    order = np.argsort(fn)
+    groups: list[list[int]] = [[int(order[0])]]
+    for a, b in zip(order[:-1], order[1:], strict=True):
+        same = float(mac(res[a], res[b])[0, 0]) > cc.resolution_mac
+        if fn[b] - fn[a] < enbw * df and same:
+            groups[-1].append(int(b))
+        else:
+            groups.append([int(b)])
+    groups = [g for g in groups if len(g) > 1]
+    if not groups:
+        return done
+    by_pole = {c.mode.pole: i for i, c in enumerate(done.candidates)}
+    cands = list(done.candidates)
+    drop: set[complex] = set()
+    msgs = []
+    for g in groups:
+        keep = max(g, key=lambda k: float(norm[k]))
+        for k in g:
+            if k == keep:
+                continue
+            drop.add(done.modes[k].pole)
+            if (i := by_pole.get(done.modes[k].pole)) is not None:
+                cands[i] = replace(cands[i], accepted=False, reason=(
+                    f"leakage of {fn[keep]:.6g} Hz: {abs(fn[k] - fn[keep]) / df:.2f} lines from it with the same shape "
+                    f"(MAC > {cc.resolution_mac:g}), inside the spectrum's resolution bandwidth ({enbw:g} lines)"))
+        span = float(fn[g].max() - fn[g].min())
+        msgs.append(f"{len(g)} modes at {', '.join(f'{fn[k]:.6g}' for k in sorted(g, key=lambda k: fn[k]))} Hz, "
+                    f"{span / df:.2f} lines apart with the same shape (MAC > {cc.resolution_mac:g}), reported as one mode "
+                    f"({fn[keep]:.6g} Hz before the refit): the spectrum's resolution bandwidth is {enbw:g} lines of "
+                    f"{df:g} Hz ({'the Hann window assumed: no window recorded' if not window else f'window {window}'}), "
+                    f"and leakage of a windowed spectrum splits one lightly damped mode into poles about a line apart; "
+                    f"lines of at most {span / enbw:.3g} Hz would resolve two modes that far apart")
+    modes = [m for m in done.modes if m.pole not in drop]
+    try:
+        fitted, test = _fit_tested(data, modes, residuals, cc)
+    except IdentificationError:  # the refit failed (its ML left the band): the modes as fitted, the caveat said
+        return replace(done, merged=tuple(x.replace("reported as one mode", "NOT refitted as one mode (the refit "
+                                                    "failed), each reported") for x in msgs))
+    gone = [m.natural_freq for m in done.modes if m.pole in drop]  # their PolyMAX frequencies, as the notes name them
+    return replace(done, modes=modes, candidates=tuple(cands), fitted=fitted, test=test, merged=tuple(msgs),
+                   added=tuple(a for a in done.added if not any(abs(a - v) < 1e-9 for v in gone)),
+                   split=tuple(x for x in done.split if not any(f"{v:.6g} Hz beside" in x for v in gone)))
 
 
 def _unresolved(modes: Sequence[SelectedMode], ml: LocalML, f: NDArray[np.float64],

@@ -61,6 +61,7 @@ from numpy.typing import NDArray
 
 from ..config import ModelParams, RigConfig
 from ..errors import MatchingError
+from ..identification.criteria import WINDOW_ENBW
 from ..identification.modal import ModalModel, shape_products
 from .candidates import Candidate, find_dof, measure_candidates
 from .failures import Failure
@@ -251,7 +252,7 @@ class MatchCriteria:
     mixed_pair_max_mixing: float = 1.0
     harmonic_max_chance: float = 1.0 / 3.0
     driving_point_min_cos: float = 0.0
-    resolution_lines: float = 1.5
+    resolution_lines: float = WINDOW_ENBW["hann"]
     min_bandwidth_resolutions: float = 4.0
 
     def sources(self) -> dict[str, str]:
