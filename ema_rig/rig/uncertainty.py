@@ -679,7 +679,8 @@ def _resolution_warning(m: MatchResult, modes: Any, data: Any, zeta: float, mass
     zeta : float
         The housing mode's identified damping ratio.
     mass_off : bool
-        Whether the effective modal mass is off the model's beyond :data:`MASS_WARN_RATIO`.
+        Whether the mass reads off: the effective modal mass off the model's beyond
+        :data:`MASS_WARN_RATIO`, or the measured housing mass outside the rig file's tolerance.
 
     Returns
     -------
@@ -1312,8 +1313,13 @@ def assess_housing_mode(m: MatchResult, modes: Any, rig: RigConfig, *, damping_m
                 f"mode at {fn:.1f} Hz moves the radial housing sensors within a few half-power bandwidths "
                 f"of the housing mode: possible coupling (term {100 * term:.2f} % of the frequency)"
             )
-    leak = _resolution_warning(m, modes, data, zeta, dpm is None and ratio is not None
-                               and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO))
+    # the mass reads off where the effective mass is off the model's (the effective-mass term below)
+    # or where the measured housing mass departs from the rig file's beyond its tolerance (used in its
+    # place): on coarse lines either may be the resolution's, not the rig's. Both, not one: the two
+    # branches meet at MASS_WARN_RATIO, where rounding (another BLAS kernel) picks one or the other
+    mass_off_read = ((dpm is None and ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO))
+                     or (housing_mass is not None and not housing_mass.agrees))
+    leak = _resolution_warning(m, modes, data, zeta, mass_off_read)
     if leak is not None:
         warns.append(leak)
     if dpm is None and ratio is not None and abs(math.log(ratio)) > math.log(MASS_WARN_RATIO):
