@@ -161,7 +161,10 @@ def test_calibrate_json_keys_and_units(tmp_path, capsys):
     slope = (_k_tb_ms_closed_form(f + 1e-3) - _k_tb_ms_closed_form(f - 1e-3)) / 2e-3
     assert doc["k_MS_std_measured"] == pytest.approx(abs(slope) * u_f, rel=1e-6)
     assert doc["calibration"]["k_MS_std_measured"] == pytest.approx(doc["k_MS_std_measured"], rel=1e-12)
-    assert doc["calibration"]["k_MS_std"] == doc["k_MS_std"]
+    # the total adds the rig file's parameter tolerances (read through the 3DOF model) to the nested
+    # block's frequency, model-form and disk terms
+    assert doc["k_MS_std"] == pytest.approx(math.hypot(doc["calibration"]["k_MS_std"], doc["k_MS_std_rig"]), rel=1e-12)
+    assert 0 < doc["k_MS_std_rig"] < doc["k_MS_std"]
 
 
 def _campaign(tmp_path: Path) -> Path:

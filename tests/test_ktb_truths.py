@@ -11,6 +11,8 @@ within 2 standard uncertainties of the truth. One seed per class keeps the runti
 from __future__ import annotations
 
 import json
+import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -199,3 +201,31 @@ def test_band_edge_mode_the_result_does_not_use_is_a_note(tmp_path):
     assert res.warnings == ()
     assert any("sits at the band edge" in n for n in res.notes)
     assert abs(_z(res, truth)) < 0.5
+
+
+
+def test_disk_calibration_total_holds_the_rig_files_tolerances(tmp_path):
+    """k_MS is read through the 3DOF model, so the rig file's parameter tolerances move it too.
+
+    The bundled steel-disk measurement (``data/disk.uff``, planted k_MS 114 MN/m, its truth file) with
+    the disk's stiffness stated (1e12 N/m: rigid, so no disk model-form term) and a rig file whose m_H is
+    0.5 % high, one standard uncertainty of its stated tolerance: k_MS reads ~0.7 % high
+    (d ln k_MS / d ln m_H = 1.4 at 897 Hz). On 4bc189d the printed total was 0.07 % (frequency and its
+    model-form terms only): z ~ 10. The total now carries the tolerances (1.4 % on this rig: k_S 2 %
+    and m_H 0.5 % dominate)."""
+    repo = Path(__file__).resolve().parent.parent
+    truth = json.loads((repo / "data" / "disk.uff.truth.json").read_text(encoding="utf-8"))
+    text = (repo / "data" / "rig.toml").read_text(encoding="utf-8")
+    m_h = truth["model"]["m_H"]
+    assert f"m_H = {m_h}" in text
+    rig_path = tmp_path / "rig.toml"
+    rig_path.write_text(text.replace(f"m_H = {m_h}", f"m_H = {m_h * 1.005:.6f}", 1), encoding="utf-8")
+    rig = load_rig(rig_path)
+    cal = st.calibrate(read_uff58(repo / "data" / "disk.uff", rig=rig), rig, k_disk=1e12)
+    k_true = truth["k_MS"]
+    assert 0.004 < cal.k_MS / k_true - 1 < 0.010  # the off m_H, read through the model
+    assert abs(cal.k_MS - k_true) < 2.0 * cal.k_MS_std
+    assert 0.01 < cal.k_MS_std_rig / cal.k_MS < 0.02
+    assert cal.k_MS_std == pytest.approx(math.hypot(cal.calibration.k_MS_std, cal.k_MS_std_rig), rel=1e-12)
+    assert cal.to_dict()["k_MS_std_rig"] == cal.k_MS_std_rig
+    assert any("rig file's tolerances" in n for n in cal.notes)

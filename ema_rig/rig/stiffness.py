@@ -107,6 +107,7 @@ from .uncertainty import (
     MASS_WARN_RATIO,
     StiffnessUncertainty,
     assess_housing_mode,
+    calibration_parameter_std,
     defaults_note,
     measured_freq_std,
     stiffness_uncertainty,
@@ -519,7 +520,9 @@ class CalibrationResult:
     Attributes
     ----------
     k_MS, k_MS_std : float
-        Mounting stiffness and its standard uncertainty from the frequency spread [N/m].
+        Mounting stiffness and its total standard uncertainty [N/m]: the identified frequency, the
+        model-form terms, the disk (assumed rigid, or its given std) and the rig file's parameter
+        tolerances (``k_MS_std_rig``).
     k_TB_MS : float
         Combined stiffness from the disk frequency [N/m].
     k_disk : float or None
@@ -537,6 +540,10 @@ class CalibrationResult:
         One-line caveats (as for :class:`StiffnessResult`).
     notes : tuple of str
         Information (the rigid-disk model-form term when no disk stiffness is given).
+    k_MS_std_rig : float
+        The part of ``k_MS_std`` from the rig file's parameter tolerances [N/m]
+        (:func:`~ema_rig.rig.uncertainty.calibration_parameter_std`); ``k_MS_std`` is the root sum of
+        squares of it and ``calibration.k_MS_std`` (frequency, model form, disk).
     """
 
     k_MS: float
@@ -552,6 +559,7 @@ class CalibrationResult:
     k_MS_std_measured: float = 0.0
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    k_MS_std_rig: float = 0.0
 
     def __str__(self) -> str:
         """``k_MS = 114.0 ± 0.05 (meas.) ± 6.6 (total) MN/m`` and the warnings, one line each."""
@@ -578,6 +586,7 @@ class CalibrationResult:
             "k_MS": self.k_MS,
             "k_MS_std": self.k_MS_std,
             "k_MS_std_measured": self.k_MS_std_measured,
+            "k_MS_std_rig": self.k_MS_std_rig,
             "calibration": self.calibration.to_dict(),
             "warnings": list(self.warnings),
             "notes": list(self.notes),
@@ -1055,6 +1064,13 @@ def calibrate(
         exc.file = exc.file or file
         raise
     notes = []
+    # the rig file's tolerances move k_MS too (it is read through the 3DOF model): part of its total
+    by_param = calibration_parameter_std(f_d, rig.model, rig.uncertainty, k_disk=k_disk)
+    u_rig = math.sqrt(sum(v * v for v in by_param.values()))
+    if u_rig > 0:
+        top = sorted(by_param.items(), key=lambda kv: -kv[1])[:3]
+        notes.append(f"the rig file's tolerances put {100 * u_rig / cal.k_MS:.2g} % into k_MS (read through the 3DOF "
+                     "model: " + ", ".join(f"{n} {100 * v / cal.k_MS:.2g} %" for n, v in top) + "), in its total")
     disk_warns: tuple[str, ...] = ()
     if k_disk is None:
         notes.append(
@@ -1072,8 +1088,9 @@ def calibrate(
         )
     return CalibrationResult(
         k_MS=float(cal.k_MS),
-        k_MS_std=float(cal.k_MS_std) if not math.isnan(f_meas) else math.nan,
+        k_MS_std=float(math.hypot(cal.k_MS_std, u_rig)) if not math.isnan(f_meas) else math.nan,
         k_TB_MS=float(cal.k_TB_MS),
+        k_MS_std_rig=float(u_rig),
         k_disk=None if k_disk is None else float(k_disk),
         housing_mode=_mode_with_std(m.housing_mode, ident, m.housing_index),
         calibration=cal,

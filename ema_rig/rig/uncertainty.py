@@ -52,6 +52,7 @@ from .fit import (
     spindle_phase,
 )
 from .inversion import (
+    calibrate_k_ms,
     housing_freq_bounds,
     housing_freq_from_k_tb_ms,
     k_tb_from_housing_freq,
@@ -71,6 +72,7 @@ __all__ = [
     "StiffnessUncertainty",
     "UncertaintyTerm",
     "assess_housing_mode",
+    "calibration_parameter_std",
     "coupling_mass_std",
     "defaults_note",
     "measured_freq_std",
@@ -435,6 +437,49 @@ def stiffness_uncertainty(
         k_TB_std_measured=math.sqrt(sum(stds[n] ** 2 for n, (_, _, kind) in inputs.items() if kind == KIND_MEASURED)),
         defaults_used=defaults,
     )
+
+
+def calibration_parameter_std(f_disk: float, params: ModelParams, rel_unc: Mapping[str, float] | None = None, *,
+                               k_disk: float | None = None) -> dict[str, float]:
+    """Standard uncertainty of a calibrated ``k_MS`` [N/m] from each rig parameter's tolerance.
+
+    ``k_MS`` is read from the steel-disk housing frequency through the 3DOF model
+    (:func:`~ema_rig.rig.inversion.calibrate_k_ms`), so every parameter of that model moves it:
+    on the bundled rig at 897 Hz ``d ln k_MS / d ln m_H`` = 1.42 and ``d ln k_MS / d ln k_S`` =
+    -0.55, and the rig file's tolerances (m_H 0.5 %, k_S 2 %, ...) put 1.3-1.5 % into ``k_MS``,
+    where the frequency and a given disk stiffness put 0.01-0.1 %. Linearised propagation with
+    central differences (relative step 1e-5, as :func:`sensitivities`), inputs uncorrelated.
+
+    Parameters
+    ----------
+    f_disk : float
+        Undamped housing frequency with the disk [Hz].
+    params : ModelParams
+        Rig parameters (their ``k_MS`` is not used).
+    rel_unc : mapping, optional
+        Relative standard uncertainty per parameter (``RigConfig.uncertainty``); missing names take
+        :data:`DEFAULT_REL_UNCERTAINTY`. ``k_MS`` itself is what is calibrated: not an input.
+    k_disk : float, optional
+        Disk stiffness in series [N/m] (None: rigid).
+
+    Returns
+    -------
+    dict
+        Parameter name -> its part of ``k_MS``'s standard uncertainty [N/m] (absolute value).
+    """
+    rel = {**DEFAULT_REL_UNCERTAINTY, **(rel_unc or {})}
+    h = 1e-5
+    out = {}
+    k0 = calibrate_k_ms(f_disk, params, k_disk=k_disk).k_MS
+    for name in MODEL_KEYS:
+        if name == "k_MS" or not rel.get(name, 0.0) > 0:
+            continue
+        v = getattr(params, name)
+        kp = calibrate_k_ms(f_disk, replace(params, **{name: v * (1 + h)}), k_disk=k_disk).k_MS
+        km = calibrate_k_ms(f_disk, replace(params, **{name: v * (1 - h)}), k_disk=k_disk).k_MS
+        dlog = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+        out[name] = abs(dlog) * float(rel[name]) * k0
+    return out
 
 
 # --------------------------------------------------------------------------- model-form assessment
