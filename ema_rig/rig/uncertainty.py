@@ -272,6 +272,16 @@ def _k_tb_raw(f_H: float, p: ModelParams) -> float:
     return 1.0 / (1.0 / k - 1.0 / p.k_MS)
 
 
+_LOG_STEP = 1e-5
+"""Relative step of the central differences of :func:`sensitivities` and :func:`calibration_parameter_std`
+(the functions are smooth; truncation error ~1e-10)."""
+
+
+def _log_slope(kp: float, km: float) -> float:
+    """``d ln y / d ln x`` from ``y`` at ``x (1 + h)`` and ``x (1 - h)``, ``h`` = :data:`_LOG_STEP` (central difference)."""
+    return (math.log(kp) - math.log(km)) / (math.log1p(_LOG_STEP) - math.log1p(-_LOG_STEP))
+
+
 def sensitivities(f_H: float, params: ModelParams) -> dict[str, float]:
     """Relative sensitivities ``d ln k_TB / d ln x`` at ``f_H`` for x = f_H and every parameter.
 
@@ -291,7 +301,7 @@ def sensitivities(f_H: float, params: ModelParams) -> dict[str, float]:
         1e-5 in ``f_H`` or a parameter crosses it: ``k_TB`` is then not resolvable on this rig.
     """
     k_tb = k_tb_from_housing_freq(f_H, params)  # raises on an invalid frequency
-    h = 1e-5
+    h = _LOG_STEP
     out = {}
 
     def dlog(name: str, kp: float, km: float) -> float:
@@ -303,7 +313,7 @@ def sensitivities(f_H: float, params: ModelParams) -> dict[str, float]:
                 f"change of {h:g} in {name} makes the bearing stiffer than rigid; the bearing is far "
                 "stiffer than the mounting system: only a lower bound of k_TB can be measured on this rig (a steel-disk "
                 "measurement is for `ema-rig calibrate`)")
-        return (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
+        return _log_slope(kp, km)
 
     out["f_H"] = dlog("f_H", _k_tb_raw(f_H * (1 + h), params), _k_tb_raw(f_H * (1 - h), params))
     for name in MODEL_KEYS:
@@ -448,7 +458,7 @@ def calibration_parameter_std(f_disk: float, params: ModelParams, rel_unc: Mappi
     on the bundled rig at 897 Hz ``d ln k_MS / d ln m_H`` = 1.42 and ``d ln k_MS / d ln k_S`` =
     -0.55, and the rig file's tolerances (m_H 0.5 %, k_S 2 %, ...) put 1.3-1.5 % into ``k_MS``,
     where the frequency and a given disk stiffness put 0.01-0.1 %. Linearised propagation with
-    central differences (relative step 1e-5, as :func:`sensitivities`), inputs uncorrelated.
+    central differences (:func:`_log_slope`, as :func:`sensitivities`), inputs uncorrelated.
 
     Parameters
     ----------
@@ -468,7 +478,7 @@ def calibration_parameter_std(f_disk: float, params: ModelParams, rel_unc: Mappi
         Parameter name -> its part of ``k_MS``'s standard uncertainty [N/m] (absolute value).
     """
     rel = {**DEFAULT_REL_UNCERTAINTY, **(rel_unc or {})}
-    h = 1e-5
+    h = _LOG_STEP
     out = {}
     k0 = calibrate_k_ms(f_disk, params, k_disk=k_disk).k_MS
     for name in MODEL_KEYS:
@@ -477,8 +487,7 @@ def calibration_parameter_std(f_disk: float, params: ModelParams, rel_unc: Mappi
         v = getattr(params, name)
         kp = calibrate_k_ms(f_disk, replace(params, **{name: v * (1 + h)}), k_disk=k_disk).k_MS
         km = calibrate_k_ms(f_disk, replace(params, **{name: v * (1 - h)}), k_disk=k_disk).k_MS
-        dlog = (math.log(kp) - math.log(km)) / (math.log1p(h) - math.log1p(-h))
-        out[name] = abs(dlog) * float(rel[name]) * k0
+        out[name] = abs(_log_slope(kp, km)) * float(rel[name]) * k0
     return out
 
 
