@@ -1060,12 +1060,12 @@ def calibrate(
         # the frequency std given above also carries the model-form terms: its k_MS_std_measured is
         # the measured part alone, the same number as the result's own (JSON `calibration` block)
         cal = replace(cal, k_MS_std_measured=float(meas))
+        # the rig file's tolerances move k_MS too (it is read through the 3DOF model): part of its total
+        by_param = calibration_parameter_std(f_d, rig.model, rig.uncertainty, k_disk=k_disk)
     except InversionError as exc:
         exc.file = exc.file or file
         raise
     notes = []
-    # the rig file's tolerances move k_MS too (it is read through the 3DOF model): part of its total
-    by_param = calibration_parameter_std(f_d, rig.model, rig.uncertainty, k_disk=k_disk)
     u_rig = math.sqrt(sum(v * v for v in by_param.values()))
     if u_rig > 0:
         top = sorted(by_param.items(), key=lambda kv: -kv[1])[:3]
