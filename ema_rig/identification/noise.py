@@ -321,9 +321,13 @@ def _blocks(fn: Callable[[int, int], None], n: int, threads: bool) -> None:
 
 
 #: FRF values (lines x channels) of a :func:`segment_misfit` from which its segments' local fits run in
-#: two threads (below, ~1 ms of fits: a thread's start and hand-off cost more than they save; a work-size
-#: rule, the same on any machine).
-_MISFIT_THREAD_MIN_VALUES = 100_000
+#: two threads: a value no data reach, so off. Below ~1 ms of fits a thread's start and hand-off cost more than
+#: they save; above, in the default ``identify`` the test runs beside the caller's ML uncertainties and LSFD
+#: (a second thread already), so a third only shares the two cores: measured on the 256-output file of
+#: ``bench_refine.py`` (461 000 values, 30 alternating calls, ``chrt -f 10``, one BLAS thread, 2026-12-08)
+#: 188.9 ms wall / 238.7 ms CPU with the test's two threads, 179.1 / 229.9 with one
+#: (``benchmarks/results/issue18_wide_s_wide14.txt``). The two threads stay for callers that set it.
+_MISFIT_THREAD_MIN_VALUES = 10**15
 
 
 def _segments_in_two(fn: Callable[[int], None], work: NDArray[np.int64]) -> None:
