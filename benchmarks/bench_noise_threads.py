@@ -57,6 +57,8 @@ def main() -> None:
     print(f"{len(calls)} fits of shape {[c[0][0].shape for c in calls]}; BLAS threads "
           f"{os.environ.get('OPENBLAS_NUM_THREADS', 'default')}; load average {os.getloadavg()[0]:.1f}")
 
+    noise._NOISE_THREADS = 2  # the pool (off by default); the threshold below decides whether it runs
+
     def run(threshold: int, block: int) -> tuple[list[Any], float, float]:
         noise._NOISE_THREAD_MIN_VALUES, noise._NOISE_THREAD_BLOCK = threshold, block
         out = [fit(*a, **k) for a, k in calls]

@@ -157,6 +157,7 @@ def test_noise_fit_in_threads_is_the_fit_in_one_thread(monkeypatch):
     z = (1e-3 + 0.02 * u) * rng.exponential(size=u.shape)
     mask = rng.uniform(size=u.shape) > 0.15
     made = _pools(monkeypatch)
+    monkeypatch.setattr(noise, "_NOISE_THREADS", 2)  # the pool (off by default: the blocks in one thread)
     monkeypatch.setattr(noise, "_NOISE_THREAD_MIN_VALUES", 1)  # the threads used on these small data
     two = [noise.fit_noise_model(z, u, mask=m) for m in (None, mask)]
     assert len(made) >= 2  # they ran (bin sums, candidate points, Newton: in pools)
@@ -179,6 +180,7 @@ def test_noise_fit_threads_only_from_its_work_size(monkeypatch):
     assert u.shape[0] > noise._NOISE_THREAD_BLOCK
     z = (1e-3 + 0.01 * u) * rng.exponential(size=u.shape)
     made = _pools(monkeypatch)
+    monkeypatch.setattr(noise, "_NOISE_THREADS", 2)  # the pool (off by default: the blocks in one thread)
     monkeypatch.setattr(noise, "_NOISE_THREAD_MIN_VALUES", u.size + 1)
     below = noise.fit_noise_model(z, u)
     assert made == []

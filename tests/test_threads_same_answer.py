@@ -49,7 +49,8 @@ def test_segment_misfit_in_two_threads_is_the_one_thread_test(monkeypatch: pytes
     import ema_rig.identification.noise as noise
 
     data, lam, _ = _frf(96, 3)
-    # the threads are used: the data hold more values than the work-size rule's threshold
+    # the threads are used: the data hold more values than the threshold (off by default: set here)
+    monkeypatch.setattr(noise, "_MISFIT_THREAD_MIN_VALUES", 100_000)
     assert data.frf.size >= noise._MISFIT_THREAD_MIN_VALUES
     two = noise.segment_misfit(data.freq, data.frf, lam)
     assert two.freq_lower.size >= 4  # several segments to share between the threads

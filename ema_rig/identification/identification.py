@@ -903,8 +903,9 @@ def _fit_modes(data: FRFData, modes: Sequence[SelectedMode], residuals: bool,
 #: (and the LSFD at them, unless the caller takes it back first) to a second thread while it joins the ML's
 #: uncertainties. Below (the bundled rig file:
 #: 13 600 values) both sides are small numpy calls that hold the interpreter lock, so the thread only adds
-#: hand-offs (measured: rig file 0.055 -> 0.059 s wall, same tasks in the caller); the same threshold as
-#: the completeness test's own two threads. A work-size rule: the same on any machine.
+#: hand-offs (measured: rig file 0.055 -> 0.059 s wall, same tasks in the caller). Above, the two threads
+#: are these two: the test's own second thread and the ML's are off (``noise._MISFIT_THREAD_MIN_VALUES``,
+#: ``ml._THREAD_MIN_EQUATIONS``). A work-size rule: the same on any machine.
 _AT_POLES_THREAD_MIN_VALUES = 100_000
 
 

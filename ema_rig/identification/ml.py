@@ -708,7 +708,7 @@ def local_ml_staged(data: FRFData, poles: NDArray[np.complex128], model_frf: NDA
         Window, block and work limits (:data:`ML_CRITERIA`).
     second_thread : bool, optional
         Let a second thread form large segments' scores, covariances and whole-basis fits while
-        the next segment is fitted (default True). False: all of that is formed only when
+        the next segment is fitted (default True; large: :data:`_THREAD_MIN_EQUATIONS`, by default none). False: all of that is formed only when
         :attr:`StagedML.finish` is called (the same numbers), so a caller that needs the poles
         alone and never calls it spends nothing on it.
 
@@ -1012,9 +1012,15 @@ def _whole_basis(seg: _Segment, full_basis: NDArray[np.float64], theta: NDArray[
     return d_basis, std_w, k + 1
 
 
-#: Real equations (lines x 2 x channels) of a segment from which its whole-basis fit runs in a second
-#: thread: below, the evaluations are mostly Python overhead, which holds the GIL.
-_THREAD_MIN_EQUATIONS = 20_000
+#: Real equations (lines x 2 x channels) of a segment from which its whole-basis fit and its scores run in a
+#: second thread (:func:`local_ml_staged`): a value no segment reaches, so off. The evaluations are mostly small
+#: numpy calls that hold the interpreter lock, and beside them the caller fits the next segment (its own small
+#: calls) or, in ``identify``, runs the completeness test on the other core: measured on the 256-output file of
+#: ``bench_refine.py`` (segments of 18 000 - 138 000 equations, the default ``identify``, 30 alternating calls,
+#: ``chrt -f 10``, one BLAS thread, 2026-12-08): 188.9 ms wall / 238.7 ms CPU with the thread from 20 000
+#: equations, 175.1 / 227.9 without (``benchmarks/results/issue18_wide_s_wide14.txt``); on the bundled rig file
+#: the thread lost too (``benchmarks/results/rig_timing_s_rig12.txt``). The thread stays for callers that set it.
+_THREAD_MIN_EQUATIONS = 10**15
 
 
 def _basis_stds(seg: _Segment, ev: dict[str, NDArray[np.float64] | float], theta: NDArray[np.float64],

@@ -209,9 +209,9 @@ def fit_noise_model(
     of ``|H|^2`` (convexity: tangent and chord per bin) exclude the grid points that cannot be the
     minimum, and only the others (one or two per channel, typically) are evaluated in double
     precision: the best grid point is the one the full double-precision grid gives. Channels are
-    independent and processed in blocks that stay in the processor cache; from
-    :data:`_NOISE_THREAD_MIN_VALUES` values, in blocks of :data:`_NOISE_THREAD_BLOCK` channels two at a time
-    in threads (per-channel arithmetic: the result is the one-thread result to the bit).
+    independent and processed in blocks that stay in the processor cache; with :data:`_NOISE_THREADS` above 1
+    (default 1), from :data:`_NOISE_THREAD_MIN_VALUES` values, in blocks of :data:`_NOISE_THREAD_BLOCK`
+    channels two at a time in threads (per-channel arithmetic: the result is the one-thread result to the bit).
 
     Examples
     --------
@@ -271,8 +271,15 @@ _NOISE_BLOCK = 32
 #: ~0.3 ms two threads lose, ``benchmarks/study_gil_handoff.py``); measured with :data:`_NOISE_THREAD_MIN_VALUES`.
 _NOISE_THREAD_BLOCK = 128
 
-#: Threads of :func:`_blocks` (fixed: the partition into blocks, not the machine, decides the work).
-_NOISE_THREADS = 2
+#: Threads of :func:`_blocks` (fixed: the partition into blocks, not the machine, decides the work): 1, the
+#: blocks in the calling thread. Since the bin sums by ``np.bincount`` and Newton's early end the fit's blocks
+#: of :data:`_NOISE_THREAD_BLOCK` channels are bound by memory traffic (1.8 MB per array, beyond the cache),
+#: so two threads share the bandwidth instead of the work. Measured 2026-12-08 (``chrt -f 10``, 2 cores, load
+#: 9-10, one BLAS thread): the two 256-output fits of ``benchmarks/bench_noise_threads.py`` 53.7 ms wall and
+#: CPU in one thread, 57.0 ms wall / 91.7 ms CPU in two; inside the default ``identify`` on the 256-output
+#: file (30 alternating calls) 198.7 ms wall / 252.7 ms CPU with one, 197.8 / 285.8 with two
+#: (``benchmarks/results/issue18_wide_s_wide14.txt``). The pool (two threads) stays for callers that set it.
+_NOISE_THREADS = 1
 
 #: Values (channels x lines) of a noise fit from which :func:`_blocks` runs its blocks in threads, in blocks of
 #: :data:`_NOISE_THREAD_BLOCK`. Measured on the two 256-output fits of the default ``identify`` on the 256 x 1801
@@ -280,7 +287,8 @@ _NOISE_THREADS = 2
 #: inside identify's ML stage, ``chrt -f 10``, load 12-14): one thread, blocks of 32, 97-103 ms wall; two
 #: threads, blocks of 128, 70-75 ms wall (+25 % CPU); two threads, blocks of 32, 96-108 ms (their numpy calls,
 #: ~50 us each, lose the time they gain on the interpreter lock's hand-offs). The 19-channel refit
-#: (34 000 values) stays in one thread. A work-size rule: the same on any machine.
+#: (34 000 values) stays in one thread. A work-size rule: the same on any machine. It applies when
+#: :data:`_NOISE_THREADS` is above 1 (by default not: measured again after the fit became twice as fast, there).
 _NOISE_THREAD_MIN_VALUES = 400_000
 
 
@@ -313,9 +321,13 @@ def _blocks(fn: Callable[[int, int], None], n: int, threads: bool) -> None:
 
 
 #: FRF values (lines x channels) of a :func:`segment_misfit` from which its segments' local fits run in
-#: two threads (below, ~1 ms of fits: a thread's start and hand-off cost more than they save; a work-size
-#: rule, the same on any machine).
-_MISFIT_THREAD_MIN_VALUES = 100_000
+#: two threads: a value no data reach, so off. Below ~1 ms of fits a thread's start and hand-off cost more than
+#: they save; above, in the default ``identify`` the test runs beside the caller's ML uncertainties and LSFD
+#: (a second thread already), so a third only shares the two cores: measured on the 256-output file of
+#: ``bench_refine.py`` (461 000 values, 30 alternating calls, ``chrt -f 10``, one BLAS thread, 2026-12-08)
+#: 188.9 ms wall / 238.7 ms CPU with the test's two threads, 179.1 / 229.9 with one
+#: (``benchmarks/results/issue18_wide_s_wide14.txt``). The two threads stay for callers that set it.
+_MISFIT_THREAD_MIN_VALUES = 10**15
 
 
 def _segments_in_two(fn: Callable[[int], None], work: NDArray[np.int64]) -> None:
