@@ -81,6 +81,39 @@ def _jump_fractions(h: NDArray[Any]) -> NDArray[np.float64]:
     return out
 
 
+def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
+    """Which outputs carry no measurable response: every FRF of the output is consistent with noise alone.
+
+    On circular complex noise the phases of the lines are independent and uniform, so the increments
+    between neighbouring lines are too, and each exceeds 90 degrees with probability 1/2 exactly
+    (:func:`_jump_fractions` counts them). An FRF is consistent with noise when its count of jumps is
+    not significantly below half the ``n_freq - 1`` pairs: the one-sided binomial probability of that
+    count or fewer under 1/2 is above ``p``. A response, however weak, makes neighbouring lines agree
+    near its resonances and lowers the count.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs, shape (n_out, n_in, n_freq).
+    p : float
+        Significance of the one-sided binomial test (``StabilizationCriteria.noise_only_p``).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_out,)
+        True for an output all of whose FRFs are consistent with noise alone (all False below 8 lines).
+    """
+    from scipy.stats import binom
+
+    n_pairs = data.n_freq - 1
+    if data.n_freq < 8:
+        return np.zeros(data.n_out, bool)
+    jumps = np.rint(_jump_fractions(data.frf) * n_pairs)  # (n_out, n_in) counts
+    noise = binom.cdf(jumps, n_pairs, 0.5) > p
+    out: NDArray[np.bool_] = np.all(noise, axis=1)
+    return out
+
+
 def _phase_findings(data: FRFData) -> list[str]:
     fr = _jump_fractions(data.frf)
     return _phase_summary([(f"{data.out_dofs[o]}/{data.in_dofs[i]}", float(fr[o, i]))
@@ -187,4 +220,4 @@ def diagnose_file(path: str | PathLike[str], data: FRFData | None = None) -> lis
     return out
 
 
-__all__ = ["diagnose_file", "diagnose_frf"]
+__all__ = ["diagnose_file", "diagnose_frf", "noise_only_outputs"]

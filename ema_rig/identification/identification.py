@@ -46,7 +46,7 @@ from .criteria import (
     ResultCriteria,
     StabilizationCriteria,
 )
-from .diagnose import diagnose_frf
+from .diagnose import diagnose_frf, noise_only_outputs
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
@@ -589,7 +589,15 @@ def identify(
     if cap < min_order:
         raise IdentificationError(f"only {work.n_freq} lines in the band: too few for any model order", file=src)
     step = 2 if n_in == 1 else 1
-    engine = PlscfEngine(work, cap)
+    # PolyMAX weights each output by 1 / rms: a dead channel's noise would weigh as much as another's resonances
+    dead = noise_only_outputs(work, stab_crit.noise_only_p)
+    if dead.any() and not dead.all():
+        notes.append(f"poles estimated without {', '.join(str(work.out_dofs[o]) for o in np.flatnonzero(dead))}: "
+                     "its phase is that of noise alone (binomial test of the phase jumps, p > "
+                     f"{stab_crit.noise_only_p:g}); the residues are fitted on every channel")
+        engine = PlscfEngine(work.sel(out=[work.out_dofs[o] for o in np.flatnonzero(~dead)]), cap)
+    else:
+        engine = PlscfEngine(work, cap)
     if engine.order_limit < cap:
         if engine.order_limit < min_order:
             raise IdentificationError(
