@@ -11,7 +11,8 @@ matches it for ``n_averages`` averages (``g2 = |H|^2 / (|H|^2 + n var)``).
 Families (each over ``--seeds`` seeds; shapes, frequencies and damping drawn per seed):
 
 * ``clean``            6 well separated modes, proportional damping (the benign reference: warnings counted)
-* ``complex``          local dashpots: modal phase collinearity of some modes well below 1
+* ``complex``          local dashpots: modal phase collinearity of some modes well below 1 (zeta up to ~20 %)
+* ``complex5``         five times those dashpots (zeta up to ~60 %: some modes near critical damping)
 * ``pair1`` / ``pair2``  a near-repeated pair 0.1-0.5 % apart, 1 and 2 references
 * ``dense``            15 modes in the band, modal overlap factor 0.3-1
 * ``outside``          a strong mode 2-4 % above the band's upper edge (residual terms)

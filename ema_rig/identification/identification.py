@@ -800,7 +800,9 @@ def identify(
         damping_ratio_std=ml.damping_ratio_std,
         natural_freq_spread=np.array([m.natural_freq_std for m in modes]),
         damping_ratio_spread=np.array([m.damping_ratio_std for m in modes]),
-        std_kind=ml.kind,
+        # a standard deviation that could not be formed (NaN) is no "ml" or "held" one, whatever the fit did
+        std_kind=tuple(k if np.isfinite(sf) and np.isfinite(sz) else "none"
+                       for k, sf, sz in zip(ml.kind, ml.natural_freq_std, ml.damping_ratio_std, strict=True)),
         residual_test=residual_test,
         band=stab.band,
         candidates=candidates,
