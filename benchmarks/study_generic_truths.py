@@ -22,6 +22,8 @@ Families (each over ``--seeds`` seeds; shapes, frequencies and damping drawn per
 * ``receptance`` / ``mobility``  the clean truths in the other ordinate types
 * ``g``                accelerance in g (every FRF / 9.80665, labelled accelerance)
 * ``nocoh``            the clean truths without coherence / n_averages
+* ``steady`` / ``drift``  H1 of 30 averages of random excitation, stiffness constant / growing 1 % over the
+                       averages (the truth: the system at the mean stiffness)
 
 For each run: every true mode found once (an identified mode matched to its nearest true pole
 within ``max(5 sigma, 1/4 half-power bandwidth, 0.3 line)`` and inside half the distance to the

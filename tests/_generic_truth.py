@@ -155,6 +155,39 @@ def base(seed: int, *, n_modes: int = 6, band: tuple[float, float] = (50.0, 550.
     return Case(freq, hn, coh, n_avg, lam, form, band)
 
 
+def drift(seed: int, *, n_avg: int = 30, stiffness_drift: float = 0.01, noise: float = 0.02,
+          band: tuple[float, float] = (50.0, 550.0), df: float = 0.5) -> Case:
+    """Six modes whose stiffness grows linearly by ``stiffness_drift`` over ``n_avg`` averages, H1 and coherence.
+
+    Each average has its own random force spectrum ``F_i`` (complex Gaussian per line: periodic random
+    excitation, no leakage) and response ``X_i = H_i F_i + E_i`` with ``H_i`` of the system at that
+    average's stiffness ``K (1 + stiffness_drift i / (n_avg - 1))`` and ``E_i`` response noise of
+    ``noise`` times ``|H_i F_i|`` rms; ``H1 = sum F_i^* X_i / sum |F_i|^2``, the coherence from the same
+    sums. The truth is the system at the mean stiffness ``K (1 + stiffness_drift / 2)``.
+    """
+    rng = np.random.default_rng(seed)
+    edges = np.linspace(band[0], band[1], 8)[1:-1]
+    fn = edges + rng.uniform(-0.25, 0.25, 6) * (band[1] - band[0]) / 7
+    zeta = rng.uniform(0.005, 0.02, 6)
+    m, c, k = modal_mck(np.sort(fn), zeta, random_shapes(rng, 6))
+    freq = np.arange(band[0], band[1] + df / 2, df)
+    gxf = np.zeros((6, 1, freq.size), np.complex128)
+    gxx = np.zeros((6, 1, freq.size))
+    gff = np.zeros(freq.size)
+    for i in range(n_avg):
+        h = solve_frf(m, c, k * (1 + stiffness_drift * i / (n_avg - 1)), freq, list(range(6)), [0], "accelerance")
+        f = (rng.standard_normal(freq.size) + 1j * rng.standard_normal(freq.size)) / np.sqrt(2)
+        x = h * f
+        x = x + noise * np.abs(x) * (rng.standard_normal(x.shape) + 1j * rng.standard_normal(x.shape)) / np.sqrt(2)
+        gxf += x * np.conj(f)
+        gxx += np.abs(x) ** 2
+        gff += np.abs(f) ** 2
+    h1 = gxf / gff
+    coh = np.abs(gxf) ** 2 / (gxx * gff)
+    lam = _in_band(state_poles(m, c, k * (1 + stiffness_drift / 2)), band)
+    return Case(freq, h1, np.minimum(coh, 1.0), n_avg, lam, "accelerance", band)
+
+
 def families() -> dict[str, Callable[[int], Case]]:
     """Name -> seeded truth builder."""
 
@@ -205,6 +238,8 @@ def families() -> dict[str, Callable[[int], Case]]:
         "mobility": lambda s: base(s, form="mobility"),
         "g": to_g,
         "nocoh": nocoh,
+        "steady": lambda s: drift(s, stiffness_drift=0.0),
+        "drift": drift,
     }
 
 

@@ -13,7 +13,7 @@ import pytest
 from _generic_truth import Case, base, match
 from ema_rig.frf import FRFData
 from ema_rig.identification import identify
-from ema_rig.identification.diagnose import noise_only_outputs
+from ema_rig.identification.diagnose import noise_only_outputs, noisier_outputs
 
 
 def _data(case: Case, *, coherence: bool = True) -> FRFData:
@@ -63,3 +63,27 @@ def test_ml_does_not_report_a_non_oscillating_mode() -> None:
     f1 = abs(case.poles[1]) / (2 * np.pi)
     assert np.any(np.abs(ident.natural_freq - f1) <= 2 * ident.natural_freq_std), (f1, ident.natural_freq)
     assert all(k == "none" for k, s in zip(ident.std_kind, ident.natural_freq_std, strict=True) if not np.isfinite(s))
+
+
+def test_channel_40_db_lower_loses_no_mode() -> None:
+    # One output 40 dB below the others, the same sensor noise floor (its relative noise ~10x theirs), coherence
+    # known: on 23abb6b PolyMAX (1 / rms weights) missed the 126.3 Hz mode of seed 0 without a warning
+    # about them. Every true mode must be found once, no extra mode.
+    case = base(0, chan_gain=np.array([1.0, 1.0, 0.01, 1.0, 1.0, 1.0]))
+    ident = identify(_data(case))
+    m = match(case, ident.natural_freq, ident.natural_freq_std)
+    assert sorted(j for j in m if j is not None) == list(range(case.poles.size)), (m, ident.natural_freq)
+    assert any("3+Y" in n and "break-even" in n for n in ident.notes)
+
+
+def test_noisier_outputs_break_even() -> None:
+    # six outputs of relative noise v = 1 and one of v_o: the break-even of an equally weighted mean of n = 7 is
+    # (2n - 1) / (n - 1) = 13/6 times the others' mean; coherence g2 = 1 / (1 + v) gives var / |H|^2 = v exactly
+    f = np.linspace(10.0, 100.0, 50)
+    h = np.ones((7, 1, f.size), complex)
+    for v_o, flagged in ((13 / 6 * 0.99, False), (13 / 6 * 1.01, True)):
+        v = np.ones(7)
+        v[3] = v_o
+        coh = np.broadcast_to((1 / (1 + v))[:, None, None], h.shape)
+        data = FRFData(f, h, [f"{i + 1}+Y" for i in range(7)], ["1+Y"], coherence=coh, n_averages=1)
+        assert noisier_outputs(data, 1.0).tolist() == [False] * 3 + [flagged] + [False] * 3

@@ -114,6 +114,49 @@ def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
     return out
 
 
+def noisier_outputs(data: FRFData, factor: float) -> NDArray[np.bool_]:
+    """Which outputs add more noise than information to an equally weighted (``1 / rms``) fit, from the coherence.
+
+    The relative noise of output ``o`` is ``v_o = mean(var) / mean(|H|^2)`` over its inputs and lines, ``var``
+    the H1 variance from the coherence (:func:`~ema_rig.identification.noise.coherence_variance`; the number
+    of averages is common to all outputs and cancels). Weighted by ``1 / rms`` every output's equations count
+    alike, so, where the outputs carry the same information, the fit behaves like an equally weighted mean of
+    ``n`` estimates of variances ``v_i``: ``sum(v_i) / n^2``, which one estimate raises when its ``v_o``
+    exceeds ``(2 n - 1) / (n - 1)`` times the mean of the others. The noisiest output beyond ``factor`` times
+    that break-even is flagged, then the next among the rest, while at least two remain.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs, shape (n_out, n_in, n_freq); nothing is flagged without ``data.coherence``.
+    factor : float
+        Multiple of the break-even (``StabilizationCriteria.noisier_output``).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_out,)
+    """
+    from .noise import coherence_variance
+
+    out = np.zeros(data.n_out, bool)
+    if data.coherence is None or data.n_out < 3:
+        return out
+    h2 = np.abs(data.frf) ** 2
+    power = np.mean(h2, axis=(1, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        v = np.mean(coherence_variance(h2, data.coherence), axis=(1, 2)) / power
+    v = np.where(power > 0, v, np.inf)
+    while (~out).sum() > 2:
+        live = np.flatnonzero(~out)
+        o = live[int(np.argmax(v[live]))]
+        rest = v[live[live != o]]
+        n = live.size
+        if not v[o] > factor * (2 * n - 1) / (n - 1) * float(np.mean(rest)):
+            break
+        out[o] = True
+    return out
+
+
 def _phase_findings(data: FRFData) -> list[str]:
     fr = _jump_fractions(data.frf)
     return _phase_summary([(f"{data.out_dofs[o]}/{data.in_dofs[i]}", float(fr[o, i]))
@@ -220,4 +263,4 @@ def diagnose_file(path: str | PathLike[str], data: FRFData | None = None) -> lis
     return out
 
 
-__all__ = ["diagnose_file", "diagnose_frf", "noise_only_outputs"]
+__all__ = ["diagnose_file", "diagnose_frf", "noise_only_outputs", "noisier_outputs"]

@@ -46,7 +46,7 @@ from .criteria import (
     ResultCriteria,
     StabilizationCriteria,
 )
-from .diagnose import diagnose_frf, noise_only_outputs
+from .diagnose import diagnose_frf, noise_only_outputs, noisier_outputs
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
@@ -590,12 +590,17 @@ def identify(
         raise IdentificationError(f"only {work.n_freq} lines in the band: too few for any model order", file=src)
     step = 2 if n_in == 1 else 1
     # PolyMAX weights each output by 1 / rms: a dead channel's noise would weigh as much as another's resonances
+    # and a channel far noisier than the others adds more noise than information
     dead = noise_only_outputs(work, stab_crit.noise_only_p)
-    if dead.any() and not dead.all():
-        notes.append(f"poles estimated without {', '.join(str(work.out_dofs[o]) for o in np.flatnonzero(dead))}: "
-                     "its phase is that of noise alone (binomial test of the phase jumps, p > "
-                     f"{stab_crit.noise_only_p:g}); the residues are fitted on every channel")
-        engine = PlscfEngine(work.sel(out=[work.out_dofs[o] for o in np.flatnonzero(~dead)]), cap)
+    noisy = noisier_outputs(work, stab_crit.noisier_output) & ~dead
+    if (dead.any() and not dead.all()) or noisy.any():
+        dead = dead & ~dead.all()
+        why = [f"{', '.join(str(work.out_dofs[o]) for o in np.flatnonzero(x))} ({w})" for x, w in (
+            (dead, f"its phase is that of noise alone: binomial test of the phase jumps, p > {stab_crit.noise_only_p:g}"),
+            (noisy, "its relative noise from the coherence above the break-even of an equally weighted fit"))
+            if x.any()]
+        notes.append(f"poles estimated without {'; '.join(why)}; the residues are fitted on every channel")
+        engine = PlscfEngine(work.sel(out=[work.out_dofs[o] for o in np.flatnonzero(~(dead | noisy))]), cap)
     else:
         engine = PlscfEngine(work, cap)
     if engine.order_limit < cap:
