@@ -155,14 +155,15 @@ def base(seed: int, *, n_modes: int = 6, band: tuple[float, float] = (50.0, 550.
     return Case(freq, hn, coh, n_avg, lam, form, band)
 
 
-def drift(seed: int, *, n_avg: int = 30, stiffness_drift: float = 0.01, noise: float = 0.02,
+def drift(seed: int, *, n_avg: int = 30, stiffness_drift: float = 0.01, noise: float = 0.02, floor_rel: float = 0.002,
           band: tuple[float, float] = (50.0, 550.0), df: float = 0.5) -> Case:
     """Six modes whose stiffness grows linearly by ``stiffness_drift`` over ``n_avg`` averages, H1 and coherence.
 
     Each average has its own random force spectrum ``F_i`` (complex Gaussian per line: periodic random
     excitation, no leakage) and response ``X_i = H_i F_i + E_i`` with ``H_i`` of the system at that
-    average's stiffness ``K (1 + stiffness_drift i / (n_avg - 1))`` and ``E_i`` response noise of
-    ``noise`` times ``|H_i F_i|`` rms; ``H1 = sum F_i^* X_i / sum |F_i|^2``, the coherence from the same
+    average's stiffness ``K (1 + stiffness_drift i / (n_avg - 1))`` and ``E_i`` response noise independent
+    of the force (H1's model), of standard deviation ``sqrt(noise^2 |H_i|^2 + floor^2)`` (``floor`` =
+    ``floor_rel`` times the RMS of the first average's |H|); ``H1 = sum F_i^* X_i / sum |F_i|^2``, the coherence from the same
     sums. The truth is the system at the mean stiffness ``K (1 + stiffness_drift / 2)``.
     """
     rng = np.random.default_rng(seed)
@@ -177,8 +178,10 @@ def drift(seed: int, *, n_avg: int = 30, stiffness_drift: float = 0.01, noise: f
     for i in range(n_avg):
         h = solve_frf(m, c, k * (1 + stiffness_drift * i / (n_avg - 1)), freq, list(range(6)), [0], "accelerance")
         f = (rng.standard_normal(freq.size) + 1j * rng.standard_normal(freq.size)) / np.sqrt(2)
-        x = h * f
-        x = x + noise * np.abs(x) * (rng.standard_normal(x.shape) + 1j * rng.standard_normal(x.shape)) / np.sqrt(2)
+        if i == 0:
+            floor = floor_rel * np.sqrt(np.mean(np.abs(h) ** 2))
+        sd = np.sqrt((noise * np.abs(h)) ** 2 + floor**2)  # independent of this average's force (H1's model)
+        x = h * f + sd * (rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape)) / np.sqrt(2)
         gxf += x * np.conj(f)
         gxx += np.abs(x) ** 2
         gff += np.abs(f) ** 2
