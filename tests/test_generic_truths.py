@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from _generic_truth import Case, base, match
+
 from ema_rig.frf import FRFData
 from ema_rig.identification import identify
 from ema_rig.identification.diagnose import noise_only_outputs, noisier_outputs

@@ -455,7 +455,11 @@ def identify(
     the growth, else in a note (a higher order changed nothing there). Only work limits (orders, evaluations) stop a loop, never the clock:
     the same data give the same result on any machine and load.
     Every cluster of stable poles is judged (:func:`~ema_rig.identification.judge.judge_clusters`);
-    the accepted ones are fitted by LSFD on the data as measured.
+    the accepted ones are fitted by LSFD on the data as measured. The poles are estimated without
+    the outputs whose phase is that of noise alone (a dead sensor:
+    :func:`~ema_rig.identification.diagnose.noise_only_outputs`) and, with coherence, those whose
+    relative noise is beyond the break-even of PolyMAX's equal (``1 / rms``) weights
+    (:func:`~ema_rig.identification.diagnose.noisier_outputs`); a note names them.
 
     Parameters
     ----------
@@ -595,11 +599,11 @@ def identify(
     noisy = noisier_outputs(work, stab_crit.noisier_output) & ~dead
     if (dead.any() and not dead.all()) or noisy.any():
         dead = dead & ~dead.all()
-        why = [f"{', '.join(str(work.out_dofs[o]) for o in np.flatnonzero(x))} ({w})" for x, w in (
+        left_out = [f"{', '.join(str(work.out_dofs[o]) for o in np.flatnonzero(x))} ({w})" for x, w in (
             (dead, f"its phase is that of noise alone: binomial test of the phase jumps, p > {stab_crit.noise_only_p:g}"),
             (noisy, "its relative noise from the coherence above the break-even of an equally weighted fit"))
             if x.any()]
-        notes.append(f"poles estimated without {'; '.join(why)}; the residues are fitted on every channel")
+        notes.append(f"poles estimated without {'; '.join(left_out)}; the residues are fitted on every channel")
         engine = PlscfEngine(work.sel(out=[work.out_dofs[o] for o in np.flatnonzero(~(dead | noisy))]), cap)
     else:
         engine = PlscfEngine(work, cap)
