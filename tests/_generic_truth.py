@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
+from _mck_truth import exact_poles
 from numpy.typing import NDArray
 
 G = 9.80665
@@ -58,15 +58,6 @@ def modal_mck(fn: NDArray[np.float64], zeta: NDArray[np.float64], shapes: NDArra
     c = pinv.T @ np.diag(2 * zeta * w) @ pinv
     sym = lambda x: 0.5 * (x + x.T)  # noqa: E731
     return sym(m), sym(c), sym(k)
-
-
-def state_poles(m: NDArray[np.float64], c: NDArray[np.float64], k: NDArray[np.float64]) -> NDArray[np.complex128]:
-    """Eigenvalues of the first-order form with Im > 0, sorted by modulus [rad/s]."""
-    n = m.shape[0]
-    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, k), -np.linalg.solve(m, c)]])
-    lam = scipy.linalg.eigvals(a)
-    lam = lam[lam.imag > 1e-9 * np.abs(lam).max()]
-    return lam[np.argsort(np.abs(lam))]
 
 
 def solve_frf(m: NDArray[np.float64], c: NDArray[np.float64], k: NDArray[np.float64], freq: NDArray[np.float64],
@@ -151,7 +142,7 @@ def base(seed: int, *, n_modes: int = 6, band: tuple[float, float] = (50.0, 550.
         sd = floor_rel * rms
         hn[dead] = sd / np.sqrt(2) * (rng.standard_normal(hn[dead].shape) + 1j * rng.standard_normal(hn[dead].shape))
         coh[dead] = 1.0 / (1.0 + n_avg * 1.0)  # no correlated part: coherence near 1/n
-    lam = _in_band(state_poles(m, c, k), band)
+    lam = _in_band(exact_poles(m, c, k), band)
     return Case(freq, hn, coh, n_avg, lam, form, band)
 
 
@@ -187,7 +178,7 @@ def drift(seed: int, *, n_avg: int = 30, stiffness_drift: float = 0.01, noise: f
         gff += np.abs(f) ** 2
     h1 = gxf / gff
     coh = np.abs(gxf) ** 2 / (gxx * gff)
-    lam = _in_band(state_poles(m, c, k * (1 + stiffness_drift / 2)), band)
+    lam = _in_band(exact_poles(m, c, k * (1 + stiffness_drift / 2)), band)
     return Case(freq, h1, np.minimum(coh, 1.0), n_avg, lam, "accelerance", band)
 
 
