@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from ..errors import EmaRigError
 from ..frf import FRFData
 from ..io.uff import read_uff
+from .noise import coherence_variance
 
 PHASE_JUMP_FRACTION = 0.10
 LOW_COHERENCE = 0.5
@@ -136,8 +137,6 @@ def noisier_outputs(data: FRFData, factor: float) -> NDArray[np.bool_]:
     -------
     ndarray of bool, shape (n_out,)
     """
-    from .noise import coherence_variance
-
     out = np.zeros(data.n_out, bool)
     if data.coherence is None or data.n_out < 3:
         return out
