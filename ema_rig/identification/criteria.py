@@ -71,6 +71,18 @@ class StabilizationCriteria(_Sourced):
         (:func:`~ema_rig.identification.stabilization.cluster_poles`: average linkage cut at
         distance 1): relative frequency difference (0.005), relative damping difference (0.5),
         ``1 - MAC`` of the participation vectors (0.1).
+    noise_only_p : float
+        An output whose FRFs' phase jumps (more than 90 degrees between neighbouring lines,
+        :func:`~ema_rig.identification.diagnose.noise_only_outputs`) are not significantly fewer than
+        pure noise gives (one-sided binomial test against 1/2 with ``n_freq - 1`` trials, p above this,
+        0.001) carries no measurable response: the poles are estimated without it (a dead or
+        disconnected sensor; PolyMAX weights each output by ``1 / rms``, so its noise would weigh as
+        much as another output's resonances).
+    noisier_output : float
+        With coherence, an output whose relative noise ``mean(var) / mean(|H|^2)`` (the noise power it
+        adds to PolyMAX's ``1 / rms``-weighted cost) exceeds this factor (1) times the break-even
+        ``(2 n - 1) / (n - 1)`` times the mean of the other ``n - 1`` outputs' is left out of the pole
+        estimation, the noisiest first, one at a time (:func:`~ema_rig.identification.diagnose.noisier_outputs`).
     """
 
     freq_tol: float = _src(0.01, "PolyMAX standard tolerance 1 % (Peeters et al. 2004; paper.md, stabilization)")
@@ -83,6 +95,13 @@ class StabilizationCriteria(_Sourced):
                                       "may scatter that much across orders, so the linkage must not split it there")
     cluster_mac_tol: float = _src(0.1, "1 - MAC 0.1: MAC above 0.9 is the same vector (Allemang 2003; "
                                   "JudgeCriteria.dup_participation_mac)")
+    noise_only_p: float = _src(0.001, "one-sided binomial test, n_freq - 1 trials, p = 0.001: the phases of circular "
+                               "complex noise are independent and uniform, so their increments are too and each "
+                               "exceeds 90 degrees with probability 1/2 exactly (a signal lowers it)")
+    noisier_output: float = _src(1.0, "the break-even itself (factor 1): the variance of an equally weighted mean of n "
+                                 "estimates, sum(v_i) / n^2, rises by adding one of variance above (2n - 1) / (n - 1) "
+                                 "times the others' mean (PolyMAX's 1 / rms weights average the outputs' equations "
+                                 "equally; inverse-variance weighting, Bendat & Piersol ch. 9 variances)")
 
     def as_kwargs(self) -> dict[str, float]:
         """``freq_tol``, ``damping_tol``, ``mac_tol`` for :func:`stabilize`."""

@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from ..errors import EmaRigError
 from ..frf import FRFData
 from ..io.uff import read_uff
+from .noise import coherence_variance
 
 PHASE_JUMP_FRACTION = 0.10
 LOW_COHERENCE = 0.5
@@ -78,6 +79,80 @@ def _jump_fractions(h: NDArray[Any]) -> NDArray[np.float64]:
     if near.size:
         jump.ravel()[near] = np.abs(np.angle(w.ravel()[near])) > np.pi / 2
     out: NDArray[np.float64] = np.mean(jump, axis=-1)
+    return out
+
+
+def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
+    """Which outputs carry no measurable response: every FRF of the output is consistent with noise alone.
+
+    On circular complex noise the phases of the lines are independent and uniform, so the increments
+    between neighbouring lines are too, and each exceeds 90 degrees with probability 1/2 exactly
+    (:func:`_jump_fractions` counts them). An FRF is consistent with noise when its count of jumps is
+    not significantly below half the ``n_freq - 1`` pairs: the one-sided binomial probability of that
+    count or fewer under 1/2 is above ``p``. A response, however weak, makes neighbouring lines agree
+    near its resonances and lowers the count.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs, shape (n_out, n_in, n_freq).
+    p : float
+        Significance of the one-sided binomial test (``StabilizationCriteria.noise_only_p``).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_out,)
+        True for an output all of whose FRFs are consistent with noise alone (all False below 8 lines).
+    """
+    from scipy.stats import binom
+
+    n_pairs = data.n_freq - 1
+    if data.n_freq < 8:
+        return np.zeros(data.n_out, bool)
+    jumps = np.rint(_jump_fractions(data.frf) * n_pairs)  # (n_out, n_in) counts
+    noise = binom.cdf(jumps, n_pairs, 0.5) > p
+    out: NDArray[np.bool_] = np.all(noise, axis=1)
+    return out
+
+
+def noisier_outputs(data: FRFData, factor: float) -> NDArray[np.bool_]:
+    """Which outputs add more noise than information to an equally weighted (``1 / rms``) fit, from the coherence.
+
+    The relative noise of output ``o`` is ``v_o = mean(var) / mean(|H|^2)`` over its inputs and lines, ``var``
+    the H1 variance from the coherence (:func:`~ema_rig.identification.noise.coherence_variance`; the number
+    of averages is common to all outputs and cancels). Weighted by ``1 / rms`` every output's equations count
+    alike, so, where the outputs carry the same information, the fit behaves like an equally weighted mean of
+    ``n`` estimates of variances ``v_i``: ``sum(v_i) / n^2``, which one estimate raises when its ``v_o``
+    exceeds ``(2 n - 1) / (n - 1)`` times the mean of the others. The noisiest output beyond ``factor`` times
+    that break-even is flagged, then the next among the rest, while at least two remain.
+
+    Parameters
+    ----------
+    data : FRFData
+        FRFs, shape (n_out, n_in, n_freq); nothing is flagged without ``data.coherence``.
+    factor : float
+        Multiple of the break-even (``StabilizationCriteria.noisier_output``).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_out,)
+    """
+    out = np.zeros(data.n_out, bool)
+    if data.coherence is None or data.n_out < 3:
+        return out
+    h2 = np.abs(data.frf) ** 2
+    power = np.mean(h2, axis=(1, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        v = np.mean(coherence_variance(h2, data.coherence), axis=(1, 2)) / power
+    v = np.where(power > 0, v, np.inf)
+    while (~out).sum() > 2:
+        live = np.flatnonzero(~out)
+        o = live[int(np.argmax(v[live]))]
+        rest = v[live[live != o]]
+        n = live.size
+        if not v[o] > factor * (2 * n - 1) / (n - 1) * float(np.mean(rest)):
+            break
+        out[o] = True
     return out
 
 
@@ -187,4 +262,4 @@ def diagnose_file(path: str | PathLike[str], data: FRFData | None = None) -> lis
     return out
 
 
-__all__ = ["diagnose_file", "diagnose_frf"]
+__all__ = ["diagnose_file", "diagnose_frf", "noise_only_outputs", "noisier_outputs"]

@@ -46,7 +46,7 @@ from .criteria import (
     ResultCriteria,
     StabilizationCriteria,
 )
-from .diagnose import diagnose_frf
+from .diagnose import diagnose_frf, noise_only_outputs, noisier_outputs
 from .judge import Candidate, _fit, judge_clusters, shape_mpc
 from .lsfd import LsfdBasis, _lsfd_checked, _lsfd_noise_weighted, model_order
 from .mac import mac
@@ -455,7 +455,11 @@ def identify(
     the growth, else in a note (a higher order changed nothing there). Only work limits (orders, evaluations) stop a loop, never the clock:
     the same data give the same result on any machine and load.
     Every cluster of stable poles is judged (:func:`~ema_rig.identification.judge.judge_clusters`);
-    the accepted ones are fitted by LSFD on the data as measured.
+    the accepted ones are fitted by LSFD on the data as measured. The poles are estimated without
+    the outputs whose phase is that of noise alone (a dead sensor:
+    :func:`~ema_rig.identification.diagnose.noise_only_outputs`) and, with coherence, those whose
+    relative noise is beyond the break-even of PolyMAX's equal (``1 / rms``) weights
+    (:func:`~ema_rig.identification.diagnose.noisier_outputs`); a note names them.
 
     Parameters
     ----------
@@ -589,7 +593,20 @@ def identify(
     if cap < min_order:
         raise IdentificationError(f"only {work.n_freq} lines in the band: too few for any model order", file=src)
     step = 2 if n_in == 1 else 1
-    engine = PlscfEngine(work, cap)
+    # PolyMAX weights each output by 1 / rms: a dead channel's noise would weigh as much as another's resonances
+    # and a channel far noisier than the others adds more noise than information
+    dead = noise_only_outputs(work, stab_crit.noise_only_p)
+    noisy = noisier_outputs(work, stab_crit.noisier_output) & ~dead
+    if (dead.any() and not dead.all()) or noisy.any():
+        dead = dead & ~dead.all()
+        left_out = [f"{', '.join(str(work.out_dofs[o]) for o in np.flatnonzero(x))} ({w})" for x, w in (
+            (dead, f"its phase is that of noise alone: binomial test of the phase jumps, p > {stab_crit.noise_only_p:g}"),
+            (noisy, "its relative noise from the coherence above the break-even of an equally weighted fit"))
+            if x.any()]
+        notes.append(f"poles estimated without {'; '.join(left_out)}; the residues are fitted on every channel")
+        engine = PlscfEngine(work.sel(out=[work.out_dofs[o] for o in np.flatnonzero(~(dead | noisy))]), cap)
+    else:
+        engine = PlscfEngine(work, cap)
     if engine.order_limit < cap:
         if engine.order_limit < min_order:
             raise IdentificationError(
@@ -792,7 +809,9 @@ def identify(
         damping_ratio_std=ml.damping_ratio_std,
         natural_freq_spread=np.array([m.natural_freq_std for m in modes]),
         damping_ratio_spread=np.array([m.damping_ratio_std for m in modes]),
-        std_kind=ml.kind,
+        # a standard deviation that could not be formed (NaN) is no "ml" or "held" one, whatever the fit did
+        std_kind=tuple(k if np.isfinite(sf) and np.isfinite(sz) else "none"
+                       for k, sf, sz in zip(ml.kind, ml.natural_freq_std, ml.damping_ratio_std, strict=True)),
         residual_test=residual_test,
         band=stab.band,
         candidates=candidates,

@@ -1119,6 +1119,11 @@ def _check(lam: NDArray[np.complex128], lam0: NDArray[np.complex128], free: NDAr
             bad[r] = (inf, "the ML fit made it unstable")
         elif not band[0] <= fn[r] <= band[1]:
             bad[r] = (inf, f"the ML fit moved it out of its lines {band[0]:.6g}..{band[1]:.6g} Hz")
+        elif not band[0] <= lam[r].imag / (2 * np.pi) <= band[1]:
+            # its resonance (the damped frequency, where the pole's term peaks) left the lines: near critical
+            # damping the natural frequency |s| stays inside while the mode no longer oscillates there
+            bad[r] = (inf, f"the ML fit moved its damped frequency to {lam[r].imag / (2 * np.pi):.6g} Hz, out of its "
+                           f"lines {band[0]:.6g}..{band[1]:.6g} Hz (damping ratio {-lam[r].real / abs(lam[r]):.3g})")
         elif abs(fn[r] - fn0[r]) > allowed[r]:
             bad[r] = (abs(fn[r] - fn0[r]) / allowed[r],
                       f"the ML fit moved it to {fn[r]:.6g} Hz, further than its half-power half-bandwidth")
