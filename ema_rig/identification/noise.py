@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._linalg import thin_svd
 from ..errors import IdentificationError
 from .criteria import COMPLETENESS_CRITERIA, CompletenessCriteria
 from .modal import modal_basis, unit_real_basis
@@ -1014,7 +1015,7 @@ def segment_misfit(
         yv = np.ascontiguousarray(y[:, idx]).view(np.float64)  # (n_chan, 2 n_l), Re/Im interleaved
         if cols:
             basis = np.concatenate(cols, axis=1)
-            u, sv, _vt = np.linalg.svd(basis, full_matrices=False)
+            u, sv, _vt = thin_svd(basis)  # numpy's SVD, the same numbers
             keep = sv > np.finfo(float).eps * max(basis.shape) * sv[0]
             q = u[:, keep]
             fit = (yv @ q) @ q.T
