@@ -58,7 +58,9 @@ def thin_qr(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.flo
     return q, r
 
 
-def thin_svd(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+def thin_svd(
+    a: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """``numpy.linalg.svd(a, full_matrices=False)`` of a real matrix, the same numbers.
 
     For a tall ``a`` (at least twice as many rows as columns, at most 32 columns, at least

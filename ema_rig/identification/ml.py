@@ -564,11 +564,17 @@ def _within_sigma(h: NDArray[np.float64], step: NDArray[np.float64], s2: float, 
     ``frac <= 0``): :attr:`~ema_rig.identification.criteria.MLCriteria.lm_step_sigma`."""
     if frac <= 0.0:
         return False
+    lim = frac * frac * s2
+    d = np.diag(h)
+    # (h^-1)_ii >= 1 / h_ii for a positive definite h: within those bounds the step is within its fraction
+    # without the inverse (the usual case far from the minimum is decided by the inverse below)
+    if np.all(d > 0) and np.all(step * step * d <= lim):
+        return True
     try:
-        var = s2 * np.diag(np.linalg.inv(h))
+        var = np.diag(np.linalg.inv(h))
     except np.linalg.LinAlgError:
         return False
-    return bool(np.all(var > 0) and np.all(step * step <= frac * frac * var))
+    return bool(np.all(var > 0) and np.all(step * step <= lim * var))
 
 
 def _inv(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
