@@ -560,8 +560,8 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
 
 def _within_sigma(h: NDArray[np.float64], step: NDArray[np.float64], s2: float, frac: float) -> bool:
     """Whether ``step`` moves every parameter by at most ``frac`` of its standard deviation ``sqrt(s2 (h^-1)_ii)``
-    (``h`` the Gauss-Newton matrix ``J^T J``, ``s2`` the residual variance; False for a singular ``h`` or
-    ``frac <= 0``): :attr:`~ema_rig.identification.criteria.MLCriteria.lm_step_sigma`."""
+    (``h`` the Gauss-Newton matrix ``J^T J``, ``s2`` the residual variance; False for ``frac <= 0`` and where
+    the inverse is needed and fails): :attr:`~ema_rig.identification.criteria.MLCriteria.lm_step_sigma`."""
     if frac <= 0.0:
         return False
     lim = frac * frac * s2
