@@ -38,7 +38,7 @@ PKG = ROOT / "ema_rig"
 # import a module of the same or a lower rank; the cycle test keeps same-rank imports acyclic.
 LAYERS: tuple[tuple[int, str], ...] = (
     # 0: foundations -- plain helpers, errors, DOFs, the FRF object and its processing record
-    (0, "ema_rig._atomic"), (0, "ema_rig._blas"), (0, "ema_rig._optional"), (0, "ema_rig._progress"),
+    (0, "ema_rig._atomic"), (0, "ema_rig._blas"), (0, "ema_rig._linalg"), (0, "ema_rig._optional"), (0, "ema_rig._progress"),
     (0, "ema_rig._text"), (0, "ema_rig._threads"), (0, "ema_rig._version"), (0, "ema_rig.errors"), (0, "ema_rig.dof"),
     (0, "ema_rig.literals"), (0, "ema_rig.frf"), (0, "ema_rig.processing"),
     # 1: io -- reads and writes DOFs, units and data; knows no rig (nor the identification: mode

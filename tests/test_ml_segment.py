@@ -9,6 +9,8 @@ differences for the derivatives, and ``scipy.optimize.least_squares`` for the mi
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
@@ -50,6 +52,14 @@ def _columns(seg: _Segment, theta: np.ndarray) -> np.ndarray:
     cols[:, 0::2], cols[:, 1::2] = pos + neg, 1j * pos - 1j * neg
     a = np.concatenate([cols.real, cols.imag], axis=0) * seg.ww
     return np.concatenate([a, seg.fixed], axis=1)
+
+
+def _sd_at(seg: _Segment, ref: object) -> np.ndarray:
+    """Standard deviations ``sqrt(diag(s^2 (J^T J)^-1))`` of the pole parameters at a ``least_squares`` result ``ref``
+    (``s^2`` its cost over the residual degrees of freedom)."""
+    jac, r = np.asarray(ref.jac), np.asarray(ref.fun)  # type: ignore[attr-defined]
+    dof = r.size - seg.L * seg.yw.shape[1] - jac.shape[1]
+    return np.asarray(np.sqrt(np.diag(float(r @ r) / dof * np.linalg.inv(jac.T @ jac))))
 
 
 def _residual(seg: _Segment, theta: np.ndarray) -> np.ndarray:
@@ -112,13 +122,28 @@ def test_lm_reaches_the_least_squares_minimum(n_chan: int):
     assert last is not None and 1 < n_eval < ML_CRITERIA.max_iter
     ref = least_squares(lambda t: _residual(seg, t), th0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15)
     # the two minima in units of the estimate's standard deviation s^2 (J^T J)^-1 (J at the minimum):
-    # the relative-offset stop (MLCriteria.lm_offset 0.001, Bates & Watts 1981) leaves at most
-    # sqrt(P) 0.001 = 0.002 sigma; 0.01 sigma is far below any change a user sees
-    jac = ref.jac
-    r = ref.fun
-    dof = r.size - seg.L * seg.yw.shape[1] - th0.size
-    cov = float(r @ r) / dof * np.linalg.inv(jac.T @ jac)
-    sd = np.sqrt(np.diag(cov))
-    assert np.max(np.abs(theta - ref.x) / sd) < 0.01
+    # the step stop (MLCriteria.lm_step_sigma 0.05, Numerical Recipes 15.5.2) leaves a Gauss-Newton step of
+    # at most 0.05 sigma per parameter, the distance to the minimum to first order (the relative-offset stop,
+    # lm_offset 0.001, at most sqrt(P) 0.001 = 0.002 sigma); 0.05 sigma is far below any change a user sees
+    sd = _sd_at(seg, ref)
+    assert np.max(np.abs(theta - ref.x) / sd) <= ML_CRITERIA.lm_step_sigma
     # and the estimate is the truth within its uncertainty (the problem is well posed: 4 sigma)
     assert np.max(np.abs(theta - th_true) / sd) < 4.0
+
+
+@pytest.mark.parametrize("n_chan", [1, 3])
+def test_lm_step_stop_ends_within_its_fraction_of_sigma(n_chan: int):
+    """The step stop (``MLCriteria.lm_step_sigma``) spends fewer evaluations than iterating to rounding and ends
+    within that fraction of each parameter's standard deviation of the minimum (``least_squares`` to 1e-15, an
+    independent optimiser). Fails on 23abb6b (no ``lm_step_sigma``)."""
+    seg, th0, _ = _problem(n_chan)
+    free = np.ones(seg.m, bool)
+    theta, n_eval, _ = _lm(seg, th0, free, ML_CRITERIA)
+    theta_r, n_eval_r, _ = _lm(seg, th0, free, replace(ML_CRITERIA, lm_step_sigma=0.0))  # the stop switched off
+    assert n_eval < n_eval_r
+    ref = least_squares(lambda t: _residual(seg, t), th0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    sd = _sd_at(seg, ref)
+    # iterated on, the estimate reaches the minimum (to the relative-offset stop's 0.002 sigma, 0.01 here)
+    assert np.max(np.abs(theta_r - ref.x) / sd) < 0.01
+    # the step stop: within lm_step_sigma of it (the Gauss-Newton step is the distance to first order)
+    assert np.max(np.abs(theta - ref.x) / sd) <= ML_CRITERIA.lm_step_sigma

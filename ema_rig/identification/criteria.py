@@ -279,6 +279,14 @@ class MLCriteria:
         left to the minimum is then below ``sqrt(P) lm_offset`` standard deviations of the estimate
         (0.007 for 50 parameters), where the iterations would only crawl along directions the data
         barely determine.
+    lm_step_sigma : float
+        ... or when the next (Gauss-Newton) step moves every free parameter by at most this many of its
+        standard deviations ``sqrt(s^2 (J^T J)^-1_ii)`` (``s^2`` the cost over its residual degrees of
+        freedom; default 0.05, 0 switches the test off): iterating further changes the estimate by a
+        small fraction of its standard error, which is statistically meaningless (Press et al.,
+        *Numerical Recipes*, 3rd ed. 2007, sect. 15.5.2: stop once chi-square changes by much less than
+        1; a move of ``delta`` changes it by ``delta^T F delta``, F the Fisher information, in total
+        chi-square units).
     """
 
     window_hbw: float = 4.0
@@ -294,6 +302,7 @@ class MLCriteria:
     lm_rtol: float = 1e-12
     lm_pred_rtol: float = 1e-15
     lm_offset: float = 1e-3
+    lm_step_sigma: float = 0.05
 
     def sources(self) -> dict[str, str]:
         """The source of every threshold, by field name."""
@@ -312,6 +321,8 @@ class MLCriteria:
             "lm_rtol": "cost change of a few thousand float64 eps: converged (unchanged stop test)",
             "lm_pred_rtol": "predicted reduction (Dennis & Schnabel 1996, 6.4) at the cost's rounding, ~5 float64 eps",
             "lm_offset": "relative offset convergence criterion 0.001 (Bates & Watts, Technometrics 23, 1981)",
+            "lm_step_sigma": "a step of 0.05 standard errors is statistically meaningless: stop (Numerical Recipes "
+                             "3rd ed. 2007, sect. 15.5.2)",
         }
 
 

@@ -45,6 +45,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._blas import single_threaded
+from .._linalg import thin_svd
 from ..errors import IdentificationError
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
@@ -543,7 +544,7 @@ def _projector(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.
     ``y`` (..., 2 n_freq) are ``(y @ uk) @ proj.T``, and ``proj @ proj.T`` is the
     (pseudo-)inverse of ``a.T @ a`` (the unscaled covariance of the unknowns).
     """
-    u, sv, vt = np.linalg.svd(a, full_matrices=False)
+    u, sv, vt = thin_svd(a)  # numpy's SVD, the same numbers
     keep = sv > np.finfo(float).eps * max(a.shape) * sv[0]
     return np.ascontiguousarray(u[:, keep]), vt[keep].T / sv[keep]
 

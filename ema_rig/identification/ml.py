@@ -93,9 +93,10 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
+from .._linalg import thin_qr as _qr
+from .._linalg import thin_svd
 from .._threads import Job
 from ..frf import FORM_POWER as _FORM_POWER
 from ..frf import FRFData
@@ -156,27 +157,6 @@ class LocalML:
     moved_to: NDArray[np.complex128] | None = None
 
 
-def _qr(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Reduced QR factors of ``a`` (LAPACK geqrf/orgqr, as ``numpy.linalg.qr``).
-
-    Up to 32 columns LAPACK's unblocked code runs whatever the workspace (its block size is 32),
-    so the two routines are called directly, without SciPy's workspace queries: the same factors
-    to the bit as ``scipy.linalg.qr(mode="economic")``, which takes the wider ones.
-    """
-    k = a.shape[1]
-    if k > 32 or a.shape[0] < k:
-        q, r = scipy.linalg.qr(a, mode="economic", check_finite=False)
-        return q, r
-    qr, tau, _, info = scipy.linalg.lapack.dgeqrf(a)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"dgeqrf: info {info}")
-    r = np.triu(qr[:k])
-    q, _, info = scipy.linalg.lapack.dorgqr(qr, tau, overwrite_a=True)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"dorgqr: info {info}")
-    return q, r
-
-
 def _stack(z: NDArray[np.complex128]) -> NDArray[np.float64]:
     return np.concatenate([z.real, z.imag], axis=0)
 
@@ -192,7 +172,7 @@ def _orth_span(a: NDArray[np.float64], rcond: float) -> NDArray[np.float64]:
     a = a[:, norm > 0] / norm[norm > 0]
     if a.shape[1] == 0:
         return a
-    u, sv, _ = np.linalg.svd(a, full_matrices=False)
+    u, sv, _ = thin_svd(a)
     return np.ascontiguousarray(u[:, sv > rcond * sv[0]])
 
 
@@ -272,7 +252,7 @@ class _Segment:
         a = np.concatenate([_stack(cols) * self.ww, self.fixed], axis=1)
         # the minimum-norm least-squares coefficients of the background (``lstsq``'s, rank cut at eps max(shape)
         # of the largest singular value) through one SVD of the small basis: only their rows are formed
-        u, sv, vt = np.linalg.svd(a, full_matrices=False)
+        u, sv, vt = thin_svd(a)
         rank = sv > np.finfo(float).eps * max(a.shape) * sv[0]
         coef = (vt[rank][:, a.shape[1] - n_t :].T / sv[rank]) @ (u[:, rank].T @ model_w)  # (n_t, C)
         keep = np.any(np.abs(coef) > sigmas * noise_sd[None, :], axis=1)
@@ -521,7 +501,10 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
     ``sqrt((pred / P) / s^2)`` with ``s^2`` the cost over its residual degrees of freedom, at most
     ``crit.lm_offset``. Without it a segment with a pole the data barely determine crawled along
     that direction up to ``max_iter`` evaluations (cost changes of 1e-8 with steps of 1e-2 on
-    ``ufffiles_frf``), rounding deciding each step.
+    ``ufffiles_frf``), rounding deciding each step. And they stop when the next step would move every
+    free parameter by at most ``crit.lm_step_sigma`` of its standard deviation (:func:`_within_sigma`,
+    Press et al., Numerical Recipes 3rd ed., sect. 15.5.2): a move far inside the estimate's
+    uncertainty, not worth an evaluation (from PolyMAX, one of the usual three).
 
     A trial point's cost is formed alone (:meth:`_Segment.evaluate` with ``cost_only``); its
     derivatives only when the step is taken (the same numbers).
@@ -552,6 +535,8 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
         pred = -(2.0 * float(g @ step) + float(step @ h @ step))
         if mu <= 1e-4 and 0.0 <= pred <= max(crit.lm_pred_rtol * c0, crit.lm_offset**2 * idx.size * c0 / dof):
             break
+        if mu <= 1e-4 and _within_sigma(h, step, c0 / dof, crit.lm_step_sigma):
+            break
         trial = theta.copy()
         trial[idx] += step
         new = seg.evaluate(trial, cost_only=True)  # the derivatives only where the step is taken
@@ -571,6 +556,25 @@ def _lm(seg: _Segment, theta0: NDArray[np.float64], free: NDArray[np.bool_], cri
             if mu > 1e8:
                 break
     return theta, n_eval, cur
+
+
+def _within_sigma(h: NDArray[np.float64], step: NDArray[np.float64], s2: float, frac: float) -> bool:
+    """Whether ``step`` moves every parameter by at most ``frac`` of its standard deviation ``sqrt(s2 (h^-1)_ii)``
+    (``h`` the Gauss-Newton matrix ``J^T J``, ``s2`` the residual variance; False for ``frac <= 0`` and where
+    the inverse is needed and fails): :attr:`~ema_rig.identification.criteria.MLCriteria.lm_step_sigma`."""
+    if frac <= 0.0:
+        return False
+    lim = frac * frac * s2
+    d = np.diag(h)
+    # (h^-1)_ii >= 1 / h_ii for a positive definite h: within those bounds the step is within its fraction
+    # without the inverse (the usual case far from the minimum is decided by the inverse below)
+    if np.all(d > 0) and np.all(step * step * d <= lim):
+        return True
+    try:
+        var = np.diag(np.linalg.inv(h))
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.all(var > 0) and np.all(step * step <= lim * var))
 
 
 def _inv(h: NDArray[np.float64]) -> NDArray[np.float64] | None:
