@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..literals import FrfForm
-from .units import FORM_DIMS, MAX_UNIT_POWER, is_no_label, parse_unit
+from .units import FORM_DIMS, MAX_UNIT_POWER, Unit, force_factor, is_no_label, parse_unit
 from .units import G0 as G0  # re-exported: the writer scales by it
 from .units import response_unit as response_unit  # re-exported: read_uff58 checks --units with it
 
@@ -137,6 +137,8 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         if dims[2] == -1:  # the ordinate label already holds the whole FRF unit (per force)
             label_text = f"label {num_lab!r} (whole FRF unit)"
             num_dims = (dims[0], dims[1], 0)
+            if pd is not None:  # a denominator label must name the force the ordinate label is per
+                _check_per_force(num_lab, den_lab, pd)
         elif dims[2] == 0:
             num_dims = dims
             if pd is not None and pd.dims == (0, 0, 1):
@@ -231,6 +233,19 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         + den_text + " to SI"
     )
     return UnitDecision(form, fac * den_fac, text + _j(notes))
+
+
+def _check_per_force(num_lab: str, den_lab: str, pd: Unit) -> None:
+    """Refuse a denominator label that contradicts the force of a whole-FRF ordinate label
+    (``'g/N'`` over ``'lbf'``): which of the two the values are per, nothing in the file says."""
+    if pd.dims != (0, 0, 1):
+        raise ValueError(f"denominator unit label {den_lab!r} is not a force unit (N, kN, lbf)")
+    per = 1.0 / force_factor(num_lab)
+    if not math.isclose(per, pd.factor, rel_tol=1e-12):  # both from the same exact unit constants
+        raise ValueError(
+            f"ordinate unit label {num_lab!r} is per {per:.10g} N but the denominator unit label {den_lab!r} is "
+            f"{pd.factor:.10g} N: the labels contradict each other, the values are not read"
+        )
 
 
 def _j(notes: list[str]) -> str:

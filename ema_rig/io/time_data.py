@@ -35,7 +35,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from os import PathLike
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,10 +46,12 @@ from ..literals import FrfForm
 from . import _uff_units
 from .layout import SensorLayout
 from .uff import UFFRecord, read_uff
+from .units import FORM_DIMS, parse_unit
 
 _FORCE_CODES = (13, 9)
 _RESPONSE_FORM: dict[int, FrfForm] = {12: "accelerance", 11: "mobility", 8: "receptance"}
 _DIMS = {"force": (0, 0, 1), "accelerance": (1, -2, 0), "mobility": (1, -1, 0), "receptance": (1, 0, 0)}
+_CODES_UNSTATED = (0, 1)  # ordinate specific data type "unknown" and "general": the unit label says what it is
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -113,6 +115,40 @@ def _scale(r: UFFRecord, kind: str, src: str, notes: list[str], units164: Mappin
     elif fac != 1.0:
         notes.append(f"dataset {r.index}: {how} x {fac:.10g} to SI")
     return float(fac)
+
+
+def _channel_kind(r: UFFRecord, src: str, notes: list[str]) -> Literal["force"] | FrfForm:
+    """``'force'`` or the FRF form of a time history's responses, from its ordinate type code or,
+    when the code is 0 (unknown) or 1 (general), from its unit label (``N``, ``m/s²``, ``g``).
+
+    Writers such as HBM catman and UFFFiles.jl store code 0 or 1 with a unit label (corpus:
+    ``hbm_catman_time.uff`` 1 / ``m/s²``, ``ufffiles_time.unv`` 0 / ``N``); the label then says what
+    the channel measures, as it does for an FRF (:func:`ema_rig.io._uff_units.decide`). A code 0/1
+    without a label, or with a label of another quantity (V, Pa), is refused.
+    """
+    code = r.header.get("ordinate_spec_data_type")
+    if code in _FORCE_CODES:
+        return "force"
+    if code in _RESPONSE_FORM:
+        return _RESPONSE_FORM[code]
+    lab = str(r.header.get("ordinate_axis_units_lab", ""))
+    unit = None
+    if code in _CODES_UNSTATED:
+        try:
+            unit = parse_unit(lab, "ordinate unit label")
+        except ValueError as exc:
+            raise UFFError(str(exc), file=src, dataset=r.index) from None
+    kind: Literal["force"] | FrfForm | None = None
+    if unit is not None:
+        kind = "force" if unit.dims == _DIMS["force"] else FORM_DIMS.get(unit.dims)
+    if unit is None or kind is None:
+        said = "" if code not in _CODES_UNSTATED else " and it has no unit label" if unit is None else (
+            f" and its unit label {lab.strip()!r} is not a force, acceleration, velocity or displacement")
+        raise UFFError(f"ordinate type {code} is neither a force (13, 9) nor a response (12, 11, 8){said}: "
+                       "cannot tell excitation from response", file=src, dataset=r.index)
+    notes.append(f"dataset {r.index}: ordinate type {code} states no quantity; its unit label {lab.strip()!r} "
+                 f"says {unit.quantity}")
+    return kind
 
 
 def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
@@ -186,15 +222,9 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
             raise UFFError(f"time history refused: {r.reason}", file=src, dataset=r.index)
         if r.response is None:
             raise UFFError("time history without a node/direction", file=src, dataset=r.index)
-        code = r.header.get("ordinate_spec_data_type")
-        if code in _FORCE_CODES:
-            kind = "force"
-        elif code in _RESPONSE_FORM:
-            kind = _RESPONSE_FORM[code]
+        kind = _channel_kind(r, src, notes)
+        if kind != "force":
             forms.add(kind)
-        else:
-            raise UFFError(f"ordinate type {code} is neither a force (13, 9) nor a response (12, 11, 8): "
-                           "cannot tell excitation from response", file=src, dataset=r.index)
         assert r.y is not None
         if np.iscomplexobj(r.y):
             raise UFFError("complex time history", file=src, dataset=r.index)

@@ -1,0 +1,159 @@
+"""UFF58 as other exporters write it: what the reader misread or accepted on 23abb6b (task q_user14).
+
+Every fixture is written by pyuff (the independent writer of ``tests/_pyuff_files.py``), with the
+header fields as the exporters named in each test store them; the oracle is the same samples
+written with the fields the reader already understood (codes 13/12, no percent, one force
+unit), or the unit definitions (1 lbf = 4.4482216152605 N exactly, 1 % = 0.01). Each test fails
+on 23abb6b (the failing behaviour is named in its docstring).
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _pyuff_files import write_with_pyuff
+
+from ema_rig.errors import UFFError
+from ema_rig.io.time_data import read_time_uff
+from ema_rig.io.uff import read_uff58
+
+FREQ = np.arange(1, 65) * 2.0  # Hz
+LBF = 4.4482216152605  # N, exact by definition
+# pyuff writes ASCII doubles with %20.11e (12 significant digits)
+RTOL_PYUFF = 1e-11
+
+
+def _set(**kw: object) -> dict:
+    import pyuff
+
+    args: dict = dict(
+        binary=0, func_type=4, rsp_node=11, rsp_dir=2, ref_node=1, ref_dir=2, ord_data_type=6, abscissa_spacing=1,
+        abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz", ordinate_spec_data_type=12,
+        ordinate_axis_units_lab="m/s^2", orddenom_spec_data_type=13, orddenom_axis_units_lab="N", x=FREQ,
+        id1="exporter variant", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
+    )
+    args.update(kw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return pyuff.prepare_58(**args)
+
+
+def _frf() -> np.ndarray:
+    w, wn = 2 * np.pi * FREQ, 2 * np.pi * 60.0
+    return -(w**2) / (wn**2 - w**2 + 2j * 0.02 * wn * w)  # accelerance of 1 kg, m/s^2/N
+
+
+def _coherence() -> np.ndarray:
+    return 0.9 + 0.09 * np.sin(FREQ / 10.0)  # 0.81..0.99, inside 0..1
+
+
+def _coh_set(values: np.ndarray, label: str) -> dict:
+    return _set(func_type=6, ord_data_type=4, ordinate_spec_data_type=0, ordinate_axis_units_lab=label,
+                orddenom_spec_data_type=0, orddenom_axis_units_lab="NONE", data=values.astype(float))
+
+
+# ----------------------------------------------------------------------------- coherence scale
+def test_coherence_labelled_percent_is_divided_by_100(tmp_path: Path) -> None:
+    """A coherence written in per cent (label '%', values 0..100) is the same coherence / 100.
+
+    23abb6b clipped every line to 1 (a perfect coherence everywhere, with a warning only).
+    """
+    p = write_with_pyuff(tmp_path / "pct.uff", [_set(data=_frf()), _coh_set(100.0 * _coherence(), "%")])
+    d = read_uff58(p)
+    assert d.coherence is not None
+    np.testing.assert_allclose(d.coherence[0, 0], _coherence(), rtol=RTOL_PYUFF)
+    assert not d.meta["warnings"]
+    assert any("'%'" in n for n in d.meta["notes"])
+
+
+def test_unlabelled_coherence_mostly_above_one_is_ignored_not_clipped(tmp_path: Path) -> None:
+    """Values 81..99 without a label are not a coherence 0..1 (a percentage that lost its label).
+
+    Clipping is a repair for isolated lines above 1 (vt_case1: 5 of 1601 lines); 23abb6b clipped
+    all 64 lines to 1 and attached that.
+    """
+    p = write_with_pyuff(tmp_path / "pct_nolabel.uff", [_set(data=_frf()), _coh_set(100.0 * _coherence(), "NONE")])
+    d = read_uff58(p)
+    assert d.coherence is None
+    assert any("not a coherence in 0..1" in n for n in d.meta["notes"])
+
+
+def test_coherence_with_a_dimensioned_unit_label_is_ignored(tmp_path: Path) -> None:
+    """A function-type-6 dataset labelled 'g' is not a ratio; 23abb6b attached it as coherence."""
+    p = write_with_pyuff(tmp_path / "coh_g.uff", [_set(data=_frf()), _coh_set(_coherence(), "g")])
+    d = read_uff58(p)
+    assert d.coherence is None
+    assert any("not dimensionless" in n for n in d.meta["notes"])
+
+
+def test_coherence_labelled_one_is_still_attached(tmp_path: Path) -> None:
+    """Label '1' (UFFFiles.jl's coherence, corpus ufffiles_coh.unv) is dimensionless: attached as is."""
+    p = write_with_pyuff(tmp_path / "coh_1.uff", [_set(data=_frf()), _coh_set(_coherence(), "1")])
+    d = read_uff58(p)
+    assert d.coherence is not None
+    np.testing.assert_allclose(d.coherence[0, 0], _coherence(), rtol=RTOL_PYUFF)
+
+
+# ----------------------------------------------------------------------- contradicting labels
+def test_whole_frf_label_contradicting_the_denominator_label_is_refused(tmp_path: Path) -> None:
+    """Ordinate label 'g/N' over denominator label 'lbf': per N or per lbf (x 4.45)? 23abb6b read it
+    per N without a word; now refused naming the file, the dataset and both labels."""
+    p = write_with_pyuff(tmp_path / "gN_lbf.uff", [_set(data=_frf() / 9.80665, ordinate_axis_units_lab="g/N",
+                                                        orddenom_axis_units_lab="lbf")])
+    with pytest.raises(UFFError, match=r"gN_lbf.uff.*dataset 0.*'g/N'.*'lbf'.*contradict"):
+        read_uff58(p)
+
+
+@pytest.mark.parametrize(("num", "den", "factor"), [("g/lbf", "lbf", 9.80665 / LBF), ("(m/s^2)/N", "N", 1.0),
+                                                     ("m/s^2/kN", "kN", 1e-3)])
+def test_whole_frf_label_agreeing_with_the_denominator_label_is_read(tmp_path: Path, num: str, den: str,
+                                                                      factor: float) -> None:
+    """The same force unit in both labels (LMS / m+p style) is read once, not twice."""
+    h = _frf()
+    p = write_with_pyuff(tmp_path / "ok.uff", [_set(data=h / factor, ordinate_axis_units_lab=num,
+                                                    orddenom_axis_units_lab=den)])
+    np.testing.assert_allclose(read_uff58(p).frf[0, 0], h, rtol=RTOL_PYUFF)
+
+
+# ------------------------------------------------------------------------------ time histories
+FS = 512.0
+
+
+def _time_sets(codes: tuple[int, int], labels: tuple[str, str]) -> list[dict]:
+    rng = np.random.default_rng(14)
+    n = 256
+    t = np.arange(n) / FS
+    x, y = rng.standard_normal(n), rng.standard_normal(n)
+    out = []
+    for node, code, lab, data in ((1, codes[0], labels[0], x), (11, codes[1], labels[1], y)):
+        out.append(_set(func_type=1, ord_data_type=4, rsp_node=node, rsp_dir=2, ref_node=0, ref_dir=0,
+                        abscissa_spec_data_type=17, abscissa_axis_units_lab="s", abscissa_inc=1.0 / FS, x=t,
+                        ordinate_spec_data_type=code, ordinate_axis_units_lab=lab, orddenom_spec_data_type=0,
+                        orddenom_axis_units_lab="NONE", data=data))
+    return out
+
+
+@pytest.mark.parametrize("codes", [(0, 0), (1, 1), (0, 1)])
+def test_time_history_quantity_from_its_label_when_the_code_states_none(tmp_path: Path,
+                                                                        codes: tuple[int, int]) -> None:
+    """HBM catman (code 1, 'm/s²') and UFFFiles.jl (code 0, 'N') state the quantity in the unit
+    label only; 23abb6b refused the file ("cannot tell excitation from response"). The result must
+    equal the same samples written with codes 13 / 12."""
+    ref = read_time_uff(write_with_pyuff(tmp_path / "coded.uff", _time_sets((13, 12), ("N", "m/s²"))))
+    got = read_time_uff(write_with_pyuff(tmp_path / "label.uff", _time_sets(codes, ("N", "m/s²"))))
+    assert got.in_dofs == ref.in_dofs and got.out_dofs == ref.out_dofs and got.frf_form == "accelerance"
+    np.testing.assert_array_equal(got.force, ref.force)
+    np.testing.assert_array_equal(got.response, ref.response)
+    assert any("unit label 'N' says force" in n for n in got.notes)
+
+
+@pytest.mark.parametrize(("labels", "match"), [(("V", "m/s²"), "'V' not understood"),
+                                                (("NONE", "m/s²"), "no unit label")])
+def test_time_history_without_a_quantity_still_refused(tmp_path: Path, labels: tuple[str, str], match: str) -> None:
+    """Code 0 with a voltage or without a label says nothing usable: refused, naming file and dataset."""
+    p = write_with_pyuff(tmp_path / "volt.uff", _time_sets((0, 12), labels))
+    with pytest.raises(UFFError, match=rf"volt.uff.*dataset 0.*{match}"):
+        read_time_uff(p)
