@@ -157,3 +157,35 @@ def test_time_history_without_a_quantity_still_refused(tmp_path: Path, labels: t
     p = write_with_pyuff(tmp_path / "volt.uff", _time_sets((0, 12), labels))
     with pytest.raises(UFFError, match=rf"volt.uff.*dataset 0.*{match}"):
         read_time_uff(p)
+
+
+# ------------------------------------------------------------------ a unit system written last
+def _u164(length: float, force: float) -> dict:
+    import pyuff
+
+    u = pyuff.prepare_164(units_code=2, units_description="Inch (pound f)" if length != 1.0 else "SI", temp_mode=2,
+                          length=length, force=force, temp=1.8, temp_offset=459.67)
+    u["type"] = 164
+    return u
+
+
+def test_frf_without_labels_followed_by_an_inch_dataset_164_is_refused(tmp_path: Path) -> None:
+    """A dataset 164 sets the units of what follows it; one written after the unlabelled FRFs may be
+    meant for them (x 4.45 / 39.4 apart). 23abb6b read the FRF as SI, saying "no dataset 164"."""
+    frf = _set(data=_frf(), ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE")
+    p = write_with_pyuff(tmp_path / "last164.uff", [frf, _u164(39.37007874015748, 0.2248089430997105)])
+    with pytest.raises(UFFError, match=r"last164.uff.*dataset 0.*dataset 1 \(164.*follows it"):
+        read_uff58(p)
+    # the same dataset 164 before the FRF applies to it; an SI dataset 164 after it changes nothing
+    p = write_with_pyuff(tmp_path / "first164.uff", [_u164(39.37007874015748, 0.2248089430997105), frf])
+    np.testing.assert_allclose(read_uff58(p).frf[0, 0], _frf() * 0.0254 / LBF, rtol=RTOL_PYUFF)
+    p = write_with_pyuff(tmp_path / "si164.uff", [frf, _u164(1.0, 1.0)])
+    np.testing.assert_allclose(read_uff58(p).frf[0, 0], _frf(), rtol=RTOL_PYUFF)
+
+
+def test_time_history_without_labels_followed_by_a_dataset_164_is_refused(tmp_path: Path) -> None:
+    """The same for time histories (the ``frf`` command's input)."""
+    sets = _time_sets((13, 12), ("NONE", "NONE"))
+    p = write_with_pyuff(tmp_path / "t_last164.uff", [*sets, _u164(39.37007874015748, 0.2248089430997105)])
+    with pytest.raises(UFFError, match=r"t_last164.uff.*dataset 0.*dataset 2 \(164.*follows it"):
+        read_time_uff(p)

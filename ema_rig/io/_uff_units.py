@@ -10,7 +10,7 @@ force) gives the quantity. Code and label must agree; when they do not, the rig 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,6 +46,37 @@ SI_ASSUMED = "no unit label and no dataset 164: SI (m, N) assumed"
 """The unit decision of a dataset whose units nothing in the file states."""
 ORDINATE_SI_ASSUMED = "no ordinate unit label and no dataset 164: SI (m) assumed for the ordinate"
 """The unit decision of a dataset whose file states the denominator's unit only (a label, lbf or kN)."""
+
+
+def trailing_units_problem(records: Sequence[Any], index: int) -> str | None:
+    """Why a dataset that states no units and has no dataset 164 before it cannot be read as SI, or None.
+
+    A dataset 164 sets the units of the datasets after it (I-DEAS universal file format); one
+    that only follows the dataset (a writer that puts the unit system last) may or may not be
+    meant for it, and its factors would change the values. SI is assumed only when no such
+    dataset 164 with non-SI factors follows.
+
+    Parameters
+    ----------
+    records : sequence of UFFRecord
+        Every dataset of the file, in file order.
+    index : int
+        The dataset whose units nothing before it states.
+
+    Returns
+    -------
+    str or None
+        One line naming the dataset 164, for the refusal.
+    """
+    for r in records:
+        if r.index > index and r.type == 164 and r.status == "read":
+            h = r.header
+            if (h["length_factor"], h["force_factor"]) != (1.0, 1.0):
+                return (f"no unit label and no dataset 164 before it, but dataset {r.index} (164, "
+                        f"{h['unit_description']!r}: length factor {h['length_factor']:.10g}, force factor "
+                        f"{h['force_factor']:.10g}) follows it: a dataset 164 sets the units of the datasets "
+                        "after it, so whether these are SI or its units the file does not say")
+    return None
 
 
 def _code_name(code: int) -> str:

@@ -103,14 +103,19 @@ class TimeData:
                 f"{self.n_records} record(s) of {self.n_samples} samples at {self.fs:g} Hz)")
 
 
-def _scale(r: UFFRecord, kind: str, src: str, notes: list[str], units164: Mapping[str, Any] | None) -> float:
-    """SI factor of one channel's values: its unit label, else the dataset 164 in force, else 1."""
+def _scale(r: UFFRecord, kind: str, src: str, notes: list[str], units164: Mapping[str, Any] | None,
+           records: tuple[UFFRecord, ...]) -> float:
+    """SI factor of one channel's values: its unit label, else the dataset 164 in force, else 1
+    (unless a dataset 164 follows: :func:`~ema_rig.io._uff_units.trailing_units_problem`)."""
     try:
         fac, how = _uff_units.ordinate_factor(dict(r.header), _DIMS[kind], None if units164 is None
                                               else dict(units164))
     except ValueError as exc:
         raise UFFError(str(exc), file=src, dataset=r.index) from None
     if how.startswith("no unit label"):
+        trailing = _uff_units.trailing_units_problem(records, r.index)
+        if trailing is not None:
+            raise UFFError(trailing, file=src, dataset=r.index)
         notes.append(f"dataset {r.index}: no unit label and no dataset 164; values used as stored (SI assumed)")
     elif fac != 1.0:
         notes.append(f"dataset {r.index}: {how} x {fac:.10g} to SI")
@@ -234,7 +239,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
         elif abs(dt - (dt0 or dt)) > 1e-9 * dt or n != n0:
             raise UFFError(f"sampling ({n} samples, dt {dt:g} s) differs from dataset {first.index} "
                            f"({n0} samples, dt {dt0:g} s)", file=src, dataset=r.index)
-        fac = _scale(r, "force" if kind == "force" else kind, src, notes, current164)
+        fac = _scale(r, kind, src, notes, current164, uf.records)
         dof = r.response
         sign = float(dof.sign)
         if rig is not None:

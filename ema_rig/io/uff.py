@@ -636,6 +636,10 @@ def _frf_datasets(uf: UFFFile, src: str, pref: str | None,
             dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref, assumed)
         except ValueError as exc:
             raise UFFError(str(exc), file=src, dataset=r.index) from None
+        if _uff_units.SI_ASSUMED in dec.text or _uff_units.ORDINATE_SI_ASSUMED in dec.text:
+            trailing = _uff_units.trailing_units_problem(uf.records, r.index)
+            if trailing is not None:
+                raise UFFError(trailing, file=src, dataset=r.index)
         used.append((r, dec, current164))
     if not used:
         kinds = sorted({FUNCTION_TYPES.get(r.function_type, str(r.function_type)) for r in uf.records
