@@ -122,15 +122,17 @@ def test_whole_frf_label_agreeing_with_the_denominator_label_is_read(tmp_path: P
 FS = 512.0
 
 
-def _time_sets(codes: tuple[int, int], labels: tuple[str, str]) -> list[dict]:
+def _time_sets(codes: tuple[int, int], labels: tuple[str, str], *, spacing: int = 1, t0: float = 0.0,
+               jitter: float = 0.0) -> list[dict]:
     rng = np.random.default_rng(14)
     n = 256
-    t = np.arange(n) / FS
+    t = t0 + (np.arange(n) + jitter * rng.uniform(-1, 1, n)) / FS
     x, y = rng.standard_normal(n), rng.standard_normal(n)
     out = []
     for node, code, lab, data in ((1, codes[0], labels[0], x), (11, codes[1], labels[1], y)):
         out.append(_set(func_type=1, ord_data_type=4, rsp_node=node, rsp_dir=2, ref_node=0, ref_dir=0,
-                        abscissa_spec_data_type=17, abscissa_axis_units_lab="s", abscissa_inc=1.0 / FS, x=t,
+                        abscissa_spacing=spacing, abscissa_min=t0, abscissa_spec_data_type=17,
+                        abscissa_axis_units_lab="s", abscissa_inc=1.0 / FS, x=t,
                         ordinate_spec_data_type=code, ordinate_axis_units_lab=lab, orddenom_spec_data_type=0,
                         orddenom_axis_units_lab="NONE", data=data))
     return out
@@ -188,4 +190,27 @@ def test_time_history_without_labels_followed_by_a_dataset_164_is_refused(tmp_pa
     sets = _time_sets((13, 12), ("NONE", "NONE"))
     p = write_with_pyuff(tmp_path / "t_last164.uff", [*sets, _u164(39.37007874015748, 0.2248089430997105)])
     with pytest.raises(UFFError, match=r"t_last164.uff.*dataset 0.*dataset 2 \(164.*follows it"):
+        read_time_uff(p)
+
+
+# --------------------------------------------------------------- explicit (uneven-format) time axis
+@pytest.mark.parametrize("t0", [0.0, -0.05])
+def test_evenly_sampled_time_axis_written_explicitly_is_read(tmp_path: Path, t0: float) -> None:
+    """pyuff writes an explicit abscissa as the UFF58 spec says (E13.5: 6 significant digits), so the
+    steps of a 512 Hz record differ by up to 1e-8 s; 23abb6b refused every such file ("not evenly
+    spaced": steps equal to 1e-6 of dt). Oracle: the same samples with the header's even axis; the
+    sampling rate agrees within what 6 digits of the largest |t| (0.5 s) allow over the record."""
+    ref = read_time_uff(write_with_pyuff(tmp_path / "even.uff", _time_sets((13, 12), ("N", "g"), t0=t0)))
+    got = read_time_uff(write_with_pyuff(tmp_path / "explicit.uff", _time_sets((13, 12), ("N", "g"), spacing=0,
+                                                                                t0=t0)))
+    np.testing.assert_array_equal(got.force, ref.force)
+    np.testing.assert_array_equal(got.response, ref.response)
+    duration = 255 / FS
+    assert abs(got.fs - FS) / FS <= 2 * 5e-7 / duration  # two end points rounded to 5e-7 s (E13.5 at 0.1..1 s)
+
+
+def test_truly_uneven_time_axis_still_refused(tmp_path: Path) -> None:
+    """Sampling instants jittered by up to 1 % of a step are not an even record: refused, with the deviation."""
+    p = write_with_pyuff(tmp_path / "jitter.uff", _time_sets((13, 12), ("N", "g"), spacing=0, jitter=0.01))
+    with pytest.raises(UFFError, match=r"jitter.uff.*dataset 0.*not evenly spaced.*deviates by up to"):
         read_time_uff(p)

@@ -174,10 +174,17 @@ def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
         return t0, dt, n
     x = r.x
     assert x is not None
-    d = np.diff(x)
-    dt = float(d.mean())
-    if not dt > 0 or np.ptp(d) > 1e-6 * dt:
-        raise UFFError("time axis is not evenly spaced and increasing", file=src, dataset=r.index)
+    dt = float(x[-1] - x[0]) / (n - 1)
+    # an explicit abscissa is stored to 6 significant digits at worst (ASCII E13.5, UFF58 record
+    # 12; float32 is finer): even sampling written that way lies within half a unit of the sixth
+    # digit of the largest |t| of the line through its end points
+    top = float(np.max(np.abs(x)))
+    tol = 5e-6 * 10.0 ** np.floor(np.log10(top)) if top > 0 else 0.0
+    dev = float(np.max(np.abs(x - (x[0] + np.arange(n) * dt))))
+    if not (dt > 0 and np.all(np.diff(x) > 0) and dev <= 2.0 * tol):  # 2: both end points are rounded too
+        raise UFFError(f"time axis is not evenly spaced and increasing (deviates by up to {dev:.3g} s from even "
+                       f"sampling at {dt:.6g} s; its 6-digit rounding allows {2.0 * tol:.3g} s)",
+                       file=src, dataset=r.index)
     return float(x[0]) * tfac, dt * tfac, n
 
 
