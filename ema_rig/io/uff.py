@@ -571,7 +571,7 @@ def read_uff58(
         "ignored_channels": chans.ignored_channels,
         "ignored_datasets": ignored_datasets,
         "notes": notes,
-        "warnings": list(coh.warnings) + h_warnings,
+        "warnings": list(coh.warnings) + h_warnings + _sign_conflict_warning(chans.sign_conflicts),
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
@@ -700,6 +700,8 @@ class _Channels:
     out_order: list[DOF] = field(default_factory=list)
     in_order: list[DOF] = field(default_factory=list)
     sign_flips: list[str] = field(default_factory=list)
+    #: (dataset index, DOF as the file writes it, DOF as the rig file says) where the signs differ
+    sign_conflicts: list[tuple[int, DOF, DOF]] = field(default_factory=list)
     ignored_channels: list[str] = field(default_factory=list)
     #: Every response / reference DOF (positive) the file's FRF datasets name, kept or ignored.
     file_out: list[DOF] = field(default_factory=list)
@@ -734,6 +736,7 @@ def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
                     ch.sign_flips.append(
                         f"dataset {r.index}: file writes {fdof}, rig file says {rdof}: the rig's sign is used"
                     )
+                    ch.sign_conflicts.append((r.index, fdof, rdof))
             out_key, in_key = sensor.dof.positive(), rref.positive()
         else:
             so, si = rd.sign, fd.sign
@@ -753,6 +756,18 @@ def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
         if in_key not in ch.in_order:
             ch.in_order.append(in_key)
     return ch
+
+
+def _sign_conflict_warning(conflicts: list[tuple[int, DOF, DOF]]) -> list[str]:
+    """One result caveat when the rig file and the UFF file give a DOF opposite signs (DESIGN §3.1: the
+    rig file's DOF is the one "as written in the UFF file"); the rig's sign is used, so if the file is
+    right those FRFs are negated. Empty when they agree."""
+    if not conflicts:
+        return []
+    pairs = sorted({(str(f), str(g)) for _, f, g in conflicts})
+    shown = ", ".join(f"file {f} / rig {g}" for f, g in pairs[:4]) + (", ..." if len(pairs) > 4 else "")
+    return [f"rig file and UFF file give opposite signs for {len(pairs)} DOF(s) ({shown}) in {len(conflicts)} "
+            "dataset(s): the rig file's sign is used; if the UFF file is right, those FRFs are negated"]
 
 
 def _rig_order(ch: _Channels, rig: SensorLayout | None,
