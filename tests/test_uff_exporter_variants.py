@@ -214,3 +214,32 @@ def test_truly_uneven_time_axis_still_refused(tmp_path: Path) -> None:
     p = write_with_pyuff(tmp_path / "jitter.uff", _time_sets((13, 12), ("N", "g"), spacing=0, jitter=0.01))
     with pytest.raises(UFFError, match=r"jitter.uff.*dataset 0.*not evenly spaced.*deviates by up to"):
         read_time_uff(p)
+
+
+# ------------------------------------------------------------- records 8-11 without fixed columns
+def _free_format_axes(path: Path, axes: dict[int, str]) -> Path:
+    """Rewrite header records 8..11 (lines 10..13 after the dataset's type line) as given."""
+    lines = path.read_text().split("\n")
+    start = next(i for i, ln in enumerate(lines) if ln.strip() == "58")
+    for k, text in axes.items():
+        lines[start + k] = text
+    path.write_text("\n".join(lines))
+    return path
+
+
+def test_axis_records_written_blank_separated_keep_their_unit_labels(tmp_path: Path) -> None:
+    """Records 8..11 as "12 1 0 0 Acceleration g" (integers not at the I10,3I5 columns): 23abb6b read
+    the integers but took the labels from columns 27-46 / 48-67 (empty here), so 'g' was lost and the
+    FRF read as SI, 9.81x too small, saying "no unit label". Oracle: the fixed-column file."""
+    h = _frf()
+    fixed = write_with_pyuff(tmp_path / "fixed.uff", [_set(data=h / 9.80665, ordinate_axis_units_lab="g")])
+    free = _free_format_axes(write_with_pyuff(tmp_path / "free.uff", [_set(data=h / 9.80665,
+                                                                           ordinate_axis_units_lab="g")]),
+                             {8: "18 0 0 0 Frequency Hz", 9: "12 1 0 0 Acceleration g", 10: "13 0 1 0 Force N",
+                              11: "0 0 0 0 NONE NONE"})
+    np.testing.assert_array_equal(read_uff58(free).frf, read_uff58(fixed).frf)
+    np.testing.assert_allclose(read_uff58(free).frf[0, 0], h, rtol=RTOL_PYUFF)
+    # three words after the integers: axis label "Real Part" and unit "g", or "Real" and "Part g"? refused
+    amb = _free_format_axes(write_with_pyuff(tmp_path / "amb.uff", [_set(data=h)]), {9: "12 1 0 0 Real Part g"})
+    with pytest.raises(UFFError, match=r"amb.uff.*dataset 0.*record 9.*3 word\(s\).*ambiguous"):
+        read_uff58(amb)

@@ -173,18 +173,33 @@ def _parse_record7(line: bytes) -> dict[str, Any]:
 
 
 def _parse_axis(line: str, name: str, rec: int) -> dict[str, Any]:
-    """Records 8..11: spec data type, length/force/temperature exponents, axis and unit labels."""
+    """Records 8..11: spec data type, length/force/temperature exponents, axis and unit labels.
+
+    The format is I10, 3I5, 1X, 20A1, 1X, 20A1: the labels are read at their columns. A line whose
+    integers are not at their columns (written blank-separated) has its labels after the fourth
+    integer, as two words (axis label, unit label) or none; any other number of words cannot be
+    split into the two labels and is refused rather than losing the unit label.
+    """
     try:
         vals = [int(line[0:10]), int(line[10:15]), int(line[15:20]), int(line[20:25])]
+        axis_lab, unit_lab = line[26:46].strip(), line[47:67].strip()
     except ValueError:
-        vals = _ints(line, 4, f"record {rec} ({name} axis)")
+        what = f"record {rec} ({name} axis)"
+        vals = _ints(line, 4, what)
+        words = line.split()[4:]
+        if len(words) not in (0, 2):
+            raise _Refuse(
+                f"{what}: written without its fixed columns, with {len(words)} word(s) after the four integers "
+                f"({' '.join(words)[:60]!r}): which is the axis label and which the unit label is ambiguous"
+            ) from None
+        axis_lab, unit_lab = (words[0], words[1]) if words else ("", "")
     return {
         f"{name}_spec_data_type": vals[0],
         f"{name}_len_unit_exp": vals[1],
         f"{name}_force_unit_exp": vals[2],
         f"{name}_temp_unit_exp": vals[3],
-        f"{name}_axis_lab": line[26:46].strip(),
-        f"{name}_axis_units_lab": line[47:67].strip(),
+        f"{name}_axis_lab": axis_lab,
+        f"{name}_axis_units_lab": unit_lab,
     }
 
 
