@@ -18,7 +18,7 @@ from _pyuff_files import write_with_pyuff
 
 from ema_rig.errors import UFFError
 from ema_rig.io.time_data import read_time_uff
-from ema_rig.io.uff import read_uff58
+from ema_rig.io.uff import inspect_uff, read_uff58
 
 FREQ = np.arange(1, 65) * 2.0  # Hz
 LBF = 4.4482216152605  # N, exact by definition
@@ -105,6 +105,8 @@ def test_whole_frf_label_contradicting_the_denominator_label_is_refused(tmp_path
                                                         orddenom_axis_units_lab="lbf")])
     with pytest.raises(UFFError, match=r"gN_lbf.uff.*dataset 0.*'g/N'.*'lbf'.*contradict"):
         read_uff58(p)
+    ds = inspect_uff(p)["datasets"][0]  # inspect says the same of the dataset
+    assert ds["status"] == "refused" and "contradict" in ds["reason"]
 
 
 @pytest.mark.parametrize(("num", "den", "factor"), [("g/lbf", "lbf", 9.80665 / LBF), ("(m/s^2)/N", "N", 1.0),

@@ -296,7 +296,8 @@ def frf_header_problem(h: Mapping[str, Any]) -> str | None:
     magnitude, a real part or (Re, Im) pairs under a wrong type code, never the FRF itself
     (the UFF corpus' ``ufffiles_case{1,2,5,6}`` hold the complex FRF of their ``case{3,4,7,8}``
     twins as interleaved pairs: 1602 real "lines" for 801, up to twice the frequency). Its
-    abscissa must be a frequency (:func:`abscissa_factor`).
+    abscissa must be a frequency (:func:`abscissa_factor`), and a denominator unit label must name the
+    force a whole-FRF ordinate label (``g/N``) is per.
 
     Parameters
     ----------
@@ -315,6 +316,10 @@ def frf_header_problem(h: Mapping[str, Any]) -> str | None:
                 "wrong type code) are not read rather than taken as an FRF with zero imaginary part")
     try:
         abscissa_factor(dict(h))
+        num = parse_unit(str(h.get("ordinate_axis_units_lab", "")), "ordinate unit label")
+        den = parse_unit(str(h.get("orddenom_axis_units_lab", "")), "denominator unit label")
+        if num is not None and num.dims[2] == -1 and den is not None:
+            _check_per_force(num.label, den.label, den)
     except ValueError as exc:
         return str(exc)
     return None
