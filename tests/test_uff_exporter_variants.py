@@ -245,3 +245,26 @@ def test_axis_records_written_blank_separated_keep_their_unit_labels(tmp_path: P
     amb = _free_format_axes(write_with_pyuff(tmp_path / "amb.uff", [_set(data=h)]), {9: "12 1 0 0 Real Part g"})
     with pytest.raises(UFFError, match=r"amb.uff.*dataset 0.*record 9.*3 word\(s\).*ambiguous"):
         read_uff58(amb)
+
+
+# ------------------------------------------------------------------------ DOFs in entity names
+@pytest.mark.parametrize(("rsp", "ref", "sign"), [("11+Y", "1:+Y", 1.0), ("11:-Y", "1+Y", -1.0),
+                                                  ("11Y-", ".1.Y+", -1.0)])
+def test_dof_in_entity_name_with_the_sign_before_the_axis(tmp_path: Path, rsp: str, ref: str, sign: float) -> None:
+    """Node and direction fields 0, the DOF in the entity name as ema_rig itself writes a DOF ('11+Y') or
+    with a colon ('1:+Y'): 23abb6b read these as DOF 0 (scalar) without a word (the corpus form
+    '.1.Z-' was read). Oracle: the node/direction fields 11 / +-2 and 1 / 2."""
+    h = _frf()
+    p = write_with_pyuff(tmp_path / "ent.uff", [_set(data=sign * h, rsp_node=0, rsp_dir=0, ref_node=0, ref_dir=0,
+                                                     rsp_ent_name=rsp, ref_ent_name=ref)])
+    d = read_uff58(p)
+    assert [str(x) for x in d.out_dofs] == ["11+Y"] and [str(x) for x in d.in_dofs] == ["1+Y"]
+    np.testing.assert_allclose(d.frf[0, 0], h, rtol=RTOL_PYUFF)
+
+
+def test_entity_name_that_is_no_dof_is_noted(tmp_path: Path) -> None:
+    """'Point11' with node and direction 0: DOF 0 as before, but no longer silently."""
+    p = write_with_pyuff(tmp_path / "pt.uff", [_set(data=_frf(), rsp_node=0, rsp_dir=0, rsp_ent_name="Point11")])
+    d = read_uff58(p)
+    assert str(d.out_dofs[0]) == "0"
+    assert any("'Point11' is not read as a DOF" in n for n in d.meta["notes"])
