@@ -16,7 +16,9 @@ Notes
 -----
 The datasets are read by :func:`ema_rig.io.uff.read_uff` (the checked parser). A dataset whose
 ordinate type is 13 (excitation force) or 9 (reaction force) is a force channel; 12, 11 or 8
-(acceleration, velocity, displacement) a response channel. A DOF that appears k times is k
+(acceleration, velocity, displacement) a response channel; with type 0 (unknown) or 1 (general)
+its unit label decides (``N`` a force, ``m/s²`` or ``g`` a response). An explicit (uneven-format)
+time axis is accepted as even sampling within the rounding of its 6 digits. A DOF that appears k times is k
 records (e.g. k impacts, each written as its own force and response datasets); record r pairs
 the r-th dataset of every channel.
 
@@ -52,6 +54,10 @@ _FORCE_CODES = (13, 9)
 _RESPONSE_FORM: dict[int, FrfForm] = {12: "accelerance", 11: "mobility", 8: "receptance"}
 _DIMS = {"force": (0, 0, 1), "accelerance": (1, -2, 0), "mobility": (1, -1, 0), "receptance": (1, 0, 0)}
 _CODES_UNSTATED = (0, 1)  # ordinate specific data type "unknown" and "general": the unit label says what it is
+EXPLICIT_ABSCISSA_DIGITS = 6
+"""Significant digits an explicit (uneven-format) time abscissa carries at worst: ASCII ``E13.5``, the
+format UFF58 record 12 prescribes for it (float32 in 58b is finer). Even sampling written this way is
+accepted within its rounding, see :func:`_time_axis`."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -179,7 +185,7 @@ def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
     # 12; float32 is finer): even sampling written that way lies within half a unit of the sixth
     # digit of the largest |t| of the line through its end points
     top = float(np.max(np.abs(x)))
-    tol = 5e-6 * 10.0 ** np.floor(np.log10(top)) if top > 0 else 0.0
+    tol = 0.5 * 10.0 ** (np.floor(np.log10(top)) + 1 - EXPLICIT_ABSCISSA_DIGITS) if top > 0 else 0.0
     dev = float(np.max(np.abs(x - (x[0] + np.arange(n) * dt))))
     if not (dt > 0 and np.all(np.diff(x) > 0) and dev <= 2.0 * tol):  # 2: both end points are rounded too
         raise UFFError(f"time axis is not evenly spaced and increasing (deviates by up to {dev:.3g} s from even "

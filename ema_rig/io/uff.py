@@ -506,18 +506,21 @@ def read_uff58(
     ``mm s^-2``, ``mg``, ``in/s2/lbf`` ...); a label that cannot be read is an error naming the
     dataset and the label, never taken as SI; without a label, the scale comes from the latest
     preceding dataset 164 (its length/force factors and the header's unit exponents), else SI is
-    assumed. The abscissa label is read by the same grammar (Hz, kHz, rad/s; a time unit is an
+    assumed, unless a dataset 164 with other units follows (then refused: whether it was meant for
+    the datasets before it the file does not say). A whole-FRF ordinate label (``g/N``) over a
+    denominator label naming another force (``lbf``) is refused. The abscissa label is read by the same grammar (Hz, kHz, rad/s; a time unit is an
     error). Each decision is recorded in ``meta["unit_decisions"]``.
 
     Signs. Without a rig, a negative direction in the file (``13-Y``) is flipped into the
     positive axis (values x -1, DOF ``13+Y``). With a rig, the rig's sign decides: a sensor
     ``13-Y`` is flipped whether the file writes 13-Y or 13+Y (a disagreement is noted in
-    ``meta["sign_flips"]``); the same holds for the references ``rig.radial`` / ``rig.axial``.
+    ``meta["sign_flips"]`` and is one line of ``meta["warnings"]``, a caveat of the results); the same holds for the references ``rig.radial`` / ``rig.axial``.
     File responses with no rig sensor are ignored with a :class:`~ema_rig.errors.UnitWarning`.
 
     Coherence. Datasets of function type 6 are attached to the FRF of the same (response,
     reference) pair (mapped like the FRFs, sign-free) when they lie on the same frequency lines;
-    values above 1 (which real analysers write) or below 0 are clipped into 0..1 and listed in
+    a record labelled ``%`` is divided by 100, one with another unit label or with most lines above 1
+    is ignored with a note; values above 1 (which real analysers write) or below 0 are clipped into 0..1 and listed in
     ``meta["warnings"]`` (a result caveat, not a Python warning: reading a real file is routine). A coherence
     whose pair has no FRF, whose lines differ, or that is refused is ignored with a note. The
     coherence is attached only when every FRF has one (else ``coherence`` is None, with a note
