@@ -136,6 +136,8 @@ VARIANTS: dict[str, tuple[bytes, np.ndarray | None, str]] = {
                          "labels contradict"),
     "inch164_last": (ascii58(H, yaxis=(12, 1, 0, "A", "NONE"), daxis=(13, 0, 1, "F", "NONE")) + INCH164, None,
                      "dataset 164 after"),
+    "inch164_whole_exps": (INCH164 + ascii58(H, yaxis=(12, 1, -1, "A", "NONE"), daxis=(13, 0, 0, "F", "NONE")), None,
+                           "FRF exponents 1,-1 / 0,0 under 164"),
     "free_axes_3_words": (_free_axes(ascii58()).replace(b"12 1 0 0 Acceleration g", b"12 1 0 0 Real Part g"), None,
                           "ambiguous labels"),
     "real_valued_frf": (ascii58(np.abs(H) + 0j, odt=4), None, "FRF as real values"),

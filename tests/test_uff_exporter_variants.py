@@ -268,3 +268,21 @@ def test_entity_name_that_is_no_dof_is_noted(tmp_path: Path) -> None:
     d = read_uff58(p)
     assert str(d.out_dofs[0]) == "0"
     assert any("'Point11' is not read as a DOF" in n for n in d.meta["notes"])
+
+
+def test_frf_unit_exponents_of_the_whole_frf_under_an_inch_dataset_164_are_refused(tmp_path: Path) -> None:
+    """Ordinate exponents length 1, force -1 (the whole FRF's) with the denominator's 0, 0, under an
+    inch/lbf dataset 164: 23abb6b scaled by lbf^-2 (the ordinate's -1 and the denominator's assumed 1),
+    a factor 4.45 off in one direction or the other. Now refused; the spec's 1, 0 over 0, 1 (and pyuff's
+    unfilled 0s) still read with the inch/lbf factor (oracle: 1 in = 0.0254 m, 1 lbf = 4.4482216152605 N)."""
+    inch = _u164(39.37007874015748, 0.2248089430997105)
+    unlabelled = dict(ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE")
+    whole = _set(data=_frf(), ordinate_len_unit_exp=1, ordinate_force_unit_exp=-1, orddenom_len_unit_exp=0,
+                 orddenom_force_unit_exp=0, **unlabelled)
+    with pytest.raises(UFFError, match=r"whole.uff.*dataset 1.*ordinate length 1, force -1.*not clear"):
+        read_uff58(write_with_pyuff(tmp_path / "whole.uff", [inch, whole]))
+    for exps in ((1, 0, 0, 1), (0, 0, 0, 0)):
+        spec = _set(data=_frf(), ordinate_len_unit_exp=exps[0], ordinate_force_unit_exp=exps[1],
+                    orddenom_len_unit_exp=exps[2], orddenom_force_unit_exp=exps[3], **unlabelled)
+        d = read_uff58(write_with_pyuff(tmp_path / "spec.uff", [inch, spec]))
+        np.testing.assert_allclose(d.frf[0, 0], _frf() * 0.0254 / LBF, rtol=RTOL_PYUFF)

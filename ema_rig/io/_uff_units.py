@@ -258,12 +258,34 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
             f"dataset 164 unit factors (length {lf:g}, force {ff:g}) with exponents length {n_len - d_len}, "
             f"force {n_force - d_force} give no finite non-zero conversion"
         )
+    if fac != 1.0:  # the exponents decide the factor: they must be those of a response per force
+        _check_frf_exponents(h, form, pd is None)
     text += (
         f"; units of dataset 164 ({units164['unit_description']}: length factor {lf:.10g}, force factor "
         f"{ff:.10g}) with exponents length {n_len - d_len}, force {n_force - d_force}: x {fac:.10g}"
         + den_text + " to SI"
     )
     return UnitDecision(form, fac * den_fac, text + _j(notes))
+
+
+def _check_frf_exponents(h: Mapping[str, Any], form: FrfForm, den_unlabelled: bool) -> None:
+    """Refuse header unit exponents that do not describe a response per force.
+
+    Records 9 and 10 give the length and force exponents of the ordinate (numerator) and of the
+    denominator; for a displacement, velocity or acceleration per force they are length 1, force 0
+    over length 0, force 1 (time is always in seconds). 0 in a length exponent of the ordinate or
+    the force exponent of the denominator means "not filled in" (pyuff writes 0 everywhere) and
+    is read as the expected value. Other values (e.g. the whole FRF's exponents, length 1 and force
+    -1, in the ordinate) would make dataset 164 scale the values by a wrong power of its factors.
+    """
+    got = (h["ordinate_len_unit_exp"] or 1, h["ordinate_force_unit_exp"])
+    den = (h["orddenom_len_unit_exp"], h["orddenom_force_unit_exp"] or 1) if den_unlabelled else (0, 1)
+    if got != (1, 0) or den != (0, 1):
+        raise ValueError(
+            f"unit exponents (ordinate length {got[0]}, force {got[1]}; denominator length {den[0]}, force {den[1]}) "
+            f"do not describe a {form} (a response per force: length 1, force 0 over length 0, force 1): the "
+            "factor of dataset 164 that applies is not clear"
+        )
 
 
 def _check_per_force(num_lab: str, den_lab: str, pd: Unit) -> None:
