@@ -74,6 +74,10 @@ def test_rig_minus_y_sensor_in_g_comes_back_flipped_in_si(tmp_path: Path, rig_fi
     assert all("9.80665" in u for u in d.meta["unit_decisions"])
     disagree = [s for s in d.meta["sign_flips"] if "rig file says 13-Y" in s]
     assert len(disagree) == (2 if file_sign > 0 else 0)  # noted when file and rig disagree
+    # ... and a caveat of the result (task q_user14; 23abb6b had none): one line naming file and rig DOF
+    conflict = [w for w in d.meta["warnings"] if "opposite signs" in w]
+    assert len(conflict) == (1 if file_sign > 0 else 0)
+    assert file_sign < 0 or "file 13+Y / rig 13-Y" in conflict[0]
 
 
 def test_without_rig_negative_direction_is_flipped(tmp_path: Path) -> None:

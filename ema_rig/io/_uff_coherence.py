@@ -2,8 +2,10 @@
 
 A coherence dataset belongs to the FRF with the same (response, reference) pair, mapped like the
 FRFs (signs do not matter: coherence is |gamma|^2), on the same frequency lines. Values above 1
-(some analysers write them) and below 0 are clipped, and flagged when they exceed the range by
-more than rounding (``ROUNDING``); anything that cannot be attached
+(some analysers write them at isolated lines) and below 0 are clipped, and flagged when they exceed
+the range by more than rounding (``ROUNDING``); a record labelled ``%`` is divided by 100, one with
+another unit label or with most of its lines above 1 (a percentage without its label) is not a
+coherence 0..1 and is ignored; anything that cannot be attached
 is ignored with a note saying why, never an error: the FRFs do not depend on it.
 """
 
@@ -19,6 +21,7 @@ from numpy.typing import NDArray
 
 from ..dof import DOF
 from . import _uff_units
+from .units import parse_unit
 
 _AVERAGES = re.compile(
     r"(?:\b(?:n_?avg|avgs?|averages?|number\s+of\s+averages|no\.?\s*of\s+averages)\b\s*[:=]?\s*(\d{1,6})\b"
@@ -115,6 +118,18 @@ def attach(
             )
             continue
         y = np.real(np.asarray(r.y, dtype=np.complex128 if np.iscomplexobj(r.y) else np.float64))
+        scale = _percent_scale(r)
+        if scale != 1.0:
+            y = y * scale
+            notes.append(f"dataset {r.index}: coherence unit label '%': values x {scale:g}")
+        if float(np.median(y)) > 1.0 + ROUNDING:
+            # clipping repairs isolated lines above 1; a record mostly above 1 is on another scale
+            notes.append(
+                f"dataset {r.index}: coherence {key[0]} / {key[1]} ignored: {int(np.sum(y > 1.0 + ROUNDING))} of "
+                f"{y.size} lines above 1 (median {float(np.median(y)):.6g}): not a coherence in 0..1 (a percentage "
+                "without a '%' label?)"
+            )
+            continue
         hi, lo = y > 1.0 + ROUNDING, y < -ROUNDING
         if hi.any():
             warns.append(
@@ -145,10 +160,36 @@ def attach(
     return Coherence(coh, tuple(sorted(filled.values())), tuple(notes), tuple(warns))
 
 
+_PERCENT = ("%", "percent")
+"""Coherence unit labels that mean per cent (values 0..100)."""
+
+
+def _percent_scale(r: Any) -> float:
+    """0.01 for a coherence labelled in per cent, else 1 (its label was checked by :func:`_unusable`)."""
+    return 0.01 if str(r.header.get("ordinate_axis_units_lab", "")).strip().lower() in _PERCENT else 1.0
+
+
+def _unit_problem(r: Any) -> str | None:
+    """Why a coherence's ordinate unit label does not fit a coherence (dimensionless or %), or None."""
+    lab = str(r.header.get("ordinate_axis_units_lab", ""))
+    if lab.strip().lower() in _PERCENT:
+        return None
+    try:
+        u = parse_unit(lab, "coherence unit label")
+    except ValueError as exc:
+        return str(exc).split(";", 1)[0]
+    if u is not None and (u.dims != (0, 0, 0) or u.factor != 1.0):
+        return f"unit label {lab.strip()!r} is not dimensionless (a coherence is a ratio 0..1)"
+    return None
+
+
 def _unusable(r: Any, freq: NDArray[np.float64], tol: float) -> str | None:
     """Why a coherence record cannot be attached (None if it can)."""
     if r.status != "read":
         return f"refused ({r.reason})"
+    unit = _unit_problem(r)
+    if unit is not None:
+        return unit
     if r.response is None or r.reference is None:
         return "response or reference DOF missing"
     assert r.x is not None and r.y is not None

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..dof import AXIS_NAMES, DOF
+from .units import is_no_label
 
 _EOL = re.compile(rb"\r\n|\r|\n")
 # a delimiter line: optional blanks, -1, optional blanks, end of line (or of file)
@@ -37,7 +38,9 @@ _GAP = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*")
 _DELIM_AT = re.compile(rb"[ \t]*-1[ \t]*(?=\r|\n|\Z)")
 _DEXP = bytes.maketrans(b"dD", b"eE")
 _TYPE_LINE = re.compile(rb"^\s*(\d+)\s*([bB]?)")
-_ENTITY_DOF = re.compile(r"^\.?(\d+)\.?(RX|RY|RZ|X|Y|Z)([+-]?)$", re.I)
+# a DOF in an entity name: node, optional '.' or ':', axis with its sign after ('1.Z-', '.1.Z+', '1Z')
+# or before it ('1+Z', '1:-Y', ema_rig's own way of writing a DOF)
+_ENTITY_DOF = re.compile(r"^\.?(\d+)[.:]?(?:(RX|RY|RZ|X|Y|Z)([+-]?)|([+-])(RX|RY|RZ|X|Y|Z))$", re.I)
 # a byte that cannot be part of an ASCII data section (numbers incl. NaN/inf, blanks, line ends)
 _NOT_DATA = re.compile(rb"[^0-9eEdD+\-. \t\r\n\x0b\x0cnNaAiIfFtTyY]")
 # a closing -1 that follows a binary payload exactly (at most one line end before it)
@@ -173,18 +176,33 @@ def _parse_record7(line: bytes) -> dict[str, Any]:
 
 
 def _parse_axis(line: str, name: str, rec: int) -> dict[str, Any]:
-    """Records 8..11: spec data type, length/force/temperature exponents, axis and unit labels."""
+    """Records 8..11: spec data type, length/force/temperature exponents, axis and unit labels.
+
+    The format is I10, 3I5, 1X, 20A1, 1X, 20A1: the labels are read at their columns. A line whose
+    integers are not at their columns (written blank-separated) has its labels after the fourth
+    integer, as two words (axis label, unit label) or none; any other number of words cannot be
+    split into the two labels and is refused rather than losing the unit label.
+    """
     try:
         vals = [int(line[0:10]), int(line[10:15]), int(line[15:20]), int(line[20:25])]
+        axis_lab, unit_lab = line[26:46].strip(), line[47:67].strip()
     except ValueError:
-        vals = _ints(line, 4, f"record {rec} ({name} axis)")
+        what = f"record {rec} ({name} axis)"
+        vals = _ints(line, 4, what)
+        words = line.split()[4:]
+        if len(words) not in (0, 2):
+            raise _Refuse(
+                f"{what}: written without its fixed columns, with {len(words)} word(s) after the four integers "
+                f"({' '.join(words)[:60]!r}): which is the axis label and which the unit label is ambiguous"
+            ) from None
+        axis_lab, unit_lab = (words[0], words[1]) if words else ("", "")
     return {
         f"{name}_spec_data_type": vals[0],
         f"{name}_len_unit_exp": vals[1],
         f"{name}_force_unit_exp": vals[2],
         f"{name}_temp_unit_exp": vals[3],
-        f"{name}_axis_lab": line[26:46].strip(),
-        f"{name}_axis_units_lab": line[47:67].strip(),
+        f"{name}_axis_lab": axis_lab,
+        f"{name}_axis_units_lab": unit_lab,
     }
 
 
@@ -193,9 +211,13 @@ def _dof_from(node: int, direction: int, entity: str) -> tuple[DOF | None, str |
     if node == 0 and direction == 0:
         m = _ENTITY_DOF.match(entity.strip())
         if m:
-            code = AXIS_NAMES.index(m.group(2).upper())
-            d = DOF(int(m.group(1)), -code if m.group(3) == "-" else code)
+            axis, sign = (m.group(2), m.group(3)) if m.group(2) else (m.group(5), m.group(4))
+            code = AXIS_NAMES.index(axis.upper())
+            d = DOF(int(m.group(1)), -code if sign == "-" else code)
             return d, f"DOF {d} taken from entity name {entity!r} (node/direction fields are 0)"
+        if entity.strip() and not is_no_label(entity):
+            return DOF(0, 0), (f"node and direction fields are 0 and the entity name {entity.strip()!r} is not "
+                               "read as a DOF: DOF 0 (scalar) used")
     if node < 0 or not -6 <= direction <= 6:
         return None, f"node {node} / direction {direction} is not a valid DOF"
     return DOF(node, direction), None

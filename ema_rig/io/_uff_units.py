@@ -10,12 +10,12 @@ force) gives the quantity. Code and label must agree; when they do not, the rig 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from ..literals import FrfForm
-from .units import FORM_DIMS, MAX_UNIT_POWER, is_no_label, parse_unit
+from .units import FORM_DIMS, MAX_UNIT_POWER, Unit, force_factor, is_no_label, parse_unit
 from .units import G0 as G0  # re-exported: the writer scales by it
 from .units import response_unit as response_unit  # re-exported: read_uff58 checks --units with it
 
@@ -46,6 +46,37 @@ SI_ASSUMED = "no unit label and no dataset 164: SI (m, N) assumed"
 """The unit decision of a dataset whose units nothing in the file states."""
 ORDINATE_SI_ASSUMED = "no ordinate unit label and no dataset 164: SI (m) assumed for the ordinate"
 """The unit decision of a dataset whose file states the denominator's unit only (a label, lbf or kN)."""
+
+
+def trailing_units_problem(records: Sequence[Any], index: int) -> str | None:
+    """Why a dataset that states no units and has no dataset 164 before it cannot be read as SI, or None.
+
+    A dataset 164 sets the units of the datasets after it (I-DEAS universal file format); one
+    that only follows the dataset (a writer that puts the unit system last) may or may not be
+    meant for it, and its factors would change the values. SI is assumed only when no such
+    dataset 164 with non-SI factors follows.
+
+    Parameters
+    ----------
+    records : sequence of UFFRecord
+        Every dataset of the file, in file order.
+    index : int
+        The dataset whose units nothing before it states.
+
+    Returns
+    -------
+    str or None
+        One line naming the dataset 164, for the refusal.
+    """
+    for r in records:
+        if r.index > index and r.type == 164 and r.status == "read":
+            h = r.header
+            if (h["length_factor"], h["force_factor"]) != (1.0, 1.0):
+                return (f"no unit label and no dataset 164 before it, but dataset {r.index} (164, "
+                        f"{h['unit_description']!r}: length factor {h['length_factor']:.10g}, force factor "
+                        f"{h['force_factor']:.10g}) follows it: a dataset 164 sets the units of the datasets "
+                        "after it, so whether these are SI or its units the file does not say")
+    return None
 
 
 def _code_name(code: int) -> str:
@@ -137,6 +168,8 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
         if dims[2] == -1:  # the ordinate label already holds the whole FRF unit (per force)
             label_text = f"label {num_lab!r} (whole FRF unit)"
             num_dims = (dims[0], dims[1], 0)
+            if pd is not None:  # a denominator label must name the force the ordinate label is per
+                _check_per_force(num_lab, den_lab, pd)
         elif dims[2] == 0:
             num_dims = dims
             if pd is not None and pd.dims == (0, 0, 1):
@@ -225,12 +258,47 @@ def _decide(h: dict[str, Any], units164: dict[str, Any] | None, preference: str 
             f"dataset 164 unit factors (length {lf:g}, force {ff:g}) with exponents length {n_len - d_len}, "
             f"force {n_force - d_force} give no finite non-zero conversion"
         )
+    if fac != 1.0:  # the exponents decide the factor: they must be those of a response per force
+        _check_frf_exponents(h, form, pd is None)
     text += (
         f"; units of dataset 164 ({units164['unit_description']}: length factor {lf:.10g}, force factor "
         f"{ff:.10g}) with exponents length {n_len - d_len}, force {n_force - d_force}: x {fac:.10g}"
         + den_text + " to SI"
     )
     return UnitDecision(form, fac * den_fac, text + _j(notes))
+
+
+def _check_frf_exponents(h: Mapping[str, Any], form: FrfForm, den_unlabelled: bool) -> None:
+    """Refuse header unit exponents that do not describe a response per force.
+
+    Records 9 and 10 give the length and force exponents of the ordinate (numerator) and of the
+    denominator; for a displacement, velocity or acceleration per force they are length 1, force 0
+    over length 0, force 1 (time is always in seconds). 0 in a length exponent of the ordinate or
+    the force exponent of the denominator means "not filled in" (pyuff writes 0 everywhere) and
+    is read as the expected value. Other values (e.g. the whole FRF's exponents, length 1 and force
+    -1, in the ordinate) would make dataset 164 scale the values by a wrong power of its factors.
+    """
+    got = (h["ordinate_len_unit_exp"] or 1, h["ordinate_force_unit_exp"])
+    den = (h["orddenom_len_unit_exp"], h["orddenom_force_unit_exp"] or 1) if den_unlabelled else (0, 1)
+    if got != (1, 0) or den != (0, 1):
+        raise ValueError(
+            f"unit exponents (ordinate length {got[0]}, force {got[1]}; denominator length {den[0]}, force {den[1]}) "
+            f"do not describe a {form} (a response per force: length 1, force 0 over length 0, force 1): the "
+            "factor of dataset 164 that applies is not clear"
+        )
+
+
+def _check_per_force(num_lab: str, den_lab: str, pd: Unit) -> None:
+    """Refuse a denominator label that contradicts the force of a whole-FRF ordinate label
+    (``'g/N'`` over ``'lbf'``): which of the two the values are per, nothing in the file says."""
+    if pd.dims != (0, 0, 1):
+        raise ValueError(f"denominator unit label {den_lab!r} is not a force unit (N, kN, lbf)")
+    per = 1.0 / force_factor(num_lab)
+    if not math.isclose(per, pd.factor, rel_tol=1e-12):  # both from the same exact unit constants
+        raise ValueError(
+            f"ordinate unit label {num_lab!r} is per {per:.10g} N but the denominator unit label {den_lab!r} is "
+            f"{pd.factor:.10g} N: the labels contradict each other, the values are not read"
+        )
 
 
 def _j(notes: list[str]) -> str:
@@ -250,7 +318,8 @@ def frf_header_problem(h: Mapping[str, Any]) -> str | None:
     magnitude, a real part or (Re, Im) pairs under a wrong type code, never the FRF itself
     (the UFF corpus' ``ufffiles_case{1,2,5,6}`` hold the complex FRF of their ``case{3,4,7,8}``
     twins as interleaved pairs: 1602 real "lines" for 801, up to twice the frequency). Its
-    abscissa must be a frequency (:func:`abscissa_factor`).
+    abscissa must be a frequency (:func:`abscissa_factor`), and a denominator unit label must name the
+    force a whole-FRF ordinate label (``g/N``) is per.
 
     Parameters
     ----------
@@ -269,6 +338,10 @@ def frf_header_problem(h: Mapping[str, Any]) -> str | None:
                 "wrong type code) are not read rather than taken as an FRF with zero imaginary part")
     try:
         abscissa_factor(dict(h))
+        num = parse_unit(str(h.get("ordinate_axis_units_lab", "")), "ordinate unit label")
+        den = parse_unit(str(h.get("orddenom_axis_units_lab", "")), "denominator unit label")
+        if num is not None and num.dims[2] == -1 and den is not None:
+            _check_per_force(num.label, den.label, den)
     except ValueError as exc:
         return str(exc)
     return None

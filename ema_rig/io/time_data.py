@@ -16,7 +16,9 @@ Notes
 -----
 The datasets are read by :func:`ema_rig.io.uff.read_uff` (the checked parser). A dataset whose
 ordinate type is 13 (excitation force) or 9 (reaction force) is a force channel; 12, 11 or 8
-(acceleration, velocity, displacement) a response channel. A DOF that appears k times is k
+(acceleration, velocity, displacement) a response channel; with type 0 (unknown) or 1 (general)
+its unit label decides (``N`` a force, ``m/s²`` or ``g`` a response). An explicit (uneven-format)
+time axis is accepted as even sampling within the rounding of its 6 digits. A DOF that appears k times is k
 records (e.g. k impacts, each written as its own force and response datasets); record r pairs
 the r-th dataset of every channel.
 
@@ -35,7 +37,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from os import PathLike
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,10 +48,16 @@ from ..literals import FrfForm
 from . import _uff_units
 from .layout import SensorLayout
 from .uff import UFFRecord, read_uff
+from .units import FORM_DIMS, parse_unit
 
 _FORCE_CODES = (13, 9)
 _RESPONSE_FORM: dict[int, FrfForm] = {12: "accelerance", 11: "mobility", 8: "receptance"}
 _DIMS = {"force": (0, 0, 1), "accelerance": (1, -2, 0), "mobility": (1, -1, 0), "receptance": (1, 0, 0)}
+_CODES_UNSTATED = (0, 1)  # ordinate specific data type "unknown" and "general": the unit label says what it is
+EXPLICIT_ABSCISSA_DIGITS = 6
+"""Significant digits an explicit (uneven-format) time abscissa carries at worst: ASCII ``E13.5``, the
+format UFF58 record 12 prescribes for it (float32 in 58b is finer). Even sampling written this way is
+accepted within its rounding, see :func:`_time_axis`."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -101,18 +109,57 @@ class TimeData:
                 f"{self.n_records} record(s) of {self.n_samples} samples at {self.fs:g} Hz)")
 
 
-def _scale(r: UFFRecord, kind: str, src: str, notes: list[str], units164: Mapping[str, Any] | None) -> float:
-    """SI factor of one channel's values: its unit label, else the dataset 164 in force, else 1."""
+def _scale(r: UFFRecord, kind: str, src: str, notes: list[str], units164: Mapping[str, Any] | None,
+           records: tuple[UFFRecord, ...]) -> float:
+    """SI factor of one channel's values: its unit label, else the dataset 164 in force, else 1
+    (unless a dataset 164 follows: :func:`~ema_rig.io._uff_units.trailing_units_problem`)."""
     try:
         fac, how = _uff_units.ordinate_factor(dict(r.header), _DIMS[kind], None if units164 is None
                                               else dict(units164))
     except ValueError as exc:
         raise UFFError(str(exc), file=src, dataset=r.index) from None
     if how.startswith("no unit label"):
+        trailing = _uff_units.trailing_units_problem(records, r.index)
+        if trailing is not None:
+            raise UFFError(trailing, file=src, dataset=r.index)
         notes.append(f"dataset {r.index}: no unit label and no dataset 164; values used as stored (SI assumed)")
     elif fac != 1.0:
         notes.append(f"dataset {r.index}: {how} x {fac:.10g} to SI")
     return float(fac)
+
+
+def _channel_kind(r: UFFRecord, src: str, notes: list[str]) -> Literal["force"] | FrfForm:
+    """``'force'`` or the FRF form of a time history's responses, from its ordinate type code or,
+    when the code is 0 (unknown) or 1 (general), from its unit label (``N``, ``m/s²``, ``g``).
+
+    Writers such as HBM catman and UFFFiles.jl store code 0 or 1 with a unit label (corpus:
+    ``hbm_catman_time.uff`` 1 / ``m/s²``, ``ufffiles_time.unv`` 0 / ``N``); the label then says what
+    the channel measures, as it does for an FRF (:func:`ema_rig.io._uff_units.decide`). A code 0/1
+    without a label, or with a label of another quantity (V, Pa), is refused.
+    """
+    code = r.header.get("ordinate_spec_data_type")
+    if code in _FORCE_CODES:
+        return "force"
+    if code in _RESPONSE_FORM:
+        return _RESPONSE_FORM[code]
+    lab = str(r.header.get("ordinate_axis_units_lab", ""))
+    unit = None
+    if code in _CODES_UNSTATED:
+        try:
+            unit = parse_unit(lab, "ordinate unit label")
+        except ValueError as exc:
+            raise UFFError(str(exc), file=src, dataset=r.index) from None
+    kind: Literal["force"] | FrfForm | None = None
+    if unit is not None:
+        kind = "force" if unit.dims == _DIMS["force"] else FORM_DIMS.get(unit.dims)
+    if unit is None or kind is None:
+        said = "" if code not in _CODES_UNSTATED else " and it has no unit label" if unit is None else (
+            f" and its unit label {lab.strip()!r} is not a force, acceleration, velocity or displacement")
+        raise UFFError(f"ordinate type {code} is neither a force (13, 9) nor a response (12, 11, 8){said}: "
+                       "cannot tell excitation from response", file=src, dataset=r.index)
+    notes.append(f"dataset {r.index}: ordinate type {code} states no quantity; its unit label {lab.strip()!r} "
+                 f"says {unit.quantity}")
+    return kind
 
 
 def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
@@ -133,10 +180,17 @@ def _time_axis(r: UFFRecord, src: str) -> tuple[float, float, int]:
         return t0, dt, n
     x = r.x
     assert x is not None
-    d = np.diff(x)
-    dt = float(d.mean())
-    if not dt > 0 or np.ptp(d) > 1e-6 * dt:
-        raise UFFError("time axis is not evenly spaced and increasing", file=src, dataset=r.index)
+    dt = float(x[-1] - x[0]) / (n - 1)
+    # an explicit abscissa is stored to 6 significant digits at worst (ASCII E13.5, UFF58 record
+    # 12; float32 is finer): even sampling written that way lies within half a unit of the sixth
+    # digit of the largest |t| of the line through its end points
+    top = float(np.max(np.abs(x)))
+    tol = 0.5 * 10.0 ** (np.floor(np.log10(top)) + 1 - EXPLICIT_ABSCISSA_DIGITS) if top > 0 else 0.0
+    dev = float(np.max(np.abs(x - (x[0] + np.arange(n) * dt))))
+    if not (dt > 0 and np.all(np.diff(x) > 0) and dev <= 2.0 * tol):  # 2: both end points are rounded too
+        raise UFFError(f"time axis is not evenly spaced and increasing (deviates by up to {dev:.3g} s from even "
+                       f"sampling at {dt:.6g} s; its 6-digit rounding allows {2.0 * tol:.3g} s)",
+                       file=src, dataset=r.index)
     return float(x[0]) * tfac, dt * tfac, n
 
 
@@ -186,15 +240,9 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
             raise UFFError(f"time history refused: {r.reason}", file=src, dataset=r.index)
         if r.response is None:
             raise UFFError("time history without a node/direction", file=src, dataset=r.index)
-        code = r.header.get("ordinate_spec_data_type")
-        if code in _FORCE_CODES:
-            kind = "force"
-        elif code in _RESPONSE_FORM:
-            kind = _RESPONSE_FORM[code]
+        kind = _channel_kind(r, src, notes)
+        if kind != "force":
             forms.add(kind)
-        else:
-            raise UFFError(f"ordinate type {code} is neither a force (13, 9) nor a response (12, 11, 8): "
-                           "cannot tell excitation from response", file=src, dataset=r.index)
         assert r.y is not None
         if np.iscomplexobj(r.y):
             raise UFFError("complex time history", file=src, dataset=r.index)
@@ -204,7 +252,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
         elif abs(dt - (dt0 or dt)) > 1e-9 * dt or n != n0:
             raise UFFError(f"sampling ({n} samples, dt {dt:g} s) differs from dataset {first.index} "
                            f"({n0} samples, dt {dt0:g} s)", file=src, dataset=r.index)
-        fac = _scale(r, "force" if kind == "force" else kind, src, notes, current164)
+        fac = _scale(r, kind, src, notes, current164, uf.records)
         dof = r.response
         sign = float(dof.sign)
         if rig is not None:

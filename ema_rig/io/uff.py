@@ -506,18 +506,21 @@ def read_uff58(
     ``mm s^-2``, ``mg``, ``in/s2/lbf`` ...); a label that cannot be read is an error naming the
     dataset and the label, never taken as SI; without a label, the scale comes from the latest
     preceding dataset 164 (its length/force factors and the header's unit exponents), else SI is
-    assumed. The abscissa label is read by the same grammar (Hz, kHz, rad/s; a time unit is an
+    assumed, unless a dataset 164 with other units follows (then refused: whether it was meant for
+    the datasets before it the file does not say). A whole-FRF ordinate label (``g/N``) over a
+    denominator label naming another force (``lbf``) is refused. The abscissa label is read by the same grammar (Hz, kHz, rad/s; a time unit is an
     error). Each decision is recorded in ``meta["unit_decisions"]``.
 
     Signs. Without a rig, a negative direction in the file (``13-Y``) is flipped into the
     positive axis (values x -1, DOF ``13+Y``). With a rig, the rig's sign decides: a sensor
     ``13-Y`` is flipped whether the file writes 13-Y or 13+Y (a disagreement is noted in
-    ``meta["sign_flips"]``); the same holds for the references ``rig.radial`` / ``rig.axial``.
+    ``meta["sign_flips"]`` and is one line of ``meta["warnings"]``, a caveat of the results); the same holds for the references ``rig.radial`` / ``rig.axial``.
     File responses with no rig sensor are ignored with a :class:`~ema_rig.errors.UnitWarning`.
 
     Coherence. Datasets of function type 6 are attached to the FRF of the same (response,
     reference) pair (mapped like the FRFs, sign-free) when they lie on the same frequency lines;
-    values above 1 (which real analysers write) or below 0 are clipped into 0..1 and listed in
+    a record labelled ``%`` is divided by 100, one with another unit label or with most lines above 1
+    is ignored with a note; values above 1 (which real analysers write) or below 0 are clipped into 0..1 and listed in
     ``meta["warnings"]`` (a result caveat, not a Python warning: reading a real file is routine). A coherence
     whose pair has no FRF, whose lines differ, or that is refused is ignored with a note. The
     coherence is attached only when every FRF has one (else ``coherence`` is None, with a note
@@ -571,7 +574,7 @@ def read_uff58(
         "ignored_channels": chans.ignored_channels,
         "ignored_datasets": ignored_datasets,
         "notes": notes,
-        "warnings": list(coh.warnings) + h_warnings,
+        "warnings": list(coh.warnings) + h_warnings + _sign_conflict_warning(chans.sign_conflicts),
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
@@ -636,6 +639,10 @@ def _frf_datasets(uf: UFFFile, src: str, pref: str | None,
             dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref, assumed)
         except ValueError as exc:
             raise UFFError(str(exc), file=src, dataset=r.index) from None
+        if _uff_units.SI_ASSUMED in dec.text or _uff_units.ORDINATE_SI_ASSUMED in dec.text:
+            trailing = _uff_units.trailing_units_problem(uf.records, r.index)
+            if trailing is not None:
+                raise UFFError(trailing, file=src, dataset=r.index)
         used.append((r, dec, current164))
     if not used:
         kinds = sorted({FUNCTION_TYPES.get(r.function_type, str(r.function_type)) for r in uf.records
@@ -696,6 +703,8 @@ class _Channels:
     out_order: list[DOF] = field(default_factory=list)
     in_order: list[DOF] = field(default_factory=list)
     sign_flips: list[str] = field(default_factory=list)
+    #: (dataset index, DOF as the file writes it, DOF as the rig file says) where the signs differ
+    sign_conflicts: list[tuple[int, DOF, DOF]] = field(default_factory=list)
     ignored_channels: list[str] = field(default_factory=list)
     #: Every response / reference DOF (positive) the file's FRF datasets name, kept or ignored.
     file_out: list[DOF] = field(default_factory=list)
@@ -730,6 +739,7 @@ def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
                     ch.sign_flips.append(
                         f"dataset {r.index}: file writes {fdof}, rig file says {rdof}: the rig's sign is used"
                     )
+                    ch.sign_conflicts.append((r.index, fdof, rdof))
             out_key, in_key = sensor.dof.positive(), rref.positive()
         else:
             so, si = rd.sign, fd.sign
@@ -749,6 +759,18 @@ def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
         if in_key not in ch.in_order:
             ch.in_order.append(in_key)
     return ch
+
+
+def _sign_conflict_warning(conflicts: list[tuple[int, DOF, DOF]]) -> list[str]:
+    """One result caveat when the rig file and the UFF file give a DOF opposite signs (DESIGN §3.1: the
+    rig file's DOF is the one "as written in the UFF file"); the rig's sign is used, so if the file is
+    right those FRFs are negated. Empty when they agree."""
+    if not conflicts:
+        return []
+    pairs = sorted({(str(f), str(g)) for _, f, g in conflicts})
+    shown = ", ".join(f"file {f} / rig {g}" for f, g in pairs[:4]) + (", ..." if len(pairs) > 4 else "")
+    return [f"rig file and UFF file give opposite signs for {len(pairs)} DOF(s) ({shown}) in {len(conflicts)} "
+            "dataset(s): the rig file's sign is used; if the UFF file is right, those FRFs are negated"]
 
 
 def _rig_order(ch: _Channels, rig: SensorLayout | None,

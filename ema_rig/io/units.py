@@ -193,7 +193,37 @@ def parse_unit_label(label: str) -> Unit:
     return Unit(dims, factor, shown)
 
 
-def _parse(text: str) -> tuple[tuple[int, int, int], float]:
+def force_factor(label: str) -> float:
+    """Factor to SI of the force units in a label, raised to their exponents (``'g/lbf'`` -> 1/4.448...).
+
+    Parameters
+    ----------
+    label : str
+        A unit label that :func:`parse_unit_label` reads.
+
+    Returns
+    -------
+    float
+        The part of the label's factor that its force words (N with prefixes, lbf, lb, kgf) give:
+        ``parse_unit_label(label).factor`` divided by the factor of the same label with every
+        force word read as N. For a label per force (force exponent -1) its inverse is the force
+        unit the label is per: ``1 / force_factor('(m/s)/kN') == 1000``.
+
+    Raises
+    ------
+    UnitLabelError
+        As :func:`parse_unit_label`.
+    """
+    shown = label.strip()
+    if is_no_label(shown):
+        raise UnitLabelError(f"unit label {shown!r} says nothing (no unit)")
+    try:
+        return _parse(shown)[1] / _parse(shown, force_as_newton=True)[1]
+    except UnitLabelError as exc:
+        raise UnitLabelError(f"unit label {shown!r}: {exc}") from None
+
+
+def _parse(text: str, *, force_as_newton: bool = False) -> tuple[tuple[int, int, int], float]:
     s = re.sub(r"\s+", " ", text)
     s = _WORD_PREFIX.sub(lambda m: _WORD_PREFIXES[m.group(1).lower()], s)
     s = _SUPER_RUN.sub(lambda m: "^" + m.group(1).translate(_SUPERSCRIPTS), s)
@@ -212,7 +242,7 @@ def _parse(text: str) -> tuple[tuple[int, int, int], float]:
         kind = m.lastindex or 0
         toks.append((("op", "word", "int", "sym", "blank")[kind - 1], m.group(kind)))
         pos = m.end()
-    p = _Parser(toks, table)
+    p = _Parser(toks, table, force_as_newton)
     u = p.label()
     if p.i != len(toks):
         raise UnitLabelError(f"unexpected {toks[p.i][1]!r}")
@@ -222,8 +252,10 @@ def _parse(text: str) -> tuple[tuple[int, int, int], float]:
 class _Parser:
     """Recursive descent over the tokens of one label."""
 
-    def __init__(self, toks: list[tuple[str, str]], table: dict[str, tuple[tuple[int, int, int], float]]):
+    def __init__(self, toks: list[tuple[str, str]], table: dict[str, tuple[tuple[int, int, int], float]],
+                 force_as_newton: bool = False):
         self.toks, self.table, self.i = toks, table, 0
+        self.force_as_newton = force_as_newton  # every force word read as N (see force_factor)
 
     def _peek(self) -> tuple[str, str] | None:
         return self.toks[self.i] if self.i < len(self.toks) else None
@@ -275,7 +307,7 @@ class _Parser:
             if hit is None:
                 raise UnitLabelError(f"unknown unit {w!r} (known: SI prefixes with m, s, N, Hz, g; in, ft, "
                                      "lbf, sec, min, rad, rpm)")
-            return hit
+            return (hit[0], 1.0) if self.force_as_newton and hit[0] == (0, 0, 1) else hit
         raise UnitLabelError(f"unexpected {t[1]!r}")
 
 
@@ -363,5 +395,5 @@ def response_unit(label: str) -> Unit:
                          "force), e.g. g, m/s^2, mm/s, um, g/N")
     return unit
 
-__all__ = ["FORM_DIMS", "G0", "INCH", "LBF", "MAX_UNIT_POWER", "Unit", "UnitLabelError", "is_no_label", "parse_unit",
-           "parse_unit_label", "response_unit"]
+__all__ = ["FORM_DIMS", "G0", "INCH", "LBF", "MAX_UNIT_POWER", "Unit", "UnitLabelError", "force_factor", "is_no_label",
+           "parse_unit", "parse_unit_label", "response_unit"]
