@@ -10,7 +10,12 @@ the children: unlike the wall time it hardly depends on what else runs on the ma
 table, figures and report; with ``--jobs 2`` the measurement figures are drawn by the pool within
 it) as a share of the run (it includes the identification each measurement's figures need),
 and the time spent on the figures proper (building them, making their PNG bytes and, with a pool, the
-figures' one-time work done before it forks (``warm_up``): CPU seconds summed over every process) as a share of the run's CPU time. Reported: medians with min-max, and the median of the per-round
+figures' one-time work done before it forks (``warm_up``): CPU seconds summed over every process) as a share of the run's CPU time.
+A measurement's figures drawn from the computation just made count as the whole call
+(``measurement_figures(..., computed=...)``: its kept figures, views and the collector's pass over the
+drawing's garbage when its pause ends, which the plot functions and ``png_bytes`` alone left to the
+rest of the run); every function is timed under each module's name for it (the runner imports
+``write_outputs`` and ``measurement_figures`` by name: the output phase read 0 s before). Reported: medians with min-max, and the median of the per-round
 ratios new/old.
 
 Run from the repository root::
@@ -47,15 +52,25 @@ def timed(*a, **k):
         return _orig(*a, **k)
     finally:
         spent.append(time.perf_counter() - t)
-outputs.write_outputs = timed
+def rebind(orig, new):
+    # every module's name for the function (the runner imports write_outputs and measurement_figures by name)
+    for mod in list(sys.modules.values()):
+        if getattr(mod, "__name__", "").startswith("ema_rig"):
+            for k, v in list(vars(mod).items()):
+                if v is orig:
+                    setattr(mod, k, new)
+import ema_rig.campaign.runner  # noqa: F401 (bound its names)
+rebind(_orig, timed)
 # the figures proper: building a figure (the plot functions) and turning it into PNG bytes, the
 # outermost call only, in every process (forked workers inherit the wrappers; each call appends
 # its seconds to a file, as a pool worker never runs atexit)
 import importlib
 _log = sys.argv[3]
 _depth = threading.local()
-def drawing(fn):
+def drawing(fn, given=None):
     def wrapper(*a, **k):
+        if given is not None and k.get(given) is None:  # not figures only: not counted as a whole
+            return fn(*a, **k)
         outer = getattr(_depth, "n", 0) == 0
         _depth.n = getattr(_depth, "n", 0) + 1
         t = time.process_time()  # CPU seconds of this process: a loaded machine does not count
@@ -67,16 +82,21 @@ def drawing(fn):
                 with open(_log, "a") as fh:
                     fh.write(f"{time.process_time() - t}\n")
     return wrapper
-for mod, name in [("ema_rig.plot.stabilization", "plot_stabilization"), ("ema_rig.plot.rig", "plot_rig_fit"),
-                  ("ema_rig.plot.synthesis", "plot_synthesis"), ("ema_rig.plot.campaign", "campaign_figures"),
-                  ("ema_rig.campaign.drilldown", "png_bytes"), ("ema_rig.plot._render", "render_png"),
-                  ("ema_rig.plot._render", "warm_up")]:
+# a measurement's figures drawn from the computation just made (``computed=``): the whole call
+# (kept figures, the views drawn, the collector's pass over the drawing's garbage as its pause ends);
+# without it (an older tree, a reused row) it identifies first: only its figure functions count
+for mod, name, given in [("ema_rig.plot.stabilization", "plot_stabilization", None),
+                         ("ema_rig.plot.rig", "plot_rig_fit", None), ("ema_rig.plot.synthesis", "plot_synthesis", None),
+                         ("ema_rig.plot.campaign", "campaign_figures", None), ("ema_rig.campaign.drilldown", "png_bytes", None),
+                         ("ema_rig.plot._render", "render_png", None), ("ema_rig.plot._render", "warm_up", None),
+                         ("ema_rig.campaign.drilldown", "measurement_figures", "computed")]:
     try:
         m = importlib.import_module(mod)
     except ImportError:  # the older tree has no renderer
         continue
     if hasattr(m, name):  # an older tree has no warm_up
-        setattr(m, name, drawing(getattr(m, name)))
+        orig = getattr(m, name)
+        rebind(orig, drawing(orig, given))
 from matplotlib.figure import Figure
 Figure.savefig = drawing(Figure.savefig)
 from ema_rig.cli import main

@@ -603,8 +603,16 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
         # forked after the calibration: the workers inherit its imports; they also draw the
         # measurements' figures of the report (with the computation, or at the end for reused rows),
-        # and inherit the figures' one-time work too, done here once instead of once per worker
-        if drill_down:
+        # and inherit the figures' one-time work too, done here once instead of once per worker:
+        # the shortest measurement to draw is computed and drawn here first (its figures built,
+        # laid out, their texts measured and glyphs rendered), else a small figure is drawn
+        first = next((mtk for mtk in reversed(todo) if mtk[0].id in draw), None) if drill_down else None
+        if first is not None:
+            todo.remove(first)
+            m, t, key = first
+            fn, args = task_of(m, t)
+            settle(m, key, fn(*args))
+        elif drill_down:
             from ..plot._render import warm_up
 
             warm_up(DPI)
