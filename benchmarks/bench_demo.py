@@ -66,21 +66,27 @@ rebind(_orig, timed)
 # its seconds to a file, as a pool worker never runs atexit)
 import importlib
 _log = sys.argv[3]
-_depth = threading.local()
+_depth = {"all": threading.local(), "parts": threading.local()}
 def drawing(fn, given=None):
+    # "all": what is counted; "parts": the plot functions and PNG bytes alone (the count before
+    # measurement_figures was timed whole), for comparison with earlier results
+    books = ("all",) if given is not None else ("all", "parts")
     def wrapper(*a, **k):
         if given is not None and k.get(given) is None:  # not figures only: not counted as a whole
             return fn(*a, **k)
-        outer = getattr(_depth, "n", 0) == 0
-        _depth.n = getattr(_depth, "n", 0) + 1
+        outer = [b for b in books if getattr(_depth[b], "n", 0) == 0]
+        for b in books:
+            _depth[b].n = getattr(_depth[b], "n", 0) + 1
         t = time.process_time()  # CPU seconds of this process: a loaded machine does not count
         try:
             return fn(*a, **k)
         finally:
-            _depth.n -= 1
+            dt = time.process_time() - t
+            for b in books:
+                _depth[b].n -= 1
             if outer:
                 with open(_log, "a") as fh:
-                    fh.write(f"{time.process_time() - t}\n")
+                    fh.write("".join(f"{b} {dt}\n" for b in outer))
     return wrapper
 # a measurement's figures drawn from the computation just made (``computed=``): the whole call
 # (kept figures, the views drawn, the collector's pass over the drawing's garbage as its pause ends);
@@ -138,13 +144,15 @@ def one_run(tree: Path, jobs: int, savefig: bool = False) -> dict[str, float]:
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         n_png = len(list((Path(tmp) / "demo").rglob("*.png")))
-        drawing = sum(float(x) for x in log.read_text().split()) if log.exists() else 0.0
+        books = [line.split() for line in log.read_text().splitlines()] if log.exists() else []
+        drawing = sum(float(t) for b, t in books if b == "all")
+        parts = sum(float(t) for b, t in books if b == "parts")
     doc = json.loads(out.stdout.strip().splitlines()[-1])
     if doc["code"] != 0:
         raise RuntimeError(f"demo in {tree} exited with {doc['code']}: {out.stderr[-2000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return {"wall": wall, "cpu": cpu, "load": load, "outputs": doc["outputs"], "share": doc["outputs"] / wall,
-            "png": n_png, "drawing": drawing, "draw_share": drawing / cpu}
+            "png": n_png, "drawing": drawing, "draw_share": drawing / cpu, "parts_share": parts / cpu}
 
 
 def spread(xs: list[float], fmt: str = "{:.1f}") -> str:
@@ -172,7 +180,8 @@ def main() -> int:
                 runs[name].append(r)
                 print(f"  jobs {jobs} round {i + 1} {name}: wall {r['wall']:.1f} s, cpu {r['cpu']:.1f} s, "
                       f"outputs {r['outputs']:.1f} s ({r['share']:.0%}), figures {r['drawing']:.1f} s "
-                      f"({r['draw_share']:.0%} of cpu), load {r['load']:.1f}, {r['png']:.0f} PNG",
+                      f"({r['draw_share']:.0%} of cpu; plot functions and PNG bytes alone {r['parts_share']:.0%}), "
+                      f"load {r['load']:.1f}, {r['png']:.0f} PNG",
                       flush=True)
         n, o = runs["new"], runs["old"]
         ratio = [a["wall"] / b["wall"] for a, b in zip(n, o, strict=True)]
@@ -183,7 +192,9 @@ def main() -> int:
               f"old {spread([r['cpu'] for r in o])} s, new/old {spread(cpu_ratio, '{:.2f}')}; output phase "
               f"new {spread([100 * r['share'] for r in n], '{:.0f}')} %, old {spread([100 * r['share'] for r in o], '{:.0f}')} % "
               f"of the run; figures (building + PNG, all processes) new {spread([100 * r['draw_share'] for r in n], '{:.0f}')} %, "
-              f"old {spread([100 * r['draw_share'] for r in o], '{:.0f}')} % of the CPU time; load {min(loads):.1f}-{max(loads):.1f}",
+              f"old {spread([100 * r['draw_share'] for r in o], '{:.0f}')} % of the CPU time (plot functions and PNG "
+              f"bytes alone: new {spread([100 * r['parts_share'] for r in n], '{:.0f}')} %, "
+              f"old {spread([100 * r['parts_share'] for r in o], '{:.0f}')} %); load {min(loads):.1f}-{max(loads):.1f}",
               flush=True)
     if args.savefig_rounds:
         runs = {"render": [], "savefig": []}
