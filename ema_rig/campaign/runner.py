@@ -19,8 +19,11 @@ watchdog thread on the parent's process id everywhere but Windows).
 Where the time goes with ``jobs > 1``: the calibration runs first in this process, and its first
 call pays the imports of the numerical stack (scipy, the identification); the pool is started
 after it, so its forked workers inherit those modules instead of importing them again; when
-they will draw, this process does the figures' one-time work (matplotlib's imports, the mathtext
-grammar, font lookups: :func:`ema_rig.plot._render.warm_up`) just before, for the same reason. The
+they will draw, this process computes and draws the shortest measurement to draw just before, for
+the same reason: the workers inherit the figures' one-time work (matplotlib's imports, the mathtext
+grammar, font lookups) and take its kept figures over, built and laid out, with their texts
+measured and glyphs rendered (:func:`ema_rig.plot._render.kept_figure`); with nothing to draw
+now, a small figure (:func:`ema_rig.plot._render.warm_up`). The
 measurements are submitted longest first (by their time in the previous run, else by file size),
 so that no worker is left alone with one long measurement at the end. A worker draws the
 report's figures of the measurement it computed right after computing it, from that computation

@@ -727,6 +727,8 @@ def warm_up(dpi: float) -> None:
 def kept_figure(kind: str, figsize: tuple[float, float]) -> Figure:
     """The figure this thread keeps for ``kind``, else a new constrained-layout one, kept from now on.
 
+    A process forked by this thread takes the figures kept until then over (:func:`_local`).
+
     A plot function given it (``figure=``) finds the axes it built for the previous measurement
     of that kind (:func:`reuse_axes`) and only replaces the data, limits and texts: no new axes,
     no new tick objects. Kept per thread and per process like the canvases (:func:`_canvas`): a
