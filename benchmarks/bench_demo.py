@@ -41,11 +41,12 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # runs in the child: time write_outputs (the output phase) inside the demo command
 _DRIVER = r"""
-import json, os, sys, threading, time
+import functools, json, os, sys, threading, time
 t0 = time.perf_counter()
 import ema_rig.campaign.outputs as outputs
 spent = []
 _orig = outputs.write_outputs
+@functools.wraps(_orig)
 def timed(*a, **k):
     t = time.perf_counter()
     try:
@@ -71,6 +72,8 @@ def drawing(fn, given=None):
     # "all": what is counted; "parts": the plot functions and PNG bytes alone (the count before
     # measurement_figures was timed whole), for comparison with earlier results
     books = ("all",) if given is not None else ("all", "parts")
+    # the original's name and module: pickled by reference (a pool task) it is the wrapper bound there
+    @functools.wraps(fn)
     def wrapper(*a, **k):
         if given is not None and k.get(given) is None:  # not figures only: not counted as a whole
             return fn(*a, **k)
@@ -140,7 +143,9 @@ def one_run(tree: Path, jobs: int, savefig: bool = False) -> dict[str, float]:
         log = Path(tmp) / "drawing.txt"
         driver = (_SAVEFIG if savefig else "") + _DRIVER
         out = subprocess.run([sys.executable, "-c", driver, str(Path(tmp) / "demo"), str(jobs), str(log)], cwd=tree,
-                             env=env, capture_output=True, text=True, check=True)
+                             env=env, capture_output=True, text=True, check=False)
+        if out.returncode != 0:
+            raise RuntimeError(f"demo in {tree} failed ({out.returncode}): {out.stderr[-3000:]}")
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         n_png = len(list((Path(tmp) / "demo").rglob("*.png")))
