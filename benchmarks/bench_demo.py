@@ -10,7 +10,12 @@ the children: unlike the wall time it hardly depends on what else runs on the ma
 table, figures and report; with ``--jobs 2`` the measurement figures are drawn by the pool within
 it) as a share of the run (it includes the identification each measurement's figures need),
 and the time spent on the figures proper (building them, making their PNG bytes and, with a pool, the
-figures' one-time work done before it forks (``warm_up``): CPU seconds summed over every process) as a share of the run's CPU time. Reported: medians with min-max, and the median of the per-round
+figures' one-time work done before it forks (``warm_up``): CPU seconds summed over every process) as a share of the run's CPU time.
+A measurement's figures drawn from the computation just made count as the whole call
+(``measurement_figures(..., computed=...)``: its kept figures, views and the collector's pass over the
+drawing's garbage when its pause ends, which the plot functions and ``png_bytes`` alone left to the
+rest of the run); every function is timed under each module's name for it (the runner imports
+``write_outputs`` and ``measurement_figures`` by name: the output phase read 0 s before). Reported: medians with min-max, and the median of the per-round
 ratios new/old.
 
 Run from the repository root::
@@ -36,47 +41,71 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # runs in the child: time write_outputs (the output phase) inside the demo command
 _DRIVER = r"""
-import json, os, sys, threading, time
+import functools, json, os, sys, threading, time
 t0 = time.perf_counter()
 import ema_rig.campaign.outputs as outputs
 spent = []
 _orig = outputs.write_outputs
+@functools.wraps(_orig)
 def timed(*a, **k):
     t = time.perf_counter()
     try:
         return _orig(*a, **k)
     finally:
         spent.append(time.perf_counter() - t)
-outputs.write_outputs = timed
+def rebind(orig, new):
+    # every module's name for the function (the runner imports write_outputs and measurement_figures by name)
+    for mod in list(sys.modules.values()):
+        if getattr(mod, "__name__", "").startswith("ema_rig"):
+            for k, v in list(vars(mod).items()):
+                if v is orig:
+                    setattr(mod, k, new)
+import ema_rig.campaign.runner  # noqa: F401 (bound its names)
+rebind(_orig, timed)
 # the figures proper: building a figure (the plot functions) and turning it into PNG bytes, the
 # outermost call only, in every process (forked workers inherit the wrappers; each call appends
 # its seconds to a file, as a pool worker never runs atexit)
 import importlib
 _log = sys.argv[3]
-_depth = threading.local()
-def drawing(fn):
+_depth = {"all": threading.local(), "parts": threading.local()}
+def drawing(fn, given=None):
+    # "all": what is counted; "parts": the plot functions and PNG bytes alone (the count before
+    # measurement_figures was timed whole), for comparison with earlier results
+    books = ("all",) if given is not None else ("all", "parts")
+    # the original's name and module: pickled by reference (a pool task) it is the wrapper bound there
+    @functools.wraps(fn)
     def wrapper(*a, **k):
-        outer = getattr(_depth, "n", 0) == 0
-        _depth.n = getattr(_depth, "n", 0) + 1
+        if given is not None and k.get(given) is None:  # not figures only: not counted as a whole
+            return fn(*a, **k)
+        outer = [b for b in books if getattr(_depth[b], "n", 0) == 0]
+        for b in books:
+            _depth[b].n = getattr(_depth[b], "n", 0) + 1
         t = time.process_time()  # CPU seconds of this process: a loaded machine does not count
         try:
             return fn(*a, **k)
         finally:
-            _depth.n -= 1
+            dt = time.process_time() - t
+            for b in books:
+                _depth[b].n -= 1
             if outer:
                 with open(_log, "a") as fh:
-                    fh.write(f"{time.process_time() - t}\n")
+                    fh.write("".join(f"{b} {dt}\n" for b in outer))
     return wrapper
-for mod, name in [("ema_rig.plot.stabilization", "plot_stabilization"), ("ema_rig.plot.rig", "plot_rig_fit"),
-                  ("ema_rig.plot.synthesis", "plot_synthesis"), ("ema_rig.plot.campaign", "campaign_figures"),
-                  ("ema_rig.campaign.drilldown", "png_bytes"), ("ema_rig.plot._render", "render_png"),
-                  ("ema_rig.plot._render", "warm_up")]:
+# a measurement's figures drawn from the computation just made (``computed=``): the whole call
+# (kept figures, the views drawn, the collector's pass over the drawing's garbage as its pause ends);
+# without it (an older tree, a reused row) it identifies first: only its figure functions count
+for mod, name, given in [("ema_rig.plot.stabilization", "plot_stabilization", None),
+                         ("ema_rig.plot.rig", "plot_rig_fit", None), ("ema_rig.plot.synthesis", "plot_synthesis", None),
+                         ("ema_rig.plot.campaign", "campaign_figures", None), ("ema_rig.campaign.drilldown", "png_bytes", None),
+                         ("ema_rig.plot._render", "render_png", None), ("ema_rig.plot._render", "warm_up", None),
+                         ("ema_rig.campaign.drilldown", "measurement_figures", "computed")]:
     try:
         m = importlib.import_module(mod)
     except ImportError:  # the older tree has no renderer
         continue
     if hasattr(m, name):  # an older tree has no warm_up
-        setattr(m, name, drawing(getattr(m, name)))
+        orig = getattr(m, name)
+        rebind(orig, drawing(orig, given))
 from matplotlib.figure import Figure
 Figure.savefig = drawing(Figure.savefig)
 from ema_rig.cli import main
@@ -114,17 +143,21 @@ def one_run(tree: Path, jobs: int, savefig: bool = False) -> dict[str, float]:
         log = Path(tmp) / "drawing.txt"
         driver = (_SAVEFIG if savefig else "") + _DRIVER
         out = subprocess.run([sys.executable, "-c", driver, str(Path(tmp) / "demo"), str(jobs), str(log)], cwd=tree,
-                             env=env, capture_output=True, text=True, check=True)
+                             env=env, capture_output=True, text=True, check=False)
+        if out.returncode != 0:
+            raise RuntimeError(f"demo in {tree} failed ({out.returncode}): {out.stderr[-3000:]}")
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         n_png = len(list((Path(tmp) / "demo").rglob("*.png")))
-        drawing = sum(float(x) for x in log.read_text().split()) if log.exists() else 0.0
+        books = [line.split() for line in log.read_text().splitlines()] if log.exists() else []
+        drawing = sum(float(t) for b, t in books if b == "all")
+        parts = sum(float(t) for b, t in books if b == "parts")
     doc = json.loads(out.stdout.strip().splitlines()[-1])
     if doc["code"] != 0:
         raise RuntimeError(f"demo in {tree} exited with {doc['code']}: {out.stderr[-2000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return {"wall": wall, "cpu": cpu, "load": load, "outputs": doc["outputs"], "share": doc["outputs"] / wall,
-            "png": n_png, "drawing": drawing, "draw_share": drawing / cpu}
+            "png": n_png, "drawing": drawing, "draw_share": drawing / cpu, "parts_share": parts / cpu}
 
 
 def spread(xs: list[float], fmt: str = "{:.1f}") -> str:
@@ -152,7 +185,8 @@ def main() -> int:
                 runs[name].append(r)
                 print(f"  jobs {jobs} round {i + 1} {name}: wall {r['wall']:.1f} s, cpu {r['cpu']:.1f} s, "
                       f"outputs {r['outputs']:.1f} s ({r['share']:.0%}), figures {r['drawing']:.1f} s "
-                      f"({r['draw_share']:.0%} of cpu), load {r['load']:.1f}, {r['png']:.0f} PNG",
+                      f"({r['draw_share']:.0%} of cpu; plot functions and PNG bytes alone {r['parts_share']:.0%}), "
+                      f"load {r['load']:.1f}, {r['png']:.0f} PNG",
                       flush=True)
         n, o = runs["new"], runs["old"]
         ratio = [a["wall"] / b["wall"] for a, b in zip(n, o, strict=True)]
@@ -163,7 +197,9 @@ def main() -> int:
               f"old {spread([r['cpu'] for r in o])} s, new/old {spread(cpu_ratio, '{:.2f}')}; output phase "
               f"new {spread([100 * r['share'] for r in n], '{:.0f}')} %, old {spread([100 * r['share'] for r in o], '{:.0f}')} % "
               f"of the run; figures (building + PNG, all processes) new {spread([100 * r['draw_share'] for r in n], '{:.0f}')} %, "
-              f"old {spread([100 * r['draw_share'] for r in o], '{:.0f}')} % of the CPU time; load {min(loads):.1f}-{max(loads):.1f}",
+              f"old {spread([100 * r['draw_share'] for r in o], '{:.0f}')} % of the CPU time (plot functions and PNG "
+              f"bytes alone: new {spread([100 * r['parts_share'] for r in n], '{:.0f}')} %, "
+              f"old {spread([100 * r['parts_share'] for r in o], '{:.0f}')} %); load {min(loads):.1f}-{max(loads):.1f}",
               flush=True)
     if args.savefig_rounds:
         runs = {"render": [], "savefig": []}

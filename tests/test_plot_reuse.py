@@ -100,3 +100,49 @@ def test_a_kept_line_changed_after_it_was_drawn_is_not_taken_again() -> None:
     assert np.array_equal(again.get_xdata(), [0.0, 2.0]) and np.array_equal(again.get_ydata(), [0.0, 3.0])
     ax.autoscale_view()
     assert ax.get_ylim()[1] >= 3.0  # the data limits and autoscale took the new data in
+
+
+#: What a forked worker draws (:func:`_draw_in_worker`): set by the test before the pool forks.
+_IN_WORKER: dict = {}
+
+
+def _draw_in_worker():
+    from ema_rig.plot._render import kept_figure
+
+    png = _IN_WORKER["draw"](_IN_WORKER["m"]).png
+    marks = {k: getattr(kept_figure(k, tuple(f.get_size_inches())), "_test_mark", None)
+             for k, f in _IN_WORKER["figures"].items()}
+    return png, marks
+
+
+def test_a_forked_worker_draws_on_its_parents_figures_what_its_parent_draws(tmp_path: Path,
+                                                                          rig_toml_text: str) -> None:
+    # a campaign's pool forks after this process drew a measurement: each worker takes the figures
+    # over (axes, ticks, layouts built once; on a canvas of its own, its fonts opened anew).
+    # Oracle: this process drawing the second measurement on its own figures, byte for byte, while
+    # two workers draw it at once (a canvas or font shared across the fork fails or mixes them up).
+    # On 23abb6b the workers built their figures anew (no mark): the first assertion fails there
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    from ema_rig.plot._render import _local
+
+    (a, b), draw = _two_measurements(tmp_path, rig_toml_text)
+    draw(a)
+    figures = dict(_local()["figures"])
+    assert set(figures) == {"stabilization", "model", "synthesis"}
+    for fig in figures.values():
+        fig._test_mark = "parent"
+    _IN_WORKER.update(draw=draw, m=b, figures=figures)
+    try:
+        with ProcessPoolExecutor(2, mp_context=mp.get_context("fork")) as pool:
+            futs = [pool.submit(_draw_in_worker) for _ in range(2)]
+            here = draw(b)
+            drawn = [f.result() for f in futs]
+    finally:
+        _IN_WORKER.clear()
+    for png, marks in drawn:
+        assert marks == {k: "parent" for k in figures}  # the parent's figures, taken over
+        assert set(png) == set(here.png) == {"stabilization", "model", "synthesis"}
+        for kind in here.png:
+            assert png[kind] == here.png[kind], kind

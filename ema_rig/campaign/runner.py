@@ -19,8 +19,11 @@ watchdog thread on the parent's process id everywhere but Windows).
 Where the time goes with ``jobs > 1``: the calibration runs first in this process, and its first
 call pays the imports of the numerical stack (scipy, the identification); the pool is started
 after it, so its forked workers inherit those modules instead of importing them again; when
-they will draw, this process does the figures' one-time work (matplotlib's imports, the mathtext
-grammar, font lookups: :func:`ema_rig.plot._render.warm_up`) just before, for the same reason. The
+they will draw, this process computes and draws the first measurement to draw just before, for
+the same reason: the workers inherit the figures' one-time work (matplotlib's imports, the mathtext
+grammar, font lookups) and take its kept figures over, built and laid out, with their texts
+measured and glyphs rendered (:func:`ema_rig.plot._render.kept_figure`); with nothing to draw
+now, a small figure (:func:`ema_rig.plot._render.warm_up`). The
 measurements are submitted longest first (by their time in the previous run, else by file size),
 so that no worker is left alone with one long measurement at the end. A worker draws the
 report's figures of the measurement it computed right after computing it, from that computation
@@ -603,8 +606,19 @@ def _run(cfg: CampaignConfig, out: Path | None, jobs: int, executor: Executor | 
     if executor is None and jobs > 1 and cfg.measurements and (len(todo) > 1 or drill_down):
         # forked after the calibration: the workers inherit its imports; they also draw the
         # measurements' figures of the report (with the computation, or at the end for reused rows),
-        # and inherit the figures' one-time work too, done here once instead of once per worker
-        if drill_down:
+        # and inherit the figures' one-time work too, done here once instead of once per worker:
+        # the measurement to draw that --jobs 1 draws first is computed and drawn here first (its
+        # figures built, laid out, their texts measured and glyphs rendered; a layout reused for
+        # others is within half a pixel of their own, and this is the one --jobs 1 reuses: the same
+        # pictures), else a small figure is drawn
+        place = {m.id: i for i, m in enumerate(cfg.measurements)}
+        first = min((mtk for mtk in todo if mtk[0].id in draw), key=lambda mtk: place[mtk[0].id], default=None)
+        if first is not None:
+            todo.remove(first)
+            m, t, key = first
+            fn, args = task_of(m, t)
+            settle(m, key, fn(*args))
+        elif drill_down:
             from ..plot._render import warm_up
 
             warm_up(DPI)

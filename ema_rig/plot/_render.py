@@ -233,6 +233,10 @@ _TEXT_RC = ("font.family", "font.sans-serif", "font.serif", "font.monospace", "f
             "text.hinting", "text.hinting_factor", "text.kerning_factor", "text.parse_math", "mathtext.fontset",
             "mathtext.default", "mathtext.fallback", "mathtext.rm", "mathtext.it", "mathtext.bf", "mathtext.bfit",
             "mathtext.sf", "mathtext.tt", "mathtext.cal")
+#: Text layouts kept (:func:`_layouts_kept`) per matplotlib renderer class and :data:`_TEXT_RC` values: plain
+#: numbers (boxes, line extents), the same for every renderer of a class at a dpi (part of each key),
+#: so kept for the process and inherited by the workers it forks.
+_TEXT_LAYOUTS: dict[Any, dict[Any, Any]] = {}
 #: Renders in progress in this process that keep text layouts (:func:`_layouts_kept`), and
 #: matplotlib's own ``Text._get_layout`` while they do.
 _KEEPING: dict[str, Any] = {"n": 0, "own": None}
@@ -250,7 +254,8 @@ def _layouts_kept(renderer: Any) -> Iterator[None]:
     draws some 70 texts, most of them measurement after measurement the same strings (tick
     labels, axis labels, legend entries): 200 layouts per measurement's three figures, 18 of
     them new (bundled demo). The layout does not depend on where the text is (the position is
-    added afterwards): it is kept per renderer (text metrics are the renderer's), keyed by what it
+    added afterwards): it is kept per renderer class for the process (:data:`_TEXT_LAYOUTS`: an Agg
+    renderer's text metrics depend on the fonts and the dpi, nothing else of it), keyed by what it
     reads (:func:`_text_layout_key`: the string, font properties, line spacing, alignments,
     rotation and its mode, dpi, whether math is parsed, and the rcParams of fonts and mathtext),
     and handed out as a copy; wrapped and TeX texts are laid out by matplotlib. The same numbers,
@@ -265,8 +270,9 @@ def _layouts_kept(renderer: Any) -> Iterator[None]:
 
     params: Any = rcParams  # typed by literal keys only
     rc = tuple(repr(params[k]) for k in _TEXT_RC)
-    stores: dict[Any, dict[Any, Any]] = renderer.__dict__.setdefault("_ema_rig_layout_stores", {})
-    store = stores.setdefault(rc, {})
+    # by matplotlib's renderer class (the canvases here subclass it per canvas, drawing only)
+    measures = next((c for c in type(renderer).__mro__ if c.__module__.startswith("matplotlib.")), type(renderer))
+    store = _TEXT_LAYOUTS.setdefault((measures, rc), {})
     before = renderer.__dict__.get("_ema_rig_layouts")
     renderer._ema_rig_layouts = store
     with _KEEPING_LOCK:
@@ -661,12 +667,29 @@ def _font_key(prop: Any) -> tuple[Any, ...]:
 
 
 def _local() -> dict[str, Any]:
-    """This thread's canvases and kept figures, new in a new thread or a forked child (:func:`_canvas`)."""
+    """This thread's canvases, kept figures and colour ids, new in a new thread.
+
+    In a child forked by this thread (a pool's worker) the canvases are new (:func:`_canvas`: a
+    renderer's mathtext parses hold its process' fonts), and the figures kept by the parent are
+    taken over, each put on a canvas of the child: their axes, ticks and layouts are plain Python
+    objects (each process its copy), nothing of them reads a font. A worker's first measurement then
+    finds its figures built and laid out, as the parent's next one would.
+    """
     pid = os.getpid()
-    if getattr(_LOCAL, "pid", None) != pid or not hasattr(_LOCAL, "kept"):
-        _LOCAL.kept = {"canvases": {}, "figures": {}}
-        _LOCAL.pid = pid
-    kept: dict[str, Any] = _LOCAL.kept
+    kept: dict[str, Any] | None = getattr(_LOCAL, "kept", None)
+    if kept is None or getattr(_LOCAL, "pid", None) != pid:
+        inherited: dict[str, Any] = {} if kept is None else kept["figures"]
+        fresh: dict[str, Any] = {"canvases": {}, "figures": {}}
+        if kept is not None and "colour_ids" in kept:  # numbers only
+            fresh["colour_ids"] = kept["colour_ids"]
+        _LOCAL.kept, _LOCAL.pid = fresh, pid
+        if inherited:
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+            for kind, fig in inherited.items():
+                _canvas(fig, float(fig.dpi), FigureCanvasAgg)  # off the parent's canvas
+                fresh["figures"][kind] = fig
+        kept = fresh
     return kept
 
 
@@ -703,6 +726,8 @@ def warm_up(dpi: float) -> None:
 
 def kept_figure(kind: str, figsize: tuple[float, float]) -> Figure:
     """The figure this thread keeps for ``kind``, else a new constrained-layout one, kept from now on.
+
+    A process forked by this thread takes the figures kept until then over (:func:`_local`).
 
     A plot function given it (``figure=``) finds the axes it built for the previous measurement
     of that kind (:func:`reuse_axes`) and only replaces the data, limits and texts: no new axes,
