@@ -782,12 +782,17 @@ def _extend(prev: NDArray[np.complex128], n_roots: int, turn: int) -> NDArray[np
     return cast("NDArray[np.complex128]", np.concatenate([prev, new]))
 
 
+def vieta_ok(c: NDArray[Any], z: NDArray[np.complex128]) -> bool:
+    """Whether ``z`` (all roots of ``sum_j c_j z^j``) is finite with the sum of the roots, ``-c_(N-1) / c_N``."""
+    if not np.all(np.isfinite(z)):
+        return False
+    vieta = -c[-2] / c[-1]
+    return bool(abs(z.sum() - vieta) <= 1e-8 * (np.abs(z).sum() + abs(vieta)))
+
+
 def _checked(c: NDArray[Any], z: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
     """``z`` if finite, with the sum of the roots of ``c`` (Vieta) and no two coincident; else None."""
-    if not np.all(np.isfinite(z)):
-        return None
-    vieta = -c[-2] / c[-1]
-    if abs(z.sum() - vieta) > 1e-8 * (np.abs(z).sum() + abs(vieta)):
+    if not vieta_ok(c, z):
         return None
     zs = np.sort_complex(z)
     if np.any(np.abs(np.diff(zs)) <= 1e-12 * np.abs(zs[1:])):
@@ -814,4 +819,5 @@ def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex
     return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * _TURN)
 
 
-__all__ = ["aberth", "aberth_chain", "aberth_warm", "coefficient_blocks", "det_coefficients", "eval_blocked", "self_repulsion", "warm_start"]
+__all__ = ["aberth", "aberth_chain", "aberth_warm", "coefficient_blocks", "det_coefficients", "eval_blocked", "self_repulsion",
+           "vieta_ok", "warm_start"]

@@ -104,12 +104,15 @@ from ..dof import DOF
 from ..errors import BandError, IdentificationError, band_error
 from ..frf import FRFData
 from ._roots import (
+    _EPS,
+    _TWIN,
     aberth_chain,
     aberth_warm,
     coefficient_blocks,
     det_coefficients,
     eval_blocked,
     powers,
+    vieta_ok,
 )
 
 logger = logging.getLogger(__name__)
@@ -162,6 +165,24 @@ _CHAIN_LOW_TOP_MIMO = 100
 #: 200 (12 alternating calls each, load 7): max order 100 73.3 -> 64.3 ms, 200 263 -> 255 ms
 #: (260 instead: 267 ms at 200).
 _CHAIN_MAX_DEGREE = 200
+
+#: One reference, root finder ``'aberth'``: the orders rooted by the companion QR from this degree on
+#: (below :data:`_ABERTH_MIN_DEGREE`, or below the chain's start) divide their stable roots out first
+#: (:func:`_roots_deflated`, all at once from the roots of the order below). TUNED_BY_GRID
+_DEFLATE_FROM_DEGREE = 20
+
+#: Newton steps at most for the stable roots of :func:`_roots_deflated` (they start 1e-7 to 1e-3
+#: relative from their root: quadratic convergence reaches round-off in 2-4 steps), and the step,
+#: relative to ``|z|``, below which a root stops (the next step would be below round-off: quadratic
+#: convergence from an error of 1e-9 leaves ~1e-18).
+_DEFLATE_NEWTON = 8
+_DEFLATE_STEP = 1e-9
+
+#: Largest Newton step, relative to ``|z|``, that :func:`_roots_deflated` takes to polish a root of a
+#: quotient on the undivided polynomial: those roots are within ~1e-13 of the polynomial's
+#: (degree 20-50 on the denominators of benchmarks/bench_plscf.py, against 60-digit roots), a
+#: step a million times larger is no polish (a root at a cluster), and the root stays.
+_DEFLATE_POLISH = 1e-7
 
 #: Default maximum model order for one reference / for several (denominator degree).
 DEFAULT_MAX_ORDER = {1: 64}
@@ -861,6 +882,128 @@ def _roots_eig(low: NDArray[Any]) -> NDArray[Any]:
     return cast("NDArray[Any]", 1.0 / w)
 
 
+def _roots_deflated(lows: list[NDArray[Any]], anchor: NDArray[Any]) -> list[NDArray[Any]]:
+    """All roots z of several one-reference denominators ``A_low(z)``, the known stable ones divided out first.
+
+    Parameters
+    ----------
+    lows : list of ndarray, each shape (n + 1, 1, 1)
+        ``alpha_low`` (``alpha_0 = 1``) of orders of rising degree ``n``.
+    anchor : ndarray, shape (m,), complex
+        All roots of an order below the first (its companion eigenvalues).
+
+    Returns
+    -------
+    list of ndarray, each shape (n,), complex
+        The roots of each polynomial (the same set as :func:`_roots_eig`, to round-off).
+
+    Notes
+    -----
+    The stable roots (``|z| < 1``) of consecutive orders barely move (on the denominators of
+    benchmarks/bench_plscf.py 14 roots from order 16 on, 1e-7 to 1e-3 relative per order), while
+    the companion QR costs ``~n^3``. Newton's iteration started from the anchor's stable roots
+    (upper half plane; the mirror images follow, the polynomials being real) runs on every
+    polynomial at once (one blocked evaluation per step, :func:`~._roots.eval_blocked`); a root
+    counts only when its residual is at rounding level (the acceptance test of :mod:`._roots`),
+    it lies inside the unit circle and apart from the others (:data:`~._roots._TWIN`). Those roots
+    are divided out from the highest coefficient down (forward deflation: the synthetic division's
+    recursion runs with the divided roots, all of modulus below 1, so rounding errors do not grow,
+    Wilkinson's rule) in one banded triangular solve, and the companion QR runs on the quotient of
+    degree ``n - s`` only. The whole set passes :func:`~._roots._checked` (sum of the roots against
+    the coefficients, none coincident), else that order takes the companion eigenvalues of the
+    whole polynomial, so the result never depends on the start.
+    """
+    from scipy.linalg.blas import dtbsv
+
+    k = len(lows)
+    start = anchor[(np.abs(anchor) < 1.0) & (anchor.imag >= 0)]
+    deg = np.array([low.shape[0] - 1 for low in lows])
+    if k == 0 or start.size == 0 or not all(np.isfinite(low).all() for low in lows):
+        return [_roots_eig(low) for low in lows]
+    n = int(deg.max())
+    m = start.size
+    padded = np.zeros((k, n + 1))
+    for i, low in enumerate(lows):
+        padded[i, : deg[i] + 1] = low[:, 0, 0]
+    blocks = coefficient_blocks(padded)[0]
+    owner = np.repeat(np.arange(k), m)
+    z = np.tile(start, k)
+    real = z.imag == 0  # a real start stays real (a real polynomial, real arithmetic)
+    act = np.arange(z.size)
+    with np.errstate(all="ignore"):
+        for _ in range(_DEFLATE_NEWTON):
+            p, dp = eval_blocked(blocks, n, owner[act], z[act])
+            step = p / dp
+            z[act] -= step
+            act = act[~(np.abs(step) <= _DEFLATE_STEP * np.abs(z[act]))]
+            if act.size == 0:
+                break
+        # acceptance: the residual at rounding level (as _roots._ratio), the bound from |c_j| at |z|
+        fin = np.isfinite(z) & (np.abs(z) < 1.0)
+        fin[act] = False
+        p, _ = eval_blocked(blocks, n, owner, np.where(fin, z, 0.0))
+        bound, _ = eval_blocked(coefficient_blocks(np.abs(padded))[0], n, owner, np.abs(np.where(fin, z, 0.0)) + 0j)
+        ok = fin & (np.abs(p) <= 4.0 * _EPS * deg[owner] * bound.real)
+    z, real = z.reshape(k, m), real.reshape(k, m)
+    ok = ok.reshape(k, m) & (real | (z.imag > _TWIN * np.abs(z)))
+    # two starts on one root: the later is not divided out
+    twin = np.abs(z[:, :, None] - z[:, None, :]) <= _TWIN * np.abs(z)[:, :, None]
+    ok &= ~np.triu(twin & ok[:, :, None] & ok[:, None, :], 1).any(axis=1)
+    # the divisor of each polynomial, lowest coefficient first: a real factor z - x or a
+    # quadratic z^2 - 2 Re(r) z + |r|^2 per root (1 where none)
+    s = np.where(ok, np.where(real, 1, 2), 0).sum(axis=1)
+    f = np.zeros((k, int(s.max()) + 1))
+    f[:, 0] = 1.0
+    for j in range(m):
+        g, x, rj = ok[:, j], z[:, j], real[:, j]
+        if g.any():
+            c0 = np.where(g, np.where(rj, -x.real, x.real * x.real + x.imag * x.imag), 1.0)
+            c1 = np.where(g, np.where(rj, 1.0, -2.0 * x.real), 0.0)
+            prod = f * c0[:, None]
+            prod[:, 1:] += f[:, :-1] * c1[:, None]
+            prod[:, 2:] += f[:, :-2] * (g & ~rj)[:, None]
+            f = prod
+    # the quotients from the highest coefficient down: per order the lower triangular Toeplitz
+    # system of f (band storage, f's coefficients highest first on its diagonals), all orders in
+    # ONE banded solve (no band reaches from one order's columns into the next's)
+    nq = deg - s
+    rows = nq + 1
+    first = np.concatenate([[0], np.cumsum(rows)[:-1]])
+    col = np.repeat(np.arange(k), rows)  # the order of each column
+    local = np.arange(col.size) - first[col]
+    t = np.arange(int(s.max()) + 1)
+    back = s[:, None] - t[None, :]
+    fh = np.where(back >= 0, np.take_along_axis(f, np.maximum(back, 0), axis=1), 0.0)  # (k, s_max + 1)
+    band = np.asfortranarray(fh[col].T * (local[None, :] + t[:, None] <= nq[col][None, :]))
+    q_all = dtbsv(int(s.max()), band, padded[col, deg[col] - local], lower=1)
+    ws = []
+    for i in range(k):
+        q = q_all[first[i] : first[i] + rows[i]]  # highest first
+        m_i = int(nq[i])
+        # its roots as _roots_eig's: 1 / w, w the companion eigenvalues of the reversed monic polynomial
+        comp = np.zeros((m_i, m_i), order="F")
+        comp[0] = q[-2::-1] / -q[-1]
+        comp.T.reshape(-1)[1 : (m_i - 1) * (m_i + 1) : m_i + 1] = 1.0
+        ws.append(_eigvals(comp, checked=True))
+    with np.errstate(all="ignore"):
+        zq = 1.0 / np.concatenate(ws)
+        # the quotient's roots are ~1e-13 from those of the polynomial (the division rounds its
+        # coefficients, and they are worse conditioned in the quotient): one Newton step on the
+        # polynomial itself, where no power overflows, brings them to its round-off
+        qown = np.repeat(np.arange(k), nq)
+        fit = np.flatnonzero(deg[qown] * np.log10(np.maximum(np.abs(zq), 1.0)) <= 150)
+        p, dp = eval_blocked(blocks, n, qown[fit], zq[fit])
+        step = p / dp
+        zq[fit] -= np.where(np.abs(step) <= _DEFLATE_POLISH * np.abs(zq[fit]), step, 0.0)  # NaN: no step
+    ends = np.cumsum(nq)
+    out = []
+    for i in range(k):
+        r = z[i, ok[i]]
+        both = np.concatenate([zq[ends[i] - nq[i] : ends[i]], r, r[~real[i, ok[i]]].conj()])
+        out.append(both if vieta_ok(padded[i, : deg[i] + 1], both) else _roots_eig(lows[i]))
+    return out
+
+
 def _poles_of_orders(
     entries: list[tuple[int, NDArray[Any], NDArray[Any]]], dt: float, f_lo: float
 ) -> list[tuple[NDArray[Any], NDArray[Any]]]:
@@ -1204,6 +1347,7 @@ class PlscfEngine:
         # factors of all these orders follow at once (_poles_of_orders)
         entries: list[tuple[int, NDArray[Any], Any]] = []
         chain: list[tuple[int, NDArray[Any], NDArray[Any]]] = []
+        deflate: list[tuple[int, NDArray[Any]]] = []  # (entry index, alpha_low): _root_deflated
         aberth_from, chain_max = _ABERTH_MIN_DEGREE, _CHAIN_MAX_DEGREE
         if n_in == 1:
             if order_list[-1] >= _ABERTH_MIN_DEGREE:
@@ -1221,6 +1365,12 @@ class PlscfEngine:
                         continue
                     z = None
                     big = self.root_finder == "aberth" and n * n_in >= aberth_from
+                    if (n_in == 1 and not big and self.root_finder == "aberth" and n >= _DEFLATE_FROM_DEGREE
+                            and self._prev is not None):
+                        deflate.append((len(entries), low))  # rooted together (_root_deflated)
+                        entries.append((n, high, None))
+                        continue
+                    self._root_deflated(deflate, entries, bar)
                     if big and self._prev is not None:
                         coef = det_coefficients(low)
                         if coef.size - 1 <= chain_max:
@@ -1239,6 +1389,7 @@ class PlscfEngine:
                     entries.append((n, high, z))
                     if bar is not None:
                         bar.update()
+                self._root_deflated(deflate, entries, bar)
                 self._root_chain(chain, entries, bar)
             if pool is not None:
                 entries = [(n, high, fut.result()) for n, high, fut in entries]
@@ -1271,6 +1422,22 @@ class PlscfEngine:
                 bar.update()
         self._prev, self._prev_low = entries[chain[-1][0]][2], chain[-1][2]
         chain.clear()
+
+    def _root_deflated(self, deflate: list[tuple[int, NDArray[Any]]],
+                       entries: list[tuple[int, NDArray[Any], Any]], bar: Any) -> None:
+        """Roots of the orders deferred in ``deflate`` ((entry index, alpha_low) each), all at once by
+        :func:`_roots_deflated` from the roots before them. Fills ``entries`` and empties ``deflate``."""
+        if not deflate:
+            return
+        assert self._prev is not None
+        found = _roots_deflated([low for _, low in deflate], self._prev)
+        for (k, _), z in zip(deflate, found, strict=True):
+            n, high, _ = entries[k]
+            entries[k] = (n, high, z)
+            if bar is not None:
+                bar.update()
+        self._prev, self._prev_low = found[-1], deflate[-1][1]
+        deflate.clear()
 
     def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
         """Poles of the given orders (computing those not yet computed).
