@@ -918,13 +918,13 @@ def _roots_deflated(lows: list[NDArray[Any]], anchor: NDArray[Any]) -> list[NDAr
     k = len(lows)
     start = anchor[(np.abs(anchor) < 1.0) & (anchor.imag >= 0)]
     deg = np.array([low.shape[0] - 1 for low in lows])
-    if k == 0 or start.size == 0 or not all(np.isfinite(low).all() for low in lows):
-        return [_roots_eig(low) for low in lows]
-    n = int(deg.max())
+    n = int(deg.max(initial=0))
     m = start.size
     padded = np.zeros((k, n + 1))
     for i, low in enumerate(lows):
         padded[i, : deg[i] + 1] = low[:, 0, 0]
+    if k == 0 or m == 0 or not np.isfinite(padded).all():
+        return [_roots_eig(low) for low in lows]
     blocks = coefficient_blocks(padded)[0]
     owner = np.repeat(np.arange(k), m)
     z = np.tile(start, k)
@@ -952,17 +952,16 @@ def _roots_deflated(lows: list[NDArray[Any]], anchor: NDArray[Any]) -> list[NDAr
     # the divisor of each polynomial, lowest coefficient first: a real factor z - x or a
     # quadratic z^2 - 2 Re(r) z + |r|^2 per root (1 where none)
     s = np.where(ok, np.where(real, 1, 2), 0).sum(axis=1)
+    c0 = np.where(ok, np.where(real, -z.real, z.real * z.real + z.imag * z.imag), 1.0)
+    c1 = np.where(ok, np.where(real, 1.0, -2.0 * z.real), 0.0)
+    c2 = (ok & ~real).astype(float)
     f = np.zeros((k, int(s.max()) + 1))
     f[:, 0] = 1.0
-    for j in range(m):
-        g, x, rj = ok[:, j], z[:, j], real[:, j]
-        if g.any():
-            c0 = np.where(g, np.where(rj, -x.real, x.real * x.real + x.imag * x.imag), 1.0)
-            c1 = np.where(g, np.where(rj, 1.0, -2.0 * x.real), 0.0)
-            prod = f * c0[:, None]
-            prod[:, 1:] += f[:, :-1] * c1[:, None]
-            prod[:, 2:] += f[:, :-2] * (g & ~rj)[:, None]
-            f = prod
+    for j in np.flatnonzero(ok.any(axis=0)).tolist():
+        prod = f * c0[:, j, None]
+        prod[:, 1:] += f[:, :-1] * c1[:, j, None]
+        prod[:, 2:] += f[:, :-2] * c2[:, j, None]
+        f = prod
     # the quotients from the highest coefficient down: per order the lower triangular Toeplitz
     # system of f (band storage, f's coefficients highest first on its diagonals), all orders in
     # ONE banded solve (no band reaches from one order's columns into the next's)
@@ -995,13 +994,19 @@ def _roots_deflated(lows: list[NDArray[Any]], anchor: NDArray[Any]) -> list[NDAr
         p, dp = eval_blocked(blocks, n, qown[fit], zq[fit])
         step = p / dp
         zq[fit] -= np.where(np.abs(step) <= _DEFLATE_POLISH * np.abs(zq[fit]), step, 0.0)  # NaN: no step
-    ends = np.cumsum(nq)
-    out = []
-    for i in range(k):
-        r = z[i, ok[i]]
-        both = np.concatenate([zq[ends[i] - nq[i] : ends[i]], r, r[~real[i, ok[i]]].conj()])
-        out.append(both if vieta_ok(padded[i, : deg[i] + 1], both) else _roots_eig(lows[i]))
-    return out
+    # each order's roots: its quotient's, the divided ones and their mirror images, in one gather
+    rk, rj = np.nonzero(ok)
+    cx = ~real[rk, rj]
+    pieces = np.concatenate([zq, z[rk, rj], z[rk[cx], rj[cx]].conj()])
+    key = np.concatenate([qown * 3, rk * 3 + 1, rk[cx] * 3 + 2])
+    every = pieces[np.argsort(key, kind="stable")]
+    ends = np.cumsum(deg)
+    # Vieta (as _roots.vieta_ok) for all orders at once
+    bounds = np.concatenate([[0], ends[:-1]])
+    vieta = -padded[np.arange(k), deg - 1] / padded[np.arange(k), deg]
+    with np.errstate(invalid="ignore"):
+        good = np.abs(np.add.reduceat(every, bounds) - vieta) <= 1e-8 * (np.add.reduceat(np.abs(every), bounds) + np.abs(vieta))
+    return [every[a:b] if g else _roots_eig(low) for a, b, g, low in zip(bounds, ends, good.tolist(), lows, strict=True)]
 
 
 def _poles_of_orders(
