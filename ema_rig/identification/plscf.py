@@ -586,8 +586,12 @@ _S_CHUNK_BYTES = 2 << 20
 _R_PIVOT_TOL = 1e-6
 
 
-def _order_limit(r: NDArray[Any]) -> int:
+def _order_limit(r: NDArray[Any]) -> tuple[int, NDArray[Any] | None]:
     """Highest order ``p`` whose ``R_p`` (lags ``r[:p+1]``, Toeplitz) is safely positive definite.
+
+    Returns ``(p, L)``: ``L`` the lower Cholesky factor of the whole ``R`` (shape (r.size, r.size),
+    upper triangle zero) when it is positive definite, else None (:func:`_reduced_factor` takes it
+    instead of factoring the same matrix again).
 
     On evenly spaced lines ``R`` is almost ``n_freq`` times the identity and every order up to
     the cap passes; a gap in the lines (two separate bands) makes it singular from some order
@@ -602,17 +606,21 @@ def _order_limit(r: NDArray[Any]) -> int:
     from scipy.linalg.lapack import dpotrf
 
     i = np.arange(r.size)
-    c, info = dpotrf(r[np.abs(i[None, :] - i[:, None])], lower=1, clean=0)
+    c, info = dpotrf(r[np.abs(i[None, :] - i[:, None])], lower=1, clean=1)
     # info = k > 0: the leading minor of size k is not positive definite, rows < k - 1 factored
     n_ok = r.size if info == 0 else max(int(info) - 1, 0)
     piv = np.diag(c)[:n_ok] ** 2 / r[0]
     bad = np.flatnonzero(~(piv >= _R_PIVOT_TOL))
     n_good = n_ok if bad.size == 0 else int(bad[0])
-    return n_good - 1
+    return n_good - 1, (c if info == 0 else None)
 
 
-def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int) -> tuple[NDArray[Any], NDArray[Any]]:
+def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int,
+                    factor: NDArray[Any] | None = None) -> tuple[NDArray[Any], NDArray[Any]]:
     """``T`` of the max order and ``L^-1``, the inverse Cholesky factor of ``R``.
+
+    ``factor``, when given with shape (p+1, p+1), is ``L`` itself (:func:`_order_limit`'s of the
+    same lags), not formed again.
 
     Returns ``T`` shape ((p+1) n_in, (p+1) n_in) and ``Linv`` shape (p+1, p+1), lower
     triangular. On evenly spaced lines ``R`` is almost ``n_freq`` times the identity
@@ -626,7 +634,10 @@ def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int) -> tuple[NDArray[A
     i = np.arange(p + 1)
     lag = i[None, :] - i[:, None] + p  # (i, j) -> (j - i) + p
     # LAPACK directly (the factor and its triangular inverse), without scipy.linalg's wrappers
-    L, info = dpotrf(r[np.abs(lag - p)], lower=1, clean=1)
+    if factor is not None and factor.shape == (p + 1, p + 1):
+        L, info = factor, 0
+    else:
+        L, info = dpotrf(r[np.abs(lag - p)], lower=1, clean=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"R is not positive definite (leading minor {info})")
     linv, info = dtrtri(L, lower=1)
@@ -1269,12 +1280,12 @@ class PlscfEngine:
         self.data = data
         self.max_order = max_order
         self.root_finder = root_finder
-        self.threads = threads if threads is not None else min(2, os.cpu_count() or 1)
+        self.threads = threads  # None: min(2, cores), looked up only for root_finder='eig' (_compute)
         self.n_in = data.n_in
         self.f_lo, self.f_hi = float(data.freq[0]), float(data.freq[-1])
         with single_threaded():
             self._r, self._s, self._t, _, self.dt = _lag_sums(data, max_order)
-            self.order_limit = _order_limit(self._r)
+            self.order_limit, self._r_factor = _order_limit(self._r)
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
@@ -1297,7 +1308,7 @@ class PlscfEngine:
         p = min(self.max_order, self.order_limit, max(n, 2 * self._alloc))
         cap = self.max_order
         lags = np.arange(cap - p, cap + p + 1)  # lags -p..p inside the cap's -cap..cap
-        self._T, self._linv = _reduced_factor(self._r[: p + 1], self._t[:, :, lags], p)
+        self._T, self._linv = _reduced_factor(self._r[: p + 1], self._t[:, :, lags], p, self._r_factor)
         self._sp = self._s[:, :, lags]  # lag sums -p..p, (n_out, n_in, 2p+1)
         self._alloc = p
         ncol = (p + 1) * self.n_in
@@ -1326,8 +1337,10 @@ class PlscfEngine:
         with single_threaded():
             self._blocks(order_list[-1])
         pool = None
-        if self.root_finder == "eig" and self.threads > 1 and len(order_list) > 4:
-            pool = ThreadPoolExecutor(max_workers=self.threads)
+        if self.root_finder == "eig" and len(order_list) > 4:
+            threads = self.threads if self.threads is not None else min(2, os.cpu_count() or 1)
+            if threads > 1:
+                pool = ThreadPoolExecutor(max_workers=threads)
 
         def work(low: NDArray[Any]) -> NDArray[Any]:
             with single_threaded():
