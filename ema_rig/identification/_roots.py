@@ -782,17 +782,22 @@ def _extend(prev: NDArray[np.complex128], n_roots: int, turn: int) -> NDArray[np
     return cast("NDArray[np.complex128]", np.concatenate([prev, new]))
 
 
-def vieta_ok(c: NDArray[Any], z: NDArray[np.complex128]) -> bool:
-    """Whether ``z`` (all roots of ``sum_j c_j z^j``) is finite with the sum of the roots, ``-c_(N-1) / c_N``."""
-    if not np.all(np.isfinite(z)):
-        return False
-    vieta = -c[-2] / c[-1]
-    return bool(abs(z.sum() - vieta) <= 1e-8 * (np.abs(z).sum() + abs(vieta)))
+def vieta_ok(c_next: Any, c_lead: Any, total: Any, abs_total: Any) -> Any:
+    """Whether root sets have the sum of the roots of their polynomials (Vieta), elementwise.
+
+    ``total`` and ``abs_total`` are the sum of a set's roots and of their moduli, ``c_lead`` and
+    ``c_next`` the polynomial's coefficients of degree ``N`` and ``N - 1`` (scalars or arrays):
+    the sum must be ``-c_next / c_lead`` within ``1e-8`` of the moduli's sum (a lost or doubled
+    root moves it by a root's size; round-off by ~N eps). A non-finite root fails.
+    """
+    vieta = -c_next / c_lead
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(abs_total) & (np.abs(total - vieta) <= 1e-8 * (abs_total + np.abs(vieta)))
 
 
 def _checked(c: NDArray[Any], z: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
     """``z`` if finite, with the sum of the roots of ``c`` (Vieta) and no two coincident; else None."""
-    if not vieta_ok(c, z):
+    if not np.all(np.isfinite(z)) or not vieta_ok(c[-2], c[-1], z.sum(), np.abs(z).sum()):
         return None
     zs = np.sort_complex(z)
     if np.any(np.abs(np.diff(zs)) <= 1e-12 * np.abs(zs[1:])):

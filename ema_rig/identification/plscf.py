@@ -991,6 +991,9 @@ def _roots_deflated(lows: list[NDArray[Any]], anchor: NDArray[Any]) -> list[NDAr
         q = q_all[first[i] : first[i] + rows[i]]  # highest first
         m_i = int(nq[i])
         # its roots as _roots_eig's: 1 / w, w the companion eigenvalues of the reversed monic polynomial
+        if m_i == 0:  # every root divided out
+            ws.append(np.zeros(0, dtype=np.complex128))
+            continue
         comp = np.zeros((m_i, m_i), order="F")
         comp[0] = q[-2::-1] / -q[-1]
         comp.T.reshape(-1)[1 : (m_i - 1) * (m_i + 1) : m_i + 1] = 1.0
@@ -1012,11 +1015,11 @@ def _roots_deflated(lows: list[NDArray[Any]], anchor: NDArray[Any]) -> list[NDAr
     key = np.concatenate([qown * 3, rk * 3 + 1, rk[cx] * 3 + 2])
     every = pieces[np.argsort(key, kind="stable")]
     ends = np.cumsum(deg)
-    # Vieta (as _roots.vieta_ok) for all orders at once
+    # the sum of the roots (Vieta) of every order at once
     bounds = np.concatenate([[0], ends[:-1]])
-    vieta = -padded[np.arange(k), deg - 1] / padded[np.arange(k), deg]
-    with np.errstate(invalid="ignore"):
-        good = np.abs(np.add.reduceat(every, bounds) - vieta) <= 1e-8 * (np.add.reduceat(np.abs(every), bounds) + np.abs(vieta))
+    lead = np.arange(k)
+    good = vieta_ok(padded[lead, deg - 1], padded[lead, deg], np.add.reduceat(every, bounds),
+                    np.add.reduceat(np.abs(every), bounds))
     return [every[a:b] if g else _roots_eig(low) for a, b, g, low in zip(bounds, ends, good.tolist(), lows, strict=True)]
 
 
