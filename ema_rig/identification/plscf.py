@@ -58,7 +58,10 @@ one root-finding problem per order.
 
 **Poles and participation factors.** The roots of order ``n`` are those of ``det A(z)``:
 eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
-(``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
+(``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w`` (one reference from degree
+20: the stable roots, which barely move from order to order, by Newton's iteration from the
+order below and divided out first, so that the QR runs on the quotient of the unstable ones,
+:func:`_roots_deflated`); for degrees
 ``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond; several:
 from degree 32 when the orders end at a degree of 64-100) by
 default the Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`:
@@ -168,7 +171,16 @@ _CHAIN_MAX_DEGREE = 200
 
 #: One reference, root finder ``'aberth'``: the orders rooted by the companion QR from this degree on
 #: (below :data:`_ABERTH_MIN_DEGREE`, or below the chain's start) divide their stable roots out first
-#: (:func:`_roots_deflated`, all at once from the roots of the order below). TUNED_BY_GRID
+#: (:func:`_roots_deflated`, all at once from the roots of the order below). On benchmarks/bench_plscf.py's
+#: one-reference denominators (even orders to 50; 14 stable roots from order 16 on, 3 at order 12),
+#: replayed root steps of degrees D..50 against their companion QR (CPU min of 30 alternating runs,
+#: BLAS one thread, 2026-12-08, load ~10): from 14 3.71 against 2.90 ms (the anchor of order 12
+#: has 3 stable roots; Newton runs its 8 steps on starts that moved ~1), 16 2.75 / 2.87, 18 2.42 /
+#: 2.83, 20 2.65 / 3.22, 24 2.46 / 2.72, 30 2.22 / 2.47, 36 2.01 / 2.03 (at load ~3 an earlier
+#: version: 20 2.13 / 2.72, 24 2.10 / 2.60);
+#: whole plscf calls at max order 50 (CPU min of 15 alternating calls, load 10): without 6.79 ms,
+#: from 16 / 20 / 24 / 30: 6.32 / 5.71 / 5.96 / 6.28 ms; at max order 100 (7 calls) 19.2-20.0 ms
+#: for every choice (the chain from degree 48 is most of those calls).
 _DEFLATE_FROM_DEGREE = 20
 
 #: Newton steps at most for the stable roots of :func:`_roots_deflated` (they start 1e-7 to 1e-3
