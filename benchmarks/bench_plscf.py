@@ -135,8 +135,9 @@ def err_ema(ps: Any, order: int, lam_true: complex) -> tuple[float, float]:
 def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[float, float, int, float]:
     """(root step [s], one evaluation pass at the final roots [s], orders, root step's share of the call).
 
-    Each root-finding call (one order, or one batched chain of orders, ``aberth_chain``, whose
-    floor is the sum of its orders' floors) is recorded with its inputs during one ``plscf``
+    Each root-finding call (one order, or one batched chain of orders, ``aberth_chain``, or one batch
+    of companion orders with their stable roots divided out, ``_roots_deflated``, whose floor is the
+    sum of its orders' floors) is recorded with its inputs during one ``plscf``
     call and then replayed ``replays`` times, interleaved with its floor (one evaluation at
     the final roots of each of its orders); per call the fastest replay of each counts, in CPU
     time (``time.process_time``; one BLAS thread). On a shared machine a step of a fraction of a
@@ -177,6 +178,20 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
                       [(c, z if z is not None else empty) for c, z in zip(coefs, found, strict=True)]))
         return found
 
+    defl0 = getattr(mod, "_roots_deflated", None)  # the companion orders' stable roots divided out (newer trees)
+
+    def rec_deflated(lows: list[np.ndarray], anchor: np.ndarray) -> Any:
+        mod._roots_eig = eig0  # its own fallbacks are part of its call (not recorded twice)
+        try:
+            t0 = time.perf_counter()
+            found = defl0(lows, anchor)
+            in_call[0] += time.perf_counter() - t0
+        finally:
+            mod._roots_eig = rec_eig
+        calls.append((lambda lows=lows, anchor=anchor: defl0(lows, anchor),
+                      [(det_coefficients(low), z) for low, z in zip(lows, found, strict=True)]))
+        return found
+
     def rec_eig(low: np.ndarray) -> Any:
         t0 = time.perf_counter()
         z = eig0(low)
@@ -188,6 +203,8 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
     mod._roots_eig = rec_eig
     if chain0 is not None:
         mod.aberth_chain = rec_chain
+    if defl0 is not None:
+        mod._roots_deflated = rec_deflated
     try:
         t0 = time.perf_counter()
         call_ema(data, max_order)
@@ -197,6 +214,8 @@ def root_step_and_floor(data: Any, max_order: int, replays: int = 3) -> tuple[fl
         mod._roots_eig = eig0
         if chain0 is not None:
             mod.aberth_chain = chain0
+        if defl0 is not None:
+            mod._roots_deflated = defl0
     step = floor = 0.0
     orders = 0
     for run, found in calls:

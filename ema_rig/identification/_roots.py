@@ -268,6 +268,20 @@ _STALL = 16
 _TWIN = 1e-10
 
 
+def later_twins(z: NDArray[np.complex128]) -> NDArray[np.bool_]:
+    """The later member of every pair of coincident approximations (:data:`_TWIN`) in each row of ``z``.
+
+    ``z`` has shape (..., m); returns a mask of the same shape. A NaN entry is never a twin.
+    """
+    d = np.abs(z[..., :, None] - z[..., None, :])
+    return cast("NDArray[np.bool_]", np.triu(d <= _TWIN * np.abs(z)[..., :, None], 1).any(axis=-2))
+
+
+#: The rounding level of the acceptance test of a root of a degree-N polynomial is ``N`` times this
+#: (``|p(z)| <= 4 N eps sum_j |c_j| |z|^j``, as in :func:`_ratio`).
+ROUNDING_PER_DEGREE = 4.0 * _EPS
+
+
 def _part_twins(z: NDArray[np.complex128], turn: int) -> NDArray[np.intp]:
     """Move the later member of every pair of coincident approximations in ``z`` (in place).
 
@@ -277,9 +291,7 @@ def _part_twins(z: NDArray[np.complex128], turn: int) -> NDArray[np.intp]:
     approximations restart on a circle of radius 1.1 (as the new points of :func:`warm_start`),
     turned by the golden angle per call. Returns their indices (to iterate again).
     """
-    d = np.abs(z[:, None] - z[None, :])
-    twin = np.triu(d <= _TWIN * np.abs(z)[:, None], 1).any(axis=0)
-    moved = np.flatnonzero(twin)
+    moved = np.flatnonzero(later_twins(z))
     if moved.size:
         k = np.arange(moved.size)
         z[moved] = 1.1 * np.exp(1j * (0.7 + 2.399963 * turn + 2 * np.pi * (k + 0.5) / moved.size))
@@ -782,12 +794,22 @@ def _extend(prev: NDArray[np.complex128], n_roots: int, turn: int) -> NDArray[np
     return cast("NDArray[np.complex128]", np.concatenate([prev, new]))
 
 
+def vieta_ok(c_next: Any, c_lead: Any, total: Any, abs_total: Any) -> Any:
+    """Whether root sets have the sum of the roots of their polynomials (Vieta), elementwise.
+
+    ``total`` and ``abs_total`` are the sum of a set's roots and of their moduli, ``c_lead`` and
+    ``c_next`` the polynomial's coefficients of degree ``N`` and ``N - 1`` (scalars or arrays):
+    the sum must be ``-c_next / c_lead`` within ``1e-8`` of the moduli's sum (a lost or doubled
+    root moves it by a root's size; round-off by ~N eps). A non-finite root fails.
+    """
+    vieta = -c_next / c_lead
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(abs_total) & (np.abs(total - vieta) <= 1e-8 * (abs_total + np.abs(vieta)))
+
+
 def _checked(c: NDArray[Any], z: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
     """``z`` if finite, with the sum of the roots of ``c`` (Vieta) and no two coincident; else None."""
-    if not np.all(np.isfinite(z)):
-        return None
-    vieta = -c[-2] / c[-1]
-    if abs(z.sum() - vieta) > 1e-8 * (np.abs(z).sum() + abs(vieta)):
+    if not np.all(np.isfinite(z)) or not vieta_ok(c[-2], c[-1], z.sum(), np.abs(z).sum()):
         return None
     zs = np.sort_complex(z)
     if np.any(np.abs(np.diff(zs)) <= 1e-12 * np.abs(zs[1:])):
@@ -814,4 +836,5 @@ def warm_start(prev: NDArray[np.complex128], n_roots: int) -> NDArray[np.complex
     return cast("NDArray[np.complex128]", np.concatenate([prev, new]) * _TURN)
 
 
-__all__ = ["aberth", "aberth_chain", "aberth_warm", "coefficient_blocks", "det_coefficients", "eval_blocked", "self_repulsion", "warm_start"]
+__all__ = ["ROUNDING_PER_DEGREE", "aberth", "aberth_chain", "aberth_warm", "coefficient_blocks", "det_coefficients",
+           "eval_blocked", "later_twins", "self_repulsion", "vieta_ok", "warm_start"]

@@ -58,7 +58,10 @@ one root-finding problem per order.
 
 **Poles and participation factors.** The roots of order ``n`` are those of ``det A(z)``:
 eigenvalues of the block companion matrix of the coefficient-reversed, transposed polynomial
-(``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w``; for degrees
+(``n n_in`` square; upper Hessenberg for one reference), ``z = 1 / w`` (one reference from degree
+20: the stable roots, which barely move from order to order, by Newton's iteration from the
+order below and divided out first, so that the QR runs on the quotient of the unstable ones,
+:func:`_roots_deflated`); for degrees
 ``n n_in >= 64`` (one reference: from degree 48 when the orders go on to 64 or beyond; several:
 from degree 32 when the orders end at a degree of 64-100) by
 default the Aberth-Ehrlich iteration started from the previous order's roots (:mod:`._roots`:
@@ -104,12 +107,15 @@ from ..dof import DOF
 from ..errors import BandError, IdentificationError, band_error
 from ..frf import FRFData
 from ._roots import (
+    ROUNDING_PER_DEGREE,
     aberth_chain,
     aberth_warm,
     coefficient_blocks,
     det_coefficients,
     eval_blocked,
+    later_twins,
     powers,
+    vieta_ok,
 )
 
 logger = logging.getLogger(__name__)
@@ -162,6 +168,33 @@ _CHAIN_LOW_TOP_MIMO = 100
 #: 200 (12 alternating calls each, load 7): max order 100 73.3 -> 64.3 ms, 200 263 -> 255 ms
 #: (260 instead: 267 ms at 200).
 _CHAIN_MAX_DEGREE = 200
+
+#: One reference, root finder ``'aberth'``: the orders rooted by the companion QR from this degree on
+#: (below :data:`_ABERTH_MIN_DEGREE`, or below the chain's start) divide their stable roots out first
+#: (:func:`_roots_deflated`, all at once from the roots of the order below). On benchmarks/bench_plscf.py's
+#: one-reference denominators (even orders to 50; 14 stable roots from order 16 on, 3 at order 12),
+#: replayed root steps of degrees D..50 against their companion QR (CPU min of 30 alternating runs,
+#: BLAS one thread, 2026-12-08, load ~10): from 14 3.71 against 2.90 ms (the anchor of order 12
+#: has 3 stable roots; Newton runs its 8 steps on starts that moved ~1), 16 2.75 / 2.87, 18 2.42 /
+#: 2.83, 20 2.65 / 3.22, 24 2.46 / 2.72, 30 2.22 / 2.47, 36 2.01 / 2.03 (at load ~3 an earlier
+#: version: 20 2.13 / 2.72, 24 2.10 / 2.60);
+#: whole plscf calls at max order 50 (CPU min of 15 alternating calls, load 10): without 6.79 ms,
+#: from 16 / 20 / 24 / 30: 6.32 / 5.71 / 5.96 / 6.28 ms; at max order 100 (7 calls) 19.2-20.0 ms
+#: for every choice (the chain from degree 48 is most of those calls).
+_DEFLATE_FROM_DEGREE = 20
+
+#: Newton steps at most for the stable roots of :func:`_roots_deflated` (they start 1e-7 to 1e-3
+#: relative from their root: quadratic convergence reaches round-off in 2-4 steps), and the step,
+#: relative to ``|z|``, below which a root stops (the next step would be below round-off: quadratic
+#: convergence from an error of 1e-9 leaves ~1e-18).
+_DEFLATE_NEWTON = 8
+_DEFLATE_STEP = 1e-9
+
+#: Largest Newton step, relative to ``|z|``, that :func:`_roots_deflated` takes to polish a root of a
+#: quotient on the undivided polynomial: those roots are within ~1e-13 of the polynomial's
+#: (degree 20-50 on the denominators of benchmarks/bench_plscf.py, against 60-digit roots), a
+#: step a million times larger is no polish (a root at a cluster), and the root stays.
+_DEFLATE_POLISH = 1e-7
 
 #: Default maximum model order for one reference / for several (denominator degree).
 DEFAULT_MAX_ORDER = {1: 64}
@@ -573,8 +606,12 @@ _Q_LAST_BLOCK_SHARE = 1 / 8
 _R_PIVOT_TOL = 1e-6
 
 
-def _order_limit(r: NDArray[Any]) -> int:
+def _order_limit(r: NDArray[Any]) -> tuple[int, NDArray[Any] | None]:
     """Highest order ``p`` whose ``R_p`` (lags ``r[:p+1]``, Toeplitz) is safely positive definite.
+
+    Returns ``(p, L)``: ``L`` the lower Cholesky factor of the whole ``R`` (shape (r.size, r.size),
+    upper triangle zero) when it is positive definite, else None (:func:`_reduced_factor` takes it
+    instead of factoring the same matrix again).
 
     On evenly spaced lines ``R`` is almost ``n_freq`` times the identity and every order up to
     the cap passes; a gap in the lines (two separate bands) makes it singular from some order
@@ -589,17 +626,21 @@ def _order_limit(r: NDArray[Any]) -> int:
     from scipy.linalg.lapack import dpotrf
 
     i = np.arange(r.size)
-    c, info = dpotrf(r[np.abs(i[None, :] - i[:, None])], lower=1, clean=0)
+    c, info = dpotrf(r[np.abs(i[None, :] - i[:, None])], lower=1, clean=1)
     # info = k > 0: the leading minor of size k is not positive definite, rows < k - 1 factored
     n_ok = r.size if info == 0 else max(int(info) - 1, 0)
     piv = np.diag(c)[:n_ok] ** 2 / r[0]
     bad = np.flatnonzero(~(piv >= _R_PIVOT_TOL))
     n_good = n_ok if bad.size == 0 else int(bad[0])
-    return n_good - 1
+    return n_good - 1, (c if info == 0 else None)
 
 
-def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int) -> tuple[NDArray[Any], NDArray[Any]]:
+def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int,
+                    factor: NDArray[Any] | None = None) -> tuple[NDArray[Any], NDArray[Any]]:
     """``T`` of the max order and ``L^-1``, the inverse Cholesky factor of ``R``.
+
+    ``factor``, when given with shape (p+1, p+1), is ``L`` itself (:func:`_order_limit`'s of the
+    same lags), not formed again.
 
     Returns ``T`` shape ((p+1) n_in, (p+1) n_in) and ``Linv`` shape (p+1, p+1), lower
     triangular. On evenly spaced lines ``R`` is almost ``n_freq`` times the identity
@@ -613,7 +654,10 @@ def _reduced_factor(r: NDArray[Any], t: NDArray[Any], p: int) -> tuple[NDArray[A
     i = np.arange(p + 1)
     lag = i[None, :] - i[:, None] + p  # (i, j) -> (j - i) + p
     # LAPACK directly (the factor and its triangular inverse), without scipy.linalg's wrappers
-    L, info = dpotrf(r[np.abs(lag - p)], lower=1, clean=1)
+    if factor is not None and factor.shape == (p + 1, p + 1):
+        L, info = factor, 0
+    else:
+        L, info = dpotrf(r[np.abs(lag - p)], lower=1, clean=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"R is not positive definite (leading minor {info})")
     linv, info = dtrtri(L, lower=1)
@@ -867,6 +911,141 @@ def _roots_eig(low: NDArray[Any]) -> NDArray[Any]:
     if not w.all():  # dgeev's eigenvalues of a finite matrix are finite; a zero one is a root at infinity
         w = w[w != 0]
     return cast("NDArray[Any]", 1.0 / w)
+
+
+def _roots_deflated(lows: list[NDArray[Any]], anchor: NDArray[Any]) -> list[NDArray[Any]]:
+    """All roots z of several one-reference denominators ``A_low(z)``, the known stable ones divided out first.
+
+    Parameters
+    ----------
+    lows : list of ndarray, each shape (n + 1, 1, 1)
+        ``alpha_low`` (``alpha_0 = 1``) of orders of rising degree ``n``.
+    anchor : ndarray, shape (m,), complex
+        All roots of an order below the first (its companion eigenvalues).
+
+    Returns
+    -------
+    list of ndarray, each shape (n,), complex
+        The roots of each polynomial (the same set as :func:`_roots_eig`, to round-off).
+
+    Notes
+    -----
+    The stable roots (``|z| < 1``) of consecutive orders barely move (on the denominators of
+    benchmarks/bench_plscf.py 14 roots from order 16 on, 1e-7 to 1e-3 relative per order), while
+    the companion QR costs ``~n^3``. Newton's iteration started from the anchor's stable roots
+    (upper half plane; the mirror images follow, the polynomials being real) runs on every
+    polynomial at once (one blocked evaluation per step, :func:`~._roots.eval_blocked`); a root
+    counts only when its residual is at rounding level (the acceptance test of :mod:`._roots`),
+    it lies inside the unit circle and apart from the others and their mirror images
+    (:func:`~._roots.later_twins`). Those roots
+    are divided out from the highest coefficient down (forward deflation: the synthetic division's
+    recursion runs with the divided roots, all of modulus below 1, so rounding errors do not grow,
+    Wilkinson's rule) in one banded triangular solve, and the companion QR runs on the quotient of
+    degree ``n - s`` only; its roots take one Newton step on the undivided polynomial (the division
+    costs them accuracy: ~1e-13 relative before, 1e-16 after, against 60-digit roots, where the
+    companion QR of the whole polynomial gives 2e-15). The whole set must have the sum of the
+    roots (:func:`~._roots.vieta_ok`), else that order takes the companion eigenvalues of the
+    whole polynomial, so the result never depends on the start.
+    """
+    from scipy.linalg.blas import dtbsv
+
+    k = len(lows)
+    start = anchor[(np.abs(anchor) < 1.0) & (anchor.imag >= 0)]
+    deg = np.array([low.shape[0] - 1 for low in lows])
+    n = int(deg.max(initial=0))
+    m = start.size
+    padded = np.zeros((k, n + 1))
+    for i, low in enumerate(lows):
+        padded[i, : deg[i] + 1] = low[:, 0, 0]
+    if k == 0 or m == 0 or not np.isfinite(padded).all():
+        return [_roots_eig(low) for low in lows]
+    blocks = coefficient_blocks(padded)[0]
+    owner = np.repeat(np.arange(k), m)
+    z = np.tile(start, k)
+    real = z.imag == 0  # a real start stays real (a real polynomial, real arithmetic)
+    act = np.arange(z.size)
+    with np.errstate(all="ignore"):
+        for _ in range(_DEFLATE_NEWTON):
+            p, dp = eval_blocked(blocks, n, owner[act], z[act])
+            step = p / dp
+            z[act] -= step
+            act = act[~(np.abs(step) <= _DEFLATE_STEP * np.abs(z[act]))]
+            if act.size == 0:
+                break
+        # acceptance: the residual at rounding level (as _roots._ratio), the bound from |c_j| at |z|
+        fin = np.isfinite(z) & (np.abs(z) < 1.0)
+        fin[act] = False
+        p, _ = eval_blocked(blocks, n, owner, np.where(fin, z, 0.0))
+        bound, _ = eval_blocked(coefficient_blocks(np.abs(padded))[0], n, owner, np.abs(np.where(fin, z, 0.0)) + 0j)
+        ok = fin & (np.abs(p) <= ROUNDING_PER_DEGREE * deg[owner] * bound.real)
+    z, real = z.reshape(k, m), real.reshape(k, m)
+    ok = ok.reshape(k, m) & (real | (z.imag > 0))  # a complex start stays in the upper half plane
+    # no root divided out twice: two starts on one root, or a complex root on its mirror image (a
+    # real root), among the roots and their mirror images: the later of such a pair is not divided
+    mirror = np.where(ok & ~real, z.conj(), np.nan)
+    twin = later_twins(np.concatenate([np.where(ok, z, np.nan), mirror], axis=1))
+    ok &= ~(twin[:, :m] | twin[:, m:])
+    # the divisor of each polynomial, lowest coefficient first: a real factor z - x or a
+    # quadratic z^2 - 2 Re(r) z + |r|^2 per root (1 where none)
+    s = np.where(ok, np.where(real, 1, 2), 0).sum(axis=1)
+    c0 = np.where(ok, np.where(real, -z.real, z.real * z.real + z.imag * z.imag), 1.0)
+    c1 = np.where(ok, np.where(real, 1.0, -2.0 * z.real), 0.0)
+    c2 = (ok & ~real).astype(float)
+    f = np.zeros((k, int(s.max()) + 1))
+    f[:, 0] = 1.0
+    for j in np.flatnonzero(ok.any(axis=0)).tolist():
+        prod = f * c0[:, j, None]
+        prod[:, 1:] += f[:, :-1] * c1[:, j, None]
+        prod[:, 2:] += f[:, :-2] * c2[:, j, None]
+        f = prod
+    # the quotients from the highest coefficient down: per order the lower triangular Toeplitz
+    # system of f (band storage, f's coefficients highest first on its diagonals), all orders in
+    # ONE banded solve (no band reaches from one order's columns into the next's)
+    nq = deg - s
+    rows = nq + 1
+    first = np.concatenate([[0], np.cumsum(rows)[:-1]])
+    col = np.repeat(np.arange(k), rows)  # the order of each column
+    local = np.arange(col.size) - first[col]
+    t = np.arange(int(s.max()) + 1)
+    back = s[:, None] - t[None, :]
+    fh = np.where(back >= 0, np.take_along_axis(f, np.maximum(back, 0), axis=1), 0.0)  # (k, s_max + 1)
+    band = np.asfortranarray(fh[col].T * (local[None, :] + t[:, None] <= nq[col][None, :]))
+    q_all = dtbsv(int(s.max()), band, padded[col, deg[col] - local], lower=1)
+    ws = []
+    for i in range(k):
+        q = q_all[first[i] : first[i] + rows[i]]  # highest first
+        m_i = int(nq[i])
+        # its roots as _roots_eig's: 1 / w, w the companion eigenvalues of the reversed monic polynomial
+        if m_i == 0:  # every root divided out
+            ws.append(np.zeros(0, dtype=np.complex128))
+            continue
+        comp = np.zeros((m_i, m_i), order="F")
+        comp[0] = q[-2::-1] / -q[-1]
+        comp.T.reshape(-1)[1 : (m_i - 1) * (m_i + 1) : m_i + 1] = 1.0
+        ws.append(_eigvals(comp, checked=True))
+    with np.errstate(all="ignore"):
+        zq = 1.0 / np.concatenate(ws)
+        # the quotient's roots are ~1e-13 from those of the polynomial (the division rounds its
+        # coefficients, and they are worse conditioned in the quotient): one Newton step on the
+        # polynomial itself, where no power overflows, brings them to its round-off
+        qown = np.repeat(np.arange(k), nq)
+        fit = np.flatnonzero(deg[qown] * np.log10(np.maximum(np.abs(zq), 1.0)) <= 150)
+        p, dp = eval_blocked(blocks, n, qown[fit], zq[fit])
+        step = p / dp
+        zq[fit] -= np.where(np.abs(step) <= _DEFLATE_POLISH * np.abs(zq[fit]), step, 0.0)  # NaN: no step
+    # each order's roots: its quotient's, the divided ones and their mirror images, in one gather
+    rk, rj = np.nonzero(ok)
+    cx = ~real[rk, rj]
+    pieces = np.concatenate([zq, z[rk, rj], z[rk[cx], rj[cx]].conj()])
+    key = np.concatenate([qown * 3, rk * 3 + 1, rk[cx] * 3 + 2])
+    every = pieces[np.argsort(key, kind="stable")]
+    ends = np.cumsum(deg)
+    # the sum of the roots (Vieta) of every order at once
+    bounds = np.concatenate([[0], ends[:-1]])
+    lead = np.arange(k)
+    good = vieta_ok(padded[lead, deg - 1], padded[lead, deg], np.add.reduceat(every, bounds),
+                    np.add.reduceat(np.abs(every), bounds))
+    return [every[a:b] if g else _roots_eig(low) for a, b, g, low in zip(bounds, ends, good.tolist(), lows, strict=True)]
 
 
 def _poles_of_orders(
@@ -1129,12 +1308,12 @@ class PlscfEngine:
         self.data = data
         self.max_order = max_order
         self.root_finder = root_finder
-        self.threads = threads if threads is not None else min(2, os.cpu_count() or 1)
+        self.threads = threads  # None: min(2, cores), looked up only for root_finder='eig' (_compute)
         self.n_in = data.n_in
         self.f_lo, self.f_hi = float(data.freq[0]), float(data.freq[-1])
         with single_threaded():
             self._r, self._s, self._t, _, self.dt = _lag_sums(data, max_order)
-            self.order_limit = _order_limit(self._r)
+            self.order_limit, self._r_factor = _order_limit(self._r)
         self._alloc = 0  # order the reduced blocks are built for (grown on demand up to the cap)
         self._done = 0  # rows of Q already accumulated into P
         self._last = 0  # highest order computed so far
@@ -1157,7 +1336,7 @@ class PlscfEngine:
         p = min(self.max_order, self.order_limit, max(n, 2 * self._alloc))
         cap = self.max_order
         lags = np.arange(cap - p, cap + p + 1)  # lags -p..p inside the cap's -cap..cap
-        self._T, self._linv = _reduced_factor(self._r[: p + 1], self._t[:, :, lags], p)
+        self._T, self._linv = _reduced_factor(self._r[: p + 1], self._t[:, :, lags], p, self._r_factor)
         self._sp = self._s[:, :, lags]  # lag sums -p..p, (n_out, n_in, 2p+1)
         self._alloc = p
         ncol = (p + 1) * self.n_in
@@ -1190,8 +1369,10 @@ class PlscfEngine:
         with single_threaded():
             self._blocks(order_list[-1])
         pool = None
-        if self.root_finder == "eig" and self.threads > 1 and len(order_list) > 4:
-            pool = ThreadPoolExecutor(max_workers=self.threads)
+        if self.root_finder == "eig" and len(order_list) > 4:
+            threads = self.threads if self.threads is not None else min(2, os.cpu_count() or 1)
+            if threads > 1:
+                pool = ThreadPoolExecutor(max_workers=threads)
 
         def work(low: NDArray[Any]) -> NDArray[Any]:
             with single_threaded():
@@ -1216,6 +1397,7 @@ class PlscfEngine:
         # factors of all these orders follow at once (_poles_of_orders)
         entries: list[tuple[int, NDArray[Any], Any]] = []
         chain: list[tuple[int, NDArray[Any], NDArray[Any]]] = []
+        deflate: list[tuple[int, NDArray[Any]]] = []  # (entry index, alpha_low): _root_deflated
         aberth_from, chain_max = _ABERTH_MIN_DEGREE, _CHAIN_MAX_DEGREE
         if n_in == 1:
             if order_list[-1] >= _ABERTH_MIN_DEGREE:
@@ -1233,6 +1415,12 @@ class PlscfEngine:
                         continue
                     z = None
                     big = self.root_finder == "aberth" and n * n_in >= aberth_from
+                    if (n_in == 1 and not big and self.root_finder == "aberth" and n >= _DEFLATE_FROM_DEGREE
+                            and self._prev is not None):
+                        deflate.append((len(entries), low))  # rooted together (_root_deflated)
+                        entries.append((n, high, None))
+                        continue
+                    self._root_deflated(deflate, entries, bar)
                     if big and self._prev is not None:
                         coef = det_coefficients(low)
                         if coef.size - 1 <= chain_max:
@@ -1251,6 +1439,7 @@ class PlscfEngine:
                     entries.append((n, high, z))
                     if bar is not None:
                         bar.update()
+                self._root_deflated(deflate, entries, bar)
                 self._root_chain(chain, entries, bar)
             if pool is not None:
                 entries = [(n, high, fut.result()) for n, high, fut in entries]
@@ -1283,6 +1472,22 @@ class PlscfEngine:
                 bar.update()
         self._prev, self._prev_low = entries[chain[-1][0]][2], chain[-1][2]
         chain.clear()
+
+    def _root_deflated(self, deflate: list[tuple[int, NDArray[Any]]],
+                       entries: list[tuple[int, NDArray[Any], Any]], bar: Any) -> None:
+        """Roots of the orders deferred in ``deflate`` ((entry index, alpha_low) each), all at once by
+        :func:`_roots_deflated` from the roots before them. Fills ``entries`` and empties ``deflate``."""
+        if not deflate:
+            return
+        assert self._prev is not None
+        found = _roots_deflated([low for _, low in deflate], self._prev)
+        for (k, _), z in zip(deflate, found, strict=True):
+            n, high, _ = entries[k]
+            entries[k] = (n, high, z)
+            if bar is not None:
+                bar.update()
+        self._prev, self._prev_low = found[-1], deflate[-1][1]
+        deflate.clear()
 
     def poles(self, orders: Iterable[int], *, progress: bool = False) -> PoleSet:
         """Poles of the given orders (computing those not yet computed).
