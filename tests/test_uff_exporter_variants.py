@@ -286,3 +286,93 @@ def test_frf_unit_exponents_of_the_whole_frf_under_an_inch_dataset_164_are_refus
                     orddenom_len_unit_exp=exps[2], orddenom_force_unit_exp=exps[3], **unlabelled)
         d = read_uff58(write_with_pyuff(tmp_path / "spec.uff", [inch, spec]))
         np.testing.assert_allclose(d.frf[0, 0], _frf() * 0.0254 / LBF, rtol=RTOL_PYUFF)
+
+
+# ------------------------------------------------------------------- task q_user15: the leftovers
+def _reader_reason(path: Path) -> str:
+    """read_uff58's refusal without its ``<file>: dataset N: `` head."""
+    with pytest.raises(UFFError) as info:
+        read_uff58(path)
+    return str(info.value).split(": ", 2)[2]
+
+
+def test_inspect_refuses_what_read_uff58_refuses_for_its_units(tmp_path: Path,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """An FRF dataset whose units read_uff58 refuses (a non-SI dataset 164 after unlabelled data, unit
+    exponents that are no response per force, an acceleration code under a velocity label) is "refused"
+    by inspect with the reader's reason, word for word; 1f37e8b listed all three as "read"."""
+    from ema_rig.cli import main
+
+    inch = _u164(39.37007874015748, 0.2248089430997105)
+    unlabelled = dict(ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE")
+    files = {
+        "last164.uff": ([_set(data=_frf(), **unlabelled), inch], 0),
+        "whole.uff": ([inch, _set(data=_frf(), ordinate_len_unit_exp=1, ordinate_force_unit_exp=-1,
+                                  orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, **unlabelled)], 1),
+        "code_label.uff": ([_set(data=_frf(), ordinate_axis_units_lab="m/s")], 0),
+    }
+    for name, (sets, index) in files.items():
+        p = write_with_pyuff(tmp_path / name, sets)
+        ds = inspect_uff(p)["datasets"][index]
+        assert ds["status"] == "refused" and ds["num_pts"] is None, name
+        assert ds["reason"] == _reader_reason(p), name
+        assert main(["inspect", str(p)]) == 1
+        row = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith(f"{index}  58"))
+        assert row.endswith(f"refused: {ds['reason']}"), name
+
+
+def test_inspect_with_the_user_unit_reads_what_read_uff58_reads(tmp_path: Path) -> None:
+    """``--units`` (inspect_uff's ``units``) settles an unlabelled FRF as it does for read_uff58: the
+    dataset 164 after it then changes nothing, and both read it."""
+    p = write_with_pyuff(tmp_path / "last164.uff", [
+        _set(data=_frf(), ordinate_axis_units_lab="NONE"), _u164(39.37007874015748, 0.2248089430997105)])
+    assert inspect_uff(p, units="m/s^2")["datasets"][0]["status"] == "read"
+    np.testing.assert_allclose(read_uff58(p, units="m/s^2").frf[0, 0], _frf(), rtol=RTOL_PYUFF)
+
+
+def test_fortran_exponent_of_three_digits_without_e_is_named(tmp_path: Path) -> None:
+    """Fortran E output of an exponent beyond 99 drops the 'E' ("1.234567-102" for 1.234567E-102);
+    1f37e8b read it as two numbers and refused with a bare value count. Still refused (the number
+    is not read), now naming the file, the dataset, the token and the form."""
+    p = write_with_pyuff(tmp_path / "exp3.uff", [_set(data=_frf())])
+    lines = p.read_text().split("\n")
+    first_data = next(i for i, ln in enumerate(lines) if ln.strip() == "58") + 12
+    toks = lines[first_data].split()
+    lines[first_data] = " ".join(["1.234567-102", *toks[1:]])
+    p.write_text("\n".join(lines))
+    with pytest.raises(UFFError, match=r"exp3.uff.*dataset 0.*'1.234567-102'.*Fortran.*3-digit exponent.*'E'"):
+        read_uff58(p)
+    assert "1.234567E-102" in inspect_uff(p)["datasets"][0]["reason"]
+
+
+def test_time_history_sign_conflict_with_the_rig_is_the_frf_warning(tmp_path: Path) -> None:
+    """The file writes response 11-Y, the rig says 11+Y: read_time_uff (the ``frf`` path) gives the same
+    one-line warning as read_uff58 does for FRFs (task q_user14 finding 8); 1f37e8b gave none."""
+    from ema_rig.dof import DOF
+    from ema_rig.io.layout import Channel, ChannelLayout
+
+    rig = ChannelLayout(sensors=(Channel(DOF.parse("11+Y")),), references=(DOF.parse("1+Y"),))
+    sets = _time_sets((13, 12), ("N", "m/s^2"))
+    sets[1]["rsp_dir"] = -2
+    td = read_time_uff(write_with_pyuff(tmp_path / "t_sign.uff", sets), rig=rig)
+    frf = read_uff58(write_with_pyuff(tmp_path / "f_sign.uff", [_set(data=_frf(), rsp_dir=-2)]), rig=rig)
+    assert len(td.warnings) == 1 and "file 11-Y / rig 11+Y" in td.warnings[0]
+    assert list(td.warnings) == [w for w in frf.meta["warnings"] if "opposite signs" in w]
+    agree = read_time_uff(write_with_pyuff(tmp_path / "t_ok.uff", _time_sets((13, 12), ("N", "m/s^2"))), rig=rig)
+    assert agree.warnings == ()
+
+
+def test_function_type_names_of_the_spec() -> None:
+    """Codes 13-17 and 19-27 are named as the dataset 58 spec lists them (the SDRL UFF text that pyuff
+    reproduces, ``get_structure_58(raw=True)``, the oracle here); 1f37e8b showed them as numbers."""
+    import re
+
+    import pyuff.datasets.dataset_58 as spec
+
+    from ema_rig.io.uff import FUNCTION_TYPES
+
+    text = spec.get_structure_58(raw=True)
+    listed = text[text.index("Function Type") : text.index("Function Identification Number")]
+    names = {int(c): n.strip().lower() for c, n in re.findall(r"^\s*(\d+) - (.+)$", listed, re.M)}
+    assert set(names) == set(range(28)) == set(FUNCTION_TYPES)
+    assert all(FUNCTION_TYPES[c] == names[c] for c in (*range(13, 18), *range(19, 28)))

@@ -100,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UFFError(str(exc), file=args.file) from None
     data = est.frf
-    td_text, td_notes, td_fs = repr(td), td.notes, td.fs
+    td_text, td_notes, td_fs, td_warnings = repr(td), td.notes, td.fs, td.warnings
     del td  # the time records (views of the file's bytes) are not needed for writing: free them
     date = date_id()
     # issue 18: the processing history travels with the FRFs as dataset 1858 (one before each 58)
@@ -132,6 +132,8 @@ def run(args: argparse.Namespace) -> int:
         warnings.warn(f"{args.file}: time histories without unit labels or dataset 164: force taken as N and response as SI "
                       f"({data.unit_str}); the FRF file carries no unit label either (give its unit with --units "
                       "when reading it)", UnitWarning, stacklevel=1)
+    for w in td_warnings:  # the rig and the file disagree on a sign: as read_uff58's meta["warnings"]
+        warnings.warn(f"{args.file}: {w}", UnitWarning, stacklevel=1)
     for w in est.warnings:
         warnings.warn(f"{args.file}: {w}", IdentificationWarning, stacklevel=1)
     print(f"band   usable up to {history.band[1]:g} Hz ({ANTI_ALIAS_FRACTION:g} x fs/2, the anti-alias limit), "

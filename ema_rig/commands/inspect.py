@@ -105,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
     """
     from ..io.uff import inspect_uff, read_uff58
 
-    report = inspect_uff(args.file)
+    rig = load_rig(args.rig) if args.rig else None
+    report = inspect_uff(args.file, rig=rig, units=args.units)
     problem: EmaRigError | None = None
     refused = [d for d in report["datasets"] if d["status"] != "read"]
     if refused:
@@ -113,9 +114,6 @@ def run(args: argparse.Namespace) -> int:
         more = f" (and {len(refused) - 1} more refused)" if len(refused) > 1 else ""
         problem = UFFError(f"refused: {d['reason']}{more}", file=report["file"], dataset=d["index"])
     has_frf = any(d["type"] == 58 and d["function_type"] in (4, None) for d in report["datasets"])
-    rig = None
-    if args.rig:
-        rig = load_rig(args.rig)
     text = format_table(report)
     if has_frf or rig is not None:
         try:

@@ -34,6 +34,10 @@ _EOL = re.compile(rb"\r\n|\r|\n")
 # a delimiter line: optional blanks, -1, optional blanks, end of line (or of file)
 _DELIM_TAIL = re.compile(rb"-1[ \t]*(?:\r|\n|\Z)")  # literal prefix: fast search
 _NUM = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+# Fortran Ew.d output of an exponent of 3 digits drops the 'E' ("1.234567-102"): a mantissa with a
+# point and no exponent, then a signed 3-digit integer (split apart by _NUM)
+_MANTISSA = re.compile(rb"[-+]?(?:\d+\.\d*|\.\d+)")
+_FORTRAN_EXP3 = re.compile(rb"[-+]\d{3}")
 _GAP = re.compile(rb"(?:[ \t\x00]*(?:\r\n|\r|\n))*")
 _DELIM_AT = re.compile(rb"[ \t]*-1[ \t]*(?=\r|\n|\Z)")
 _DEXP = bytes.maketrans(b"dD", b"eE")
@@ -335,6 +339,13 @@ def _split_run_together(chunk: bytes, toks: list[bytes]) -> NDArray[np.float64]:
             bad = _NOT_DATA.search(w)
             shown = (w if bad is None else w[bad.start() :])[:20].decode("latin-1")
             raise _Refuse(f"data section holds text that is not a number: {shown!r}")
+        for a, b in zip(parts, parts[1:]):
+            if _FORTRAN_EXP3.fullmatch(b) and _MANTISSA.fullmatch(a):
+                raise _Refuse(
+                    f"number {w[:40].decode('latin-1')!r} holds {(a + b).decode('latin-1')!r}: Fortran E output of a "
+                    f"3-digit exponent, which drops the 'E' ({a.decode('latin-1')}E{b.decode('latin-1')}); not read "
+                    "(as written it is two numbers, the mantissa and an integer)"
+                )
         if any(p[:1] not in (b"-", b"+") for p in parts[1:]):
             raise _Refuse(
                 f"numbers run together without a sign between them ({w[:40].decode('latin-1')!r}): where one "

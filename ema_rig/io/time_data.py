@@ -47,7 +47,7 @@ from ..errors import UFFError, UnitWarning
 from ..literals import FrfForm
 from . import _uff_units
 from .layout import SensorLayout
-from .uff import UFFRecord, read_uff
+from .uff import UFFRecord, read_uff, sign_conflict_warning
 from .units import FORM_DIMS, parse_unit
 
 _FORCE_CODES = (13, 9)
@@ -80,6 +80,9 @@ class TimeData:
         The file.
     notes : tuple of str
         Unit assumptions, sign flips, ignored datasets.
+    warnings : tuple of str
+        Caveats of every result from these records (one line each): the rig file and the UFF file
+        giving a DOF opposite signs, as ``read_uff58``'s ``meta["warnings"]``.
     datasets : mapping
         ``{"force": [[index per record] per input], "response": [...]}``: dataset indices used.
     """
@@ -92,6 +95,7 @@ class TimeData:
     frf_form: FrfForm
     source: str
     notes: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
     datasets: Mapping[str, Any] = field(default_factory=dict)
 
     @property
@@ -226,6 +230,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
     n0: int | None = None
     first: UFFRecord | None = None
     current164: Mapping[str, Any] | None = None
+    conflicts: list[tuple[int, DOF, DOF]] = []
     for r in uf.records:
         if r.type == 164:
             if r.status != "read":
@@ -262,6 +267,8 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
                     notes.append(f"dataset {r.index}: force at {dof} is not a rig excitation; ignored")
                     continue
                 sign = float(match.sign)
+                if dof.sign != match.sign:
+                    conflicts.append((r.index, dof, match))
             else:
                 sensor = rig.sensor_for(dof)
                 if sensor is None:
@@ -270,6 +277,8 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
                     notes.append(f"dataset {r.index}: {dof} has no rig sensor; ignored")
                     continue
                 sign = float(sensor.dof.sign)
+                if dof.sign != sensor.dof.sign:
+                    conflicts.append((r.index, dof, sensor.dof))
         if sign < 0:
             notes.append(f"dataset {r.index}: {dof} flipped into {dof.positive()} (values x -1)")
         key = ("force" if kind == "force" else "response", dof.positive())
@@ -325,7 +334,7 @@ def read_time_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None)
     resp, used_r = stack("response", outs)
     return TimeData(
         force=force, response=resp, fs=1.0 / dt0, in_dofs=tuple(ins), out_dofs=tuple(outs),
-        frf_form=forms.pop(), source=src, notes=tuple(notes),
+        frf_form=forms.pop(), source=src, notes=tuple(notes), warnings=tuple(sign_conflict_warning(conflicts)),
         datasets=MappingProxyType({"force": used_f, "response": used_r}),
     )
 

@@ -63,9 +63,16 @@ from .units import parse_unit
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
     5: "transmissibility", 6: "coherence", 7: "auto correlation", 8: "cross correlation",
-    9: "PSD", 10: "ESD", 11: "probability density", 12: "spectrum", 18: "mode indicator",
+    9: "PSD", 10: "ESD", 11: "probability density", 12: "spectrum", 13: "cumulative frequency distribution",
+    14: "peaks valley", 15: "stress/cycles", 16: "strain/cycles", 17: "orbit", 18: "mode indicator",
+    19: "force pattern", 20: "partial power", 21: "partial coherence", 22: "eigenvalue", 23: "eigenvector",
+    24: "shock response spectrum", 25: "finite impulse response filter", 26: "multiple coherence",
+    27: "order function",
 }
-"""Names of the UFF dataset-58 function type codes."""
+"""Names of the UFF dataset-58 function type codes (record 6, field 1), 0-27 as the dataset 58
+specification lists them (the SDRL universal file text, https://www.ceas3.uc.edu/sdrluff/, reproduced
+by pyuff 2.5.8 as ``pyuff.datasets.dataset_58.get_structure_58(raw=True)``); another code is shown as
+its number."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -384,7 +391,8 @@ _UNIT_LABELS = (("abscissa_axis_units_lab", "abscissa unit label"), ("ordinate_a
                 ("orddenom_axis_units_lab", "denominator unit label"))
 
 
-def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
+def _dataset_summary(r: UFFRecord, records: tuple[UFFRecord, ...], units164: Mapping[str, Any] | None,
+                     pref: str | None, assumed: str | None) -> dict[str, Any]:
     d: dict[str, Any] = {
         "index": r.index,
         "type": r.type,
@@ -405,10 +413,11 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
             except ValueError as exc:
                 d.update(status="refused", reason=str(exc), num_pts=None)
                 break
-        else:  # a real-valued FRF, an abscissa in rpm or orders: refused by read_uff58 too
-            problem = _uff_units.frf_header_problem(r.header)
-            if problem is not None:
-                d.update(status="refused", reason=problem, num_pts=None)
+        else:  # what read_uff58 refuses an FRF for (header, units, a dataset 164 after it): the same reason
+            try:
+                _frf_decision(records, r, units164, pref, assumed)
+            except ValueError as exc:
+                d.update(status="refused", reason=str(exc), num_pts=None)
     if r.type == 58:
         d["function"] = FUNCTION_TYPES.get(r.function_type) if r.function_type is not None else None
         d["num_pts_header"] = r.num_pts_header
@@ -423,12 +432,21 @@ def _dataset_summary(r: UFFRecord) -> dict[str, Any]:
     return d
 
 
-def inspect_uff(path: str | PathLike[str]) -> dict[str, Any]:
+def inspect_uff(path: str | PathLike[str], *, rig: SensorLayout | None = None,
+                units: str | None = None) -> dict[str, Any]:
     """Summary of every dataset of a file, the DESIGN §3.2 ``inspect`` JSON.
+
+    An FRF dataset is ``"refused"`` with the reason :func:`read_uff58` gives when it refuses it
+    (header, unit labels and codes, unit exponents, a non-SI dataset 164 after unlabelled data),
+    by the same check.
 
     Parameters
     ----------
     path : str or path-like
+    rig : SensorLayout, optional
+        Its ``unit_preference`` and ``unit_ordinate`` decide units as in :func:`read_uff58`.
+    units : str, optional
+        As ``read_uff58(..., units=)``.
 
     Returns
     -------
@@ -440,7 +458,44 @@ def inspect_uff(path: str | PathLike[str]) -> dict[str, Any]:
         value), ``units`` (labels), ``notes``.
     """
     f = read_uff(path)
-    return {"file": f.path, "datasets": [_dataset_summary(r) for r in f.records]}
+    pref = rig.unit_preference if rig is not None else None
+    assumed = units if units is not None else (rig.unit_ordinate if rig is not None else None)
+    return {"file": f.path, "datasets": [_dataset_summary(r, f.records, u, pref, assumed)
+                                         for r, u in zip(f.records, _units164_in_force(f.records), strict=True)]}
+
+
+def _units164_in_force(records: tuple[UFFRecord, ...]) -> list[Mapping[str, Any] | None]:
+    """The header of the latest read dataset 164 before each record (None before the first)."""
+    out: list[Mapping[str, Any] | None] = []
+    current: Mapping[str, Any] | None = None
+    for r in records:
+        out.append(current)
+        if r.type == 164 and r.status == "read":
+            current = r.header
+    return out
+
+
+def _frf_decision(records: tuple[UFFRecord, ...], r: UFFRecord, units164: Mapping[str, Any] | None,
+                  pref: str | None, assumed: str | None) -> _uff_units.UnitDecision:
+    """The unit decision of a read FRF dataset, or ValueError with why read_uff58 refuses it.
+
+    The one definition of what refuses a read FRF dataset for its header or units (``inspect``
+    shows the same reason): a header that is no FRF (:func:`_uff_units.frf_header_problem`), a
+    missing response or reference DOF, units that cannot be decided (:func:`_uff_units.decide`:
+    unreadable or contradicting labels, exponents that are no response per force), SI assumed while
+    a non-SI dataset 164 follows (:func:`_uff_units.trailing_units_problem`).
+    """
+    problem = _uff_units.frf_header_problem(r.header)
+    if problem is not None:
+        raise ValueError(problem)
+    if r.response is None or r.reference is None:
+        raise ValueError("response or reference DOF missing: " + "; ".join(r.notes))
+    dec = _uff_units.decide(dict(r.header), dict(units164) if units164 else None, pref, assumed)
+    if _uff_units.SI_ASSUMED in dec.text or _uff_units.ORDINATE_SI_ASSUMED in dec.text:
+        trailing = _uff_units.trailing_units_problem(records, r.index)
+        if trailing is not None:
+            raise ValueError(trailing)
+    return dec
 
 
 # --------------------------------------------------------------------------- read_uff58
@@ -574,7 +629,7 @@ def read_uff58(
         "ignored_channels": chans.ignored_channels,
         "ignored_datasets": ignored_datasets,
         "notes": notes,
-        "warnings": list(coh.warnings) + h_warnings + _sign_conflict_warning(chans.sign_conflicts),
+        "warnings": list(coh.warnings) + h_warnings + sign_conflict_warning(chans.sign_conflicts),
         "ids": ids,
         "rig": None if rig is None else rig.path,
     }
@@ -603,13 +658,11 @@ _Used = list[tuple[UFFRecord, _uff_units.UnitDecision, Mapping[str, Any] | None]
 def _frf_datasets(uf: UFFFile, src: str, pref: str | None,
                   assumed: str | None) -> tuple[_Used, list[str], list[UFFRecord]]:
     """The FRF datasets with their unit decisions, the datasets ignored (why), the coherence datasets."""
-    current164: Mapping[str, Any] | None = None
     used: _Used = []
     ignored_datasets: list[str] = []
     coh_recs: list[UFFRecord] = []
-    for r in uf.records:
+    for r, current164 in zip(uf.records, _units164_in_force(uf.records), strict=True):
         if r.type == 164 and r.status == "read":
-            current164 = r.header
             continue
         if r.status != "read" and r.type in (None, 164):
             # an unreadable type line may hide an FRF; a refused 164 would change the units of
@@ -628,21 +681,10 @@ def _frf_datasets(uf: UFFFile, src: str, pref: str | None,
             continue
         if r.status != "read":
             raise UFFError(f"FRF dataset refused: {r.reason}", file=src, dataset=r.index)
-        problem = _uff_units.frf_header_problem(r.header)
-        if problem is not None:
-            raise UFFError(problem, file=src, dataset=r.index)
-        if r.response is None or r.reference is None:
-            raise UFFError(
-                "response or reference DOF missing: " + "; ".join(r.notes), file=src, dataset=r.index
-            )
         try:
-            dec = _uff_units.decide(dict(r.header), dict(current164) if current164 else None, pref, assumed)
+            dec = _frf_decision(uf.records, r, current164, pref, assumed)
         except ValueError as exc:
             raise UFFError(str(exc), file=src, dataset=r.index) from None
-        if _uff_units.SI_ASSUMED in dec.text or _uff_units.ORDINATE_SI_ASSUMED in dec.text:
-            trailing = _uff_units.trailing_units_problem(uf.records, r.index)
-            if trailing is not None:
-                raise UFFError(trailing, file=src, dataset=r.index)
         used.append((r, dec, current164))
     if not used:
         kinds = sorted({FUNCTION_TYPES.get(r.function_type, str(r.function_type)) for r in uf.records
@@ -761,10 +803,21 @@ def _map_channels(used: _Used, rig: SensorLayout | None, src: str) -> _Channels:
     return ch
 
 
-def _sign_conflict_warning(conflicts: list[tuple[int, DOF, DOF]]) -> list[str]:
+def sign_conflict_warning(conflicts: list[tuple[int, DOF, DOF]]) -> list[str]:
     """One result caveat when the rig file and the UFF file give a DOF opposite signs (DESIGN §3.1: the
     rig file's DOF is the one "as written in the UFF file"); the rig's sign is used, so if the file is
-    right those FRFs are negated. Empty when they agree."""
+    right those FRFs are negated. Empty when they agree.
+
+    Parameters
+    ----------
+    conflicts : list of (int, DOF, DOF)
+        (dataset index, DOF as the UFF file writes it, DOF as the rig file says) per disagreement.
+
+    Returns
+    -------
+    list of str
+        Nothing or one line (``read_uff58``'s ``meta["warnings"]``, ``read_time_uff``'s ``warnings``).
+    """
     if not conflicts:
         return []
     pairs = sorted({(str(f), str(g)) for _, f, g in conflicts})
