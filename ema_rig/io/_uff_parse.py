@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field, replace
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -339,7 +340,7 @@ def _split_run_together(chunk: bytes, toks: list[bytes]) -> NDArray[np.float64]:
             bad = _NOT_DATA.search(w)
             shown = (w if bad is None else w[bad.start() :])[:20].decode("latin-1")
             raise _Refuse(f"data section holds text that is not a number: {shown!r}")
-        for a, b in zip(parts, parts[1:]):
+        for a, b in pairwise(parts):
             if _FORTRAN_EXP3.fullmatch(b) and _MANTISSA.fullmatch(a):
                 raise _Refuse(
                     f"number {w[:40].decode('latin-1')!r} holds {(a + b).decode('latin-1')!r}: Fortran E output of a "
