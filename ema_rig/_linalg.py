@@ -101,7 +101,8 @@ def thin_svd(
     except np.linalg.LinAlgError:  # a non-finite a: numpy's call raises or returns what it returns
         u0, s0, vt0 = np.linalg.svd(a, full_matrices=False)
         return u0, s0, vt0
-    if not 2.0 * _GESDD_SMLNUM * np.sqrt(m * n) <= s[0] <= 0.5 * _GESDD_BIGNUM:  # gesdd scales a: its numbers
+    # gesdd scales this a first: its numbers are numpy's call's
+    if not 2.0 * _GESDD_SMLNUM * np.sqrt(m * n) <= s[0] <= 0.5 * _GESDD_BIGNUM:
         u0, s0, vt0 = np.linalg.svd(a, full_matrices=False)
         return u0, s0, vt0
     # gesdd's product Q U_R: BLAS dgemm on the column-major factors (numpy's ``q @ ur`` takes the row-major

@@ -13,8 +13,9 @@ def _numpy(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return u, s, vt
 
 
-@pytest.mark.parametrize("kind", ["random", "rank_deficient", "zero_column", "duplicate_column", "zero",
-                                  "tiny", "huge"])
+@pytest.mark.parametrize(
+    "kind", ["random", "rank_deficient", "zero_column", "duplicate_column", "zero", "tiny", "huge"]
+)
 @pytest.mark.parametrize("shape", [(1000, 12), (700, 32), (5000, 3)])
 def test_thin_svd_is_numpys_svd_bit_for_bit(kind: str, shape: tuple[int, int]) -> None:
     # the oracle is numpy.linalg.svd itself (thin_svd claims its numbers exactly: tolerance 0). "tiny" / "huge":
