@@ -25,6 +25,15 @@ _UNBLOCKED_COLUMNS = 32
 #: same either way).
 _QR_FIRST_MIN_VALUES = 10_000
 
+#: LAPACK gesdd scales a matrix whose largest entry ``anrm`` is below ``SMLNUM = sqrt(dlamch('S')) / dlamch('P')``
+#: (``2**-459``, ~7e-139) or above ``BIGNUM = 1 / SMLNUM`` before it factors it (dgesdd.f, "Scale A if max element
+#: outside range [SMLNUM,BIGNUM]"), the whole ``a`` before its QR: then :func:`thin_svd`, which factors the
+#: unscaled ``a``, rounds differently (1e-15 relative in ``s``, 1e-13 in ``u``). ``s[0]`` bounds ``anrm``
+#: (``s[0] / sqrt(m n) <= anrm <= s[0]``): outside ``[SMLNUM sqrt(m n), BIGNUM]`` (a factor 2 of margin each side
+#: for the rounding of ``s[0]``) numpy's call is taken instead.
+_GESDD_SMLNUM = 2.0**-459
+_GESDD_BIGNUM = 2.0**459
+
 
 def thin_qr(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Reduced QR factors of ``a`` (LAPACK geqrf/orgqr, as ``numpy.linalg.qr``).
@@ -67,8 +76,9 @@ def thin_svd(
     :data:`_QR_FIRST_MIN_VALUES` values) LAPACK's gesdd
     factors ``a = Q R`` first and takes the SVD of ``R`` (its path for ``m >= 11 n / 6``); here the QR
     is :func:`thin_qr` (unblocked, as gesdd runs it for these widths), the SVD of ``R`` numpy's, and
-    ``U = Q U_R`` one column-major dgemm, as gesdd forms it. Any other shape: numpy's call. A non-finite ``a`` raises numpy's
-    ``LinAlgError`` (the SVD of its ``R`` does not converge), as numpy's call does.
+    ``U = Q U_R`` one column-major dgemm, as gesdd forms it. Any other shape, a matrix that gesdd scales first
+    (:data:`_GESDD_SMLNUM`) and a non-finite ``a`` (whose ``R`` fails to converge; numpy's call returns NaN for an
+    infinite entry): numpy's call.
 
     Parameters
     ----------
@@ -85,8 +95,16 @@ def thin_svd(
     if n == 0 or n > _UNBLOCKED_COLUMNS or m < 2 * n or m * n < _QR_FIRST_MIN_VALUES:
         u0, s0, vt0 = np.linalg.svd(a, full_matrices=False)
         return u0, s0, vt0
-    q, r = thin_qr(a)
-    ur, s, vt = np.linalg.svd(r)
+    try:
+        q, r = thin_qr(a)
+        ur, s, vt = np.linalg.svd(r)
+    except np.linalg.LinAlgError:  # a non-finite a: numpy's call raises or returns what it returns
+        u0, s0, vt0 = np.linalg.svd(a, full_matrices=False)
+        return u0, s0, vt0
+    # gesdd scales this a first: its numbers are numpy's call's
+    if not 2.0 * _GESDD_SMLNUM * np.sqrt(m * n) <= s[0] <= 0.5 * _GESDD_BIGNUM:
+        u0, s0, vt0 = np.linalg.svd(a, full_matrices=False)
+        return u0, s0, vt0
     # gesdd's product Q U_R: BLAS dgemm on the column-major factors (numpy's ``q @ ur`` takes the row-major
     # route, whose kernel rounds differently), returned row-major as numpy returns U
     u: NDArray[np.float64] = np.ascontiguousarray(scipy.linalg.blas.dgemm(1.0, q, ur))

@@ -115,7 +115,7 @@ def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
     return out
 
 
-def noisier_outputs(data: FRFData, factor: float) -> NDArray[np.bool_]:
+def noisier_outputs(data: FRFData, factor: float, left_out: NDArray[np.bool_] | None = None) -> NDArray[np.bool_]:
     """Which outputs add more noise than information to an equally weighted (``1 / rms``) fit, from the coherence.
 
     The relative noise of output ``o`` is ``v_o = mean(var) / mean(|H|^2)`` over its inputs and lines, ``var``
@@ -124,7 +124,8 @@ def noisier_outputs(data: FRFData, factor: float) -> NDArray[np.bool_]:
     alike, so, where the outputs carry the same information, the fit behaves like an equally weighted mean of
     ``n`` estimates of variances ``v_i``: ``sum(v_i) / n^2``, which one estimate raises when its ``v_o``
     exceeds ``(2 n - 1) / (n - 1)`` times the mean of the others. The noisiest output beyond ``factor`` times
-    that break-even is flagged, then the next among the rest, while at least two remain.
+    that break-even is flagged, then the next among the rest, while at least two remain. Outputs already
+    ``left_out`` of the fit (:func:`noise_only_outputs`) are neither compared with nor counted among them.
 
     Parameters
     ----------
@@ -132,14 +133,16 @@ def noisier_outputs(data: FRFData, factor: float) -> NDArray[np.bool_]:
         FRFs, shape (n_out, n_in, n_freq); nothing is flagged without ``data.coherence``.
     factor : float
         Multiple of the break-even (``StabilizationCriteria.noisier_output``).
+    left_out : ndarray of bool, shape (n_out,), optional
+        Outputs the fit is without anyway (never flagged here).
 
     Returns
     -------
     ndarray of bool, shape (n_out,)
     """
-    out = np.zeros(data.n_out, bool)
-    if data.coherence is None or data.n_out < 3:
-        return out
+    out = np.zeros(data.n_out, bool) if left_out is None else np.array(left_out, dtype=bool)
+    if data.coherence is None or (~out).sum() < 3:
+        return np.zeros(data.n_out, bool)
     h2 = np.abs(data.frf) ** 2
     power = np.mean(h2, axis=(1, 2))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -153,7 +156,7 @@ def noisier_outputs(data: FRFData, factor: float) -> NDArray[np.bool_]:
         if not v[o] > factor * (2 * n - 1) / (n - 1) * float(np.mean(rest)):
             break
         out[o] = True
-    return out
+    return out if left_out is None else out & ~left_out
 
 
 def _phase_findings(data: FRFData) -> list[str]:

@@ -596,9 +596,10 @@ def identify(
     # PolyMAX weights each output by 1 / rms: a dead channel's noise would weigh as much as another's resonances
     # and a channel far noisier than the others adds more noise than information
     dead = noise_only_outputs(work, stab_crit.noise_only_p)
-    noisy = noisier_outputs(work, stab_crit.noisier_output) & ~dead
-    if (dead.any() and not dead.all()) or noisy.any():
-        dead = dead & ~dead.all()
+    dead &= ~dead.all()  # none is left out when every output looks like noise
+    # the break-even among the outputs the fit keeps: at least two of them stay
+    noisy = noisier_outputs(work, stab_crit.noisier_output, dead)
+    if dead.any() or noisy.any():
         left_out = [f"{', '.join(str(work.out_dofs[o]) for o in np.flatnonzero(x))} ({w})" for x, w in (
             (dead, f"its phase is that of noise alone: binomial test of the phase jumps, p > {stab_crit.noise_only_p:g}"),
             (noisy, "its relative noise from the coherence above the break-even of an equally weighted fit"))
