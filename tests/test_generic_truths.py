@@ -123,12 +123,11 @@ def test_dead_outputs_and_noisier_ones_leave_an_output() -> None:
     assert any("1+Y, 2+Y" in n and "noise alone" in n for n in ident.notes)
 
 
-@pytest.mark.xfail(strict=True, reason="review_v_review15 item 3: Hann-windowed H1 correlates neighbouring lines, "
-                   "pure noise jumps at ~0.28 of the pairs, not 1/2 (not fixed)")
 def test_noise_only_outputs_hann_h1_of_pure_noise() -> None:
     # a disconnected sensor measured as usual under random excitation: H1 = csd / welch (scipy.signal, Hann,
     # 50 % overlap, 2048-point blocks, 10 averages) of two independent white noises. The binomial test assumes
-    # independent phases on neighbouring lines; Hann's 3-line kernel correlates them (jumps 0.28 of the pairs)
+    # independent phases on the lines it compares; Hann's 3-line kernel correlates neighbouring ones (jumps 0.28 of
+    # the pairs, never flagged on 3cd93f9), so it compares lines 3 apart (Hann assumed: no window recorded)
     import scipy.signal
 
     rng = np.random.default_rng(0)
@@ -137,4 +136,18 @@ def test_noise_only_outputs_hann_h1_of_pure_noise() -> None:
     f, gxy = scipy.signal.csd(x, y, 2048.0, window="hann", nperseg=2048)
     _, gxx = scipy.signal.welch(x, 2048.0, window="hann", nperseg=2048)
     data = FRFData(f[1:-1], (gxy / gxx)[1:-1][None, None, :], ["1+Y"], ["1+Y"])
+    assert noise_only_outputs(data, 0.001).tolist() == [True]
+
+
+def test_noise_only_outputs_rectangular_h1_of_pure_noise() -> None:
+    # the rectangle (recorded as such) keeps every line: its kernel is one line wide, the phases of white noise
+    # are independent line to line. H1 of two independent white noises, boxcar, no overlap, 10 averages of
+    # 2048 points (1023 lines): flagged, as on 3cd93f9
+    import scipy.signal
+
+    rng = np.random.default_rng(0)
+    x, y = rng.standard_normal(2048 * 10), rng.standard_normal(2048 * 10)
+    f, gxy = scipy.signal.csd(x, y, 2048.0, window="boxcar", nperseg=2048, noverlap=0)
+    _, gxx = scipy.signal.welch(x, 2048.0, window="boxcar", nperseg=2048, noverlap=0)
+    data = FRFData(f[1:-1], (gxy / gxx)[1:-1][None, None, :], ["1+Y"], ["1+Y"], meta={"window": "rect"})
     assert noise_only_outputs(data, 0.001).tolist() == [True]

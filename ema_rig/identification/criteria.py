@@ -74,10 +74,10 @@ class StabilizationCriteria(_Sourced):
     noise_only_p : float
         An output whose FRFs' phase jumps (more than 90 degrees between neighbouring lines,
         :func:`~ema_rig.identification.diagnose.noise_only_outputs`) are not significantly fewer than
-        pure noise gives (one-sided binomial test against 1/2 with ``n_freq - 1`` trials, p above this,
-        0.001) carries no measurable response: the poles are estimated without it (a dead or
-        disconnected sensor; PolyMAX weights each output by ``1 / rms``, so its noise would weigh as
-        much as another output's resonances).
+        pure noise gives (one-sided binomial test against 1/2, one trial per step of the window's
+        kernel width, :data:`WINDOW_KERNEL_LINES`; p above this, 0.001) carries no measurable
+        response: the poles are estimated without it (a dead or disconnected sensor; PolyMAX weights
+        each output by ``1 / rms``, so its noise would weigh as much as another output's resonances).
     noisier_output : float
         With coherence, an output whose relative noise ``mean(var) / mean(|H|^2)`` (the noise power it
         adds to PolyMAX's ``1 / rms``-weighted cost) exceeds this factor (1) times the break-even
@@ -95,8 +95,9 @@ class StabilizationCriteria(_Sourced):
                                       "may scatter that much across orders, so the linkage must not split it there")
     cluster_mac_tol: float = _src(0.1, "1 - MAC 0.1: MAC above 0.9 is the same vector (Allemang 2003; "
                                   "JudgeCriteria.dup_participation_mac)")
-    noise_only_p: float = _src(0.001, "one-sided binomial test, n_freq - 1 trials, p = 0.001: the phases of circular "
-                               "complex noise are independent and uniform, so their increments are too and each "
+    noise_only_p: float = _src(0.001, "one-sided binomial test, one trial per step of the window's kernel width "
+                               "(WINDOW_KERNEL_LINES), p = 0.001: the phases of circular complex noise on lines that "
+                               "far apart are independent and uniform, so their increments are too and each "
                                "exceeds 90 degrees with probability 1/2 exactly (a signal lowers it)")
     noisier_output: float = _src(1.0, "the break-even itself (factor 1): the variance of an equally weighted mean of n "
                                  "estimates, sum(v_i) / n^2, rises by adding one of variance above (2n - 1) / (n - 1) "
@@ -341,6 +342,16 @@ WINDOW_ENBW: Mapping[str, float] = MappingProxyType({"hann": 1.5, "hanning": 1.5
                                  "rectangular": 1.0, "uniform": 1.0, "none": 1.0, "force": 1.0,
                                  "exponential": 1.0, "impact": 1.0})
 
+#: Width [lines] of the spectral kernel of the windows of :data:`WINDOW_ENBW`: the DFT of a K-term cosine-sum
+#: window is its coefficients on 2K - 1 neighbouring lines (Harris, Proc. IEEE 66(1), 1978, section V-C;
+#: Heinzel, Ruediger & Schilling, AEI 2002, sections C.1-C.3), so the windowed spectrum of white noise is
+#: uncorrelated (for Gaussian noise independent) between lines at least that far apart: Hann and Hamming
+#: (2 terms) 3 lines, the flat top (5 terms, scipy.signal.windows.flattop, ENBW 3.77) 9; the record's
+#: rectangle (a transient's windows, as in :data:`WINDOW_ENBW`) 1. Any other name, or none: Hann's.
+WINDOW_KERNEL_LINES: Mapping[str, int] = MappingProxyType({"hann": 3, "hanning": 3, "hamming": 3, "flattop": 9, "rect": 1,
+                                        "rectangular": 1, "uniform": 1, "none": 1, "force": 1,
+                                        "exponential": 1, "impact": 1})
+
 
 @dataclass(frozen=True, slots=True)
 class CompletenessCriteria(_Sourced):
@@ -571,6 +582,7 @@ __all__ = [
     "RESULT_CRITERIA",
     "STABILIZATION_CRITERIA",
     "WINDOW_ENBW",
+    "WINDOW_KERNEL_LINES",
     "CompletenessCriteria",
     "IdentificationCriteria",
     "JudgeCriteria",

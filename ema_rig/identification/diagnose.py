@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from ..errors import EmaRigError
 from ..frf import FRFData
 from ..io.uff import read_uff
+from .criteria import WINDOW_KERNEL_LINES
 from .noise import coherence_variance
 
 PHASE_JUMP_FRACTION = 0.10
@@ -85,12 +86,17 @@ def _jump_fractions(h: NDArray[Any]) -> NDArray[np.float64]:
 def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
     """Which outputs carry no measurable response: every FRF of the output is consistent with noise alone.
 
-    On circular complex noise the phases of the lines are independent and uniform, so the increments
-    between neighbouring lines are too, and each exceeds 90 degrees with probability 1/2 exactly
-    (:func:`_jump_fractions` counts them). An FRF is consistent with noise when its count of jumps is
-    not significantly below half the ``n_freq - 1`` pairs: the one-sided binomial probability of that
-    count or fewer under 1/2 is above ``p``. A response, however weak, makes neighbouring lines agree
-    near its resonances and lowers the count.
+    A window correlates the spectrum of noise over the width of its spectral kernel
+    (:data:`~ema_rig.identification.criteria.WINDOW_KERNEL_LINES`: 3 lines for Hann, whose H1 of pure noise
+    jumps at only ~0.28 of the neighbouring pairs), so the test takes every ``k``-th line, ``k`` that width
+    for the window ``data.meta["window"]`` names (Hann's where none is recorded or the name is unknown, as
+    :func:`~ema_rig.identification.identify` does elsewhere; 1, every line, for the rectangle). On circular
+    complex noise the phases of lines that far apart are independent and uniform, so the increments between
+    successive lines taken are too, and each exceeds 90 degrees with probability 1/2 exactly
+    (:func:`_jump_fractions` counts them). An FRF is consistent with noise when its count of jumps is not
+    significantly below half its ``m - 1`` trials (``m = ceil(n_freq / k)`` lines taken): the one-sided
+    binomial probability of that count or fewer under 1/2 is above ``p``. A response, however weak, makes
+    the lines agree near its resonances and lowers the count.
 
     Parameters
     ----------
@@ -102,14 +108,19 @@ def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
     Returns
     -------
     ndarray of bool, shape (n_out,)
-        True for an output all of whose FRFs are consistent with noise alone (all False below 8 lines).
+        True for an output all of whose FRFs are consistent with noise alone (all False below 8 lines
+        taken).
     """
     from scipy.stats import binom
 
-    n_pairs = data.n_freq - 1
-    if data.n_freq < 8:
+    window = data.meta.get("window")
+    hann = WINDOW_KERNEL_LINES["hann"]
+    step = WINDOW_KERNEL_LINES.get(str(window).lower(), hann) if window else hann
+    h = data.frf[..., ::step]
+    n_pairs = h.shape[-1] - 1
+    if h.shape[-1] < 8:
         return np.zeros(data.n_out, bool)
-    jumps = np.rint(_jump_fractions(data.frf) * n_pairs)  # (n_out, n_in) counts
+    jumps = np.rint(_jump_fractions(h) * n_pairs)  # (n_out, n_in) counts
     noise = binom.cdf(jumps, n_pairs, 0.5) > p
     out: NDArray[np.bool_] = np.all(noise, axis=1)
     return out
