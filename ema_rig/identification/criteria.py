@@ -74,8 +74,8 @@ class StabilizationCriteria(_Sourced):
     noise_only_p : float
         An output whose FRFs' phase jumps (more than 90 degrees between neighbouring lines,
         :func:`~ema_rig.identification.diagnose.noise_only_outputs`) are not significantly fewer than
-        pure noise gives (one-sided binomial test against 1/2, one trial per step of the window's
-        kernel width, :data:`WINDOW_KERNEL_LINES`; p above this, 0.001) carries no measurable
+        pure noise gives (one-sided binomial test against 1/2 on each chain of lines one window kernel
+        apart, :data:`WINDOW_KERNEL_LINES`; p / chains above this, 0.001) carries no measurable
         response: the poles are estimated without it (a dead or disconnected sensor; PolyMAX weights
         each output by ``1 / rms``, so its noise would weigh as much as another output's resonances).
     noisier_output : float
@@ -95,10 +95,11 @@ class StabilizationCriteria(_Sourced):
                                       "may scatter that much across orders, so the linkage must not split it there")
     cluster_mac_tol: float = _src(0.1, "1 - MAC 0.1: MAC above 0.9 is the same vector (Allemang 2003; "
                                   "JudgeCriteria.dup_participation_mac)")
-    noise_only_p: float = _src(0.001, "one-sided binomial test, one trial per step of the window's kernel width "
-                               "(WINDOW_KERNEL_LINES), p = 0.001: the phases of circular complex noise on lines that "
-                               "far apart are independent and uniform, so their increments are too and each "
-                               "exceeds 90 degrees with probability 1/2 exactly (a signal lowers it)")
+    noise_only_p: float = _src(0.001, "one-sided binomial test per chain of lines one window kernel apart "
+                               "(WINDOW_KERNEL_LINES), Bonferroni over the chains, p = 0.001: the phases of circular "
+                               "complex noise on lines that far apart are independent and uniform, so their "
+                               "increments are too and each exceeds 90 degrees with probability 1/2 exactly "
+                               "(a signal lowers it)")
     noisier_output: float = _src(1.0, "the break-even itself (factor 1): the variance of an equally weighted mean of n "
                                  "estimates, sum(v_i) / n^2, rises by adding one of variance above (2n - 1) / (n - 1) "
                                  "times the others' mean (PolyMAX's 1 / rms weights average the outputs' equations "

@@ -93,9 +93,11 @@ def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
     :func:`~ema_rig.identification.identify` does elsewhere; 1, every line, for the rectangle). On circular
     complex noise the phases of lines that far apart are independent and uniform, so the increments between
     successive lines taken are too, and each exceeds 90 degrees with probability 1/2 exactly
-    (:func:`_jump_fractions` counts them). An FRF is consistent with noise when its count of jumps is not
-    significantly below half its ``m - 1`` trials (``m = ceil(n_freq / k)`` lines taken): the one-sided
-    binomial probability of that count or fewer under 1/2 is above ``p``. A response, however weak, makes
+    (:func:`_jump_fractions` counts them). Each of the ``k`` chains of lines (starting at line 0 .. k - 1)
+    is one binomial test: its count of jumps against half its ``m - 1`` trials (``m`` lines in the chain),
+    the one-sided probability of that count or fewer under 1/2. An FRF is consistent with noise when no
+    chain's probability is at or below ``p / k`` (Bonferroni: the chains are not independent of each other,
+    the union bound keeps the test's level at ``p``; every line is used). A response, however weak, makes
     the lines agree near its resonances and lowers the count.
 
     Parameters
@@ -108,20 +110,22 @@ def noise_only_outputs(data: FRFData, p: float) -> NDArray[np.bool_]:
     Returns
     -------
     ndarray of bool, shape (n_out,)
-        True for an output all of whose FRFs are consistent with noise alone (all False below 8 lines
-        taken).
+        True for an output all of whose FRFs are consistent with noise alone (all False when the
+        chains hold fewer than 8 lines).
     """
     from scipy.stats import binom
 
     window = data.meta.get("window")
     hann = WINDOW_KERNEL_LINES["hann"]
     step = WINDOW_KERNEL_LINES.get(str(window).lower(), hann) if window else hann
-    h = data.frf[..., ::step]
-    n_pairs = h.shape[-1] - 1
-    if h.shape[-1] < 8:
+    if -(-data.n_freq // step) < 8:
         return np.zeros(data.n_out, bool)
-    jumps = np.rint(_jump_fractions(h) * n_pairs)  # (n_out, n_in) counts
-    noise = binom.cdf(jumps, n_pairs, 0.5) > p
+    noise = np.ones((data.n_out, data.n_in), bool)
+    for first in range(step):  # each chain of lines a kernel apart; Bonferroni over the chains
+        h = data.frf[..., first::step]
+        n_pairs = h.shape[-1] - 1
+        jumps = np.rint(_jump_fractions(h) * n_pairs)  # (n_out, n_in) counts
+        noise &= binom.cdf(jumps, n_pairs, 0.5) > p / step
     out: NDArray[np.bool_] = np.all(noise, axis=1)
     return out
 
