@@ -52,7 +52,7 @@ from .units import FORM_DIMS, parse_unit
 
 _FORCE_CODES = (13, 9)
 _RESPONSE_FORM: dict[int, FrfForm] = {12: "accelerance", 11: "mobility", 8: "receptance"}
-_DIMS = {"force": (0, 0, 1), "accelerance": (1, -2, 0), "mobility": (1, -1, 0), "receptance": (1, 0, 0)}
+_DIMS: dict[str, tuple[int, int, int]] = {"force": (0, 0, 1), **{form: dims for dims, form in FORM_DIMS.items()}}  # (length, time, force) exponents
 _CODES_UNSTATED = (0, 1)  # ordinate specific data type "unknown" and "general": the unit label says what it is
 EXPLICIT_ABSCISSA_DIGITS = 6
 """Significant digits an explicit (uneven-format) time abscissa carries at worst: ASCII ``E13.5``, the

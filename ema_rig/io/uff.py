@@ -58,7 +58,6 @@ from ..frf import FRFData
 from ..processing import ProcessingHistory
 from . import _uff_1858, _uff_coherence, _uff_parse, _uff_units, _uff_write
 from .layout import SensorLayout
-from .units import parse_unit
 
 FUNCTION_TYPES: dict[int, str] = {
     0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum", 4: "FRF",
@@ -386,11 +385,6 @@ def read_uff(path: str | PathLike[str]) -> UFFFile:
     return UFFFile(str(p), tuple(_to_record(r) for r in raws))
 
 
-#: The unit labels of an FRF dataset 58 header that read_uff58 parses, with their names in messages.
-_UNIT_LABELS = (("abscissa_axis_units_lab", "abscissa unit label"), ("ordinate_axis_units_lab", "ordinate unit label"),
-                ("orddenom_axis_units_lab", "denominator unit label"))
-
-
 def _dataset_summary(r: UFFRecord, records: tuple[UFFRecord, ...], units164: Mapping[str, Any] | None,
                      pref: str | None, assumed: str | None) -> dict[str, Any]:
     d: dict[str, Any] = {
@@ -405,19 +399,12 @@ def _dataset_summary(r: UFFRecord, records: tuple[UFFRecord, ...], units164: Map
         "reason": r.reason,
     }
     if r.type == 58 and r.function_type == 4 and r.status == "read":
-        # an FRF unit label the FRF reader refuses ("the values are not read") makes it refused here too
-        # (other function types keep their labels as they are: a time history in V or Pa is read)
-        for key, what in _UNIT_LABELS:
-            try:
-                parse_unit(str(r.header.get(key, "")), what)
-            except ValueError as exc:
-                d.update(status="refused", reason=str(exc), num_pts=None)
-                break
-        else:  # what read_uff58 refuses an FRF for (header, units, a dataset 164 after it): the same reason
-            try:
-                _frf_decision(records, r, units164, pref, assumed)
-            except ValueError as exc:
-                d.update(status="refused", reason=str(exc), num_pts=None)
+        # what read_uff58 refuses an FRF for (header, unit labels and units, a dataset 164 after it): the same
+        # check, the same reason (other function types keep their labels as they are: a time history in V is read)
+        try:
+            _frf_decision(records, r, units164, pref, assumed)
+        except ValueError as exc:
+            d.update(status="refused", reason=str(exc), num_pts=None)
     if r.type == 58:
         d["function"] = FUNCTION_TYPES.get(r.function_type) if r.function_type is not None else None
         d["num_pts_header"] = r.num_pts_header
